@@ -1,0 +1,60 @@
+"""Writing files safely: everything goes to a temporary name and is renamed when done.
+
+A failed or interrupted write never leaves a half-written output behind.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import BinaryIO
+
+from .errors import PanomapError
+
+
+@contextmanager
+def atomic_output(path: str | Path) -> Iterator[BinaryIO]:
+    """Open a temporary file beside ``path``; rename it to ``path`` on success.
+
+    The temporary name keeps ``path``'s suffix, so tools that choose a format
+    by suffix see the right one. On any exception the temporary file is removed
+    and ``path`` is left as it was.
+    """
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise PanomapError("its folder does not exist", path)
+    try:
+        handle = tempfile.NamedTemporaryFile(
+            "wb", dir=directory, prefix=f".{path.name}.", suffix=f".part{path.suffix}", delete=False
+        )
+    except OSError as exc:
+        raise PanomapError(f"cannot write there ({exc.strerror or exc})", path) from None
+    temporary = Path(handle.name)
+    try:
+        with handle:
+            yield handle
+        os.replace(temporary, path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+
+
+def write_bytes_atomic(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file."""
+    with atomic_output(path) as handle:
+        handle.write(data)
+
+
+def write_text_atomic(path: str | Path, text: str) -> None:
+    """Write UTF-8 ``text`` to ``path`` through a temporary file."""
+    write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_with(path: str | Path, writer: Callable[[BinaryIO], None]) -> None:
+    """Let ``writer`` fill a temporary file, then rename it to ``path``."""
+    with atomic_output(path) as handle:
+        writer(handle)

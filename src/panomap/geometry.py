@@ -1,0 +1,79 @@
+"""Frames, angles and pixels: the conventions, stated once.
+
+Convention (binding, see ``docs/conventions.md``):
+
+- World: right-handed, X and Y horizontal, Z up, any length unit.
+- Camera position O_m = (X0, Y0, Z0); camera axes parallel to the world's.
+  A ray to a world point P is ``d = P - O_m``.
+- Azimuth ``theta = atan2(d_y, d_x)`` in [0, 2*pi): counter-clockwise from +X,
+  seen from above. Elevation ``rho = atan2(d_z, hypot(d_x, d_y))`` in
+  [-pi/2, pi/2], negative below the horizontal plane through O_m.
+- Pixel (u, v): u the column (right), v the row (down); the centre of the
+  top-left pixel is (0, 0), as in ``cv2.remap``. Images are (H, W[, C]).
+- Image model: ``u = u0 + r cos(phi)``, ``v = v0 + r sin(phi)``,
+  ``phi = s*theta + phi0``, ``r = f_r(rho)``.
+- The library takes radians; the CLI degrees. Names carry the unit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+TWO_PI = 2.0 * np.pi
+HALF_PI = 0.5 * np.pi
+
+FloatArray = NDArray[np.float64]
+
+
+def wrap_azimuth(theta: ArrayLike) -> FloatArray:
+    """Wrap angles (rad) into [0, 2*pi)."""
+    wrapped = np.mod(np.asarray(theta, dtype=np.float64), TWO_PI)
+    # np.mod can return exactly 2*pi for tiny negative inputs.
+    return np.where(wrapped >= TWO_PI, 0.0, wrapped)
+
+
+def azimuth_elevation(rays: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Azimuth and elevation (rad) of rays.
+
+    Parameters
+    ----------
+    rays : (..., 3) array_like
+        Ray directions ``d = P - O_m`` in world axes; need not be unit length.
+
+    Returns
+    -------
+    theta : (...) ndarray
+        Azimuth in [0, 2*pi), counter-clockwise from +X seen from above.
+    rho : (...) ndarray
+        Elevation in [-pi/2, pi/2]. NaN where the ray is zero or not finite.
+    """
+    d = np.asarray(rays, dtype=np.float64)
+    horizontal = np.hypot(d[..., 0], d[..., 1])
+    theta = wrap_azimuth(np.arctan2(d[..., 1], d[..., 0]))
+    rho = np.arctan2(d[..., 2], horizontal)
+    bad = ~np.all(np.isfinite(d), axis=-1) | ((horizontal == 0) & (d[..., 2] == 0))
+    theta = np.where(bad, np.nan, theta)
+    rho = np.where(bad, np.nan, rho)
+    return theta, rho
+
+
+def ray_from_angles(theta: ArrayLike, rho: ArrayLike) -> FloatArray:
+    """Unit ray direction (..., 3) in world axes for azimuth/elevation (rad)."""
+    theta = np.asarray(theta, dtype=np.float64)
+    rho = np.asarray(rho, dtype=np.float64)
+    cos_rho = np.cos(rho)
+    return np.stack(
+        [cos_rho * np.cos(theta), cos_rho * np.sin(theta), np.sin(rho)], axis=-1
+    )
+
+
+def pixel_centres(width: int, height: int) -> tuple[FloatArray, FloatArray]:
+    """Fractions across and down a view at its pixel centres.
+
+    Returns ``(fx, fy)`` of shapes (W,) and (H,): ``(k + 0.5)/W`` and
+    ``(l + 0.5)/H``, the conventions' sampling positions of output pixels.
+    """
+    fx = (np.arange(width, dtype=np.float64) + 0.5) / width
+    fy = (np.arange(height, dtype=np.float64) + 0.5) / height
+    return fx, fy

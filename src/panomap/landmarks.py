@@ -1,0 +1,175 @@
+"""Landmark point pairs (paper 2.1): world points and their pixels, and their files.
+
+Files:
+
+- CSV: a header with at least ``u,v,X,Y,Z`` (any order, any case, an
+  optional ``name`` column), one landmark per row; world coordinates in world
+  units, pixels in the conventions' (u, v) (centre of the top-left pixel at 0, 0).
+- JSON: ``{"camera": [X0, Y0, Z0], "landmarks": [{"name": ..., "u": ...,
+  "v": ..., "X": ..., "Y": ..., "Z": ...}, ...]}``; ``camera`` is optional.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import PanomapError
+from .geometry import FloatArray
+
+COLUMNS = ("u", "v", "X", "Y", "Z")
+MIN_LANDMARKS = 5
+
+
+@dataclass(frozen=True)
+class Landmarks:
+    """Landmark point pairs.
+
+    Parameters
+    ----------
+    pixels : (n, 2) ndarray
+        Image points (u, v), px.
+    world : (n, 3) ndarray
+        World points (X, Y, Z), world units.
+    names : tuple of str
+        One name per landmark (``"L1"``, ... when the file has none).
+    camera : (3,) tuple of float, optional
+        Camera position O_m = (X0, Y0, Z0) when the file gives one.
+    """
+
+    pixels: FloatArray
+    world: FloatArray
+    names: tuple[str, ...]
+    camera: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        pixels = np.array(self.pixels, dtype=np.float64).reshape(-1, 2)
+        world = np.array(self.world, dtype=np.float64).reshape(-1, 3)
+        if len(pixels) != len(world) or len(self.names) != len(pixels):
+            raise PanomapError("landmarks: pixels, world points and names differ in count")
+        for label, values in (("pixel", pixels), ("world point", world)):
+            bad = np.flatnonzero(~np.all(np.isfinite(values), axis=1))
+            if bad.size:
+                raise PanomapError(f"landmark {self.names[bad[0]]!r} has a non-finite {label}")
+        if self.camera is not None and not all(math.isfinite(c) for c in self.camera):
+            raise PanomapError("the camera position is not finite")
+        pixels.setflags(write=False)
+        world.setflags(write=False)
+        object.__setattr__(self, "pixels", pixels)
+        object.__setattr__(self, "world", world)
+        object.__setattr__(self, "names", tuple(str(n) for n in self.names))
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def to_records(self) -> list[dict[str, Any]]:
+        """One dict per landmark: name, u, v, X, Y, Z."""
+        return [
+            {"name": n, "u": p[0], "v": p[1], "X": w[0], "Y": w[1], "Z": w[2]}
+            for n, p, w in zip(self.names, self.pixels.tolist(), self.world.tolist(), strict=True)
+        ]
+
+
+def read_landmarks(path: str | Path) -> Landmarks:
+    """Read landmarks from a CSV or JSON file (chosen by the ``.json`` suffix).
+
+    Raises
+    ------
+    PanomapError
+        Naming the file and, where it helps, the row, for a missing or
+        unreadable file, missing columns, a value that is not a finite number.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise PanomapError("no such file", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PanomapError(f"cannot read it ({exc.__class__.__name__}: {exc})", path) from None
+    try:
+        if path.suffix.lower() == ".json":
+            return _from_json(text)
+        return _from_csv(text)
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, path) from None
+
+
+def _number(value: Any, what: str) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise PanomapError(f"{what} is not a number: {value!r}") from None
+    if not math.isfinite(number):
+        raise PanomapError(f"{what} is not finite: {value!r}")
+    return number
+
+
+def _from_csv(text: str) -> Landmarks:
+    rows = list(csv.reader(line for line in text.splitlines() if line.strip()))
+    if not rows:
+        raise PanomapError("the landmark CSV is empty")
+    header = [h.strip() for h in rows[0]]
+    lowered = [h.lower() for h in header]
+    missing = [c for c in COLUMNS if c.lower() not in lowered]
+    if missing:
+        raise PanomapError(
+            f"the CSV lacks the column(s) {','.join(missing)}; its header must hold u,v,X,Y,Z "
+            f"(and optionally name), it holds {','.join(header) or 'nothing'}"
+        )
+    index = {c: lowered.index(c.lower()) for c in COLUMNS}
+    name_index = lowered.index("name") if "name" in lowered else None
+    pixels, world, names = [], [], []
+    for line, row in enumerate(rows[1:], start=2):
+        if len(row) < len(header):
+            raise PanomapError(f"row {line} has {len(row)} fields, the header {len(header)}")
+        values = [_number(row[index[c]].strip(), f"row {line}, {c}") for c in COLUMNS]
+        pixels.append(values[:2])
+        world.append(values[2:])
+        name = row[name_index].strip() if name_index is not None else ""
+        names.append(name or f"L{line - 1}")
+    return Landmarks(np.array(pixels).reshape(-1, 2), np.array(world).reshape(-1, 3), tuple(names))
+
+
+def _from_json(text: str) -> Landmarks:
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise PanomapError(f"not valid JSON ({exc})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("landmarks"), list):
+        raise PanomapError('the JSON must be an object with a "landmarks" list')
+    pixels, world, names = [], [], []
+    for k, item in enumerate(data["landmarks"], start=1):
+        if not isinstance(item, dict):
+            raise PanomapError(f"landmark {k} is not an object")
+        missing = [c for c in COLUMNS if c not in item]
+        if missing:
+            raise PanomapError(f"landmark {k} lacks {','.join(missing)}")
+        values = [_number(item[c], f"landmark {k}, {c}") for c in COLUMNS]
+        pixels.append(values[:2])
+        world.append(values[2:])
+        names.append(str(item.get("name") or f"L{k}"))
+    camera = data.get("camera")
+    position = None
+    if camera is not None:
+        if not isinstance(camera, list) or len(camera) != 3:
+            raise PanomapError('"camera" must be a list [X0, Y0, Z0]')
+        x0, y0, z0 = (_number(c, "camera") for c in camera)
+        position = (x0, y0, z0)
+    return Landmarks(
+        np.array(pixels).reshape(-1, 2), np.array(world).reshape(-1, 3), tuple(names), position
+    )
+
+
+def landmarks_to_csv(landmarks: Landmarks) -> str:
+    """The landmarks as CSV text with the header ``name,u,v,X,Y,Z``."""
+    lines = ["name,u,v,X,Y,Z"]
+    for record in landmarks.to_records():
+        values = ",".join(repr(float(record[c])) for c in COLUMNS)
+        lines.append(f"{record['name']},{values}")
+    return "\n".join(lines) + "\n"

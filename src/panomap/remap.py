@@ -1,0 +1,99 @@
+"""Applying a map to images: build once, apply to every frame.
+
+Convention: a map is (H, W, 2) float32 of source (u, v) per output pixel, the
+centre of the top-left source pixel at (0, 0) (``cv2.remap``'s convention),
+NaN where there is no source. Output pixels without a source get the fill
+value (default black, alpha 0 where the image has an alpha channel).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import PanomapError
+
+INTERPOLATIONS = {"nearest": cv2.INTER_NEAREST, "linear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}
+DTYPES = (np.uint8, np.uint16, np.float32)
+# Where NaN map entries point: far enough outside any image that every tap of
+# the cubic kernel reads the (constant) border, i.e. the fill value.
+_OUTSIDE = -1000.0
+
+
+@dataclass(frozen=True)
+class Remapper:
+    """Applies one map to any number of frames of one source size.
+
+    Parameters
+    ----------
+    map_uv : (H, W, 2) float32 ndarray
+        Source (u, v) per output pixel; NaN where there is no source.
+    source_size : (width, height), optional
+        The size frames must have; any size when omitted.
+    interpolation : {"nearest", "linear", "cubic"}
+    fill : float or tuple of float
+        Value of output pixels without a source.
+
+    Valid source coordinates in the outer half pixel of the image (u in
+    [-0.5, 0) and the like) are clamped to the edge pixel, so they read it as
+    ``BORDER_REPLICATE`` would, while NaN entries read the fill value.
+    """
+
+    map_uv: NDArray[np.float32]
+    source_size: tuple[int, int] | None = None
+    interpolation: str = "linear"
+    fill: float | tuple[float, ...] = 0.0
+    _map_u: NDArray[np.float32] = field(init=False, repr=False)
+    _map_v: NDArray[np.float32] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.interpolation not in INTERPOLATIONS:
+            raise PanomapError(f"interpolation must be nearest, linear or cubic, not {self.interpolation!r}")
+        map_uv = np.asarray(self.map_uv, dtype=np.float32)
+        if map_uv.ndim != 3 or map_uv.shape[2] != 2:
+            raise PanomapError(f"a map must have shape (H, W, 2), not {map_uv.shape}")
+        valid = np.all(np.isfinite(map_uv), axis=2)
+        u, v = map_uv[..., 0], map_uv[..., 1]
+        if self.source_size is not None:
+            width, height = self.source_size
+            u = np.clip(u, 0, width - 1)
+            v = np.clip(v, 0, height - 1)
+        map_u = np.where(valid, u, _OUTSIDE).astype(np.float32)
+        map_v = np.where(valid, v, _OUTSIDE).astype(np.float32)
+        map_u.setflags(write=False)
+        map_v.setflags(write=False)
+        object.__setattr__(self, "_map_u", map_u)
+        object.__setattr__(self, "_map_v", map_v)
+
+    @property
+    def output_size(self) -> tuple[int, int]:
+        """(W, H) of the output."""
+        height, width = self._map_u.shape
+        return width, height
+
+    def __call__(self, image: NDArray[np.generic]) -> NDArray[np.generic]:
+        """Remap one frame (H_in, W_in[, C]) with C in 1, 3, 4; same dtype and channels out."""
+        if image.dtype not in DTYPES:
+            raise PanomapError(f"images must be 8- or 16-bit (or float32), not {image.dtype}")
+        if image.ndim == 3 and image.shape[2] not in (1, 3, 4) or image.ndim not in (2, 3):
+            raise PanomapError(f"images must have 1, 3 or 4 channels, not shape {image.shape}")
+        if self.source_size is not None and (image.shape[1], image.shape[0]) != tuple(self.source_size):
+            width, height = self.source_size
+            raise PanomapError(
+                f"the image is {image.shape[1]} x {image.shape[0]}, the table is for {width} x {height} images"
+            )
+        fill = self.fill if isinstance(self.fill, tuple) else (self.fill,) * 4
+        out = cv2.remap(
+            image,
+            self._map_u,
+            self._map_v,
+            INTERPOLATIONS[self.interpolation],
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=fill,
+        )
+        if image.ndim == 3 and out.ndim == 2:
+            out = out[..., None]
+        return out

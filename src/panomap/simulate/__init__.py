@@ -1,0 +1,1 @@
+"""Simulated omni-cameras and a textured room, as ground truth for tests and demos."""
