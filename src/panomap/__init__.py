@@ -1,0 +1,47 @@
+"""panomap: unwarp omni-images with pano-mapping tables (Jeng & Tsai, 2007, and beyond).
+
+The pieces, in the paper's order:
+
+- :class:`Landmarks`, :func:`read_landmarks`: landmark point pairs (2.1).
+- :func:`fit_camera` -> :class:`CameraFit` (Algorithm 1), with its
+  :class:`CameraModel` and :class:`RadialFunction`.
+- :func:`create_table` -> :class:`PanoMappingTable` (Algorithm 2);
+  :func:`load_table`, ``table.save``.
+- Views (2.3): :class:`GenericPanorama`, :class:`CylinderPanorama`,
+  :class:`PlaneView`; :func:`build_map` and :class:`Remapper` to apply them.
+
+Conventions are in :mod:`panomap.geometry` and ``docs/conventions.md``.
+"""
+
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+from .errors import PanomapError
+from .fit import CameraFit, fit_camera
+from .landmarks import Landmarks, read_landmarks
+from .model import CameraModel
+from .radial import RadialFunction
+from .remap import Remapper
+from .table import PanoMappingTable, create_table, load_table
+from .views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
+
+__all__ = [
+    "Band",
+    "CameraFit",
+    "CameraModel",
+    "CylinderPanorama",
+    "GenericPanorama",
+    "Landmarks",
+    "PanoMappingTable",
+    "PanomapError",
+    "PlaneView",
+    "RadialFunction",
+    "Remapper",
+    "__version__",
+    "build_map",
+    "create_table",
+    "fit_camera",
+    "load_table",
+    "read_landmarks",
+]

@@ -37,10 +37,18 @@ def atomic_output(path: str | Path) -> Iterator[BinaryIO]:
     try:
         with handle:
             yield handle
+        os.chmod(temporary, _new_file_mode())
         os.replace(temporary, path)
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+def _new_file_mode() -> int:
+    """The mode an ordinary new file gets (0o666 less the umask); temp files start at 0o600."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
 
 
 def write_bytes_atomic(path: str | Path, data: bytes) -> None:

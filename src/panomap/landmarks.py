@@ -173,3 +173,42 @@ def landmarks_to_csv(landmarks: Landmarks) -> str:
         values = ",".join(repr(float(record[c])) for c in COLUMNS)
         lines.append(f"{record['name']},{values}")
     return "\n".join(lines) + "\n"
+
+
+def read_points(path: str | Path) -> tuple[list[str], list[list[str]], FloatArray]:
+    """Read world points from a CSV with at least the columns ``X,Y,Z``.
+
+    Returns
+    -------
+    header : list of str
+        The file's header, as written.
+    rows : list of list of str
+        Every row's fields, to pass through.
+    points : (n, 3) ndarray
+        X, Y, Z of each row, world units.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise PanomapError("no such file", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PanomapError(f"cannot read it ({exc.__class__.__name__}: {exc})", path) from None
+    rows = list(csv.reader(line for line in text.splitlines() if line.strip()))
+    if not rows:
+        raise PanomapError("the CSV is empty; it needs a header with X,Y,Z", path)
+    header = [h.strip() for h in rows[0]]
+    lowered = [h.lower() for h in header]
+    missing = [c for c in ("X", "Y", "Z") if c.lower() not in lowered]
+    if missing:
+        raise PanomapError(f"the CSV lacks the column(s) {','.join(missing)}; it holds {','.join(header)}", path)
+    index = [lowered.index(c) for c in ("x", "y", "z")]
+    points = []
+    for line, row in enumerate(rows[1:], start=2):
+        if len(row) < len(header):
+            raise PanomapError(f"row {line} has {len(row)} fields, the header {len(header)}", path)
+        try:
+            points.append([_number(row[i].strip(), f"row {line}, {header[i]}") for i in index])
+        except PanomapError as exc:
+            raise PanomapError(exc.detail, path) from None
+    return header, rows[1:], np.array(points, dtype=np.float64).reshape(-1, 3)

@@ -1,1 +1,40 @@
-"""Simulated omni-cameras and a textured room, as ground truth for tests and demos."""
+"""Simulated omni-cameras and a textured room, as ground truth for tests and demos.
+
+Cameras (:mod:`panomap.simulate.cameras`) project points given relative to the nominal
+camera position O_m and trace pixels back to rays; the room (:mod:`panomap.simulate.room`)
+renders omni-images through any of them. Conventions: ``shared/conventions.md``.
+"""
+
+from panomap.simulate.cameras import (
+    RADIAL_LAWS,
+    SVP_CAMERA_NAMES,
+    RadialCamera,
+    SimulatedCamera,
+    SphericalMirrorCamera,
+    standard_cameras,
+)
+from panomap.simulate.room import (
+    WALL_NAMES,
+    Opening,
+    Room,
+    Wall,
+    load_room,
+    render,
+    render_rays,
+)
+
+__all__ = [
+    "RADIAL_LAWS",
+    "SVP_CAMERA_NAMES",
+    "WALL_NAMES",
+    "Opening",
+    "RadialCamera",
+    "Room",
+    "SimulatedCamera",
+    "SphericalMirrorCamera",
+    "Wall",
+    "load_room",
+    "render",
+    "render_rays",
+    "standard_cameras",
+]

@@ -1,0 +1,387 @@
+"""The ``panomap`` command line: parses input, calls the library, reports.
+
+Angles on the command line are in degrees; lengths in world units; sizes as
+``WxH`` (views) or ``MxN`` (tables). Bad input gets one line on stderr,
+naming the file and the problem, and a non-zero exit code (1 for bad input,
+2 for bad usage); outputs are written to a temporary name and renamed when
+complete.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, NoReturn
+
+import click
+import numpy as np
+
+from . import __version__
+from .errors import PanomapError
+from .files import write_text_atomic
+from .fit import fit_camera
+from .imageio import image_size, read_image, save_map, write_image
+from .landmarks import read_landmarks, read_points
+from .radial import MODELS
+from .remap import INTERPOLATIONS, Remapper
+from .table import SAMPLINGS, PanoMappingTable, create_table, load_table
+from .views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
+
+
+class Size(click.ParamType):
+    """``WxH`` (or ``MxN``): two integers joined by ``x``."""
+
+    name = "WxH"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> tuple[int, int]:
+        if isinstance(value, tuple):
+            return value
+        text = str(value).lower().replace("*", "x")
+        parts = text.split("x")
+        try:
+            if len(parts) != 2:
+                raise ValueError
+            return int(parts[0]), int(parts[1])
+        except ValueError:
+            self.fail(f"{value!r} is not a size like 1024x512", param, ctx)
+
+
+class Finite(click.ParamType):
+    """A finite real number (refuses nan and inf)."""
+
+    name = "NUMBER"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float:
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
+SIZE = Size()
+FINITE = Finite()
+PATH = click.Path(path_type=Path, dir_okay=False)
+
+
+def _fail(message: str, code: int = 1) -> NoReturn:
+    click.echo(f"panomap: error: {message}", err=True)
+    sys.exit(code)
+
+
+class PanomapGroup(click.Group):
+    """A group that reports every error in one line, without a traceback."""
+
+    def main(self, *args: Any, **kwargs: Any) -> NoReturn:  # type: ignore[override]
+        kwargs["standalone_mode"] = False
+        try:
+            result = super().main(*args, **kwargs)
+        except click.UsageError as exc:
+            where = exc.ctx.command_path if exc.ctx is not None else "panomap"
+            message = " ".join(exc.format_message().split())
+            click.echo(f"{where}: error: {message} (see '{where} --help')", err=True)
+            sys.exit(exc.exit_code)
+        except click.ClickException as exc:
+            _fail(" ".join(exc.format_message().split()), exc.exit_code)
+        except click.Abort:
+            _fail("interrupted", 130)
+        except PanomapError as exc:
+            _fail(" ".join(str(exc).split()))
+        except OSError as exc:
+            _fail(f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": "))
+        sys.exit(result if isinstance(result, int) else 0)
+
+
+@click.group(cls=PanomapGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(__version__, prog_name="panomap")
+def main() -> None:
+    """Unwarp omni-images (mirror and fisheye cameras) with pano-mapping tables.
+
+    \b
+    1. panomap fit LANDMARKS.csv -o cam.npz --camera X0 Y0 Z0 --centre U0 V0
+    2. panomap panorama cam.npz omni.png -o pano.png
+       panomap cylinder cam.npz omni.png -o cyl.png --distance 2 --band -2.4 0 --size 2048x512
+       panomap plane    cam.npz omni.png -o view.png --distance 2 --plane-width 2 \\
+                        --band -2.4 0 --azimuth-deg 30 --size 800x800
+    3. panomap demo   (renders a simulated room and does all of it)
+
+    Conventions: world Z up; azimuth counter-clockwise from +X seen from above;
+    elevation negative below the camera; pixel (u, v) = (column, row) with the
+    centre of the top-left pixel at (0, 0). See docs/conventions.md.
+    """
+
+
+# ----------------------------------------------------------------------------- fit
+
+
+@main.command()
+@click.argument("landmarks", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="Table file to write (.npz).")
+@click.option("--camera", nargs=3, type=FINITE, metavar="X0 Y0 Z0",
+              help="Camera (mirror centre) position in world units; or give it in a JSON landmark file.")
+@click.option("--centre", "--center", "centre", nargs=2, type=FINITE, metavar="U0 V0",
+              help="Image centre (px) where the optical axis lands.")
+@click.option("--image", type=PATH, help="An omni-image of this camera: gives the image size.")
+@click.option("--image-size", type=SIZE, help="Image size WxH when no --image is given.")
+@click.option("--size", "table_size", type=SIZE, metavar="MxN",
+              help="Table size: M azimuths x N elevations [default: about 1 entry per pixel].")
+@click.option("--cutoff-radius", type=FINITE, help="Radius (px) of the self-occlusion disc [default: 0].")
+@click.option("--outer-radius", type=FINITE, help="Radius (px) of the image circle [default: largest circle in the image].")
+@click.option("--model", type=click.Choice(["auto", *MODELS]), default="auto", show_default=True,
+              help="Radial model; 'paper' is the paper's 4th-degree polynomial, 'auto' chooses by leave-one-out.")
+@click.option("--azimuth", type=click.Choice(["fit", "paper"]), default="fit", show_default=True,
+              help="Estimate the image rotation phi0 and mirroring s, or assume the paper's s=+1, phi0=0.")
+@click.option("--axis", type=click.Choice(["down", "up"]), help="Force the viewing direction [default: from the landmarks].")
+@click.option("--plot", type=PATH, help="Also write the fit plot (PNG): the curve, landmarks and residuals.")
+def fit(
+    landmarks: Path,
+    output: Path,
+    camera: tuple[float, float, float] | None,
+    centre: tuple[float, float] | None,
+    image: Path | None,
+    image_size: tuple[int, int] | None,
+    table_size: tuple[int, int] | None,
+    cutoff_radius: float | None,
+    outer_radius: float | None,
+    model: str,
+    azimuth: str,
+    axis: str | None,
+    plot: Path | None,
+) -> None:
+    """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table."""
+    pairs = read_landmarks(landmarks)
+    position = camera or pairs.camera
+    if position is None:
+        raise PanomapError("no camera position: give --camera X0 Y0 Z0 or \"camera\" in the JSON", landmarks)
+    if centre is None:
+        raise PanomapError("no image centre: give --centre U0 V0", landmarks)
+    size = _image_size(image, image_size)
+    try:
+        camera_fit = fit_camera(pairs, position, centre, model=model, azimuth=azimuth, axis=axis, image_size=size)
+        sources = {"centre": "given", "camera_position": "given" if camera else "landmark file"}
+        table = create_table(
+            camera_fit, size=table_size, image_size=size, cutoff_radius=cutoff_radius,
+            outer_radius=outer_radius, info={"sources": sources},
+        )
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, exc.source or landmarks) from None
+    table.save(output)
+    if plot is not None:
+        from .plot import save_fit_plot
+
+        save_fit_plot(table, plot)
+    click.echo(_describe_fit(table))
+    click.echo(f"wrote {output}" + (f" and {plot}" if plot else ""))
+
+
+def _image_size(image: Path | None, size: tuple[int, int] | None) -> tuple[int, int] | None:
+    if image is not None:
+        return image_size(image)
+    if size is not None:
+        width, height = size
+        if width <= 0 or height <= 0:
+            raise PanomapError(f"--image-size {width}x{height}: must be positive")
+        return size
+    return None
+
+
+def _describe_fit(table: PanoMappingTable) -> str:
+    fit = table.info.get("fit", {})
+    lines = []
+    selection = fit.get("model_selection_loo_rms_px") or {}
+    chosen = fit.get("model")
+    if selection:
+        ranked = ", ".join(
+            f"{k} {v:.3f}" if v is not None else f"{k} -" for k, v in sorted(selection.items(), key=lambda kv: (kv[1] is None, kv[1] or 0))
+        )
+        lines.append(f"radial model: {chosen} (leave-one-out RMS px: {ranked})")
+    else:
+        lines.append(f"radial model: {chosen} (forced)")
+    mirrored = "mirrored" if fit.get("s") == -1 else "not mirrored"
+    lines.append(
+        f"camera looks {fit.get('axis')} ({fit.get('axis_source')}); azimuth mapping phi = "
+        f"{'-' if fit.get('s') == -1 else ''}theta {fit.get('phi0_deg', 0.0):+.2f} deg "
+        f"({mirrored}, {'fitted' if fit.get('azimuth_mode') == 'fit' else 'assumed as in the paper'}; "
+        f"consistency {fit.get('azimuth_consistency', float('nan')):.3f})"
+    )
+    lines.append(f"{'landmark':<12} {'u':>9} {'v':>9} {'elev deg':>9} {'azim deg':>9} {'resid px':>9}")
+    for row in fit.get("landmarks", []):
+        lines.append(
+            f"{row['name'][:12]:<12} {row['u']:9.2f} {row['v']:9.2f} {row['elevation_deg']:9.2f} "
+            f"{row['azimuth_deg']:9.2f} {row['residual_px']:9.3f}"
+        )
+    lines.append(f"residuals: RMS {fit.get('rms_px', float('nan')):.3f} px, max {fit.get('max_px', float('nan')):.3f} px")
+    lines.append(_describe_table(table))
+    return "\n".join(lines)
+
+
+def _describe_table(table: PanoMappingTable) -> str:
+    m, n = table.size
+    rho_s, rho_e = (math.degrees(x) for x in table.elevation_range)
+    sources = table.info.get("sources", {})
+    return (
+        f"table: {m} x {n} entries, elevation {rho_s:.2f}..{rho_e:.2f} deg, "
+        f"cut-off radius {table.cutoff_radius:.1f} px ({sources.get('cutoff_radius', '?')}), "
+        f"outer radius {table.outer_radius:.1f} px ({sources.get('outer_radius', '?')})"
+    )
+
+
+# ----------------------------------------------------------------------------- info
+
+
+@main.command()
+@click.argument("table", type=PATH)
+@click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")
+def info(table: Path, as_json: bool) -> None:
+    """Print a table's metadata: model, centre, s, phi0, range, sizes, landmarks and residuals."""
+    loaded = load_table(table)
+    meta = loaded.metadata()
+    if as_json:
+        click.echo(json.dumps(meta, indent=2))
+        return
+    model = loaded.model
+    size = "unknown" if loaded.image_size is None else f"{loaded.image_size[0]} x {loaded.image_size[1]}"
+    lines = [
+        f"{table}: panomap table, format version {meta['version']}",
+        f"image size: {size}; centre (u0, v0) = ({model.centre[0]:.3f}, {model.centre[1]:.3f}) "
+        f"({loaded.info.get('sources', {}).get('centre', '?')})",
+        f"camera position (X0, Y0, Z0) = {tuple(round(c, 6) for c in loaded.camera_position)}",
+        f"radial model: {model.radial.kind}, axis {model.radial.axis}, coefficients "
+        + ", ".join(f"{c:.9g}" for c in model.radial.coefficients),
+        f"azimuth mapping: s = {model.s:+d}, phi0 = {math.degrees(model.phi0):.4f} deg",
+    ]
+    text = _describe_fit(loaded).splitlines()
+    click.echo("\n".join(lines + text[2:]))
+
+
+# ----------------------------------------------------------------------------- views
+
+
+def view_options(function: Callable[..., Any]) -> Callable[..., Any]:
+    """Arguments and options every view command shares."""
+    decorators = [
+        click.argument("table", type=PATH),
+        click.argument("image", type=PATH),
+        click.option("-o", "--output", type=PATH, required=True, help="Output image (PNG, TIFF, JPEG...)."),
+        click.option("--save-map", type=PATH, help="Also write the (H, W, 2) float32 (u, v) map as .npy."),
+        click.option("--interp", type=click.Choice(list(INTERPOLATIONS)), default="linear", show_default=True,
+                     help="Image interpolation."),
+        click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True,
+                     help="'nearest' uses the paper's floor indices."),
+    ]
+    for decorator in reversed(decorators):
+        function = decorator(function)
+    return function
+
+
+def _render(
+    table_path: Path, image_path: Path, output: Path, save_map_path: Path | None, interp: str, sampling: str,
+    make_view: Callable[[], View],
+) -> None:
+    view = make_view()
+    table = load_table(table_path)
+    image = read_image(image_path)
+    if table.image_size is not None and (image.shape[1], image.shape[0]) != table.image_size:
+        raise PanomapError(
+            f"the image is {image.shape[1]} x {image.shape[0]}, the table {table_path} is for "
+            f"{table.image_size[0]} x {table.image_size[1]} images", image_path
+        )
+    if save_map_path is not None and not (save_map_path.parent if str(save_map_path.parent) else Path(".")).is_dir():
+        raise PanomapError("its folder does not exist", save_map_path)
+    map_uv = build_map(table, view, sampling)
+    remapper = Remapper(map_uv, (image.shape[1], image.shape[0]), interp)
+    write_image(output, remapper(image))
+    if save_map_path is not None:
+        save_map(save_map_path, map_uv)
+    valid = float(np.mean(np.all(np.isfinite(map_uv), axis=2)))
+    click.echo(f"wrote {output} ({map_uv.shape[1]} x {map_uv.shape[0]}, {valid:.0%} of pixels with a source)"
+               + (f" and {save_map_path}" if save_map_path else ""))
+
+
+@main.command()
+@view_options
+@click.option("--size", type=SIZE, help="Output WxH [default: the table's M x N].")
+@click.option("--start-deg", type=FINITE, default=0.0, show_default=True, help="Azimuth at the left edge.")
+def panorama(table: Path, image: Path, output: Path, save_map: Path | None, interp: str, table_sampling: str,
+             size: tuple[int, int] | None, start_deg: float) -> None:
+    """Generic panorama (paper 2.3.1): columns are azimuths (decreasing to the right), rows elevations."""
+    _render(table, image, output, save_map, interp, table_sampling,
+            lambda: GenericPanorama(size, math.radians(start_deg)))
+
+
+@main.command()
+@view_options
+@click.option("--distance", type=FINITE, required=True, help="Horizontal distance D of the cylinder.")
+@click.option("--band", nargs=2, type=FINITE, required=True, metavar="ZB ZT",
+              help="Heights of the band's bottom and top relative to the camera.")
+@click.option("--size", type=SIZE, required=True, help="Output WxH.")
+@click.option("--start-deg", type=FINITE, default=0.0, show_default=True, help="Azimuth at the left edge.")
+def cylinder(table: Path, image: Path, output: Path, save_map: Path | None, interp: str, table_sampling: str,
+             distance: float, band: tuple[float, float], size: tuple[int, int], start_deg: float) -> None:
+    """Panorama of a cylinder at distance D with a height band (paper 2.3.2)."""
+    _render(table, image, output, save_map, interp, table_sampling,
+            lambda: CylinderPanorama(distance, Band(*band), size, math.radians(start_deg)))
+
+
+@main.command()
+@view_options
+@click.option("--distance", type=FINITE, required=True, help="Horizontal distance D of both vertical edges.")
+@click.option("--plane-width", type=FINITE, required=True, help="Plane width W_p (at most 2 D).")
+@click.option("--band", nargs=2, type=FINITE, required=True, metavar="ZB ZT",
+              help="Heights of the plane's bottom and top relative to the camera.")
+@click.option("--azimuth-deg", type=FINITE, required=True, help="Azimuth of the plane's centre.")
+@click.option("--size", type=SIZE, required=True, help="Output WxH.")
+def plane(table: Path, image: Path, output: Path, save_map: Path | None, interp: str, table_sampling: str,
+          distance: float, plane_width: float, band: tuple[float, float], azimuth_deg: float,
+          size: tuple[int, int]) -> None:
+    """Perspective view of a vertical W_p x band plane at distance D (paper 2.3.3)."""
+    _render(table, image, output, save_map, interp, table_sampling,
+            lambda: PlaneView(distance, plane_width, Band(*band), math.radians(azimuth_deg), size))
+
+
+# ----------------------------------------------------------------------------- project
+
+
+@main.command()
+@click.argument("table", type=PATH)
+@click.argument("points", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="CSV to write: the input columns plus u,v.")
+@click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True)
+def project(table: Path, points: Path, output: Path, table_sampling: str) -> None:
+    """World points (CSV with X,Y,Z) to pixels through the table; u,v empty where not visible."""
+    loaded = load_table(table)
+    header, rows, xyz = read_points(points)
+    uv = loaded.project(xyz, table_sampling)
+    keep = [i for i, name in enumerate(header) if name.lower() not in ("u", "v")]
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow([header[i] for i in keep] + ["u", "v"])
+    for row, (u, v) in zip(rows, uv.tolist(), strict=True):
+        pixel = ["", ""] if not (math.isfinite(u) and math.isfinite(v)) else [f"{u:.4f}", f"{v:.4f}"]
+        writer.writerow([row[i] for i in keep] + pixel)
+    write_text_atomic(output, buffer.getvalue())
+    visible = int(np.count_nonzero(np.all(np.isfinite(uv), axis=1)))
+    click.echo(f"wrote {output} ({visible} of {len(rows)} points visible)")
+
+
+# ----------------------------------------------------------------------------- demo
+
+
+@main.command()
+@click.option("--out", type=click.Path(path_type=Path, file_okay=False), default=Path("demo-out"), show_default=True,
+              help="Folder for everything the demo writes.")
+@click.option("--camera", "camera_name", type=click.Choice(["equidistant", "equisolid", "parabolic", "hyperbolic", "spherical"]),
+              default="hyperbolic", show_default=True, help="Simulated ceiling camera to use.")
+def demo(out: Path, camera_name: str) -> None:
+    """Render the bundled room through a simulated ceiling camera, learn it, and unwarp it."""
+    from .demo import run_demo
+
+    for line in run_demo(out, camera_name):
+        click.echo(line)

@@ -1,0 +1,57 @@
+"""The fit plot (the paper's Fig. 7b): the radial stretching function and the landmarks."""
+
+from __future__ import annotations
+
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .files import write_bytes_atomic
+from .table import PanoMappingTable
+
+
+def fit_plot_png(table: PanoMappingTable) -> bytes:
+    """PNG bytes of f_r over the table's elevation range, the landmarks and their residuals."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fit = table.info.get("fit", {})
+    landmarks = fit.get("landmarks", [])
+    u0, v0 = table.model.centre
+    rho_s, rho_e = table.elevation_range
+    rho = np.linspace(rho_s, rho_e, 512)
+    elevation = np.array([row["elevation_deg"] for row in landmarks], dtype=float)
+    radius = np.array([math.hypot(row["u"] - u0, row["v"] - v0) for row in landmarks], dtype=float)
+    residual = np.array([row["residual_px"] for row in landmarks], dtype=float)
+
+    figure, (top, bottom) = plt.subplots(
+        2, 1, figsize=(7, 6), sharex=True, gridspec_kw={"height_ratios": [3, 1]}, constrained_layout=True
+    )
+    top.plot(np.degrees(rho), table.model.radial(rho), color="tab:blue", label=f"f_r ({table.model.radial.kind})")
+    top.plot(elevation, radius, "+", color="tab:red", markersize=10, mew=2, label="landmarks")
+    top.axhline(table.cutoff_radius, color="grey", lw=0.8, ls=":", label="cut-off / outer radius")
+    top.axhline(table.outer_radius, color="grey", lw=0.8, ls=":")
+    top.set_ylabel("image radius r (px)")
+    top.set_title(
+        f"Radial stretching function: RMS {fit.get('rms_px', float('nan')):.2f} px, "
+        f"max {fit.get('max_px', float('nan')):.2f} px"
+    )
+    top.legend(loc="best")
+    top.grid(alpha=0.3)
+    bottom.bar(elevation, residual, width=max(np.ptp(np.degrees(rho)) / 150, 0.2), color="tab:red")
+    bottom.set_ylabel("residual (px)")
+    bottom.set_xlabel("elevation rho (deg)")
+    bottom.grid(alpha=0.3)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    plt.close(figure)
+    return buffer.getvalue()
+
+
+def save_fit_plot(table: PanoMappingTable, path: str | Path) -> None:
+    """Write the fit plot as PNG, through a temporary file."""
+    write_bytes_atomic(path, fit_plot_png(table))

@@ -1,0 +1,139 @@
+"""The table file: round trip, and every way it can be wrong."""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from panomap.errors import PanomapError
+from panomap.model import CameraModel
+from panomap.radial import RadialFunction
+from panomap.table import PanoMappingTable, fill_entries, load_table
+
+
+def small_table() -> PanoMappingTable:
+    model = CameraModel((320.5, 240.25), RadialFunction("unified", (250.0, 0.8), "down"), -1, 0.3)
+    rng = (-math.radians(80), math.radians(5))
+    return PanoMappingTable(
+        fill_entries(model, (64, 16), rng), rng, model, (1.0, 2.0, 2.5), (640, 480), 30.0, 240.0,
+        info={"sources": {"centre": "given"}},
+    )
+
+
+def rewrite(path: Path, meta_change: dict | None = None, entries: np.ndarray | None = None) -> None:
+    with np.load(path) as archive:
+        meta = json.loads(str(archive["meta"][()]))
+        stored = archive["entries"]
+    meta.update(meta_change or {})
+    np.savez(path, entries=stored if entries is None else entries, meta=np.array(json.dumps(meta)))
+
+
+def test_round_trip_keeps_everything(tmp_path: Path) -> None:
+    table = small_table()
+    table.save(tmp_path / "t.npz")
+    loaded = load_table(tmp_path / "t.npz")
+    np.testing.assert_array_equal(loaded.entries, table.entries)
+    assert loaded.model == table.model
+    assert loaded.elevation_range == table.elevation_range
+    assert loaded.image_size == (640, 480) and loaded.camera_position == (1.0, 2.0, 2.5)
+    assert (loaded.cutoff_radius, loaded.outer_radius) == (30.0, 240.0)
+    assert loaded.info == table.info
+
+
+def test_save_leaves_no_temporary_files(tmp_path: Path) -> None:
+    small_table().save(tmp_path / "t.npz")
+    assert [p.name for p in tmp_path.iterdir()] == ["t.npz"]
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(PanomapError, match=r"t\.npz: no such table file"):
+        load_table(tmp_path / "t.npz")
+
+
+@pytest.mark.parametrize("keep", [0.1, 0.5, 0.95])
+def test_truncated_file(tmp_path: Path, keep: float) -> None:
+    path = tmp_path / "t.npz"
+    small_table().save(path)
+    data = path.read_bytes()
+    path.write_bytes(data[: int(len(data) * keep)])
+    with pytest.raises(PanomapError, match="corrupt or truncated"):
+        load_table(path)
+
+
+def test_not_a_table(tmp_path: Path) -> None:
+    path = tmp_path / "t.npz"
+    path.write_text("u,v,X,Y,Z\n")
+    with pytest.raises(PanomapError, match="corrupt or truncated"):
+        load_table(path)
+    np.savez(path, something=np.zeros(3))
+    with pytest.raises(PanomapError, match="not a panomap table"):
+        load_table(path)
+
+
+def test_other_version(tmp_path: Path) -> None:
+    path = tmp_path / "t.npz"
+    small_table().save(path)
+    rewrite(path, {"version": 2})
+    with pytest.raises(PanomapError, match="version 2; this panomap reads version 1"):
+        load_table(path)
+
+
+def test_flipped_byte_in_entries_is_caught_by_the_checksum(tmp_path: Path) -> None:
+    path = tmp_path / "t.npz"
+    small_table().save(path)
+    with np.load(path) as archive:
+        entries = archive["entries"].copy()
+    entries[3, 4, 0] += 0.5
+    rewrite(path, entries=entries)
+    with pytest.raises(PanomapError, match="checksum"):
+        load_table(path)
+
+
+def test_entries_that_disagree_with_the_model(tmp_path: Path) -> None:
+    path = tmp_path / "t.npz"
+    table = small_table()
+    table.save(path)
+    with np.load(path) as archive:
+        meta = json.loads(str(archive["meta"][()]))
+    # Same entries, but a model with another centre, and a checksum that matches the entries.
+    meta["model"]["centre"] = [300.0, 240.25]
+    rewrite(path, meta)
+    with pytest.raises(PanomapError, match="disagree with the table's own model"):
+        load_table(path)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"size": [64, 17]}, "metadata says"),
+        ({"model": {"centre": [1, 2]}}, "malformed"),
+        ({"model": None}, "malformed"),
+        ({"elevation_range_rad": [0.5, 0.1]}, "not an interval"),
+        ({"format": "other"}, "wrong format"),
+    ],
+)
+def test_malformed_metadata(tmp_path: Path, change: dict, message: str) -> None:
+    path = tmp_path / "t.npz"
+    small_table().save(path)
+    rewrite(path, change)
+    with pytest.raises(PanomapError, match=message):
+        load_table(path)
+
+
+def test_metadata_that_is_not_json(tmp_path: Path) -> None:
+    path = tmp_path / "t.npz"
+    small_table().save(path)
+    with np.load(path) as archive:
+        entries = archive["entries"]
+    buffer = io.BytesIO()
+    np.savez(buffer, entries=entries, meta=np.array("{not json"))
+    path.write_bytes(buffer.getvalue())
+    assert zipfile.is_zipfile(path)
+    with pytest.raises(PanomapError, match="not valid JSON"):
+        load_table(path)
