@@ -18,9 +18,6 @@ from .errors import PanomapError
 
 INTERPOLATIONS = {"nearest": cv2.INTER_NEAREST, "linear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}
 DTYPES = (np.uint8, np.uint16, np.float32)
-# Where NaN map entries point: far enough outside any image that every tap of
-# the cubic kernel reads the (constant) border, i.e. the fill value.
-_OUTSIDE = -1000.0
 
 
 @dataclass(frozen=True)
@@ -32,14 +29,15 @@ class Remapper:
     map_uv : (H, W, 2) float32 ndarray
         Source (u, v) per output pixel; NaN where there is no source.
     source_size : (width, height), optional
-        The size frames must have; any size when omitted.
+        The size frames must have (any size when omitted); map entries outside
+        such a frame count as having no source.
     interpolation : {"nearest", "linear", "cubic"}
     fill : float or tuple of float
         Value of output pixels without a source.
 
-    Valid source coordinates in the outer half pixel of the image (u in
-    [-0.5, 0) and the like) are clamped to the edge pixel, so they read it as
-    ``BORDER_REPLICATE`` would, while NaN entries read the fill value.
+    Interpolation near the image edge reads replicated edge pixels
+    (``BORDER_REPLICATE``), never the fill value; output pixels whose map entry
+    is NaN are set to the fill value afterwards.
     """
 
     map_uv: NDArray[np.float32]
@@ -48,6 +46,7 @@ class Remapper:
     fill: float | tuple[float, ...] = 0.0
     _map_u: NDArray[np.float32] = field(init=False, repr=False)
     _map_v: NDArray[np.float32] = field(init=False, repr=False)
+    _no_source: NDArray[np.intp] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.interpolation not in INTERPOLATIONS:
@@ -56,17 +55,19 @@ class Remapper:
         if map_uv.ndim != 3 or map_uv.shape[2] != 2:
             raise PanomapError(f"a map must have shape (H, W, 2), not {map_uv.shape}")
         valid = np.all(np.isfinite(map_uv), axis=2)
-        u, v = map_uv[..., 0], map_uv[..., 1]
         if self.source_size is not None:
             width, height = self.source_size
-            u = np.clip(u, 0, width - 1)
-            v = np.clip(v, 0, height - 1)
-        map_u = np.where(valid, u, _OUTSIDE).astype(np.float32)
-        map_v = np.where(valid, v, _OUTSIDE).astype(np.float32)
-        map_u.setflags(write=False)
-        map_v.setflags(write=False)
+            with np.errstate(invalid="ignore"):
+                u, v = map_uv[..., 0], map_uv[..., 1]
+                valid &= (u >= -0.5) & (u <= width - 0.5) & (v >= -0.5) & (v <= height - 0.5)
+        map_u = np.where(valid, map_uv[..., 0], 0).astype(np.float32)
+        map_v = np.where(valid, map_uv[..., 1], 0).astype(np.float32)
+        no_source = np.flatnonzero(~valid)
+        for array in (map_u, map_v, no_source):
+            array.setflags(write=False)
         object.__setattr__(self, "_map_u", map_u)
         object.__setattr__(self, "_map_v", map_v)
+        object.__setattr__(self, "_no_source", no_source)
 
     @property
     def output_size(self) -> tuple[int, int]:
@@ -85,15 +86,13 @@ class Remapper:
             raise PanomapError(
                 f"the image is {image.shape[1]} x {image.shape[0]}, the table is for {width} x {height} images"
             )
-        fill = self.fill if isinstance(self.fill, tuple) else (self.fill,) * 4
         out = cv2.remap(
-            image,
-            self._map_u,
-            self._map_v,
-            INTERPOLATIONS[self.interpolation],
-            borderMode=cv2.BORDER_CONSTANT,
-            borderValue=fill,
+            image, self._map_u, self._map_v, INTERPOLATIONS[self.interpolation], borderMode=cv2.BORDER_REPLICATE
         )
         if image.ndim == 3 and out.ndim == 2:
             out = out[..., None]
+        if self._no_source.size:
+            channels = 1 if out.ndim == 2 else out.shape[2]
+            fill = self.fill if isinstance(self.fill, tuple) else (self.fill,) * channels
+            out.reshape(-1, channels)[self._no_source] = fill[:channels]
         return out

@@ -192,8 +192,10 @@ class PlaneView:
 
     def __post_init__(self) -> None:
         _check_finite(distance=self.distance, width=self.width, azimuth=self.azimuth)
-        if self.distance <= 0 or self.width <= 0:
-            raise PanomapError(f"distance and plane width must be positive, got {self.distance:g} and {self.width:g}")
+        if self.distance <= 0:
+            raise PanomapError(f"the distance must be positive, not {self.distance:g}")
+        if self.width <= 0:
+            raise PanomapError(f"the plane width must be positive, not {self.width:g}")
         if self.width > 2 * self.distance:
             raise PanomapError(
                 f"a plane {self.width:g} wide cannot have both edges at distance {self.distance:g} (needs width <= 2 D)"

@@ -1,0 +1,5 @@
+"""``python -m panomap``: the command line."""
+
+from panomap.cli import main
+
+main()

@@ -1,0 +1,215 @@
+"""The command line, in-process: what it writes, and one clear line for every bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from click.testing import CliRunner, Result
+
+from panomap.cli import main
+from panomap.landmarks import landmarks_to_csv
+from panomap.simulate import standard_cameras
+from panomap.simulate.sampling import spread_landmarks
+from panomap.table import load_table
+from panomap.views import Band, PlaneView, build_map
+
+SIZE = (640, 600)
+CAMERA = standard_cameras(SIZE, centre=(321.4, 298.2), s=1, phi0=-0.5)["parabolic"]
+POSITION = (3.0, 2.0, 2.5)
+
+
+def run(*args: object) -> Result:
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+@pytest.fixture
+def work(tmp_path: Path) -> Path:
+    landmarks = spread_landmarks(CAMERA, POSITION, 12, np.random.default_rng(5))
+    (tmp_path / "lm.csv").write_text(landmarks_to_csv(landmarks))
+    v, u = np.mgrid[0 : SIZE[1], 0 : SIZE[0]]
+    image = np.stack([u % 256, v % 256, (u + v) % 256], axis=-1).astype(np.uint8)
+    cv2.imwrite(str(tmp_path / "omni.png"), image)
+    return tmp_path
+
+
+def fit_table(work: Path, *extra: object) -> Path:
+    result = run(
+        "fit", work / "lm.csv", "-o", work / "cam.npz", "--camera", *POSITION, "--centre", *CAMERA.centre,
+        "--image", work / "omni.png", "--cutoff-radius", CAMERA.cutoff_radius, "--outer-radius", CAMERA.outer_radius,
+        *extra,
+    )
+    assert result.exit_code == 0, result.output + result.stderr
+    return work / "cam.npz"
+
+
+def assert_one_line_error(result: Result, *fragments: str) -> None:
+    assert result.exit_code != 0
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, result.stderr
+    assert "Traceback" not in result.output + result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+
+
+def test_fit_writes_a_table_and_reports_residuals(work: Path) -> None:
+    table_path = fit_table(work, "--plot", work / "fit.png")
+    out = run("info", table_path).output
+    assert "azimuth mapping: s = +1, phi0 = -28.6479 deg" in out
+    assert "residuals: RMS 0.000 px" in out
+    meta = json.loads(run("info", table_path, "--json").output)
+    assert meta["model"]["radial"]["kind"] == "unified"
+    assert meta["image_size"] == list(SIZE)
+    assert meta["info"]["sources"]["centre"] == "given"
+    assert len(meta["info"]["fit"]["landmarks"]) == 12
+    assert cv2.imread(str(work / "fit.png")) is not None
+
+
+def test_fit_paper_model_and_azimuth_as_printed(work: Path) -> None:
+    table = load_table(fit_table(work, "--model", "paper", "--azimuth", "paper", "--size", "720x90"))
+    assert table.model.radial.kind == "paper" and table.size == (720, 90)
+    assert (table.model.s, table.model.phi0) == (1, 0.0)
+
+
+def test_views_write_images_and_the_maps_they_used(work: Path) -> None:
+    table_path = fit_table(work)
+    result = run(
+        "plane", table_path, work / "omni.png", "-o", work / "plane.png", "--distance", 2, "--plane-width", 2,
+        "--band", -2.4, 0.2, "--azimuth-deg", 40, "--size", "200x150", "--save-map", work / "plane.npy",
+    )
+    assert result.exit_code == 0, result.stderr
+    saved = np.load(work / "plane.npy")
+    assert saved.dtype == np.float32 and saved.shape == (150, 200, 2)
+    expected = build_map(load_table(table_path), PlaneView(2, 2, Band(-2.4, 0.2), math.radians(40), (200, 150)))
+    np.testing.assert_array_equal(saved, expected)
+    for command, options, shape in [
+        ("panorama", ["--size", "360x60", "--start-deg", 90], (60, 360, 3)),
+        ("cylinder", ["--distance", 2, "--band", -2, 0.5, "--size", "360x80", "--interp", "cubic"], (80, 360, 3)),
+    ]:
+        result = run(command, table_path, work / "omni.png", "-o", work / f"{command}.png", *options)
+        assert result.exit_code == 0, result.stderr
+        assert cv2.imread(str(work / f"{command}.png")).shape == shape
+
+
+def test_project_writes_pixels_and_leaves_invisible_points_empty(work: Path) -> None:
+    table_path = fit_table(work)
+    points = np.array([[4.0, 2.5, 0.0], [1.0, 1.0, 1.0], [3.0, 2.0, 9.0]])
+    (work / "pts.csv").write_text("name,X,Y,Z\n" + "".join(f"p{k},{x},{y},{z}\n" for k, (x, y, z) in enumerate(points)))
+    result = run("project", table_path, work / "pts.csv", "-o", work / "px.csv")
+    assert result.exit_code == 0, result.stderr
+    lines = (work / "px.csv").read_text().splitlines()
+    assert lines[0] == "name,X,Y,Z,u,v"
+    assert lines[3].endswith(",,")  # straight up: not visible
+    truth = CAMERA.project(points[:2] - np.array(POSITION))
+    got = np.array([[float(x) for x in line.split(",")[4:]] for line in lines[1:3]])
+    # Exact landmarks and an exact model family: only the table's float32 and bilinear error remain.
+    np.testing.assert_allclose(got, truth, atol=0.01)
+
+
+BAD_LANDMARKS = {
+    "no_columns": ("a,b,c\n1,2,3\n", "lacks the column(s) u,v,X,Y,Z"),
+    "too_few": ("u,v,X,Y,Z\n" + "1,2,3,4,0\n" * 4, "only 4 landmark(s); at least 5"),
+    "nan": ("u,v,X,Y,Z\n" + "1,2,3,4,0\n" * 5 + "nan,2,3,4,0\n", "row 7, u is not finite"),
+    "inf": ("u,v,X,Y,Z\n" + "1,2,3,4,inf\n" * 6, "row 2, Z is not finite"),
+    "text": ("u,v,X,Y,Z\n" + "1,2,3,four,0\n" * 6, "row 2, Y is not a number"),
+    "one_elevation": (
+        "u,v,X,Y,Z\n" + "".join(f"{300 + 10 * math.cos(k)},{300 + 10 * math.sin(k)},{3 + math.cos(k)},{2 + math.sin(k)},1.5\n" for k in range(6)),
+        "all landmarks are at one elevation",
+    ),
+    "outside_image": ("u,v,X,Y,Z\n" + "".join(f"{100 * k},{50 * k},{3 + k},2,{k / 3}\n" for k in range(1, 8)), "outside the 640 x 600 image"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_LANDMARKS))
+def test_bad_landmarks_get_one_line_naming_the_file(work: Path, case: str) -> None:
+    text, message = BAD_LANDMARKS[case]
+    (work / "bad.csv").write_text(text)
+    result = run("fit", work / "bad.csv", "-o", work / "t.npz", "--camera", *POSITION, "--centre", 320, 300,
+                 "--image", work / "omni.png")
+    assert_one_line_error(result, "bad.csv", message)
+    assert not (work / "t.npz").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["missing.csv", "--camera", 0, 0, 2, "--centre", 1, 1], "missing.csv: no such file"),
+        (["lm.csv", "--camera", 0, 0, "nan", "--centre", 1, 1], "'nan' is not a finite number"),
+        (["lm.csv", "--centre", 1, 1], "no camera position"),
+        (["lm.csv", "--camera", 0, 0, 2], "no image centre"),
+        (["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--size", "1000000x1000000"], "is more than the limit"),
+        (["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--size", "0x10"], "M >= 4 and N >= 2"),
+        (["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--image", "nope.png"], "nope.png: no such image file"),
+    ],
+)
+def test_bad_fit_arguments(work: Path, args: list[object], message: str) -> None:
+    resolved = [work / a if isinstance(a, str) and a.endswith((".csv", ".png")) else a for a in args]
+    result = run("fit", *resolved, "-o", work / "t.npz")
+    assert_one_line_error(result, message)
+    assert not (work / "t.npz").exists()
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--size", "1000000x1000000"], "too large"),
+        (["--size", "0x100"], "must be positive"),
+        (["--size", "-5x100"], "must be positive"),
+        (["--size", "big"], "is not a size like 1024x512"),
+        (["--band", 1, -1], "z_bottom < z_top"),
+        (["--distance", -2], "distance must be positive"),
+        (["--plane-width", 5], "needs width <= 2 D"),
+    ],
+)
+def test_bad_view_parameters(work: Path, options: list[object], message: str) -> None:
+    table_path = fit_table(work)
+    base = {"--distance": [2], "--plane-width": [2], "--band": [-2, 0.3], "--azimuth-deg": [10], "--size": ["100x80"]}
+    for flag in options:
+        if isinstance(flag, str) and flag in base:
+            base.pop(flag)
+    args = [a for flag, values in base.items() for a in (flag, *values)]
+    result = run("plane", table_path, work / "omni.png", "-o", work / "out.png", *args, *options)
+    assert_one_line_error(result, message)
+    assert not (work / "out.png").exists()
+
+
+def test_bad_view_inputs(work: Path) -> None:
+    table_path = fit_table(work)
+    (work / "broken.png").write_bytes(b"not an image")
+    (work / "corrupt.npz").write_bytes(table_path.read_bytes()[:5000])
+    small = work / "small.png"
+    cv2.imwrite(str(small), np.zeros((10, 10), np.uint8))
+    cases = [
+        ([table_path, work / "nothere.png"], "nothere.png: no such image file"),
+        ([table_path, work / "broken.png"], "broken.png: cannot read it as an image"),
+        ([work / "corrupt.npz", work / "omni.png"], "corrupt.npz: not a readable panomap table"),
+        ([work / "none.npz", work / "omni.png"], "none.npz: no such table file"),
+        ([table_path, small], "small.png: the image is 10 x 10"),
+    ]
+    for inputs, message in cases:
+        result = run("panorama", *inputs, "-o", work / "out.png", "--size", "100x20")
+        assert_one_line_error(result, message)
+        assert not (work / "out.png").exists()
+
+
+def test_sixteen_bit_output_into_jpeg_is_refused_before_writing(work: Path) -> None:
+    table_path = fit_table(work)
+    cv2.imwrite(str(work / "deep.png"), np.zeros((SIZE[1], SIZE[0]), np.uint16) + 3000)
+    result = run("panorama", table_path, work / "deep.png", "-o", work / "out.jpg", "--size", "100x20")
+    assert_one_line_error(result, "16-bit images need PNG")
+    assert not (work / "out.jpg").exists()
+
+
+def test_a_real_process_prints_no_traceback(work: Path) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "panomap", "panorama", str(work / "no.npz"), str(work / "omni.png"), "-o", str(work / "o.png")],
+        capture_output=True, text=True, check=False,
+    )
+    assert result.returncode == 1
+    assert result.stderr.strip().splitlines() == [f"panomap: error: {work / 'no.npz'}: no such table file"]
