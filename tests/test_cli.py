@@ -41,8 +41,20 @@ def work(tmp_path: Path) -> Path:
 
 def fit_table(work: Path, *extra: object) -> Path:
     result = run(
-        "fit", work / "lm.csv", "-o", work / "cam.npz", "--camera", *POSITION, "--centre", *CAMERA.centre,
-        "--image", work / "omni.png", "--cutoff-radius", CAMERA.cutoff_radius, "--outer-radius", CAMERA.outer_radius,
+        "fit",
+        work / "lm.csv",
+        "-o",
+        work / "cam.npz",
+        "--camera",
+        *POSITION,
+        "--centre",
+        *CAMERA.centre,
+        "--image",
+        work / "omni.png",
+        "--cutoff-radius",
+        CAMERA.cutoff_radius,
+        "--outer-radius",
+        CAMERA.outer_radius,
         *extra,
     )
     assert result.exit_code == 0, result.output + result.stderr
@@ -80,8 +92,24 @@ def test_fit_paper_model_and_azimuth_as_printed(work: Path) -> None:
 def test_views_write_images_and_the_maps_they_used(work: Path) -> None:
     table_path = fit_table(work)
     result = run(
-        "plane", table_path, work / "omni.png", "-o", work / "plane.png", "--distance", 2, "--plane-width", 2,
-        "--band", -2.4, 0.2, "--azimuth-deg", 40, "--size", "200x150", "--save-map", work / "plane.npy",
+        "plane",
+        table_path,
+        work / "omni.png",
+        "-o",
+        work / "plane.png",
+        "--distance",
+        2,
+        "--plane-width",
+        2,
+        "--band",
+        -2.4,
+        0.2,
+        "--azimuth-deg",
+        40,
+        "--size",
+        "200x150",
+        "--save-map",
+        work / "plane.npy",
     )
     assert result.exit_code == 0, result.stderr
     saved = np.load(work / "plane.npy")
@@ -119,10 +147,17 @@ BAD_LANDMARKS = {
     "inf": ("u,v,X,Y,Z\n" + "1,2,3,4,inf\n" * 6, "row 2, Z is not finite"),
     "text": ("u,v,X,Y,Z\n" + "1,2,3,four,0\n" * 6, "row 2, Y is not a number"),
     "one_elevation": (
-        "u,v,X,Y,Z\n" + "".join(f"{300 + 10 * math.cos(k)},{300 + 10 * math.sin(k)},{3 + math.cos(k)},{2 + math.sin(k)},1.5\n" for k in range(6)),
+        "u,v,X,Y,Z\n"
+        + "".join(
+            f"{300 + 10 * math.cos(k)},{300 + 10 * math.sin(k)},{3 + math.cos(k)},{2 + math.sin(k)},1.5\n"
+            for k in range(6)
+        ),
         "all landmarks are at one elevation",
     ),
-    "outside_image": ("u,v,X,Y,Z\n" + "".join(f"{100 * k},{50 * k},{3 + k},2,{k / 3}\n" for k in range(1, 8)), "outside the 640 x 600 image"),
+    "outside_image": (
+        "u,v,X,Y,Z\n" + "".join(f"{100 * k},{50 * k},{3 + k},2,{k / 3}\n" for k in range(1, 8)),
+        "outside the 640 x 600 image",
+    ),
 }
 
 
@@ -130,8 +165,19 @@ BAD_LANDMARKS = {
 def test_bad_landmarks_get_one_line_naming_the_file(work: Path, case: str) -> None:
     text, message = BAD_LANDMARKS[case]
     (work / "bad.csv").write_text(text)
-    result = run("fit", work / "bad.csv", "-o", work / "t.npz", "--camera", *POSITION, "--centre", 320, 300,
-                 "--image", work / "omni.png")
+    result = run(
+        "fit",
+        work / "bad.csv",
+        "-o",
+        work / "t.npz",
+        "--camera",
+        *POSITION,
+        "--centre",
+        320,
+        300,
+        "--image",
+        work / "omni.png",
+    )
     assert_one_line_error(result, "bad.csv", message)
     assert not (work / "t.npz").exists()
 
@@ -143,9 +189,15 @@ def test_bad_landmarks_get_one_line_naming_the_file(work: Path, case: str) -> No
         (["lm.csv", "--camera", 0, 0, "nan", "--centre", 1, 1], "'nan' is not a finite number"),
         (["lm.csv", "--centre", 1, 1], "no camera position"),
         (["lm.csv", "--camera", 0, 0, 2], "no image centre"),
-        (["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--size", "1000000x1000000"], "is more than the limit"),
+        (
+            ["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--size", "1000000x1000000"],
+            "is more than the limit",
+        ),
         (["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--size", "0x10"], "M >= 4 and N >= 2"),
-        (["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--image", "nope.png"], "nope.png: no such image file"),
+        (
+            ["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--image", "nope.png"],
+            "nope.png: no such image file",
+        ),
     ],
 )
 def test_bad_fit_arguments(work: Path, args: list[object], message: str) -> None:
@@ -208,8 +260,19 @@ def test_sixteen_bit_output_into_jpeg_is_refused_before_writing(work: Path) -> N
 
 def test_a_real_process_prints_no_traceback(work: Path) -> None:
     result = subprocess.run(
-        [sys.executable, "-m", "panomap", "panorama", str(work / "no.npz"), str(work / "omni.png"), "-o", str(work / "o.png")],
-        capture_output=True, text=True, check=False,
+        [
+            sys.executable,
+            "-m",
+            "panomap",
+            "panorama",
+            str(work / "no.npz"),
+            str(work / "omni.png"),
+            "-o",
+            str(work / "o.png"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert result.returncode == 1
     assert result.stderr.strip().splitlines() == [f"panomap: error: {work / 'no.npz'}: no such table file"]

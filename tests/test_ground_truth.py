@@ -27,17 +27,19 @@ CAMERA_POSITION = (3.1, 2.4, 2.45)
 CAMERAS = standard_cameras(SIZE, centre=(412.3, 371.6), s=-1, phi0=0.9)
 
 
-def learn(name: str, model: str = "auto", count: int = 20, seed: int = 0) -> tuple[PanoMappingTable, tuple[float, float]]:
+def learn(
+    name: str, model: str = "auto", count: int = 20, seed: int = 0
+) -> tuple[PanoMappingTable, tuple[float, float]]:
     camera = CAMERAS[name]
     landmarks = spread_landmarks(camera, CAMERA_POSITION, count, np.random.default_rng(seed))
     fit = fit_camera(landmarks, CAMERA_POSITION, camera.centre, model=model, image_size=SIZE)
-    table = create_table(
-        fit, image_size=SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=camera.outer_radius
-    )
+    table = create_table(fit, image_size=SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=camera.outer_radius)
     return table, fit.landmark_range
 
 
-def view_errors(table: PanoMappingTable, view: CylinderPanorama | PlaneView, name: str, rho_range: tuple[float, float]) -> np.ndarray:
+def view_errors(
+    table: PanoMappingTable, view: CylinderPanorama | PlaneView, name: str, rho_range: tuple[float, float]
+) -> np.ndarray:
     """Pixel distance between the exported map and the true projection, inside the landmarks' range."""
     truth = CAMERAS[name].project(view.points())
     map_uv = build_map(table, view)
@@ -79,7 +81,7 @@ def test_generic_panorama_columns_hold_one_azimuth_rows_one_elevation(name: str)
     table, rho_range = learn(name)
     width, height = 360, 90
     map_uv = build_map(table, GenericPanorama((width, height), theta_start=0.4))
-    origins, directions = CAMERAS[name].trace(map_uv)
+    _origins, directions = CAMERAS[name].trace(map_uv)
     theta, rho = azimuth_elevation(directions)
     expected_theta = np.mod(0.4 - 2 * np.pi * (np.arange(width) + 0.5) / width, 2 * np.pi)
     rho_s, rho_e = table.elevation_range
@@ -101,7 +103,7 @@ def test_paper_model_reproduces_the_paper_on_an_equidistant_fisheye() -> None:
 
 
 def test_nearest_table_sampling_is_within_one_table_cell() -> None:
-    table, rho_range = learn("parabolic")
+    table, _rho_range = learn("parabolic")
     view = CylinderPanorama(2.0, Band(-3.0, 0.6), (720, 240))
     nearest = build_map(table, view, "nearest")
     bilinear = build_map(table, view, "bilinear")

@@ -95,7 +95,9 @@ def test_wrong_frame_size_or_type_is_refused() -> None:
         remapper(np.zeros((HEIGHT, WIDTH), np.int32))
 
 
-@pytest.mark.parametrize(("suffix", "depth", "channels"), [(".png", np.uint16, 4), (".tif", np.uint16, 1), (".png", np.uint8, 3)])
+@pytest.mark.parametrize(
+    ("suffix", "depth", "channels"), [(".png", np.uint16, 4), (".tif", np.uint16, 1), (".png", np.uint8, 3)]
+)
 def test_image_files_keep_depth_and_channels(tmp_path: Path, suffix: str, depth: type, channels: int) -> None:
     rng = np.random.default_rng(4)
     image = rng.integers(0, np.iinfo(depth).max, (12, 16, channels), dtype=depth)

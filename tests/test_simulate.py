@@ -6,10 +6,12 @@ import json
 import math
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from panomap.errors import PanomapError
 from panomap.simulate import (
     SVP_CAMERA_NAMES,
     RadialCamera,
@@ -64,12 +66,23 @@ def test_radial_round_trip(name: str) -> None:
 
 @pytest.mark.parametrize(
     ("law", "xi", "alpha_max"),
-    [("equidistant", 0.0, 3.0), ("equisolid", 0.0, 3.0), ("unified", 1.0, 2.5),
-     ("unified", 0.8, 2.2), ("unified", 0.0, 1.4), ("unified", 1.5, 2.2)],
+    [
+        ("equidistant", 0.0, 3.0),
+        ("equisolid", 0.0, 3.0),
+        ("unified", 1.0, 2.5),
+        ("unified", 0.8, 2.2),
+        ("unified", 0.0, 1.4),
+        ("unified", 1.5, 2.2),
+    ],
 )
 def test_alpha_of_radius_inverts_radius(law: str, xi: float, alpha_max: float) -> None:
     cam = RadialCamera(
-        name="c", law=law, scale=250.0, xi=xi, image_size=(100, 100), centre=(49.5, 49.5),
+        name="c",
+        law=law,
+        scale=250.0,
+        xi=xi,
+        image_size=(100, 100),
+        centre=(49.5, 49.5),
         alpha_max=alpha_max,
     )
     alpha = np.linspace(0.0, alpha_max, 1001)
@@ -84,7 +97,7 @@ def test_alpha_of_radius_inverts_radius(law: str, xi: float, alpha_max: float) -
 def test_closed_form_values_pinned() -> None:
     """Pixels of known rays, computed by hand from the laws and the image model."""
     u0, v0, scale = 200.5, 150.25, 100.0
-    common = {"image_size": (401, 301), "centre": (u0, v0), "alpha_max": 100 * DEG}
+    common: dict[str, Any] = {"image_size": (401, 301), "centre": (u0, v0), "alpha_max": 100 * DEG}
     eqd = RadialCamera(name="a", law="equidistant", scale=scale, **common)
     eqs = RadialCamera(name="b", law="equisolid", scale=scale, **common)
     par = RadialCamera(name="c", law="unified", xi=1.0, scale=scale, **common)
@@ -112,8 +125,14 @@ def test_closed_form_values_pinned() -> None:
 
 def test_up_looking_camera() -> None:
     cam = RadialCamera(
-        name="up", law="equidistant", scale=100.0, image_size=(401, 401), centre=(200.0, 200.0),
-        axis="up", alpha_min=5 * DEG, alpha_max=100 * DEG,
+        name="up",
+        law="equidistant",
+        scale=100.0,
+        image_size=(401, 401),
+        centre=(200.0, 200.0),
+        axis="up",
+        alpha_min=5 * DEG,
+        alpha_max=100 * DEG,
     )
     # alpha = pi/2 - rho: elevation +30 deg at azimuth 0 is alpha = 60 deg.
     d = np.array([math.cos(30 * DEG), 0.0, math.sin(30 * DEG)])
@@ -155,19 +174,24 @@ def test_project_returns_nan_where_unseen() -> None:
     assert np.isfinite(par.project([1.0, 0.0, -1.0])).all()
     # The image rectangle clips the circle: a 200 x 100 image of a 94 px circle.
     wide = RadialCamera(
-        name="w", law="equidistant", scale=94 / (95 * DEG), image_size=(200, 100),
-        centre=(99.5, 49.5), alpha_max=95 * DEG,
+        name="w",
+        law="equidistant",
+        scale=94 / (95 * DEG),
+        image_size=(200, 100),
+        centre=(99.5, 49.5),
+        alpha_max=95 * DEG,
     )
     assert np.isnan(wide.project([0.0, 1.0, -0.2])).all()  # lands near v = 49.5 + 80
     assert np.isfinite(wide.project([1.0, 0.0, -0.2])).all()  # lands near u = 99.5 + 80
-    origins, directions = wide.trace([[99.5, 99.0], [10.0, 49.5], [99.5, 49.5]])
-    assert np.isnan(directions[0]).all() and np.isnan(origins[0]).all()  # outside the circle
-    assert np.isfinite(directions[1:]).all()
-    np.testing.assert_allclose(directions[2], [0.0, 0.0, -1.0], atol=1e-15)
+    # Outside the circle; inside the circle but below the image; inside; the centre.
+    origins, directions = wide.trace([[0.0, 0.0], [99.5, 120.0], [10.0, 49.5], [99.5, 49.5]])
+    assert np.isnan(directions[:2]).all() and np.isnan(origins[:2]).all()
+    assert np.isfinite(directions[2:]).all()
+    np.testing.assert_allclose(directions[3], [0.0, 0.0, -1.0], atol=1e-15)
 
 
 def test_radial_validation() -> None:
-    base = {"name": "x", "scale": 100.0, "image_size": (10, 10), "centre": (4.5, 4.5)}
+    base: dict[str, Any] = {"name": "x", "scale": 100.0, "image_size": (10, 10), "centre": (4.5, 4.5)}
     with pytest.raises(ValueError, match="law"):
         RadialCamera(law="stereo", alpha_max=1.0, **base)
     with pytest.raises(ValueError, match="increasing"):  # xi + cos(alpha_max) < 0
@@ -187,6 +211,7 @@ def test_radial_validation() -> None:
 def test_rho_radius_functions_are_inverse_and_nan_outside() -> None:
     for name in SVP_CAMERA_NAMES:
         cam = standard_cameras()[name]
+        assert isinstance(cam, RadialCamera)
         low, high = cam.elevation_range
         rho = np.linspace(low, high, 501)
         r = cam.radius_of_rho(rho)
@@ -225,9 +250,14 @@ def test_spherical_geometry() -> None:
     assert isinstance(std, SphericalMirrorCamera)
     # With no cut-off, the image centre sees the camera itself: straight down.
     cam = SphericalMirrorCamera(
-        name="sph", mirror_radius=std.mirror_radius, camera_distance=std.camera_distance,
-        focal_px=std.focal_px, image_size=std.image_size, centre=std.centre,
-        beta_min=0.0, beta_max=std.beta_max,
+        name="sph",
+        mirror_radius=std.mirror_radius,
+        camera_distance=std.camera_distance,
+        focal_px=std.focal_px,
+        image_size=std.image_size,
+        centre=std.centre,
+        beta_min=0.0,
+        beta_max=std.beta_max,
     )
     origins, directions = cam.trace([cam.centre])
     np.testing.assert_allclose(directions[0], [0.0, 0.0, -1.0], atol=1e-15)
@@ -262,8 +292,14 @@ def test_spherical_nan_and_validation() -> None:
     assert np.isnan(cam.trace([[0.0, 0.0]])[1]).all()  # image corner: beyond the rim
     with pytest.raises(ValueError, match="grazing"):
         SphericalMirrorCamera(
-            name="x", mirror_radius=0.05, camera_distance=0.15, focal_px=100.0,
-            image_size=(10, 10), centre=(4.5, 4.5), beta_min=0.0, beta_max=20 * DEG,
+            name="x",
+            mirror_radius=0.05,
+            camera_distance=0.15,
+            focal_px=100.0,
+            image_size=(10, 10),
+            centre=(4.5, 4.5),
+            beta_min=0.0,
+            beta_max=20 * DEG,
         )
 
 
@@ -317,17 +353,16 @@ def test_bundled_room_and_landmarks() -> None:
 
 
 def test_room_validation(tmp_path: Path) -> None:
-    data = json.loads(
-        (resources.files("panomap") / "data" / "room.json").read_text(encoding="utf-8")
-    )
+    data = json.loads((resources.files("panomap") / "data" / "room.json").read_text(encoding="utf-8"))
     assert isinstance(Room.from_dict(data), Room)
     bad = dict(data, camera=[3.1, 2.4, 2.7])
     with pytest.raises(ValueError, match="inside"):
         Room.from_dict(bad)
     path = tmp_path / "room.json"
     path.write_text(json.dumps(dict(data, width=float("nan"))), encoding="utf-8")
-    with pytest.raises(ValueError, match="width"):
+    with pytest.raises(PanomapError, match="width must be finite") as info:
         load_room(path)
+    assert info.value.source == str(path)  # the message names the file
     with pytest.raises(ValueError, match="format_version"):
         Room.from_dict(dict(data, format_version=2))
 

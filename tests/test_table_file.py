@@ -21,7 +21,13 @@ def small_table() -> PanoMappingTable:
     model = CameraModel((320.5, 240.25), RadialFunction("unified", (250.0, 0.8), "down"), -1, 0.3)
     rng = (-math.radians(80), math.radians(5))
     return PanoMappingTable(
-        fill_entries(model, (64, 16), rng), rng, model, (1.0, 2.0, 2.5), (640, 480), 30.0, 240.0,
+        fill_entries(model, (64, 16), rng),
+        rng,
+        model,
+        (1.0, 2.0, 2.5),
+        (640, 480),
+        30.0,
+        240.0,
         info={"sources": {"centre": "given"}},
     )
 

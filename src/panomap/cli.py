@@ -79,7 +79,7 @@ def _fail(message: str, code: int = 1) -> NoReturn:
 class PanomapGroup(click.Group):
     """A group that reports every error in one line, without a traceback."""
 
-    def main(self, *args: Any, **kwargs: Any) -> NoReturn:  # type: ignore[override]
+    def main(self, *args: Any, **kwargs: Any) -> NoReturn:
         kwargs["standalone_mode"] = False
         try:
             result = super().main(*args, **kwargs)
@@ -124,21 +124,52 @@ def main() -> None:
 @main.command()
 @click.argument("landmarks", type=PATH)
 @click.option("-o", "--output", type=PATH, required=True, help="Table file to write (.npz).")
-@click.option("--camera", nargs=3, type=FINITE, metavar="X0 Y0 Z0",
-              help="Camera (mirror centre) position in world units; or give it in a JSON landmark file.")
-@click.option("--centre", "--center", "centre", nargs=2, type=FINITE, metavar="U0 V0",
-              help="Image centre (px) where the optical axis lands.")
+@click.option(
+    "--camera",
+    nargs=3,
+    type=FINITE,
+    metavar="X0 Y0 Z0",
+    help="Camera (mirror centre) position in world units; or give it in a JSON landmark file.",
+)
+@click.option(
+    "--centre",
+    "--center",
+    "centre",
+    nargs=2,
+    type=FINITE,
+    metavar="U0 V0",
+    help="Image centre (px) where the optical axis lands.",
+)
 @click.option("--image", type=PATH, help="An omni-image of this camera: gives the image size.")
 @click.option("--image-size", type=SIZE, help="Image size WxH when no --image is given.")
-@click.option("--size", "table_size", type=SIZE, metavar="MxN",
-              help="Table size: M azimuths x N elevations [default: about 1 entry per pixel].")
+@click.option(
+    "--size",
+    "table_size",
+    type=SIZE,
+    metavar="MxN",
+    help="Table size: M azimuths x N elevations [default: about 1 entry per pixel].",
+)
 @click.option("--cutoff-radius", type=FINITE, help="Radius (px) of the self-occlusion disc [default: 0].")
-@click.option("--outer-radius", type=FINITE, help="Radius (px) of the image circle [default: largest circle in the image].")
-@click.option("--model", type=click.Choice(["auto", *MODELS]), default="auto", show_default=True,
-              help="Radial model; 'paper' is the paper's 4th-degree polynomial, 'auto' chooses by leave-one-out.")
-@click.option("--azimuth", type=click.Choice(["fit", "paper"]), default="fit", show_default=True,
-              help="Estimate the image rotation phi0 and mirroring s, or assume the paper's s=+1, phi0=0.")
-@click.option("--axis", type=click.Choice(["down", "up"]), help="Force the viewing direction [default: from the landmarks].")
+@click.option(
+    "--outer-radius", type=FINITE, help="Radius (px) of the image circle [default: largest circle in the image]."
+)
+@click.option(
+    "--model",
+    type=click.Choice(["auto", *MODELS]),
+    default="auto",
+    show_default=True,
+    help="Radial model; 'paper' is the paper's 4th-degree polynomial, 'auto' chooses by leave-one-out.",
+)
+@click.option(
+    "--azimuth",
+    type=click.Choice(["fit", "paper"]),
+    default="fit",
+    show_default=True,
+    help="Estimate the image rotation phi0 and mirroring s, or assume the paper's s=+1, phi0=0.",
+)
+@click.option(
+    "--axis", type=click.Choice(["down", "up"]), help="Force the viewing direction [default: from the landmarks]."
+)
 @click.option("--plot", type=PATH, help="Also write the fit plot (PNG): the curve, landmarks and residuals.")
 def fit(
     landmarks: Path,
@@ -159,7 +190,7 @@ def fit(
     pairs = read_landmarks(landmarks)
     position = camera or pairs.camera
     if position is None:
-        raise PanomapError("no camera position: give --camera X0 Y0 Z0 or \"camera\" in the JSON", landmarks)
+        raise PanomapError('no camera position: give --camera X0 Y0 Z0 or "camera" in the JSON', landmarks)
     if centre is None:
         raise PanomapError("no image centre: give --centre U0 V0", landmarks)
     size = _image_size(image, image_size)
@@ -167,8 +198,12 @@ def fit(
         camera_fit = fit_camera(pairs, position, centre, model=model, azimuth=azimuth, axis=axis, image_size=size)
         sources = {"centre": "given", "camera_position": "given" if camera else "landmark file"}
         table = create_table(
-            camera_fit, size=table_size, image_size=size, cutoff_radius=cutoff_radius,
-            outer_radius=outer_radius, info={"sources": sources},
+            camera_fit,
+            size=table_size,
+            image_size=size,
+            cutoff_radius=cutoff_radius,
+            outer_radius=outer_radius,
+            info={"sources": sources},
         )
     except PanomapError as exc:
         raise PanomapError(exc.detail, exc.source or landmarks) from None
@@ -199,7 +234,8 @@ def _describe_fit(table: PanoMappingTable) -> str:
     chosen = fit.get("model")
     if selection:
         ranked = ", ".join(
-            f"{k} {v:.3f}" if v is not None else f"{k} -" for k, v in sorted(selection.items(), key=lambda kv: (kv[1] is None, kv[1] or 0))
+            f"{k} {v:.3f}" if v is not None else f"{k} -"
+            for k, v in sorted(selection.items(), key=lambda kv: (kv[1] is None, kv[1] or 0))
         )
         lines.append(f"radial model: {chosen} (leave-one-out RMS px: {ranked})")
     else:
@@ -217,7 +253,9 @@ def _describe_fit(table: PanoMappingTable) -> str:
             f"{row['name'][:12]:<12} {row['u']:9.2f} {row['v']:9.2f} {row['elevation_deg']:9.2f} "
             f"{row['azimuth_deg']:9.2f} {row['residual_px']:9.3f}"
         )
-    lines.append(f"residuals: RMS {fit.get('rms_px', float('nan')):.3f} px, max {fit.get('max_px', float('nan')):.3f} px")
+    lines.append(
+        f"residuals: RMS {fit.get('rms_px', float('nan')):.3f} px, max {fit.get('max_px', float('nan')):.3f} px"
+    )
     lines.append(_describe_table(table))
     return "\n".join(lines)
 
@@ -271,10 +309,20 @@ def view_options(function: Callable[..., Any]) -> Callable[..., Any]:
         click.argument("image", type=PATH),
         click.option("-o", "--output", type=PATH, required=True, help="Output image (PNG, TIFF, JPEG...)."),
         click.option("--save-map", type=PATH, help="Also write the (H, W, 2) float32 (u, v) map as .npy."),
-        click.option("--interp", type=click.Choice(list(INTERPOLATIONS)), default="linear", show_default=True,
-                     help="Image interpolation."),
-        click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True,
-                     help="'nearest' uses the paper's floor indices."),
+        click.option(
+            "--interp",
+            type=click.Choice(list(INTERPOLATIONS)),
+            default="linear",
+            show_default=True,
+            help="Image interpolation.",
+        ),
+        click.option(
+            "--table-sampling",
+            type=click.Choice(SAMPLINGS),
+            default="bilinear",
+            show_default=True,
+            help="'nearest' uses the paper's floor indices.",
+        ),
     ]
     for decorator in reversed(decorators):
         function = decorator(function)
@@ -282,7 +330,12 @@ def view_options(function: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def _render(
-    table_path: Path, image_path: Path, output: Path, save_map_path: Path | None, interp: str, sampling: str,
+    table_path: Path,
+    image_path: Path,
+    output: Path,
+    save_map_path: Path | None,
+    interp: str,
+    sampling: str,
     make_view: Callable[[], View],
 ) -> None:
     view = make_view()
@@ -291,7 +344,8 @@ def _render(
     if table.image_size is not None and (image.shape[1], image.shape[0]) != table.image_size:
         raise PanomapError(
             f"the image is {image.shape[1]} x {image.shape[0]}, the table {table_path} is for "
-            f"{table.image_size[0]} x {table.image_size[1]} images", image_path
+            f"{table.image_size[0]} x {table.image_size[1]} images",
+            image_path,
         )
     if save_map_path is not None and not (save_map_path.parent if str(save_map_path.parent) else Path(".")).is_dir():
         raise PanomapError("its folder does not exist", save_map_path)
@@ -301,49 +355,106 @@ def _render(
     if save_map_path is not None:
         save_map(save_map_path, map_uv)
     valid = float(np.mean(np.all(np.isfinite(map_uv), axis=2)))
-    click.echo(f"wrote {output} ({map_uv.shape[1]} x {map_uv.shape[0]}, {valid:.0%} of pixels with a source)"
-               + (f" and {save_map_path}" if save_map_path else ""))
+    click.echo(
+        f"wrote {output} ({map_uv.shape[1]} x {map_uv.shape[0]}, {valid:.0%} of pixels with a source)"
+        + (f" and {save_map_path}" if save_map_path else "")
+    )
 
 
 @main.command()
 @view_options
 @click.option("--size", type=SIZE, help="Output WxH [default: the table's M x N].")
 @click.option("--start-deg", type=FINITE, default=0.0, show_default=True, help="Azimuth at the left edge.")
-def panorama(table: Path, image: Path, output: Path, save_map: Path | None, interp: str, table_sampling: str,
-             size: tuple[int, int] | None, start_deg: float) -> None:
+def panorama(
+    table: Path,
+    image: Path,
+    output: Path,
+    save_map: Path | None,
+    interp: str,
+    table_sampling: str,
+    size: tuple[int, int] | None,
+    start_deg: float,
+) -> None:
     """Generic panorama (paper 2.3.1): columns are azimuths (decreasing to the right), rows elevations."""
-    _render(table, image, output, save_map, interp, table_sampling,
-            lambda: GenericPanorama(size, math.radians(start_deg)))
+    _render(
+        table, image, output, save_map, interp, table_sampling, lambda: GenericPanorama(size, math.radians(start_deg))
+    )
 
 
 @main.command()
 @view_options
 @click.option("--distance", type=FINITE, required=True, help="Horizontal distance D of the cylinder.")
-@click.option("--band", nargs=2, type=FINITE, required=True, metavar="ZB ZT",
-              help="Heights of the band's bottom and top relative to the camera.")
+@click.option(
+    "--band",
+    nargs=2,
+    type=FINITE,
+    required=True,
+    metavar="ZB ZT",
+    help="Heights of the band's bottom and top relative to the camera.",
+)
 @click.option("--size", type=SIZE, required=True, help="Output WxH.")
 @click.option("--start-deg", type=FINITE, default=0.0, show_default=True, help="Azimuth at the left edge.")
-def cylinder(table: Path, image: Path, output: Path, save_map: Path | None, interp: str, table_sampling: str,
-             distance: float, band: tuple[float, float], size: tuple[int, int], start_deg: float) -> None:
+def cylinder(
+    table: Path,
+    image: Path,
+    output: Path,
+    save_map: Path | None,
+    interp: str,
+    table_sampling: str,
+    distance: float,
+    band: tuple[float, float],
+    size: tuple[int, int],
+    start_deg: float,
+) -> None:
     """Panorama of a cylinder at distance D with a height band (paper 2.3.2)."""
-    _render(table, image, output, save_map, interp, table_sampling,
-            lambda: CylinderPanorama(distance, Band(*band), size, math.radians(start_deg)))
+    _render(
+        table,
+        image,
+        output,
+        save_map,
+        interp,
+        table_sampling,
+        lambda: CylinderPanorama(distance, Band(*band), size, math.radians(start_deg)),
+    )
 
 
 @main.command()
 @view_options
 @click.option("--distance", type=FINITE, required=True, help="Horizontal distance D of both vertical edges.")
 @click.option("--plane-width", type=FINITE, required=True, help="Plane width W_p (at most 2 D).")
-@click.option("--band", nargs=2, type=FINITE, required=True, metavar="ZB ZT",
-              help="Heights of the plane's bottom and top relative to the camera.")
+@click.option(
+    "--band",
+    nargs=2,
+    type=FINITE,
+    required=True,
+    metavar="ZB ZT",
+    help="Heights of the plane's bottom and top relative to the camera.",
+)
 @click.option("--azimuth-deg", type=FINITE, required=True, help="Azimuth of the plane's centre.")
 @click.option("--size", type=SIZE, required=True, help="Output WxH.")
-def plane(table: Path, image: Path, output: Path, save_map: Path | None, interp: str, table_sampling: str,
-          distance: float, plane_width: float, band: tuple[float, float], azimuth_deg: float,
-          size: tuple[int, int]) -> None:
+def plane(
+    table: Path,
+    image: Path,
+    output: Path,
+    save_map: Path | None,
+    interp: str,
+    table_sampling: str,
+    distance: float,
+    plane_width: float,
+    band: tuple[float, float],
+    azimuth_deg: float,
+    size: tuple[int, int],
+) -> None:
     """Perspective view of a vertical W_p x band plane at distance D (paper 2.3.3)."""
-    _render(table, image, output, save_map, interp, table_sampling,
-            lambda: PlaneView(distance, plane_width, Band(*band), math.radians(azimuth_deg), size))
+    _render(
+        table,
+        image,
+        output,
+        save_map,
+        interp,
+        table_sampling,
+        lambda: PlaneView(distance, plane_width, Band(*band), math.radians(azimuth_deg), size),
+    )
 
 
 # ----------------------------------------------------------------------------- project
@@ -375,10 +486,21 @@ def project(table: Path, points: Path, output: Path, table_sampling: str) -> Non
 
 
 @main.command()
-@click.option("--out", type=click.Path(path_type=Path, file_okay=False), default=Path("demo-out"), show_default=True,
-              help="Folder for everything the demo writes.")
-@click.option("--camera", "camera_name", type=click.Choice(["equidistant", "equisolid", "parabolic", "hyperbolic", "spherical"]),
-              default="hyperbolic", show_default=True, help="Simulated ceiling camera to use.")
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("demo-out"),
+    show_default=True,
+    help="Folder for everything the demo writes.",
+)
+@click.option(
+    "--camera",
+    "camera_name",
+    type=click.Choice(["equidistant", "equisolid", "parabolic", "hyperbolic", "spherical"]),
+    default="hyperbolic",
+    show_default=True,
+    help="Simulated ceiling camera to use.",
+)
 def demo(out: Path, camera_name: str) -> None:
     """Render the bundled room through a simulated ceiling camera, learn it, and unwarp it."""
     from .demo import run_demo

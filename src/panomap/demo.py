@@ -62,8 +62,14 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
         image_size=IMAGE_SIZE,
         cutoff_radius=camera.cutoff_radius,
         outer_radius=camera.outer_radius,
-        info={"sources": {"centre": "given (simulated camera)", "cutoff_radius": "given (simulated camera)",
-                          "outer_radius": "given (simulated camera)", "camera_position": "given"}},
+        info={
+            "sources": {
+                "centre": "given (simulated camera)",
+                "cutoff_radius": "given (simulated camera)",
+                "outer_radius": "given (simulated camera)",
+                "camera_position": "given",
+            }
+        },
     )
     table.save(out / "table.npz")
     save_fit_plot(table, out / "fit.png")

@@ -10,7 +10,7 @@ import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import BinaryIO
+from typing import BinaryIO, cast
 
 from .errors import PanomapError
 
@@ -36,7 +36,7 @@ def atomic_output(path: str | Path) -> Iterator[BinaryIO]:
     temporary = Path(handle.name)
     try:
         with handle:
-            yield handle
+            yield cast(BinaryIO, handle)
         os.chmod(temporary, _new_file_mode())
         os.replace(temporary, path)
     except BaseException:

@@ -245,8 +245,7 @@ def _check_inside(landmarks: Landmarks, image_size: tuple[int, int]) -> None:
     if outside.size:
         k = outside[0]
         raise PanomapError(
-            f"landmark {landmarks.names[k]!r} at pixel ({u[k]:g}, {v[k]:g}) is outside the "
-            f"{width} x {height} image"
+            f"landmark {landmarks.names[k]!r} at pixel ({u[k]:g}, {v[k]:g}) is outside the {width} x {height} image"
         )
 
 
@@ -270,9 +269,7 @@ def _consistency(delta: FloatArray, weights: FloatArray) -> float:
     return float(np.hypot(w @ np.cos(delta), w @ np.sin(delta)) / total)
 
 
-def _fit_azimuth(
-    theta: FloatArray, phi: FloatArray, r: FloatArray, horizontal: FloatArray
-) -> tuple[int, float, float]:
+def _fit_azimuth(theta: FloatArray, phi: FloatArray, r: FloatArray, horizontal: FloatArray) -> tuple[int, float, float]:
     """Handedness s and offset phi0 (rad) by a circular mean weighted by r^2.
 
     Landmarks on the optical axis (no azimuth) or at the image centre (no

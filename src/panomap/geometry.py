@@ -63,9 +63,7 @@ def ray_from_angles(theta: ArrayLike, rho: ArrayLike) -> FloatArray:
     theta = np.asarray(theta, dtype=np.float64)
     rho = np.asarray(rho, dtype=np.float64)
     cos_rho = np.cos(rho)
-    return np.stack(
-        [cos_rho * np.cos(theta), cos_rho * np.sin(theta), np.sin(rho)], axis=-1
-    )
+    return np.stack([cos_rho * np.cos(theta), cos_rho * np.sin(theta), np.sin(rho)], axis=-1)
 
 
 def pixel_centres(width: int, height: int) -> tuple[FloatArray, FloatArray]:

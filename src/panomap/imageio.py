@@ -8,6 +8,7 @@ temporary file and a rename.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -20,7 +21,7 @@ SIXTEEN_BIT_SUFFIXES = {".png", ".tif", ".tiff", ".pgm", ".ppm", ".pnm"}
 ALPHA_SUFFIXES = {".png", ".tif", ".tiff", ".webp"}
 
 
-def read_image(path: str | Path) -> NDArray[np.generic]:
+def read_image(path: str | Path) -> NDArray[Any]:
     """Read an image unchanged (depth, channels).
 
     Raises
@@ -48,7 +49,7 @@ def image_size(path: str | Path) -> tuple[int, int]:
     return int(image.shape[1]), int(image.shape[0])
 
 
-def write_image(path: str | Path, image: NDArray[np.generic]) -> None:
+def write_image(path: str | Path, image: NDArray[Any]) -> None:
     """Write an image, choosing the format by suffix; refuses to lose depth or alpha."""
     path = Path(path)
     suffix = path.suffix.lower()

@@ -161,9 +161,7 @@ def _from_json(text: str) -> Landmarks:
             raise PanomapError('"camera" must be a list [X0, Y0, Z0]')
         x0, y0, z0 = (_number(c, "camera") for c in camera)
         position = (x0, y0, z0)
-    return Landmarks(
-        np.array(pixels).reshape(-1, 2), np.array(world).reshape(-1, 3), tuple(names), position
-    )
+    return Landmarks(np.array(pixels).reshape(-1, 2), np.array(world).reshape(-1, 3), tuple(names), position)
 
 
 def landmarks_to_csv(landmarks: Landmarks) -> str:

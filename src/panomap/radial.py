@@ -76,8 +76,7 @@ class RadialFunction:
         coefficients = tuple(float(c) for c in self.coefficients)
         if len(coefficients) != MODEL_PARAMETERS[self.kind]:
             raise PanomapError(
-                f"radial model {self.kind!r} takes {MODEL_PARAMETERS[self.kind]} "
-                f"coefficients, got {len(coefficients)}"
+                f"radial model {self.kind!r} takes {MODEL_PARAMETERS[self.kind]} coefficients, got {len(coefficients)}"
             )
         if not all(np.isfinite(coefficients)):
             raise PanomapError(f"radial model {self.kind!r} has non-finite coefficients")
@@ -143,8 +142,7 @@ def fit_radial(kind: str, rho: ArrayLike, r: ArrayLike, axis: str) -> RadialFunc
     needed = MODEL_PARAMETERS[kind] - (1 if kind == "paper" else 0)
     if distinct < needed:
         raise PanomapError(
-            f"model {kind!r} needs landmarks at {needed} or more distinct elevations, "
-            f"these are at {distinct}"
+            f"model {kind!r} needs landmarks at {needed} or more distinct elevations, these are at {distinct}"
         )
     if kind == "paper":
         # Algorithm 1, step 3: the centre pair first, then every landmark, raw rho.
@@ -273,14 +271,12 @@ def valid_elevation_range(
     return rho_s, rho_e
 
 
-def _refine_bound(
-    radial: RadialFunction, a: float, b: float, cutoff_radius: float, outer_radius: float
-) -> float:
+def _refine_bound(radial: RadialFunction, a: float, b: float, cutoff_radius: float, outer_radius: float) -> float:
     """Elevation in [a, b] where f_r crosses the cut-off or outer radius."""
     ra, rb = float(radial(a)), float(radial(b))
     for bound in (cutoff_radius, outer_radius):
         if (ra - bound) * (rb - bound) <= 0 and ra != rb:
-            return float(optimize.brentq(lambda x: float(radial(x)) - bound, a, b, xtol=1e-14))
+            return float(optimize.brentq(lambda x, level=bound: float(radial(x)) - level, a, b, xtol=1e-14))
     # Neither crossed (cannot happen when exactly one endpoint is inside): keep the inside one.
     inside_a = cutoff_radius <= ra <= outer_radius
     return float(a if inside_a else b)

@@ -9,6 +9,7 @@ value (default black, alpha 0 where the image has an alpha channel).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import cv2
 import numpy as np
@@ -75,11 +76,11 @@ class Remapper:
         height, width = self._map_u.shape
         return width, height
 
-    def __call__(self, image: NDArray[np.generic]) -> NDArray[np.generic]:
+    def __call__(self, image: NDArray[Any]) -> NDArray[Any]:
         """Remap one frame (H_in, W_in[, C]) with C in 1, 3, 4; same dtype and channels out."""
         if image.dtype not in DTYPES:
             raise PanomapError(f"images must be 8- or 16-bit (or float32), not {image.dtype}")
-        if image.ndim == 3 and image.shape[2] not in (1, 3, 4) or image.ndim not in (2, 3):
+        if (image.ndim == 3 and image.shape[2] not in (1, 3, 4)) or image.ndim not in (2, 3):
             raise PanomapError(f"images must have 1, 3 or 4 channels, not shape {image.shape}")
         if self.source_size is not None and (image.shape[1], image.shape[0]) != tuple(self.source_size):
             width, height = self.source_size

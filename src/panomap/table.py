@@ -182,7 +182,9 @@ class PanoMappingTable:
         write_with(path, writer)
 
 
-def fill_entries(model: CameraModel, size: tuple[int, int], elevation_range: tuple[float, float]) -> NDArray[np.float32]:
+def fill_entries(
+    model: CameraModel, size: tuple[int, int], elevation_range: tuple[float, float]
+) -> NDArray[np.float32]:
     """Algorithm 2: entries (M, N, 2) float32 of the table of ``model``.
 
     ``u_ij = u0 + r_j cos(phi_i)``, ``v_ij = v0 + r_j sin(phi_i)`` with
@@ -320,7 +322,9 @@ def load_table(path: str | Path) -> PanoMappingTable:
     except PanomapError:
         raise
     except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, zipfile.LargeZipFile) as exc:
-        raise PanomapError(f"not a readable panomap table: corrupt or truncated ({exc.__class__.__name__})", path) from None
+        raise PanomapError(
+            f"not a readable panomap table: corrupt or truncated ({exc.__class__.__name__})", path
+        ) from None
     try:
         meta = json.loads(meta_text)
     except json.JSONDecodeError:
@@ -341,7 +345,9 @@ def _table_from(meta: dict[str, Any], entries: NDArray[Any]) -> PanoMappingTable
     try:
         m, n = (int(x) for x in meta["size"])
         if entries.dtype != np.float32 or entries.shape != (m, n, 2):
-            raise PanomapError(f"entries have shape {entries.shape} {entries.dtype}, metadata says ({m}, {n}, 2) float32")
+            raise PanomapError(
+                f"entries have shape {entries.shape} {entries.dtype}, metadata says ({m}, {n}, 2) float32"
+            )
         if meta.get("entries_sha256") != _digest(entries):
             raise PanomapError("the entries do not match their checksum (corrupt)")
         model = CameraModel.from_dict(meta["model"])
@@ -360,7 +366,9 @@ def _table_from(meta: dict[str, Any], entries: NDArray[Any]) -> PanoMappingTable
     except PanomapError:
         raise
     except (KeyError, TypeError, ValueError) as exc:
-        raise PanomapError(f"the table's metadata is incomplete or malformed ({exc.__class__.__name__}: {exc})") from None
+        raise PanomapError(
+            f"the table's metadata is incomplete or malformed ({exc.__class__.__name__}: {exc})"
+        ) from None
     expected = fill_entries(table.model, (m, n), table.elevation_range)
     if not np.all(np.isfinite(entries)) or float(np.max(np.abs(expected - entries))) > ENTRY_TOLERANCE_PX:
         raise PanomapError("the entries disagree with the table's own model (corrupt)")

@@ -37,8 +37,7 @@ def check_view_size(size: tuple[int, int], what: str = "--size") -> tuple[int, i
         raise PanomapError(f"{what} {width}x{height}: width and height must be positive")
     if width > MAX_VIEW_SIDE or height > MAX_VIEW_SIDE or width * height > MAX_VIEW_PIXELS:
         raise PanomapError(
-            f"{what} {width}x{height}: too large (at most {MAX_VIEW_SIDE} px a side and "
-            f"{MAX_VIEW_PIXELS:,} px in all)"
+            f"{what} {width}x{height}: too large (at most {MAX_VIEW_SIDE} px a side and {MAX_VIEW_PIXELS:,} px in all)"
         )
     return width, height
 

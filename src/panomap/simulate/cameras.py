@@ -27,6 +27,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from panomap.errors import PanomapError
+
 __all__ = [
     "RADIAL_LAWS",
     "SVP_CAMERA_NAMES",
@@ -74,11 +76,20 @@ class SimulatedCamera(Protocol):
         ``(low, high)`` elevations (rad) of the visible annulus seen from O_m.
     """
 
-    name: str
-    image_size: tuple[int, int]
-    centre: tuple[float, float]
-    s: int
-    phi0: float
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def image_size(self) -> tuple[int, int]: ...
+
+    @property
+    def centre(self) -> tuple[float, float]: ...
+
+    @property
+    def s(self) -> int: ...
+
+    @property
+    def phi0(self) -> float: ...
 
     @property
     def cutoff_radius(self) -> float: ...
@@ -108,7 +119,7 @@ def _as_points(points: ArrayLike) -> NDArray[np.float64]:
     """Return ``points`` as a float64 array of shape ``(..., 3)``."""
     p = np.asarray(points, dtype=np.float64)
     if p.ndim == 0 or p.shape[-1] != 3:
-        raise ValueError(f"points must have shape (..., 3), got {p.shape}")
+        raise PanomapError(f"points must have shape (..., 3), got {p.shape}")
     return p
 
 
@@ -116,7 +127,7 @@ def _as_pixels(uv: ArrayLike) -> NDArray[np.float64]:
     """Return ``uv`` as a float64 array of shape ``(..., 2)``."""
     q = np.asarray(uv, dtype=np.float64)
     if q.ndim == 0 or q.shape[-1] != 2:
-        raise ValueError(f"uv must have shape (..., 2), got {q.shape}")
+        raise PanomapError(f"uv must have shape (..., 2), got {q.shape}")
     return q
 
 
@@ -139,9 +150,7 @@ def _azimuth_elevation(d: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...
     return theta, rho, horizontal
 
 
-def _in_image(
-    u: NDArray[np.float64], v: NDArray[np.float64], image_size: tuple[int, int]
-) -> NDArray[np.bool_]:
+def _in_image(u: NDArray[np.float64], v: NDArray[np.float64], image_size: tuple[int, int]) -> NDArray[np.bool_]:
     """True where ``(u, v)`` lies in the image rectangle ``[-0.5, W-0.5] x [-0.5, H-0.5]``."""
     width, height = image_size
     return (u >= -0.5) & (u <= width - 0.5) & (v >= -0.5) & (v <= height - 0.5)
@@ -183,19 +192,15 @@ def _check_common(
 ) -> None:
     """Validate the fields every simulated camera has; raise ``ValueError`` if bad."""
     if not isinstance(name, str) or not name:
-        raise ValueError("name must be a non-empty string")
-    if (
-        len(image_size) != 2
-        or not all(isinstance(n, (int, np.integer)) for n in image_size)
-        or min(image_size) <= 0
-    ):
-        raise ValueError(f"image_size must be two positive integers, got {image_size!r}")
+        raise PanomapError("name must be a non-empty string")
+    if len(image_size) != 2 or not all(isinstance(n, (int, np.integer)) for n in image_size) or min(image_size) <= 0:
+        raise PanomapError(f"image_size must be two positive integers, got {image_size!r}")
     if len(centre) != 2 or not all(math.isfinite(float(c)) for c in centre):
-        raise ValueError(f"centre must be two finite numbers, got {centre!r}")
+        raise PanomapError(f"centre must be two finite numbers, got {centre!r}")
     if s not in (1, -1):
-        raise ValueError(f"s must be +1 or -1, got {s!r}")
+        raise PanomapError(f"s must be +1 or -1, got {s!r}")
     if not math.isfinite(phi0):
-        raise ValueError(f"phi0 must be finite, got {phi0!r}")
+        raise PanomapError(f"phi0 must be finite, got {phi0!r}")
 
 
 # ----------------------------------------------------------------------------------------
@@ -262,35 +267,34 @@ class RadialCamera:
     def __post_init__(self) -> None:
         _check_common(self.name, self.image_size, self.centre, self.s, self.phi0)
         if self.law not in RADIAL_LAWS:
-            raise ValueError(f"law must be one of {RADIAL_LAWS}, got {self.law!r}")
+            raise PanomapError(f"law must be one of {RADIAL_LAWS}, got {self.law!r}")
         if not (math.isfinite(self.scale) and self.scale > 0):
-            raise ValueError(f"scale must be finite and > 0, got {self.scale!r}")
+            raise PanomapError(f"scale must be finite and > 0, got {self.scale!r}")
         if self.axis not in ("down", "up"):
-            raise ValueError(f"axis must be 'down' or 'up', got {self.axis!r}")
+            raise PanomapError(f"axis must be 'down' or 'up', got {self.axis!r}")
         if not (
             math.isfinite(self.alpha_min)
             and math.isfinite(self.alpha_max)
             and 0.0 <= self.alpha_min < self.alpha_max <= math.pi
         ):
-            raise ValueError(
-                "need 0 <= alpha_min < alpha_max <= pi, got "
-                f"alpha_min={self.alpha_min!r}, alpha_max={self.alpha_max!r}"
+            raise PanomapError(
+                f"need 0 <= alpha_min < alpha_max <= pi, got alpha_min={self.alpha_min!r}, alpha_max={self.alpha_max!r}"
             )
         if self.law == "unified":
             if not (math.isfinite(self.xi) and self.xi >= 0):
-                raise ValueError(f"xi must be finite and >= 0, got {self.xi!r}")
+                raise PanomapError(f"xi must be finite and >= 0, got {self.xi!r}")
             # r(alpha) is finite while xi + cos(alpha) > 0, and increasing while
             # dr/dalpha = scale*(1 + xi*cos(alpha))/(xi + cos(alpha))**2 > 0. Both
             # expressions decrease with alpha, so checking alpha_max suffices.
             ca = math.cos(self.alpha_max)
             if not (self.xi + ca > 0 and 1.0 + self.xi * ca > 0):
-                raise ValueError(
+                raise PanomapError(
                     f"unified law with xi={self.xi} is not finite and increasing up to "
                     f"alpha_max={self.alpha_max} rad (need xi + cos(alpha_max) > 0 and "
                     "1 + xi*cos(alpha_max) > 0)"
                 )
         elif self.xi != 0.0:
-            raise ValueError(f"xi is only used by the unified law; got xi={self.xi!r}")
+            raise PanomapError(f"xi is only used by the unified law; got xi={self.xi!r}")
 
     # -- radial law ----------------------------------------------------------------------
 
@@ -423,11 +427,7 @@ class RadialCamera:
         d = _as_points(points)
         theta, rho, horizontal = _azimuth_elevation(d)
         alpha = self._alpha_of_rho(rho)
-        ok = (
-            ((horizontal > 0) | (d[..., 2] != 0))
-            & (alpha >= self.alpha_min)
-            & (alpha <= self.alpha_max)
-        )
+        ok = ((horizontal > 0) | (d[..., 2] != 0)) & (alpha >= self.alpha_min) & (alpha <= self.alpha_max)
         r = self.radius(np.where(ok, alpha, 0.0))
         uv = _pixels_from_polar(r, theta, self.centre, self.s, self.phi0)
         ok &= _in_image(uv[..., 0], uv[..., 1], self.image_size)
@@ -454,11 +454,7 @@ class RadialCamera:
         """
         q = _as_pixels(uv)
         r, phi = _polar_pixels(q, self.centre)
-        ok = (
-            (r >= self.cutoff_radius)
-            & (r <= self.outer_radius)
-            & _in_image(q[..., 0], q[..., 1], self.image_size)
-        )
+        ok = (r >= self.cutoff_radius) & (r <= self.outer_radius) & _in_image(q[..., 0], q[..., 1], self.image_size)
         alpha = self.alpha_of_radius(np.where(ok, r, 0.0))
         theta = self.s * (phi - self.phi0)
         directions = _directions(theta, self._rho_of_alpha(alpha))
@@ -533,20 +529,20 @@ class SphericalMirrorCamera:
             ("focal_px", self.focal_px),
         ):
             if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{label} must be finite and > 0, got {value!r}")
+                raise PanomapError(f"{label} must be finite and > 0, got {value!r}")
         grazing = math.asin(self.mirror_radius / (self.mirror_radius + self.camera_distance))
         if not (
             math.isfinite(self.beta_min)
             and math.isfinite(self.beta_max)
             and 0.0 <= self.beta_min < self.beta_max < grazing
         ):
-            raise ValueError(
+            raise PanomapError(
                 f"need 0 <= beta_min < beta_max < {grazing!r} (grazing angle), got "
                 f"beta_min={self.beta_min!r}, beta_max={self.beta_max!r}"
             )
         betas = np.linspace(self.beta_min, self.beta_max, 2001)
         if not np.all(np.diff(self.elevation_of_beta(betas)) > 0):
-            raise ValueError("reflected elevation is not increasing over [beta_min, beta_max]")
+            raise PanomapError("reflected elevation is not increasing over [beta_min, beta_max]")
         object.__setattr__(self, "viewpoint_offset", self._fit_viewpoint(betas))
 
     # -- ray geometry in the vertical plane through the axis -----------------------------
@@ -599,7 +595,7 @@ class SphericalMirrorCamera:
         weights = np.tan(betas) / np.cos(betas) ** 2  # r dr/dbeta, up to focal_px**2
         denominator = float(np.sum(weights * dx * dx))
         if not denominator > 0:
-            raise ValueError("cannot fit a viewpoint: the reflected rays are all vertical")
+            raise PanomapError("cannot fit a viewpoint: the reflected rays are all vertical")
         return -float(np.sum(weights * a * dx)) / denominator
 
     def closest_approach(self, beta: ArrayLike) -> NDArray[np.float64]:
@@ -664,11 +660,7 @@ class SphericalMirrorCamera:
         q = _as_pixels(uv)
         r, phi = _polar_pixels(q, self.centre)
         beta = np.arctan2(r, self.focal_px)
-        ok = (
-            (beta >= self.beta_min)
-            & (beta <= self.beta_max)
-            & _in_image(q[..., 0], q[..., 1], self.image_size)
-        )
+        ok = (beta >= self.beta_min) & (beta <= self.beta_max) & _in_image(q[..., 0], q[..., 1], self.image_size)
         x, z, dx, dz = self._reflect(np.where(ok, beta, self.beta_min))
         theta = self.s * (phi - self.phi0)
         ct, st = np.cos(theta), np.sin(theta)
@@ -729,8 +721,7 @@ class SphericalMirrorCamera:
         else:
             if np.any(ok & (hi - lo > _BETA_TOLERANCE)):
                 raise RuntimeError(
-                    f"bisection did not reach {_BETA_TOLERANCE} rad in "
-                    f"{_MAX_BISECTION_ITERATIONS} iterations"
+                    f"bisection did not reach {_BETA_TOLERANCE} rad in {_MAX_BISECTION_ITERATIONS} iterations"
                 )
         beta = 0.5 * (lo + hi)
         x, z, dx, dz = self._reflect(beta)
@@ -761,8 +752,9 @@ def standard_cameras(
     - ``'parabolic'``: unified ``xi = 1``, ``alpha`` in ``[12, 105] deg``;
     - ``'hyperbolic'``: unified ``xi = 0.8``, ``alpha`` in ``[12, 100] deg``;
     - ``'spherical'``: spherical mirror ``R = 0.05`` m, pinhole 0.15 m below the apex,
-      ``beta`` in ``[2, 12] deg`` (the cut-off hides the camera housing, about 4 cm around
-      the lens; the rim's reflected rays rise about 10.5 deg above the horizontal).
+      ``beta`` in ``[2, 12] deg``: rays inside the cut-off come back down within about
+      4.3 cm of the lens (the camera housing); reflected elevations span about -76 to
+      +10.5 deg; O_m is about 14.9 mm above the apex.
 
     Parameters
     ----------

@@ -33,9 +33,10 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from panomap.errors import PanomapError
 from panomap.simulate.cameras import SimulatedCamera
 
-__all__ = ["Opening", "Room", "Wall", "WALL_NAMES", "load_room", "render", "render_rays"]
+__all__ = ["WALL_NAMES", "Opening", "Room", "Wall", "load_room", "render", "render_rays"]
 
 #: Wall names, in the order of :attr:`Room.walls`.
 WALL_NAMES = ("N", "E", "S", "W")
@@ -169,13 +170,13 @@ window_colour_bgr : tuple of int
         _check_finite("camera", self.camera, 3)
         x0, y0, z0 = self.camera
         if not (0 < x0 < self.width and 0 < y0 < self.depth and 0 < z0 < self.height):
-            raise ValueError(f"camera {self.camera} is not strictly inside the room")
+            raise PanomapError(f"camera {self.camera} is not strictly inside the room")
         for label in ("skirting_height", "rail_height"):
             value = getattr(self, label)
             if not (math.isfinite(value) and 0 < value < self.height):
-                raise ValueError(f"{label} must be in (0, height), got {value!r}")
+                raise PanomapError(f"{label} must be in (0, height), got {value!r}")
         if len(self.floor_colours_bgr) != 2:
-            raise ValueError("floor_colours_bgr must hold two colours")
+            raise PanomapError("floor_colours_bgr must hold two colours")
         for colour in (
             *self.floor_colours_bgr,
             self.grid_colour_bgr,
@@ -186,17 +187,17 @@ window_colour_bgr : tuple of int
         ):
             _check_colour(colour)
         if tuple(w.name for w in self.walls) != WALL_NAMES:
-            raise ValueError(f"walls must be named {WALL_NAMES} in that order")
+            raise PanomapError(f"walls must be named {WALL_NAMES} in that order")
         for wall in self.walls:
             self._check_wall(wall)
         for x, y in self.floor_landmarks:
             _check_finite("floor landmark", (x, y), 2)
             if not (0 < x < self.width and 0 < y < self.depth):
-                raise ValueError(f"floor landmark {(x, y)} is not inside the floor")
+                raise PanomapError(f"floor landmark {(x, y)} is not inside the floor")
             for c in (x, y):
                 k = round(c / self.tile_size)
                 if abs(c - k * self.tile_size) > 1e-9 * self.tile_size:
-                    raise ValueError(f"floor landmark {(x, y)} is not a tile corner")
+                    raise PanomapError(f"floor landmark {(x, y)} is not a tile corner")
 
     def _check_wall(self, wall: Wall) -> None:
         length = self.wall_length(wall.name)
@@ -204,21 +205,21 @@ window_colour_bgr : tuple of int
         _check_finite("label_at", wall.label_at, 2)
         _check_positive("label_height", wall.label_height)
         if not wall.label:
-            raise ValueError(f"wall {wall.name}: empty label")
+            raise PanomapError(f"wall {wall.name}: empty label")
         label_box = self._label_box(wall)
         for opening in wall.openings:
             if opening.kind not in ("door", "window"):
-                raise ValueError(f"wall {wall.name}: unknown opening kind {opening.kind!r}")
+                raise PanomapError(f"wall {wall.name}: unknown opening kind {opening.kind!r}")
             _check_finite("opening a", opening.a, 2)
             _check_finite("opening z", opening.z, 2)
             (a0, a1), (z0, z1) = opening.a, opening.z
             if not (0 < a0 < a1 < length and 0 <= z0 < z1 < self.height):
-                raise ValueError(f"wall {wall.name}: opening {opening} is not inside the wall")
+                raise PanomapError(f"wall {wall.name}: opening {opening} is not inside the wall")
             if _overlap(label_box, (a0, a1, z0, z1)):
-                raise ValueError(f"wall {wall.name}: the label overlaps {opening}")
+                raise PanomapError(f"wall {wall.name}: the label overlaps {opening}")
         la0, la1, lz0, lz1 = label_box
         if not (0 < la0 and la1 < length and 0 < lz0 and lz1 < self.height):
-            raise ValueError(f"wall {wall.name}: the label does not fit on the wall")
+            raise PanomapError(f"wall {wall.name}: the label does not fit on the wall")
 
     def _label_box(self, wall: Wall) -> tuple[float, float, float, float]:
         """``(a0, a1, z0, z1)`` (m) covered by a wall's label (baseline at ``label_at``)."""
@@ -242,7 +243,7 @@ window_colour_bgr : tuple of int
     def wall_length(self, name: str) -> float:
         """Length (m) of a wall: ``width`` for N and S, ``depth`` for E and W."""
         if name not in WALL_NAMES:
-            raise ValueError(f"unknown wall {name!r}")
+            raise PanomapError(f"unknown wall {name!r}")
         return self.width if name in ("N", "S") else self.depth
 
     def wall_to_world(self, name: str, a: ArrayLike, z: ArrayLike) -> NDArray[np.float64]:
@@ -270,7 +271,7 @@ window_colour_bgr : tuple of int
         elif name == "W":
             x, y = np.zeros_like(aa), aa
         else:
-            raise ValueError(f"unknown wall {name!r}")
+            raise PanomapError(f"unknown wall {name!r}")
         return np.stack([x, y, zz], axis=-1)
 
     def landmarks(self) -> tuple[list[str], NDArray[np.float64]]:
@@ -310,7 +311,7 @@ window_colour_bgr : tuple of int
                         p = self.wall_to_world(wall.name, a, z)
                         points.append((float(p[0]), float(p[1]), float(p[2])))
         if len(set(names)) != len(names):
-            raise ValueError("landmark names are not unique (two openings of one kind?)")
+            raise PanomapError("landmark names are not unique (two openings of one kind?)")
         return names, np.array(points, dtype=np.float64)
 
     # -- (de)serialisation ---------------------------------------------------------------
@@ -321,16 +322,13 @@ window_colour_bgr : tuple of int
 
         Raises
         ------
-        ValueError
+        PanomapError
             If the format version, a key or a value is wrong.
         """
         if data.get("format_version") != ROOM_FORMAT_VERSION:
-            raise ValueError(
-                f"room format_version must be {ROOM_FORMAT_VERSION}, "
-                f"got {data.get('format_version')!r}"
-            )
+            raise PanomapError(f"room format_version must be {ROOM_FORMAT_VERSION}, got {data.get('format_version')!r}")
         if data.get("units", "m") != "m":
-            raise ValueError(f"room units must be 'm', got {data.get('units')!r}")
+            raise PanomapError(f"room units must be 'm', got {data.get('units')!r}")
         try:
             walls = tuple(
                 Wall(
@@ -352,7 +350,7 @@ window_colour_bgr : tuple of int
             )
             floor_colours = tuple(_colour(c) for c in data["floor_colours_bgr"])
             if len(floor_colours) != 2:
-                raise ValueError("floor_colours_bgr must hold two colours")
+                raise PanomapError("floor_colours_bgr must hold two colours")
             return cls(
                 width=float(data["width"]),
                 depth=float(data["depth"]),
@@ -373,8 +371,12 @@ window_colour_bgr : tuple of int
                 walls=walls,
                 floor_landmarks=tuple(_floats(p, 2) for p in data["floor_landmarks"]),
             )
+        except PanomapError:
+            raise
         except KeyError as exc:
-            raise ValueError(f"room description lacks the key {exc.args[0]!r}") from None
+            raise PanomapError(f"room description lacks the key {exc.args[0]!r}") from None
+        except (TypeError, ValueError) as exc:
+            raise PanomapError(f"bad room description: {exc}") from None
 
     def floor_colour_at(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.uint8]:
         """Checkerboard colour of the tiles containing ``(x, y)`` (ignores grid lines).
@@ -392,41 +394,40 @@ window_colour_bgr : tuple of int
         i = np.floor(np.asarray(x, np.float64) / self.tile_size).astype(np.int64)
         j = np.floor(np.asarray(y, np.float64) / self.tile_size).astype(np.int64)
         palette = np.array(self.floor_colours_bgr, dtype=np.uint8)
-        return palette[(i + j) % 2]
+        colours: NDArray[np.uint8] = palette[(i + j) % 2]
+        return colours
 
 
 def _check_positive(label: str, value: float) -> None:
     if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{label} must be finite and > 0, got {value!r}")
+        raise PanomapError(f"{label} must be finite and > 0, got {value!r}")
 
 
 def _check_finite(label: str, values: Sequence[float], n: int) -> None:
     if len(values) != n or not all(math.isfinite(v) for v in values):
-        raise ValueError(f"{label} must be {n} finite numbers, got {values!r}")
+        raise PanomapError(f"{label} must be {n} finite numbers, got {values!r}")
 
 
 def _check_colour(colour: Sequence[int]) -> None:
     if len(colour) != 3 or not all(isinstance(c, int) and 0 <= c <= 255 for c in colour):
-        raise ValueError(f"a colour must be three integers in [0, 255], got {colour!r}")
+        raise PanomapError(f"a colour must be three integers in [0, 255], got {colour!r}")
 
 
 def _colour(value: Any) -> Colour:
     values = [int(c) for c in value]
     if len(values) != 3 or any(float(c) != v for c, v in zip(value, values, strict=True)):
-        raise ValueError(f"a colour must be three integers, got {value!r}")
+        raise PanomapError(f"a colour must be three integers, got {value!r}")
     return values[0], values[1], values[2]
 
 
 def _floats(value: Any, n: int) -> Any:
     values = tuple(float(v) for v in value)
     if len(values) != n:
-        raise ValueError(f"expected {n} numbers, got {value!r}")
+        raise PanomapError(f"expected {n} numbers, got {value!r}")
     return values
 
 
-def _overlap(
-    box1: tuple[float, float, float, float], box2: tuple[float, float, float, float]
-) -> bool:
+def _overlap(box1: tuple[float, float, float, float], box2: tuple[float, float, float, float]) -> bool:
     """Whether two ``(a0, a1, z0, z1)`` rectangles overlap."""
     return box1[0] < box2[1] and box2[0] < box1[1] and box1[2] < box2[3] and box2[2] < box1[3]
 
@@ -444,12 +445,24 @@ def load_room(path: str | Path | None = None) -> Room:
     -------
     Room
         The validated room.
+
+    Raises
+    ------
+    PanomapError
+        If the file cannot be read or describes an invalid room (the message names it).
     """
     if path is None:
         text = (resources.files("panomap") / "data" / "room.json").read_text(encoding="utf-8")
-    else:
-        text = Path(path).read_text(encoding="utf-8")
-    return Room.from_dict(json.loads(text))
+        return Room.from_dict(json.loads(text))
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        if not isinstance(data, dict):
+            raise PanomapError("a room description must be a JSON object")
+        return Room.from_dict(data)
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, source=path) from None
+    except (OSError, json.JSONDecodeError) as exc:
+        raise PanomapError(f"cannot read the room description: {exc}", source=path) from None
 
 
 # ----------------------------------------------------------------------------------------
@@ -471,7 +484,7 @@ class _Texture:
 
 def _texel_centres(n: int, length: float) -> NDArray[np.float64]:
     """Positions (m) of the centres of ``n`` texels spanning ``length`` metres."""
-    return (np.arange(n) + 0.5) * (length / n)
+    return (np.arange(n, dtype=np.float64) + 0.5) * (length / n)
 
 
 def _floor_texture(room: Room) -> _Texture:
@@ -685,11 +698,9 @@ def render_rays(room: Room, origins: ArrayLike, directions: ArrayLike) -> NDArra
     ValueError
         If a finite origin lies outside the room.
     """
-    o, d = np.broadcast_arrays(
-        np.asarray(origins, dtype=np.float64), np.asarray(directions, dtype=np.float64)
-    )
+    o, d = np.broadcast_arrays(np.asarray(origins, dtype=np.float64), np.asarray(directions, dtype=np.float64))
     if o.ndim == 0 or o.shape[-1] != 3:
-        raise ValueError(f"origins and directions must have shape (..., 3), got {o.shape}")
+        raise PanomapError(f"origins and directions must have shape (..., 3), got {o.shape}")
     shape = o.shape[:-1]
     o = o.reshape(-1, 3)
     d = d.reshape(-1, 3)
@@ -703,7 +714,7 @@ def render_rays(room: Room, origins: ArrayLike, directions: ArrayLike) -> NDArra
     o, d = o[valid], d[valid]
     upper = (room.width, room.depth, room.height)
     if o.size and (o.min() < 0 or np.any(o.max(axis=0) > upper)):
-        raise ValueError("ray origins must lie inside the room")
+        raise PanomapError("ray origins must lie inside the room")
     # Distance along the ray to the plane of the wall it heads for, per axis (inf if the
     # ray is parallel to it).
     t_axis = []
@@ -762,7 +773,7 @@ def render(room: Room, camera: SimulatedCamera, supersample: int = 2) -> NDArray
         BGR omni-image, ``(W, H) = camera.image_size``.
     """
     if not isinstance(supersample, int) or supersample < 1:
-        raise ValueError(f"supersample must be an integer >= 1, got {supersample!r}")
+        raise PanomapError(f"supersample must be an integer >= 1, got {supersample!r}")
     width, height = camera.image_size
     sub = (np.arange(supersample) + 0.5) / supersample - 0.5
     du, dv = np.meshgrid(sub, sub)  # (ss, ss)
