@@ -22,6 +22,7 @@ from panomap.simulate.room import (
     render,
     render_rays,
 )
+from panomap.simulate.sampling import spread_landmarks
 
 __all__ = [
     "RADIAL_LAWS",
@@ -36,5 +37,6 @@ __all__ = [
     "load_room",
     "render",
     "render_rays",
+    "spread_landmarks",
     "standard_cameras",
 ]
