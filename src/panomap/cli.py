@@ -22,6 +22,7 @@ import click
 import numpy as np
 
 from . import __version__
+from .centre import ImageCircles, draw_overlay, find_image_circles
 from .errors import PanomapError
 from .files import write_text_atomic
 from .fit import fit_camera
@@ -140,7 +141,11 @@ def main() -> None:
     metavar="U0 V0",
     help="Image centre (px) where the optical axis lands.",
 )
-@click.option("--image", type=PATH, help="An omni-image of this camera: gives the image size.")
+@click.option(
+    "--image",
+    type=PATH,
+    help="An omni-image of this camera: gives the image size, and the centre and radii when they are not given.",
+)
 @click.option("--image-size", type=SIZE, help="Image size WxH when no --image is given.")
 @click.option(
     "--size",
@@ -149,9 +154,13 @@ def main() -> None:
     metavar="MxN",
     help="Table size: M azimuths x N elevations [default: about 1 entry per pixel].",
 )
-@click.option("--cutoff-radius", type=FINITE, help="Radius (px) of the self-occlusion disc [default: 0].")
 @click.option(
-    "--outer-radius", type=FINITE, help="Radius (px) of the image circle [default: largest circle in the image]."
+    "--cutoff-radius", type=FINITE, help="Radius (px) of the self-occlusion disc [default: found in --image, else 0]."
+)
+@click.option(
+    "--outer-radius",
+    type=FINITE,
+    help="Radius (px) of the image circle [default: found in --image, else the largest circle in the image].",
 )
 @click.option(
     "--model",
@@ -191,19 +200,39 @@ def fit(
     position = camera or pairs.camera
     if position is None:
         raise PanomapError('no camera position: give --camera X0 Y0 Z0 or "camera" in the JSON', landmarks)
+    info: dict[str, Any] = {}
+    sources = {"camera_position": "given" if camera else "landmark file"}
+    sources |= {
+        name: "given"
+        for name, value in (("centre", centre), ("cutoff_radius", cutoff_radius), ("outer_radius", outer_radius))
+        if value is not None
+    }
+    size = _image_size(None, image_size)
+    if image is not None:
+        omni = read_image(image)
+        size = (int(omni.shape[1]), int(omni.shape[0]))
+        if centre is None or cutoff_radius is None or outer_radius is None:
+            circles = find_image_circles_in(image, omni)
+            info["image_circles"] = circles.to_dict()
+            if centre is None:
+                centre, sources["centre"] = circles.centre, "detected"
+            if outer_radius is None:
+                outer_radius, sources["outer_radius"] = circles.outer_radius, "detected"
+            if cutoff_radius is None:
+                cutoff_radius = circles.cutoff_radius or 0.0
+                sources["cutoff_radius"] = "detected" if circles.cutoff else "detected: none (no self-occlusion disc)"
     if centre is None:
-        raise PanomapError("no image centre: give --centre U0 V0", landmarks)
-    size = _image_size(image, image_size)
+        raise PanomapError("no image centre: give --centre U0 V0, or --image OMNI to find it", landmarks)
+    info["sources"] = sources
     try:
         camera_fit = fit_camera(pairs, position, centre, model=model, azimuth=azimuth, axis=axis, image_size=size)
-        sources = {"centre": "given", "camera_position": "given" if camera else "landmark file"}
         table = create_table(
             camera_fit,
             size=table_size,
             image_size=size,
             cutoff_radius=cutoff_radius,
             outer_radius=outer_radius,
-            info={"sources": sources},
+            info=info,
         )
     except PanomapError as exc:
         raise PanomapError(exc.detail, exc.source or landmarks) from None
@@ -214,6 +243,50 @@ def fit(
         save_fit_plot(table, plot)
     click.echo(_describe_fit(table))
     click.echo(f"wrote {output}" + (f" and {plot}" if plot else ""))
+
+
+@main.command()
+@click.argument("image", type=PATH)
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@click.option("--overlay", type=PATH, help="Also write the image with the circles drawn on it (PNG).")
+def centre(image: Path, as_json: bool, overlay: Path | None) -> None:
+    """Find the image centre, the cut-off radius and the image circle of an omni-image.
+
+    The centre is the rim's centre to a fraction of a pixel (the ellipse's, when the
+    rim is one); the cut-off radius is "none" for a camera that does not see itself
+    (a fisheye). Fails with a reason, never a guess, when there is no image circle.
+    """
+    omni = read_image(image)
+    circles = find_image_circles_in(image, omni)
+    if overlay is not None:
+        write_image(overlay, draw_overlay(omni, circles))
+    if as_json:
+        click.echo(json.dumps(circles.to_dict(), indent=2))
+        return
+    u0, v0 = circles.centre
+    cutoff = "none" if circles.cutoff is None else f"{circles.cutoff.radius:.2f} px"
+    click.echo(f"centre: {u0:.2f} {v0:.2f}")
+    click.echo(f"cut-off radius: {cutoff}")
+    click.echo(
+        f"outer radius: {circles.outer.radius:.2f} px (fit RMS {circles.outer.rms_px:.2f} px, "
+        f"{circles.outer.inliers} of {circles.outer.rays} rays)"
+    )
+    if circles.ellipse is not None:
+        e = circles.ellipse
+        click.echo(
+            f"the rim is an ellipse: semi-axes {e.semi_axes[0]:.2f} and {e.semi_axes[1]:.2f} px, "
+            f"angle {e.angle_deg:.1f} deg"
+        )
+    if overlay is not None:
+        click.echo(f"wrote {overlay}")
+
+
+def find_image_circles_in(path: Path, image: Any) -> ImageCircles:
+    """Find the image circles, naming the file in any error."""
+    try:
+        return find_image_circles(image)
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, path) from None
 
 
 def _image_size(image: Path | None, size: tuple[int, int] | None) -> tuple[int, int] | None:

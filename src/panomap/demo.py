@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .centre import find_image_circles
 from .files import write_text_atomic
 from .fit import fit_camera
 from .imageio import save_map, write_image
@@ -56,19 +57,27 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
     write_text_atomic(out / "landmarks.csv", landmarks_to_csv(landmarks))
     yield f"picked {len(landmarks)} landmarks spread in elevation: {out / 'landmarks.csv'}"
 
-    fit = fit_camera(landmarks, room.camera, camera.centre, image_size=IMAGE_SIZE)
+    circles = find_image_circles(omni)
+    cutoff = circles.cutoff_radius or 0.0
+    yield (
+        f"found the image centre ({circles.centre[0]:.2f}, {circles.centre[1]:.2f}), cut-off radius {cutoff:.2f} px "
+        f"and image circle {circles.outer_radius:.2f} px (true: ({camera.centre[0]:.2f}, {camera.centre[1]:.2f}), "
+        f"{camera.cutoff_radius:.2f} px, {camera.outer_radius:.2f} px)"
+    )
+    fit = fit_camera(landmarks, room.camera, circles.centre, image_size=IMAGE_SIZE)
     table = create_table(
         fit,
         image_size=IMAGE_SIZE,
-        cutoff_radius=camera.cutoff_radius,
-        outer_radius=camera.outer_radius,
+        cutoff_radius=cutoff,
+        outer_radius=circles.outer_radius,
         info={
             "sources": {
-                "centre": "given (simulated camera)",
-                "cutoff_radius": "given (simulated camera)",
-                "outer_radius": "given (simulated camera)",
+                "centre": "detected",
+                "cutoff_radius": "detected",
+                "outer_radius": "detected",
                 "camera_position": "given",
-            }
+            },
+            "image_circles": circles.to_dict(),
         },
     )
     table.save(out / "table.npz")
