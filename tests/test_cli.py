@@ -177,6 +177,10 @@ def test_bad_landmarks_get_one_line_naming_the_file(work: Path, case: str) -> No
         300,
         "--image",
         work / "omni.png",
+        "--cutoff-radius",
+        0,
+        "--outer-radius",
+        290,
     )
     assert_one_line_error(result, "bad.csv", message)
     assert not (work / "t.npz").exists()

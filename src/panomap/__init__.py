@@ -8,7 +8,11 @@ The pieces, in the paper's order:
 - :func:`create_table` -> :class:`PanoMappingTable` (Algorithm 2);
   :func:`load_table`, ``table.save``.
 - Views (2.3): :class:`GenericPanorama`, :class:`CylinderPanorama`,
-  :class:`PlaneView`; :func:`build_map` and :class:`Remapper` to apply them.
+  :class:`PlaneView`, and beyond the paper :class:`PerspectiveView` (a virtual
+  pan-tilt-zoom camera) and :class:`FloorView` (a bird's-eye map);
+  :func:`build_map`, and ``view.remapper(table)`` (a :class:`Remapper`) to apply
+  them to any number of frames.
+- Pixels back to rays: ``table.unproject(uv)``.
 
 Conventions are in :mod:`panomap.geometry` and ``docs/conventions.md``.
 """
@@ -24,17 +28,19 @@ from .model import CameraModel
 from .radial import RadialFunction
 from .remap import Remapper
 from .table import PanoMappingTable, create_table, load_table
-from .views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
+from .views import Band, CylinderPanorama, FloorView, GenericPanorama, PerspectiveView, PlaneView, build_map
 
 __all__ = [
     "Band",
     "CameraFit",
     "CameraModel",
     "CylinderPanorama",
+    "FloorView",
     "GenericPanorama",
     "Landmarks",
     "PanoMappingTable",
     "PanomapError",
+    "PerspectiveView",
     "PlaneView",
     "RadialFunction",
     "Remapper",

@@ -134,7 +134,7 @@ class ImageCircles:
         }
 
 
-def to_grey(image: NDArray[Any]) -> NDArray[np.float32]:
+def to_grey(image: NDArray[Any]) -> NDArray[Any]:
     """(H, W) float32 grey levels on a 0..255 scale, from 8- or 16-bit, 1, 3 or 4 channels."""
     scale = 255.0 / 65535.0 if image.dtype == np.uint16 else 1.0
     if image.ndim == 3 and image.shape[2] >= 3:
@@ -192,7 +192,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
     return ImageCircles(centre=centre, outer=outer, cutoff=cutoff, ellipse=ellipse)
 
 
-def _refine_rim(smooth: NDArray[np.float32], centre: tuple[float, float], radius: float) -> tuple[Circle, FloatArray]:
+def _refine_rim(smooth: NDArray[Any], centre: tuple[float, float], radius: float) -> tuple[Circle, FloatArray]:
     """Rim edge points and the robust circle through them, iterated from a start circle."""
     circle = None
     for _ in range(3):
@@ -221,7 +221,7 @@ def _refine_rim(smooth: NDArray[np.float32], centre: tuple[float, float], radius
     return circle, points
 
 
-def _hough_circles(grey: NDArray[np.float32], count: int = 3) -> list[tuple[tuple[float, float], float]]:
+def _hough_circles(grey: NDArray[Any], count: int = 3) -> list[tuple[tuple[float, float], float]]:
     """Up to ``count`` strongest large circles of a circle transform of the downscaled image."""
     height, width = grey.shape
     factor = max(1, math.ceil(max(height, width) / COARSE_SIDE))
@@ -246,7 +246,7 @@ def _hough_circles(grey: NDArray[np.float32], count: int = 3) -> list[tuple[tupl
     ]
 
 
-def _coarse_circle(grey: NDArray[np.float32]) -> list[tuple[tuple[float, float], float]]:
+def _coarse_circle(grey: NDArray[Any]) -> list[tuple[tuple[float, float], float]]:
     """First centre and radius (full-resolution px) from the largest bright blob of a downscaled image."""
     height, width = grey.shape
     factor = max(1, math.ceil(max(height, width) / COARSE_SIDE))
@@ -257,7 +257,7 @@ def _coarse_circle(grey: NDArray[np.float32]) -> list[tuple[tuple[float, float],
     if bright - dark < 10:
         raise PanomapError("no image circle found: the image has no dark border around a brighter disc")
     threshold = dark + 0.25 * (bright - dark)
-    mask = (small > threshold).astype(np.uint8)
+    mask: NDArray[Any] = (small > threshold).astype(np.uint8)
     mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
     contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     if not contours:
@@ -293,8 +293,8 @@ def _touches_border(contour: NDArray[Any], shape: tuple[int, ...]) -> float:
 
 
 def _profiles(
-    grey: NDArray[np.float32], centre: tuple[float, float], radii: FloatArray
-) -> tuple[NDArray[np.float32], FloatArray, FloatArray]:
+    grey: NDArray[Any], centre: tuple[float, float], radii: FloatArray
+) -> tuple[NDArray[Any], FloatArray, FloatArray]:
     """Bilinear samples (RAYS, R) of ``grey`` along rays at ``radii``; NaN outside the image."""
     angles = np.linspace(0.0, 2 * math.pi, RAYS, endpoint=False)
     cos, sin = np.cos(angles), np.sin(angles)
@@ -306,7 +306,7 @@ def _profiles(
     return np.where(inside, samples, np.nan), cos, sin
 
 
-def _subpixel_peak(values: FloatArray, index: NDArray[np.intp]) -> FloatArray:
+def _subpixel_peak(values: NDArray[Any], index: NDArray[Any]) -> FloatArray:
     """Parabola vertex through samples index-1, index, index+1 of each row (index inside)."""
     rows = np.arange(values.shape[0])
     left, mid, right = values[rows, index - 1], values[rows, index], values[rows, index + 1]
@@ -319,7 +319,7 @@ def _subpixel_peak(values: FloatArray, index: NDArray[np.intp]) -> FloatArray:
 STEP = 0.5  # px between profile samples
 
 
-def _rim_points(grey: NDArray[np.float32], centre: tuple[float, float], radius: float) -> FloatArray:
+def _rim_points(grey: NDArray[Any], centre: tuple[float, float], radius: float) -> FloatArray:
     """Sub-pixel rim edge points (n, 2): the steepest bright-to-dark step near ``radius``."""
     half = max(0.08 * radius, 8.0)
     radii = np.arange(max(radius - half, 1.0), radius + half, STEP)
@@ -343,7 +343,7 @@ def _rim_points(grey: NDArray[np.float32], centre: tuple[float, float], radius: 
     return np.stack([centre[0] + r * cos[good], centre[1] + r * sin[good]], axis=-1)
 
 
-def _cutoff_circle(grey: NDArray[np.float32], centre: tuple[float, float], outer_radius: float) -> Circle | None:
+def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius: float) -> Circle | None:
     """The self-occlusion disc: each ray's first dark-to-bright step; None when rays disagree."""
     radii = np.arange(1.0, 0.75 * outer_radius, STEP)
     samples, cos, sin = _profiles(grey, centre, radii)
@@ -433,7 +433,7 @@ def _ellipse_rms(points: FloatArray, centre: tuple[float, float], axes: tuple[fl
     return float(np.sqrt(np.mean(distance**2)))
 
 
-def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[np.uint8]:
+def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[Any]:
     """An 8-bit BGR copy of ``image`` with the found circles and centre drawn on it.
 
     The image circle is green (the ellipse too, when there is one), the cut-off

@@ -26,12 +26,22 @@ from .centre import ImageCircles, draw_overlay, find_image_circles
 from .errors import PanomapError
 from .files import write_text_atomic
 from .fit import fit_camera
-from .imageio import image_size, read_image, save_map, write_image
+from .geometry import ray_plane_points
+from .imageio import image_size, pgm_map_paths, read_image, save_map, save_map_pgm, write_image
 from .landmarks import read_landmarks, read_points
 from .radial import MODELS
 from .remap import INTERPOLATIONS, Remapper
 from .table import SAMPLINGS, PanoMappingTable, create_table, load_table
-from .views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
+from .views import (
+    Band,
+    CylinderPanorama,
+    FloorView,
+    GenericPanorama,
+    PerspectiveView,
+    PlaneView,
+    View,
+    build_map,
+)
 
 
 class Size(click.ParamType):
@@ -111,6 +121,10 @@ def main() -> None:
        panomap cylinder cam.npz omni.png -o cyl.png --distance 2 --band -2.4 0 --size 2048x512
        panomap plane    cam.npz omni.png -o view.png --distance 2 --plane-width 2 \\
                         --band -2.4 0 --azimuth-deg 30 --size 800x800
+       panomap perspective cam.npz omni.png -o ptz.png --yaw-deg 270 --pitch-deg -30 \\
+                        --fov-deg 100 --size 1280x720
+       panomap floor    cam.npz omni.png -o floor.png --z 0 --x 0 6 --y 0 5 --resolution 0.01
+       panomap unproject cam.npz pixels.csv -o rays.csv --z 0
     3. panomap demo   (renders a simulated room and does all of it)
 
     Conventions: world Z up; azimuth counter-clockwise from +X seen from above;
@@ -179,6 +193,21 @@ def main() -> None:
 @click.option(
     "--axis", type=click.Choice(["down", "up"]), help="Force the viewing direction [default: from the landmarks]."
 )
+@click.option("--refine-centre", is_flag=True, help="Refine the centre together with the radial function and phi0.")
+@click.option(
+    "--pixel-sigma",
+    type=FINITE,
+    default=1.0,
+    show_default=True,
+    help="Standard deviation of the landmarks' pixels (px), for weighting.",
+)
+@click.option(
+    "--world-sigma",
+    type=FINITE,
+    help="Standard deviation of the landmarks' world coordinates (world units) [default: 0.4% of their "
+    "median distance].",
+)
+@click.option("--keep-outliers", is_flag=True, help="Keep landmarks that disagree with the rest (default: drop them).")
 @click.option("--plot", type=PATH, help="Also write the fit plot (PNG): the curve, landmarks and residuals.")
 def fit(
     landmarks: Path,
@@ -193,6 +222,10 @@ def fit(
     model: str,
     azimuth: str,
     axis: str | None,
+    refine_centre: bool,
+    pixel_sigma: float,
+    world_sigma: float | None,
+    keep_outliers: bool,
     plot: Path | None,
 ) -> None:
     """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table."""
@@ -212,7 +245,17 @@ def fit(
         omni = read_image(image)
         size = (int(omni.shape[1]), int(omni.shape[0]))
         if centre is None or cutoff_radius is None or outer_radius is None:
-            circles = find_image_circles_in(image, omni)
+            try:
+                circles = find_image_circles_in(image, omni)
+            except PanomapError as exc:
+                if centre is None:
+                    raise
+                # The centre is given: only the radii were wanted; keep their defaults and say so.
+                click.echo(f"panomap: warning: {exc}; using the default radii", err=True)
+                circles = None
+        else:
+            circles = None
+        if circles is not None:
             info["image_circles"] = circles.to_dict()
             if centre is None:
                 centre, sources["centre"] = circles.centre, "detected"
@@ -225,7 +268,23 @@ def fit(
         raise PanomapError("no image centre: give --centre U0 V0, or --image OMNI to find it", landmarks)
     info["sources"] = sources
     try:
-        camera_fit = fit_camera(pairs, position, centre, model=model, azimuth=azimuth, axis=axis, image_size=size)
+        annulus = None if cutoff_radius is None or outer_radius is None else (cutoff_radius, outer_radius)
+        camera_fit = fit_camera(
+            pairs,
+            position,
+            centre,
+            model=model,
+            azimuth=azimuth,
+            axis=axis,
+            image_size=size,
+            annulus=annulus,
+            refine_centre=refine_centre,
+            pixel_sigma=pixel_sigma,
+            world_sigma=world_sigma,
+            reject_outliers=not keep_outliers,
+        )
+        if refine_centre:
+            sources["centre"] = f"{sources['centre']}, refined with the landmarks"
         table = create_table(
             camera_fit,
             size=table_size,
@@ -243,6 +302,8 @@ def fit(
         save_fit_plot(table, plot)
     click.echo(_describe_fit(table))
     click.echo(f"wrote {output}" + (f" and {plot}" if plot else ""))
+    for warning in table.info.get("warnings", []):
+        click.echo(f"panomap: warning: {warning}", err=True)
 
 
 @main.command()
@@ -325,10 +386,21 @@ def _describe_fit(table: PanoMappingTable) -> str:
         lines.append(
             f"{row['name'][:12]:<12} {row['u']:9.2f} {row['v']:9.2f} {row['elevation_deg']:9.2f} "
             f"{row['azimuth_deg']:9.2f} {row['residual_px']:9.3f}"
+            + ("  OUTLIER (not used)" if row.get("outlier") else "")
         )
+    if fit.get("outliers"):
+        lines.append(f"outliers dropped: {', '.join(fit['outliers'])}")
     lines.append(
         f"residuals: RMS {fit.get('rms_px', float('nan')):.3f} px, max {fit.get('max_px', float('nan')):.3f} px"
     )
+    uncertainty = fit.get("uncertainty") or {}
+    if uncertainty:
+        inside = uncertainty.get("max_se_in_landmark_range_px")
+        lines.append(
+            "radius standard error: up to "
+            + (f"{inside:.2f} px within the landmarks' elevations, " if inside is not None else "")
+            + f"up to {uncertainty['max_se_px']:.2f} px over the table's range"
+        )
     lines.append(_describe_table(table))
     return "\n".join(lines)
 
@@ -383,6 +455,13 @@ def view_options(function: Callable[..., Any]) -> Callable[..., Any]:
         click.option("-o", "--output", type=PATH, required=True, help="Output image (PNG, TIFF, JPEG...)."),
         click.option("--save-map", type=PATH, help="Also write the (H, W, 2) float32 (u, v) map as .npy."),
         click.option(
+            "--save-map-pgm",
+            type=click.Path(path_type=Path),
+            metavar="PREFIX",
+            help="Also write the map for ffmpeg's remap filter: PREFIX_x.pgm and PREFIX_y.pgm "
+            "(16-bit, nearest pixel, 65535 where there is no source).",
+        ),
+        click.option(
             "--interp",
             type=click.Choice(list(INTERPOLATIONS)),
             default="linear",
@@ -406,11 +485,12 @@ def _render(
     table_path: Path,
     image_path: Path,
     output: Path,
-    save_map_path: Path | None,
+    maps: tuple[Path | None, Path | None],
     interp: str,
     sampling: str,
     make_view: Callable[[], View],
 ) -> None:
+    save_map_path, pgm_prefix = maps
     view = make_view()
     table = load_table(table_path)
     image = read_image(image_path)
@@ -420,17 +500,23 @@ def _render(
             f"{table.image_size[0]} x {table.image_size[1]} images",
             image_path,
         )
-    if save_map_path is not None and not (save_map_path.parent if str(save_map_path.parent) else Path(".")).is_dir():
-        raise PanomapError("its folder does not exist", save_map_path)
+    extra = [save_map_path] if save_map_path is not None else []
+    if pgm_prefix is not None:
+        extra += pgm_map_paths(pgm_prefix)
+    for path in extra:
+        if not (path.parent if str(path.parent) else Path(".")).is_dir():
+            raise PanomapError("its folder does not exist", path)
     map_uv = build_map(table, view, sampling)
     remapper = Remapper(map_uv, (image.shape[1], image.shape[0]), interp)
     write_image(output, remapper(image))
     if save_map_path is not None:
         save_map(save_map_path, map_uv)
+    if pgm_prefix is not None:
+        save_map_pgm(pgm_prefix, map_uv)
     valid = float(np.mean(np.all(np.isfinite(map_uv), axis=2)))
     click.echo(
         f"wrote {output} ({map_uv.shape[1]} x {map_uv.shape[0]}, {valid:.0%} of pixels with a source)"
-        + (f" and {save_map_path}" if save_map_path else "")
+        + "".join(f" and {path}" for path in extra)
     )
 
 
@@ -443,6 +529,7 @@ def panorama(
     image: Path,
     output: Path,
     save_map: Path | None,
+    save_map_pgm: Path | None,
     interp: str,
     table_sampling: str,
     size: tuple[int, int] | None,
@@ -450,7 +537,13 @@ def panorama(
 ) -> None:
     """Generic panorama (paper 2.3.1): columns are azimuths (decreasing to the right), rows elevations."""
     _render(
-        table, image, output, save_map, interp, table_sampling, lambda: GenericPanorama(size, math.radians(start_deg))
+        table,
+        image,
+        output,
+        (save_map, save_map_pgm),
+        interp,
+        table_sampling,
+        lambda: GenericPanorama(size, math.radians(start_deg)),
     )
 
 
@@ -472,6 +565,7 @@ def cylinder(
     image: Path,
     output: Path,
     save_map: Path | None,
+    save_map_pgm: Path | None,
     interp: str,
     table_sampling: str,
     distance: float,
@@ -484,7 +578,7 @@ def cylinder(
         table,
         image,
         output,
-        save_map,
+        (save_map, save_map_pgm),
         interp,
         table_sampling,
         lambda: CylinderPanorama(distance, Band(*band), size, math.radians(start_deg)),
@@ -510,6 +604,7 @@ def plane(
     image: Path,
     output: Path,
     save_map: Path | None,
+    save_map_pgm: Path | None,
     interp: str,
     table_sampling: str,
     distance: float,
@@ -523,11 +618,84 @@ def plane(
         table,
         image,
         output,
-        save_map,
+        (save_map, save_map_pgm),
         interp,
         table_sampling,
         lambda: PlaneView(distance, plane_width, Band(*band), math.radians(azimuth_deg), size),
     )
+
+
+@main.command()
+@view_options
+@click.option("--yaw-deg", type=FINITE, required=True, help="Azimuth of the optical axis (counter-clockwise from +X).")
+@click.option(
+    "--pitch-deg", type=FINITE, required=True, help="Elevation of the optical axis, -90..90 (negative looks down)."
+)
+@click.option(
+    "--roll-deg", type=FINITE, default=0.0, show_default=True, help="Turn about the optical axis (+ dips the right)."
+)
+@click.option("--fov-deg", type=FINITE, required=True, help="Horizontal field of view, more than 0 and less than 180.")
+@click.option("--size", type=SIZE, required=True, help="Output WxH.")
+def perspective(
+    table: Path,
+    image: Path,
+    output: Path,
+    save_map: Path | None,
+    save_map_pgm: Path | None,
+    interp: str,
+    table_sampling: str,
+    yaw_deg: float,
+    pitch_deg: float,
+    roll_deg: float,
+    fov_deg: float,
+    size: tuple[int, int],
+) -> None:
+    """Virtual pan-tilt-zoom camera: a pinhole at the camera position looking anywhere."""
+    _render(
+        table,
+        image,
+        output,
+        (save_map, save_map_pgm),
+        interp,
+        table_sampling,
+        lambda: PerspectiveView(
+            math.radians(yaw_deg), math.radians(pitch_deg), math.radians(roll_deg), math.radians(fov_deg), size
+        ),
+    )
+
+
+@main.command()
+@view_options
+@click.option("--z", "z_plane", type=FINITE, required=True, help="Height Z of the plane (world).")
+@click.option("--x", "x_range", nargs=2, type=FINITE, required=True, metavar="XMIN XMAX", help="World X extent.")
+@click.option("--y", "y_range", nargs=2, type=FINITE, required=True, metavar="YMIN YMAX", help="World Y extent.")
+@click.option("--size", type=SIZE, help="Output WxH (or give --resolution).")
+@click.option("--resolution", type=FINITE, help="World units per pixel, instead of --size.")
+def floor(
+    table: Path,
+    image: Path,
+    output: Path,
+    save_map: Path | None,
+    save_map_pgm: Path | None,
+    interp: str,
+    table_sampling: str,
+    z_plane: float,
+    x_range: tuple[float, float],
+    y_range: tuple[float, float],
+    size: tuple[int, int] | None,
+    resolution: float | None,
+) -> None:
+    """Bird's-eye map of the horizontal plane Z (world): +X to the right, +Y up."""
+    if (size is None) == (resolution is None):
+        raise click.UsageError("give the output size as --size WxH or --resolution R, one of the two")
+
+    def make_view() -> FloorView:
+        if size is not None:
+            return FloorView(z_plane, x_range, y_range, size)
+        assert resolution is not None
+        return FloorView.with_resolution(z_plane, x_range, y_range, resolution)
+
+    _render(table, image, output, (save_map, save_map_pgm), interp, table_sampling, make_view)
 
 
 # ----------------------------------------------------------------------------- project
@@ -553,6 +721,48 @@ def project(table: Path, points: Path, output: Path, table_sampling: str) -> Non
     write_text_atomic(output, buffer.getvalue())
     visible = int(np.count_nonzero(np.all(np.isfinite(uv), axis=1)))
     click.echo(f"wrote {output} ({visible} of {len(rows)} points visible)")
+
+
+# ----------------------------------------------------------------------------- unproject
+
+
+@main.command()
+@click.argument("table", type=PATH)
+@click.argument("pixels", type=PATH)
+@click.option(
+    "-o", "--output", type=PATH, required=True, help="CSV to write: the input columns plus azimuth_deg,elevation_deg."
+)
+@click.option(
+    "--z", "z_plane", type=FINITE, help="Also give X,Y,Z where each pixel's ray meets the horizontal plane Z (world)."
+)
+def unproject(table: Path, pixels: Path, output: Path, z_plane: float | None) -> None:
+    """Pixels (CSV with u,v) to rays: azimuth and elevation, empty outside the valid region."""
+    loaded = load_table(table)
+    header, rows, uv = read_points(pixels, ("u", "v"))
+    theta, rho = loaded.unproject(uv)
+    added = ["azimuth_deg", "elevation_deg"] + (["X", "Y", "Z"] if z_plane is not None else [])
+    replaced = {name.lower() for name in added}
+    keep = [i for i, name in enumerate(header) if name.lower() not in replaced]
+    world = (
+        ray_plane_points(loaded.camera_position, theta, rho, z_plane)
+        if z_plane is not None
+        else np.full((len(rows), 0), np.nan)
+    )
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow([header[i] for i in keep] + added)
+    for row, azimuth, elevation, point in zip(rows, theta.tolist(), rho.tolist(), world.tolist(), strict=True):
+        seen = math.isfinite(elevation)
+        ray = [f"{math.degrees(azimuth):.6f}", f"{math.degrees(elevation):.6f}"] if seen else ["", ""]
+        where = ["" if not math.isfinite(c) else f"{c:.6f}" for c in point]
+        writer.writerow([row[i] for i in keep] + ray + where)
+    write_text_atomic(output, buffer.getvalue())
+    valid = int(np.count_nonzero(np.isfinite(rho)))
+    message = f"wrote {output} ({valid} of {len(rows)} pixels in the valid region"
+    if z_plane is not None:
+        reached = int(np.count_nonzero(np.all(np.isfinite(world), axis=1)))
+        message += f"; {reached} rays reach the plane Z = {z_plane:g}"
+    click.echo(message + ")")
 
 
 # ----------------------------------------------------------------------------- demo

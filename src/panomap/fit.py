@@ -1,14 +1,32 @@
-"""Landmark learning (paper 2.1, Algorithm 1): from landmark pairs to a camera model.
+"""Landmark learning (paper 2.1, Algorithm 1 and beyond): from landmark pairs to a camera model.
 
 Convention: world Z up; a landmark's ray is ``d = P - O_m``; azimuth and
-elevation as in :mod:`panomap.geometry`; pixel radius and image angle about
-the given image centre (u0, v0).
+elevation as in :mod:`panomap.geometry`; pixel radius r and image angle phi
+about the image centre (u0, v0); ``phi = s*theta + phi0``, ``r = f_r(rho)``.
 
-Beyond the paper, the fit also estimates the azimuth mapping
-``phi = s*theta + phi0`` (the paper assumes ``s = +1, phi0 = 0``; pass
-``azimuth="paper"`` to keep that), finds whether the camera looks down or up,
-and chooses the radial model by leave-one-out cross-validation unless one is
-forced (``model="paper"`` is Algorithm 1 exactly).
+The fit, unless ``model="paper"`` (Algorithm 1 exactly: an unweighted least
+squares of the 4th-degree polynomial with the centre pair):
+
+1. **Noise model.** Each landmark's residual is split into a radial and a
+   tangential part (px), each with its own standard deviation: the pixel's
+   (``pixel_sigma``, default 1 px) combined with the world point's
+   (``world_sigma``, default 0.4% of the median landmark distance, about a
+   centimetre in a room) seen through the camera: ``f_r'(rho) sigma_w / |d|``
+   radially and ``r sigma_w / |d_xy|`` tangentially. Fits minimise these
+   whitened residuals (the effective-variance method).
+2. **Handedness** ``s`` from the landmarks' image angles; ``phi0`` and f_r by
+   weighted least squares (they separate while the centre is fixed).
+3. **Model choice** by leave-one-out cross-validation among the radial models
+   of :mod:`panomap.radial` that are monotonic over the landmarks and cover
+   the annulus (cut-off to image circle) when it is known; a model within 2%
+   of the best that has fewer parameters wins.
+4. **Outliers.** With the chosen model, the landmark whose leave-one-out
+   residual is largest is dropped while it exceeds 5 robust standard
+   deviations; dropped landmarks are named in the report; the model is
+   chosen again on the rest.
+5. **Joint refinement** by nonlinear least squares of f_r, phi0 and, with
+   ``refine_centre``, the centre; the Jacobian gives the coefficients'
+   covariance, hence the standard error of r at every elevation.
 """
 
 from __future__ import annotations
@@ -18,16 +36,33 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import stats
+from scipy import optimize, stats
 
 from .errors import PanomapError
 from .geometry import FloatArray, azimuth_elevation
 from .landmarks import MIN_LANDMARKS, Landmarks
 from .model import CameraModel
-from .radial import AUTO_CANDIDATES, AXES, MODELS, fit_radial, is_monotonic, leave_one_out_rms
+from .radial import (
+    AUTO_CANDIDATES,
+    AXES,
+    MODEL_PARAMETERS,
+    MODELS,
+    RadialFunction,
+    coefficient_covariance,
+    fit_radial,
+    is_monotonic,
+    valid_elevation_range,
+)
 
 MIN_ELEVATION_SPREAD = math.radians(1.0)
 AZIMUTH_MODES = ("fit", "paper")
+DEFAULT_WORLD_SIGMA_FRACTION = 0.004
+# A model within this fraction of the best leave-one-out score, with fewer parameters, is preferred.
+SELECTION_TOLERANCE = 0.02
+OUTLIER_SIGMAS = 5.0
+# Median of the norm of a 2-D standard normal vector: sqrt(2 ln 2).
+MEDIAN_2D_NORM = math.sqrt(2 * math.log(2))
+WEIGHT_ITERATIONS = 3
 
 
 @dataclass(frozen=True)
@@ -37,6 +72,8 @@ class CameraFit:
     Attributes
     ----------
     model : CameraModel
+    landmarks : Landmarks
+    camera_position : (X0, Y0, Z0)
     theta, rho : (n,) ndarray
         Landmark azimuths and elevations (rad).
     predicted : (n, 2) ndarray
@@ -45,15 +82,20 @@ class CameraFit:
         Distance (px) between each landmark's pixel and its prediction.
     radial_residuals_px : (n,) ndarray
         Fitted minus measured radius, px.
+    inliers : (n,) bool ndarray
+        False for landmarks dropped as outliers.
+    covariance : (p, p) ndarray
+        Covariance of the radial model's coefficients.
     axis_source : str
         ``"given"`` or ``"detected"``.
     azimuth_mode : str
         ``"fit"`` (s and phi0 estimated) or ``"paper"`` (s = +1, phi0 = 0).
     azimuth_consistency : float
-        Weighted mean resultant length (0..1) of ``phi - s*theta``: 1 when
-        every landmark agrees on phi0.
+        Weighted mean resultant length (0..1) of ``phi - s*theta``.
     selection : dict
-        Leave-one-out RMS (px) of each candidate radial model tried.
+        Leave-one-out RMS residual (px) of each candidate radial model.
+    settings : dict
+        The noise model and options used.
     """
 
     model: CameraModel
@@ -64,23 +106,34 @@ class CameraFit:
     predicted: FloatArray
     residuals_px: FloatArray
     radial_residuals_px: FloatArray
+    inliers: FloatArray
+    covariance: FloatArray
     axis_source: str
     azimuth_mode: str
     azimuth_consistency: float
     selection: dict[str, float] = field(default_factory=dict)
+    settings: dict[str, Any] = field(default_factory=dict)
 
     @property
     def rms_px(self) -> float:
-        return float(np.sqrt(np.mean(self.residuals_px**2)))
+        """RMS residual (px) over the inliers."""
+        return float(np.sqrt(np.mean(self.residuals_px[self.inliers] ** 2)))
 
     @property
     def max_px(self) -> float:
-        return float(np.max(self.residuals_px))
+        """Largest residual (px) over the inliers."""
+        return float(np.max(self.residuals_px[self.inliers]))
+
+    @property
+    def outliers(self) -> list[str]:
+        """Names of the landmarks dropped as outliers."""
+        return [name for name, keep in zip(self.landmarks.names, self.inliers, strict=True) if not keep]
 
     @property
     def landmark_range(self) -> tuple[float, float]:
-        """Lowest and highest landmark elevation (rad)."""
-        return float(np.min(self.rho)), float(np.max(self.rho))
+        """Lowest and highest inlier landmark elevation (rad)."""
+        rho = self.rho[self.inliers]
+        return float(np.min(rho)), float(np.max(rho))
 
     def report(self) -> dict[str, Any]:
         """The fit report as plain data (angles in degrees, residuals in px)."""
@@ -95,6 +148,7 @@ class CameraFit:
                     "v_fit": float(self.predicted[k, 1]),
                     "residual_px": float(self.residuals_px[k]),
                     "radial_residual_px": float(self.radial_residuals_px[k]),
+                    "outlier": not bool(self.inliers[k]),
                 }
             )
         low, high = self.landmark_range
@@ -105,13 +159,33 @@ class CameraFit:
             "azimuth_mode": self.azimuth_mode,
             "s": self.model.s,
             "phi0_deg": math.degrees(self.model.phi0),
+            "centre": list(self.model.centre),
             "azimuth_consistency": self.azimuth_consistency,
             "rms_px": self.rms_px,
             "max_px": self.max_px,
+            "outliers": self.outliers,
             "landmark_elevation_range_deg": [math.degrees(low), math.degrees(high)],
             "model_selection_loo_rms_px": {k: (v if math.isfinite(v) else None) for k, v in self.selection.items()},
+            "covariance": self.covariance.tolist(),
+            "settings": self.settings,
             "landmarks": rows,
         }
+
+
+@dataclass(frozen=True)
+class _Data:
+    """Per-landmark quantities the fits share; arrays of shape (n,)."""
+
+    theta: FloatArray
+    rho: FloatArray
+    r: FloatArray
+    phi: FloatArray
+    sigma_rho: FloatArray  # rad: the world point's error seen as an elevation error
+    sigma_theta: FloatArray  # rad: ... as an azimuth error
+    pixel_sigma: float
+    axis: str
+    s: int
+    azimuth_mode: str
 
 
 def fit_camera(
@@ -123,8 +197,13 @@ def fit_camera(
     azimuth: str = "fit",
     axis: str | None = None,
     image_size: tuple[int, int] | None = None,
+    annulus: tuple[float, float] | None = None,
+    refine_centre: bool = False,
+    pixel_sigma: float = 1.0,
+    world_sigma: float | None = None,
+    reject_outliers: bool = True,
 ) -> CameraFit:
-    """Fit the camera model to landmark pairs (Algorithm 1 and beyond).
+    """Fit the camera model to landmark pairs.
 
     Parameters
     ----------
@@ -133,15 +212,28 @@ def fit_camera(
     camera_position : (X0, Y0, Z0)
         Mirror (lens) centre O_m in world units.
     centre : (u0, v0)
-        Image centre, px.
+        Image centre, px (the start, with ``refine_centre``).
     model : str
-        ``"auto"`` (leave-one-out choice) or one of ``panomap.radial.MODELS``.
+        ``"auto"`` (leave-one-out choice) or one of ``panomap.radial.MODELS``;
+        ``"paper"`` is Algorithm 1 exactly.
     azimuth : {"fit", "paper"}
         Estimate ``s`` and ``phi0``, or take the paper's ``s = +1, phi0 = 0``.
     axis : {"down", "up"}, optional
         Force the viewing direction; found from the landmarks when omitted.
     image_size : (width, height), optional
         When given, landmarks outside the image are refused.
+    annulus : (cutoff_radius, outer_radius), optional
+        The visible annulus (px); automatic selection then only takes models
+        that are monotonic all across it.
+    refine_centre : bool
+        Refine the centre together with f_r and phi0.
+    pixel_sigma : float
+        Standard deviation of the landmarks' pixels, px.
+    world_sigma : float, optional
+        Standard deviation of the world points' coordinates, world units;
+        default 0.4% of the median landmark distance.
+    reject_outliers : bool
+        Drop landmarks that disagree with the rest (named in the report).
 
     Raises
     ------
@@ -155,12 +247,18 @@ def fit_camera(
         raise PanomapError(f"azimuth must be 'fit' or 'paper', not {azimuth!r}")
     if axis is not None and axis not in AXES:
         raise PanomapError(f"axis must be 'down' or 'up', not {axis!r}")
+    if refine_centre and model == "paper":
+        raise PanomapError("the paper model takes the centre as given; --refine-centre needs another model")
     camera = tuple(float(c) for c in camera_position)
     if len(camera) != 3 or not all(math.isfinite(c) for c in camera):
         raise PanomapError("the camera position must be three finite numbers X0 Y0 Z0")
     u0, v0 = (float(c) for c in centre)
     if not (math.isfinite(u0) and math.isfinite(v0)):
         raise PanomapError("the image centre must be two finite numbers U0 V0")
+    if not (math.isfinite(pixel_sigma) and pixel_sigma > 0):
+        raise PanomapError(f"the pixel sigma must be positive, not {pixel_sigma}")
+    if world_sigma is not None and not (math.isfinite(world_sigma) and world_sigma >= 0):
+        raise PanomapError(f"the world sigma must be zero or positive, not {world_sigma}")
     n = len(landmarks)
     if n < MIN_LANDMARKS:
         raise PanomapError(f"only {n} landmark(s); at least {MIN_LANDMARKS} are needed")
@@ -168,7 +266,8 @@ def fit_camera(
         _check_inside(landmarks, image_size)
 
     d = landmarks.world - np.asarray(camera)
-    at_camera = np.flatnonzero(np.linalg.norm(d, axis=1) < 1e-9)
+    distance = np.linalg.norm(d, axis=1)
+    at_camera = np.flatnonzero(distance < 1e-9)
     if at_camera.size:
         raise PanomapError(f"landmark {landmarks.names[at_camera[0]]!r} is at the camera position")
     theta, rho = azimuth_elevation(d)
@@ -178,50 +277,51 @@ def fit_camera(
             f"spread {math.degrees(float(np.ptp(rho))):.3f} deg); the radial fit needs them spread "
             "in elevation"
         )
-    du = landmarks.pixels[:, 0] - u0
-    dv = landmarks.pixels[:, 1] - v0
-    r = np.hypot(du, dv)
-    phi = np.arctan2(dv, du)
-
+    r, phi = _polar(landmarks.pixels, (u0, v0))
     axis_source = "given"
     if axis is None:
         axis, axis_source = _detect_axis(rho, r), "detected"
-
-    selection: dict[str, float] = {}
-    low, high = float(rho.min()), float(rho.max())
-    if model == "auto":
-        radial = None
-        best = math.inf
-        for kind in AUTO_CANDIDATES:
-            try:
-                candidate = fit_radial(kind, rho, r, axis)
-            except PanomapError:
-                selection[kind] = math.inf
-                continue
-            score = leave_one_out_rms(kind, rho, r, axis) if is_monotonic(candidate, low, high) else math.inf
-            selection[kind] = score
-            if score < best * (1 - 1e-9) - 1e-9:
-                radial, best = candidate, score
-        if radial is None:
-            raise PanomapError(
-                "no radial model fits these landmarks monotonically; check the landmarks, "
-                "the camera position and the centre"
-            )
-    else:
-        radial = fit_radial(model, rho, r, axis)
-        if not is_monotonic(radial, low, high):
-            raise PanomapError(
-                f"the {model} fit is not monotonic over the landmarks' elevations "
-                f"{math.degrees(low):.1f}..{math.degrees(high):.1f} deg; check the landmarks"
-            )
-
-    if azimuth == "paper":
-        s, phi0, consistency = 1, 0.0, _consistency(phi - theta, r)
-    else:
-        s, phi0, consistency = _fit_azimuth(theta, phi, r, np.hypot(d[:, 0], d[:, 1]))
-    camera_model = CameraModel((u0, v0), radial, s, phi0)
+    if world_sigma is None:
+        world_sigma = DEFAULT_WORLD_SIGMA_FRACTION * float(np.median(distance))
+    horizontal = np.hypot(d[:, 0], d[:, 1])
+    s = 1 if azimuth == "paper" else _handedness(theta, phi, r)
+    data = _Data(
+        theta=theta,
+        rho=rho,
+        r=r,
+        phi=phi,
+        sigma_rho=world_sigma / distance,
+        sigma_theta=world_sigma / np.maximum(horizontal, 1e-12),
+        pixel_sigma=float(pixel_sigma),
+        axis=axis,
+        s=s,
+        azimuth_mode=azimuth,
+    )
+    everyone = np.ones(n, dtype=bool)
+    candidates = AUTO_CANDIDATES if model == "auto" else (model,)
+    inliers = everyone
+    if reject_outliers and model != "paper":
+        # Choose robustly, drop the worst landmark if it is an outlier under that choice, repeat.
+        for _ in range(n // 4):
+            kind, _ = _select(candidates, data, inliers, annulus, robust=True)
+            fewer = _drop_worst(kind, data, inliers)
+            if fewer is None:
+                break
+            inliers = fewer
+    kind, selection = _select(candidates, data, inliers, annulus, robust=False)
+    radial, phi0 = _fit(kind, data, inliers)
+    centre_fit = (u0, v0)
+    if kind != "paper":
+        radial, phi0, centre_fit = _refine(radial, phi0, (u0, v0), landmarks.pixels, data, inliers, refine_centre)
+    weights = _radial_weights(radial, data)
+    r_fit, _ = _polar(landmarks.pixels, centre_fit)
+    covariance = coefficient_covariance(
+        radial, rho[inliers], r_fit[inliers], None if kind == "paper" else weights[inliers]
+    )
+    camera_model = CameraModel(centre_fit, radial, s, phi0)
     predicted = camera_model.pixels(theta, rho)
     residuals = np.linalg.norm(predicted - landmarks.pixels, axis=1)
+    r_now, phi_now = _polar(landmarks.pixels, centre_fit)
     return CameraFit(
         model=camera_model,
         landmarks=landmarks,
@@ -230,12 +330,221 @@ def fit_camera(
         rho=rho,
         predicted=predicted,
         residuals_px=residuals,
-        radial_residuals_px=radial(rho) - r,
+        radial_residuals_px=radial(rho) - r_now,
+        inliers=inliers,
+        covariance=covariance,
         axis_source=axis_source,
         azimuth_mode=azimuth,
-        azimuth_consistency=consistency,
+        azimuth_consistency=_consistency(phi_now - s * theta, r_now),
         selection=selection,
+        settings={
+            "pixel_sigma_px": float(pixel_sigma),
+            "world_sigma": float(world_sigma),
+            "refine_centre": refine_centre,
+            "reject_outliers": reject_outliers,
+            "model_requested": model,
+        },
     )
+
+
+def _polar(pixels: FloatArray, centre: tuple[float, float]) -> tuple[FloatArray, FloatArray]:
+    du = pixels[:, 0] - centre[0]
+    dv = pixels[:, 1] - centre[1]
+    return np.hypot(du, dv), np.arctan2(dv, du)
+
+
+def _radial_sigma(radial: RadialFunction | None, data: _Data) -> FloatArray:
+    """Standard deviation (px) of each landmark's radial residual."""
+    slope = np.zeros_like(data.rho) if radial is None else np.nan_to_num(radial.slope(data.rho))
+    return np.sqrt(data.pixel_sigma**2 + (slope * data.sigma_rho) ** 2)
+
+
+def _tangential_sigma(data: _Data, r: FloatArray) -> FloatArray:
+    """Standard deviation (px) of each landmark's tangential residual."""
+    return np.sqrt(data.pixel_sigma**2 + (r * data.sigma_theta) ** 2)
+
+
+def _radial_weights(radial: RadialFunction, data: _Data) -> FloatArray:
+    return 1.0 / _radial_sigma(radial, data)
+
+
+def _fit(kind: str, data: _Data, subset: FloatArray) -> tuple[RadialFunction, float]:
+    """f_r and phi0 from the landmarks in ``subset`` (bool mask), the centre fixed."""
+    rho, r = data.rho[subset], data.r[subset]
+    if kind == "paper":
+        radial = fit_radial("paper", rho, r, data.axis)
+    else:
+        radial = fit_radial(kind, rho, r, data.axis)
+        for _ in range(WEIGHT_ITERATIONS):
+            radial = fit_radial(kind, rho, r, data.axis, 1.0 / _radial_sigma(radial, data)[subset])
+    if data.azimuth_mode == "paper":
+        return radial, 0.0
+    delta = data.phi[subset] - data.s * data.theta[subset]
+    weights = (r / _tangential_sigma(data, data.r)[subset]) ** 2
+    return radial, float(np.arctan2(weights @ np.sin(delta), weights @ np.cos(delta)))
+
+
+def _whitened(radial: RadialFunction, phi0: float, data: _Data, index: Any) -> FloatArray:
+    """Whitened residual norms of the landmarks at ``index``: sqrt(z_radial^2 + z_tangential^2)."""
+    radial_error = (radial(data.rho[index]) - data.r[index]) / _radial_sigma(radial, data)[index]
+    angle = np.angle(np.exp(1j * (data.s * data.theta[index] + phi0 - data.phi[index])))
+    tangential_error = data.r[index] * angle / _tangential_sigma(data, data.r)[index]
+    return np.asarray(np.hypot(radial_error, tangential_error))
+
+
+def _pixel_error(radial: RadialFunction, phi0: float, data: _Data, index: int) -> float:
+    """Distance (px) between landmark ``index`` and where the model puts it."""
+    angle = np.angle(np.exp(1j * (data.s * data.theta[index] + phi0 - data.phi[index])))
+    return float(np.hypot(radial(data.rho[index]) - data.r[index], data.r[index] * angle))
+
+
+def _leave_one_out(kind: str, data: _Data, subset: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Whitened and pixel errors of each landmark in ``subset`` under a fit made without it."""
+    members = np.flatnonzero(subset)
+    whitened = np.full(members.size, np.inf)
+    pixels = np.full(members.size, np.inf)
+    for position, k in enumerate(members):
+        others = subset.copy()
+        others[k] = False
+        try:
+            radial, phi0 = _fit(kind, data, others)
+        except PanomapError:
+            continue
+        whitened[position] = float(_whitened(radial, phi0, data, [k])[0])
+        pixels[position] = _pixel_error(radial, phi0, data, int(k))
+    return np.where(np.isfinite(whitened), whitened, np.inf), np.where(np.isfinite(pixels), pixels, np.inf)
+
+
+def _acceptable(kind: str, data: _Data, subset: FloatArray, annulus: tuple[float, float] | None) -> str | None:
+    """Why ``kind`` cannot serve (None when it can): no fit, not monotonic, does not cover the annulus."""
+    try:
+        radial, _ = _fit(kind, data, subset)
+    except PanomapError as exc:
+        return exc.detail
+    low, high = float(data.rho[subset].min()), float(data.rho[subset].max())
+    if not is_monotonic(radial, low, high):
+        return "not monotonic over the landmarks"
+    if annulus is not None:
+        problem = annulus_coverage_problem(radial, (low, high), *annulus)
+        if problem:
+            return problem
+    return None
+
+
+def annulus_coverage_problem(
+    radial: RadialFunction, landmark_range: tuple[float, float], cutoff_radius: float, outer_radius: float
+) -> str | None:
+    """Why f_r does not run monotonically from the cut-off radius to the image circle (None if it does)."""
+    try:
+        rho_s, rho_e = valid_elevation_range(radial, landmark_range, cutoff_radius, outer_radius)
+    except PanomapError as exc:
+        return exc.detail
+    ends = sorted((float(radial(rho_s)), float(radial(rho_e))))
+    tolerance = 1.0  # px
+    pole = rho_s <= -math.pi / 2 + 1e-6 if radial.axis == "down" else rho_e >= math.pi / 2 - 1e-6
+    if ends[0] > cutoff_radius + tolerance and not pole:
+        return f"turns back before the cut-off radius ({ends[0]:.1f} px, needs {cutoff_radius:.1f} px)"
+    if ends[1] < outer_radius - tolerance:
+        return f"turns back or ends before the image circle ({ends[1]:.1f} px, needs {outer_radius:.1f} px)"
+    return None
+
+
+def _select(
+    candidates: tuple[str, ...],
+    data: _Data,
+    subset: FloatArray,
+    annulus: tuple[float, float] | None,
+    robust: bool,
+) -> tuple[str, dict[str, float]]:
+    """The model with the best leave-one-out score; the LOO RMS (px) of every candidate.
+
+    The score is the RMS of the whitened leave-one-out errors, or their median
+    when ``robust`` (an outlier then cannot steer the choice).
+    """
+    selection: dict[str, float] = {}
+    scores: dict[str, float] = {}
+    reasons: dict[str, str] = {}
+    count = int(subset.sum())
+    for kind in candidates:
+        needed = MODEL_PARAMETERS[kind] - (1 if kind == "paper" else 0)
+        if len(candidates) > 1 and count - 1 < needed + 1:
+            reasons[kind] = f"needs more than {needed + 1} landmarks"
+            selection[kind] = math.inf
+            continue
+        problem = _acceptable(kind, data, subset, annulus)
+        if problem:
+            reasons[kind] = problem
+            selection[kind] = math.inf
+            continue
+        if len(candidates) == 1:
+            return kind, {}
+        whitened, pixels = _leave_one_out(kind, data, subset)
+        selection[kind] = float(np.sqrt(np.mean(pixels**2)))
+        scores[kind] = float(np.median(whitened)) if robust else float(np.sqrt(np.mean(whitened**2)))
+    usable = {k: v for k, v in scores.items() if math.isfinite(v)}
+    if not usable:
+        detail = "; ".join(f"{k}: {v}" for k, v in reasons.items())
+        raise PanomapError(f"no radial model fits these landmarks ({detail})")
+    best = min(usable.values())
+    for kind in candidates:  # in order of preference: fewer parameters first
+        if kind in usable and usable[kind] <= best * (1 + SELECTION_TOLERANCE) + 1e-12:
+            return kind, selection
+    raise AssertionError("unreachable: the best model is among the usable ones")
+
+
+def _drop_worst(kind: str, data: _Data, inliers: FloatArray) -> FloatArray | None:
+    """``inliers`` less the worst leave-one-out landmark if it exceeds 5 robust sigmas, else None."""
+    if int(inliers.sum()) - 1 < MODEL_PARAMETERS[kind] + 3:
+        return None
+    whitened, _ = _leave_one_out(kind, data, inliers)
+    scale = max(1.0, float(np.median(whitened)) / MEDIAN_2D_NORM)
+    worst = int(np.argmax(whitened))
+    if whitened[worst] <= OUTLIER_SIGMAS * scale:
+        return None
+    fewer = inliers.copy()
+    fewer[np.flatnonzero(inliers)[worst]] = False
+    return fewer
+
+
+def _refine(
+    radial: RadialFunction,
+    phi0: float,
+    centre: tuple[float, float],
+    pixels: FloatArray,
+    data: _Data,
+    subset: FloatArray,
+    refine_centre: bool,
+) -> tuple[RadialFunction, float, tuple[float, float]]:
+    """Joint nonlinear least squares of f_r, phi0 and (optionally) the centre on whitened residuals."""
+    count = len(radial.coefficients)
+    rho, theta = data.rho[subset], data.theta[subset]
+    uv = pixels[subset]
+    radial_sigma = _radial_sigma(radial, data)[subset]
+    sigma_theta = data.sigma_theta[subset]
+
+    def unpack(p: FloatArray) -> tuple[RadialFunction, float, tuple[float, float]]:
+        c = (float(p[count + 1]), float(p[count + 2])) if refine_centre else centre
+        return RadialFunction(radial.kind, tuple(p[:count]), radial.axis), float(p[count]), c
+
+    def residuals(p: FloatArray) -> FloatArray:
+        f, offset, c = unpack(p)
+        r_obs = np.hypot(uv[:, 0] - c[0], uv[:, 1] - c[1])
+        phi_obs = np.arctan2(uv[:, 1] - c[1], uv[:, 0] - c[0])
+        radial_error = (f(rho) - r_obs) / radial_sigma
+        angle = np.angle(np.exp(1j * (data.s * theta + offset - phi_obs)))
+        tangential_error = r_obs * angle / np.sqrt(data.pixel_sigma**2 + (r_obs * sigma_theta) ** 2)
+        return np.nan_to_num(np.concatenate([radial_error, tangential_error]), nan=1e6)
+
+    start = np.array([*radial.coefficients, phi0, *(centre if refine_centre else ())], dtype=np.float64)
+    result = optimize.least_squares(residuals, start, x_scale="jac", max_nfev=200 * start.size)
+    if not result.success:
+        raise PanomapError(f"the joint refinement did not converge ({result.message})")
+    refined, offset, c = unpack(result.x)
+    offset = float(np.angle(np.exp(1j * offset)))
+    low, high = float(rho.min()), float(rho.max())
+    if not is_monotonic(refined, low, high):
+        return radial, phi0, centre  # keep the separable solution rather than a folded curve
+    return refined, offset, c
 
 
 def _check_inside(landmarks: Landmarks, image_size: tuple[int, int]) -> None:
@@ -269,22 +578,10 @@ def _consistency(delta: FloatArray, weights: FloatArray) -> float:
     return float(np.hypot(w @ np.cos(delta), w @ np.sin(delta)) / total)
 
 
-def _fit_azimuth(theta: FloatArray, phi: FloatArray, r: FloatArray, horizontal: FloatArray) -> tuple[int, float, float]:
-    """Handedness s and offset phi0 (rad) by a circular mean weighted by r^2.
-
-    Landmarks on the optical axis (no azimuth) or at the image centre (no
-    image angle) carry no weight.
-    """
-    weights = np.where((horizontal > 1e-12) & (r > 1e-9), r, 0.0)
-    if not np.any(weights > 0):
-        raise PanomapError("no landmark away from the image centre and the optical axis to fix the azimuth")
-    best: tuple[int, float, float] | None = None
-    for s in (1, -1):
-        delta = phi - s * theta
-        w = weights**2
-        phi0 = float(np.arctan2(w @ np.sin(delta), w @ np.cos(delta)))
-        consistency = _consistency(delta, weights)
-        if best is None or consistency > best[2]:
-            best = (s, phi0, consistency)
-    assert best is not None
-    return best
+def _handedness(theta: FloatArray, phi: FloatArray, r: FloatArray) -> int:
+    """s = +1 or -1: the sign under which the landmarks agree best on one phi0 (weighted by r^2)."""
+    if not np.any(r > 1e-9):
+        raise PanomapError("no landmark away from the image centre to fix the azimuth")
+    plus = _consistency(phi - theta, r)
+    minus = _consistency(phi + theta, r)
+    return 1 if plus >= minus else -1

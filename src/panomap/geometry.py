@@ -66,6 +66,40 @@ def ray_from_angles(theta: ArrayLike, rho: ArrayLike) -> FloatArray:
     return np.stack([cos_rho * np.cos(theta), cos_rho * np.sin(theta), np.sin(rho)], axis=-1)
 
 
+def ray_plane_points(origin: ArrayLike, theta: ArrayLike, rho: ArrayLike, z_plane: float) -> FloatArray:
+    """Where rays meet a horizontal plane.
+
+    Parameters
+    ----------
+    origin : (3,) array_like
+        The rays' common origin (X0, Y0, Z0), world units (the camera position O_m).
+    theta, rho : (...) array_like
+        Azimuth and elevation (rad) of each ray.
+    z_plane : float
+        Height Z of the plane, world units.
+
+    Returns
+    -------
+    (..., 3) ndarray
+        World points (X, Y, Z); NaN where the ray does not reach the plane
+        (it runs parallel to it or away from it, or its angles are NaN).
+    """
+    x0, y0, z0 = (float(c) for c in np.asarray(origin, dtype=np.float64))
+    theta = np.asarray(theta, dtype=np.float64)
+    rho = np.asarray(rho, dtype=np.float64)
+    rise = z_plane - z0
+    sin_rho = np.sin(rho)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        reaches = (rise * sin_rho > 0) & np.isfinite(theta)
+        along = np.where(reaches, rise / sin_rho, np.nan)  # distance along the unit ray
+    horizontal = along * np.cos(rho)
+    points = np.stack(
+        [x0 + horizontal * np.cos(theta), y0 + horizontal * np.sin(theta), np.full(horizontal.shape, z_plane)],
+        axis=-1,
+    )
+    return np.where(reaches[..., None], points, np.nan)
+
+
 def pixel_centres(width: int, height: int) -> tuple[FloatArray, FloatArray]:
     """Fractions across and down a view at its pixel centres.
 

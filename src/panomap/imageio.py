@@ -70,3 +70,59 @@ def save_map(path: str | Path, map_uv: NDArray[np.float32]) -> None:
     """Save a map (H, W, 2) float32 as ``.npy`` (the conventions' map file)."""
     array = np.ascontiguousarray(map_uv, dtype=np.float32)
     write_with(path, lambda handle: np.save(handle, array, allow_pickle=False))
+
+
+PGM_NO_SOURCE = 65535
+
+
+def map_to_pgm(map_uv: NDArray[np.float32]) -> tuple[NDArray[np.uint16], NDArray[np.uint16]]:
+    """A map as the two 16-bit planes of integer source columns and rows that ffmpeg's ``remap`` takes.
+
+    Parameters
+    ----------
+    map_uv : (H, W, 2) float32 ndarray
+        Source (u, v) per output pixel, NaN where there is no source.
+
+    Returns
+    -------
+    xmap, ymap : (H, W) uint16 ndarrays
+        ``rint(u)`` and ``rint(v)`` (half to even, as ``cv2.remap``'s nearest
+        neighbour rounds), 65535 (outside any frame, so ffmpeg fills it) where
+        there is no source or the position rounds below 0.
+
+    Raises
+    ------
+    PanomapError
+        If a source position is beyond 65534, which 16-bit maps cannot hold.
+    """
+    array = np.asarray(map_uv, dtype=np.float32)
+    if array.ndim != 3 or array.shape[2] != 2:
+        raise PanomapError(f"a map must have shape (H, W, 2), not {array.shape}")
+    with np.errstate(invalid="ignore"):
+        rounded = np.rint(array)
+        valid = np.all(np.isfinite(rounded), axis=2) & np.all(rounded >= 0, axis=2)
+        if np.any(valid & np.any(rounded >= PGM_NO_SOURCE, axis=2)):
+            raise PanomapError("the map reaches beyond pixel 65534, more than 16-bit PGM maps hold")
+    planes = np.where(valid[..., None], rounded, PGM_NO_SOURCE).astype(np.uint16)
+    return np.ascontiguousarray(planes[..., 0]), np.ascontiguousarray(planes[..., 1])
+
+
+def pgm_map_paths(prefix: str | Path) -> tuple[Path, Path]:
+    """``PREFIX_x.pgm`` and ``PREFIX_y.pgm``: where :func:`save_map_pgm` writes."""
+    prefix = Path(prefix)
+    return prefix.with_name(f"{prefix.name}_x.pgm"), prefix.with_name(f"{prefix.name}_y.pgm")
+
+
+def save_map_pgm(prefix: str | Path, map_uv: NDArray[np.float32]) -> tuple[Path, Path]:
+    """Save a map for ffmpeg's ``remap`` filter as ``PREFIX_x.pgm`` and ``PREFIX_y.pgm``.
+
+    Binary 16-bit PGM (P5, maxval 65535, big-endian) of :func:`map_to_pgm`'s
+    planes: nearest neighbour, integer source column and row per output pixel.
+    Use them as ``ffmpeg -i IN -i PREFIX_x.pgm -i PREFIX_y.pgm -lavfi remap OUT``.
+    Returns the two paths.
+    """
+    xmap, ymap = map_to_pgm(map_uv)
+    paths = pgm_map_paths(prefix)
+    for path, plane in zip(paths, (xmap, ymap), strict=True):
+        write_image(path, plane)
+    return paths

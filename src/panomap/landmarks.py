@@ -173,8 +173,18 @@ def landmarks_to_csv(landmarks: Landmarks) -> str:
     return "\n".join(lines) + "\n"
 
 
-def read_points(path: str | Path) -> tuple[list[str], list[list[str]], FloatArray]:
-    """Read world points from a CSV with at least the columns ``X,Y,Z``.
+def read_points(
+    path: str | Path, columns: tuple[str, ...] = ("X", "Y", "Z")
+) -> tuple[list[str], list[list[str]], FloatArray]:
+    """Read numeric columns (by default world points ``X,Y,Z``) from a CSV, keeping every row.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A CSV with a header holding at least ``columns`` (any case, any order);
+        other columns are kept for passing through.
+    columns : tuple of str
+        The columns to read as numbers, e.g. ``("u", "v")`` for pixels.
 
     Returns
     -------
@@ -182,8 +192,14 @@ def read_points(path: str | Path) -> tuple[list[str], list[list[str]], FloatArra
         The file's header, as written.
     rows : list of list of str
         Every row's fields, to pass through.
-    points : (n, 3) ndarray
-        X, Y, Z of each row, world units.
+    values : (n, len(columns)) ndarray
+        The columns' values per row (world units for X, Y, Z; px for u, v).
+
+    Raises
+    ------
+    PanomapError
+        Naming the file (and the row), for a missing or unreadable file, a
+        missing column, a short row or a value that is not a finite number.
     """
     path = Path(path)
     try:
@@ -193,20 +209,21 @@ def read_points(path: str | Path) -> tuple[list[str], list[list[str]], FloatArra
     except (OSError, UnicodeDecodeError) as exc:
         raise PanomapError(f"cannot read it ({exc.__class__.__name__}: {exc})", path) from None
     rows = list(csv.reader(line for line in text.splitlines() if line.strip()))
+    wanted = ",".join(columns)
     if not rows:
-        raise PanomapError("the CSV is empty; it needs a header with X,Y,Z", path)
+        raise PanomapError(f"the CSV is empty; it needs a header with {wanted}", path)
     header = [h.strip() for h in rows[0]]
     lowered = [h.lower() for h in header]
-    missing = [c for c in ("X", "Y", "Z") if c.lower() not in lowered]
+    missing = [c for c in columns if c.lower() not in lowered]
     if missing:
         raise PanomapError(f"the CSV lacks the column(s) {','.join(missing)}; it holds {','.join(header)}", path)
-    index = [lowered.index(c) for c in ("x", "y", "z")]
-    points = []
+    index = [lowered.index(c.lower()) for c in columns]
+    values = []
     for line, row in enumerate(rows[1:], start=2):
         if len(row) < len(header):
             raise PanomapError(f"row {line} has {len(row)} fields, the header {len(header)}", path)
         try:
-            points.append([_number(row[i].strip(), f"row {line}, {header[i]}") for i in index])
+            values.append([_number(row[i].strip(), f"row {line}, {header[i]}") for i in index])
         except PanomapError as exc:
             raise PanomapError(exc.detail, path) from None
-    return header, rows[1:], np.array(points, dtype=np.float64).reshape(-1, 3)
+    return header, rows[1:], np.array(values, dtype=np.float64).reshape(-1, len(columns))

@@ -15,6 +15,8 @@ Models, with their parameters in order:
 - ``odd1``, ``odd3``, ``odd5``: ``(a1[, a3[, a5]])``,
   ``r = a1 alpha + a3 alpha^3 + a5 alpha^5``: the usual fisheye form; passes
   through the axis by construction.
+- ``poly2``, ``poly3``: ``(a1, a2[, a3])``, ``r = a1 alpha + a2 alpha^2 + a3 alpha^3``:
+  low-degree polynomials through the optical axis (r = 0 where it lands).
 - ``unified``: ``(gamma, xi)``, ``r = gamma sin(alpha) / (xi + cos(alpha))``:
   the unified model of single-viewpoint mirror cameras (xi = 1 parabolic,
   0 < xi < 1 hyperbolic, xi = 0 a pinhole); NaN where ``xi + cos(alpha) <= 0``.
@@ -33,10 +35,18 @@ from .errors import PanomapError
 from .geometry import HALF_PI, FloatArray
 
 AXES = ("down", "up")
-MODEL_PARAMETERS: dict[str, int] = {"paper": 5, "odd1": 1, "odd3": 2, "odd5": 3, "unified": 2}
+MODEL_PARAMETERS: dict[str, int] = {
+    "paper": 5,
+    "odd1": 1,
+    "odd3": 2,
+    "odd5": 3,
+    "poly2": 2,
+    "poly3": 3,
+    "unified": 2,
+}
 MODELS = tuple(MODEL_PARAMETERS)
-# The order in which automatic selection prefers models that tie.
-AUTO_CANDIDATES = ("odd1", "odd3", "unified", "odd5", "paper")
+# The order in which automatic selection prefers models that tie: fewer parameters first.
+AUTO_CANDIDATES = ("odd1", "odd3", "unified", "poly2", "odd5", "poly3", "paper")
 
 
 def axis_elevation(axis: str) -> float:
@@ -95,9 +105,13 @@ class RadialFunction:
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = gamma * np.sin(alpha) / denominator
             return np.where(denominator > 0, r, np.nan)
-        odd_only = np.zeros(2 * len(c))
-        odd_only[1::2] = c
-        return np.asarray(np.polynomial.polynomial.polyval(alpha, odd_only), dtype=np.float64)
+        return np.asarray(np.polynomial.polynomial.polyval(alpha, _power_coefficients(self.kind, c)), dtype=np.float64)
+
+    def slope(self, rho: ArrayLike) -> FloatArray:
+        """dr/drho (px/rad) at elevation(s) ``rho``, by central differences."""
+        rho = np.asarray(rho, dtype=np.float64)
+        step = 1e-6
+        return (self(rho + step) - self(rho - step)) / (2 * step)
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "coefficients": list(self.coefficients), "axis": self.axis}
@@ -112,11 +126,23 @@ class RadialFunction:
             raise PanomapError(f"radial model is malformed ({exc})") from None
 
 
-def _design_odd(alpha: FloatArray, count: int) -> FloatArray:
-    return np.stack([alpha ** (2 * k + 1) for k in range(count)], axis=-1)
+def _power_coefficients(kind: str, c: tuple[float, ...]) -> FloatArray:
+    """Coefficients of alpha^0, alpha^1, ... of a polynomial model through the axis."""
+    if kind.startswith("odd"):
+        full = np.zeros(2 * len(c))
+        full[1::2] = c
+        return full
+    return np.concatenate([[0.0], c])
 
 
-def fit_radial(kind: str, rho: ArrayLike, r: ArrayLike, axis: str) -> RadialFunction:
+def _design(kind: str, alpha: FloatArray) -> FloatArray:
+    """Design matrix (n, p) of a polynomial model through the axis."""
+    count = MODEL_PARAMETERS[kind]
+    powers = [2 * k + 1 for k in range(count)] if kind.startswith("odd") else [k + 1 for k in range(count)]
+    return np.stack([alpha**p for p in powers], axis=-1)
+
+
+def fit_radial(kind: str, rho: ArrayLike, r: ArrayLike, axis: str, weights: ArrayLike | None = None) -> RadialFunction:
     """Least-squares fit of one radial model to landmark (rho, r) pairs.
 
     Parameters
@@ -130,6 +156,9 @@ def fit_radial(kind: str, rho: ArrayLike, r: ArrayLike, axis: str) -> RadialFunc
     axis : {"down", "up"}
         Which pole the image centre sees; gives the centre pair (the paper's
         (O_c, O_m): ``r = 0`` at ``rho = -pi/2`` looking down, ``+pi/2`` up).
+    weights : (n,) array_like, optional
+        Weight of each landmark's radial residual (1/sigma, 1/px). The
+        ``paper`` model ignores them: Algorithm 1 is unweighted.
 
     Raises
     ------
@@ -152,22 +181,23 @@ def fit_radial(kind: str, rho: ArrayLike, r: ArrayLike, axis: str) -> RadialFunc
         coefficients, *_ = np.linalg.lstsq(design, r_all, rcond=None)
         return RadialFunction("paper", tuple(coefficients), axis)
     alpha = alpha_of_rho(rho, axis)
+    w = np.ones_like(r) if weights is None else np.asarray(weights, dtype=np.float64)
     if kind == "unified":
-        return RadialFunction("unified", _fit_unified(alpha, r), axis)
-    design = _design_odd(alpha, MODEL_PARAMETERS[kind])
-    coefficients, *_ = np.linalg.lstsq(design, r, rcond=None)
+        return RadialFunction("unified", _fit_unified(alpha, r, w), axis)
+    design = _design(kind, alpha)
+    coefficients, *_ = np.linalg.lstsq(design * w[:, None], r * w, rcond=None)
     return RadialFunction(kind, tuple(coefficients), axis)
 
 
-def _fit_unified(alpha: FloatArray, r: FloatArray) -> tuple[float, float]:
-    """(gamma, xi) minimising the radial residual; gamma is solved in closed form."""
+def _fit_unified(alpha: FloatArray, r: FloatArray, w: FloatArray) -> tuple[float, float]:
+    """(gamma, xi) minimising the weighted radial residual; gamma is solved in closed form."""
     xi_low = max(0.0, -float(np.cos(alpha.max()))) + 1e-6
     xi_high = 50.0
 
     def profile(xi: float) -> tuple[float, float]:
-        g = np.sin(alpha) / (xi + np.cos(alpha))
-        gamma = float(g @ r / (g @ g))
-        return float(np.sum((gamma * g - r) ** 2)), gamma
+        g = w * np.sin(alpha) / (xi + np.cos(alpha))
+        gamma = float(g @ (w * r) / (g @ g))
+        return float(np.sum((gamma * g - w * r) ** 2)), gamma
 
     grid = xi_low + (xi_high - xi_low) * np.linspace(0.0, 1.0, 401) ** 3
     costs = np.array([profile(x)[0] for x in grid])
@@ -198,20 +228,45 @@ def is_monotonic(radial: RadialFunction, rho_low: float, rho_high: float, sample
     return bool(np.all(steps > 0) if radial.axis == "down" else np.all(steps < 0))
 
 
-def leave_one_out_rms(kind: str, rho: FloatArray, r: FloatArray, axis: str) -> float:
-    """RMS (px) of each landmark's radial residual under a fit made without it."""
-    errors = []
-    for k in range(rho.size):
-        keep = np.arange(rho.size) != k
-        try:
-            radial = fit_radial(kind, rho[keep], r[keep], axis)
-        except PanomapError:
-            return float("inf")
-        errors.append(float(radial(rho[k]) - r[k]))
-    values = np.asarray(errors)
-    if not np.all(np.isfinite(values)):
-        return float("inf")
-    return float(np.sqrt(np.mean(values**2)))
+def coefficient_covariance(
+    radial: RadialFunction, rho: FloatArray, r: FloatArray, weights: FloatArray | None = None
+) -> FloatArray:
+    """Covariance (p, p) of the coefficients from the weighted residuals' Jacobian.
+
+    ``C = (J^T J)^-1 s^2`` with J the Jacobian of the weighted radial residuals
+    and ``s^2`` their sum of squares over the degrees of freedom (1 when there
+    are none). For the ``paper`` model the centre pair counts as a residual.
+    """
+    w = np.ones_like(r) if weights is None else np.asarray(weights, dtype=np.float64)
+    if radial.kind == "paper":
+        rho = np.concatenate([[axis_elevation(radial.axis)], rho])
+        r = np.concatenate([[0.0], r])
+        w = np.ones_like(r)
+    base = np.asarray(radial.coefficients)
+    jacobian = np.empty((rho.size, base.size))
+    for k in range(base.size):
+        step = 1e-6 * max(1.0, abs(base[k]))
+        shifted = base.copy()
+        shifted[k] += step
+        jacobian[:, k] = w * (RadialFunction(radial.kind, tuple(shifted), radial.axis)(rho) - radial(rho)) / step
+    residual = w * (radial(rho) - r)
+    dof = rho.size - base.size
+    scale = float(residual @ residual / dof) if dof > 0 else 1.0
+    return np.asarray(np.linalg.pinv(jacobian.T @ jacobian) * scale)
+
+
+def radius_standard_error(radial: RadialFunction, covariance: FloatArray, rho: ArrayLike) -> FloatArray:
+    """Standard error (px) of f_r at elevation(s) ``rho`` given the coefficients' covariance."""
+    rho = np.asarray(rho, dtype=np.float64)
+    base = np.asarray(radial.coefficients)
+    gradient = np.empty((*rho.shape, base.size))
+    for k in range(base.size):
+        step = 1e-6 * max(1.0, abs(base[k]))
+        shifted = base.copy()
+        shifted[k] += step
+        gradient[..., k] = (RadialFunction(radial.kind, tuple(shifted), radial.axis)(rho) - radial(rho)) / step
+    variance = np.einsum("...i,ij,...j->...", gradient, covariance, gradient)
+    return np.sqrt(np.maximum(variance, 0.0))
 
 
 def valid_elevation_range(

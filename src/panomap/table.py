@@ -15,6 +15,16 @@ Sampling at fractional indices ``fi = theta*M/(2*pi)``,
 
 Rays outside [rho_s, rho_e], or landing outside the image, get NaN.
 
+The sampling itself is ``cv2.remap`` over the entries laid out as two float32
+images (u and v), padded with the azimuth wrap and the extrapolated last cell.
+OpenCV 5 interpolates 1-, 3- and 4-channel float32 images with exact float
+weights (older versions, and 2-channel images, use 1/32 steps), so the result
+is the bilinear interpolation of the entries in float32 arithmetic: within
+1.5e-4 px of a float64 evaluation for coordinates below 1024 px, 3e-4 px below
+2048 px (about two float32 steps). Indices are computed in the angles'
+precision (float32 angles give float32 indices).
+:meth:`PanoMappingTable.unproject` inverts the table.
+
 File: a NumPy ``.npz`` holding ``entries`` and ``meta`` (JSON text with
 ``format = "panomap-table"``, ``version``, the model, the elevation range,
 radii, image size, camera position, the landmarks and the fit report, and the
@@ -30,28 +40,37 @@ import json
 import math
 import zipfile
 from dataclasses import dataclass, field
+from functools import cache, cached_property
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import PanomapError
 from .files import write_with
-from .fit import CameraFit
-from .geometry import TWO_PI, FloatArray, azimuth_elevation
+from .fit import CameraFit, annulus_coverage_problem
+from .geometry import TWO_PI, FloatArray, azimuth_elevation, wrap_azimuth
 from .model import CameraModel
-from .radial import valid_elevation_range
+from .radial import radius_standard_error, valid_elevation_range
 
 TABLE_FORMAT = "panomap-table"
 TABLE_VERSION = 1
 SAMPLINGS = ("bilinear", "nearest")
 MAX_TABLE_ENTRIES = 50_000_000
+# cv2.remap takes images and maps below 32767 px a side; the padded table must fit.
+MAX_TABLE_SIDE = 32_000
 # Default sizes stop here: bilinear sampling is then within 1e-3 px of the model.
 DEFAULT_MAX_SIZE = (4096, 1024)
 # Entries are float32: about 1e-4 px at radii of 2000 px. A loaded table whose
 # entries stray further than this from its own model is corrupt.
 ENTRY_TOLERANCE_PX = 1e-2
+# A row index that reads only the NaN border of the sampling images (invalid pixels go there).
+OUTSIDE = -4.0
+# Pixels this close outside the annulus or the radial profile's ends (px) still unproject:
+# the ends are solved to rounding, and a pixel's radius is computed to rounding.
+PROFILE_SLACK_PX = 1e-6
 
 
 @dataclass(frozen=True)
@@ -92,6 +111,10 @@ class PanoMappingTable:
         rho_s, rho_e = (float(x) for x in self.elevation_range)
         if not (-math.pi / 2 - 1e-9 <= rho_s < rho_e <= math.pi / 2 + 1e-9):
             raise PanomapError(f"table elevation range {rho_s}..{rho_e} rad is not an interval in [-pi/2, pi/2]")
+        if max(entries.shape[:2]) > MAX_TABLE_SIDE:
+            raise PanomapError(
+                f"table size {entries.shape[0]}x{entries.shape[1]}: at most {MAX_TABLE_SIDE} entries a side"
+            )
         entries.setflags(write=False)
         object.__setattr__(self, "entries", entries)
         object.__setattr__(self, "elevation_range", (rho_s, rho_e))
@@ -112,48 +135,215 @@ class PanoMappingTable:
         rho_s, rho_e = self.elevation_range
         return rho_s + np.arange(n) * (rho_e - rho_s) / n
 
-    def sample(self, theta: ArrayLike, rho: ArrayLike, sampling: str = "bilinear") -> FloatArray:
-        """Pixels (..., 2) of rays (azimuth, elevation in rad) read from the table.
+    def sample(
+        self, theta: ArrayLike, rho: ArrayLike, sampling: str = "bilinear", *, overwrite: bool = False
+    ) -> NDArray[np.float32]:
+        """Pixels of rays, read from the table.
 
-        NaN where ``rho`` is outside the table's range, the ray is NaN, or the
-        pixel falls outside the image.
+        Parameters
+        ----------
+        theta, rho : (...) array_like
+            Azimuth and elevation (rad), broadcast together. Any azimuth wraps.
+            float32 inputs are indexed in float32 (for maps, where speed
+            matters), anything else in float64.
+        sampling : {"bilinear", "nearest"}
+            See the module docstring.
+        overwrite : bool
+            Let the method use ``theta`` and ``rho`` as its scratch memory when
+            they are (H, W) float32 arrays of their own (saves two allocations
+            for maps); their contents are then lost.
+
+        Returns
+        -------
+        (..., 2) float32 ndarray
+            Pixel (u, v); NaN where ``rho`` is outside the table's range, the
+            ray is NaN, or the pixel falls outside the image.
         """
         if sampling not in SAMPLINGS:
             raise PanomapError(f"table sampling must be bilinear or nearest, not {sampling!r}")
-        theta = np.asarray(theta, dtype=np.float64)
-        rho = np.asarray(rho, dtype=np.float64)
+        theta_in, rho_in = np.broadcast_arrays(np.asarray(theta), np.asarray(rho))
+        dtype = np.float32 if theta_in.dtype == np.float32 and rho_in.dtype == np.float32 else np.float64
+        shape = theta_in.shape
+        count = theta_in.size
+        if count == 0:
+            return np.empty((*shape, 2), dtype=np.float32)
         m, n = self.size
         rho_s, rho_e = self.elevation_range
-        fi = np.mod(theta, TWO_PI) * (m / TWO_PI)
-        fj = (rho - rho_s) * (n / (rho_e - rho_s))
-        valid = np.isfinite(fi) & np.isfinite(fj) & (fj >= 0) & (fj <= n)
-        fi = np.where(valid, fi, 0.0)
-        fj = np.where(valid, fj, 0.0)
-        floor_i = np.floor(fi)
-        i0 = floor_i.astype(np.intp) % m
-        if sampling == "nearest":
-            j0 = np.minimum(np.floor(fj).astype(np.intp), n - 1)
-            uv = self.entries[i0, j0].astype(np.float64)
+        rows, cols = _remap_grid(shape)
+        reuse = (
+            overwrite
+            and dtype == np.float32
+            and (rows, cols) == shape
+            and all(isinstance(a, np.ndarray) and a.flags.c_contiguous and a.flags.writeable for a in (theta, rho))
+            and not np.may_share_memory(theta, rho)
+        )
+        fi_flat: NDArray[np.floating[Any]]
+        fj_flat: NDArray[np.floating[Any]]
+        if reuse:
+            fi_flat, fj_flat = np.asarray(theta).reshape(-1), np.asarray(rho).reshape(-1)
         else:
-            j0 = np.minimum(np.floor(fj).astype(np.intp), n - 2)
-            wi = (fi - floor_i)[..., None]
-            wj = (fj - j0)[..., None]
-            i1 = (i0 + 1) % m
-            e = self.entries
-            uv = (1 - wj) * ((1 - wi) * e[i0, j0] + wi * e[i1, j0]) + wj * (
-                (1 - wi) * e[i0, j0 + 1] + wi * e[i1, j0 + 1]
-            )
+            fi_flat, fj_flat = np.empty(rows * cols, dtype), np.empty(rows * cols, dtype)
+        fi = fi_flat[:count].reshape(shape)
+        fj = fj_flat[:count].reshape(shape)
+        np.multiply(theta_in, m / TWO_PI, out=fi, casting="unsafe")
+        np.subtract(rho_in, rho_s, out=fj, casting="unsafe")
+        fj *= n / (rho_e - rho_s)
+        fi_flat[count:] = 0.0
+        fj_flat[count:] = OUTSIDE
+        with np.errstate(invalid="ignore"):
+            # The padded images hold columns M..M+2 (= 0..2): indices up to M + 1 need no wrapping.
+            # NaN anywhere makes these comparisons false, and the careful path below runs.
+            plain = bool(fi_flat.min() >= 0) and bool(fi_flat.max() <= m + 1)
+            highest = fj_flat.max()
+            plain &= bool(np.isfinite(fj_flat.min())) and bool(np.isfinite(highest))
+            if plain:
+                # Below rho_s the reads reach the NaN border by themselves; beyond rho_e they must be sent there.
+                if highest > n:
+                    np.copyto(fj_flat, OUTSIDE, where=fj_flat > n)
+            else:
+                fi_flat -= m * np.floor(fi_flat / m)
+                invalid = ~((fj_flat >= 0) & (fj_flat <= n) & np.isfinite(fi_flat))
+                np.copyto(fi_flat, 0.0, where=invalid)
+                np.copyto(fj_flat, OUTSIDE, where=invalid)
+        u_image, v_image, all_inside = self._remap_images
+        if sampling == "nearest":
+            np.floor(fi_flat, out=fi_flat)
+            np.floor(fj_flat, out=fj_flat)
+            np.minimum(fj_flat, n - 1, out=fj_flat)
+            interpolation = cv2.INTER_NEAREST
+        else:
+            interpolation = cv2.INTER_LINEAR
+        map_x = fi_flat.astype(np.float32, copy=False).reshape(rows, cols)
+        map_y = fj_flat.astype(np.float32, copy=False).reshape(rows, cols)
+        u = cv2.remap(u_image, map_x, map_y, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
+        v = cv2.remap(v_image, map_x, map_y, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
+        uv = cv2.merge([u, v])
+        if not all_inside and self.image_size is not None:
+            width, height = self.image_size
+            inside = cv2.inRange(uv, (-0.5, -0.5), (width - 0.5, height - 0.5))
+            uv[inside == 0] = np.nan
+        return np.asarray(uv.reshape(-1, 2)[:count].reshape(*shape, 2), dtype=np.float32)
+
+    @cached_property
+    def _remap_images(self) -> tuple[NDArray[np.float32], NDArray[np.float32], bool]:
+        """The entries as (N + 2, M + 3) float32 u and v images for ``cv2.remap``.
+
+        Row j, column i holds entry (i, j): azimuth runs along the rows, as it
+        does along most views' rows, which keeps reads close together. Columns
+        M..M+2 repeat columns 0..2 (the azimuth wrap); row N continues the
+        line through the last two entries (the last cell reaches rho_e) and
+        row N+1 repeats it, so every read of a valid index is finite. Also
+        says whether every value lies inside the image, when the bounds check
+        can be skipped.
+        """
+        _check_exact_remap()
+        m, n = self.size
+        entries = self.entries.astype(np.float64).transpose(1, 0, 2)
+        padded = np.empty((n + 2, m + 3, 2))
+        padded[:n, :m] = entries
+        padded[:n, m:] = entries[:, np.arange(3) % m]
+        padded[n] = 2 * padded[n - 1] - padded[n - 2]
+        padded[n + 1] = padded[n]
+        images = padded.astype(np.float32)
+        u_image = np.ascontiguousarray(images[..., 0])
+        v_image = np.ascontiguousarray(images[..., 1])
+        all_inside = True
         if self.image_size is not None:
             width, height = self.image_size
-            u, v = uv[..., 0], uv[..., 1]
-            valid &= (u >= -0.5) & (u <= width - 0.5) & (v >= -0.5) & (v <= height - 0.5)
-        return np.where(valid[..., None], uv, np.nan)
+            all_inside = bool(
+                np.all((u_image >= -0.5) & (u_image <= width - 0.5) & (v_image >= -0.5) & (v_image <= height - 0.5))
+            )
+        for image in (u_image, v_image):
+            image.setflags(write=False)
+        return u_image, v_image, all_inside
 
-    def project(self, points: ArrayLike, sampling: str = "bilinear") -> FloatArray:
+    def project(self, points: ArrayLike, sampling: str = "bilinear") -> NDArray[np.float32]:
         """Pixels (..., 2) of world points (..., 3) through the table; NaN where not visible."""
         d = np.asarray(points, dtype=np.float64) - np.asarray(self.camera_position)
         theta, rho = azimuth_elevation(d)
         return self.sample(theta, rho, sampling)
+
+    def unproject(self, uv: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Azimuth and elevation of pixels: the inverse of the table.
+
+        The table is filled from its model, ``u = u0 + f_r(rho) cos(s*theta + phi0)``,
+        ``v = v0 + f_r(rho) sin(s*theta + phi0)``, and read bilinearly. So:
+        ``theta = s*(phi - phi0)`` from the image angle ``phi = atan2(v - v0, u - u0)``,
+        and ``rho`` inverts the table's radial profile, ``r_j = f_r(rho_j)`` at the
+        table's elevations joined linearly as sampling joins them (the last cell
+        continuing the line to rho_e). f_r must be strictly monotonic there, which
+        makes the inverse exact and unique. :meth:`sample` of the result gives the
+        pixel back within 1e-3 px (what is left is the table's chords in azimuth,
+        ``r (pi/M)^2 / 2``, and float32); inverting f_r itself would differ from
+        that by the table's interpolation error, up to ``f_r'' drho^2`` in the last
+        cell (0.02 px at the rim of an 800 px hyperbolic mirror image).
+
+        Convention: pixel centres at integers, (0, 0) the top-left one; the image
+        centre itself (r = 0, when inside the range) gets azimuth 0, as a vertical
+        ray does in :func:`~panomap.geometry.azimuth_elevation`.
+
+        Parameters
+        ----------
+        uv : (..., 2) array_like
+            Pixels (u, v).
+
+        Returns
+        -------
+        theta : (...) ndarray
+            Azimuth (rad) in [0, 2*pi).
+        rho : (...) ndarray
+            Elevation (rad) in [rho_s, rho_e].
+            Both NaN outside the valid region: inside the cut-off radius, beyond
+            the outer radius, beyond the table's elevation range, or outside the
+            image.
+
+        Raises
+        ------
+        PanomapError
+            If f_r is not strictly monotonic over the table's elevations.
+        """
+        points = np.asarray(uv, dtype=np.float64)
+        if points.ndim == 0 or points.shape[-1] != 2:
+            raise PanomapError(f"pixels must have shape (..., 2), not {points.shape}")
+        u0, v0 = self.model.centre
+        du = points[..., 0] - u0
+        dv = points[..., 1] - v0
+        r = np.hypot(du, dv)
+        theta = np.where(r == 0, 0.0, wrap_azimuth(self.model.s * (np.arctan2(dv, du) - self.model.phi0)))
+        rho_nodes, increasing, sign = self._radial_profile
+        low, high = increasing[0], increasing[-1]
+        with np.errstate(invalid="ignore"):
+            slack = PROFILE_SLACK_PX
+            valid = np.isfinite(r) & (r >= self.cutoff_radius - slack) & (r <= self.outer_radius + slack)
+            if self.image_size is not None:
+                width, height = self.image_size
+                valid &= (points[..., 0] >= -0.5) & (points[..., 0] <= width - 0.5)
+                valid &= (points[..., 1] >= -0.5) & (points[..., 1] <= height - 0.5)
+            target = sign * r
+            # The annulus' own edges sit on the profile's ends to rounding (they were solved for).
+            valid &= (target >= low - slack) & (target <= high + slack)
+        rho = np.interp(np.where(valid, target, low), increasing, rho_nodes)
+        return np.where(valid, theta, np.nan), np.where(valid, rho, np.nan)
+
+    @cached_property
+    def _radial_profile(self) -> tuple[FloatArray, FloatArray, float]:
+        """The table's radial profile as (rho nodes (N+1,), sign * r at them, sign).
+
+        Nodes are rho_j (j < N) and rho_e; r_j = f_r(rho_j), and at rho_e the line
+        through the last two entries, as bilinear sampling reads it. ``sign``
+        (+1 looking down, -1 up) makes ``sign * r`` increase with rho.
+        """
+        radial = self.model.radial
+        rho_nodes = np.append(self.elevations(), self.elevation_range[1])
+        radii = radial(rho_nodes[:-1])
+        radii = np.append(radii, 2 * radii[-1] - radii[-2])
+        sign = 1.0 if radial.axis == "down" else -1.0
+        increasing = sign * radii
+        if not (np.all(np.isfinite(increasing)) and np.all(np.diff(increasing) > 0)):
+            raise PanomapError(
+                f"the table's radial function ({radial.kind}) is not strictly monotonic on its elevation range"
+            )
+        return rho_nodes, increasing, sign
 
     def metadata(self) -> dict[str, Any]:
         """Everything but the entries, as JSON-ready data (angles in rad)."""
@@ -180,6 +370,27 @@ class PanoMappingTable:
             np.savez(handle, entries=self.entries, meta=np.array(text))
 
         write_with(path, writer)
+
+
+def _remap_grid(shape: tuple[int, ...]) -> tuple[int, int]:
+    """(rows, cols) to lay ``shape``'s elements out for ``cv2.remap`` (below 32767 a side)."""
+    if len(shape) == 2 and 0 < shape[0] < MAX_TABLE_SIDE and 0 < shape[1] < MAX_TABLE_SIDE:
+        return shape[0], shape[1]
+    count = math.prod(shape)
+    cols = min(count, 16_384)
+    return -(-count // cols), cols
+
+
+@cache
+def _check_exact_remap() -> None:
+    """Refuse an OpenCV whose ``remap`` interpolates float32 images in 1/32 steps (before 5.0)."""
+    image = np.array([[0.0, 1000.0], [0.0, 1000.0]], dtype=np.float32)
+    at = np.full((1, 1), 0.3, dtype=np.float32)
+    value = float(cv2.remap(image, at, np.zeros_like(at), cv2.INTER_LINEAR)[0, 0])
+    if abs(value - 300.0) > 1e-3:
+        raise PanomapError(
+            f"OpenCV {cv2.__version__} interpolates float images in 1/32-pixel steps; panomap needs OpenCV >= 5.0"
+        )
 
 
 def fill_entries(
@@ -211,6 +422,8 @@ def check_table_size(size: tuple[int, int], what: str = "--size") -> tuple[int, 
         raise PanomapError(f"{what} {m}x{n}: a table needs M >= 4 and N >= 2")
     if m * n > MAX_TABLE_ENTRIES:
         raise PanomapError(f"{what} {m}x{n}: {m * n:,} entries is more than the limit of {MAX_TABLE_ENTRIES:,}")
+    if max(m, n) > MAX_TABLE_SIDE:
+        raise PanomapError(f"{what} {m}x{n}: at most {MAX_TABLE_SIDE} entries a side")
     return m, n
 
 
@@ -269,6 +482,14 @@ def create_table(
         raise PanomapError(
             f"the cut-off radius ({cutoff_radius:g} px) must be >= 0 and below the outer radius ({outer_radius:g} px)"
         )
+    known = [name for name in ("cutoff_radius", "outer_radius") if not sources[name].startswith("default")]
+    if known:
+        problem = annulus_coverage_problem(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius)
+        if problem:
+            raise PanomapError(
+                f"the fitted radial function ({fit.model.radial.kind}) {problem}; it must run monotonically "
+                "from the cut-off radius to the image circle (try another --model, or check the radii)"
+            )
     rho_s, rho_e = valid_elevation_range(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius)
     if size is None:
         r_span = abs(float(fit.model.radial(rho_e) - fit.model.radial(rho_s)))
@@ -279,7 +500,8 @@ def create_table(
     entries = fill_entries(fit.model, size, (rho_s, rho_e))
     table_info = dict(info or {})
     table_info["sources"] = sources
-    table_info["fit"] = fit.report()
+    table_info["fit"] = fit.report() | {"uncertainty": _uncertainty(fit, (rho_s, rho_e))}
+    table_info["warnings"] = _range_warnings(fit.landmark_range, (rho_s, rho_e))
     return PanoMappingTable(
         entries=entries,
         elevation_range=(rho_s, rho_e),
@@ -290,6 +512,42 @@ def create_table(
         outer_radius=outer_radius,
         info=table_info,
     )
+
+
+# The table may reach this far beyond the landmarks' elevations before a warning says so.
+EXTRAPOLATION_WARNING_DEG = 3.0
+
+
+def _uncertainty(fit: CameraFit, elevation_range: tuple[float, float]) -> dict[str, Any]:
+    """Standard error of f_r (px) on a grid over the table's range, and its summary."""
+    rho = np.linspace(*elevation_range, 91)
+    se = radius_standard_error(fit.model.radial, fit.covariance, rho)
+    low, high = fit.landmark_range
+    inside = (rho >= low) & (rho <= high)
+    return {
+        "elevation_deg": np.degrees(rho).tolist(),
+        "radius_se_px": se.tolist(),
+        "max_se_in_landmark_range_px": float(se[inside].max()) if inside.any() else None,
+        "max_se_px": float(se.max()),
+    }
+
+
+def _range_warnings(landmark_range: tuple[float, float], table_range: tuple[float, float]) -> list[str]:
+    """Warnings where the table reaches beyond the landmarks' elevations by more than a few degrees."""
+    warnings = []
+    below = math.degrees(landmark_range[0] - table_range[0])
+    above = math.degrees(table_range[1] - landmark_range[1])
+    if below > EXTRAPOLATION_WARNING_DEG:
+        warnings.append(
+            f"the table reaches {below:.1f} deg below the lowest landmark "
+            f"({math.degrees(landmark_range[0]):.1f} deg): the radius there is extrapolated"
+        )
+    if above > EXTRAPOLATION_WARNING_DEG:
+        warnings.append(
+            f"the table reaches {above:.1f} deg above the highest landmark "
+            f"({math.degrees(landmark_range[1]):.1f} deg): the radius there is extrapolated"
+        )
+    return warnings
 
 
 def _digest(entries: NDArray[np.float32]) -> str:

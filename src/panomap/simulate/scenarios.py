@@ -1,0 +1,157 @@
+"""The robust-fit scenarios: ceiling cameras in a 6 x 5 x 2.6 m room, noisy landmarks.
+
+Used by ``bench/bench_fit.py`` and ``tests/test_fit_robust.py``. Landmarks lie
+where rays from the camera hit the room's floor, walls (or ceiling); world
+points get Gaussian noise in world units, pixels in px. The error of a fit is
+the worst pixel error over test points at elevations -85..-5 deg that the
+camera sees.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from panomap.fit import fit_camera
+from panomap.geometry import ray_from_angles
+from panomap.landmarks import Landmarks
+from panomap.simulate.cameras import RadialCamera
+from panomap.table import create_table
+
+ROOM_SIZE = (6.0, 5.0, 2.6)
+CAMERA_POSITION = (3.1, 2.4, 2.45)
+IMAGE_SIZE = (1920, 1920)
+TEST_ELEVATIONS_DEG = (-85.0, -5.0)
+
+
+def scenario_cameras() -> dict[str, RadialCamera]:
+    """The issue's six ceiling cameras on 1920 x 1920 images (about 10 px per degree)."""
+    outer = 0.47 * IMAGE_SIZE[0]
+    middle = ((IMAGE_SIZE[0] - 1) / 2, (IMAGE_SIZE[1] - 1) / 2)
+    deg = math.pi / 180
+
+    def unified(name: str, xi: float, a_min: float, a_max: float, **kw: object) -> RadialCamera:
+        scale = outer * (xi + math.cos(a_max * deg)) / math.sin(a_max * deg)
+        return RadialCamera(
+            name=name,
+            law="unified",
+            scale=scale,
+            xi=xi,
+            image_size=IMAGE_SIZE,
+            centre=kw.pop("centre", middle),  # type: ignore[arg-type]
+            alpha_min=a_min * deg,
+            alpha_max=a_max * deg,
+            **kw,  # type: ignore[arg-type]
+        )
+
+    return {
+        "equidistant": RadialCamera(
+            name="equidistant",
+            law="equidistant",
+            scale=outer / (95 * deg),
+            image_size=IMAGE_SIZE,
+            centre=middle,
+            alpha_max=95 * deg,
+        ),
+        "equisolid": RadialCamera(
+            name="equisolid",
+            law="equisolid",
+            scale=outer / (2 * math.sin(47.5 * deg)),
+            image_size=IMAGE_SIZE,
+            centre=middle,
+            alpha_max=95 * deg,
+        ),
+        "parabolic": unified("parabolic", 1.0, 12, 105),
+        "hyperbolic-0.9": unified("hyperbolic-0.9", 0.9, 12, 100),
+        "hyperbolic-0.6": unified("hyperbolic-0.6", 0.6, 12, 100),
+        "rotated-mirrored": unified(
+            "rotated-mirrored", 0.8, 12, 100, centre=(middle[0] + 23.4, middle[1] - 17.8), s=-1, phi0=2.1
+        ),
+    }
+
+
+def hit_room(directions: NDArray[np.float64]) -> NDArray[np.float64]:
+    """World points (..., 3) where rays from the camera meet the room's surfaces."""
+    origin = np.asarray(CAMERA_POSITION)
+    d = np.asarray(directions, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_low = (0.0 - origin) / d
+        t_high = (np.asarray(ROOM_SIZE) - origin) / d
+    t = np.where(d > 0, t_high, np.where(d < 0, t_low, np.inf))
+    return origin + np.min(t, axis=-1, keepdims=True) * d
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One trial's landmarks, and which one (if any) was made an outlier."""
+
+    landmarks: Landmarks
+    outlier: int | None = None
+
+
+def make_landmarks(
+    camera: RadialCamera,
+    count: int,
+    rng: np.random.Generator,
+    *,
+    spread: bool = True,
+    pixel_sigma: float = 1.0,
+    world_sigma: float = 0.01,
+    outlier_px: float = 0.0,
+) -> Trial:
+    """Landmarks on the room's surfaces, evenly spread in elevation or at random, with noise.
+
+    Elevations cover the camera's visible range less 2 deg at each end; with
+    ``outlier_px`` one landmark's pixel is moved that far in a random direction.
+    """
+    low, high = camera.elevation_range
+    low, high = low + math.radians(2), high - math.radians(2)
+    rho = np.linspace(low, high, count) if spread else rng.uniform(low, high, count)
+    theta = rng.uniform(0, 2 * math.pi, count)
+    world = hit_room(ray_from_angles(theta, rho))
+    pixels = camera.project(world - np.asarray(CAMERA_POSITION))
+    pixels = pixels + rng.normal(0, pixel_sigma, pixels.shape)
+    world = world + rng.normal(0, world_sigma, world.shape)
+    outlier = None
+    if outlier_px:
+        outlier = int(rng.integers(count))
+        angle = rng.uniform(0, 2 * math.pi)
+        pixels[outlier] += outlier_px * np.array([math.cos(angle), math.sin(angle)])
+    names = tuple(f"L{k + 1}" for k in range(count))
+    return Trial(Landmarks(pixels, world, names), outlier)
+
+
+def test_points(camera: RadialCamera, count: int = 4000) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """World points at elevations -85..-5 deg on the room's surfaces that the camera sees, and their true pixels."""
+    side = int(math.sqrt(count))
+    theta, rho = np.meshgrid(
+        np.linspace(0, 2 * math.pi, side, endpoint=False),
+        np.radians(np.linspace(*TEST_ELEVATIONS_DEG, side)),
+    )
+    world = hit_room(ray_from_angles(theta.ravel(), rho.ravel()))
+    truth = camera.project(world - np.asarray(CAMERA_POSITION))
+    visible = np.all(np.isfinite(truth), axis=1)
+    return world[visible], truth[visible]
+
+
+def worst_error(
+    camera: RadialCamera, trial: Trial, points: tuple[NDArray[np.float64], NDArray[np.float64]], model: str = "auto"
+) -> float:
+    """Worst pixel error (px) over the test points of the table learned from the trial (inf if a point is missed)."""
+    annulus = (camera.cutoff_radius, camera.outer_radius)
+    fit = fit_camera(
+        trial.landmarks, CAMERA_POSITION, camera.centre, model=model, image_size=IMAGE_SIZE, annulus=annulus
+    )
+    table = create_table(
+        fit,
+        image_size=IMAGE_SIZE,
+        cutoff_radius=camera.cutoff_radius,
+        outer_radius=camera.outer_radius,
+        size=(2048, 512),
+    )
+    world, truth = points
+    error = np.linalg.norm(table.project(world) - truth, axis=1)
+    return float(np.max(np.where(np.isnan(error), np.inf, error)))
