@@ -32,6 +32,14 @@ def fit_plot_png(table: PanoMappingTable) -> bytes:
         2, 1, figsize=(7, 6), sharex=True, gridspec_kw={"height_ratios": [3, 1]}, constrained_layout=True
     )
     top.plot(np.degrees(rho), table.model.radial(rho), color="tab:blue", label=f"f_r ({table.model.radial.kind})")
+    uncertainty = fit.get("uncertainty") or {}
+    if uncertainty:
+        band_rho = np.radians(np.asarray(uncertainty["elevation_deg"]))
+        band = 2 * np.asarray(uncertainty["radius_se_px"])
+        curve = table.model.radial(band_rho)
+        top.fill_between(
+            np.degrees(band_rho), curve - band, curve + band, color="tab:blue", alpha=0.25, label="+-2 standard errors"
+        )
     top.plot(elevation, radius, "+", color="tab:red", markersize=10, mew=2, label="landmarks")
     top.axhline(table.cutoff_radius, color="grey", lw=0.8, ls=":", label="cut-off / outer radius")
     top.axhline(table.outer_radius, color="grey", lw=0.8, ls=":")

@@ -1,0 +1,86 @@
+"""The weighted, robust radial fit on the issue's scenarios (a few trials; bench/bench_fit.py runs 50)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from panomap.fit import fit_camera
+from panomap.simulate.scenarios import (
+    CAMERA_POSITION,
+    IMAGE_SIZE,
+    make_landmarks,
+    scenario_cameras,
+    worst_error,
+)
+from panomap.simulate.scenarios import (
+    test_points as probe_points,
+)
+from panomap.table import create_table
+
+CAMERAS = scenario_cameras()
+
+
+@pytest.mark.parametrize("name", list(CAMERAS))
+def test_exact_landmarks_give_a_tenth_of_a_pixel(name: str) -> None:
+    camera = CAMERAS[name]
+    trial = make_landmarks(camera, 10, np.random.default_rng(1), pixel_sigma=0.0, world_sigma=0.0)
+    assert worst_error(camera, trial, probe_points(camera)) <= 0.1
+
+
+@pytest.mark.parametrize("name", ["equisolid", "hyperbolic-0.9"])
+@pytest.mark.parametrize("seed", [7, 1007])
+def test_a_landmark_50_px_off_is_flagged_and_the_fit_holds(name: str, seed: int) -> None:
+    camera = CAMERAS[name]
+    trial = make_landmarks(camera, 12, np.random.default_rng(seed), outlier_px=50.0)
+    assert trial.outlier is not None
+    fit = fit_camera(
+        trial.landmarks,
+        CAMERA_POSITION,
+        camera.centre,
+        image_size=IMAGE_SIZE,
+        annulus=(camera.cutoff_radius, camera.outer_radius),
+    )
+    assert fit.outliers == [trial.landmarks.names[trial.outlier]]
+    assert fit.report()["landmarks"][trial.outlier]["outlier"] is True
+    # The noise floor is about 3 px (1 cm at 2 m); measured worst errors here are 2-3.3 px.
+    assert worst_error(camera, trial, probe_points(camera)) < 4.0
+
+
+def test_the_paper_model_keeps_every_landmark_and_is_unweighted() -> None:
+    camera = CAMERAS["equidistant"]
+    trial = make_landmarks(camera, 12, np.random.default_rng(3), outlier_px=50.0)
+    fit = fit_camera(trial.landmarks, CAMERA_POSITION, camera.centre, model="paper")
+    assert fit.outliers == []
+    rho = np.concatenate([[-np.pi / 2], fit.rho])
+    r = np.concatenate([[0.0], np.hypot(*(trial.landmarks.pixels - camera.centre).T)])
+    expected, *_ = np.linalg.lstsq(np.vander(rho, 5, increasing=True), r, rcond=None)
+    np.testing.assert_allclose(fit.model.radial.coefficients, expected, rtol=1e-9, atol=1e-9)
+
+
+def test_uncertainty_grows_beyond_the_landmarks_and_extrapolation_is_warned() -> None:
+    camera = CAMERAS["parabolic"]
+    low, high = camera.elevation_range
+    trial = make_landmarks(camera, 10, np.random.default_rng(5))
+    # Keep only landmarks below -30 deg: the table must extrapolate upwards.
+    keep = (
+        np.degrees(
+            np.arctan2(*(lambda d: (d[:, 2], np.hypot(d[:, 0], d[:, 1])))(trial.landmarks.world - CAMERA_POSITION))
+        )
+        < -30
+    )
+    from panomap.landmarks import Landmarks
+
+    lower = Landmarks(
+        trial.landmarks.pixels[keep],
+        trial.landmarks.world[keep],
+        tuple(n for n, k in zip(trial.landmarks.names, keep, strict=True) if k),
+    )
+    fit = fit_camera(lower, CAMERA_POSITION, camera.centre, image_size=IMAGE_SIZE)
+    table = create_table(
+        fit, image_size=IMAGE_SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=camera.outer_radius
+    )
+    uncertainty = table.info["fit"]["uncertainty"]
+    assert uncertainty["max_se_px"] > 2 * uncertainty["max_se_in_landmark_range_px"]
+    assert any("above the highest landmark" in w for w in table.info["warnings"])
+    assert high > low
