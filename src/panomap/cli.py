@@ -790,3 +790,13 @@ def demo(out: Path, camera_name: str) -> None:
 
     for line in run_demo(out, camera_name):
         click.echo(line)
+
+
+def _add_commands() -> None:
+    """Commands that live in modules of their own (they import this module's types)."""
+    from .cli_video import video
+
+    main.add_command(video)
+
+
+_add_commands()

@@ -44,6 +44,17 @@ def atomic_output(path: str | Path) -> Iterator[BinaryIO]:
         raise
 
 
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` (same suffix) for writers that open files by name.
+
+    It is renamed to ``path`` when the block ends normally and removed when it
+    raises, as with :func:`atomic_output`.
+    """
+    with atomic_output(path) as handle:
+        yield Path(handle.name)
+
+
 def _new_file_mode() -> int:
     """The mode an ordinary new file gets (0o666 less the umask); temp files start at 0o600."""
     mask = os.umask(0)

@@ -1,0 +1,216 @@
+"""``panomap video``: unwarp a video file or live stream into one video per view.
+
+The command line edge of :mod:`panomap.video`; view SPECs are parsed by
+:mod:`panomap.viewspec`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import re
+import signal
+import sys
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import click
+
+from .cli import FINITE, PATH
+from .remap import INTERPOLATIONS
+from .table import SAMPLINGS, load_table
+from .video import EncoderSettings, Selection, ViewOutput, unwarp_video
+from .viewspec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
+
+
+def _bitrate(text: str) -> int:
+    match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*([kKmMgG]?)\s*", text)
+    if not match:
+        raise click.BadParameter(f"{text!r} is not a bit rate like 8M or 800k")
+    scale = {"": 1, "k": 10**3, "m": 10**6, "g": 10**9}[match.group(2).lower()]
+    return int(float(match.group(1)) * scale)
+
+
+def output_paths(pattern: str, views: list[NamedView]) -> list[Path]:
+    """Each view's output file: ``{name}`` in ``pattern`` becomes the view's name."""
+    if "{name}" not in pattern:
+        if len(views) > 1:
+            raise click.UsageError("with several views the output pattern needs {name}, e.g. -o 'out_{name}.mp4'")
+        return [Path(pattern)]
+    return [Path(pattern.replace("{name}", item.name)) for item in views]
+
+
+@contextlib.contextmanager
+def stop_on_signals(stop: threading.Event) -> Iterator[None]:
+    """The first SIGINT or SIGTERM sets ``stop`` (a clean finish); a second SIGINT aborts."""
+    previous: dict[Any, Any] = {}
+
+    def handler(signum: int, frame: Any) -> None:
+        if stop.is_set() and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        stop.set()
+
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        previous[signum] = signal.signal(signum, handler)
+    try:
+        yield
+    finally:
+        for signum, old in previous.items():
+            signal.signal(signum, old)
+
+
+class _Progress:
+    """A tqdm bar on a terminal (frames, fps, ETA when the length is known); nothing otherwise."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
+        self.bar: Any = None
+
+    def __call__(self, done: int, expected: int | None) -> None:
+        if not self.enabled:
+            return
+        if self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=expected, unit="frame", dynamic_ncols=True, file=sys.stderr, leave=True)
+        self.bar.update(done - self.bar.n)
+
+    def write(self, message: str) -> None:
+        if self.bar is not None:
+            self.bar.write(message, file=sys.stderr)
+        else:
+            click.echo(message, err=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+@click.command()
+@click.argument("table", type=PATH)
+@click.argument("source", metavar="INPUT")
+@click.option(
+    "-o",
+    "--output",
+    "pattern",
+    required=True,
+    metavar="PATTERN",
+    help="Output file per view; {name} becomes the view's name (e.g. 'out_{name}.mp4').",
+)
+@click.option(
+    "--view",
+    "specs",
+    multiple=True,
+    metavar="SPEC",
+    help="A view, as KIND:key=value,... with KIND one of " + ", ".join(KINDS) + " (see below). Repeatable.",
+)
+@click.option("--views", "views_file", type=PATH, help="A JSON or YAML file of named views (see below).")
+@click.option("--codec", default="libx264", show_default=True, help="Video encoder (FFmpeg name).")
+@click.option("--pix-fmt", default="yuv420p", show_default=True, help="Encoded pixel format.")
+@click.option("--crf", type=click.IntRange(0, 63), default=20, show_default=True, help="Quality (x264/x265).")
+@click.option("--preset", default="veryfast", show_default=True, help="Speed preset (x264/x265).")
+@click.option("--bitrate", help="Target bit rate instead of --crf, e.g. 8M.")
+@click.option(
+    "--encoder-option", "encoder_options", multiple=True, metavar="KEY=VALUE", help="More encoder options. Repeatable."
+)
+@click.option("--start", type=FINITE, default=0.0, show_default=True, help="Start at this time (s).")
+@click.option("--duration", type=FINITE, help="Stop after this many seconds of input.")
+@click.option("--every", type=click.IntRange(min=1), default=1, show_default=True, help="Keep every N-th frame.")
+@click.option("--no-audio", is_flag=True, help="Do not copy the input's audio.")
+@click.option("--interp", type=click.Choice(list(INTERPOLATIONS)), default="linear", show_default=True)
+@click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True)
+@click.option("--float-maps", is_flag=True, help="Use exact float maps instead of fixed-point (1/32 px) ones.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary.")
+def video(
+    table: Path,
+    source: str,
+    pattern: str,
+    specs: tuple[str, ...],
+    views_file: Path | None,
+    codec: str,
+    pix_fmt: str,
+    crf: int,
+    preset: str,
+    bitrate: str | None,
+    encoder_options: tuple[str, ...],
+    start: float,
+    duration: float | None,
+    every: int,
+    no_audio: bool,
+    interp: str,
+    table_sampling: str,
+    float_maps: bool,
+    quiet: bool,
+) -> None:
+    """Unwarp a video (file, RTSP/HTTP URL or V4L2 device) into one video per view.
+
+    Every output keeps the input's frame rate and timestamps, and a copy of its
+    audio. Frames that fail to decode are reported and skipped. Live inputs run
+    until stopped: Ctrl-C (or SIGTERM) finishes every output cleanly, playable.
+
+    \b
+    View SPECs (angles in degrees, lengths in world units; pairs A:B; sizes WxH):
+      panorama:size=2048x512,start=0
+      cylinder:distance=2,band=-2.45:0.15,size=2048x560,start=0
+      plane:distance=1.8,width=2.4,band=-2.45:0.15,azimuth=90,size=800x860
+      perspective:yaw=30,pitch=-20,roll=0,fov=90,size=1280x720
+      floor:z=0,x=0:6,y=0:5,size=1200x1000   (or resolution=0.005)
+    Any SPEC may add name=NAME (its output's {name}; default: the kind).
+
+    \b
+    A --views file maps names to the same keys plus "kind":
+      {"door": {"kind": "perspective", "yaw": 90, "pitch": -20, "fov": 90, "size": "1280x720"}}
+
+    \b
+    Example:
+      panomap video cam.npz omni.mp4 -o 'out_{name}.mp4' \\
+          --view panorama:size=2048x512 --view perspective:yaw=30,pitch=-20,fov=90,size=1280x720
+    """
+    parsed = [parse_view_spec(spec) for spec in specs]
+    if views_file is not None:
+        parsed += [(item.name, item.view) for item in read_views_file(views_file)]
+    if not parsed:
+        raise click.UsageError("give at least one --view SPEC or a --views file")
+    named = name_views(parsed)
+    paths = output_paths(pattern, named)
+    options = []
+    for item in encoder_options:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise click.BadParameter(f"{item!r} is not KEY=VALUE", param_hint="--encoder-option")
+        options.append((key, value))
+    encoder = EncoderSettings(
+        codec, pix_fmt, crf, preset, _bitrate(bitrate) if bitrate is not None else None, tuple(options)
+    )
+    selection = Selection(start, duration, every)
+    loaded = load_table(table)
+    stop = threading.Event()
+    progress = _Progress(not quiet and sys.stderr.isatty())
+    try:
+        with stop_on_signals(stop):
+            report = unwarp_video(
+                loaded,
+                source,
+                [ViewOutput(item.view, path) for item, path in zip(named, paths, strict=True)],
+                encoder=encoder,
+                selection=selection,
+                audio=not no_audio,
+                sampling=table_sampling,
+                interpolation=interp,
+                fixed_point=not float_maps,
+                stop=stop,
+                progress=progress,
+                warn=progress.write,
+            )
+    finally:
+        progress.close()
+    if quiet:
+        return
+    fps = report.frames_written / report.seconds if report.seconds > 0 else 0.0
+    how = "stopped by a signal after" if report.interrupted else "unwarped"
+    extra = f", {report.frames_skipped} skipped" if report.frames_skipped else ""
+    click.echo(
+        f"{how} {report.frames_written} frames{extra} in {report.seconds:.1f} s ({fps:.1f} fps)"
+        f"{', audio copied' if report.audio else ''}: " + ", ".join(str(path) for path in report.outputs)
+    )
