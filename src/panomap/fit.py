@@ -36,7 +36,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import optimize, stats
 
 from .errors import PanomapError
 from .geometry import FloatArray, azimuth_elevation
@@ -516,6 +515,8 @@ def _refine(
     refine_centre: bool,
 ) -> tuple[RadialFunction, float, tuple[float, float]]:
     """Joint nonlinear least squares of f_r, phi0 and (optionally) the centre on whitened residuals."""
+    from scipy import optimize  # here, not at the top: importing SciPy costs every command 0.6 s
+
     count = len(radial.coefficients)
     rho, theta = data.rho[subset], data.theta[subset]
     uv = pixels[subset]
@@ -560,6 +561,8 @@ def _check_inside(landmarks: Landmarks, image_size: tuple[int, int]) -> None:
 
 def _detect_axis(rho: FloatArray, r: FloatArray) -> str:
     """``"down"`` when the image radius grows with elevation, else ``"up"``."""
+    from scipy import stats  # here, not at the top: importing SciPy costs every command 0.6 s
+
     correlation = stats.spearmanr(rho, r).statistic
     if not np.isfinite(correlation) or abs(correlation) < 0.5:
         raise PanomapError(

@@ -29,7 +29,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import optimize
 
 from .errors import PanomapError
 from .geometry import HALF_PI, FloatArray
@@ -191,6 +190,8 @@ def fit_radial(kind: str, rho: ArrayLike, r: ArrayLike, axis: str, weights: Arra
 
 def _fit_unified(alpha: FloatArray, r: FloatArray, w: FloatArray) -> tuple[float, float]:
     """(gamma, xi) minimising the weighted radial residual; gamma is solved in closed form."""
+    from scipy import optimize  # here, not at the top: importing SciPy costs every command 0.6 s
+
     xi_low = max(0.0, -float(np.cos(alpha.max()))) + 1e-6
     xi_high = 50.0
 
@@ -328,6 +329,8 @@ def valid_elevation_range(
 
 def _refine_bound(radial: RadialFunction, a: float, b: float, cutoff_radius: float, outer_radius: float) -> float:
     """Elevation in [a, b] where f_r crosses the cut-off or outer radius."""
+    from scipy import optimize  # here, not at the top: importing SciPy costs every command 0.6 s
+
     ra, rb = float(radial(a)), float(radial(b))
     for bound in (cutoff_radius, outer_radius):
         if (ra - bound) * (rb - bound) <= 0 and ra != rb:
