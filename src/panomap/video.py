@@ -247,7 +247,9 @@ class FrameRemapper:
             for remapper, source, target in zip(self._planes, frame.planes, out.planes, strict=True):
                 plane_out = remapper(_plane_array(source))
                 _plane_array(target)[...] = plane_out
-        out.pts, out.time_base = frame.pts, frame.time_base
+        out.pts = frame.pts
+        if frame.time_base is not None:
+            out.time_base = frame.time_base
         return out
 
 
@@ -583,8 +585,8 @@ def _read(
     def window(seconds: float) -> int:
         """-1 before the selection, 0 inside, 1 after it."""
         assert origin is not None
-        if seconds < origin + selection.start - 1e-9:
-            return -1
+        if selection.start > 0 and seconds < origin + selection.start - 1e-9:
+            return -1  # (from the very start, everything counts: audio priming has negative times)
         if selection.duration is not None and seconds >= origin + selection.start + selection.duration - 1e-9:
             return 1
         return 0

@@ -1,0 +1,530 @@
+"""``panomap video`` and :mod:`panomap.video`: frames, timestamps, audio, damage, interruption, memory.
+
+The clips are made here with PyAV: a simulated equidistant fisheye looking at
+the bundled room, the scene turning 3 deg per frame (so that every frame differs
+and frame order shows), 25 fps, with a 440 Hz tone as audio.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import http.server
+import math
+import os
+import pty
+import signal
+import struct
+import subprocess
+import sys
+import termios
+import threading
+import time
+from collections.abc import Iterator
+from functools import partial
+from pathlib import Path
+
+import av
+import cv2
+import numpy as np
+import pytest
+from click.testing import CliRunner, Result
+
+from panomap.cli import main
+from panomap.fit import fit_camera
+from panomap.imageio import read_image
+from panomap.remap import Remapper
+from panomap.simulate import load_room, render, standard_cameras
+from panomap.simulate.sampling import spread_landmarks
+from panomap.table import create_table, load_table
+from panomap.video import EncoderSettings, FrameRemapper, Selection, ViewOutput, unwarp_video
+from panomap.views import GenericPanorama, PerspectiveView, build_map
+
+SIZE = (320, 320)
+RATE = 25
+FRAMES = 40
+CAMERA = standard_cameras(SIZE, centre=(160.3, 159.6), s=-1, phi0=0.4)["equidistant"]
+PANORAMA = "panorama:size=480x120"
+PERSPECTIVE = "perspective:yaw=30,pitch=-35,fov=90,size=160x120"
+LOSSLESS_BGR = ["--codec", "ffv1", "--pix-fmt", "bgr0"]
+
+
+def run(*args: object) -> Result:
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def assert_one_line_error(result: Result, *fragments: str) -> None:
+    assert result.exit_code == 1, result.output + result.stderr
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, result.stderr
+    assert "Traceback" not in result.output + result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+
+
+def write_clip(path: Path, frames: int, audio: bool = True, container_format: str | None = None) -> None:
+    """``frames`` frames of the turning room (yuv420p H.264), and a tone as AAC audio if ``audio``."""
+    omni = OMNI
+    with av.open(str(path), "w", format=container_format) as container:
+        video = container.add_stream("libx264", rate=RATE)
+        video.width, video.height = SIZE
+        video.pix_fmt = "yuv420p"
+        video.options = {"preset": "ultrafast", "crf": "16"}
+        tone = container.add_stream("aac", rate=48000) if audio else None
+        for index in range(frames):
+            turn = cv2.getRotationMatrix2D(CAMERA.centre, 3.0 * index, 1.0)
+            frame = av.VideoFrame.from_ndarray(cv2.warpAffine(omni, turn, SIZE), format="bgr24")
+            frame.pts = index
+            for packet in video.encode(frame):
+                container.mux(packet)
+        for packet in video.encode(None):
+            container.mux(packet)
+        if tone is not None:
+            samples = 48000 * frames // RATE
+            for start in range(0, samples, 1024):
+                wave = 0.2 * np.sin(2 * np.pi * 440 * np.arange(start, start + 1024) / 48000)
+                chunk = av.AudioFrame.from_ndarray(wave.astype(np.float32)[None], format="fltp", layout="mono")
+                chunk.sample_rate, chunk.pts = 48000, start
+                for packet in tone.encode(chunk):
+                    container.mux(packet)
+            for packet in tone.encode(None):
+                container.mux(packet)
+
+
+def decoded(path: Path, fmt: str = "bgr24") -> list[tuple[float, np.ndarray]]:
+    """(time in s, frame as ndarray in ``fmt``) of every frame of ``path``'s video."""
+    with av.open(str(path)) as container:
+        stream = container.streams.video[0]
+        return [(float(f.pts * stream.time_base), f.to_ndarray(format=fmt)) for f in container.decode(stream)]
+
+
+def luma_planes(path: Path) -> list[np.ndarray]:
+    """The Y plane of every frame of ``path`` (yuv420p video), as decoded, without conversion."""
+    with av.open(str(path)) as container:
+        frames = [f.to_ndarray(format="yuv420p") for f in container.decode(video=0)]
+    return [frame[: frame.shape[0] * 2 // 3] for frame in frames]
+
+
+def audio_packets(path: Path) -> list[float]:
+    with av.open(str(path)) as container:
+        if not container.streams.audio:
+            return []
+        stream = container.streams.audio[0]
+        return [float(p.pts * stream.time_base) for p in container.demux(stream) if p.pts is not None]
+
+
+room = load_room()
+OMNI = render(room, CAMERA, supersample=1)
+POSITION = tuple(room.camera)
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder with the camera's table (cam.npz) and a clip (clip.mp4, 40 frames, audio)."""
+    folder = tmp_path_factory.mktemp("video")
+    landmarks = spread_landmarks(CAMERA, POSITION, 20, np.random.default_rng(3))
+    fit = fit_camera(landmarks, POSITION, CAMERA.centre, image_size=SIZE)
+    table = create_table(fit, image_size=SIZE, cutoff_radius=CAMERA.cutoff_radius, outer_radius=CAMERA.outer_radius)
+    table.save(folder / "cam.npz")
+    write_clip(folder / "clip.mp4", FRAMES)
+    return folder
+
+
+def leftovers(folder: Path) -> list[str]:
+    """Temporary files a run left behind."""
+    return sorted(p.name for p in folder.iterdir() if ".part" in p.name)
+
+
+# ----------------------------------------------------------------------------- frames, timestamps, audio
+
+
+def test_every_frame_and_timestamp_is_kept_and_audio_is_copied_into_each_output(work: Path) -> None:
+    out = work / "keep"
+    out.mkdir()
+    result = run(
+        "video",
+        work / "cam.npz",
+        work / "clip.mp4",
+        "-o",
+        out / "{name}.mp4",
+        "--view",
+        PANORAMA,
+        "--view",
+        PERSPECTIVE + ",name=door",
+    )
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "unwarped 40 frames" in result.output and "audio copied" in result.output
+    source_times = [t for t, _ in decoded(work / "clip.mp4")]
+    source_audio = audio_packets(work / "clip.mp4")
+    for name, size in (("panorama", (480, 120)), ("door", (160, 120))):
+        frames = decoded(out / f"{name}.mp4")
+        assert [t for t, _ in frames] == pytest.approx(source_times, abs=1e-6)
+        assert frames[0][1].shape == (size[1], size[0], 3)
+        with av.open(str(out / f"{name}.mp4")) as container:
+            assert container.streams.video[0].average_rate == RATE
+        assert audio_packets(out / f"{name}.mp4") == pytest.approx(source_audio, abs=1e-6)
+    assert leftovers(out) == []
+
+
+def test_without_audio_when_asked_or_when_the_input_has_none(work: Path, tmp_path: Path) -> None:
+    result = run(
+        "video", work / "cam.npz", work / "clip.mp4", "-o", tmp_path / "a.mp4", "--view", PANORAMA, "--no-audio"
+    )
+    assert result.exit_code == 0, result.stderr
+    assert audio_packets(tmp_path / "a.mp4") == [] and "audio copied" not in result.output
+    write_clip(tmp_path / "silent.mp4", 5, audio=False)
+    result = run("video", work / "cam.npz", tmp_path / "silent.mp4", "-o", tmp_path / "b.mp4", "--view", PANORAMA)
+    assert result.exit_code == 0, result.stderr
+    assert len(decoded(tmp_path / "b.mp4")) == 5 and audio_packets(tmp_path / "b.mp4") == []
+
+
+def test_output_frames_equal_the_still_image_view_of_the_same_decoded_frame(work: Path, tmp_path: Path) -> None:
+    """Lossless BGR output: each frame equals, bit for bit, ``panomap panorama`` of that frame as a PNG."""
+    result = run(
+        "video",
+        work / "cam.npz",
+        work / "clip.mp4",
+        "-o",
+        tmp_path / "v.mkv",
+        "--view",
+        PANORAMA,
+        "--float-maps",
+        *LOSSLESS_BGR,
+    )
+    assert result.exit_code == 0, result.stderr
+    inputs, outputs = decoded(work / "clip.mp4"), decoded(tmp_path / "v.mkv")
+    assert len(outputs) == FRAMES
+    for index in (0, 17, FRAMES - 1):
+        cv2.imwrite(str(tmp_path / "frame.png"), inputs[index][1])
+        still = run(
+            "panorama", work / "cam.npz", tmp_path / "frame.png", "-o", tmp_path / "still.png", "--size", "480x120"
+        )
+        assert still.exit_code == 0, still.stderr
+        np.testing.assert_array_equal(outputs[index][1], read_image(tmp_path / "still.png"))
+    # Consecutive frames differ (the scene turns), so the equality above also pins the order.
+    assert np.abs(outputs[1][1].astype(int) - outputs[0][1]).mean() > 5
+
+
+def test_yuv_planes_are_remapped_without_rgb_and_match_the_still_view(work: Path, tmp_path: Path) -> None:
+    """yuv420p in and out: the luma plane is exactly the view's remap of the input's luma plane;
+    in colour the frame stays within chroma-subsampling tolerance of the still view."""
+    table = load_table(work / "cam.npz")
+    view = PerspectiveView(math.radians(30), math.radians(-35), 0.0, math.radians(90), (160, 120))
+    report = unwarp_video(
+        table,
+        str(work / "clip.mp4"),
+        [ViewOutput(view, tmp_path / "y.mkv")],
+        encoder=EncoderSettings("ffv1", "yuv420p"),
+    )
+    assert report.frames_written == FRAMES
+    map_uv = build_map(table, view)
+    luma = Remapper(map_uv, SIZE, "linear", 16.0, fixed_point=True)
+    still = view.remapper(table, fixed_point=True)
+    inputs_y, outputs_y = luma_planes(work / "clip.mp4"), luma_planes(tmp_path / "y.mkv")
+    inputs, outputs = decoded(work / "clip.mp4"), decoded(tmp_path / "y.mkv")
+    for index in (0, 21):
+        np.testing.assert_array_equal(outputs_y[index], luma(inputs_y[index]))
+        difference = np.abs(outputs[index][1].astype(int) - still(inputs[index][1]))
+        valid = np.all(np.isfinite(map_uv), axis=2)
+        # Colour differs from the RGB path only by where chroma is interpolated (at half resolution):
+        # a few levels on average, more at sharp colour edges.
+        assert difference[valid].mean() < 3.0
+        assert np.percentile(difference[valid], 90) < 8
+
+
+def test_frame_remapper_fills_planes_outside_the_view_with_black(work: Path) -> None:
+    table = load_table(work / "cam.npz")
+    map_uv = build_map(table, GenericPanorama((480, 120)))
+    map_uv[:10] = np.nan  # no source in the top rows
+    frame = av.VideoFrame.from_ndarray(np.full((SIZE[1], SIZE[0], 3), 200, np.uint8), format="bgr24")
+    out = FrameRemapper(map_uv, SIZE, "yuv420p")(frame.reformat(format="yuv420p"))
+    planes = [np.frombuffer(p, np.uint8).reshape(p.height, p.line_size)[:, : p.width] for p in out.planes]
+    assert np.all(planes[0][:10] == 16) and np.all(planes[1][:5] == 128) and np.all(planes[2][:5] == 128)
+    assert np.all(np.abs(planes[0][20:].astype(int) - planes[0][20, 0]) <= 1)  # the grey input, remapped
+
+
+def test_start_duration_and_every_select_frames_and_shift_timestamps(work: Path, tmp_path: Path) -> None:
+    result = run(
+        "video",
+        work / "cam.npz",
+        work / "clip.mp4",
+        "-o",
+        tmp_path / "s.mkv",
+        "--view",
+        PANORAMA,
+        "--start",
+        "0.4",
+        "--duration",
+        "0.8",
+        "--every",
+        "3",
+        *LOSSLESS_BGR,
+    )
+    assert result.exit_code == 0, result.stderr
+    inputs = decoded(work / "clip.mp4")
+    chosen = [frame for t, frame in inputs if 0.4 - 1e-9 <= t < 1.2 - 1e-9][::3]  # frames 10..29, every 3rd
+    outputs = decoded(tmp_path / "s.mkv")
+    assert [t for t, _ in outputs] == pytest.approx([3 * k / RATE for k in range(len(chosen))], abs=1e-3)
+    still = GenericPanorama((480, 120)).remapper(load_table(work / "cam.npz"), fixed_point=True)
+    for (_, out), source in zip(outputs, chosen, strict=True):
+        np.testing.assert_array_equal(out, still(source))
+    audio = audio_packets(tmp_path / "s.mkv")
+    assert audio and min(audio) > -0.05 and max(audio) < 0.8  # the tone's 0.4..1.2 s, shifted to start at 0
+
+
+def test_views_file_in_json_and_yaml(work: Path, tmp_path: Path) -> None:
+    (tmp_path / "views.json").write_text('{"wide": {"kind": "panorama", "size": [480, 120]}}')
+    (tmp_path / "views.yaml").write_text(
+        "door:\n  kind: perspective\n  yaw: 30\n  pitch: -35\n  fov: 90\n  size: 160x120\n"
+    )
+    for name in ("views.json", "views.yaml"):
+        result = run(
+            "video",
+            work / "cam.npz",
+            work / "clip.mp4",
+            "-o",
+            tmp_path / "{name}.mp4",
+            "--views",
+            tmp_path / name,
+            "--duration",
+            "0.2",
+        )
+        assert result.exit_code == 0, result.stderr
+    assert len(decoded(tmp_path / "wide.mp4")) == 5 and decoded(tmp_path / "door.mp4")[0][1].shape == (120, 160, 3)
+
+
+# ----------------------------------------------------------------------------- damage and bad input
+
+
+def test_a_truncated_file_still_yields_the_frames_before_the_damage(work: Path, tmp_path: Path) -> None:
+    write_clip(tmp_path / "whole.ts", FRAMES, container_format="mpegts")
+    data = (tmp_path / "whole.ts").read_bytes()
+    (tmp_path / "cut.ts").write_bytes(data[: len(data) * 6 // 10])
+    readable = decoded(tmp_path / "cut.ts")  # what a plain decoder gets out of the damaged file
+    assert 10 < len(readable) < FRAMES
+    result = run(
+        "video", work / "cam.npz", tmp_path / "cut.ts", "-o", tmp_path / "cut.mkv", "--view", PANORAMA, *LOSSLESS_BGR
+    )
+    assert result.exit_code == 0, result.stderr
+    outputs = decoded(tmp_path / "cut.mkv")
+    assert len(outputs) >= len(readable) - 1
+    still = GenericPanorama((480, 120)).remapper(load_table(work / "cam.npz"), fixed_point=True)
+    np.testing.assert_array_equal(outputs[5][1], still(readable[5][1]))
+
+
+def test_corrupt_frames_are_reported_and_skipped(work: Path, tmp_path: Path) -> None:
+    write_clip(tmp_path / "whole.ts", FRAMES, container_format="mpegts")
+    data = bytearray((tmp_path / "whole.ts").read_bytes())
+    rng = np.random.default_rng(7)
+    middle = len(data) // 2
+    for offset in rng.integers(middle, middle + 20000, 400):
+        data[offset] ^= 0xFF
+    (tmp_path / "bad.ts").write_bytes(bytes(data))
+    report = unwarp_video(
+        load_table(work / "cam.npz"),
+        str(tmp_path / "bad.ts"),
+        [ViewOutput(GenericPanorama((480, 120)), tmp_path / "bad.mp4")],
+        warn=lambda m: None,
+    )
+    assert FRAMES // 2 < report.frames_written <= FRAMES
+    assert len(decoded(tmp_path / "bad.mp4")) == report.frames_written
+    result = run("video", work / "cam.npz", tmp_path / "bad.ts", "-o", tmp_path / "bad2.mp4", "--view", PANORAMA)
+    assert result.exit_code == 0 and "Traceback" not in result.stderr
+
+
+def test_bad_input_gets_one_line_before_any_work(work: Path, tmp_path: Path) -> None:
+    table, clip = work / "cam.npz", work / "clip.mp4"
+    (tmp_path / "text.mp4").write_text("not a video")
+    cases = [
+        ((table, tmp_path / "none.mp4", "-o", tmp_path / "o.mp4", "--view", PANORAMA), ("none.mp4", "no such file")),
+        ((table, tmp_path / "text.mp4", "-o", tmp_path / "o.mp4", "--view", PANORAMA), ("text.mp4", "cannot open")),
+        ((table, clip, "-o", tmp_path / "no" / "o.mp4", "--view", PANORAMA), ("o.mp4", "folder does not exist")),
+        ((table, clip, "-o", tmp_path / "o.xyz", "--view", PANORAMA), ("o.xyz", "unknown video file type")),
+        ((table, clip, "-o", tmp_path / "o.mp4", "--view", "panorama:size=481x120"), ("size such as size=480x120",)),
+        ((table, clip, "-o", tmp_path / "o.mp4", "--view", "perspective:yaw=3"), ("needs pitch=, fov=, size=",)),
+        ((table, clip, "-o", tmp_path / "o.mp4", "--view", "sphere:size=2x2"), ("unknown view kind 'sphere'",)),
+        ((table, clip, "-o", tmp_path / "o.mp4", "--view", "panorama:fov=3"), ("no key fov",)),
+        (
+            (table, clip, "-o", tmp_path / "o.mp4", "--view", "perspective:yaw=nan,pitch=0,fov=90,size=160x120"),
+            ("not a finite number",),
+        ),
+        ((table, clip, "-o", tmp_path / "o.mp4", "--view", PANORAMA, "--codec", "nope"), ("unknown video encoder",)),
+        ((table, clip, "-o", tmp_path / "o.mp4", "--view", PANORAMA, "--pix-fmt", "rgb24"), ("cannot take rgb24",)),
+    ]
+    for args, fragments in cases:
+        assert_one_line_error(run("video", *args), *fragments)
+    # A table of another camera size.
+    write_clip(tmp_path / "small.mp4", 2, audio=False)
+    with av.open(str(tmp_path / "other.mp4"), "w") as container:
+        stream = container.add_stream("libx264", rate=RATE)
+        stream.width, stream.height, stream.pix_fmt = 160, 160, "yuv420p"
+        for packet in stream.encode(av.VideoFrame.from_ndarray(np.zeros((160, 160, 3), np.uint8), format="bgr24")):
+            container.mux(packet)
+        for packet in stream.encode(None):
+            container.mux(packet)
+    assert_one_line_error(
+        run("video", table, tmp_path / "other.mp4", "-o", tmp_path / "o.mp4", "--view", PANORAMA),
+        "other.mp4",
+        "160 x 160",
+        "320 x 320",
+    )
+    usage = run("video", table, clip, "-o", tmp_path / "o.mp4", "--view", PANORAMA, "--view", PERSPECTIVE)
+    assert usage.exit_code == 2 and "{name}" in usage.stderr
+    assert not (tmp_path / "o.mp4").exists() and leftovers(tmp_path) == []
+
+
+# ----------------------------------------------------------------------------- interruption, live input, progress
+
+
+def test_a_stop_mid_run_finishes_every_output_playable(work: Path, tmp_path: Path) -> None:
+    stop = threading.Event()
+
+    def progress(done: int, expected: int | None) -> None:
+        assert expected == FRAMES
+        if done == 12:
+            stop.set()
+
+    outputs = [
+        ViewOutput(GenericPanorama((480, 120)), tmp_path / "a.mp4"),
+        ViewOutput(PerspectiveView(0.0, -0.6, 0.0, 1.5, (160, 120)), tmp_path / "b.mp4"),
+    ]
+    report = unwarp_video(load_table(work / "cam.npz"), str(work / "clip.mp4"), outputs, stop=stop, progress=progress)
+    assert report.interrupted and 12 <= report.frames_written < FRAMES
+    for item in outputs:
+        assert len(decoded(item.path)) == report.frames_written
+    assert leftovers(tmp_path) == []
+
+
+def test_sigint_finishes_cleanly_with_playable_files(work: Path, tmp_path: Path) -> None:
+    write_clip(tmp_path / "long.mp4", 1500, audio=False)
+    command = [
+        sys.executable,
+        "-m",
+        "panomap",
+        "video",
+        str(work / "cam.npz"),
+        str(tmp_path / "long.mp4"),
+        "-o",
+        str(tmp_path / "{name}.mp4"),
+        "--view",
+        PANORAMA,
+        "--view",
+        PERSPECTIVE,
+        "--preset",
+        "slow",
+    ]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not any(p.stat().st_size > 20000 for p in tmp_path.glob(".*part*")):
+        time.sleep(0.05)
+    process.send_signal(signal.SIGINT)
+    out, err = process.communicate(timeout=60)
+    assert process.returncode == 0, err
+    assert "stopped by a signal after" in out and "Traceback" not in err
+    counts = [len(decoded(tmp_path / f"{name}.mp4")) for name in ("panorama", "perspective")]
+    assert counts[0] == counts[1] and 0 < counts[0] < 1500
+    assert leftovers(tmp_path) == []
+
+
+class _QuietHandler(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, format: str, *args: object) -> None:
+        pass
+
+
+@pytest.fixture
+def http_server(work: Path) -> Iterator[str]:
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), partial(_QuietHandler, directory=str(work)))
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield f"http://127.0.0.1:{server.server_address[1]}"
+    finally:
+        server.shutdown()
+        server.server_close()
+
+
+def test_a_stream_over_http_is_read_like_a_live_input(work: Path, tmp_path: Path, http_server: str) -> None:
+    """An MPEG-TS stream over HTTP (the server is this test's, on the loopback address)."""
+    write_clip(work / "live.ts", FRAMES, container_format="mpegts")
+    seen: list[int | None] = []
+    report = unwarp_video(
+        load_table(work / "cam.npz"),
+        f"{http_server}/live.ts",
+        [ViewOutput(GenericPanorama((480, 120)), tmp_path / "h.mp4")],
+        progress=lambda done, expected: seen.append(expected),
+    )
+    assert report.frames_written == FRAMES and set(seen) == {None}  # a live input has no known length
+    # MPEG-TS starts its clock at 1.4 s; MP4 starts at 0: the frames keep their spacing.
+    source = np.array([t for t, _ in decoded(work / "live.ts")])
+    times = np.array([t for t, _ in decoded(tmp_path / "h.mp4")])
+    np.testing.assert_allclose(times - times[0], source - source[0], atol=1e-6)
+
+
+def test_progress_bar_on_a_terminal_only(work: Path, tmp_path: Path) -> None:
+    command = [
+        sys.executable,
+        "-m",
+        "panomap",
+        "video",
+        str(work / "cam.npz"),
+        str(work / "clip.mp4"),
+        "-o",
+        str(tmp_path / "p.mp4"),
+        "--view",
+        PANORAMA,
+    ]
+    leader, follower = pty.openpty()
+    fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))  # a 100-column terminal
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=follower)
+    os.close(follower)
+    chunks = []
+    while True:
+        try:
+            chunk = os.read(leader, 4096)
+        except OSError:
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    process.wait(timeout=60)
+    assert process.stdout is not None
+    process.stdout.close()
+    os.close(leader)
+    terminal = b"".join(chunks).decode(errors="replace")
+    assert f"{FRAMES}/{FRAMES}" in terminal and "frame/s" in terminal
+    piped = subprocess.run(command, capture_output=True, text=True, check=True)
+    assert piped.stderr == "" and "unwarped 40 frames" in piped.stdout
+    quiet = subprocess.run([*command, "-q"], capture_output=True, text=True, check=True)
+    assert quiet.stdout == quiet.stderr == ""
+
+
+def test_memory_stays_flat_over_a_long_stream(work: Path, tmp_path: Path) -> None:
+    """600 frames through two views: resident memory after warm-up grows by less than 1/3 of one
+    frame per 10 frames (a leak of one decoded frame per frame would add 90 MB)."""
+    write_clip(tmp_path / "long.mp4", 600, audio=True)
+    page = os.sysconf("SC_PAGE_SIZE")
+    samples: dict[int, float] = {}
+
+    def progress(done: int, expected: int | None) -> None:
+        if done % 50 == 0:
+            with open("/proc/self/statm") as statm:
+                samples[done] = int(statm.read().split()[1]) * page / 2**20
+
+    outputs = [
+        ViewOutput(GenericPanorama((480, 120)), tmp_path / "a.mp4"),
+        ViewOutput(PerspectiveView(0.0, -0.6, 0.0, 1.5, (160, 120)), tmp_path / "b.mp4"),
+    ]
+    report = unwarp_video(load_table(work / "cam.npz"), str(tmp_path / "long.mp4"), outputs, progress=progress)
+    assert report.frames_written == 600
+    warm = samples[150]
+    assert max(samples[k] for k in samples if k >= 150) - warm < 8.0, samples
+
+
+def test_selection_and_encoder_settings_refuse_nonsense() -> None:
+    from panomap.errors import PanomapError
+
+    for kwargs in ({"start": -1.0}, {"duration": 0.0}, {"every": 0}, {"start": math.inf}):
+        with pytest.raises(PanomapError):
+            Selection(**kwargs)  # type: ignore[arg-type]
+    assert EncoderSettings().codec_options() == {"preset": "veryfast", "crf": "20"}
+    assert EncoderSettings(bitrate=8_000_000).codec_options() == {"preset": "veryfast"}
+    assert EncoderSettings("ffv1", "yuv420p", options=(("level", "3"),)).codec_options() == {"level": "3"}
