@@ -125,15 +125,36 @@ def main() -> None:
         )
         runs: dict[str, Callable[[], float]] = {
             "ffmpeg v360, panorama 2048 x 512": lambda: wall_time(
-                [ffmpeg, "-hide_banner", "-loglevel", "error", "-y", "-i", str(clip), "-vf", v360, *X264,
-                 str(folder / "ffmpeg_pano.mp4")]
+                [
+                    ffmpeg,
+                    "-hide_banner",
+                    "-loglevel",
+                    "error",
+                    "-y",
+                    "-i",
+                    str(clip),
+                    "-vf",
+                    v360,
+                    *X264,
+                    str(folder / "ffmpeg_pano.mp4"),
+                ]
             ),
             "panomap video, panorama 2048 x 512": lambda: wall_time(
                 [*panomap, str(table), str(clip), "-q", "-o", str(folder / "pm_{name}.mp4"), "--view", PANORAMA]
             ),
             "panomap video, panorama + perspective 1280 x 720": lambda: wall_time(
-                [*panomap, str(table), str(clip), "-q", "-o", str(folder / "pm2_{name}.mp4"), "--view", PANORAMA,
-                 "--view", PERSPECTIVE]
+                [
+                    *panomap,
+                    str(table),
+                    str(clip),
+                    "-q",
+                    "-o",
+                    str(folder / "pm2_{name}.mp4"),
+                    "--view",
+                    PANORAMA,
+                    "--view",
+                    PERSPECTIVE,
+                ]
             ),
             "decode only, ffmpeg": lambda: wall_time(
                 [ffmpeg, "-hide_banner", "-loglevel", "error", "-i", str(clip), "-f", "null", "-"]
