@@ -502,7 +502,9 @@ def _run(
     halt = threading.Event()  # stop, a writer's failure, or the end of the run
     expected = _expected_frames(stream, selection, is_live(str(container.name)))
     for writer in writers:
-        writer.thread = threading.Thread(target=writer.run, args=(halt,), name=f"panomap-write-{writer.path.name}")
+        writer.thread = threading.Thread(
+            target=writer.run, args=(halt,), name=f"panomap-write-{writer.path.name}", daemon=True
+        )
         writer.thread.start()
 
     def halted() -> bool:
