@@ -435,13 +435,13 @@ def unwarp_video(
             rate = Fraction(rate) / selection.every
         time_base = stream.time_base or Fraction(1, 90000)
         with contextlib.ExitStack() as files:
-            writers = []
-            for item, remapper in zip(outputs, remappers, strict=True):
-                temporary = files.enter_context(atomic_path(item.path))
-                writers.append(
-                    _open_writer(item.path, temporary, remapper.output_size, rate, time_base, encoder, audio_stream)
-                )
+            writers: list[_Writer] = []
             try:
+                for item, remapper in zip(outputs, remappers, strict=True):
+                    temporary = files.enter_context(atomic_path(item.path))
+                    writers.append(
+                        _open_writer(item.path, temporary, remapper.output_size, rate, time_base, encoder, audio_stream)
+                    )
                 _run(container, stream, audio_stream, work, remappers, writers, selection, stop, progress, warn, report)
             finally:
                 for writer in writers:
