@@ -12,7 +12,7 @@ from ..imageio import read_image
 from ..landmarks import read_landmarks
 
 
-@click.command()
+@click.command("learn")
 @click.argument("omni", type=PATH)
 @click.option("--landmarks", type=PATH, help="Landmarks to start with (CSV u,v,X,Y,Z[,name] or JSON).")
 @click.option(

@@ -227,6 +227,6 @@ def make_server(session: Session, host: str = "127.0.0.1", port: int = 0) -> Lea
 
 def serve_in_thread(server: LearnServer) -> threading.Thread:
     """Serve in a daemon thread (for tests and scripts); stop with ``server.shutdown()``."""
-    thread = threading.Thread(target=server.serve_forever, name="panomap-learn", daemon=True)
+    thread = threading.Thread(target=server.serve_forever, args=(0.05,), name="panomap-learn", daemon=True)
     thread.start()
     return thread
