@@ -392,6 +392,7 @@
   function formChanged(event) {
     const lm = state.landmarks[state.selected];
     if (!lm) return;
+    const before = JSON.stringify(lm);
     const name = $("lm-name").value.trim();
     if (name) lm.name = name;
     const u = readNumber("lm-u");
@@ -411,6 +412,7 @@
       // Wait for all three before sending a world point.
       return;
     }
+    if (JSON.stringify(lm) === before) return; // e.g. the change event when leaving a field
     renderTable();
     draw();
     scheduleSync();
@@ -451,7 +453,8 @@
         td.textContent = lm.X === null ? "needs X,Y,Z" : "-";
       }
       tr.append(td);
-      tr.addEventListener("click", () => {
+      // pointerdown, not click: leaving a form field re-renders the table before a click would complete.
+      tr.addEventListener("pointerdown", () => {
         select(k);
         const p = imageToCanvas(lm.u, lm.v);
         const { w, h } = canvasSize();
@@ -700,18 +703,27 @@
     // landmarks
     g.lineWidth = 2;
     for (const l of curve.landmarks) {
-      g.strokeStyle = l.outlier ? "#ff3b30" : "#d62728";
       const x = X(l.elevation_deg);
       const y = Y(l.radius_px);
       g.beginPath();
-      g.moveTo(x - 5, y);
-      g.lineTo(x + 5, y);
-      g.moveTo(x, y - 5);
-      g.lineTo(x, y + 5);
+      if (l.outlier) {
+        // An outlier: an orange x (not used by the fit).
+        g.strokeStyle = "#ff7f0e";
+        g.moveTo(x - 4, y - 4);
+        g.lineTo(x + 4, y + 4);
+        g.moveTo(x - 4, y + 4);
+        g.lineTo(x + 4, y - 4);
+      } else {
+        g.strokeStyle = "#d62728";
+        g.moveTo(x - 5, y);
+        g.lineTo(x + 5, y);
+        g.moveTo(x, y - 5);
+        g.lineTo(x, y + 5);
+      }
       g.stroke();
     }
     g.fillStyle = "#1f77b4";
-    g.fillText("f_r with +-2 standard errors; + landmarks", left + 4, top + 24);
+    g.fillText("f_r with +-2 standard errors; + landmarks, x outliers", left + 4, top + 24);
   }
 
   function ticks(lo, hi, count) {
