@@ -24,9 +24,10 @@ import pytest
 from click.testing import CliRunner
 
 from panomap.cli import main
-from panomap.landmarks import read_landmarks
+from panomap.errors import PanomapError
+from panomap.landmarks import Landmarks, landmarks_to_json, read_landmarks
 from panomap.learn.example import Example, make_example
-from panomap.learn.server import LearnServer, make_server, serve_in_thread
+from panomap.learn.server import LearnServer, json_safe, make_server, serve_in_thread
 from panomap.learn.session import Session
 from panomap.table import load_table
 
@@ -328,9 +329,13 @@ def test_an_image_without_circles_starts_from_a_guess(folder: Path) -> None:
 
 def test_the_command_serves_until_interrupted(tmp_path: Path, example: Example) -> None:
     cv2.imwrite(str(tmp_path / "omni.png"), example.image)
+    (tmp_path / "lm.json").write_text(
+        landmarks_to_json(Landmarks(example.pixels, example.world, example.names, (0.0, 0.0, 9.0)))
+    )
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1] / "src"))
+    command = ["learn", "omni.png", "--port", "0", "--camera", "3.1", "2.4", "2.45", "--landmarks", "lm.json"]
     process = subprocess.Popen(
-        [sys.executable, "-m", "panomap", "learn", "omni.png", "--port", "0", "--camera", "3.1", "2.4", "2.45"],
+        [sys.executable, "-m", "panomap", *command],
         cwd=tmp_path,
         env=env,
         stdout=subprocess.PIPE,
@@ -344,7 +349,10 @@ def test_the_command_serves_until_interrupted(tmp_path: Path, example: Example) 
         url = line.split(" at ")[1].split()[0]
         with urllib.request.urlopen(url + "api/state", timeout=30) as response:
             state = json.loads(response.read())
+        # --camera wins over the JSON's camera.
         assert state["camera"] == [3.1, 2.4, 2.45] and state["folder"] == str(tmp_path.resolve())
+        assert [row["name"] for row in state["landmarks"]] == list(example.names)
+        assert state["fit"]["ok"]
     finally:
         process.send_signal(signal.SIGINT)
         out, err = process.communicate(timeout=30)
@@ -359,3 +367,25 @@ def test_the_command_fails_in_one_line(tmp_path: Path) -> None:
     cv2.imwrite(str(tmp_path / "omni.png"), np.zeros((64, 64), np.uint8))
     result = CliRunner().invoke(main, ["learn", str(tmp_path / "omni.png"), "--dir", str(tmp_path / "nowhere")])
     assert result.exit_code == 1 and "the folder does not exist" in result.stderr
+    (tmp_path / "far.csv").write_text("name,u,v,X,Y,Z\nfar,100,5,1,2,3\n")
+    result = CliRunner().invoke(main, ["learn", str(tmp_path / "omni.png"), "--landmarks", str(tmp_path / "far.csv")])
+    assert result.exit_code == 1
+    assert result.stderr.strip() == (
+        "panomap: error: the landmarks to start with: landmark 1 (far): pixel (100, 5) is outside the 64 x 64 image"
+    )
+    result = CliRunner().invoke(main, ["learn", str(tmp_path / "omni.png"), "--port", "70000"])
+    assert result.exit_code == 2 and "70000 is not in the range" in result.stderr
+
+
+def test_reports_with_nan_are_sent_as_null() -> None:
+    assert json_safe({"a": [1.0, float("nan")], "b": (float("inf"), "x", 2)}) == {"a": [1.0, None], "b": [None, "x", 2]}
+
+
+def test_a_port_in_use_is_refused_with_a_reason(example: Example, folder: Path) -> None:
+    session = Session(example.image, "omni.png", folder)
+    first = make_server(session, port=0)
+    try:
+        with pytest.raises(PanomapError, match=r"cannot listen on 127.0.0.1:\d+ .*choose another --port"):
+            make_server(session, port=first.server_address[1])
+    finally:
+        first.server_close()

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import ipaddress
 import json
+import math
 import threading
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -49,6 +50,17 @@ STATIC_FILES = {
 def static_file(name: str) -> bytes:
     """A front-end file shipped in ``panomap/learn/static``."""
     return resources.files("panomap.learn").joinpath("static", name).read_bytes()
+
+
+def json_safe(data: Any) -> Any:
+    """``data`` with every non-finite float replaced by None (JSON has no NaN)."""
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: json_safe(v) for k, v in data.items()}
+    if isinstance(data, list | tuple):
+        return [json_safe(v) for v in data]
+    return data
 
 
 def is_loopback(host: str) -> bool:
@@ -115,7 +127,11 @@ class LearnHandler(BaseHTTPRequestHandler):
             self.wfile.write(body)
 
     def _json(self, data: Any, status: int = 200) -> None:
-        self._send(status, json.dumps(data, allow_nan=False).encode("utf-8"), "application/json")
+        try:
+            text = json.dumps(data, allow_nan=False)
+        except ValueError:  # a NaN or infinity somewhere in a report: JSON has none, send null
+            text = json.dumps(json_safe(data), allow_nan=False)
+        self._send(status, text.encode("utf-8"), "application/json")
 
     def _error(self, status: int, message: str) -> None:
         # The request's body may be unread: end the connection rather than parse it as the next request.

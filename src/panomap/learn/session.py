@@ -112,10 +112,11 @@ class Session:
         self.entries: list[Entry] = []
         self.camera = camera
         if landmarks is not None:
-            self.entries = [
-                Entry(n, float(p[0]), float(p[1]), (float(w[0]), float(w[1]), float(w[2])))
-                for n, p, w in zip(landmarks.names, landmarks.pixels.tolist(), landmarks.world.tolist(), strict=True)
-            ]
+            # The same checks as the page's landmarks: names fit a CSV, pixels are in the image.
+            try:
+                self.entries = self._entries(landmarks.to_records())
+            except RequestError as exc:
+                raise PanomapError(f"the landmarks to start with: {exc.detail}") from None
             if camera is None:
                 self.camera = landmarks.camera
         self.model = "auto"
