@@ -263,6 +263,21 @@ def test_dragging_the_circles_and_editing_landmarks(browser: Any, serve: Any, ex
     scale = view.js("window.panomap.view.scale")
     (u0, v0), outer = session.circles.centre, session.circles.outer_radius
 
+    # Zooming: the buttons scale about the middle; the wheel keeps the point under the pointer.
+    page.click("#zoom-in")
+    assert view.js("window.panomap.view.scale") == pytest.approx(1.5 * scale)
+    # (Wheel events carry whole CSS px positions in Chromium, unlike pointer events: use one.)
+    x, y = (round(c) for c in view.client_point(300.25, 200.75))
+    before = view.js(f"window.panomap.clientToImage({x}, {y})")
+    page.mouse.move(x, y)
+    page.mouse.wheel(0, -100)
+    page.wait_for_function(f"window.panomap.view.scale > {1.5 * scale + 1e-9}")
+    assert view.js("window.panomap.view.scale") == pytest.approx(1.5 * 1.25 * scale)
+    after = view.js(f"window.panomap.clientToImage({x}, {y})")
+    assert after["u"] == pytest.approx(before["u"], abs=1e-9) and after["v"] == pytest.approx(before["v"], abs=1e-9)
+    page.click("#zoom-fit")
+    assert view.js("window.panomap.view.scale") == pytest.approx(scale)
+
     # Drag the centre 20 CSS px right and 10 down: it moves by (20, 10) / scale image px.
     x, y = view.client_point(u0, v0)
     page.mouse.move(x, y)

@@ -309,6 +309,9 @@
       deleteSelected();
     }
   });
+  $("zoom-in").addEventListener("click", () => zoomBy(1.5));
+  $("zoom-out").addEventListener("click", () => zoomBy(1 / 1.5));
+  $("zoom-fit").addEventListener("click", fitView);
   window.addEventListener("resize", () => {
     resizeCanvas();
     draw();
