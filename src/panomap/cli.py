@@ -25,13 +25,13 @@ from . import __version__
 from .centre import ImageCircles, draw_overlay, find_image_circles
 from .errors import PanomapError
 from .files import write_text_atomic
-from .fit import fit_camera
 from .geometry import ray_plane_points
 from .imageio import image_size, pgm_map_paths, read_image, save_map, save_map_pgm, write_image
 from .landmarks import read_landmarks, read_points
+from .pipeline import fit_table
 from .radial import MODELS
 from .remap import INTERPOLATIONS, Remapper
-from .table import SAMPLINGS, PanoMappingTable, create_table, load_table
+from .table import SAMPLINGS, PanoMappingTable, load_table
 from .views import (
     Band,
     CylinderPanorama,
@@ -267,30 +267,24 @@ def fit(
     if centre is None:
         raise PanomapError("no image centre: give --centre U0 V0, or --image OMNI to find it", landmarks)
     info["sources"] = sources
+    if refine_centre:
+        sources["centre"] = f"{sources['centre']}, refined with the landmarks"
     try:
-        annulus = None if cutoff_radius is None or outer_radius is None else (cutoff_radius, outer_radius)
-        camera_fit = fit_camera(
+        table = fit_table(
             pairs,
             position,
             centre,
+            image_size=size,
+            cutoff_radius=cutoff_radius,
+            outer_radius=outer_radius,
+            table_size=table_size,
             model=model,
             azimuth=azimuth,
             axis=axis,
-            image_size=size,
-            annulus=annulus,
             refine_centre=refine_centre,
             pixel_sigma=pixel_sigma,
             world_sigma=world_sigma,
             reject_outliers=not keep_outliers,
-        )
-        if refine_centre:
-            sources["centre"] = f"{sources['centre']}, refined with the landmarks"
-        table = create_table(
-            camera_fit,
-            size=table_size,
-            image_size=size,
-            cutoff_radius=cutoff_radius,
-            outer_radius=outer_radius,
             info=info,
         )
     except PanomapError as exc:
@@ -795,8 +789,10 @@ def demo(out: Path, camera_name: str) -> None:
 def _add_commands() -> None:
     """Commands that live in modules of their own (they import this module's types)."""
     from .cli_video import video
+    from .learn.cli import learn
 
     main.add_command(video)
+    main.add_command(learn)
 
 
 _add_commands()

@@ -126,3 +126,11 @@ def save_map_pgm(prefix: str | Path, map_uv: NDArray[np.float32]) -> tuple[Path,
     for path, plane in zip(paths, (xmap, ymap), strict=True):
         write_image(path, plane)
     return paths
+
+
+def encode_png(image: NDArray[Any], compression: int = 1) -> bytes:
+    """PNG bytes of an image (8- or 16-bit, 1, 3 or 4 channels, BGR[A]), e.g. to serve it."""
+    ok, encoded = cv2.imencode(".png", image, [cv2.IMWRITE_PNG_COMPRESSION, int(compression)])
+    if not ok:
+        raise PanomapError("cannot encode the image as PNG")
+    return bytes(encoded.tobytes())

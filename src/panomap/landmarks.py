@@ -227,3 +227,12 @@ def read_points(
         except PanomapError as exc:
             raise PanomapError(exc.detail, path) from None
     return header, rows[1:], np.array(values, dtype=np.float64).reshape(-1, len(columns))
+
+
+def landmarks_to_json(landmarks: Landmarks) -> str:
+    """The landmarks as JSON text that :func:`read_landmarks` reads, with ``camera`` when known."""
+    data: dict[str, Any] = {}
+    if landmarks.camera is not None:
+        data["camera"] = [float(c) for c in landmarks.camera]
+    data["landmarks"] = [{"name": r["name"], **{c: float(r[c]) for c in COLUMNS}} for r in landmarks.to_records()]
+    return json.dumps(data, indent=1, allow_nan=False) + "\n"

@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -63,3 +64,43 @@ def fit_plot_png(table: PanoMappingTable) -> bytes:
 def save_fit_plot(table: PanoMappingTable, path: str | Path) -> None:
     """Write the fit plot as PNG, through a temporary file."""
     write_bytes_atomic(path, fit_plot_png(table))
+
+
+def fit_curve(table: PanoMappingTable) -> dict[str, Any]:
+    """The fit plot's data (Fig. 7b) as plain numbers, for drawing it elsewhere (the learning page).
+
+    Returns
+    -------
+    dict
+        ``elevation_deg``, ``radius_px``, ``se_px``: f_r and its standard error
+        sampled over the table's elevation range; ``landmarks``: per landmark its
+        ``name``, ``elevation_deg``, ``radius_px`` (distance from the fitted
+        centre), ``residual_px`` and ``outlier``; ``cutoff_radius_px``,
+        ``outer_radius_px``.
+    """
+    fit = table.info.get("fit", {})
+    u0, v0 = table.model.centre
+    uncertainty = fit.get("uncertainty") or {}
+    if uncertainty:
+        rho = np.radians(np.asarray(uncertainty["elevation_deg"], dtype=float))
+        se = np.asarray(uncertainty["radius_se_px"], dtype=float)
+    else:
+        rho = np.linspace(*table.elevation_range, 91)
+        se = np.zeros_like(rho)
+    return {
+        "elevation_deg": np.degrees(rho).tolist(),
+        "radius_px": np.asarray(table.model.radial(rho), dtype=float).tolist(),
+        "se_px": se.tolist(),
+        "landmarks": [
+            {
+                "name": row["name"],
+                "elevation_deg": row["elevation_deg"],
+                "radius_px": math.hypot(row["u"] - u0, row["v"] - v0),
+                "residual_px": row["residual_px"],
+                "outlier": bool(row.get("outlier")),
+            }
+            for row in fit.get("landmarks", [])
+        ],
+        "cutoff_radius_px": table.cutoff_radius,
+        "outer_radius_px": table.outer_radius,
+    }

@@ -1,0 +1,78 @@
+"""The ``panomap learn`` command: serve the learning page for one omni-image."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from ..cli import FINITE, PATH
+from ..errors import PanomapError
+from ..imageio import read_image
+from ..landmarks import read_landmarks
+
+
+@click.command("learn")
+@click.argument("omni", type=PATH)
+@click.option("--landmarks", type=PATH, help="Landmarks to start with (CSV u,v,X,Y,Z[,name] or JSON).")
+@click.option(
+    "--camera", nargs=3, type=FINITE, metavar="X0 Y0 Z0", help="Camera (mirror centre) position to start with."
+)
+@click.option(
+    "--dir",
+    "folder",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("."),
+    show_default=True,
+    help="The only folder the page saves into and loads from.",
+)
+@click.option(
+    "--port", type=click.IntRange(0, 65535), default=8765, show_default=True, help="Port; 0 picks a free one."
+)
+@click.option(
+    "--host",
+    default="127.0.0.1",
+    show_default=True,
+    help="Address to listen on. Anything but loopback lets other machines use the page (and save files).",
+)
+def _learn(
+    omni: Path,
+    landmarks: Path | None,
+    camera: tuple[float, float, float] | None,
+    folder: Path,
+    port: int,
+    host: str,
+) -> None:
+    """Learn a camera in the browser: click landmarks on OMNI, type their world points, save the table.
+
+    Starts a local web server and prints its address; open it in a browser.
+    Ctrl-C stops it. Files are saved only into --dir (default: here).
+    """
+    from .server import is_loopback, make_server
+    from .session import Session
+
+    if not folder.is_dir():
+        raise PanomapError("the folder does not exist", folder)
+    image = read_image(omni)
+    preload = read_landmarks(landmarks) if landmarks is not None else None
+    session = Session(image, omni.name, folder, preload, camera)
+    if session.circles_note:
+        click.echo(f"panomap: note: {session.circles_note}", err=True)
+    if not is_loopback(host):
+        click.echo(
+            f"panomap: warning: listening on {host}, not loopback: anyone who can reach this machine can use "
+            "the page and write files into the folder",
+            err=True,
+        )
+    server = make_server(session, host, port)
+    click.echo(f"panomap learn: serving {omni.name} at {server.url} (files in {session.folder}); Ctrl-C stops it")
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        click.echo("panomap learn: stopped")
+    finally:
+        server.server_close()
+
+
+# Declared, so that type checkers know it through the import cycle with panomap.cli.
+learn: click.Command = _learn

@@ -1,0 +1,248 @@
+"""The learning page's web server: static files and a small JSON API over a :class:`Session`.
+
+Standard library only (``http.server.ThreadingHTTPServer``), bound to the
+loopback address by default. The handler parses requests and calls the
+session; it holds no geometry.
+
+API (bodies and answers are JSON unless said otherwise; errors are
+``{"error": "..."}`` with status 400, 404, 405, 409, 413 or 415):
+
+- ``GET /api/state``: image, circles, camera, landmarks, model, fit.
+- ``POST /api/state`` ``{"camera": [X0, Y0, Z0] | null, "circles": {"centre": [u0, v0],
+  "cutoff_radius": r, "outer_radius": R}, "landmarks": [{"name", "u", "v", "X", "Y", "Z"}],
+  "model": "auto"}`` (any subset): replace, refit, answer the state.
+- ``GET /api/image``: the omni-image (PNG). ``GET /api/panorama.png``: the generic
+  panorama of the current fit (720 x 180 PNG; 409 without a fit).
+- ``GET /api/files``: landmark and table files in the folder.
+- ``POST /api/landmarks/save`` ``{"name": "landmarks.csv"}`` (or ``.json``),
+  ``POST /api/landmarks/load`` ``{"name": ...}``, ``POST /api/table/save``
+  ``{"name": "cam.npz"}``: bare names in the server's folder only.
+
+POSTs must say ``Content-Type: application/json`` (a cross-site form cannot, so
+other sites' pages cannot drive the server), and on a loopback address the
+``Host`` header must name it (against DNS rebinding).
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import json
+import math
+import threading
+from http import HTTPStatus
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from importlib import resources
+from typing import Any
+from urllib.parse import urlsplit
+
+from ..errors import PanomapError
+from .session import Session
+from .validate import MAX_BODY_BYTES, RequestError, only_keys, parse_body
+
+STATIC_FILES = {
+    "/": ("index.html", "text/html; charset=utf-8"),
+    "/index.html": ("index.html", "text/html; charset=utf-8"),
+    "/static/app.js": ("app.js", "text/javascript; charset=utf-8"),
+    "/static/app.css": ("app.css", "text/css; charset=utf-8"),
+}
+
+
+def static_file(name: str) -> bytes:
+    """A front-end file shipped in ``panomap/learn/static``."""
+    return resources.files("panomap.learn").joinpath("static", name).read_bytes()
+
+
+def json_safe(data: Any) -> Any:
+    """``data`` with every non-finite float replaced by None (JSON has no NaN)."""
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: json_safe(v) for k, v in data.items()}
+    if isinstance(data, list | tuple):
+        return [json_safe(v) for v in data]
+    return data
+
+
+def is_loopback(host: str) -> bool:
+    """True for ``localhost`` and loopback addresses (127.0.0.0/8, ::1)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def _host_text(host: str | bytes | bytearray) -> str:
+    return host if isinstance(host, str) else bytes(host).decode("ascii")
+
+
+class LearnServer(ThreadingHTTPServer):
+    """A threading HTTP server holding the session it serves."""
+
+    daemon_threads = True
+
+    def __init__(self, address: tuple[str, int], session: Session) -> None:
+        super().__init__(address, LearnHandler)
+        self.session = session
+
+    @property
+    def url(self) -> str:
+        host, port = _host_text(self.server_address[0]), self.server_address[1]
+        shown = f"[{host}]" if ":" in host else host
+        return f"http://{shown}:{port}/"
+
+    def allowed_hosts(self) -> set[str] | None:
+        """Host headers accepted on a loopback server; None (any) when bound elsewhere."""
+        host, port = _host_text(self.server_address[0]), self.server_address[1]
+        if not is_loopback(host):
+            return None
+        names = {host, "localhost", "127.0.0.1", "[::1]", f"[{host}]"}
+        return {f"{name}:{port}" for name in names}
+
+
+class LearnHandler(BaseHTTPRequestHandler):
+    """Routes the page's requests to the session."""
+
+    server: LearnServer
+    server_version = "panomap-learn"
+    protocol_version = "HTTP/1.1"
+
+    def log_message(self, format: str, *args: Any) -> None:
+        """Quiet: the terminal shows the address and errors, not every request."""
+
+    # ------------------------------------------------------------------ answers
+
+    def _send(self, status: int, body: bytes, content_type: str) -> None:
+        self.send_response(status)
+        self.send_header("Content-Type", content_type)
+        self.send_header("Content-Length", str(len(body)))
+        self.send_header("Cache-Control", "no-store")
+        self.send_header("X-Content-Type-Options", "nosniff")
+        self.send_header("Content-Security-Policy", "default-src 'self'; img-src 'self' blob: data:")
+        if self.close_connection:
+            self.send_header("Connection", "close")
+        self.end_headers()
+        if self.command != "HEAD":
+            self.wfile.write(body)
+
+    def _json(self, data: Any, status: int = 200) -> None:
+        try:
+            text = json.dumps(data, allow_nan=False)
+        except ValueError:  # a NaN or infinity somewhere in a report: JSON has none, send null
+            text = json.dumps(json_safe(data), allow_nan=False)
+        self._send(status, text.encode("utf-8"), "application/json")
+
+    def _error(self, status: int, message: str) -> None:
+        # The request's body may be unread: end the connection rather than parse it as the next request.
+        self.close_connection = True
+        self._json({"error": message}, status)
+
+    def _guarded(self, action: Any) -> None:
+        try:
+            if not self._host_ok():
+                raise RequestError("this server answers only requests addressed to it by its loopback name", 403)
+            action()
+        except RequestError as exc:
+            self._error(exc.status, exc.detail)
+        except PanomapError as exc:
+            self._error(400, str(exc))
+        except Exception as exc:  # a bug: say so on the page and keep serving
+            self._error(500, f"internal error ({exc.__class__.__name__}: {exc})")
+            raise
+
+    def _host_ok(self) -> bool:
+        allowed = self.server.allowed_hosts()
+        return allowed is None or self.headers.get("Host", "") in allowed
+
+    # ------------------------------------------------------------------ methods
+
+    def do_GET(self) -> None:
+        self._guarded(self._get)
+
+    def do_HEAD(self) -> None:
+        self._guarded(self._get)
+
+    def do_POST(self) -> None:
+        self._guarded(self._post)
+
+    def do_PUT(self) -> None:
+        self._not_allowed()
+
+    do_DELETE = do_PATCH = do_PUT
+
+    def _not_allowed(self) -> None:
+        self._error(HTTPStatus.METHOD_NOT_ALLOWED, f"{self.command} is not supported here")
+
+    def _get(self) -> None:
+        path = urlsplit(self.path).path
+        session = self.server.session
+        if path in STATIC_FILES:
+            name, content_type = STATIC_FILES[path]
+            self._send(200, static_file(name), content_type)
+        elif path == "/api/state":
+            self._json(session.state())
+        elif path == "/api/image":
+            self._send(200, session.image_png, "image/png")
+        elif path == "/api/panorama.png":
+            self._send(200, session.panorama_png(), "image/png")
+        elif path == "/api/files":
+            self._json(session.files())
+        elif path.startswith("/api/"):
+            raise RequestError(f"no such API: GET {path}", 404)
+        else:
+            raise RequestError(f"no such page: {path}", 404)
+
+    def _body(self) -> dict[str, Any]:
+        content_type = self.headers.get("Content-Type", "").split(";")[0].strip().lower()
+        if content_type != "application/json":
+            raise RequestError("send the request as JSON (Content-Type: application/json)", 415)
+        try:
+            length = int(self.headers.get("Content-Length", ""))
+        except ValueError:
+            raise RequestError("the request has no Content-Length") from None
+        if length < 0 or length > MAX_BODY_BYTES:
+            self.close_connection = True
+            raise RequestError(f"the request is larger than {MAX_BODY_BYTES} bytes", 413)
+        return parse_body(self.rfile.read(length))
+
+    def _post(self) -> None:
+        path = urlsplit(self.path).path
+        session = self.server.session
+        routes = {"/api/state", "/api/landmarks/save", "/api/landmarks/load", "/api/table/save"}
+        if path not in routes:
+            raise RequestError(f"no such API: POST {path}", 404)
+        data = self._body()
+        if path == "/api/state":
+            self._json(session.update(data))
+            return
+        only_keys(data, ("name",), path)
+        if path == "/api/landmarks/save":
+            self._json({"wrote": session.save_landmarks(data.get("name"))})
+        elif path == "/api/landmarks/load":
+            self._json(session.load_landmarks(data.get("name")))
+        else:
+            self._json({"wrote": session.save_table(data.get("name"))})
+
+
+def make_server(session: Session, host: str = "127.0.0.1", port: int = 0) -> LearnServer:
+    """A server for ``session`` bound to ``host:port`` (port 0: a free one), not yet serving.
+
+    Raises
+    ------
+    PanomapError
+        When the address cannot be bound (the port is in use, the host is not this machine's).
+    """
+    try:
+        return LearnServer((host, port), session)
+    except OSError as exc:
+        raise PanomapError(
+            f"cannot listen on {host}:{port} ({exc.strerror or exc}); choose another --port (0 picks a free one)"
+        ) from None
+
+
+def serve_in_thread(server: LearnServer) -> threading.Thread:
+    """Serve in a daemon thread (for tests and scripts); stop with ``server.shutdown()``."""
+    thread = threading.Thread(target=server.serve_forever, args=(0.05,), name="panomap-learn", daemon=True)
+    thread.start()
+    return thread

@@ -1,0 +1,406 @@
+"""What the learning page works on: the omni-image, its circles, the landmarks, the camera, the last fit.
+
+Convention: pixel (u, v) = (column, row), the centre of the top-left pixel at
+(0, 0); world Z up; the camera position is the mirror (lens) centre O_m.
+
+The session holds no geometry: it validates what the page sends (with
+:mod:`panomap.learn.validate`), fits with :func:`panomap.pipeline.fit_table`
+(the path ``panomap fit`` takes), and draws previews with the library's views.
+Every change replaces the state and refits at once; the page debounces.
+Files are read and written only in ``folder``, by bare name, atomically.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..centre import find_image_circles
+from ..errors import PanomapError
+from ..files import write_text_atomic
+from ..imageio import encode_png
+from ..landmarks import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
+from ..pipeline import fit_table
+from ..plot import fit_curve
+from ..radial import MODELS
+from ..remap import Remapper
+from ..table import PanoMappingTable
+from ..views import GenericPanorama, build_map
+from .validate import (
+    MAX_LANDMARKS,
+    MAX_WORLD_ABS,
+    RequestError,
+    file_name,
+    finite,
+    landmark_name,
+    numbers,
+    only_keys,
+)
+
+LANDMARK_SUFFIXES = (".csv", ".json")
+TABLE_SUFFIXES = (".npz",)
+PREVIEW_SIZE = (720, 180)
+FIT_MODELS = ("auto", *MODELS)
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One landmark on the page: its pixel (px) and, once typed, its world point (world units)."""
+
+    name: str
+    u: float
+    v: float
+    world: tuple[float, float, float] | None
+
+    def to_dict(self) -> dict[str, Any]:
+        x, y, z = self.world if self.world is not None else (None, None, None)
+        return {"name": self.name, "u": self.u, "v": self.v, "X": x, "Y": y, "Z": z}
+
+
+@dataclass(frozen=True)
+class Circles:
+    """The image centre (u0, v0) and the annulus: cut-off and outer radius, px."""
+
+    centre: tuple[float, float]
+    cutoff_radius: float
+    outer_radius: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"centre": list(self.centre), "cutoff_radius": self.cutoff_radius, "outer_radius": self.outer_radius}
+
+
+class Session:
+    """The state behind one ``panomap learn`` server; safe to use from several threads.
+
+    Parameters
+    ----------
+    image : (H, W[, C]) ndarray
+        The omni-image (8- or 16-bit).
+    image_name : str
+        Shown on the page.
+    folder : path-like
+        The only folder files are saved to and loaded from.
+    landmarks : Landmarks, optional
+        Preloaded landmarks.
+    camera : (X0, Y0, Z0), optional
+        Preloaded camera position (else the landmarks' JSON camera, if any).
+    """
+
+    def __init__(
+        self,
+        image: NDArray[Any],
+        image_name: str,
+        folder: str | Path,
+        landmarks: Landmarks | None = None,
+        camera: tuple[float, float, float] | None = None,
+    ) -> None:
+        self.folder = Path(folder).resolve()
+        if not self.folder.is_dir():
+            raise PanomapError("not a folder", folder)
+        self.image = image
+        self.image_name = image_name
+        self.image_size = (int(image.shape[1]), int(image.shape[0]))
+        self.image_png = encode_png(image)
+        self._lock = threading.Lock()
+        self.circles, self.detected, self.circles_note = self._start_circles()
+        self.entries: list[Entry] = []
+        self.camera = camera
+        if landmarks is not None:
+            # The same checks as the page's landmarks: names fit a CSV, pixels are in the image.
+            try:
+                self.entries = self._entries(landmarks.to_records())
+            except RequestError as exc:
+                raise PanomapError(f"the landmarks to start with: {exc.detail}") from None
+            if camera is None:
+                self.camera = landmarks.camera
+        self.model = "auto"
+        self.revision = 0
+        self.table: PanoMappingTable | None = None
+        self.fit_status: dict[str, Any] = {}
+        self._preview: tuple[int, bytes] | None = None
+        self._refit()
+
+    # ------------------------------------------------------------------ state
+
+    def _start_circles(self) -> tuple[Circles, dict[str, Any] | None, str | None]:
+        width, height = self.image_size
+        try:
+            found = find_image_circles(self.image)
+        except PanomapError as exc:
+            guess = Circles(((width - 1) / 2, (height - 1) / 2), 0.0, min(width, height) / 2 - 0.5)
+            guessed = f"could not find the image circles ({exc.detail}); starting from a guess: drag them into place"
+            return guess, None, guessed
+        note = None if found.cutoff is not None else "no cut-off disc found (a fisheye?): the cut-off radius is 0"
+        return Circles(found.centre, found.cutoff_radius or 0.0, found.outer_radius), found.to_dict(), note
+
+    def state(self) -> dict[str, Any]:
+        """Everything the page shows, as JSON-ready data."""
+        with self._lock:
+            return self._state()
+
+    def _state(self) -> dict[str, Any]:
+        width, height = self.image_size
+        return {
+            "image": {"name": self.image_name, "width": width, "height": height},
+            "circles": self.circles.to_dict() | {"detected": self.detected, "note": self.circles_note},
+            "camera": None if self.camera is None else list(self.camera),
+            "landmarks": [e.to_dict() for e in self.entries],
+            "model": self.model,
+            "models": list(FIT_MODELS),
+            "folder": str(self.folder),
+            "revision": self.revision,
+            "fit": self.fit_status,
+        }
+
+    def update(self, data: dict[str, Any]) -> dict[str, Any]:
+        """Replace the fields ``data`` holds (camera, circles, landmarks, model), refit, return the state."""
+        only_keys(data, ("camera", "circles", "landmarks", "model"), "state")
+        camera = self.camera
+        if "camera" in data:
+            camera = None if data["camera"] is None else self._camera(data["camera"])
+        circles = self._circles(data["circles"]) if "circles" in data else self.circles
+        entries = self._entries(data["landmarks"]) if "landmarks" in data else self.entries
+        model = self.model
+        if "model" in data:
+            if data["model"] not in FIT_MODELS:
+                raise RequestError(f"model must be one of {', '.join(FIT_MODELS)}, not {data['model']!r}")
+            model = str(data["model"])
+        with self._lock:
+            self.camera, self.circles, self.entries, self.model = camera, circles, entries, model
+            self._refit()
+            return self._state()
+
+    @staticmethod
+    def _camera(value: Any) -> tuple[float, float, float]:
+        x, y, z = numbers(value, 3, "camera", MAX_WORLD_ABS)
+        return (x, y, z)
+
+    def _circles(self, value: Any) -> Circles:
+        if not isinstance(value, dict):
+            raise RequestError("circles must be an object with centre, cutoff_radius, outer_radius")
+        only_keys(value, ("centre", "cutoff_radius", "outer_radius"), "circles")
+        missing = [k for k in ("centre", "cutoff_radius", "outer_radius") if k not in value]
+        if missing:
+            raise RequestError(f"circles: missing {', '.join(missing)}")
+        width, height = self.image_size
+        u0, v0 = numbers(value["centre"], 2, "circles.centre")
+        if not (-0.5 <= u0 <= width - 0.5 and -0.5 <= v0 <= height - 0.5):
+            raise RequestError(f"the centre ({u0:g}, {v0:g}) is outside the {width} x {height} image")
+        cutoff = finite(value["cutoff_radius"], "circles.cutoff_radius")
+        outer = finite(value["outer_radius"], "circles.outer_radius")
+        if not 0 <= cutoff < outer <= 2 * math.hypot(width, height):
+            raise RequestError(
+                f"the radii must satisfy 0 <= cut-off ({cutoff:g}) < outer ({outer:g}) <= twice the image diagonal"
+            )
+        return Circles((u0, v0), cutoff, outer)
+
+    def _entries(self, value: Any) -> list[Entry]:
+        if not isinstance(value, list):
+            raise RequestError("landmarks must be a list")
+        if len(value) > MAX_LANDMARKS:
+            raise RequestError(f"{len(value)} landmarks is more than the limit of {MAX_LANDMARKS}")
+        width, height = self.image_size
+        entries, seen = [], set()
+        for k, item in enumerate(value, start=1):
+            what = f"landmark {k}"
+            if not isinstance(item, dict):
+                raise RequestError(f"{what} must be an object with name, u, v, X, Y, Z")
+            only_keys(item, ("name", "u", "v", "X", "Y", "Z"), what)
+            name = landmark_name(item.get("name"), what)
+            what = f"landmark {k} ({name})"
+            if name in seen:
+                raise RequestError(f"two landmarks are named {name!r}; names must differ")
+            seen.add(name)
+            u, v = finite(item.get("u"), f"{what}: u"), finite(item.get("v"), f"{what}: v")
+            if not (-0.5 <= u <= width - 0.5 and -0.5 <= v <= height - 0.5):
+                raise RequestError(f"{what}: pixel ({u:g}, {v:g}) is outside the {width} x {height} image")
+            given = [item.get(c) for c in ("X", "Y", "Z")]
+            if all(c is None for c in given):
+                world = None
+            else:
+                x, y, z = (finite(c, f"{what}: {axis}", MAX_WORLD_ABS) for c, axis in zip(given, "XYZ", strict=True))
+                world = (x, y, z)
+            entries.append(Entry(name, u, v, world))
+        return entries
+
+    # ------------------------------------------------------------------ fit
+
+    def _complete(self) -> Landmarks:
+        done = [e for e in self.entries if e.world is not None]
+        return Landmarks(
+            np.array([[e.u, e.v] for e in done], dtype=float).reshape(-1, 2),
+            np.array([e.world for e in done], dtype=float).reshape(-1, 3),
+            tuple(e.name for e in done),
+            self.camera,
+        )
+
+    def _refit(self) -> None:
+        self.revision += 1
+        self.table = None
+        landmarks = self._complete()
+        waiting = len(self.entries) - len(landmarks)
+        status: dict[str, Any] = {"ok": False, "revision": self.revision, "complete": len(landmarks)}
+        pending = f" ({waiting} still without a world point)" if waiting else ""
+        if len(landmarks) < MIN_LANDMARKS:
+            need = MIN_LANDMARKS - len(landmarks)
+            status |= {"need": need, "message": f"need {need} more landmark(s) with world points to fit{pending}"}
+        elif self.camera is None:
+            status |= {"need": 0, "message": "give the camera position X0, Y0, Z0 to fit"}
+        else:
+            try:
+                self.table = fit_table(
+                    landmarks,
+                    self.camera,
+                    self.circles.centre,
+                    image_size=self.image_size,
+                    cutoff_radius=self.circles.cutoff_radius,
+                    outer_radius=self.circles.outer_radius,
+                    model=self.model,
+                    info=self._info(),
+                )
+            except PanomapError as exc:
+                status |= {"need": 0, "message": f"the fit failed: {exc.detail}"}
+            else:
+                status = self._fit_report(self.table, pending)
+        self.fit_status = status
+
+    def _info(self) -> dict[str, Any]:
+        detected = self.detected
+        adjusted = detected is None or (
+            tuple(detected["centre"]) != self.circles.centre
+            or detected["outer_radius"] != self.circles.outer_radius
+            or (detected["cutoff_radius"] or 0.0) != self.circles.cutoff_radius
+        )
+        how = "set in panomap learn" if adjusted else "detected"
+        info: dict[str, Any] = {
+            "sources": {
+                "centre": how,
+                "cutoff_radius": how,
+                "outer_radius": how,
+                "camera_position": "given",
+            },
+            "learned_with": f"panomap learn on {self.image_name}",
+        }
+        if detected is not None:
+            info["image_circles"] = detected
+        return info
+
+    def _fit_report(self, table: PanoMappingTable, pending: str) -> dict[str, Any]:
+        fit = table.info["fit"]
+        curve = fit_curve(table)
+        by_name = {row["name"]: row for row in fit["landmarks"]}
+        rows = []
+        for entry in self.entries:
+            row = by_name.get(entry.name)
+            if row is not None:
+                rows.append(
+                    {
+                        "name": entry.name,
+                        "residual_px": row["residual_px"],
+                        "outlier": bool(row["outlier"]),
+                        "u_fit": row["u_fit"],
+                        "v_fit": row["v_fit"],
+                        "elevation_deg": row["elevation_deg"],
+                        "azimuth_deg": row["azimuth_deg"],
+                    }
+                )
+        m, n = table.size
+        outliers = ", ".join(fit["outliers"]) or "none"
+        return {
+            "ok": True,
+            "revision": self.revision,
+            "complete": len(by_name),
+            "need": 0,
+            "message": (
+                f"model {fit['model']}: RMS {fit['rms_px']:.3f} px, max {fit['max_px']:.3f} px over "
+                f"{len(by_name) - len(fit['outliers'])} landmarks; outliers: {outliers}{pending}"
+            ),
+            "model": fit["model"],
+            "rms_px": fit["rms_px"],
+            "max_px": fit["max_px"],
+            "s": fit["s"],
+            "phi0_deg": fit["phi0_deg"],
+            "axis": fit["axis"],
+            "outliers": fit["outliers"],
+            "warnings": table.info.get("warnings", []),
+            "table_size": [m, n],
+            "elevation_range_deg": [math.degrees(x) for x in table.elevation_range],
+            "landmarks": rows,
+            "curve": curve,
+        }
+
+    # ------------------------------------------------------------------ previews and files
+
+    def panorama_png(self) -> bytes:
+        """The generic panorama of the current fit, ``PREVIEW_SIZE``, as PNG (cached per fit)."""
+        with self._lock:
+            if self.table is None:
+                raise RequestError(f"no fit yet: {self.fit_status.get('message', '')}", 409)
+            if self._preview is None or self._preview[0] != self.revision:
+                view = GenericPanorama(PREVIEW_SIZE)
+                remap = Remapper(build_map(self.table, view), self.image_size)
+                self._preview = (self.revision, encode_png(remap(self.image)))
+            return self._preview[1]
+
+    def _path(self, value: Any, suffixes: tuple[str, ...], what: str) -> Path:
+        name = file_name(value, suffixes, what)
+        path = self.folder / name
+        # Belt and braces: a bare name (checked above) cannot leave the folder. A symbolic link
+        # of that name is replaced by the atomic write, never written through; loads refuse it.
+        if path.parent != self.folder:
+            raise RequestError(f"{what}: {name!r} is not in the folder {self.folder}")
+        return path
+
+    def save_landmarks(self, name: Any) -> str:
+        """Write the landmarks (CSV, or JSON with the camera) into the folder; returns the file name."""
+        with self._lock:
+            path = self._path(name, LANDMARK_SUFFIXES, "save landmarks")
+            waiting = [e.name for e in self.entries if e.world is None]
+            if waiting:
+                raise RequestError(f"landmark(s) {', '.join(waiting)} have no world point yet; type X, Y, Z first")
+            if not self.entries:
+                raise RequestError("there are no landmarks to save")
+            landmarks = self._complete()
+            text = landmarks_to_json(landmarks) if path.suffix.lower() == ".json" else landmarks_to_csv(landmarks)
+            write_text_atomic(path, text)
+            return path.name
+
+    def load_landmarks(self, name: Any) -> dict[str, Any]:
+        """Replace the landmarks (and the camera, when the JSON has one) from a file in the folder."""
+        path = self._path(name, LANDMARK_SUFFIXES, "load landmarks")
+        if path.is_symlink() or not path.is_file():
+            raise RequestError(f"load landmarks: there is no file {path.name!r} in {self.folder}", 404)
+        try:
+            landmarks = read_landmarks(path)
+        except PanomapError as exc:
+            raise RequestError(f"load landmarks: {path.name}: {exc.detail}") from None
+        entries = self._entries([r for r in landmarks.to_records()])
+        with self._lock:
+            self.entries = entries
+            if landmarks.camera is not None:
+                self.camera = landmarks.camera
+            self._refit()
+            return self._state()
+
+    def save_table(self, name: Any) -> str:
+        """Write the current fit's table (.npz) into the folder; returns the file name."""
+        with self._lock:
+            path = self._path(name, TABLE_SUFFIXES, "save table")
+            if self.table is None:
+                raise RequestError(f"no table to save: {self.fit_status.get('message', 'no fit')}", 409)
+            self.table.save(path)
+            return path.name
+
+    def files(self) -> dict[str, list[str]]:
+        """The landmark and table files in the folder, by name."""
+        names = sorted(p.name for p in self.folder.iterdir() if p.is_file() and not p.name.startswith("."))
+        return {
+            "landmarks": [n for n in names if n.lower().endswith(LANDMARK_SUFFIXES)],
+            "tables": [n for n in names if n.lower().endswith(TABLE_SUFFIXES)],
+        }

@@ -1,0 +1,106 @@
+"""Checks on everything the learning page sends: JSON bodies, numbers, landmarks, file names.
+
+Every check raises :class:`RequestError` with a message for the page; the
+server answers it with HTTP 400 (or the error's ``status``) and
+``{"error": message}``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from typing import Any
+
+from ..errors import PanomapError
+
+MAX_BODY_BYTES = 1 << 20
+MAX_LANDMARKS = 500
+MAX_NAME_LENGTH = 64
+# World coordinates beyond this are typing mistakes, not rooms.
+MAX_WORLD_ABS = 1e6
+# A landmark name goes into a CSV cell unquoted: no separators, quotes or control characters.
+NAME_PATTERN = re.compile(r"[^,\"'\x00-\x1f\x7f]{1,64}")
+# A file name the page may save or load: a bare name in the server's folder.
+FILE_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
+
+
+class RequestError(PanomapError):
+    """A bad request, with the HTTP status to answer it with (400 by default)."""
+
+    def __init__(self, message: str, status: int = 400) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+def _refuse_constant(name: str) -> Any:
+    raise RequestError(f"the JSON holds {name}; numbers must be finite")
+
+
+def parse_body(body: bytes) -> dict[str, Any]:
+    """A request body as a JSON object (refusing NaN and Infinity, which Python's json accepts)."""
+    if len(body) > MAX_BODY_BYTES:
+        raise RequestError(f"the request is larger than {MAX_BODY_BYTES} bytes", 413)
+    try:
+        data = json.loads(body.decode("utf-8"), parse_constant=_refuse_constant)
+    except UnicodeDecodeError:
+        raise RequestError("the request body is not UTF-8 text") from None
+    except json.JSONDecodeError as exc:
+        raise RequestError(f"the request body is not valid JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise RequestError("the request body must be a JSON object")
+    return data
+
+
+def only_keys(data: dict[str, Any], allowed: tuple[str, ...], what: str) -> None:
+    """Refuse keys the request does not know (a typo would otherwise be ignored)."""
+    unknown = sorted(set(data) - set(allowed))
+    if unknown:
+        raise RequestError(f"{what}: unknown field(s) {', '.join(unknown)}; it takes {', '.join(allowed)}")
+
+
+def finite(value: Any, what: str, limit: float | None = None) -> float:
+    """A finite JSON number (not a bool, not a string), at most ``limit`` in size."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise RequestError(f"{what} must be a number, not {json.dumps(value)[:40]}")
+    number = float(value)
+    if not math.isfinite(number):
+        raise RequestError(f"{what} must be finite")
+    if limit is not None and abs(number) > limit:
+        raise RequestError(f"{what} = {number:g} is too large (at most {limit:g} in size)")
+    return number
+
+
+def numbers(value: Any, count: int, what: str, limit: float | None = None) -> tuple[float, ...]:
+    """A JSON list of ``count`` finite numbers."""
+    if not isinstance(value, list) or len(value) != count:
+        raise RequestError(f"{what} must be a list of {count} numbers")
+    return tuple(finite(v, f"{what}[{k}]", limit) for k, v in enumerate(value))
+
+
+def landmark_name(value: Any, what: str) -> str:
+    """A landmark name: 1-64 characters, none of them a comma, quote or control character."""
+    if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value.strip()):
+        raise RequestError(
+            f"{what}: the name must be 1 to {MAX_NAME_LENGTH} characters without commas, quotes or control "
+            f"characters, not {json.dumps(value)[:40]}"
+        )
+    return value.strip()
+
+
+def file_name(value: Any, suffixes: tuple[str, ...], what: str) -> str:
+    """A bare file name with one of ``suffixes``: no folder, no ``..``, no absolute path."""
+    if not isinstance(value, str) or not value:
+        raise RequestError(f"{what}: give a file name")
+    if "/" in value or "\\" in value or value.startswith("~"):
+        raise RequestError(f"{what}: {value!r} must be a bare file name, without a folder")
+    if ".." in value:
+        raise RequestError(f"{what}: {value!r} must not contain '..'")
+    if not FILE_PATTERN.fullmatch(value):
+        raise RequestError(
+            f"{what}: {value!r} must start with a letter or digit and hold only letters, digits, '.', '-', '_' "
+            "(at most 100 characters)"
+        )
+    if not value.lower().endswith(suffixes):
+        raise RequestError(f"{what}: {value!r} must end in {' or '.join(suffixes)}")
+    return value

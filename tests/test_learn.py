@@ -1,0 +1,391 @@
+"""``panomap learn``'s server, through its JSON API (urllib against a server thread on port 0).
+
+Ground truth: the bundled room rendered through a simulated hyperbolic-mirror camera
+(rotated, mirrored, off-centre) and the room's landmarks at their true pixels, from the
+simulated camera's closed-form projection (:mod:`panomap.learn.example`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import urllib.error
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from panomap.cli import main
+from panomap.errors import PanomapError
+from panomap.landmarks import Landmarks, landmarks_to_json, read_landmarks
+from panomap.learn.example import Example, make_example
+from panomap.learn.server import LearnServer, json_safe, make_server, serve_in_thread
+from panomap.learn.session import Session
+from panomap.table import load_table
+
+SIZE = (480, 480)
+
+
+@pytest.fixture(scope="module")
+def example() -> Example:
+    return make_example(SIZE, count=8, supersample=1)
+
+
+class Client:
+    """A tiny JSON client for one server."""
+
+    def __init__(self, server: LearnServer) -> None:
+        self.url = server.url.rstrip("/")
+
+    def request(
+        self, method: str, path: str, body: bytes | None = None, headers: dict[str, str] | None = None
+    ) -> tuple[int, bytes]:
+        request = urllib.request.Request(self.url + path, body, headers or {}, method=method)
+        try:
+            with urllib.request.urlopen(request, timeout=30) as response:
+                return response.status, response.read()
+        except urllib.error.HTTPError as exc:
+            return exc.code, exc.read()
+
+    def get(self, path: str) -> Any:
+        status, body = self.request("GET", path)
+        assert status == 200, body
+        return json.loads(body)
+
+    def post(self, path: str, data: Any) -> tuple[int, Any]:
+        status, body = self.request("POST", path, json.dumps(data).encode(), {"Content-Type": "application/json"})
+        return status, json.loads(body)
+
+    def post_raw(self, path: str, body: bytes, content_type: str = "application/json") -> tuple[int, Any]:
+        status, answer = self.request("POST", path, body, {"Content-Type": content_type})
+        return status, json.loads(answer)
+
+
+@pytest.fixture
+def folder(tmp_path: Path) -> Path:
+    inside = tmp_path / "work"
+    inside.mkdir()
+    return inside
+
+
+@pytest.fixture
+def client(example: Example, folder: Path) -> Iterator[Client]:
+    server = make_server(Session(example.image, "omni.png", folder), port=0)
+    thread = serve_in_thread(server)
+    yield Client(server)
+    server.shutdown()
+    server.server_close()
+    thread.join(5)
+
+
+def true_landmarks(example: Example, count: int | None = None) -> list[dict[str, Any]]:
+    rows = [
+        {"name": name, "u": float(p[0]), "v": float(p[1]), "X": float(w[0]), "Y": float(w[1]), "Z": float(w[2])}
+        for name, p, w in zip(example.names, example.pixels, example.world, strict=True)
+    ]
+    return rows[:count]
+
+
+def all_files(root: Path) -> set[Path]:
+    return {p for p in root.rglob("*")}
+
+
+def test_true_landmarks_fit_with_small_residuals_and_a_panorama(client: Client, example: Example) -> None:
+    state = client.get("/api/state")
+    assert state["image"] == {"name": "omni.png", "width": SIZE[0], "height": SIZE[1]}
+    # The detected centre is within 0.1 px of the simulated camera's (docs/centre.md: a few hundredths).
+    assert np.allclose(state["circles"]["centre"], example.camera.centre, atol=0.1)
+    assert state["fit"]["ok"] is False and state["fit"]["need"] == 5
+
+    status, answer = client.post(
+        "/api/state", {"camera": list(example.camera_position), "landmarks": true_landmarks(example)}
+    )
+    assert status == 200, answer
+    fit = answer["fit"]
+    assert fit["ok"], fit["message"]
+    assert fit["s"] == -1  # the simulated camera is mirrored
+    assert [row["name"] for row in fit["landmarks"]] == list(example.names)
+    residuals = np.array([row["residual_px"] for row in fit["landmarks"]])
+    # Exact pixels, centre detected to ~0.01 px: every residual is a few hundredths of a pixel.
+    assert residuals.max() < 0.05, residuals
+    assert not any(row["outlier"] for row in fit["landmarks"])
+    curve = fit["curve"]
+    assert len(curve["elevation_deg"]) == len(curve["radius_px"]) == len(curve["se_px"]) == 91
+    # The curve passes through the landmarks (radius from the centre) within the residuals.
+    for row in curve["landmarks"]:
+        r = np.interp(row["elevation_deg"], curve["elevation_deg"], curve["radius_px"])
+        assert abs(r - row["radius_px"]) < 0.1
+
+    status, png = client.request("GET", "/api/panorama.png")
+    assert status == 200
+    pano = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert pano.shape == (180, 720, 3)
+    assert float(pano.mean()) > 40  # the room, not a black fill
+
+
+def test_too_few_landmarks_say_how_many_more(client: Client, example: Example) -> None:
+    rows = [*true_landmarks(example, 3), {"name": "pending", "u": 10.0, "v": 20.0, "X": None, "Y": None, "Z": None}]
+    status, answer = client.post("/api/state", {"camera": list(example.camera_position), "landmarks": rows})
+    assert status == 200
+    assert answer["fit"]["ok"] is False and answer["fit"]["need"] == 2
+    assert "need 2 more landmark(s)" in answer["fit"]["message"]
+    assert "1 still without a world point" in answer["fit"]["message"]
+    assert answer["landmarks"][3] == {"name": "pending", "u": 10.0, "v": 20.0, "X": None, "Y": None, "Z": None}
+    status, answer = client.post("/api/state", {"camera": None, "landmarks": true_landmarks(example)})
+    assert answer["fit"]["message"] == "give the camera position X0, Y0, Z0 to fit"
+    status, body = client.request("GET", "/api/panorama.png")
+    assert status == 409 and "no fit yet" in json.loads(body)["error"]
+    status, answer = client.post("/api/table/save", {"name": "cam.npz"})
+    assert status == 409 and "no table to save" in answer["error"]
+
+
+GOOD = {"name": "a", "u": 100.0, "v": 100.0, "X": 1.0, "Y": 2.0, "Z": 0.0}
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        (b"{not json", "not valid JSON"),
+        (b"[1, 2]", "must be a JSON object"),
+        (b'{"camera": [NaN, 1, 2]}', "holds NaN"),
+        (b'{"camera": [Infinity, 1, 2]}', "holds Infinity"),
+        (b'{"camera": [1e999, 1, 2]}', "camera[0] must be finite"),
+        (b'{"camera": ["1", 1, 2]}', 'camera[0] must be a number, not "1"'),
+        (b'{"camera": [true, 1, 2]}', "camera[0] must be a number, not true"),
+        (b'{"camera": [1, 2]}', "camera must be a list of 3 numbers"),
+        (b'{"camera": [1e9, 1, 2]}', "too large"),
+        (b'{"camara": [1, 2, 3]}', "unknown field(s) camara"),
+        (b'{"model": "cubic"}', "model must be one of auto"),
+        (b'{"landmarks": {}}', "landmarks must be a list"),
+        (b'{"landmarks": [5]}', "landmark 1 must be an object"),
+        (b'{"landmarks": [{"name": "a", "u": 1, "v": 2, "X": 1, "Y": 2, "Z": 3, "W": 1}]}', "unknown field(s) W"),
+        (b'{"landmarks": [{"name": "a,b", "u": 1, "v": 2}]}', "without commas"),
+        (b'{"landmarks": [{"name": "", "u": 1, "v": 2}]}', "the name must be 1 to 64"),
+        (b'{"landmarks": [{"name": "a", "u": 1000, "v": 2}]}', "is outside the 480 x 480 image"),
+        (b'{"landmarks": [{"name": "a", "u": -0.6, "v": 2}]}', "is outside the 480 x 480 image"),
+        (b'{"landmarks": [{"name": "a", "v": 2}]}', "landmark 1 (a): u must be a number, not null"),
+        (b'{"landmarks": [{"name": "a", "u": 1, "v": 2, "X": 1}]}', "landmark 1 (a): Y must be a number"),
+        (json.dumps({"landmarks": [GOOD, GOOD]}).encode(), "two landmarks are named 'a'"),
+        (json.dumps({"landmarks": [GOOD | {"name": f"n{k}"} for k in range(501)]}).encode(), "more than the limit"),
+        (b'{"circles": {"centre": [1, 2], "cutoff_radius": 50, "outer_radius": 40}}', "0 <= cut-off (50) < outer"),
+        (b'{"circles": {"centre": [900, 2], "cutoff_radius": 0, "outer_radius": 40}}', "outside the 480 x 480"),
+        (b'{"circles": {"centre": [9, 2]}}', "circles: missing cutoff_radius, outer_radius"),
+        (b"\xff\xfe", "not UTF-8"),
+    ],
+)
+def test_bad_state_is_refused_with_a_clear_error_and_changes_nothing(client: Client, body: bytes, message: str) -> None:
+    before = client.get("/api/state")
+    status, answer = client.post_raw("/api/state", body)
+    assert status == 400
+    assert message in answer["error"], answer
+    assert client.get("/api/state") == before
+
+
+def test_requests_that_are_not_json_or_not_here_are_refused(client: Client) -> None:
+    status, answer = client.post_raw("/api/state", b"camera=1", "application/x-www-form-urlencoded")
+    assert status == 415 and "Content-Type: application/json" in answer["error"]
+    # A body announced as larger than 1 MiB is refused before it is read.
+    status, body = client.request(
+        "POST", "/api/state", b"{}", {"Content-Type": "application/json", "Content-Length": str((1 << 20) + 1)}
+    )
+    assert status == 413 and "larger than" in json.loads(body)["error"]
+    status, body = client.request("GET", "/api/nothing")
+    assert status == 404 and json.loads(body)["error"] == "no such API: GET /api/nothing"
+    status, body = client.request("GET", "/static/../../etc/passwd")
+    assert status == 404
+    status, body = client.request("PUT", "/api/state", b"{}", {"Content-Type": "application/json"})
+    assert status == 405
+    status, body = client.request("GET", "/api/state", headers={"Host": "evil.example:80"})
+    assert status == 403 and "loopback" in json.loads(body)["error"]
+    for page, kind in (("/", b"<!doctype html>"), ("/static/app.js", b'"use strict"'), ("/static/app.css", b"")):
+        status, body = client.request("GET", page)
+        assert status == 200 and kind in body
+
+
+BAD_NAMES = [
+    ("/api/landmarks/save", "../x.csv", "bare file name"),
+    ("/api/landmarks/save", "..x.csv", "must not contain '..'"),
+    ("/api/landmarks/save", "/tmp/x.csv", "bare file name"),
+    ("/api/landmarks/save", "sub\\x.csv", "bare file name"),
+    ("/api/landmarks/save", "~x.csv", "bare file name"),
+    ("/api/landmarks/save", ".x.csv", "must start with a letter or digit"),
+    ("/api/landmarks/save", "x.txt", "must end in .csv or .json"),
+    ("/api/landmarks/save", "x.npz", "must end in .csv or .json"),
+    ("/api/landmarks/save", "", "give a file name"),
+    ("/api/landmarks/save", 5, "give a file name"),
+    ("/api/landmarks/load", "../x.csv", "bare file name"),
+    ("/api/landmarks/load", "missing.csv", "there is no file 'missing.csv'"),
+    ("/api/table/save", "../../cam.npz", "bare file name"),
+    ("/api/table/save", "cam.csv", "must end in .npz"),
+]
+
+
+def test_file_names_stay_in_the_folder(client: Client, example: Example, folder: Path) -> None:
+    client.post("/api/state", {"camera": list(example.camera_position), "landmarks": true_landmarks(example)})
+    root = folder.parent
+    before = all_files(root)
+    for path, name, message in BAD_NAMES:
+        status, answer = client.post(path, {"name": name})
+        assert status == (404 if name == "missing.csv" else 400), (name, answer)
+        assert message in answer["error"], (name, answer)
+    status, answer = client.post("/api/table/save", {"name": "cam.npz", "folder": "/tmp"})
+    assert status == 400 and "unknown field(s) folder" in answer["error"]
+    assert all_files(root) == before
+
+
+def test_saved_files_are_what_panomap_fit_makes(client: Client, example: Example, folder: Path) -> None:
+    """The saved table equals ``panomap fit`` on the saved landmarks with the same camera, centre and radii."""
+    root = folder.parent
+    before = all_files(root)
+    status, answer = client.post(
+        "/api/state", {"camera": list(example.camera_position), "landmarks": true_landmarks(example)}
+    )
+    circles = answer["circles"]
+    assert answer["fit"]["ok"]
+    for path, name in (
+        ("/api/landmarks/save", "lm.csv"),
+        ("/api/landmarks/save", "lm.json"),
+        ("/api/table/save", "web.npz"),
+    ):
+        status, reply = client.post(path, {"name": name})
+        assert status == 200 and reply == {"wrote": name}
+    # Nothing but the three files, all in the folder (the temporary files are gone).
+    assert all_files(root) - before == {folder / "lm.csv", folder / "lm.json", folder / "web.npz"}
+    csv_landmarks, json_landmarks = read_landmarks(folder / "lm.csv"), read_landmarks(folder / "lm.json")
+    for read in (csv_landmarks, json_landmarks):
+        assert read.names == example.names
+        assert np.array_equal(read.pixels, example.pixels)  # repr() round trip: exact
+        assert np.array_equal(read.world, example.world)
+    assert json_landmarks.camera == example.camera_position
+    assert client.get("/api/files") == {"landmarks": ["lm.csv", "lm.json"], "tables": ["web.npz"]}
+
+    result = CliRunner().invoke(
+        main,
+        [
+            "fit",
+            str(folder / "lm.csv"),
+            "-o",
+            str(folder / "cli.npz"),
+            "--camera",
+            *(repr(c) for c in example.camera_position),
+            "--centre",
+            *(repr(c) for c in circles["centre"]),
+            "--cutoff-radius",
+            repr(circles["cutoff_radius"]),
+            "--outer-radius",
+            repr(circles["outer_radius"]),
+            "--image-size",
+            f"{SIZE[0]}x{SIZE[1]}",
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    web, cli = load_table(folder / "web.npz"), load_table(folder / "cli.npz")
+    assert web.size == cli.size and web.elevation_range == cli.elevation_range
+    assert web.model.to_dict() == cli.model.to_dict()
+    # Same inputs to the same code path: the float32 entries agree to rounding (1e-4 px allows
+    # for a last-digit difference in a threaded BLAS reduction; they are in fact equal here).
+    assert np.allclose(web.entries, cli.entries, rtol=0, atol=1e-4)
+    assert web.info["learned_with"] == "panomap learn on omni.png"
+
+
+def test_loading_landmarks_replaces_them_and_the_camera(client: Client, example: Example, folder: Path) -> None:
+    client.post("/api/state", {"camera": list(example.camera_position), "landmarks": true_landmarks(example, 6)})
+    assert client.post("/api/landmarks/save", {"name": "six.json"})[0] == 200
+    client.post("/api/state", {"camera": [0, 0, 1], "landmarks": []})
+    status, state = client.post("/api/landmarks/load", {"name": "six.json"})
+    assert status == 200
+    assert state["camera"] == list(example.camera_position)
+    assert [row["name"] for row in state["landmarks"]] == list(example.names[:6])
+    assert state["fit"]["ok"]
+    (folder / "bad.csv").write_text("u,v,X\n1,2,3\n")
+    status, answer = client.post("/api/landmarks/load", {"name": "bad.csv"})
+    assert status == 400 and "bad.csv: the CSV lacks the column(s) Y,Z" in answer["error"]
+
+
+def test_landmarks_without_world_points_are_not_saved(client: Client, example: Example, folder: Path) -> None:
+    rows = [*true_landmarks(example, 5), {"name": "later", "u": 1.0, "v": 1.0}]
+    client.post("/api/state", {"camera": list(example.camera_position), "landmarks": rows})
+    status, answer = client.post("/api/landmarks/save", {"name": "lm.csv"})
+    assert status == 400 and "later have no world point yet" in answer["error"]
+    assert not (folder / "lm.csv").exists()
+
+
+def test_an_image_without_circles_starts_from_a_guess(folder: Path) -> None:
+    session = Session(np.full((200, 300), 128, np.uint8), "grey.png", folder)
+    state = session.state()
+    assert state["circles"]["centre"] == [149.5, 99.5]
+    assert state["circles"]["outer_radius"] == 99.5 and state["circles"]["cutoff_radius"] == 0.0
+    assert state["circles"]["detected"] is None
+    assert state["circles"]["note"].startswith("could not find the image circles")
+
+
+def test_the_command_serves_until_interrupted(tmp_path: Path, example: Example) -> None:
+    cv2.imwrite(str(tmp_path / "omni.png"), example.image)
+    (tmp_path / "lm.json").write_text(
+        landmarks_to_json(Landmarks(example.pixels, example.world, example.names, (0.0, 0.0, 9.0)))
+    )
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1] / "src"))
+    command = ["learn", "omni.png", "--port", "0", "--camera", "3.1", "2.4", "2.45", "--landmarks", "lm.json"]
+    process = subprocess.Popen(
+        [sys.executable, "-m", "panomap", *command],
+        cwd=tmp_path,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stdout is not None
+        line = process.stdout.readline()
+        assert line.startswith("panomap learn: serving omni.png at http://127.0.0.1:"), line
+        url = line.split(" at ")[1].split()[0]
+        with urllib.request.urlopen(url + "api/state", timeout=30) as response:
+            state = json.loads(response.read())
+        # --camera wins over the JSON's camera.
+        assert state["camera"] == [3.1, 2.4, 2.45] and state["folder"] == str(tmp_path.resolve())
+        assert [row["name"] for row in state["landmarks"]] == list(example.names)
+        assert state["fit"]["ok"]
+    finally:
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=30)
+    assert process.returncode == 0, err
+    assert out.strip() == "panomap learn: stopped" and err == ""
+
+
+def test_the_command_fails_in_one_line(tmp_path: Path) -> None:
+    result = CliRunner().invoke(main, ["learn", str(tmp_path / "none.png"), "--port", "0"])
+    assert result.exit_code == 1
+    assert result.stderr.strip() == f"panomap: error: {tmp_path / 'none.png'}: no such image file"
+    cv2.imwrite(str(tmp_path / "omni.png"), np.zeros((64, 64), np.uint8))
+    result = CliRunner().invoke(main, ["learn", str(tmp_path / "omni.png"), "--dir", str(tmp_path / "nowhere")])
+    assert result.exit_code == 1 and "the folder does not exist" in result.stderr
+    (tmp_path / "far.csv").write_text("name,u,v,X,Y,Z\nfar,100,5,1,2,3\n")
+    result = CliRunner().invoke(main, ["learn", str(tmp_path / "omni.png"), "--landmarks", str(tmp_path / "far.csv")])
+    assert result.exit_code == 1
+    assert result.stderr.strip() == (
+        "panomap: error: the landmarks to start with: landmark 1 (far): pixel (100, 5) is outside the 64 x 64 image"
+    )
+    result = CliRunner().invoke(main, ["learn", str(tmp_path / "omni.png"), "--port", "70000"])
+    assert result.exit_code == 2 and "70000 is not in the range" in result.stderr
+
+
+def test_reports_with_nan_are_sent_as_null() -> None:
+    assert json_safe({"a": [1.0, float("nan")], "b": (float("inf"), "x", 2)}) == {"a": [1.0, None], "b": [None, "x", 2]}
+
+
+def test_a_port_in_use_is_refused_with_a_reason(example: Example, folder: Path) -> None:
+    session = Session(example.image, "omni.png", folder)
+    first = make_server(session, port=0)
+    try:
+        with pytest.raises(PanomapError, match=r"cannot listen on 127.0.0.1:\d+ .*choose another --port"):
+            make_server(session, port=first.server_address[1])
+    finally:
+        first.server_close()
