@@ -308,7 +308,10 @@ def valid_elevation_range(
             f"landmarks reach radii {r_low:.1f}..{r_high:.1f} px, outside the annulus "
             f"{cutoff_radius:.1f}..{outer_radius:.1f} px given by the cut-off and outer radii"
         )
-    grid = np.unique(np.concatenate([np.linspace(-HALF_PI, HALF_PI, samples), [low, high]]))
+    # The landmarks' ends join the grid; grid points within 1e-9 rad of them go, or a step of
+    # ~1e-17 rad between near-duplicates could round to no rise and stop the growth there.
+    grid = np.linspace(-HALF_PI, HALF_PI, samples)
+    grid = np.sort(np.concatenate([grid[(np.abs(grid - low) > 1e-9) & (np.abs(grid - high) > 1e-9)], [low, high]]))
     r = radial(grid)
     sign = 1.0 if radial.axis == "down" else -1.0
     inside = np.isfinite(r) & (r >= cutoff_radius) & (r <= outer_radius)
