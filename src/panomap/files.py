@@ -55,6 +55,16 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         yield Path(handle.name)
 
 
+def read_text(path: str | Path, encoding: str = "utf-8-sig") -> str:
+    """The text of ``path`` (a leading BOM dropped); PanomapError naming it if missing or unreadable."""
+    try:
+        return Path(path).read_text(encoding=encoding)
+    except FileNotFoundError:
+        raise PanomapError("no such file", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PanomapError(f"cannot read it ({exc.__class__.__name__}: {exc})", path) from None
+
+
 def _new_file_mode() -> int:
     """The mode an ordinary new file gets (0o666 less the umask); temp files start at 0o600."""
     mask = os.umask(0)

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from .errors import PanomapError
+from .files import read_text
 from .geometry import FloatArray
 
 COLUMNS = ("u", "v", "X", "Y", "Z")
@@ -86,12 +87,7 @@ def read_landmarks(path: str | Path) -> Landmarks:
         unreadable file, missing columns, a value that is not a finite number.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise PanomapError("no such file", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PanomapError(f"cannot read it ({exc.__class__.__name__}: {exc})", path) from None
+    text = read_text(path)
     try:
         if path.suffix.lower() == ".json":
             return _from_json(text)
@@ -202,12 +198,7 @@ def read_points(
         missing column, a short row or a value that is not a finite number.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise PanomapError("no such file", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PanomapError(f"cannot read it ({exc.__class__.__name__}: {exc})", path) from None
+    text = read_text(path)
     rows = list(csv.reader(line for line in text.splitlines() if line.strip()))
     wanted = ",".join(columns)
     if not rows:

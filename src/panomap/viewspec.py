@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import PanomapError
+from .files import read_text
 from .views import Band, CylinderPanorama, FloorView, GenericPanorama, PerspectiveView, PlaneView, View
 
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
@@ -181,12 +182,7 @@ def parse_view_spec(spec: str) -> tuple[str | None, View]:
 def read_views_file(path: str | Path) -> list[NamedView]:
     """Named views from a JSON (or YAML: ``.yaml``/``.yml``) file; see the module docstring."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise PanomapError("no such file", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PanomapError(f"cannot read it: {exc}", path) from None
+    text = read_text(path)
     try:
         if path.suffix.lower() in (".yaml", ".yml"):
             import yaml
