@@ -26,13 +26,16 @@ squares of the 4th-degree polynomial with the centre pair):
    chosen again on the rest.
 5. **Joint refinement** by nonlinear least squares of f_r, phi0 and, with
    ``refine_centre``, the centre; the Jacobian gives the coefficients'
-   covariance, hence the standard error of r at every elevation.
+   covariance, hence the standard error of r at every elevation. With
+   ``refine_centre`` the paper's model (centre given) is not a candidate, and
+   model and outliers are chosen again about the refined centre, then refined
+   once more.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -297,22 +300,24 @@ def fit_camera(
         s=s,
         azimuth_mode=azimuth,
     )
-    everyone = np.ones(n, dtype=bool)
-    candidates = AUTO_CANDIDATES if model == "auto" else (model,)
-    inliers = everyone
-    if reject_outliers and model != "paper":
-        # Choose robustly, drop the worst landmark if it is an outlier under that choice, repeat.
-        for _ in range(n // 4):
-            kind, _ = _select(candidates, data, inliers, annulus, robust=True)
-            fewer = _drop_worst(kind, data, inliers)
-            if fewer is None:
-                break
-            inliers = fewer
-    kind, selection = _select(candidates, data, inliers, annulus, robust=False)
+    candidates: tuple[str, ...] = AUTO_CANDIDATES if model == "auto" else (model,)
+    if refine_centre:
+        # The paper's model takes the centre as given (Algorithm 1); choosing it would leave the centre unrefined.
+        candidates = tuple(k for k in candidates if k != "paper")
+    inliers, kind, selection = _choose(candidates, data, annulus, reject_outliers and model != "paper")
     radial, phi0 = _fit(kind, data, inliers)
     centre_fit = (u0, v0)
     if kind != "paper":
         radial, phi0, centre_fit = _refine(radial, phi0, (u0, v0), landmarks.pixels, data, inliers, refine_centre)
+    if refine_centre:
+        # Model and outliers were chosen about the starting centre, whose error (a few px on a real mirror,
+        # where the rim's centre is not the axis) swamps the differences between models: choose again
+        # about the refined centre, and refine from there.
+        r, phi = _polar(landmarks.pixels, centre_fit)
+        data = replace(data, r=r, phi=phi)
+        inliers, kind, selection = _choose(candidates, data, annulus, reject_outliers)
+        radial, phi0 = _fit(kind, data, inliers)
+        radial, phi0, centre_fit = _refine(radial, phi0, centre_fit, landmarks.pixels, data, inliers, True)
     weights = _radial_weights(radial, data)
     r_fit, _ = _polar(landmarks.pixels, centre_fit)
     covariance = coefficient_covariance(
@@ -490,6 +495,27 @@ def _select(
         if kind in usable and usable[kind] <= best * (1 + SELECTION_TOLERANCE) + 1e-12:
             return kind, selection
     raise AssertionError("unreachable: the best model is among the usable ones")
+
+
+def _choose(
+    candidates: tuple[str, ...], data: _Data, annulus: tuple[float, float] | None, reject_outliers: bool
+) -> tuple[FloatArray, str, dict[str, float]]:
+    """Inliers, the chosen model and every candidate's leave-one-out RMS (px).
+
+    With ``reject_outliers``: choose robustly, drop the worst landmark if it is
+    an outlier under that choice, repeat; then choose on the inliers.
+    """
+    n = data.rho.size
+    inliers = np.ones(n, dtype=bool)
+    if reject_outliers:
+        for _ in range(n // 4):
+            kind, _ = _select(candidates, data, inliers, annulus, robust=True)
+            fewer = _drop_worst(kind, data, inliers)
+            if fewer is None:
+                break
+            inliers = fewer
+    kind, selection = _select(candidates, data, inliers, annulus, robust=False)
+    return inliers, kind, selection
 
 
 def _drop_worst(kind: str, data: _Data, inliers: FloatArray) -> FloatArray | None:
