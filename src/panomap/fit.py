@@ -18,8 +18,9 @@ squares of the 4th-degree polynomial with the centre pair):
    weighted least squares (they separate while the centre is fixed).
 3. **Model choice** by leave-one-out cross-validation among the radial models
    of :mod:`panomap.radial` that are monotonic over the landmarks and cover
-   the annulus (cut-off to image circle) when it is known; a model within 2%
-   of the best that has fewer parameters wins.
+   the annulus (cut-off to image circle) when it is known; the model with
+   fewest parameters whose score is within one standard error of the best
+   wins (the one-standard-error rule).
 4. **Outliers.** With the chosen model, the landmark whose leave-one-out
    residual is largest is dropped while it exceeds 5 robust standard
    deviations; dropped landmarks are named in the report; the model is
@@ -60,7 +61,8 @@ from .radial import (
 MIN_ELEVATION_SPREAD = math.radians(1.0)
 AZIMUTH_MODES = ("fit", "paper")
 DEFAULT_WORLD_SIGMA_FRACTION = 0.004
-# A model within this fraction of the best leave-one-out score, with fewer parameters, is preferred.
+# In the robust choice (outlier search), a model within this fraction of the best leave-one-out
+# median, with fewer parameters, is preferred.
 SELECTION_TOLERANCE = 0.02
 OUTLIER_SIGMAS = 5.0
 # Median of the norm of a 2-D standard normal vector: sqrt(2 ln 2).
@@ -463,11 +465,16 @@ def _select(
 ) -> tuple[str, dict[str, float]]:
     """The model with the best leave-one-out score; the LOO RMS (px) of every candidate.
 
-    The score is the RMS of the whitened leave-one-out errors, or their median
-    when ``robust`` (an outlier then cannot steer the choice).
+    The score is the RMS of the whitened leave-one-out errors; the model with
+    fewest parameters whose score is within one standard error of the best
+    (the one-standard-error rule: the mean squared error plus its standard
+    error over the landmarks) wins. When ``robust`` the score is their median
+    (an outlier then cannot steer the choice), and a model within 2% of the
+    best wins.
     """
     selection: dict[str, float] = {}
     scores: dict[str, float] = {}
+    spreads: dict[str, float] = {}
     reasons: dict[str, str] = {}
     count = int(subset.sum())
     for kind in candidates:
@@ -486,13 +493,21 @@ def _select(
         whitened, pixels = _leave_one_out(kind, data, subset)
         selection[kind] = float(np.sqrt(np.mean(pixels**2)))
         scores[kind] = float(np.median(whitened)) if robust else float(np.sqrt(np.mean(whitened**2)))
+        spreads[kind] = float(np.std(whitened**2, ddof=1) / math.sqrt(whitened.size)) if whitened.size > 1 else 0.0
     usable = {k: v for k, v in scores.items() if math.isfinite(v)}
     if not usable:
         detail = "; ".join(f"{k}: {v}" for k, v in reasons.items())
         raise PanomapError(f"no radial model fits these landmarks ({detail})")
-    best = min(usable.values())
+    best_kind = min(usable, key=lambda k: usable[k])
+    best = usable[best_kind]
+    if robust:
+        limit = best * (1 + SELECTION_TOLERANCE)
+    else:
+        # One-standard-error rule: the mean squared LOO error of the best model, plus its standard error.
+        spread = spreads[best_kind] if math.isfinite(spreads[best_kind]) else 0.0
+        limit = math.sqrt(best**2 + spread)
     for kind in candidates:  # in order of preference: fewer parameters first
-        if kind in usable and usable[kind] <= best * (1 + SELECTION_TOLERANCE) + 1e-12:
+        if kind in usable and usable[kind] <= limit + 1e-12:
             return kind, selection
     raise AssertionError("unreachable: the best model is among the usable ones")
 
