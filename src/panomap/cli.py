@@ -193,7 +193,12 @@ def main() -> None:
 @click.option(
     "--axis", type=click.Choice(["down", "up"]), help="Force the viewing direction [default: from the landmarks]."
 )
-@click.option("--refine-centre", is_flag=True, help="Refine the centre together with the radial function and phi0.")
+@click.option(
+    "--refine-centre",
+    is_flag=True,
+    help="Refine the centre together with the radial function and phi0 (advised when the centre is found in "
+    "--image: on a real mirror the rim's centre can be pixels from the optical axis).",
+)
 @click.option(
     "--pixel-sigma",
     type=FINITE,

@@ -18,21 +18,25 @@ squares of the 4th-degree polynomial with the centre pair):
    weighted least squares (they separate while the centre is fixed).
 3. **Model choice** by leave-one-out cross-validation among the radial models
    of :mod:`panomap.radial` that are monotonic over the landmarks and cover
-   the annulus (cut-off to image circle) when it is known; a model within 2%
-   of the best that has fewer parameters wins.
+   the annulus (cut-off to image circle) when it is known; the model with
+   fewest parameters whose score is within one standard error of the best
+   wins (the one-standard-error rule).
 4. **Outliers.** With the chosen model, the landmark whose leave-one-out
    residual is largest is dropped while it exceeds 5 robust standard
    deviations; dropped landmarks are named in the report; the model is
    chosen again on the rest.
 5. **Joint refinement** by nonlinear least squares of f_r, phi0 and, with
    ``refine_centre``, the centre; the Jacobian gives the coefficients'
-   covariance, hence the standard error of r at every elevation.
+   covariance, hence the standard error of r at every elevation. With
+   ``refine_centre`` the paper's model (centre given) is not a candidate, and
+   model and outliers are chosen again about the refined centre, then refined
+   once more.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -56,7 +60,8 @@ from .radial import (
 MIN_ELEVATION_SPREAD = math.radians(1.0)
 AZIMUTH_MODES = ("fit", "paper")
 DEFAULT_WORLD_SIGMA_FRACTION = 0.004
-# A model within this fraction of the best leave-one-out score, with fewer parameters, is preferred.
+# In the robust choice (outlier search), a model within this fraction of the best leave-one-out
+# median, with fewer parameters, is preferred.
 SELECTION_TOLERANCE = 0.02
 OUTLIER_SIGMAS = 5.0
 # Median of the norm of a 2-D standard normal vector: sqrt(2 ln 2).
@@ -296,22 +301,24 @@ def fit_camera(
         s=s,
         azimuth_mode=azimuth,
     )
-    everyone = np.ones(n, dtype=bool)
-    candidates = AUTO_CANDIDATES if model == "auto" else (model,)
-    inliers = everyone
-    if reject_outliers and model != "paper":
-        # Choose robustly, drop the worst landmark if it is an outlier under that choice, repeat.
-        for _ in range(n // 4):
-            kind, _ = _select(candidates, data, inliers, annulus, robust=True)
-            fewer = _drop_worst(kind, data, inliers)
-            if fewer is None:
-                break
-            inliers = fewer
-    kind, selection = _select(candidates, data, inliers, annulus, robust=False)
+    candidates: tuple[str, ...] = AUTO_CANDIDATES if model == "auto" else (model,)
+    if refine_centre:
+        # The paper's model takes the centre as given (Algorithm 1); choosing it would leave the centre unrefined.
+        candidates = tuple(k for k in candidates if k != "paper")
+    inliers, kind, selection = _choose(candidates, data, annulus, reject_outliers and model != "paper")
     radial, phi0 = _fit(kind, data, inliers)
     centre_fit = (u0, v0)
     if kind != "paper":
         radial, phi0, centre_fit = _refine(radial, phi0, (u0, v0), landmarks.pixels, data, inliers, refine_centre)
+    if refine_centre:
+        # Model and outliers were chosen about the starting centre, whose error (a few px on a real mirror,
+        # where the rim's centre is not the axis) swamps the differences between models: choose again
+        # about the refined centre, and refine from there.
+        r, phi = _polar(landmarks.pixels, centre_fit)
+        data = replace(data, r=r, phi=phi)
+        inliers, kind, selection = _choose(candidates, data, annulus, reject_outliers)
+        radial, phi0 = _fit(kind, data, inliers)
+        radial, phi0, centre_fit = _refine(radial, phi0, centre_fit, landmarks.pixels, data, inliers, True)
     weights = _radial_weights(radial, data)
     r_fit, _ = _polar(landmarks.pixels, centre_fit)
     covariance = coefficient_covariance(
@@ -457,11 +464,16 @@ def _select(
 ) -> tuple[str, dict[str, float]]:
     """The model with the best leave-one-out score; the LOO RMS (px) of every candidate.
 
-    The score is the RMS of the whitened leave-one-out errors, or their median
-    when ``robust`` (an outlier then cannot steer the choice).
+    The score is the RMS of the whitened leave-one-out errors; the model with
+    fewest parameters whose score is within one standard error of the best
+    (the one-standard-error rule: the mean squared error plus its standard
+    error over the landmarks) wins. When ``robust`` the score is their median
+    (an outlier then cannot steer the choice), and a model within 2% of the
+    best wins.
     """
     selection: dict[str, float] = {}
     scores: dict[str, float] = {}
+    spreads: dict[str, float] = {}
     reasons: dict[str, str] = {}
     count = int(subset.sum())
     for kind in candidates:
@@ -480,15 +492,44 @@ def _select(
         whitened, pixels = _leave_one_out(kind, data, subset)
         selection[kind] = float(np.sqrt(np.mean(pixels**2)))
         scores[kind] = float(np.median(whitened)) if robust else float(np.sqrt(np.mean(whitened**2)))
+        spreads[kind] = float(np.std(whitened**2, ddof=1) / math.sqrt(whitened.size)) if whitened.size > 1 else 0.0
     usable = {k: v for k, v in scores.items() if math.isfinite(v)}
     if not usable:
         detail = "; ".join(f"{k}: {v}" for k, v in reasons.items())
         raise PanomapError(f"no radial model fits these landmarks ({detail})")
-    best = min(usable.values())
+    best_kind = min(usable, key=lambda k: usable[k])
+    best = usable[best_kind]
+    if robust:
+        limit = best * (1 + SELECTION_TOLERANCE)
+    else:
+        # One-standard-error rule: the mean squared LOO error of the best model, plus its standard error.
+        spread = spreads[best_kind] if math.isfinite(spreads[best_kind]) else 0.0
+        limit = math.sqrt(best**2 + spread)
     for kind in candidates:  # in order of preference: fewer parameters first
-        if kind in usable and usable[kind] <= best * (1 + SELECTION_TOLERANCE) + 1e-12:
+        if kind in usable and usable[kind] <= limit + 1e-12:
             return kind, selection
     raise AssertionError("unreachable: the best model is among the usable ones")
+
+
+def _choose(
+    candidates: tuple[str, ...], data: _Data, annulus: tuple[float, float] | None, reject_outliers: bool
+) -> tuple[FloatArray, str, dict[str, float]]:
+    """Inliers, the chosen model and every candidate's leave-one-out RMS (px).
+
+    With ``reject_outliers``: choose robustly, drop the worst landmark if it is
+    an outlier under that choice, repeat; then choose on the inliers.
+    """
+    n = data.rho.size
+    inliers = np.ones(n, dtype=bool)
+    if reject_outliers:
+        for _ in range(n // 4):
+            kind, _ = _select(candidates, data, inliers, annulus, robust=True)
+            fewer = _drop_worst(kind, data, inliers)
+            if fewer is None:
+                break
+            inliers = fewer
+    kind, selection = _select(candidates, data, inliers, annulus, robust=False)
+    return inliers, kind, selection
 
 
 def _drop_worst(kind: str, data: _Data, inliers: FloatArray) -> FloatArray | None:

@@ -1,0 +1,256 @@
+"""The radial fit on real cameras: 10 corners in, the reprojection error on all the others out.
+
+Run: ``.venv/bin/python bench/bench_real.py [--data ../shared/data/real] [--trials 20]``
+
+For each ``ocam_*`` folder of the real data (OCamCalib calibrations of three
+mirror cameras and a fisheye, with their checkerboard corners; see each
+folder's ``SOURCE.md``):
+
+- **Landmarks.** ``corners.csv`` gives each corner's 3-D point in the
+  OCamCalib camera frame (mm) and its detected pixel (0-based row, col). Our
+  pixel is ``(u, v) = (col, row)``. Our world frame *is* the OCam frame
+  ``(X, Y, Z) = (x_ocam, y_ocam, z_ocam)`` (right-handed), with the camera at
+  the origin: the image centre sees ``(0, 0, -1)``, so in our convention the
+  camera looks **down** (elevation -90 deg at the centre; the radius grows
+  with elevation, as SOURCE.md states). No flip is needed: the OCam azimuth
+  ``atan2(y, x)`` runs from the row axis towards the column axis, i.e. our
+  image angle is ``phi = pi/2 - theta`` (``s = -1``, ``phi0 = 90 deg``), which
+  the fit estimates. (For the mirror cameras the OCam frame is the mirror
+  image of the physical one; that changes no ray-pixel pair.)
+- **Centre.** From the images with :func:`panomap.centre.find_image_circles`
+  (the median over the folder's images) where it finds the rim in every image
+  (kaidan, vmr); the detected image circle then gives the annulus, as
+  ``panomap fit --image`` would. Where it finds no rim (miniomni: the mirror
+  fills the frame; imgback: the fisheye's circle is cut by the frame), the
+  calibration's centre is used, and the output says so.
+- **Choice of the 10 corners** (deterministic): the elevations of all the
+  folder's corners span ``[lo, hi]``; for each of 10 elevations evenly spaced
+  from ``lo`` to ``hi`` the corner nearest in elevation (each corner once).
+- **Fits**: ``fit_camera`` with default settings (centre as found), the same
+  with ``refine_centre=True``, and ``model="paper"`` (centre as found; the
+  paper takes the centre as given).
+- **Error**: the distance (px) between each other corner's detected pixel and
+  where the fitted model puts its 3-D point: RMS, 95th percentile and max,
+  beside the established tool's own RMS on the same corners (from
+  ``reproj_err_px``) and over all its corners (``SOURCE.md``).
+- **Spread of the choice**: ``--trials`` seeded draws of one random corner
+  per tenth of the elevation range; median and worst RMS (refined centre).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from panomap.centre import find_image_circles
+from panomap.errors import PanomapError
+from panomap.fit import fit_camera
+from panomap.geometry import azimuth_elevation
+from panomap.imageio import read_image
+from panomap.landmarks import Landmarks
+
+DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+LANDMARK_COUNT = 10
+FITS = {
+    "default": {},
+    "refined centre": {"refine_centre": True},
+    "paper": {"model": "paper"},
+}
+
+
+@dataclass(frozen=True)
+class Corners:
+    """One folder's corners: pixels (n, 2) as (u, v) = (col, row), points (n, 3) in the OCam frame (mm)."""
+
+    pixels: NDArray[np.float64]
+    world: NDArray[np.float64]
+    images: tuple[str, ...]
+    tool_error_px: NDArray[np.float64]  # the calibration's own reprojection error of each corner
+
+    @property
+    def elevation(self) -> NDArray[np.float64]:
+        return azimuth_elevation(self.world)[1]
+
+
+def read_corners(folder: Path) -> Corners:
+    """``corners.csv``: 0-based (row, col) pixels become (u, v) = (col, row); OCam (x, y, z) is our (X, Y, Z)."""
+    with (folder / "corners.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    pixels = np.array([[float(r["col_px"]), float(r["row_px"])] for r in rows])
+    world = np.array([[float(r["cam_x_mm"]), float(r["cam_y_mm"]), float(r["cam_z_mm"])] for r in rows])
+    error = np.array([float(r["reproj_err_px"]) for r in rows])
+    return Corners(pixels, world, tuple(r["image"] for r in rows), error)
+
+
+def calibration(folder: Path) -> dict[str, Any]:
+    result: dict[str, Any] = json.loads((folder / "ocam_model.json").read_text())
+    return result
+
+
+@dataclass(frozen=True)
+class CentreChoice:
+    centre: tuple[float, float]
+    annulus: tuple[float, float] | None
+    source: str
+
+
+def find_centre(folder: Path) -> CentreChoice:
+    """The median centre found in the folder's images, or the calibration's where the rim is not found in all."""
+    model = calibration(folder)
+    reference = (float(model["yc_col_0based"]), float(model["xc_row_0based"]))
+    paths = sorted((folder / "images").iterdir())
+    found = []
+    reasons = []
+    for path in paths:
+        try:
+            found.append(find_image_circles(read_image(path)))
+        except PanomapError as exc:
+            reasons.append(exc.detail)
+    if len(found) < len(paths):
+        reason = reasons[0].split(";")[0]
+        return CentreChoice(
+            reference, None, f"calibration's (no rim found in {len(reasons)} of {len(paths)} images: {reason})"
+        )
+    centres = np.array([c.centre for c in found])
+    centre = (float(np.median(centres[:, 0])), float(np.median(centres[:, 1])))
+    outer = float(np.median([c.outer_radius for c in found]))
+    cutoffs = [c.cutoff_radius for c in found if c.cutoff_radius is not None]
+    cutoff = float(np.median(cutoffs)) if len(cutoffs) == len(found) else 0.0
+    offset = math.dist(centre, reference)
+    return CentreChoice(
+        centre, (cutoff, outer), f"detected (median of {len(found)} images, {offset:.1f} px from the calibration's)"
+    )
+
+
+def spread_choice(elevation: NDArray[np.float64], count: int = LANDMARK_COUNT) -> NDArray[np.intp]:
+    """Indices of the corners nearest to ``count`` elevations evenly spaced over their range (each once)."""
+    chosen: list[int] = []
+    for target in np.linspace(elevation.min(), elevation.max(), count):
+        order = np.argsort(np.abs(elevation - target), kind="stable")
+        chosen.append(next(int(k) for k in order if int(k) not in chosen))
+    return np.array(chosen, dtype=np.intp)
+
+
+def random_spread_choice(
+    elevation: NDArray[np.float64], rng: np.random.Generator, count: int = LANDMARK_COUNT
+) -> NDArray[np.intp]:
+    """One random corner from each of ``count`` equal slices of the elevation range (skipping empty slices)."""
+    edges = np.linspace(elevation.min(), elevation.max(), count + 1)
+    slot = np.clip(np.searchsorted(edges, elevation, side="right") - 1, 0, count - 1)
+    return np.array([rng.choice(np.flatnonzero(slot == k)) for k in range(count) if np.any(slot == k)], dtype=np.intp)
+
+
+def reprojection_errors(
+    corners: Corners, chosen: NDArray[np.intp], centre: CentreChoice, **options: Any
+) -> tuple[NDArray[np.float64], Any]:
+    """Fit to the chosen corners; the pixel error (px) of every other corner, and the fit."""
+    landmarks = Landmarks(corners.pixels[chosen], corners.world[chosen], tuple(f"corner{k}" for k in chosen))
+    fit = fit_camera(landmarks, (0.0, 0.0, 0.0), centre.centre, annulus=centre.annulus, **options)
+    others = np.setdiff1d(np.arange(len(corners.pixels)), chosen)
+    theta, rho = azimuth_elevation(corners.world[others])
+    error = np.linalg.norm(fit.model.pixels(theta, rho) - corners.pixels[others], axis=1)
+    return error, fit
+
+
+def evaluate(folder: Path, trials: int = 0) -> dict[str, Any]:
+    """Everything the table reports for one folder."""
+    corners = read_corners(folder)
+    centre = find_centre(folder)
+    chosen = spread_choice(corners.elevation)
+    others = np.setdiff1d(np.arange(len(corners.pixels)), chosen)
+    result: dict[str, Any] = {
+        "folder": folder.name,
+        "corners": len(corners.pixels),
+        "centre": centre,
+        "chosen_elevation_deg": np.degrees(corners.elevation[chosen]).tolist(),
+        "chosen_images": sorted(set(corners.images[k] for k in chosen)),
+        "tool_rms_px": float(np.sqrt(np.mean(corners.tool_error_px[others] ** 2))),
+        "tool_rms_all_px": float(calibration(folder)["reproj_rms_px_rootsolve"]),
+        "fits": {},
+    }
+    for name, options in FITS.items():
+        try:
+            error, fit = reprojection_errors(corners, chosen, centre, **options)
+        except PanomapError as exc:
+            result["fits"][name] = {"error": exc.detail}
+            continue
+        result["fits"][name] = {
+            "rms_px": float(np.sqrt(np.mean(error**2))),
+            "p95_px": float(np.percentile(error, 95)),
+            "max_px": float(np.max(error)),
+            "kind": fit.model.radial.kind,
+            "s": fit.model.s,
+            "phi0_deg": math.degrees(fit.model.phi0),
+            "centre": fit.model.centre,
+            "outliers": fit.outliers,
+        }
+    draws = []
+    rng = np.random.default_rng(2007)
+    for _ in range(trials):
+        pick = random_spread_choice(corners.elevation, rng)
+        try:
+            error, _ = reprojection_errors(corners, pick, centre, refine_centre=True)
+            draws.append(float(np.sqrt(np.mean(error**2))))
+        except PanomapError:
+            draws.append(math.inf)
+    result["draws_rms_px"] = draws
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    parser.add_argument("--trials", type=int, default=20, help="random spread choices per folder (0: none)")
+    args = parser.parse_args()
+    folders = sorted(args.data.glob("ocam_*"))
+    if not folders:
+        raise SystemExit(f"no ocam_* folders in {args.data}")
+    results = [evaluate(folder, args.trials) for folder in folders]
+    for r in results:
+        print(f"{r['folder']}: {r['corners']} corners; centre {r['centre'].source}")
+        low, high = r["chosen_elevation_deg"][0], r["chosen_elevation_deg"][-1]
+        print(f"  10 corners at {low:.1f}..{high:.1f} deg from {len(r['chosen_images'])} images")
+        for name, fit in r["fits"].items():
+            if "error" in fit:
+                print(f"  {name}: refused ({fit['error']})")
+                continue
+            print(
+                f"  {name}: {fit['kind']}, s {fit['s']:+d}, phi0 {fit['phi0_deg']:.2f} deg, centre "
+                f"({fit['centre'][0]:.2f}, {fit['centre'][1]:.2f}), outliers {fit['outliers'] or 'none'}"
+            )
+    print()
+    print(
+        "RMS / p95 / max reprojection error (px) on all other corners, from 10 corners spread in elevation; "
+        "the tool's RMS on the same corners (and on all of them, SOURCE.md)"
+    )
+    print("| folder | centre | other corners | default | refined centre | paper | tool | random spread choices |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for r in results:
+
+        def cell(fit: dict[str, Any]) -> str:
+            if "error" in fit:
+                return "refused"
+            return f"{fit['rms_px']:.2f} / {fit['p95_px']:.2f} / {fit['max_px']:.2f}"
+
+        draws = np.array(r["draws_rms_px"])
+        spread = (
+            f"{len(draws)} draws: median {np.median(draws):.2f}, worst {np.max(draws):.2f}" if draws.size else "not run"
+        )
+        where = "detected" if r["centre"].source.startswith("detected") else "calibration's"
+        print(
+            f"| {r['folder'].removeprefix('ocam_')} | {where} | {r['corners'] - LANDMARK_COUNT} | "
+            f"{cell(r['fits']['default'])} | {cell(r['fits']['refined centre'])} | {cell(r['fits']['paper'])} | "
+            f"{r['tool_rms_px']:.2f} ({r['tool_rms_all_px']:.2f}) | {spread} |"
+        )
+
+
+if __name__ == "__main__":
+    main()
