@@ -10,7 +10,7 @@ end to end (start-up, map building, decoding, remapping, encoding):
 - ffmpeg's ``v360`` filter (fisheye in, equirectangular 2048 x 512 out,
   bilinear) with libx264 (preset veryfast, crf 20, yuv420p): the baseline;
 - ``panomap video`` making a 2048 x 512 panorama, same encoder settings, with its
-  default fixed-point maps and with float maps;
+  default float maps and with fixed-point maps;
 - ``panomap video`` making that panorama and a 1280 x 720 perspective view at once;
 - decoding alone, with ffmpeg and with PyAV (threaded), so that the cost of
   unwarping over decoding shows.
@@ -143,7 +143,7 @@ def main() -> None:
             "panomap video, panorama 2048 x 512": lambda: wall_time(
                 [*panomap, str(table), str(clip), "-q", "-o", str(folder / "pm_{name}.mp4"), "--view", PANORAMA]
             ),
-            "panomap video, panorama 2048 x 512, float maps": lambda: wall_time(
+            "panomap video, panorama 2048 x 512, fixed-point maps": lambda: wall_time(
                 [
                     *panomap,
                     str(table),
@@ -153,7 +153,7 @@ def main() -> None:
                     str(folder / "pmf_{name}.mp4"),
                     "--view",
                     PANORAMA,
-                    "--float-maps",
+                    "--fixed-point",
                 ]
             ),
             "panomap video, panorama + perspective 1280 x 720": lambda: wall_time(

@@ -187,7 +187,6 @@ def test_output_frames_equal_the_still_image_view_of_the_same_decoded_frame(work
         tmp_path / "v.mkv",
         "--view",
         PANORAMA,
-        "--float-maps",
         *LOSSLESS_BGR,
     )
     assert result.exit_code == 0, result.stderr
@@ -204,6 +203,30 @@ def test_output_frames_equal_the_still_image_view_of_the_same_decoded_frame(work
     assert np.abs(outputs[1][1].astype(int) - outputs[0][1]).mean() > 5
 
 
+def test_fixed_point_maps_when_asked(work: Path, tmp_path: Path) -> None:
+    """--fixed-point: each frame equals the still view made with OpenCV's fixed-point maps, not the float one."""
+    result = run(
+        "video",
+        work / "cam.npz",
+        work / "clip.mp4",
+        "-o",
+        tmp_path / "f.mkv",
+        "--view",
+        PANORAMA,
+        "--fixed-point",
+        "--duration",
+        "0.2",
+        *LOSSLESS_BGR,
+    )
+    assert result.exit_code == 0, result.stderr
+    table = load_table(work / "cam.npz")
+    fixed = GenericPanorama((480, 120)).remapper(table, fixed_point=True)
+    exact = GenericPanorama((480, 120)).remapper(table)
+    source, out = decoded(work / "clip.mp4")[3][1], decoded(tmp_path / "f.mkv")[3][1]
+    np.testing.assert_array_equal(out, fixed(source))
+    assert np.any(out != exact(source))  # 1/32 px rounding shows somewhere
+
+
 def test_yuv_planes_are_remapped_without_rgb_and_match_the_still_view(work: Path, tmp_path: Path) -> None:
     """yuv420p in and out: the luma plane is exactly the view's remap of the input's luma plane;
     in colour the frame stays within chroma-subsampling tolerance of the still view."""
@@ -217,8 +240,8 @@ def test_yuv_planes_are_remapped_without_rgb_and_match_the_still_view(work: Path
     )
     assert report.frames_written == FRAMES
     map_uv = build_map(table, view)
-    luma = Remapper(map_uv, SIZE, "linear", 16.0, fixed_point=True)
-    still = view.remapper(table, fixed_point=True)
+    luma = Remapper(map_uv, SIZE, "linear", 16.0, fixed_point=False)
+    still = view.remapper(table, fixed_point=False)
     inputs_y, outputs_y = luma_planes(work / "clip.mp4"), luma_planes(tmp_path / "y.mkv")
     inputs, outputs = decoded(work / "clip.mp4"), decoded(tmp_path / "y.mkv")
     for index in (0, 21):
@@ -264,7 +287,7 @@ def test_start_duration_and_every_select_frames_and_shift_timestamps(work: Path,
     chosen = [frame for t, frame in inputs if 0.4 - 1e-9 <= t < 1.2 - 1e-9][::3]  # frames 10..29, every 3rd
     outputs = decoded(tmp_path / "s.mkv")
     assert [t for t, _ in outputs] == pytest.approx([3 * k / RATE for k in range(len(chosen))], abs=1e-3)
-    still = GenericPanorama((480, 120)).remapper(load_table(work / "cam.npz"), fixed_point=True)
+    still = GenericPanorama((480, 120)).remapper(load_table(work / "cam.npz"), fixed_point=False)
     for (_, out), source in zip(outputs, chosen, strict=True):
         np.testing.assert_array_equal(out, still(source))
     audio = audio_packets(tmp_path / "s.mkv")
@@ -307,7 +330,7 @@ def test_a_truncated_file_still_yields_the_frames_before_the_damage(work: Path, 
     assert result.exit_code == 0, result.stderr
     outputs = decoded(tmp_path / "cut.mkv")
     assert len(outputs) >= len(readable) - 1
-    still = GenericPanorama((480, 120)).remapper(load_table(work / "cam.npz"), fixed_point=True)
+    still = GenericPanorama((480, 120)).remapper(load_table(work / "cam.npz"), fixed_point=False)
     np.testing.assert_array_equal(outputs[5][1], still(readable[5][1]))
 
 

@@ -120,7 +120,11 @@ class _Progress:
 @click.option("--no-audio", is_flag=True, help="Do not copy the input's audio.")
 @click.option("--interp", type=click.Choice(list(INTERPOLATIONS)), default="linear", show_default=True)
 @click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True)
-@click.option("--float-maps", is_flag=True, help="Use exact float maps instead of fixed-point (1/32 px) ones.")
+@click.option(
+    "--fixed-point",
+    is_flag=True,
+    help="OpenCV's fixed-point maps (1/32 px, less memory; slower on YUV planes) instead of float maps.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary.")
 def video(
     table: Path,
@@ -140,7 +144,7 @@ def video(
     no_audio: bool,
     interp: str,
     table_sampling: str,
-    float_maps: bool,
+    fixed_point: bool,
     quiet: bool,
 ) -> None:
     """Unwarp a video (file, RTSP/HTTP URL or V4L2 device) into one video per view.
@@ -198,7 +202,7 @@ def video(
                 audio=not no_audio,
                 sampling=table_sampling,
                 interpolation=interp,
-                fixed_point=not float_maps,
+                fixed_point=fixed_point,
                 stop=stop,
                 progress=progress,
                 warn=progress.write,

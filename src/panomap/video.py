@@ -206,7 +206,10 @@ class FrameRemapper:
         or ``bgr24`` (remapped as a still image is).
     interpolation : {"nearest", "linear", "cubic"}
     fixed_point : bool
-        Keep the maps in OpenCV's fixed-point form (see :class:`Remapper`).
+        Keep the maps in OpenCV's fixed-point form (see :class:`Remapper`): a
+        third less memory, positions rounded to 1/32 px, and on OpenCV 5.0
+        about twice as slow on one-channel planes (6.7 against 12.5 ms for a
+        2048 x 512 panorama's Y, U and V planes), hence off by default.
     """
 
     def __init__(
@@ -215,7 +218,7 @@ class FrameRemapper:
         source_size: tuple[int, int],
         work_format: str,
         interpolation: str = "linear",
-        fixed_point: bool = True,
+        fixed_point: bool = False,
     ) -> None:
         self.work_format = work_format
         self.output_size = (map_uv.shape[1], map_uv.shape[0])
@@ -382,7 +385,7 @@ def unwarp_video(
     audio: bool = True,
     sampling: str = "bilinear",
     interpolation: str = "linear",
-    fixed_point: bool = True,
+    fixed_point: bool = False,
     stop: threading.Event | None = None,
     progress: Callable[[int, int | None], None] | None = None,
     warn: Callable[[str], None] | None = None,
