@@ -226,13 +226,8 @@ class FrameRemapper:
         if work_format == BGR:
             self._planes = [Remapper(map_uv, source_size, interpolation, 0.0, fixed_point)]
             return
+        check_output_size(work_format, self.output_size)
         sub_x, sub_y, fills = PLANAR_FORMATS[work_format]
-        if (map_uv.shape[1] % (1 << sub_x)) or (map_uv.shape[0] % (1 << sub_y)):
-            even = (map_uv.shape[1] >> sub_x << sub_x, map_uv.shape[0] >> sub_y << sub_y)
-            raise PanomapError(
-                f"{work_format} needs an output size divisible by {1 << sub_x} x {1 << sub_y}, "
-                f"not {map_uv.shape[1]} x {map_uv.shape[0]}: give the view a size such as size={even[0]}x{even[1]}"
-            )
         chroma = _chroma_map(map_uv, sub_x, sub_y) if len(fills) > 1 else map_uv
         chroma_size = (-(-width >> sub_x), -(-height >> sub_y))
         self._planes = [
@@ -254,6 +249,20 @@ class FrameRemapper:
         if frame.time_base is not None:
             out.time_base = frame.time_base
         return out
+
+
+def check_output_size(work_format: str, size: tuple[int, int]) -> None:
+    """Refuse a view size (W, H) that the work format's chroma subsampling does not divide."""
+    if work_format not in PLANAR_FORMATS:
+        return
+    sub_x, sub_y, _ = PLANAR_FORMATS[work_format]
+    width, height = size
+    if width % (1 << sub_x) or height % (1 << sub_y):
+        even = (width >> sub_x << sub_x, height >> sub_y << sub_y)
+        raise PanomapError(
+            f"{work_format} needs an output size divisible by {1 << sub_x} x {1 << sub_y}, "
+            f"not {width} x {height}: give the view a size such as size={even[0]}x{even[1]}"
+        )
 
 
 def _plane_array(plane: Any) -> NDArray[np.uint8]:
@@ -394,7 +403,9 @@ def unwarp_video(
 
     Everything that can be checked is checked before the first frame is read:
     the input opens and holds video of the table's image size, the encoder
-    takes the pixel format, and every output can be created. A frame that
+    takes the pixel format and the view sizes, and every output can be
+    created; the maps are built while the first frames decode, and a view
+    they refuse (a floor the camera cannot see) ends the run with no output. A frame that
     fails to decode is reported (``warn``) and skipped; damage that ends the
     input ends the run with the frames before it. Setting ``stop`` (as the CLI
     does on SIGINT/SIGTERM) ends the run cleanly: every output is finished
@@ -429,8 +440,15 @@ def unwarp_video(
             )
         in_format = stream.codec_context.pix_fmt or "yuv420p"
         work = work_format(in_format, encoder.pix_fmt)
-        maps = [build_map(table, item.view, sampling) for item in outputs]
-        remappers = [FrameRemapper(map_uv, size, work, interpolation, fixed_point) for map_uv in maps]
+        sizes = [item.view.output_size(table) for item in outputs]
+        for view_size in sizes:
+            check_output_size(work, view_size)
+
+        def build_remappers() -> list[FrameRemapper]:
+            """Made while the first frames decode (a few tenths of a second saved at start-up)."""
+            maps = [build_map(table, item.view, sampling) for item in outputs]
+            return [FrameRemapper(map_uv, size, work, interpolation, fixed_point) for map_uv in maps]
+
         audio_stream = container.streams.audio[0] if audio and container.streams.audio else None
         report.audio = audio_stream is not None
         rate = stream.average_rate or stream.guessed_rate
@@ -440,12 +458,24 @@ def unwarp_video(
         with contextlib.ExitStack() as files:
             writers: list[_Writer] = []
             try:
-                for item, remapper in zip(outputs, remappers, strict=True):
+                for item, view_size in zip(outputs, sizes, strict=True):
                     temporary = files.enter_context(atomic_path(item.path))
                     writers.append(
-                        _open_writer(item.path, temporary, remapper.output_size, rate, time_base, encoder, audio_stream)
+                        _open_writer(item.path, temporary, view_size, rate, time_base, encoder, audio_stream)
                     )
-                _run(container, stream, audio_stream, work, remappers, writers, selection, stop, progress, warn, report)
+                _run(
+                    container,
+                    stream,
+                    audio_stream,
+                    work,
+                    build_remappers,
+                    writers,
+                    selection,
+                    stop,
+                    progress,
+                    warn,
+                    report,
+                )
             finally:
                 for writer in writers:
                     with contextlib.suppress(av.error.FFmpegError):
@@ -492,7 +522,7 @@ def _run(
     stream: Any,
     audio_stream: Any | None,
     work: str,
-    remappers: list[FrameRemapper],
+    build_remappers: Callable[[], list[FrameRemapper]],
     writers: list[_Writer],
     selection: Selection,
     stop: threading.Event,
@@ -525,6 +555,7 @@ def _run(
     )
     reader.start()
     try:
+        remappers = build_remappers()
         while not halted():
             try:
                 frame = frames.get(timeout=0.1)
