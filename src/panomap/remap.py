@@ -55,7 +55,7 @@ class Remapper:
     fixed_point: bool = False
     _map1: NDArray[Any] = field(init=False, repr=False)
     _map2: NDArray[Any] | None = field(init=False, repr=False)
-    _no_source: NDArray[np.intp] = field(init=False, repr=False)
+    _no_source: tuple[NDArray[np.intp], NDArray[np.intp]] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.interpolation not in INTERPOLATIONS:
@@ -63,15 +63,16 @@ class Remapper:
         map_uv = np.asarray(self.map_uv, dtype=np.float32)
         if map_uv.ndim != 3 or map_uv.shape[2] != 2:
             raise PanomapError(f"a map must have shape (H, W, 2), not {map_uv.shape}")
-        valid = np.all(np.isfinite(map_uv), axis=2)
-        if self.source_size is not None:
-            width, height = self.source_size
-            with np.errstate(invalid="ignore"):
-                u, v = map_uv[..., 0], map_uv[..., 1]
-                valid &= (u >= -0.5) & (u <= width - 0.5) & (v >= -0.5) & (v <= height - 0.5)
-        map_u = np.where(valid, map_uv[..., 0], 0).astype(np.float32)
-        map_v = np.where(valid, map_uv[..., 1], 0).astype(np.float32)
-        no_source = np.flatnonzero(~valid)
+        u, v = map_uv[..., 0], map_uv[..., 1]
+        with np.errstate(invalid="ignore"):
+            if self.source_size is not None:  # (comparisons with NaN are false: NaN entries drop out too)
+                width, height = self.source_size
+                valid = (u >= -0.5) & (u <= width - 0.5) & (v >= -0.5) & (v <= height - 0.5)
+            else:
+                valid = np.isfinite(u) & np.isfinite(v)
+        map_u = np.where(valid, u, np.float32(0))
+        map_v = np.where(valid, v, np.float32(0))
+        no_source = np.nonzero(~valid)  # (rows, cols): works on any output's strides
         map1: NDArray[Any] = map_u
         map2: NDArray[Any] | None = map_v
         if self.fixed_point:
@@ -79,7 +80,7 @@ class Remapper:
             map1, map2 = cv2.convertMaps(map_u, map_v, cv2.CV_16SC2, nninterpolation=nearest)
             if nearest:
                 map2 = None  # integer positions only
-        for array in (map1, map2, no_source):
+        for array in (map1, map2, *no_source):
             if array is not None:
                 array.setflags(write=False)
         object.__setattr__(self, "_map1", map1)
@@ -92,8 +93,12 @@ class Remapper:
         height, width = self._map1.shape[:2]
         return width, height
 
-    def __call__(self, image: NDArray[Any]) -> NDArray[Any]:
-        """Remap one frame (H_in, W_in[, C]) with C in 1, 3, 4; same dtype and channels out."""
+    def __call__(self, image: NDArray[Any], out: NDArray[Any] | None = None) -> NDArray[Any]:
+        """Remap one frame (H_in, W_in[, C]) with C in 1, 3, 4; same dtype and channels out.
+
+        ``out``, optional: an (H, W[, C]) array of the image's dtype to write
+        into (any strides, such as a video frame's plane); returned.
+        """
         if image.dtype not in DTYPES:
             raise PanomapError(f"images must be 8- or 16-bit (or float32), not {image.dtype}")
         if (image.ndim == 3 and image.shape[2] not in (1, 3, 4)) or image.ndim not in (2, 3):
@@ -104,11 +109,23 @@ class Remapper:
                 f"the image is {image.shape[1]} x {image.shape[0]}, the table is for {width} x {height} images"
             )
         map2: Any = self._map2  # None for fixed-point nearest: integer positions only
-        out = cv2.remap(image, self._map1, map2, INTERPOLATIONS[self.interpolation], borderMode=cv2.BORDER_REPLICATE)
-        if image.ndim == 3 and out.ndim == 2:
-            out = out[..., None]
-        if self._no_source.size:
+        interpolation = INTERPOLATIONS[self.interpolation]
+        if out is not None:
+            channels = 1 if image.ndim == 2 else image.shape[2]
+            width, height = self.output_size
+            expected = (height, width) if channels == 1 and out.ndim == 2 else (height, width, channels)
+            if out.shape != expected or out.dtype != image.dtype:
+                raise PanomapError(f"the output must be {expected} {image.dtype}, not {out.shape} {out.dtype}")
+            written = cv2.remap(image, self._map1, map2, interpolation, dst=out, borderMode=cv2.BORDER_REPLICATE)
+            if not np.shares_memory(written, out):  # (never seen; a guard against a binding that copies)
+                out[...] = written.reshape(out.shape)
+        else:
+            out = cv2.remap(image, self._map1, map2, interpolation, borderMode=cv2.BORDER_REPLICATE)
+            if image.ndim == 3 and out.ndim == 2:
+                out = out[..., None]
+        rows, cols = self._no_source
+        if rows.size:
             channels = 1 if out.ndim == 2 else out.shape[2]
             fill = self.fill if isinstance(self.fill, tuple) else (self.fill,) * channels
-            out.reshape(-1, channels)[self._no_source] = fill[:channels]
+            out[rows, cols] = fill[0] if out.ndim == 2 else fill[:channels]
         return out

@@ -35,14 +35,13 @@ what the model gives.
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import math
 import zipfile
 from dataclasses import dataclass, field
 from functools import cache, cached_property
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
@@ -50,10 +49,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import PanomapError
 from .files import write_with
-from .fit import CameraFit, annulus_coverage_problem
 from .geometry import TWO_PI, FloatArray, azimuth_elevation, wrap_azimuth
 from .model import CameraModel
 from .radial import radius_standard_error, valid_elevation_range
+
+if TYPE_CHECKING:
+    from .fit import CameraFit
 
 TABLE_FORMAT = "panomap-table"
 TABLE_VERSION = 1
@@ -238,20 +239,23 @@ class PanoMappingTable:
         """
         _check_exact_remap()
         m, n = self.size
-        entries = self.entries.astype(np.float64).transpose(1, 0, 2)
-        padded = np.empty((n + 2, m + 3, 2))
-        padded[:n, :m] = entries
-        padded[:n, m:] = entries[:, np.arange(3) % m]
-        padded[n] = 2 * padded[n - 1] - padded[n - 2]
-        padded[n + 1] = padded[n]
-        images = padded.astype(np.float32)
-        u_image = np.ascontiguousarray(images[..., 0])
-        v_image = np.ascontiguousarray(images[..., 1])
+        u_image = np.empty((n + 2, m + 3), dtype=np.float32)
+        v_image = np.empty((n + 2, m + 3), dtype=np.float32)
+        transposed = cv2.transpose(np.ascontiguousarray(self.entries))  # (N, M, 2), cache-blocked
+        for channel, image in enumerate((u_image, v_image)):
+            image[:n, :m] = transposed[..., channel]
+            image[:n, m:] = image[:n, np.arange(3) % m]
+            # 2a - b of float32 values is exact in float64, so float32 arithmetic rounds it the same way.
+            image[n] = 2 * image[n - 1] - image[n - 2]
+            image[n + 1] = image[n]
         all_inside = True
         if self.image_size is not None:
             width, height = self.image_size
             all_inside = bool(
-                np.all((u_image >= -0.5) & (u_image <= width - 0.5) & (v_image >= -0.5) & (v_image <= height - 0.5))
+                u_image.min() >= -0.5
+                and u_image.max() <= width - 0.5
+                and v_image.min() >= -0.5
+                and v_image.max() <= height - 0.5
             )
         for image in (u_image, v_image):
             image.setflags(write=False)
@@ -394,22 +398,23 @@ def _check_exact_remap() -> None:
 
 
 def fill_entries(
-    model: CameraModel, size: tuple[int, int], elevation_range: tuple[float, float]
+    model: CameraModel, size: tuple[int, int], elevation_range: tuple[float, float], rows: slice = slice(None)
 ) -> NDArray[np.float32]:
     """Algorithm 2: entries (M, N, 2) float32 of the table of ``model``.
 
     ``u_ij = u0 + r_j cos(phi_i)``, ``v_ij = v0 + r_j sin(phi_i)`` with
     ``r_j = f_r(rho_j)`` and ``phi_i = s*theta_i + phi0`` (eqs. 5-8, plus the
-    centre and azimuth mapping of the conventions).
+    centre and azimuth mapping of the conventions). ``rows`` picks azimuths
+    i (the same values as those rows of the whole table).
     """
     m, n = size
     rho_s, rho_e = elevation_range
-    theta = TWO_PI * np.arange(m) / m
+    theta = TWO_PI * np.arange(m)[rows] / m
     rho = rho_s + np.arange(n) * (rho_e - rho_s) / n
     r = model.radial(rho)
     phi = model.image_angle(theta)
     u0, v0 = model.centre
-    entries = np.empty((m, n, 2), dtype=np.float32)
+    entries = np.empty((theta.size, n, 2), dtype=np.float32)
     entries[..., 0] = u0 + np.cos(phi)[:, None] * r[None, :]
     entries[..., 1] = v0 + np.sin(phi)[:, None] * r[None, :]
     return entries
@@ -484,6 +489,8 @@ def create_table(
         )
     known = [name for name in ("cutoff_radius", "outer_radius") if not sources[name].startswith("default")]
     if known:
+        from .fit import annulus_coverage_problem  # (fitting code, not needed to read a table)
+
         problem = annulus_coverage_problem(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius)
         if problem:
             raise PanomapError(
@@ -551,7 +558,7 @@ def _range_warnings(landmark_range: tuple[float, float], table_range: tuple[floa
 
 
 def _digest(entries: NDArray[np.float32]) -> str:
-    return hashlib.sha256(np.ascontiguousarray(entries, dtype="<f4").tobytes()).hexdigest()
+    return hashlib.sha256(np.ascontiguousarray(entries, dtype="<f4").data).hexdigest()
 
 
 def load_table(path: str | Path) -> PanoMappingTable:
@@ -565,13 +572,13 @@ def load_table(path: str | Path) -> PanoMappingTable:
     """
     path = Path(path)
     try:
-        data = path.read_bytes()
+        file = path.open("rb")
     except FileNotFoundError:
         raise PanomapError("no such table file", path) from None
     except OSError as exc:
         raise PanomapError(f"cannot read it ({exc.strerror or exc})", path) from None
     try:
-        with np.load(io.BytesIO(data), allow_pickle=False) as archive:
+        with file, np.load(file, allow_pickle=False) as archive:
             names = set(archive.files)
             if not {"entries", "meta"} <= names:
                 raise PanomapError("not a panomap table (no entries/meta inside)", path)
@@ -627,7 +634,23 @@ def _table_from(meta: dict[str, Any], entries: NDArray[Any]) -> PanoMappingTable
         raise PanomapError(
             f"the table's metadata is incomplete or malformed ({exc.__class__.__name__}: {exc})"
         ) from None
-    expected = fill_entries(table.model, (m, n), table.elevation_range)
-    if not np.all(np.isfinite(entries)) or float(np.max(np.abs(expected - entries))) > ENTRY_TOLERANCE_PX:
+    if not _entries_match_model(entries, table.model, table.elevation_range):
         raise PanomapError("the entries disagree with the table's own model (corrupt)")
     return table
+
+
+def _entries_match_model(
+    entries: NDArray[np.float32], model: CameraModel, elevation_range: tuple[float, float], block: int = 256
+) -> bool:
+    """True when every entry is finite and within ENTRY_TOLERANCE_PX of :func:`fill_entries`'s.
+
+    Compared ``block`` azimuths at a time, so that the check needs a few
+    megabytes of scratch memory rather than several copies of the table.
+    """
+    m, n = entries.shape[:2]
+    for start in range(0, m, block):
+        rows = slice(start, start + block)
+        difference = np.abs(fill_entries(model, (m, n), elevation_range, rows) - entries[rows])
+        if not float(difference.max()) <= ENTRY_TOLERANCE_PX:  # (NaN fails too)
+            return False
+    return True
