@@ -280,3 +280,18 @@ def test_a_real_process_prints_no_traceback(work: Path) -> None:
     )
     assert result.returncode == 1
     assert result.stderr.strip().splitlines() == [f"panomap: error: {work / 'no.npz'}: no such table file"]
+
+
+def test_the_package_loads_its_names_on_first_use() -> None:
+    """``import panomap`` loads no NumPy (the command line and small scripts start faster); names still resolve."""
+    code = (
+        "import sys, panomap; assert 'numpy' not in sys.modules, 'numpy loaded'; "
+        "from panomap.views import GenericPanorama; assert panomap.GenericPanorama is GenericPanorama; "
+        "assert set(panomap.__all__) <= set(dir(panomap)); "
+        "assert all(getattr(panomap, name) is not None for name in panomap.__all__)"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+    import panomap
+
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        panomap.nothing  # noqa: B018

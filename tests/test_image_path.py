@@ -95,6 +95,29 @@ def test_wrong_frame_size_or_type_is_refused() -> None:
         remapper(np.zeros((HEIGHT, WIDTH), np.int32))
 
 
+@pytest.mark.parametrize("channels", [None, 3])
+def test_remap_into_a_strided_output_equals_a_fresh_one(channels: int | None) -> None:
+    """``out=`` (a video frame's padded plane, say) gets the same pixels and fill; its padding is untouched."""
+    rng = np.random.default_rng(5)
+    shape = (HEIGHT, WIDTH) if channels is None else (HEIGHT, WIDTH, channels)
+    image = rng.integers(0, 255, shape, dtype=np.uint8)
+    map_uv = random_map(rng, (30, 40))
+    remapper = Remapper(map_uv, (WIDTH, HEIGHT), "linear", fill=9.0)
+    padded = np.full((30, 53) + (() if channels is None else (channels,)), 77, np.uint8)
+    out = padded[:, :40]
+    assert not out.flags.c_contiguous
+    returned = remapper(image, out=out)
+    assert returned is out
+    fresh = remapper(image)
+    np.testing.assert_array_equal(out, fresh)
+    assert np.all(out[~np.all(np.isfinite(map_uv), axis=2)] == 9)
+    assert np.all(padded[:, 40:] == 77)
+    with pytest.raises(PanomapError, match="the output must be"):
+        remapper(image, out=np.zeros((30, 41, *out.shape[2:]), np.uint8))
+    with pytest.raises(PanomapError, match="the output must be"):
+        remapper(image, out=np.zeros(out.shape, np.uint16))
+
+
 @pytest.mark.parametrize(
     ("suffix", "depth", "channels"), [(".png", np.uint16, 4), (".tif", np.uint16, 1), (".png", np.uint8, 3)]
 )

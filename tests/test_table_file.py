@@ -14,7 +14,7 @@ import pytest
 from panomap.errors import PanomapError
 from panomap.model import CameraModel
 from panomap.radial import RadialFunction
-from panomap.table import PanoMappingTable, fill_entries, load_table
+from panomap.table import PanoMappingTable, _digest, fill_entries, load_table
 
 
 def small_table() -> PanoMappingTable:
@@ -112,6 +112,29 @@ def test_entries_that_disagree_with_the_model(tmp_path: Path) -> None:
     rewrite(path, meta)
     with pytest.raises(PanomapError, match="disagree with the table's own model"):
         load_table(path)
+
+
+@pytest.mark.parametrize(("row", "change"), [(0, 0.05), (300, -0.05), (599, 0.05), (450, math.nan)])
+def test_one_entry_off_in_any_block_of_azimuths_is_caught(tmp_path: Path, row: int, change: float) -> None:
+    """The model check runs 256 azimuths at a time: an entry in any block, the last one included, counts."""
+    model = CameraModel((320.5, 240.25), RadialFunction("unified", (250.0, 0.8), "down"), -1, 0.3)
+    rng = (-math.radians(80), math.radians(5))
+    table = PanoMappingTable(fill_entries(model, (600, 16), rng), rng, model, (1.0, 2.0, 2.5), (640, 480), 30.0, 240.0)
+    path = tmp_path / "t.npz"
+    table.save(path)
+    load_table(path)  # as written: fine
+    entries = table.entries.copy()
+    entries[row, 7, 1] += change
+    rewrite(path, {"entries_sha256": _digest(entries)}, entries)
+    with pytest.raises(PanomapError, match="disagree with the table's own model"):
+        load_table(path)
+
+
+def test_entries_of_some_azimuths_are_those_rows_of_the_whole_table() -> None:
+    table = small_table()
+    np.testing.assert_array_equal(
+        fill_entries(table.model, table.size, table.elevation_range, slice(10, 37)), table.entries[10:37]
+    )
 
 
 @pytest.mark.parametrize(

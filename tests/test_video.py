@@ -36,7 +36,7 @@ from panomap.remap import Remapper
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.simulate.sampling import spread_landmarks
 from panomap.table import create_table, load_table
-from panomap.video import EncoderSettings, FrameRemapper, Selection, ViewOutput, unwarp_video
+from panomap.video import EncoderSettings, FrameRemapper, Selection, ViewOutput, _chroma_map, unwarp_video
 from panomap.views import GenericPanorama, PerspectiveView, build_map
 
 SIZE = (320, 320)
@@ -135,6 +135,22 @@ def leftovers(folder: Path) -> list[str]:
 
 
 # ----------------------------------------------------------------------------- frames, timestamps, audio
+
+
+@pytest.mark.parametrize(("sub_x", "sub_y"), [(1, 1), (1, 0), (0, 0)])
+def test_chroma_map_is_the_block_mean_in_chroma_plane_coordinates(sub_x: int, sub_y: int) -> None:
+    """Odd sizes repeat the last row and column; a NaN anywhere in a block makes its entry NaN."""
+    rng = np.random.default_rng(3)
+    map_uv = rng.uniform(0, 500, (7, 9, 2)).astype(np.float32)
+    map_uv[2, 3, 0] = np.nan
+    sx, sy = 1 << sub_x, 1 << sub_y
+    padded = np.pad(map_uv.astype(np.float64), ((0, -7 % sy), (0, -9 % sx), (0, 0)), mode="edge")
+    mean = padded.reshape(padded.shape[0] // sy, sy, padded.shape[1] // sx, sx, 2).mean(axis=(1, 3))
+    expected = (mean + 0.5) / np.array([sx, sy]) - 0.5
+    chroma = _chroma_map(map_uv, sub_x, sub_y)
+    assert chroma.dtype == np.float32 and chroma.shape == expected.shape
+    np.testing.assert_allclose(chroma, expected, atol=1e-4)
+    assert np.isnan(chroma[2 // sy, 3 // sx, 0]) and np.isfinite(chroma[2 // sy, 3 // sx, 1])
 
 
 def test_every_frame_and_timestamp_is_kept_and_audio_is_copied_into_each_output(work: Path) -> None:
