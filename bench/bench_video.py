@@ -25,6 +25,11 @@ start. The run prints how far the two panoramas' first frames differ (a mean
 of about 1 grey level: the fitted model against v360's ideal fisheye), so that
 both encoders get the same picture to encode.
 
+The clip is 12 s long by default: panomap starts about 0.5 s later than
+ffmpeg (Python, NumPy, OpenCV and PyAV load, the table is read and checked,
+the maps are built), which weighs on a clip of a few seconds
+(``--frames 150``) and not on a recording or a live stream.
+
 Each is run ``repeats`` times, interleaved, and the fastest run counts (the
 machine is shared: the fastest is the least disturbed). Ratios are speeds
 relative to ffmpeg's in the same run: above 1 is faster than ffmpeg. CPU time
@@ -159,7 +164,7 @@ def first_frame(path: Path) -> np.ndarray:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", type=int, default=150, help="clip length in frames [150]")
+    parser.add_argument("--frames", type=int, default=300, help="clip length in frames [300: 12 s]")
     parser.add_argument("--repeats", type=int, default=3, help="runs of each, the fastest counts [3]")
     parser.add_argument("--keep", type=Path, help="keep the clip and outputs in this folder")
     args = parser.parse_args()

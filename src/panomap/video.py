@@ -419,7 +419,9 @@ def unwarp_video(
     input ends the run with the frames before it. Setting ``stop`` (as the CLI
     does on SIGINT/SIGTERM) ends the run cleanly: every output is finished
     and playable. ``progress(frames_done, frames_expected_or_None)`` is called
-    after each frame.
+    after each frame. OpenCV runs on :data:`REMAP_THREADS` thread(s) during the
+    call (process-wide, as ``cv2.setNumThreads`` is); the caller's setting is
+    restored after.
     """
     stop = stop or threading.Event()
     warn = warn or (lambda message: None)
