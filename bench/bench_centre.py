@@ -22,9 +22,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from panomap.centre import find_image_circles
+from panomap.calibrate.circles import find_image_circles
 from panomap.errors import PanomapError
-from panomap.imageio import read_image
+from panomap.io.images import read_image
 from panomap.simulate import load_room, render, standard_cameras
 
 REAL = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real"

@@ -21,8 +21,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+from panomap.calibrate.fit import fit_camera
 from panomap.errors import PanomapError
-from panomap.fit import fit_camera
 from panomap.simulate.scenarios import (
     CAMERA_POSITION,
     IMAGE_SIZE,

@@ -50,12 +50,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from panomap.centre import find_image_circles
+from panomap.calibrate.circles import find_image_circles
+from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.landmarks import Landmarks
 from panomap.errors import PanomapError
-from panomap.fit import fit_camera
 from panomap.geometry import azimuth_elevation
-from panomap.imageio import read_image
-from panomap.landmarks import Landmarks
+from panomap.io.images import read_image
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 LANDMARK_COUNT = 10

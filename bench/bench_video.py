@@ -57,12 +57,12 @@ import cv2
 import imageio_ffmpeg
 import numpy as np
 
-from panomap.fit import fit_camera
-from panomap.landmarks import Landmarks
+from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.landmarks import Landmarks
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.simulate.cameras import RadialCamera
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table import create_table
+from panomap.table.table import create_table
 
 SIZE = (1920, 1920)
 RATE = 25

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from panomap.camera.model import CameraModel
+from panomap.camera.radial import RadialFunction
 from panomap.geometry import azimuth_elevation, ray_from_angles, wrap_azimuth
-from panomap.model import CameraModel
-from panomap.radial import RadialFunction
-from panomap.table import PanoMappingTable, fill_entries
-from panomap.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
+from panomap.table.table import PanoMappingTable, fill_entries
+from panomap.views.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
 
 
 def make_table(m: int = 8, n: int = 4, s: int = 1, phi0: float = 0.0) -> PanoMappingTable:

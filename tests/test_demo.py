@@ -7,11 +7,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 from click.testing import CliRunner
+from panomap.cli.app import main
 
-from panomap.cli import main
 from panomap.simulate import load_room, render_rays
-from panomap.table import load_table
-from panomap.views import Band, CylinderPanorama
+from panomap.table.table import load_table
+from panomap.views.views import Band, CylinderPanorama
 
 
 def test_demo_writes_views_that_match_a_direct_render_of_the_room(tmp_path: Path) -> None:

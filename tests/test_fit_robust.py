@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from panomap.fit import fit_camera
+from panomap.calibrate.fit import fit_camera
 from panomap.simulate.scenarios import (
     CAMERA_POSITION,
     IMAGE_SIZE,
@@ -16,7 +16,7 @@ from panomap.simulate.scenarios import (
 from panomap.simulate.scenarios import (
     test_points as probe_points,
 )
-from panomap.table import create_table
+from panomap.table.table import create_table
 
 CAMERAS = scenario_cameras()
 
@@ -69,7 +69,7 @@ def test_uncertainty_grows_beyond_the_landmarks_and_extrapolation_is_warned() ->
         )
         < -30
     )
-    from panomap.landmarks import Landmarks
+    from panomap.calibrate.landmarks import Landmarks
 
     lower = Landmarks(
         trial.landmarks.pixels[keep],

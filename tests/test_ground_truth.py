@@ -14,12 +14,12 @@ import math
 import numpy as np
 import pytest
 
-from panomap.fit import fit_camera
+from panomap.calibrate.fit import fit_camera
 from panomap.geometry import azimuth_elevation
 from panomap.simulate import SVP_CAMERA_NAMES, standard_cameras
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table import PanoMappingTable, create_table
-from panomap.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
+from panomap.table.table import PanoMappingTable, create_table
+from panomap.views.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
 
 SIZE = (800, 760)
 CAMERA_POSITION = (3.1, 2.4, 2.45)

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from panomap.errors import PanomapError
-from panomap.imageio import read_image, write_image
+from panomap.io.images import read_image, write_image
 from panomap.remap import Remapper
 
 WIDTH, HEIGHT = 640, 480

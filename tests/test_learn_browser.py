@@ -20,13 +20,13 @@ from typing import Any
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from panomap.cli.app import main
 
-from panomap.cli import main
-from panomap.landmarks import Landmarks, read_landmarks
+from panomap.calibrate.landmarks import Landmarks, read_landmarks
 from panomap.learn.example import Example, make_example
 from panomap.learn.server import LearnServer, make_server, serve_in_thread
 from panomap.learn.session import Session
-from panomap.table import load_table
+from panomap.table.table import load_table
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [

@@ -13,9 +13,9 @@ from typing import Any
 
 import pytest
 
-from panomap.centre import find_image_circles
+from panomap.calibrate.circles import find_image_circles
 from panomap.errors import PanomapError
-from panomap.imageio import read_image
+from panomap.io.images import read_image
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 pytestmark = [

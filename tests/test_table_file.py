@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from panomap.camera.model import CameraModel
+from panomap.camera.radial import RadialFunction
 from panomap.errors import PanomapError
-from panomap.model import CameraModel
-from panomap.radial import RadialFunction
-from panomap.table import PanoMappingTable, _digest, fill_entries, load_table
+from panomap.table.table import PanoMappingTable, _digest, fill_entries, load_table
 
 
 def small_table() -> PanoMappingTable:

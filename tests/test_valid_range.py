@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from panomap.radial import RadialFunction, valid_elevation_range
+from panomap.camera.radial import RadialFunction, valid_elevation_range
 
 
 @pytest.mark.parametrize(

@@ -16,16 +16,16 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from panomap.calibrate.fit import fit_camera
+from panomap.camera.model import CameraModel
+from panomap.camera.radial import RadialFunction
 from panomap.errors import PanomapError
-from panomap.fit import fit_camera
 from panomap.geometry import azimuth_elevation
-from panomap.model import CameraModel
-from panomap.radial import RadialFunction
 from panomap.remap import Remapper
 from panomap.simulate import SVP_CAMERA_NAMES, load_room, render, standard_cameras
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table import PanoMappingTable, create_table, fill_entries
-from panomap.views import Band, CylinderPanorama, FloorView, PerspectiveView, build_map
+from panomap.table.table import PanoMappingTable, create_table, fill_entries
+from panomap.views.views import Band, CylinderPanorama, FloorView, PerspectiveView, build_map
 
 SIZE = (800, 760)
 CAMERA_POSITION = (3.1, 2.4, 2.45)

@@ -20,55 +20,49 @@ Conventions are in :mod:`panomap.geometry` and ``docs/conventions.md``.
 from __future__ import annotations
 
 import importlib
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 __version__ = "0.1.0"
 
-# Each name and the module that defines it. They are imported on first use
-# (PEP 562), so that ``import panomap`` and the command line pay only for what
-# they use (``panomap video`` never loads the fitting code).
+# The public API, in the order of the chain: each name and the module that defines it.
+# Names are imported on first use (PEP 562), so that ``import panomap`` and the command
+# line pay only for what they use (``panomap video`` never loads the fitting code).
 _EXPORTS = {
-    "Band": "views",
-    "CameraFit": "fit",
-    "CameraModel": "model",
-    "CylinderPanorama": "views",
-    "FloorView": "views",
-    "GenericPanorama": "views",
-    "Landmarks": "landmarks",
-    "PanoMappingTable": "table",
+    # errors
     "PanomapError": "errors",
-    "PerspectiveView": "views",
-    "PlaneView": "views",
-    "RadialFunction": "radial",
+    # images in
+    "read_image": "io.images",
+    "write_image": "io.images",
+    # calibrate: circles, landmarks, the fit, the table made from them
+    "ImageCircles": "calibrate.circles",
+    "find_image_circles": "calibrate.circles",
+    "Landmarks": "calibrate.landmarks",
+    "read_landmarks": "calibrate.landmarks",
+    "CameraFit": "calibrate.fit",
+    "fit_camera": "calibrate.fit",
+    "fit_table": "calibrate.pipeline",
+    # the camera model
+    "CameraModel": "camera.model",
+    "RadialFunction": "camera.radial",
+    # the table
+    "PanoMappingTable": "table.table",
+    "create_table": "table.table",
+    "load_table": "table.table",
+    # views and their maps
+    "Band": "views.views",
+    "GenericPanorama": "views.views",
+    "CylinderPanorama": "views.views",
+    "PlaneView": "views.views",
+    "PerspectiveView": "views.views",
+    "FloorView": "views.views",
+    "build_map": "views.views",
+    "parse_view_spec": "views.spec",
     "Remapper": "remap",
-    "build_map": "views",
-    "create_table": "table",
-    "fit_camera": "fit",
-    "load_table": "table",
-    "read_landmarks": "landmarks",
+    # video
+    "unwarp_video": "video.unwarp",
 }
 
-__all__ = [
-    "Band",
-    "CameraFit",
-    "CameraModel",
-    "CylinderPanorama",
-    "FloorView",
-    "GenericPanorama",
-    "Landmarks",
-    "PanoMappingTable",
-    "PanomapError",
-    "PerspectiveView",
-    "PlaneView",
-    "RadialFunction",
-    "Remapper",
-    "__version__",
-    "build_map",
-    "create_table",
-    "fit_camera",
-    "load_table",
-    "read_landmarks",
-]
+__all__ = ["__version__", *_EXPORTS]
 
 
 def __getattr__(name: str) -> Any:
@@ -82,14 +76,3 @@ def __getattr__(name: str) -> Any:
 
 def __dir__() -> list[str]:
     return sorted([*globals(), *_EXPORTS])
-
-
-if TYPE_CHECKING:
-    from .errors import PanomapError
-    from .fit import CameraFit, fit_camera
-    from .landmarks import Landmarks, read_landmarks
-    from .model import CameraModel
-    from .radial import RadialFunction
-    from .remap import Remapper
-    from .table import PanoMappingTable, create_table, load_table
-    from .views import Band, CylinderPanorama, FloorView, GenericPanorama, PerspectiveView, PlaneView, build_map

@@ -8,7 +8,7 @@ def main() -> None:
     # Before NumPy loads: the commands do only small linear algebra, and OpenBLAS's idle
     # threads spin at start-up (about 0.1 s of CPU, taken from the video decoder's threads).
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from panomap.cli import main as run_cli
+    from panomap.cli.app import main as run_cli
 
     run_cli()
 

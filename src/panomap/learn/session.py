@@ -21,17 +21,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..centre import find_image_circles
+from ..calibrate.circles import find_image_circles
+from ..calibrate.landmarks import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
+from ..calibrate.pipeline import fit_table
+from ..camera.radial import MODELS
 from ..errors import PanomapError
 from ..files import write_text_atomic
-from ..imageio import encode_png
-from ..landmarks import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
-from ..pipeline import fit_table
-from ..plot import fit_curve
-from ..radial import MODELS
+from ..io.images import encode_png
+from ..io.plot import fit_curve
 from ..remap import Remapper
-from ..table import PanoMappingTable
-from ..views import GenericPanorama, build_map
+from ..table.table import PanoMappingTable
+from ..views.views import GenericPanorama, build_map
 from .validate import (
     MAX_LANDMARKS,
     MAX_WORLD_ABS,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from panomap.landmarks import Landmarks
+from panomap.calibrate.landmarks import Landmarks
 from panomap.simulate.cameras import SimulatedCamera
 
 

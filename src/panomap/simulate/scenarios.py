@@ -15,11 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from panomap.fit import fit_camera
+from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.landmarks import Landmarks
 from panomap.geometry import ray_from_angles
-from panomap.landmarks import Landmarks
 from panomap.simulate.cameras import RadialCamera
-from panomap.table import create_table
+from panomap.table.table import create_table
 
 ROOM_SIZE = (6.0, 5.0, 2.6)
 CAMERA_POSITION = (3.1, 2.4, 2.45)

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..table.table import PanoMappingTable, create_table
 from .fit import fit_camera
 from .landmarks import Landmarks
-from .table import PanoMappingTable, create_table
 
 
 def fit_table(

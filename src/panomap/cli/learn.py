@@ -6,10 +6,10 @@ from pathlib import Path
 
 import click
 
-from ..cli import FINITE, PATH
+from ..calibrate.landmarks import read_landmarks
 from ..errors import PanomapError
-from ..imageio import read_image
-from ..landmarks import read_landmarks
+from ..io.images import read_image
+from .options import FINITE, PATH
 
 
 @click.command("learn")
@@ -48,8 +48,8 @@ def _learn(
     Starts a local web server and prints its address; open it in a browser.
     Ctrl-C stops it. Files are saved only into --dir (default: here).
     """
-    from .server import is_loopback, make_server
-    from .session import Session
+    from ..learn.server import is_loopback, make_server
+    from ..learn.session import Session
 
     if not folder.is_dir():
         raise PanomapError("the folder does not exist", folder)

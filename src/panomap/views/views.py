@@ -27,10 +27,10 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import PanomapError
-from .geometry import HALF_PI, TWO_PI, FloatArray, azimuth_elevation, pixel_centres, wrap_azimuth
-from .remap import Remapper
-from .table import PanoMappingTable
+from ..errors import PanomapError
+from ..geometry import HALF_PI, TWO_PI, FloatArray, azimuth_elevation, pixel_centres, wrap_azimuth
+from ..remap import Remapper
+from ..table.table import PanoMappingTable
 
 # Angles of any float precision: the perspective view computes its own in float32.
 AngleArray = NDArray[np.floating[Any]]

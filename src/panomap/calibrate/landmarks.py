@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import PanomapError
-from .files import read_text
-from .geometry import FloatArray
+from ..errors import PanomapError
+from ..files import read_text
+from ..geometry import FloatArray
 
 COLUMNS = ("u", "v", "X", "Y", "Z")
 MIN_LANDMARKS = 5

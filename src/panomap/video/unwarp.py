@@ -38,11 +38,11 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import PanomapError
-from .files import atomic_path
-from .remap import Remapper
-from .table import PanoMappingTable
-from .views import View, build_map
+from ..errors import PanomapError
+from ..files import atomic_path
+from ..remap import Remapper
+from ..table.table import PanoMappingTable
+from ..views.views import View, build_map
 
 QUEUE_FRAMES = 4
 # OpenCV threads for the remap while a video runs. The decoder's and encoders' threads already

@@ -47,14 +47,14 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import PanomapError
-from .files import write_with
-from .geometry import TWO_PI, FloatArray, azimuth_elevation, wrap_azimuth
-from .model import CameraModel
-from .radial import radius_standard_error, valid_elevation_range
+from ..camera.model import CameraModel
+from ..camera.radial import radius_standard_error, valid_elevation_range
+from ..errors import PanomapError
+from ..files import write_with
+from ..geometry import TWO_PI, FloatArray, azimuth_elevation, wrap_azimuth
 
 if TYPE_CHECKING:
-    from .fit import CameraFit
+    from ..calibrate.fit import CameraFit
 
 TABLE_FORMAT = "panomap-table"
 TABLE_VERSION = 1
@@ -489,7 +489,7 @@ def create_table(
         )
     known = [name for name in ("cutoff_radius", "outer_radius") if not sources[name].startswith("default")]
     if known:
-        from .fit import annulus_coverage_problem  # (fitting code, not needed to read a table)
+        from ..calibrate.fit import annulus_coverage_problem  # (fitting code, not needed to read a table)
 
         problem = annulus_coverage_problem(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius)
         if problem:

@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .errors import PanomapError
-from .geometry import FloatArray
+from ..errors import PanomapError
+from ..geometry import FloatArray
 from .radial import RadialFunction
 
 

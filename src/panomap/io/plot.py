@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from .files import write_bytes_atomic
-from .table import PanoMappingTable
+from ..files import write_bytes_atomic
+from ..table.table import PanoMappingTable
 
 
 def fit_plot_png(table: PanoMappingTable) -> bytes:

@@ -12,18 +12,19 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import click
 import numpy as np
 
-from .centre import find_image_circles
-from .files import write_text_atomic
-from .fit import fit_camera
-from .imageio import save_map, write_image
-from .landmarks import Landmarks, landmarks_to_csv
-from .plot import save_fit_plot
-from .remap import Remapper
-from .simulate import load_room, render, standard_cameras
-from .table import create_table
-from .views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
+from ..calibrate.circles import find_image_circles
+from ..calibrate.fit import fit_camera
+from ..calibrate.landmarks import Landmarks, landmarks_to_csv
+from ..files import write_text_atomic
+from ..io.images import save_map, write_image
+from ..io.plot import save_fit_plot
+from ..remap import Remapper
+from ..simulate import load_room, render, standard_cameras
+from ..table.table import create_table
+from ..views.views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
 
 IMAGE_SIZE = (1024, 1024)
 LANDMARK_COUNT = 12
@@ -109,3 +110,25 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
             )
         yield line
     yield f"done in {time.perf_counter() - start:.1f} s"
+
+
+@click.command()
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("demo-out"),
+    show_default=True,
+    help="Folder for everything the demo writes.",
+)
+@click.option(
+    "--camera",
+    "camera_name",
+    type=click.Choice(["equidistant", "equisolid", "parabolic", "hyperbolic", "spherical"]),
+    default="hyperbolic",
+    show_default=True,
+    help="Simulated ceiling camera to use.",
+)
+def demo(out: Path, camera_name: str) -> None:
+    """Render the bundled room through a simulated ceiling camera, learn it, and unwarp it."""
+    for line in run_demo(out, camera_name):
+        click.echo(line)

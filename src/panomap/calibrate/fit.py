@@ -41,11 +41,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import PanomapError
-from .geometry import FloatArray, azimuth_elevation
-from .landmarks import MIN_LANDMARKS, Landmarks
-from .model import CameraModel
-from .radial import (
+from ..camera.model import CameraModel
+from ..camera.radial import (
     AUTO_CANDIDATES,
     AXES,
     MODEL_PARAMETERS,
@@ -56,6 +53,9 @@ from .radial import (
     is_monotonic,
     valid_elevation_range,
 )
+from ..errors import PanomapError
+from ..geometry import FloatArray, azimuth_elevation
+from .landmarks import MIN_LANDMARKS, Landmarks
 
 MIN_ELEVATION_SPREAD = math.radians(1.0)
 AZIMUTH_MODES = ("fit", "paper")

@@ -35,8 +35,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import PanomapError
-from .geometry import FloatArray
+from ..errors import PanomapError
+from ..geometry import FloatArray
 
 RAYS = 720
 COARSE_SIDE = 400

@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .errors import PanomapError
-from .geometry import HALF_PI, FloatArray
+from ..errors import PanomapError
+from ..geometry import HALF_PI, FloatArray
 
 AXES = ("down", "up")
 MODEL_PARAMETERS: dict[str, int] = {

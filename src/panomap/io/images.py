@@ -14,8 +14,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import PanomapError
-from .files import write_bytes_atomic, write_with
+from ..errors import PanomapError
+from ..files import write_bytes_atomic, write_with
 
 SIXTEEN_BIT_SUFFIXES = {".png", ".tif", ".tiff", ".pgm", ".ppm", ".pnm"}
 ALPHA_SUFFIXES = {".png", ".tif", ".tiff", ".webp"}

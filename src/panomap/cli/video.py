@@ -17,11 +17,11 @@ from typing import Any
 
 import click
 
-from .cli import FINITE, PATH
-from .remap import INTERPOLATIONS
-from .table import SAMPLINGS, load_table
-from .video import EncoderSettings, Selection, ViewOutput, unwarp_video
-from .viewspec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
+from ..remap import INTERPOLATIONS
+from ..table.table import SAMPLINGS, load_table
+from ..video.unwarp import EncoderSettings, Selection, ViewOutput, unwarp_video
+from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
+from .options import FINITE, PATH
 
 
 def _bitrate(text: str) -> int:

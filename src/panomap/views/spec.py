@@ -34,8 +34,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .errors import PanomapError
-from .files import read_text
+from ..errors import PanomapError
+from ..files import read_text
 from .views import Band, CylinderPanorama, FloorView, GenericPanorama, PerspectiveView, PlaneView, View
 
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")

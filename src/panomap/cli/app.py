@@ -1,0 +1,82 @@
+"""The ``panomap`` command line: parses input, calls the library, reports.
+
+Angles on the command line are in degrees; lengths in world units; sizes as
+``WxH`` (views) or ``MxN`` (tables). Bad input gets one line on stderr,
+naming the file and the problem, and a non-zero exit code (1 for bad input,
+2 for bad usage); outputs are written to a temporary name and renamed when
+complete.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any, NoReturn
+
+import click
+
+from .. import __version__
+from ..errors import PanomapError
+from .calibrate import centre, fit, info
+from .demo import demo
+from .learn import learn
+from .points import project, unproject
+from .video import video
+from .views import cylinder, floor, panorama, perspective, plane
+
+# Every command, registered here and nowhere else.
+COMMANDS = (fit, centre, info, panorama, cylinder, plane, perspective, floor, project, unproject, video, learn, demo)
+
+
+def _fail(message: str, code: int = 1) -> NoReturn:
+    click.echo(f"panomap: error: {message}", err=True)
+    sys.exit(code)
+
+
+class PanomapGroup(click.Group):
+    """A group that reports every error in one line, without a traceback."""
+
+    def main(self, *args: Any, **kwargs: Any) -> NoReturn:
+        kwargs["standalone_mode"] = False
+        try:
+            result = super().main(*args, **kwargs)
+        except click.UsageError as exc:
+            where = exc.ctx.command_path if exc.ctx is not None else "panomap"
+            message = " ".join(exc.format_message().split())
+            click.echo(f"{where}: error: {message} (see '{where} --help')", err=True)
+            sys.exit(exc.exit_code)
+        except click.ClickException as exc:
+            _fail(" ".join(exc.format_message().split()), exc.exit_code)
+        except click.Abort:
+            _fail("interrupted", 130)
+        except PanomapError as exc:
+            _fail(" ".join(str(exc).split()))
+        except OSError as exc:
+            _fail(f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": "))
+        sys.exit(result if isinstance(result, int) else 0)
+
+
+@click.group(
+    cls=PanomapGroup,
+    commands=list(COMMANDS),
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+)
+@click.version_option(__version__, prog_name="panomap")
+def main() -> None:
+    """Unwarp omni-images (mirror and fisheye cameras) with pano-mapping tables.
+
+    \b
+    1. panomap fit LANDMARKS.csv -o cam.npz --camera X0 Y0 Z0 --centre U0 V0
+    2. panomap panorama cam.npz omni.png -o pano.png
+       panomap cylinder cam.npz omni.png -o cyl.png --distance 2 --band -2.4 0 --size 2048x512
+       panomap plane    cam.npz omni.png -o view.png --distance 2 --plane-width 2 \\
+                        --band -2.4 0 --azimuth-deg 30 --size 800x800
+       panomap perspective cam.npz omni.png -o ptz.png --yaw-deg 270 --pitch-deg -30 \\
+                        --fov-deg 100 --size 1280x720
+       panomap floor    cam.npz omni.png -o floor.png --z 0 --x 0 6 --y 0 5 --resolution 0.01
+       panomap unproject cam.npz pixels.csv -o rays.csv --z 0
+    3. panomap demo   (renders a simulated room and does all of it)
+
+    Conventions: world Z up; azimuth counter-clockwise from +X seen from above;
+    elevation negative below the camera; pixel (u, v) = (column, row) with the
+    centre of the top-left pixel at (0, 0). See docs/conventions.md.
+    """

@@ -1,0 +1,326 @@
+"""``panomap fit``, ``centre`` and ``info``: from landmarks to a table, and what a table holds."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import click
+
+from ..calibrate.circles import ImageCircles, draw_overlay, find_image_circles
+from ..calibrate.landmarks import read_landmarks
+from ..calibrate.pipeline import fit_table
+from ..camera.radial import MODELS
+from ..errors import PanomapError
+from ..io.images import image_size, read_image, write_image
+from ..table.table import PanoMappingTable, load_table
+from .options import FINITE, PATH, SIZE
+
+
+@click.command()
+@click.argument("landmarks", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="Table file to write (.npz).")
+@click.option(
+    "--camera",
+    nargs=3,
+    type=FINITE,
+    metavar="X0 Y0 Z0",
+    help="Camera (mirror centre) position in world units; or give it in a JSON landmark file.",
+)
+@click.option(
+    "--centre",
+    "--center",
+    "centre",
+    nargs=2,
+    type=FINITE,
+    metavar="U0 V0",
+    help="Image centre (px) where the optical axis lands.",
+)
+@click.option(
+    "--image",
+    type=PATH,
+    help="An omni-image of this camera: gives the image size, and the centre and radii when they are not given.",
+)
+@click.option("--image-size", type=SIZE, help="Image size WxH when no --image is given.")
+@click.option(
+    "--size",
+    "table_size",
+    type=SIZE,
+    metavar="MxN",
+    help="Table size: M azimuths x N elevations [default: about 1 entry per pixel].",
+)
+@click.option(
+    "--cutoff-radius", type=FINITE, help="Radius (px) of the self-occlusion disc [default: found in --image, else 0]."
+)
+@click.option(
+    "--outer-radius",
+    type=FINITE,
+    help="Radius (px) of the image circle [default: found in --image, else the largest circle in the image].",
+)
+@click.option(
+    "--model",
+    type=click.Choice(["auto", *MODELS]),
+    default="auto",
+    show_default=True,
+    help="Radial model; 'paper' is the paper's 4th-degree polynomial, 'auto' chooses by leave-one-out.",
+)
+@click.option(
+    "--azimuth",
+    type=click.Choice(["fit", "paper"]),
+    default="fit",
+    show_default=True,
+    help="Estimate the image rotation phi0 and mirroring s, or assume the paper's s=+1, phi0=0.",
+)
+@click.option(
+    "--axis", type=click.Choice(["down", "up"]), help="Force the viewing direction [default: from the landmarks]."
+)
+@click.option(
+    "--refine-centre",
+    is_flag=True,
+    help="Refine the centre together with the radial function and phi0 (advised when the centre is found in "
+    "--image: on a real mirror the rim's centre can be pixels from the optical axis).",
+)
+@click.option(
+    "--pixel-sigma",
+    type=FINITE,
+    default=1.0,
+    show_default=True,
+    help="Standard deviation of the landmarks' pixels (px), for weighting.",
+)
+@click.option(
+    "--world-sigma",
+    type=FINITE,
+    help="Standard deviation of the landmarks' world coordinates (world units) [default: 0.4% of their "
+    "median distance].",
+)
+@click.option("--keep-outliers", is_flag=True, help="Keep landmarks that disagree with the rest (default: drop them).")
+@click.option("--plot", type=PATH, help="Also write the fit plot (PNG): the curve, landmarks and residuals.")
+def fit(
+    landmarks: Path,
+    output: Path,
+    camera: tuple[float, float, float] | None,
+    centre: tuple[float, float] | None,
+    image: Path | None,
+    image_size: tuple[int, int] | None,
+    table_size: tuple[int, int] | None,
+    cutoff_radius: float | None,
+    outer_radius: float | None,
+    model: str,
+    azimuth: str,
+    axis: str | None,
+    refine_centre: bool,
+    pixel_sigma: float,
+    world_sigma: float | None,
+    keep_outliers: bool,
+    plot: Path | None,
+) -> None:
+    """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table."""
+    pairs = read_landmarks(landmarks)
+    position = camera or pairs.camera
+    if position is None:
+        raise PanomapError('no camera position: give --camera X0 Y0 Z0 or "camera" in the JSON', landmarks)
+    info: dict[str, Any] = {}
+    sources = {"camera_position": "given" if camera else "landmark file"}
+    sources |= {
+        name: "given"
+        for name, value in (("centre", centre), ("cutoff_radius", cutoff_radius), ("outer_radius", outer_radius))
+        if value is not None
+    }
+    size = _image_size(None, image_size)
+    if image is not None:
+        omni = read_image(image)
+        size = (int(omni.shape[1]), int(omni.shape[0]))
+        if centre is None or cutoff_radius is None or outer_radius is None:
+            try:
+                circles = find_image_circles_in(image, omni)
+            except PanomapError as exc:
+                if centre is None:
+                    raise
+                # The centre is given: only the radii were wanted; keep their defaults and say so.
+                click.echo(f"panomap: warning: {exc}; using the default radii", err=True)
+                circles = None
+        else:
+            circles = None
+        if circles is not None:
+            info["image_circles"] = circles.to_dict()
+            if centre is None:
+                centre, sources["centre"] = circles.centre, "detected"
+            if outer_radius is None:
+                outer_radius, sources["outer_radius"] = circles.outer_radius, "detected"
+            if cutoff_radius is None:
+                cutoff_radius = circles.cutoff_radius or 0.0
+                sources["cutoff_radius"] = "detected" if circles.cutoff else "detected: none (no self-occlusion disc)"
+    if centre is None:
+        raise PanomapError("no image centre: give --centre U0 V0, or --image OMNI to find it", landmarks)
+    info["sources"] = sources
+    if refine_centre:
+        sources["centre"] = f"{sources['centre']}, refined with the landmarks"
+    try:
+        table = fit_table(
+            pairs,
+            position,
+            centre,
+            image_size=size,
+            cutoff_radius=cutoff_radius,
+            outer_radius=outer_radius,
+            table_size=table_size,
+            model=model,
+            azimuth=azimuth,
+            axis=axis,
+            refine_centre=refine_centre,
+            pixel_sigma=pixel_sigma,
+            world_sigma=world_sigma,
+            reject_outliers=not keep_outliers,
+            info=info,
+        )
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, exc.source or landmarks) from None
+    table.save(output)
+    if plot is not None:
+        from ..io.plot import save_fit_plot
+
+        save_fit_plot(table, plot)
+    click.echo(_describe_fit(table))
+    click.echo(f"wrote {output}" + (f" and {plot}" if plot else ""))
+    for warning in table.info.get("warnings", []):
+        click.echo(f"panomap: warning: {warning}", err=True)
+
+
+@click.command()
+@click.argument("image", type=PATH)
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@click.option("--overlay", type=PATH, help="Also write the image with the circles drawn on it (PNG).")
+def centre(image: Path, as_json: bool, overlay: Path | None) -> None:
+    """Find the image centre, the cut-off radius and the image circle of an omni-image.
+
+    The centre is the rim's centre to a fraction of a pixel (the ellipse's, when the
+    rim is one); the cut-off radius is "none" for a camera that does not see itself
+    (a fisheye). Fails with a reason, never a guess, when there is no image circle.
+    """
+    omni = read_image(image)
+    circles = find_image_circles_in(image, omni)
+    if overlay is not None:
+        write_image(overlay, draw_overlay(omni, circles))
+    if as_json:
+        click.echo(json.dumps(circles.to_dict(), indent=2))
+        return
+    u0, v0 = circles.centre
+    cutoff = "none" if circles.cutoff is None else f"{circles.cutoff.radius:.2f} px"
+    click.echo(f"centre: {u0:.2f} {v0:.2f}")
+    click.echo(f"cut-off radius: {cutoff}")
+    click.echo(
+        f"outer radius: {circles.outer.radius:.2f} px (fit RMS {circles.outer.rms_px:.2f} px, "
+        f"{circles.outer.inliers} of {circles.outer.rays} rays)"
+    )
+    if circles.ellipse is not None:
+        e = circles.ellipse
+        click.echo(
+            f"the rim is an ellipse: semi-axes {e.semi_axes[0]:.2f} and {e.semi_axes[1]:.2f} px, "
+            f"angle {e.angle_deg:.1f} deg"
+        )
+    if overlay is not None:
+        click.echo(f"wrote {overlay}")
+
+
+def find_image_circles_in(path: Path, image: Any) -> ImageCircles:
+    """Find the image circles, naming the file in any error."""
+    try:
+        return find_image_circles(image)
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, path) from None
+
+
+def _image_size(image: Path | None, size: tuple[int, int] | None) -> tuple[int, int] | None:
+    if image is not None:
+        return image_size(image)
+    if size is not None:
+        width, height = size
+        if width <= 0 or height <= 0:
+            raise PanomapError(f"--image-size {width}x{height}: must be positive")
+        return size
+    return None
+
+
+def _describe_fit(table: PanoMappingTable) -> str:
+    fit = table.info.get("fit", {})
+    lines = []
+    selection = fit.get("model_selection_loo_rms_px") or {}
+    chosen = fit.get("model")
+    if selection:
+        ranked = ", ".join(
+            f"{k} {v:.3f}" if v is not None else f"{k} -"
+            for k, v in sorted(selection.items(), key=lambda kv: (kv[1] is None, kv[1] or 0))
+        )
+        lines.append(f"radial model: {chosen} (leave-one-out RMS px: {ranked})")
+    else:
+        lines.append(f"radial model: {chosen} (forced)")
+    mirrored = "mirrored" if fit.get("s") == -1 else "not mirrored"
+    lines.append(
+        f"camera looks {fit.get('axis')} ({fit.get('axis_source')}); azimuth mapping phi = "
+        f"{'-' if fit.get('s') == -1 else ''}theta {fit.get('phi0_deg', 0.0):+.2f} deg "
+        f"({mirrored}, {'fitted' if fit.get('azimuth_mode') == 'fit' else 'assumed as in the paper'}; "
+        f"consistency {fit.get('azimuth_consistency', float('nan')):.3f})"
+    )
+    lines.append(f"{'landmark':<12} {'u':>9} {'v':>9} {'elev deg':>9} {'azim deg':>9} {'resid px':>9}")
+    for row in fit.get("landmarks", []):
+        lines.append(
+            f"{row['name'][:12]:<12} {row['u']:9.2f} {row['v']:9.2f} {row['elevation_deg']:9.2f} "
+            f"{row['azimuth_deg']:9.2f} {row['residual_px']:9.3f}"
+            + ("  OUTLIER (not used)" if row.get("outlier") else "")
+        )
+    if fit.get("outliers"):
+        lines.append(f"outliers dropped: {', '.join(fit['outliers'])}")
+    lines.append(
+        f"residuals: RMS {fit.get('rms_px', float('nan')):.3f} px, max {fit.get('max_px', float('nan')):.3f} px"
+    )
+    uncertainty = fit.get("uncertainty") or {}
+    if uncertainty:
+        inside = uncertainty.get("max_se_in_landmark_range_px")
+        lines.append(
+            "radius standard error: up to "
+            + (f"{inside:.2f} px within the landmarks' elevations, " if inside is not None else "")
+            + f"up to {uncertainty['max_se_px']:.2f} px over the table's range"
+        )
+    lines.append(_describe_table(table))
+    return "\n".join(lines)
+
+
+def _describe_table(table: PanoMappingTable) -> str:
+    m, n = table.size
+    rho_s, rho_e = (math.degrees(x) for x in table.elevation_range)
+    sources = table.info.get("sources", {})
+    return (
+        f"table: {m} x {n} entries, elevation {rho_s:.2f}..{rho_e:.2f} deg, "
+        f"cut-off radius {table.cutoff_radius:.1f} px ({sources.get('cutoff_radius', '?')}), "
+        f"outer radius {table.outer_radius:.1f} px ({sources.get('outer_radius', '?')})"
+    )
+
+
+# ----------------------------------------------------------------------------- info
+
+
+@click.command()
+@click.argument("table", type=PATH)
+@click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")
+def info(table: Path, as_json: bool) -> None:
+    """Print a table's metadata: model, centre, s, phi0, range, sizes, landmarks and residuals."""
+    loaded = load_table(table)
+    meta = loaded.metadata()
+    if as_json:
+        click.echo(json.dumps(meta, indent=2))
+        return
+    model = loaded.model
+    size = "unknown" if loaded.image_size is None else f"{loaded.image_size[0]} x {loaded.image_size[1]}"
+    lines = [
+        f"{table}: panomap table, format version {meta['version']}",
+        f"image size: {size}; centre (u0, v0) = ({model.centre[0]:.3f}, {model.centre[1]:.3f}) "
+        f"({loaded.info.get('sources', {}).get('centre', '?')})",
+        f"camera position (X0, Y0, Z0) = {tuple(round(c, 6) for c in loaded.camera_position)}",
+        f"radial model: {model.radial.kind}, axis {model.radial.axis}, coefficients "
+        + ", ".join(f"{c:.9g}" for c in model.radial.coefficients),
+        f"azimuth mapping: s = {model.s:+d}, phi0 = {math.degrees(model.phi0):.4f} deg",
+    ]
+    text = _describe_fit(loaded).splitlines()
+    click.echo("\n".join(lines + text[2:]))

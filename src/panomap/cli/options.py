@@ -1,0 +1,51 @@
+"""Option types the commands share: sizes, finite numbers, file paths.
+
+Angles on the command line are in degrees; lengths in world units; sizes as
+``WxH`` (views) or ``MxN`` (tables).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import click
+
+
+class Size(click.ParamType):
+    """``WxH`` (or ``MxN``): two integers joined by ``x``."""
+
+    name = "WxH"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> tuple[int, int]:
+        if isinstance(value, tuple):
+            return value
+        text = str(value).lower().replace("*", "x")
+        parts = text.split("x")
+        try:
+            if len(parts) != 2:
+                raise ValueError
+            return int(parts[0]), int(parts[1])
+        except ValueError:
+            self.fail(f"{value!r} is not a size like 1024x512", param, ctx)
+
+
+class Finite(click.ParamType):
+    """A finite real number (refuses nan and inf)."""
+
+    name = "NUMBER"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float:
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
+SIZE = Size()
+FINITE = Finite()
+PATH = click.Path(path_type=Path, dir_okay=False)

@@ -1,0 +1,81 @@
+"""``panomap project`` and ``unproject``: world points to pixels, pixels to rays."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from pathlib import Path
+
+import click
+import numpy as np
+
+from ..calibrate.landmarks import read_points
+from ..files import write_text_atomic
+from ..geometry import ray_plane_points
+from ..table.table import SAMPLINGS, load_table
+from .options import FINITE, PATH
+
+
+@click.command()
+@click.argument("table", type=PATH)
+@click.argument("points", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="CSV to write: the input columns plus u,v.")
+@click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True)
+def project(table: Path, points: Path, output: Path, table_sampling: str) -> None:
+    """World points (CSV with X,Y,Z) to pixels through the table; u,v empty where not visible."""
+    loaded = load_table(table)
+    header, rows, xyz = read_points(points)
+    uv = loaded.project(xyz, table_sampling)
+    keep = [i for i, name in enumerate(header) if name.lower() not in ("u", "v")]
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow([header[i] for i in keep] + ["u", "v"])
+    for row, (u, v) in zip(rows, uv.tolist(), strict=True):
+        pixel = ["", ""] if not (math.isfinite(u) and math.isfinite(v)) else [f"{u:.4f}", f"{v:.4f}"]
+        writer.writerow([row[i] for i in keep] + pixel)
+    write_text_atomic(output, buffer.getvalue())
+    visible = int(np.count_nonzero(np.all(np.isfinite(uv), axis=1)))
+    click.echo(f"wrote {output} ({visible} of {len(rows)} points visible)")
+
+
+# ----------------------------------------------------------------------------- unproject
+
+
+@click.command()
+@click.argument("table", type=PATH)
+@click.argument("pixels", type=PATH)
+@click.option(
+    "-o", "--output", type=PATH, required=True, help="CSV to write: the input columns plus azimuth_deg,elevation_deg."
+)
+@click.option(
+    "--z", "z_plane", type=FINITE, help="Also give X,Y,Z where each pixel's ray meets the horizontal plane Z (world)."
+)
+def unproject(table: Path, pixels: Path, output: Path, z_plane: float | None) -> None:
+    """Pixels (CSV with u,v) to rays: azimuth and elevation, empty outside the valid region."""
+    loaded = load_table(table)
+    header, rows, uv = read_points(pixels, ("u", "v"))
+    theta, rho = loaded.unproject(uv)
+    added = ["azimuth_deg", "elevation_deg"] + (["X", "Y", "Z"] if z_plane is not None else [])
+    replaced = {name.lower() for name in added}
+    keep = [i for i, name in enumerate(header) if name.lower() not in replaced]
+    world = (
+        ray_plane_points(loaded.camera_position, theta, rho, z_plane)
+        if z_plane is not None
+        else np.full((len(rows), 0), np.nan)
+    )
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow([header[i] for i in keep] + added)
+    for row, azimuth, elevation, point in zip(rows, theta.tolist(), rho.tolist(), world.tolist(), strict=True):
+        seen = math.isfinite(elevation)
+        ray = [f"{math.degrees(azimuth):.6f}", f"{math.degrees(elevation):.6f}"] if seen else ["", ""]
+        where = ["" if not math.isfinite(c) else f"{c:.6f}" for c in point]
+        writer.writerow([row[i] for i in keep] + ray + where)
+    write_text_atomic(output, buffer.getvalue())
+    valid = int(np.count_nonzero(np.isfinite(rho)))
+    message = f"wrote {output} ({valid} of {len(rows)} pixels in the valid region"
+    if z_plane is not None:
+        reached = int(np.count_nonzero(np.all(np.isfinite(world), axis=1)))
+        message += f"; {reached} rays reach the plane Z = {z_plane:g}"
+    click.echo(message + ")")
