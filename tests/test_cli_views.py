@@ -11,9 +11,9 @@ import cv2
 import numpy as np
 import pytest
 from click.testing import CliRunner, Result
-from panomap.cli.app import main
 
 from panomap.calibrate.landmarks import landmarks_to_csv
+from panomap.cli.app import main
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks
 from panomap.table.table import load_table

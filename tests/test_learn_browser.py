@@ -20,9 +20,9 @@ from typing import Any
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from panomap.cli.app import main
 
 from panomap.calibrate.landmarks import Landmarks, read_landmarks
+from panomap.cli.app import main
 from panomap.learn.example import Example, make_example
 from panomap.learn.server import LearnServer, make_server, serve_in_thread
 from panomap.learn.session import Session

@@ -19,7 +19,9 @@ import click
 
 from ..remap import INTERPOLATIONS
 from ..table.table import SAMPLINGS, load_table
-from ..video.unwarp import EncoderSettings, Selection, ViewOutput, unwarp_video
+from ..video.output import EncoderSettings
+from ..video.source import Selection
+from ..video.unwarp import ViewOutput, unwarp_video
 from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
 from .options import FINITE, PATH
 

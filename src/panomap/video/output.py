@@ -1,0 +1,157 @@
+"""Each view's output: an encoder and a container, written under a temporary name and renamed when done."""
+
+from __future__ import annotations
+
+import contextlib
+import queue
+import threading
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import av
+
+from ..errors import PanomapError
+from .handoff import END, QUEUE_FRAMES, reason
+
+
+@dataclass(frozen=True)
+class EncoderSettings:
+    """How each view's video is encoded.
+
+    Parameters
+    ----------
+    codec : str
+        An FFmpeg encoder name (``libx264``, ``libx265``, ``ffv1``, ...).
+    pix_fmt : str
+        The encoded pixel format (``yuv420p`` plays everywhere).
+    crf : int or None
+        Constant rate factor for codecs that take one (x264/x265: 0 lossless,
+        18 visually lossless, 23 their default); None leaves the codec's.
+    preset : str or None
+        Speed preset for codecs that take one (x264: ultrafast .. veryslow).
+    bitrate : int or None
+        Target bit rate (bit/s) instead of a constant quality.
+    options : tuple of (key, value)
+        Further encoder options, as FFmpeg's ``-KEY VALUE``.
+    """
+
+    codec: str = "libx264"
+    pix_fmt: str = "yuv420p"
+    crf: int | None = 20
+    preset: str | None = "veryfast"
+    bitrate: int | None = None
+    options: tuple[tuple[str, str], ...] = ()
+
+    def codec_options(self) -> dict[str, str]:
+        """The options passed to the encoder."""
+        takes_crf_preset = self.codec in ("libx264", "libx264rgb", "libx265")
+        options: dict[str, str] = {}
+        if takes_crf_preset and self.preset is not None:
+            options["preset"] = self.preset
+        if takes_crf_preset and self.crf is not None and self.bitrate is None:
+            options["crf"] = str(self.crf)
+        return options | dict(self.options)
+
+    def check(self) -> None:
+        """Refuse an unknown encoder or a pixel format it cannot take, before any work."""
+        try:
+            codec = av.codec.Codec(self.codec, "w")
+        except (av.error.FFmpegError, ValueError):
+            raise PanomapError(f"unknown video encoder {self.codec!r} (try libx264)") from None
+        if codec.type != "video":
+            raise PanomapError(f"{self.codec!r} is not a video encoder")
+        formats = [f.name for f in codec.video_formats or ()]
+        if formats and self.pix_fmt not in formats:
+            raise PanomapError(f"the encoder {self.codec} cannot take {self.pix_fmt} (it takes {', '.join(formats)})")
+
+
+@dataclass
+class Writer:
+    """One view's output: its container (under a temporary name), streams and thread."""
+
+    path: Path
+    temporary: Path
+    container: Any
+    video: Any
+    audio: Any | None
+    inbox: queue.Queue[Any] = field(default_factory=lambda: queue.Queue(QUEUE_FRAMES))
+    error: BaseException | None = None
+    frames: int = 0
+    thread: threading.Thread | None = None
+
+    def run(self, stop: threading.Event) -> None:
+        try:
+            while True:
+                item = self.inbox.get()
+                if item is END:
+                    break
+                if isinstance(item, av.Packet):
+                    item.stream = self.audio
+                    self.container.mux(item)
+                    continue
+                for packet in self.video.encode(item):
+                    self.container.mux(packet)
+                self.frames += 1
+            for packet in self.video.encode(None):
+                self.container.mux(packet)
+        except BaseException as exc:  # reported by the caller
+            self.error = exc
+            stop.set()
+            with contextlib.suppress(queue.Empty):
+                while True:  # unblock the producer
+                    self.inbox.get_nowait()
+
+
+def open_writer(
+    path: Path,
+    temporary: Path,
+    size: tuple[int, int],
+    rate: Fraction | None,
+    time_base: Fraction,
+    encoder: EncoderSettings,
+    audio_template: Any | None,
+) -> Writer:
+    try:
+        container = av.open(str(temporary), "w", format=container_format(path))
+    except (av.error.FFmpegError, OSError, ValueError) as exc:
+        raise PanomapError(f"cannot write a video there ({reason(exc)})", path) from None
+    try:
+        video: Any = container.add_stream(encoder.codec, rate=rate or Fraction(25))
+        video.width, video.height = size
+        video.pix_fmt = encoder.pix_fmt
+        video.time_base = time_base
+        video.codec_context.time_base = time_base
+        if encoder.bitrate is not None:
+            video.bit_rate = encoder.bitrate
+        video.options = encoder.codec_options()
+        audio: Any = container.add_stream_from_template(audio_template) if audio_template is not None else None
+        container.start_encoding()
+    except (av.error.FFmpegError, ValueError, TypeError) as exc:
+        container.close()
+        what = "with the input's audio " if audio_template is not None else ""
+        hint = " (try --no-audio)" if audio_template is not None else ""
+        raise PanomapError(
+            f"cannot encode {encoder.codec} {encoder.pix_fmt} {what}into it: {reason(exc)}{hint}", path
+        ) from None
+    return Writer(path, temporary, container, video, audio)
+
+
+def container_format(path: Path) -> str | None:
+    suffix = path.suffix.lower()
+    known = {
+        ".mp4": "mp4",
+        ".m4v": "mp4",
+        ".mov": "mov",
+        ".mkv": "matroska",
+        ".webm": "webm",
+        ".avi": "avi",
+        ".ts": "mpegts",
+        ".nut": "nut",
+    }
+    if suffix not in known:
+        raise PanomapError(
+            f"unknown video file type {suffix or '(none)'!r}: use .mp4, .mkv, .mov, .webm, .avi, .ts", path
+        )
+    return known[suffix]

@@ -1,0 +1,201 @@
+"""The input: open a file, stream or device, select frames (start, duration, every) and read them.
+
+Timestamps: every frame keeps its input timestamp, less the ``start`` offset when one is given
+(as ``ffmpeg -ss``). Damage is reported and skipped.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import queue
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import av
+
+from ..errors import PanomapError
+from .handoff import END, put, reason
+from .report import VideoReport
+
+
+@dataclass(frozen=True)
+class Selection:
+    """Which frames to read: from ``start`` (s) for ``duration`` (s), every ``every``-th."""
+
+    start: float = 0.0
+    duration: float | None = None
+    every: int = 1
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.start) and self.start >= 0):
+            raise PanomapError(f"the start must be a time of at least 0 s, not {self.start:g}")
+        if self.duration is not None and not (math.isfinite(self.duration) and self.duration > 0):
+            raise PanomapError(f"the duration must be more than 0 s, not {self.duration:g}")
+        if self.every < 1:
+            raise PanomapError(f"every must be a whole number of at least 1, not {self.every}")
+
+
+def is_live(source: str) -> bool:
+    """True for a URL or a capture device: inputs with no end and no seeking."""
+    return "://" in source or source.startswith("/dev/")
+
+
+def open_input(source: str, open_timeout: float = 10.0) -> Any:
+    """Open a video file, an RTSP/HTTP URL or a V4L2 device (``/dev/videoN``) with PyAV.
+
+    Raises PanomapError naming the input when it cannot be opened or holds no video.
+    """
+    options: dict[str, str] = {}
+    container_format = None
+    if source.startswith("/dev/"):
+        container_format = "v4l2"
+    elif source.lower().startswith("rtsp://"):
+        options["rtsp_transport"] = "tcp"
+    elif "://" not in source and not Path(source).is_file():
+        raise PanomapError("no such file" if not Path(source).exists() else "not a file", source)
+    try:
+        container = av.open(source, format=container_format, options=options, timeout=(open_timeout, open_timeout))
+    except (av.error.FFmpegError, OSError, ValueError) as exc:
+        raise PanomapError(f"cannot open it as a video ({reason(exc)})", source) from None
+    if not container.streams.video:
+        container.close()
+        raise PanomapError("it holds no video stream", source)
+    return container
+
+
+def expected_frames(stream: Any, selection: Selection, live: bool) -> int | None:
+    if live:
+        return None
+    rate = stream.average_rate or stream.guessed_rate
+    total = stream.frames or 0
+    if not total and stream.duration and stream.time_base and rate:
+        total = round(float(stream.duration * stream.time_base * rate))
+    if not total or not rate:
+        return None
+    first = min(total, round(selection.start * float(rate)))
+    last = total if selection.duration is None else min(total, first + round(selection.duration * float(rate)))
+    return max(0, -(-(last - first) // selection.every))
+
+
+def copy_packet(packet: Any) -> Any:
+    """A packet of its own for each writer (muxing takes a packet's data)."""
+    copy = av.Packet(bytes(packet))
+    copy.pts, copy.dts, copy.time_base = packet.pts, packet.dts, packet.time_base
+    copy.duration = packet.duration
+    copy.is_keyframe = packet.is_keyframe
+    return copy
+
+
+def read_frames(
+    container: Any,
+    stream: Any,
+    audio_stream: Any | None,
+    work: str,
+    selection: Selection,
+    frames: queue.Queue[Any],
+    halted: Callable[[], bool],
+    on_audio: Callable[[Any], None],
+    warn: Callable[[str], None],
+    report: VideoReport,
+) -> None:
+    """Demux and decode, putting the selected frames (in the work format) on ``frames``; END last.
+
+    Times are measured from the stream's start (files) or its first frame (live inputs).
+    """
+    source = str(container.name)
+    time_base = stream.time_base
+    live = is_live(source)
+    origin: float | None = None if live else _stream_start(stream)
+    if selection.start > 0 and not live:
+        with contextlib.suppress(av.error.FFmpegError):
+            container.seek(int((selection.start + _stream_start(stream)) / time_base), stream=stream, backward=True)
+    # Seconds subtracted from every timestamp: the start (from the first frame, on a live input).
+    shift = 0.0 if selection.start == 0 else (None if origin is None else origin + selection.start)
+    index = 0
+    streams = [stream] + ([audio_stream] if audio_stream is not None else [])
+
+    def window(seconds: float) -> int:
+        """-1 before the selection, 0 inside, 1 after it."""
+        assert origin is not None
+        if selection.start > 0 and seconds < origin + selection.start - 1e-9:
+            return -1  # (from the very start, everything counts: audio priming has negative times)
+        if selection.duration is not None and seconds >= origin + selection.start + selection.duration - 1e-9:
+            return 1
+        return 0
+
+    try:
+        for packet in _demux(container, streams, warn):
+            if halted():
+                return
+            if packet.stream.type == "audio":
+                if packet.pts is None or packet.dts is None or origin is None:
+                    continue
+                if window(float(packet.pts * packet.time_base)) == 0 and shift is not None:
+                    ticks = round(shift / float(packet.time_base))
+                    packet.pts -= ticks
+                    packet.dts -= ticks
+                    on_audio(packet)
+                continue
+            try:
+                decoded = packet.decode()
+            except av.error.FFmpegError as exc:
+                report.frames_skipped += 1
+                warn(f"{source}: skipped a frame that does not decode at {_when(packet, time_base)} ({reason(exc)})")
+                continue
+            for frame in decoded:
+                if frame.pts is None:
+                    continue
+                seconds = float(frame.pts * time_base)
+                if origin is None:
+                    origin = seconds
+                place = window(seconds)
+                if place < 0:
+                    continue
+                if place > 0:
+                    return
+                report.frames_read += 1
+                if shift is None:
+                    shift = origin + selection.start
+                index += 1
+                if (index - 1) % selection.every:
+                    continue
+                frame.pts -= round(shift / float(time_base))
+                if frame.format.name != work:
+                    frame = frame.reformat(format=work)
+                if not put(frames, frame, halted):
+                    return
+    except Exception as exc:  # reading ends; what was read is kept
+        report.problems.append(f"{source}: reading stopped: {reason(exc)}")
+        warn(report.problems[-1])
+    finally:
+        put(frames, END, halted)
+
+
+def _demux(container: Any, streams: list[Any], warn: Callable[[str], None]) -> Iterator[Any]:
+    """Packets of ``streams``; a damaged stretch is reported and demuxing resumes after it, if it can."""
+    failures = 0
+    while True:
+        try:
+            for packet in container.demux(streams):
+                failures = 0
+                yield packet  # the last, empty, one drains the decoder
+            return
+        except av.error.EOFError:
+            return
+        except av.error.FFmpegError as exc:
+            failures += 1
+            warn(f"{container.name}: damaged data skipped ({reason(exc)})")
+            if failures >= 3:
+                raise
+
+
+def _stream_start(stream: Any) -> float:
+    return float(stream.start_time * stream.time_base) if stream.start_time is not None else 0.0
+
+
+def _when(packet: Any, time_base: Fraction) -> str:
+    return f"{float(packet.pts * time_base):.3f} s" if packet.pts is not None else "an unknown time"
