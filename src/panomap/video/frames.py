@@ -20,8 +20,8 @@ from ..errors import PanomapError
 from ..remap import Remapper
 
 # OpenCV threads for the remap while a video runs. The decoder's and encoders' threads already
-# keep every core busy; OpenCV's pool would only add wake-ups (one thread: 11.7 ms of CPU per
-# 2048 x 512 YUV frame, against 12.1-13.7 ms with two).
+# keep every core busy; OpenCV's pool would only add wake-ups (less CPU per frame on one thread,
+# measured with bench/bench_video.py).
 REMAP_THREADS = 1
 # Planar formats remapped plane by plane: log2 chroma subsampling (x, y), and the fill of each plane.
 PLANAR_FORMATS: dict[str, tuple[int, int, tuple[int, ...]]] = {
@@ -71,8 +71,8 @@ class FrameRemapper:
     fixed_point : bool
         Keep the maps in OpenCV's fixed-point form (see :class:`Remapper`): a
         third less memory, positions rounded to 1/32 px, and on OpenCV 5.0
-        about twice as slow on one-channel planes (6.7 against 12.5 ms for a
-        2048 x 512 panorama's Y, U and V planes), hence off by default.
+        slower on one-channel planes (``bench/bench_video.py`` measures it),
+        hence off by default.
     """
 
     def __init__(
