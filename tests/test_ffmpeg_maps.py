@@ -17,15 +17,15 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from panomap.cli.app import main
 
 from panomap.camera.model import CameraModel
 from panomap.camera.radial import RadialFunction
+from panomap.cli.app import main
 from panomap.errors import PanomapError
 from panomap.io.images import map_to_pgm, save_map_pgm
 from panomap.remap import Remapper
 from panomap.table.table import PanoMappingTable, fill_entries
-from panomap.views.views import PerspectiveView, build_map
+from panomap.views import PerspectiveView, build_map
 
 IMAGE_SIZE = (320, 300)
 

@@ -42,7 +42,7 @@ from ..errors import PanomapError
 from ..files import atomic_path
 from ..remap import Remapper
 from ..table.table import PanoMappingTable
-from ..views.views import View, build_map
+from ..views import View, build_map
 
 QUEUE_FRAMES = 4
 # OpenCV threads for the remap while a video runs. The decoder's and encoders' threads already
