@@ -24,7 +24,7 @@ from panomap.remap import Remapper
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks
 from panomap.table.table import PanoMappingTable, create_table
-from panomap.views.views import Band, CylinderPanorama, build_map
+from panomap.views import Band, CylinderPanorama, build_map
 
 IMAGE_SIZE = (1920, 1920)
 

@@ -27,7 +27,7 @@ from panomap.remap import Remapper
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks
 from panomap.table.table import create_table
-from panomap.views.views import Band, CylinderPanorama, FloorView, GenericPanorama, PerspectiveView, View, build_map
+from panomap.views import Band, CylinderPanorama, FloorView, GenericPanorama, PerspectiveView, View, build_map
 
 IMAGE_SIZE = (1920, 1920)
 BUDGET_MS = 15.0

@@ -18,7 +18,7 @@ from panomap.cli.app import main
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks
 from panomap.table.table import load_table
-from panomap.views.views import Band, PlaneView, build_map
+from panomap.views import Band, PlaneView, build_map
 
 SIZE = (640, 600)
 CAMERA = standard_cameras(SIZE, centre=(321.4, 298.2), s=1, phi0=-0.5)["parabolic"]
@@ -286,7 +286,7 @@ def test_the_package_loads_its_names_on_first_use() -> None:
     """``import panomap`` loads no NumPy (the command line and small scripts start faster); names still resolve."""
     code = (
         "import sys, panomap; assert 'numpy' not in sys.modules, 'numpy loaded'; "
-        "from panomap.views.views import GenericPanorama; assert panomap.GenericPanorama is GenericPanorama; "
+        "from panomap.views import GenericPanorama; assert panomap.GenericPanorama is GenericPanorama; "
         "assert set(panomap.__all__) <= set(dir(panomap)); "
         "assert all(getattr(panomap, name) is not None for name in panomap.__all__)"
     )

@@ -17,7 +17,7 @@ from panomap.cli.app import main
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks
 from panomap.table.table import load_table
-from panomap.views.views import FloorView, PerspectiveView, build_map
+from panomap.views import FloorView, PerspectiveView, build_map
 
 SIZE = (640, 600)
 CAMERA = standard_cameras(SIZE, centre=(321.4, 298.2), s=1, phi0=-0.5)["parabolic"]

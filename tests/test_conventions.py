@@ -11,7 +11,7 @@ from panomap.camera.model import CameraModel
 from panomap.camera.radial import RadialFunction
 from panomap.geometry import azimuth_elevation, ray_from_angles, wrap_azimuth
 from panomap.table.table import PanoMappingTable, fill_entries
-from panomap.views.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
+from panomap.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
 
 
 def make_table(m: int = 8, n: int = 4, s: int = 1, phi0: float = 0.0) -> PanoMappingTable:
@@ -113,7 +113,7 @@ def test_generic_panorama_of_table_size_with_nearest_is_the_table_itself() -> No
 
 def test_cylinder_pixels_see_points_at_distance_and_band_heights() -> None:
     view = CylinderPanorama(2.0, Band(-1.0, 0.5), (4, 3), theta_start=math.pi / 2)
-    points = view.points()
+    points = view.points(make_table())
     np.testing.assert_allclose(np.hypot(points[..., 0], points[..., 1]), 2.0)
     np.testing.assert_allclose(points[:, 0, 2], [0.25, -0.25, -0.75])  # z_top - (l + 0.5)(z_top - z_bottom)/H
     theta, rho = view.angles(make_table())
@@ -125,7 +125,7 @@ def test_plane_edges_at_distance_d_left_at_higher_azimuth() -> None:
     view = PlaneView(distance=2.0, width=2.0, band=Band(-1.0, 0.0), azimuth=math.radians(30), size=(1000, 2))
     phi = math.acos(1 - 4.0 / 8.0)  # eq. 13: 60 deg for W_p = D
     assert view.subtended == pytest.approx(phi)
-    points = view.points()
+    points = view.points(make_table())
     theta, _ = azimuth_elevation(points)
     # The first and last pixel centres lie half a pixel inside the edges at theta_c +- phi/2.
     assert theta[0, 0] == pytest.approx(math.radians(30) + phi / 2, abs=2e-3)

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from panomap.cli.app import main
 from panomap.simulate import load_room, render_rays
 from panomap.table.table import load_table
-from panomap.views.views import Band, CylinderPanorama
+from panomap.views import Band, CylinderPanorama
 
 
 def test_demo_writes_views_that_match_a_direct_render_of_the_room(tmp_path: Path) -> None:
@@ -28,7 +28,7 @@ def test_demo_writes_views_that_match_a_direct_render_of_the_room(tmp_path: Path
     room = load_room()
     z0 = room.camera[2]
     view = CylinderPanorama(2.0, Band(-z0, room.height - z0), (2048, 560))
-    points = view.points()
+    points = view.points(table)
     direct = render_rays(room, np.broadcast_to(np.asarray(room.camera), points.shape), points)
     unwarped = cv2.imread(str(tmp_path / "cylinder.png")).astype(np.float32)
     difference = np.abs(unwarped - direct).mean(axis=-1)

@@ -25,7 +25,7 @@ from panomap.errors import PanomapError
 from panomap.io.images import map_to_pgm, save_map_pgm
 from panomap.remap import Remapper
 from panomap.table.table import PanoMappingTable, fill_entries
-from panomap.views.views import PerspectiveView, build_map
+from panomap.views import PerspectiveView, build_map
 
 IMAGE_SIZE = (320, 300)
 

@@ -19,7 +19,7 @@ from panomap.geometry import azimuth_elevation
 from panomap.simulate import SVP_CAMERA_NAMES, standard_cameras
 from panomap.simulate.sampling import spread_landmarks
 from panomap.table.table import PanoMappingTable, create_table
-from panomap.views.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
+from panomap.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
 
 SIZE = (800, 760)
 CAMERA_POSITION = (3.1, 2.4, 2.45)
@@ -41,7 +41,7 @@ def view_errors(
     table: PanoMappingTable, view: CylinderPanorama | PlaneView, name: str, rho_range: tuple[float, float]
 ) -> np.ndarray:
     """Pixel distance between the exported map and the true projection, inside the landmarks' range."""
-    truth = CAMERAS[name].project(view.points())
+    truth = CAMERAS[name].project(view.points(table))
     map_uv = build_map(table, view)
     _, rho = view.angles(table)
     inside = (rho >= rho_range[0]) & (rho <= rho_range[1]) & np.all(np.isfinite(truth), axis=-1)

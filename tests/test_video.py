@@ -40,7 +40,7 @@ from panomap.video.frames import FrameRemapper, _chroma_map
 from panomap.video.output import EncoderSettings
 from panomap.video.source import Selection
 from panomap.video.unwarp import ViewOutput, unwarp_video
-from panomap.views.views import GenericPanorama, PerspectiveView, build_map
+from panomap.views import GenericPanorama, PerspectiveView, build_map
 
 SIZE = (320, 320)
 RATE = 25

@@ -25,7 +25,7 @@ from panomap.remap import Remapper
 from panomap.simulate import SVP_CAMERA_NAMES, load_room, render, standard_cameras
 from panomap.simulate.sampling import spread_landmarks
 from panomap.table.table import PanoMappingTable, create_table, fill_entries
-from panomap.views.views import Band, CylinderPanorama, FloorView, PerspectiveView, build_map
+from panomap.views import Band, CylinderPanorama, FloorView, PerspectiveView, build_map
 
 SIZE = (800, 760)
 CAMERA_POSITION = (3.1, 2.4, 2.45)
@@ -77,7 +77,7 @@ def perspective_errors(name: str, view: PerspectiveView, distance: float = 2.0) 
 
 def floor_errors(name: str, view: FloorView) -> np.ndarray:
     table, rho_range = learn(name)
-    relative = view.points() - np.asarray(CAMERA_POSITION)
+    relative = view.points(table)
     truth = CAMERAS[name].project(relative)
     _, rho = azimuth_elevation(relative)
     return errors_against_truth(table, build_map(table, view), truth, rho, rho_range)
@@ -155,7 +155,7 @@ def test_perspective_pixels_invert_rays() -> None:
 
 def test_floor_pixels_see_a_map_from_above() -> None:
     view = FloorView(0.5, (1.0, 5.0), (-2.0, 0.0), (4, 2))
-    points = view.points()
+    points = view.world_points()
     # X = x_min + (k + 0.5)(x_max - x_min)/W: +X to the right.
     np.testing.assert_allclose(points[0, :, 0], [1.5, 2.5, 3.5, 4.5])
     # Y = y_max - (l + 0.5)(y_max - y_min)/H: +Y up.
@@ -166,7 +166,7 @@ def test_floor_pixels_see_a_map_from_above() -> None:
     # Its float32 angles are the angles of those points seen from O_m.
     table, _ = learn("equidistant")
     theta, rho = sized.angles(table)
-    theta64, rho64 = azimuth_elevation(sized.points() - np.asarray(table.camera_position))
+    theta64, rho64 = azimuth_elevation(sized.points(table))
     assert theta.dtype == np.float32
     assert np.max(np.abs(np.angle(np.exp(1j * (theta.astype(np.float64) - theta64))))) < 2e-6
     assert np.max(np.abs(rho - rho64)) < 2e-6

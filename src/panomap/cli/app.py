@@ -21,10 +21,10 @@ from .demo import demo
 from .learn import learn
 from .points import project, unproject
 from .video import video
-from .views import cylinder, floor, panorama, perspective, plane
+from .views import VIEW_COMMANDS
 
 # Every command, registered here and nowhere else.
-COMMANDS = (fit, centre, info, panorama, cylinder, plane, perspective, floor, project, unproject, video, learn, demo)
+COMMANDS = (fit, centre, info, *VIEW_COMMANDS, project, unproject, video, learn, demo)
 
 
 def _fail(message: str, code: int = 1) -> NoReturn:

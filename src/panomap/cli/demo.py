@@ -24,7 +24,7 @@ from ..io.plot import save_fit_plot
 from ..remap import Remapper
 from ..simulate import load_room, render, standard_cameras
 from ..table.table import create_table
-from ..views.views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
+from ..views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
 
 IMAGE_SIZE = (1024, 1024)
 LANDMARK_COUNT = 12
@@ -101,8 +101,9 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
         write_image(out / f"{name}.png", Remapper(map_uv, IMAGE_SIZE)(omni))
         save_map(out / f"{name}_map.npy", map_uv)
         line = f"wrote the {name} view: {out / f'{name}.png'} (map {out / f'{name}_map.npy'})"
-        if hasattr(view, "points"):
-            truth = camera.project(view.points())
+        surface = view.points(table)
+        if surface is not None:
+            truth = camera.project(surface)
             errors = np.linalg.norm(map_uv - truth, axis=-1)
             line += (
                 f"; against the true camera: median {np.nanmedian(errors):.3f} px, "

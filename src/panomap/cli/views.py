@@ -1,9 +1,14 @@
-"""The view commands: ``panorama``, ``cylinder``, ``plane``, ``perspective``, ``floor``."""
+"""The view commands, one per registered view kind, generated from the kind's declared parameters.
+
+Each kind's parameters become options of the same names as its spec keys
+(``--distance``, ``--band ZB ZT``, ``--yaw``...), angles in degrees, plus the
+older names it declares (``--yaw-deg``); the values go through the view spec's
+parsing, so a command and a spec build the same view.
+"""
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -14,16 +19,9 @@ from ..errors import PanomapError
 from ..io.images import pgm_map_paths, read_image, save_map, save_map_pgm, write_image
 from ..remap import INTERPOLATIONS, Remapper
 from ..table.table import SAMPLINGS, load_table
-from ..views.views import (
-    Band,
-    CylinderPanorama,
-    FloorView,
-    GenericPanorama,
-    PerspectiveView,
-    PlaneView,
-    View,
-    build_map,
-)
+from ..views import View, build_map, view_kinds
+from ..views.base import Param, ParameterError, Value
+from ..views.spec import view_from_params
 from .options import FINITE, PATH, SIZE
 
 
@@ -100,179 +98,64 @@ def _render(
     )
 
 
-@click.command()
-@view_options
-@click.option("--size", type=SIZE, help="Output WxH [default: the table's M x N].")
-@click.option("--start-deg", type=FINITE, default=0.0, show_default=True, help="Azimuth at the left edge.")
-def panorama(
-    table: Path,
-    image: Path,
-    output: Path,
-    save_map: Path | None,
-    save_map_pgm: Path | None,
-    interp: str,
-    table_sampling: str,
-    size: tuple[int, int] | None,
-    start_deg: float,
-) -> None:
-    """Generic panorama (paper 2.3.1): columns are azimuths (decreasing to the right), rows elevations."""
-    _render(
-        table,
-        image,
-        output,
-        (save_map, save_map_pgm),
-        interp,
-        table_sampling,
-        lambda: GenericPanorama(size, math.radians(start_deg)),
-    )
+def _option(param: Param) -> click.Option:
+    """The option of a declared parameter: ``--NAME`` and its older names, typed, in degrees for angles."""
+    kwargs: dict[str, Any] = {
+        "type": SIZE if param.value is Value.SIZE else FINITE,
+        "nargs": 2 if param.value is Value.PAIR else 1,
+        "metavar": param.shown_as,
+        "help": param.help,
+        "required": param.required,
+    }
+    if param.default is not None:
+        kwargs |= {"default": param.default, "show_default": True}
+    return click.Option([f"--{param.name}", *param.aliases, param.name], **kwargs)
 
 
-@click.command()
-@view_options
-@click.option("--distance", type=FINITE, required=True, help="Horizontal distance D of the cylinder.")
-@click.option(
-    "--band",
-    nargs=2,
-    type=FINITE,
-    required=True,
-    metavar="ZB ZT",
-    help="Heights of the band's bottom and top relative to the camera.",
-)
-@click.option("--size", type=SIZE, required=True, help="Output WxH.")
-@click.option("--start-deg", type=FINITE, default=0.0, show_default=True, help="Azimuth at the left edge.")
-def cylinder(
-    table: Path,
-    image: Path,
-    output: Path,
-    save_map: Path | None,
-    save_map_pgm: Path | None,
-    interp: str,
-    table_sampling: str,
-    distance: float,
-    band: tuple[float, float],
-    size: tuple[int, int],
-    start_deg: float,
-) -> None:
-    """Panorama of a cylinder at distance D with a height band (paper 2.3.2)."""
-    _render(
-        table,
-        image,
-        output,
-        (save_map, save_map_pgm),
-        interp,
-        table_sampling,
-        lambda: CylinderPanorama(distance, Band(*band), size, math.radians(start_deg)),
-    )
+def make_view(kind: str, values: Mapping[str, Any]) -> View:
+    """The view of ``kind`` from its command's parsed options (None where not given).
+
+    A missing one-of choice is a usage error (exit 2); a size out of bounds is
+    reported under its option's name.
+    """
+    cls = view_kinds()[kind]
+    given = {key: value for key, value in values.items() if value is not None}
+    if cls.one_of is not None and sum(key in given for key in cls.one_of.names) != 1:
+        declared = {param.name: param for param in cls.params}
+        choices = " or ".join(f"--{key} {declared[key].shown_as}" for key in cls.one_of.names)
+        raise click.UsageError(f"give {cls.one_of.what} as {choices}, {cls.one_of.how_many}")
+    try:
+        return view_from_params(kind, given)
+    except ParameterError as exc:
+        if exc.key not in values:
+            raise
+        raise PanomapError(f"--{exc.key} {exc.problem}") from None
 
 
-@click.command()
-@view_options
-@click.option("--distance", type=FINITE, required=True, help="Horizontal distance D of both vertical edges.")
-@click.option("--plane-width", type=FINITE, required=True, help="Plane width W_p (at most 2 D).")
-@click.option(
-    "--band",
-    nargs=2,
-    type=FINITE,
-    required=True,
-    metavar="ZB ZT",
-    help="Heights of the plane's bottom and top relative to the camera.",
-)
-@click.option("--azimuth-deg", type=FINITE, required=True, help="Azimuth of the plane's centre.")
-@click.option("--size", type=SIZE, required=True, help="Output WxH.")
-def plane(
-    table: Path,
-    image: Path,
-    output: Path,
-    save_map: Path | None,
-    save_map_pgm: Path | None,
-    interp: str,
-    table_sampling: str,
-    distance: float,
-    plane_width: float,
-    band: tuple[float, float],
-    azimuth_deg: float,
-    size: tuple[int, int],
-) -> None:
-    """Perspective view of a vertical W_p x band plane at distance D (paper 2.3.3)."""
-    _render(
-        table,
-        image,
-        output,
-        (save_map, save_map_pgm),
-        interp,
-        table_sampling,
-        lambda: PlaneView(distance, plane_width, Band(*band), math.radians(azimuth_deg), size),
-    )
+def view_command(kind: str) -> click.Command:
+    """The command of a registered view kind: the shared arguments and options, then the kind's own."""
+    cls = view_kinds()[kind]
+
+    def run(
+        table: Path,
+        image: Path,
+        output: Path,
+        save_map: Path | None,
+        save_map_pgm: Path | None,
+        interp: str,
+        table_sampling: str,
+        **values: Any,
+    ) -> None:
+        _render(table, image, output, (save_map, save_map_pgm), interp, table_sampling, lambda: make_view(kind, values))
+
+    command = click.command(kind, help=cls.summary)(view_options(run))
+    shared = {param.name for param in command.params}
+    clashes = shared & {param.name for param in cls.params}
+    if clashes:
+        raise ValueError(f"view kind {kind!r} declares parameters that every view command has: {sorted(clashes)}")
+    command.params += [_option(param) for param in cls.params]
+    return command
 
 
-@click.command()
-@view_options
-@click.option("--yaw-deg", type=FINITE, required=True, help="Azimuth of the optical axis (counter-clockwise from +X).")
-@click.option(
-    "--pitch-deg", type=FINITE, required=True, help="Elevation of the optical axis, -90..90 (negative looks down)."
-)
-@click.option(
-    "--roll-deg", type=FINITE, default=0.0, show_default=True, help="Turn about the optical axis (+ dips the right)."
-)
-@click.option("--fov-deg", type=FINITE, required=True, help="Horizontal field of view, more than 0 and less than 180.")
-@click.option("--size", type=SIZE, required=True, help="Output WxH.")
-def perspective(
-    table: Path,
-    image: Path,
-    output: Path,
-    save_map: Path | None,
-    save_map_pgm: Path | None,
-    interp: str,
-    table_sampling: str,
-    yaw_deg: float,
-    pitch_deg: float,
-    roll_deg: float,
-    fov_deg: float,
-    size: tuple[int, int],
-) -> None:
-    """Virtual pan-tilt-zoom camera: a pinhole at the camera position looking anywhere."""
-    _render(
-        table,
-        image,
-        output,
-        (save_map, save_map_pgm),
-        interp,
-        table_sampling,
-        lambda: PerspectiveView(
-            math.radians(yaw_deg), math.radians(pitch_deg), math.radians(roll_deg), math.radians(fov_deg), size
-        ),
-    )
-
-
-@click.command()
-@view_options
-@click.option("--z", "z_plane", type=FINITE, required=True, help="Height Z of the plane (world).")
-@click.option("--x", "x_range", nargs=2, type=FINITE, required=True, metavar="XMIN XMAX", help="World X extent.")
-@click.option("--y", "y_range", nargs=2, type=FINITE, required=True, metavar="YMIN YMAX", help="World Y extent.")
-@click.option("--size", type=SIZE, help="Output WxH (or give --resolution).")
-@click.option("--resolution", type=FINITE, help="World units per pixel, instead of --size.")
-def floor(
-    table: Path,
-    image: Path,
-    output: Path,
-    save_map: Path | None,
-    save_map_pgm: Path | None,
-    interp: str,
-    table_sampling: str,
-    z_plane: float,
-    x_range: tuple[float, float],
-    y_range: tuple[float, float],
-    size: tuple[int, int] | None,
-    resolution: float | None,
-) -> None:
-    """Bird's-eye map of the horizontal plane Z (world): +X to the right, +Y up."""
-    if (size is None) == (resolution is None):
-        raise click.UsageError("give the output size as --size WxH or --resolution R, one of the two")
-
-    def make_view() -> FloorView:
-        if size is not None:
-            return FloorView(z_plane, x_range, y_range, size)
-        assert resolution is not None
-        return FloorView.with_resolution(z_plane, x_range, y_range, resolution)
-
-    _render(table, image, output, (save_map, save_map_pgm), interp, table_sampling, make_view)
+# Every view command, in the registry's order.
+VIEW_COMMANDS = tuple(view_command(kind) for kind in view_kinds())

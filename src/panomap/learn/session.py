@@ -31,7 +31,7 @@ from ..io.images import encode_png
 from ..io.plot import fit_curve
 from ..remap import Remapper
 from ..table.table import PanoMappingTable
-from ..views.views import GenericPanorama, build_map
+from ..views import GenericPanorama, build_map
 from .validate import (
     MAX_LANDMARKS,
     MAX_WORLD_ABS,

@@ -37,7 +37,7 @@ import av
 from ..errors import PanomapError
 from ..files import atomic_path
 from ..table.table import PanoMappingTable
-from ..views.views import View, build_map
+from ..views import View, build_map
 from .frames import REMAP_THREADS, FrameRemapper, check_output_size, opencv_threads, work_format
 from .handoff import END, QUEUE_FRAMES, put, reason
 from .output import EncoderSettings, Writer, container_format, open_writer

@@ -1,8 +1,9 @@
 """Views described in one argument or in a small file of named views.
 
 A view SPEC is ``KIND:key=value,key=value,...`` (``KIND`` alone where every
-key has a default), with the keys of the matching view command, angles in
-degrees and lengths in world units, as on the command line::
+key has a default), with the parameters each kind declares (the options of
+its command: ``distance=2`` is ``--distance 2``), angles in degrees and
+lengths in world units, as on the command line::
 
     panorama:size=2048x512,start=0
     cylinder:distance=2,band=-2.45:0.15,size=2048x560,start=0
@@ -36,7 +37,7 @@ from typing import Any
 
 from ..errors import PanomapError
 from ..files import read_text
-from .views import Band, CylinderPanorama, FloorView, GenericPanorama, PerspectiveView, PlaneView, View
+from .base import Value, View, view_kinds
 
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
 
@@ -81,54 +82,14 @@ def _deg(key: str, value: Any) -> float:
     return math.radians(_number(key, value))
 
 
-# kind -> (required keys, optional keys with defaults, constructor from parsed values)
-_Parsers = dict[str, Callable[[str, Any], Any]]
-_PARSERS: _Parsers = {
-    "size": _size,
-    "start": _deg,
-    "distance": _number,
-    "band": _pair,
-    "width": _number,
-    "azimuth": _deg,
-    "yaw": _deg,
-    "pitch": _deg,
-    "roll": _deg,
-    "fov": _deg,
-    "z": _number,
-    "x": _pair,
-    "y": _pair,
-    "resolution": _number,
+# How a spec writes each type of value: (key, raw value) -> the view's value.
+PARSERS: dict[Value, Callable[[str, Any], Any]] = {
+    Value.NUMBER: _number,
+    Value.ANGLE: _deg,
+    Value.PAIR: _pair,
+    Value.SIZE: _size,
 }
-
-
-def _floor(p: dict[str, Any]) -> View:
-    if ("size" in p) == ("resolution" in p):
-        raise PanomapError("a floor view needs size=WxH or resolution=R, one of the two")
-    if "size" in p:
-        return FloorView(p["z"], p["x"], p["y"], p["size"])
-    return FloorView.with_resolution(p["z"], p["x"], p["y"], p["resolution"])
-
-
-_KINDS: dict[str, tuple[tuple[str, ...], dict[str, Any], Callable[[dict[str, Any]], View]]] = {
-    "panorama": ((), {"size": None, "start": 0.0}, lambda p: GenericPanorama(p["size"], p["start"])),
-    "cylinder": (
-        ("distance", "band", "size"),
-        {"start": 0.0},
-        lambda p: CylinderPanorama(p["distance"], Band(*p["band"]), p["size"], p["start"]),
-    ),
-    "plane": (
-        ("distance", "width", "band", "azimuth", "size"),
-        {},
-        lambda p: PlaneView(p["distance"], p["width"], Band(*p["band"]), p["azimuth"], p["size"]),
-    ),
-    "perspective": (
-        ("yaw", "pitch", "fov", "size"),
-        {"roll": 0.0},
-        lambda p: PerspectiveView(p["yaw"], p["pitch"], p["roll"], p["fov"], p["size"]),
-    ),
-    "floor": (("z", "x", "y"), {"size": None, "resolution": None}, _floor),
-}
-KINDS = tuple(_KINDS)
+KINDS = tuple(view_kinds())
 
 
 def view_from_params(kind: str, params: Mapping[str, Any]) -> View:
@@ -137,21 +98,25 @@ def view_from_params(kind: str, params: Mapping[str, Any]) -> View:
     Angles are in degrees, lengths in world units; unknown or missing keys are
     errors that name them.
     """
-    if kind not in _KINDS:
+    cls = view_kinds().get(kind)
+    if cls is None:
         raise PanomapError(f"unknown view kind {kind!r}: choose one of {', '.join(KINDS)}")
-    required, defaults, make = _KINDS[kind]
-    allowed = set(required) | set(defaults)
-    unknown = sorted(set(params) - allowed)
+    declared = {param.name: param for param in cls.params}
+    unknown = sorted(set(params) - set(declared))
     if unknown:
-        raise PanomapError(f"a {kind} view has no key {', '.join(unknown)} (keys: {', '.join(sorted(allowed))})")
-    missing = [key for key in required if key not in params]
+        raise PanomapError(f"a {kind} view has no key {', '.join(unknown)} (keys: {', '.join(sorted(declared))})")
+    missing = [param.name for param in cls.params if param.required and param.name not in params]
     if missing:
         raise PanomapError(f"a {kind} view needs {', '.join(f'{key}=' for key in missing)}")
-    parsed = {key: _PARSERS[key](key, value) for key, value in params.items() if value is not None}
-    values = {key: value for key, value in defaults.items() if value is not None} | parsed
-    if kind == "floor":
-        return make(parsed)
-    return make({**{key: None for key in defaults}, **values})
+    parsed = {key: PARSERS[declared[key].value](key, value) for key, value in params.items() if value is not None}
+    if cls.one_of is not None and sum(key in parsed for key in cls.one_of.names) != 1:
+        needs = " or ".join(f"{key}={declared[key].shown_as}" for key in cls.one_of.names)
+        raise PanomapError(f"a {kind} view needs {needs}, {cls.one_of.how_many}")
+    defaults = {
+        param.name: None if param.default is None else PARSERS[param.value](param.name, param.default)
+        for param in cls.params
+    }
+    return cls.from_params(defaults | parsed)
 
 
 def _check_name(name: str) -> str:
@@ -212,7 +177,7 @@ def read_views_file(path: str | Path) -> list[NamedView]:
 
 def name_views(specs: list[tuple[str | None, View]]) -> list[NamedView]:
     """Give every unnamed view its kind's name, numbered where kinds repeat; names must be unique."""
-    kinds = [_kind_of(view) for _, view in specs]
+    kinds = [view.kind for _, view in specs]
     named: list[NamedView] = []
     for index, ((name, view), kind) in enumerate(zip(specs, kinds, strict=True)):
         if name is None:
@@ -223,13 +188,3 @@ def name_views(specs: list[tuple[str | None, View]]) -> list[NamedView]:
     if repeated:
         raise PanomapError(f"two views are named {', '.join(repeated)}: give each a different name=")
     return named
-
-
-def _kind_of(view: View) -> str:
-    return {
-        GenericPanorama: "panorama",
-        CylinderPanorama: "cylinder",
-        PlaneView: "plane",
-        PerspectiveView: "perspective",
-        FloorView: "floor",
-    }[type(view)]

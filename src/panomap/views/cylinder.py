@@ -1,0 +1,77 @@
+"""A panorama of a vertical cylinder around O_m (paper 2.3.2)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar, Self
+
+import numpy as np
+
+from ..errors import PanomapError
+from ..geometry import FloatArray
+from ..table.table import PanoMappingTable
+from .base import OUTPUT_SIZE, Band, Param, Value, View, check_finite, check_view_size, register
+from .grid import panorama_azimuths
+from .panorama import START
+
+
+@register
+@dataclass(frozen=True)
+class CylinderPanorama(View):
+    """A panorama of a vertical cylinder around O_m (paper 2.3.2).
+
+    Parameters
+    ----------
+    distance : float
+        Horizontal distance D of the cylinder from O_m.
+    band : Band
+        Heights relative to O_m (the paper's band is 0..H).
+    size : (W, H)
+    theta_start : float
+        Azimuth (rad) at the left edge, as for the generic panorama.
+    """
+
+    kind: ClassVar[str] = "cylinder"
+    summary: ClassVar[str] = "Panorama of a cylinder at distance D with a height band (paper 2.3.2)."
+    params: ClassVar[tuple[Param, ...]] = (
+        Param("distance", Value.NUMBER, "Horizontal distance D of the cylinder."),
+        Param("band", Value.PAIR, "Heights of the band's bottom and top relative to the camera.", metavar="ZB ZT"),
+        OUTPUT_SIZE,
+        START,
+    )
+    example: ClassVar[str] = "distance=2,band=-2.45:0.15,size=2048x560,start=0"
+
+    distance: float
+    band: Band
+    size: tuple[int, int]
+    theta_start: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_finite(distance=self.distance, theta_start=self.theta_start)
+        if self.distance <= 0:
+            raise PanomapError(f"the distance must be positive, not {self.distance:g}")
+        object.__setattr__(self, "size", check_view_size(self.size))
+
+    @classmethod
+    def from_params(cls, values: Mapping[str, Any]) -> Self:
+        return cls(values["distance"], Band(*values["band"]), values["size"], values["start"])
+
+    def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
+        return self.size
+
+    def angles(self, table: PanoMappingTable) -> tuple[FloatArray, FloatArray]:
+        width, height = self.size
+        theta = np.broadcast_to(panorama_azimuths(self.theta_start, width), (height, width))
+        rho = np.broadcast_to(np.arctan2(self.band.heights(height), self.distance)[:, None], (height, width))
+        return theta, rho
+
+    def points(self, table: PanoMappingTable) -> FloatArray:
+        """The (H, W, 3) points relative to O_m that the pixels see (the same for every table)."""
+        width, height = self.size
+        theta = panorama_azimuths(self.theta_start, width)
+        out = np.empty((height, width, 3))
+        out[..., 0] = self.distance * np.cos(theta)[None, :]
+        out[..., 1] = self.distance * np.sin(theta)[None, :]
+        out[..., 2] = self.band.heights(height)[:, None]
+        return out

@@ -1,0 +1,150 @@
+"""A bird's-eye map of a horizontal plane, in world coordinates (beyond the paper)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar, Self
+
+import numpy as np
+
+from ..errors import PanomapError
+from ..geometry import FloatArray, pixel_centres
+from ..table.table import PanoMappingTable
+from .base import (
+    MAX_VIEW_PIXELS,
+    MAX_VIEW_SIDE,
+    AngleArray,
+    OneOf,
+    Param,
+    Value,
+    View,
+    check_finite,
+    check_view_size,
+    register,
+)
+from .grid import grid_angles
+
+
+@register
+@dataclass(frozen=True)
+class FloorView(View):
+    """A bird's-eye map of a horizontal plane, in world coordinates.
+
+    Parameters
+    ----------
+    z_plane : float
+        Height Z of the plane (world units, world frame, not relative to O_m).
+    x_range, y_range : (min, max)
+        The plane's extent in world X and Y, ``min < max``.
+    size : (W, H)
+
+    Convention: output pixel (k, l) sees the world point
+    ``X = x_min + (k + 0.5)(x_max - x_min)/W``,
+    ``Y = y_max - (l + 0.5)(y_max - y_min)/H``, ``Z = z_plane``: a map seen
+    from above, +X to the right, +Y up. A camera looking down sees only planes
+    below O_m, one looking up only planes above; :meth:`angles` refuses the
+    others.
+    """
+
+    kind: ClassVar[str] = "floor"
+    summary: ClassVar[str] = "Bird's-eye map of the horizontal plane Z (world): +X to the right, +Y up."
+    params: ClassVar[tuple[Param, ...]] = (
+        Param("z", Value.NUMBER, "Height Z of the plane (world)."),
+        Param("x", Value.PAIR, "World X extent.", metavar="XMIN XMAX"),
+        Param("y", Value.PAIR, "World Y extent.", metavar="YMIN YMAX"),
+        Param("size", Value.SIZE, "Output WxH (or give --resolution).", optional=True),
+        Param("resolution", Value.NUMBER, "World units per pixel, instead of --size.", optional=True, metavar="R"),
+    )
+    one_of: ClassVar[OneOf | None] = OneOf("the output size", ("size", "resolution"))
+    example: ClassVar[str] = "z=0,x=0:6,y=0:5,size=1200x1000"
+
+    z_plane: float
+    x_range: tuple[float, float]
+    y_range: tuple[float, float]
+    size: tuple[int, int]
+
+    def __post_init__(self) -> None:
+        x_min, x_max = (float(c) for c in self.x_range)
+        y_min, y_max = (float(c) for c in self.y_range)
+        check_finite(z_plane=self.z_plane, x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max)
+        for axis, low, high in (("x", x_min, x_max), ("y", y_min, y_max)):
+            if not low < high:
+                raise PanomapError(f"the {axis} extent {low:g}..{high:g} is empty: it needs {axis}_min < {axis}_max")
+        object.__setattr__(self, "x_range", (x_min, x_max))
+        object.__setattr__(self, "y_range", (y_min, y_max))
+        object.__setattr__(self, "size", check_view_size(self.size))
+
+    @classmethod
+    def with_resolution(
+        cls, z_plane: float, x_range: tuple[float, float], y_range: tuple[float, float], resolution: float
+    ) -> Self:
+        """A floor view of about ``resolution`` world units per pixel.
+
+        ``W = round((x_max - x_min)/resolution)`` and likewise H (at least 1);
+        the extent is kept, so pixels are ``(x_max - x_min)/W`` wide.
+        """
+        x_min, x_max = (float(c) for c in x_range)
+        y_min, y_max = (float(c) for c in y_range)
+        check_finite(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max, resolution=resolution)
+        if resolution <= 0:
+            raise PanomapError(f"the resolution must be positive, not {resolution:g}")
+        # An empty extent gets one pixel here and is refused, with its reason, by the constructor.
+        width = max(1, round((x_max - x_min) / resolution))
+        height = max(1, round((y_max - y_min) / resolution))
+        if width * height > MAX_VIEW_PIXELS or max(width, height) > MAX_VIEW_SIDE:
+            raise PanomapError(
+                f"a resolution of {resolution:g} gives a {width} x {height} image: too large "
+                f"(at most {MAX_VIEW_SIDE} px a side and {MAX_VIEW_PIXELS:,} px in all)"
+            )
+        return cls(z_plane, (x_min, x_max), (y_min, y_max), (width, height))
+
+    @classmethod
+    def from_params(cls, values: Mapping[str, Any]) -> Self:
+        """From ``z``, ``x``, ``y`` and one of ``size`` and ``resolution`` (the other None)."""
+        if values["size"] is not None:
+            return cls(values["z"], values["x"], values["y"], values["size"])
+        return cls.with_resolution(values["z"], values["x"], values["y"], values["resolution"])
+
+    def world_points(self) -> FloatArray:
+        """The (H, W, 3) world points the pixels see."""
+        width, height = self.size
+        fx, fy = pixel_centres(width, height)
+        (x_min, x_max), (y_min, y_max) = self.x_range, self.y_range
+        out = np.empty((height, width, 3))
+        out[..., 0] = (x_min + fx * (x_max - x_min))[None, :]
+        out[..., 1] = (y_max - fy * (y_max - y_min))[:, None]
+        out[..., 2] = self.z_plane
+        return out
+
+    def points(self, table: PanoMappingTable) -> FloatArray:
+        """The (H, W, 3) points the pixels see, relative to O_m: :meth:`world_points` less ``table.camera_position``."""
+        return self.world_points() - np.asarray(table.camera_position)
+
+    def check_plane(self, table: PanoMappingTable) -> None:
+        """Refuse a plane the table's camera cannot see: at or above O_m looking down, at or below looking up."""
+        z0 = table.camera_position[2]
+        if table.model.radial.axis == "down" and self.z_plane >= z0:
+            raise PanomapError(
+                f"the plane Z = {self.z_plane:g} is at or above the camera (Z0 = {z0:g}); "
+                "a camera looking down sees only planes below it"
+            )
+        if table.model.radial.axis == "up" and self.z_plane <= z0:
+            raise PanomapError(
+                f"the plane Z = {self.z_plane:g} is at or below the camera (Z0 = {z0:g}); "
+                "a camera looking up sees only planes above it"
+            )
+
+    def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
+        return self.size
+
+    def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:
+        """Azimuth and elevation (rad) of every pixel, each (H, W) float32 (see :func:`grid_angles`)."""
+        self.check_plane(table)
+        width, height = self.size
+        fx, fy = pixel_centres(width, height)
+        (x_min, x_max), (y_min, y_max) = self.x_range, self.y_range
+        x0, y0, z0 = table.camera_position
+        rows = [np.zeros(height), y_max - fy * (y_max - y_min) - y0, np.full(height, self.z_plane - z0)]
+        cols = [x_min + fx * (x_max - x_min) - x0, np.zeros(width), np.zeros(width)]
+        return grid_angles(rows, cols)

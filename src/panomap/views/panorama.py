@@ -1,0 +1,66 @@
+"""The generic panorama (paper 2.3.1): columns are azimuths, rows elevations over the table's range."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar, Self
+
+import numpy as np
+
+from ..geometry import pixel_centres
+from ..table.table import PanoMappingTable
+from .base import AngleArray, Param, Value, View, check_finite, check_view_size, register
+from .grid import panorama_azimuths
+
+# The left edge's azimuth, shared with the cylinder panorama.
+START = Param("start", Value.ANGLE, "Azimuth at the left edge.", default=0.0, aliases=("--start-deg",))
+
+
+@register
+@dataclass(frozen=True)
+class GenericPanorama(View):
+    """The generic panorama (paper 2.3.1): columns are azimuths, rows elevations.
+
+    Parameters
+    ----------
+    size : (W, H), optional
+        Output size; default the table's (M, N), as in the paper.
+    theta_start : float
+        Azimuth (rad) at the left edge; column k sees
+        ``theta_start - 2*pi*(k + 0.5)/W``. Rows are evenly spaced in
+        elevation over the table's range, highest at the top.
+    """
+
+    kind: ClassVar[str] = "panorama"
+    summary: ClassVar[str] = (
+        "Generic panorama (paper 2.3.1): columns are azimuths (decreasing to the right), rows elevations."
+    )
+    params: ClassVar[tuple[Param, ...]] = (
+        Param("size", Value.SIZE, "Output WxH [default: the table's M x N].", optional=True),
+        START,
+    )
+    example: ClassVar[str] = "size=2048x512,start=0"
+
+    size: tuple[int, int] | None = None
+    theta_start: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.size is not None:
+            object.__setattr__(self, "size", check_view_size(self.size))
+        check_finite(theta_start=self.theta_start)
+
+    @classmethod
+    def from_params(cls, values: Mapping[str, Any]) -> Self:
+        return cls(values["size"], values["start"])
+
+    def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
+        return self.size if self.size is not None else table.size
+
+    def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:
+        width, height = self.output_size(table)
+        _, fy = pixel_centres(1, height)
+        rho_s, rho_e = table.elevation_range
+        theta = np.broadcast_to(panorama_azimuths(self.theta_start, width), (height, width))
+        rho = np.broadcast_to((rho_e - fy * (rho_e - rho_s))[:, None], (height, width))
+        return theta, rho

@@ -1,0 +1,146 @@
+"""A virtual pan-tilt-zoom camera: a pinhole at O_m looking anywhere (beyond the paper)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar, Self
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import PanomapError
+from ..geometry import HALF_PI, FloatArray
+from ..table.table import PanoMappingTable
+from .base import OUTPUT_SIZE, AngleArray, Param, Value, View, check_finite, check_view_size, register
+from .grid import grid_angles
+
+
+@register
+@dataclass(frozen=True)
+class PerspectiveView(View):
+    """A virtual pan-tilt-zoom camera: a pinhole at O_m looking anywhere.
+
+    Parameters
+    ----------
+    yaw : float
+        psi, the azimuth (rad) of the optical axis.
+    pitch : float
+        tau, its elevation (rad), in [-pi/2, pi/2]; negative looks down,
+        -pi/2 straight down.
+    roll : float
+        omega (rad), about the optical axis: positive tips the camera's right
+        side down, which turns the scene counter-clockwise in the image.
+    fov : float
+        Horizontal field of view (rad), strictly between 0 and pi.
+    size : (W, H)
+
+    Convention (the contract's formula): focal ``f = (W/2)/tan(fov/2)`` px;
+    forward ``F = (cos tau cos psi, cos tau sin psi, sin tau)``,
+    ``R0 = (sin psi, -cos psi, 0)``, ``D0 = F x R0``; right
+    ``R = cos(omega) R0 + sin(omega) D0``, down
+    ``Dn = cos(omega) D0 - sin(omega) R0``. Output pixel (k, l) sees the ray
+    ``F + x R + y Dn`` with ``x = (k + 0.5 - W/2)/f``, ``y = (l + 0.5 - H/2)/f``.
+    R0 is defined for every pitch, so straight down needs no special case.
+    """
+
+    kind: ClassVar[str] = "perspective"
+    summary: ClassVar[str] = "Virtual pan-tilt-zoom camera: a pinhole at the camera position looking anywhere."
+    params: ClassVar[tuple[Param, ...]] = (
+        Param("yaw", Value.ANGLE, "Azimuth of the optical axis (counter-clockwise from +X).", aliases=("--yaw-deg",)),
+        Param(
+            "pitch",
+            Value.ANGLE,
+            "Elevation of the optical axis, -90..90 (negative looks down).",
+            aliases=("--pitch-deg",),
+        ),
+        Param(
+            "roll",
+            Value.ANGLE,
+            "Turn about the optical axis (+ dips the right).",
+            default=0.0,
+            aliases=("--roll-deg",),
+        ),
+        Param("fov", Value.ANGLE, "Horizontal field of view, more than 0 and less than 180.", aliases=("--fov-deg",)),
+        OUTPUT_SIZE,
+    )
+    example: ClassVar[str] = "yaw=30,pitch=-20,roll=0,fov=90,size=1280x720"
+
+    yaw: float
+    pitch: float
+    roll: float
+    fov: float
+    size: tuple[int, int]
+
+    def __post_init__(self) -> None:
+        check_finite(yaw=self.yaw, pitch=self.pitch, roll=self.roll, fov=self.fov)
+        if not 0.0 < self.fov < math.pi:
+            raise PanomapError(
+                f"the field of view must be more than 0 and less than 180 deg, not {math.degrees(self.fov):g} deg"
+            )
+        if abs(self.pitch) > HALF_PI + 1e-12:
+            raise PanomapError(
+                f"the pitch must be between -90 and 90 deg, not {math.degrees(self.pitch):g} deg "
+                "(turn the yaw by 180 deg instead)"
+            )
+        object.__setattr__(self, "size", check_view_size(self.size))
+
+    @classmethod
+    def from_params(cls, values: Mapping[str, Any]) -> Self:
+        return cls(values["yaw"], values["pitch"], values["roll"], values["fov"], values["size"])
+
+    @property
+    def focal(self) -> float:
+        """f = (W/2)/tan(fov/2), px."""
+        return (self.size[0] / 2.0) / math.tan(self.fov / 2.0)
+
+    def axes(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Forward F, right R and down Dn, each (3,) unit vectors in world axes."""
+        psi, tau, omega = self.yaw, self.pitch, self.roll
+        forward = np.array([math.cos(tau) * math.cos(psi), math.cos(tau) * math.sin(psi), math.sin(tau)])
+        right0 = np.array([math.sin(psi), -math.cos(psi), 0.0])
+        down0 = np.cross(forward, right0)
+        right = math.cos(omega) * right0 + math.sin(omega) * down0
+        down = math.cos(omega) * down0 - math.sin(omega) * right0
+        return forward, right, down
+
+    def _offsets(self) -> tuple[FloatArray, FloatArray]:
+        """x (W,) and y (H,): ``(k + 0.5 - W/2)/f`` and ``(l + 0.5 - H/2)/f``."""
+        width, height = self.size
+        f = self.focal
+        x = np.asarray((np.arange(width) + 0.5 - width / 2) / f, dtype=np.float64)
+        y = np.asarray((np.arange(height) + 0.5 - height / 2) / f, dtype=np.float64)
+        return x, y
+
+    def rays(self) -> FloatArray:
+        """The (H, W, 3) ray directions ``F + x R + y Dn`` (world axes, not unit) the pixels see."""
+        forward, right, down = self.axes()
+        x, y = self._offsets()
+        return forward + x[None, :, None] * right + y[:, None, None] * down
+
+    def pixels(self, points: ArrayLike) -> FloatArray:
+        """Where points (..., 3), relative to O_m, land in this view: (..., 2) (k, l).
+
+        Continuous pixel coordinates with pixel centres at integers (the view's
+        pinhole projection, the inverse of :meth:`rays`); NaN for points not in
+        front of the camera.
+        """
+        d = np.asarray(points, dtype=np.float64)
+        forward, right, down = self.axes()
+        depth = d @ forward
+        width, height = self.size
+        f = self.focal
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k = f * (d @ right) / depth + width / 2 - 0.5
+            l = f * (d @ down) / depth + height / 2 - 0.5  # noqa: E741 (the contract names the row l)
+        return np.where((depth > 0)[..., None], np.stack([k, l], axis=-1), np.nan)
+
+    def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
+        return self.size
+
+    def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:
+        """Azimuth and elevation (rad) of every pixel, each (H, W) float32 (see :func:`grid_angles`)."""
+        forward, right, down = self.axes()
+        x, y = self._offsets()
+        return grid_angles([forward[a] + y * down[a] for a in range(3)], [x * right[a] for a in range(3)])
