@@ -11,12 +11,12 @@ import cv2
 import numpy as np
 import pytest
 from click.testing import CliRunner, Result
-from panomap.cli.app import main
 
 from panomap.calibrate.landmarks import landmarks_to_csv
+from panomap.cli.app import main
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table.table import load_table
+from panomap.table.file import load_table
 from panomap.views.views import FloorView, PerspectiveView, build_map
 
 SIZE = (640, 600)

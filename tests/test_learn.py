@@ -22,14 +22,14 @@ import cv2
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from panomap.cli.app import main
 
 from panomap.calibrate.landmarks import Landmarks, landmarks_to_json, read_landmarks
+from panomap.cli.app import main
 from panomap.errors import PanomapError
 from panomap.learn.example import Example, make_example
 from panomap.learn.server import LearnServer, json_safe, make_server, serve_in_thread
 from panomap.learn.session import Session
-from panomap.table.table import load_table
+from panomap.table.file import load_table
 
 SIZE = (480, 480)
 
