@@ -20,10 +20,11 @@ from collections.abc import Callable
 import numpy as np
 
 from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.make_table import create_table
 from panomap.remap import Remapper
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table.table import PanoMappingTable, create_table
+from panomap.table.table import PanoMappingTable
 from panomap.views import Band, CylinderPanorama, build_map
 
 IMAGE_SIZE = (1920, 1920)

@@ -59,10 +59,10 @@ import numpy as np
 
 from panomap.calibrate.fit import fit_camera
 from panomap.calibrate.landmarks import Landmarks
+from panomap.calibrate.make_table import create_table
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.simulate.cameras import RadialCamera
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table.table import create_table
 
 SIZE = (1920, 1920)
 RATE = 25

@@ -23,10 +23,10 @@ import cv2
 import numpy as np
 
 from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.make_table import create_table
 from panomap.remap import Remapper
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table.table import create_table
 from panomap.views import Band, CylinderPanorama, FloorView, GenericPanorama, PerspectiveView, View, build_map
 
 IMAGE_SIZE = (1920, 1920)

@@ -22,7 +22,7 @@ from panomap.calibrate.landmarks import landmarks_to_csv
 from panomap.cli.app import main
 from panomap.errors import PanomapError
 from panomap.simulate import load_room, render, spread_landmarks, standard_cameras
-from panomap.table.table import load_table
+from panomap.table.file import load_table
 
 SIZE = (640, 600)
 ROOM = load_room()

@@ -17,7 +17,7 @@ from panomap.calibrate.landmarks import landmarks_to_csv
 from panomap.cli.app import main
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table.table import load_table
+from panomap.table.file import load_table
 from panomap.views import Band, PlaneView, build_map
 
 SIZE = (640, 600)

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from panomap.cli.app import main
 from panomap.simulate import load_room, render_rays
-from panomap.table.table import load_table
+from panomap.table.file import load_table
 from panomap.views import Band, CylinderPanorama
 
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.make_table import create_table
 from panomap.simulate.scenarios import (
     CAMERA_POSITION,
     IMAGE_SIZE,
@@ -16,7 +17,6 @@ from panomap.simulate.scenarios import (
 from panomap.simulate.scenarios import (
     test_points as probe_points,
 )
-from panomap.table.table import create_table
 
 CAMERAS = scenario_cameras()
 

@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 
 from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.make_table import create_table
 from panomap.geometry import azimuth_elevation
 from panomap.simulate import SVP_CAMERA_NAMES, standard_cameras
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table.table import PanoMappingTable, create_table
+from panomap.table.table import PanoMappingTable
 from panomap.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
 
 SIZE = (800, 760)

@@ -29,7 +29,7 @@ from panomap.errors import PanomapError
 from panomap.learn.example import Example, make_example
 from panomap.learn.server import LearnServer, json_safe, make_server, serve_in_thread
 from panomap.learn.session import Session
-from panomap.table.table import load_table
+from panomap.table.file import load_table
 
 SIZE = (480, 480)
 

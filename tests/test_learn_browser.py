@@ -26,7 +26,7 @@ from panomap.cli.app import main
 from panomap.learn.example import Example, make_example
 from panomap.learn.server import LearnServer, make_server, serve_in_thread
 from panomap.learn.session import Session
-from panomap.table.table import load_table
+from panomap.table.file import load_table
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [
@@ -248,7 +248,7 @@ def test_learning_a_camera_in_the_browser(browser: Any, serve: Any, example: Exa
     assert result.exit_code == 0, result.output
     web, cli = load_table(folder / "cam.npz"), load_table(tmp_path / "cli.npz")
     assert web.size == cli.size and web.model.to_dict() == cli.model.to_dict()
-    # Same inputs through the same code path (panomap.pipeline.fit_table): the float32 entries
+    # Same inputs through the same code path (panomap.calibrate_camera): the float32 entries
     # agree to rounding; 1e-4 px allows a last-digit difference in a threaded BLAS reduction.
     assert np.allclose(web.entries, cli.entries, rtol=0, atol=1e-4)
 

@@ -14,7 +14,8 @@ import pytest
 from panomap.camera.model import CameraModel
 from panomap.camera.radial import RadialFunction
 from panomap.errors import PanomapError
-from panomap.table.table import PanoMappingTable, _digest, fill_entries, load_table
+from panomap.table.file import _digest, load_table
+from panomap.table.table import PanoMappingTable, fill_entries
 
 
 def small_table() -> PanoMappingTable:

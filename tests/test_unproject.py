@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 
 from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.make_table import create_table
 from panomap.camera.model import CameraModel
 from panomap.camera.radial import RadialFunction
 from panomap.errors import PanomapError
 from panomap.geometry import azimuth_elevation, ray_from_angles, ray_plane_points
 from panomap.simulate import SVP_CAMERA_NAMES, standard_cameras
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table.table import PanoMappingTable, create_table, fill_entries
+from panomap.table.table import PanoMappingTable, fill_entries
 
 SIZE = (800, 760)
 CAMERA_POSITION = (3.1, 2.4, 2.45)

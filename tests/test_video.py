@@ -30,12 +30,13 @@ import pytest
 from click.testing import CliRunner, Result
 
 from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.make_table import create_table
 from panomap.cli.app import main
 from panomap.io.images import read_image
 from panomap.remap import Remapper
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table.table import create_table, load_table
+from panomap.table.file import load_table
 from panomap.video.frames import FrameRemapper, _chroma_map
 from panomap.video.output import EncoderSettings
 from panomap.video.source import Selection

@@ -17,6 +17,7 @@ import pytest
 from scipy import ndimage
 
 from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.make_table import create_table
 from panomap.camera.model import CameraModel
 from panomap.camera.radial import RadialFunction
 from panomap.errors import PanomapError
@@ -24,7 +25,7 @@ from panomap.geometry import azimuth_elevation
 from panomap.remap import Remapper
 from panomap.simulate import SVP_CAMERA_NAMES, load_room, render, standard_cameras
 from panomap.simulate.sampling import spread_landmarks
-from panomap.table.table import PanoMappingTable, create_table, fill_entries
+from panomap.table.table import PanoMappingTable, fill_entries
 from panomap.views import Band, CylinderPanorama, FloorView, PerspectiveView, build_map
 
 SIZE = (800, 760)

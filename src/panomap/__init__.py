@@ -7,6 +7,9 @@ The pieces, in the paper's order:
   :class:`CameraModel` and :class:`RadialFunction`.
 - :func:`create_table` -> :class:`PanoMappingTable` (Algorithm 2);
   :func:`load_table`, ``table.save``.
+- :func:`calibrate_camera` -> :class:`Calibration`: the whole step, from landmarks
+  and an omni-image (its circles found when the centre or radii are not
+  given, each one's :class:`Source` recorded) to the fit and its table.
 - Views (2.3): :class:`GenericPanorama`, :class:`CylinderPanorama`,
   :class:`PlaneView`, and beyond the paper :class:`PerspectiveView` (a virtual
   pan-tilt-zoom camera) and :class:`FloorView` (a bird's-eye map);
@@ -40,14 +43,16 @@ _EXPORTS = {
     "read_landmarks": "calibrate.landmarks",
     "CameraFit": "calibrate.fit",
     "fit_camera": "calibrate.fit",
-    "fit_table": "calibrate.pipeline",
+    "Source": "calibrate.sources",
+    "Calibration": "calibrate.pipeline",
+    "calibrate_camera": "calibrate.pipeline",
     # the camera model
     "CameraModel": "camera.model",
     "RadialFunction": "camera.radial",
     # the table
     "PanoMappingTable": "table.table",
-    "create_table": "table.table",
-    "load_table": "table.table",
+    "create_table": "calibrate.make_table",
+    "load_table": "table.file",
     # views and their maps
     "Band": "views.base",
     "GenericPanorama": "views.panorama",

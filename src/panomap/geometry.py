@@ -17,6 +17,8 @@ Convention (binding, see ``docs/conventions.md``):
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -98,6 +100,40 @@ def ray_plane_points(origin: ArrayLike, theta: ArrayLike, rho: ArrayLike, z_plan
         axis=-1,
     )
     return np.where(reaches[..., None], points, np.nan)
+
+
+def pixel_polar(uv: ArrayLike, centre: tuple[float, float]) -> tuple[FloatArray, FloatArray]:
+    """Radius and image angle of pixels about a centre.
+
+    Parameters
+    ----------
+    uv : (..., 2) array_like
+        Pixels (u, v).
+    centre : (u0, v0)
+        The centre, px.
+
+    Returns
+    -------
+    r : (...) ndarray
+        ``hypot(u - u0, v - v0)``, px.
+    phi : (...) ndarray
+        Image angle ``atan2(v - v0, u - u0)`` (rad) in [-pi, pi]: from +u towards +v.
+    """
+    points = np.asarray(uv)
+    du = points[..., 0] - centre[0]
+    dv = points[..., 1] - centre[1]
+    return np.hypot(du, dv), np.arctan2(dv, du)
+
+
+def inside_image(u: Any, v: Any, image_size: tuple[int, int]) -> Any:
+    """Whether pixels (u, v) lie on an image of ``image_size`` (width, height).
+
+    Convention: pixel centres at integers, so the image spans
+    [-0.5, width - 0.5] x [-0.5, height - 0.5]. Scalars give a bool, arrays a
+    bool array; NaN is outside.
+    """
+    width, height = image_size
+    return (u >= -0.5) & (u <= width - 0.5) & (v >= -0.5) & (v <= height - 0.5)
 
 
 def pixel_centres(width: int, height: int) -> tuple[FloatArray, FloatArray]:

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import PanomapError
+from .geometry import inside_image
 
 INTERPOLATIONS = {"nearest": cv2.INTER_NEAREST, "linear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}
 DTYPES = (np.uint8, np.uint16, np.float32)
@@ -66,8 +67,7 @@ class Remapper:
         u, v = map_uv[..., 0], map_uv[..., 1]
         with np.errstate(invalid="ignore"):
             if self.source_size is not None:  # (comparisons with NaN are false: NaN entries drop out too)
-                width, height = self.source_size
-                valid = (u >= -0.5) & (u <= width - 0.5) & (v >= -0.5) & (v <= height - 0.5)
+                valid = inside_image(u, v, self.source_size)
             else:
                 valid = np.isfinite(u) & np.isfinite(v)
         map_u = np.where(valid, u, np.float32(0))

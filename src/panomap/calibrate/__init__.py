@@ -3,5 +3,8 @@
 - :mod:`.landmarks`: landmark pairs and their files;
 - :mod:`.circles`: the image centre, cut-off disc and image circle found in an omni-image;
 - :mod:`.fit`: :func:`fit_camera`, the fit of the camera model to the landmarks;
-- :mod:`.pipeline`: landmarks to a pano-mapping table, the path ``panomap fit`` and the learn page share.
+- :mod:`.make_table`: :func:`create_table`, a fitted camera's pano-mapping table (radii, range, size, checks);
+- :mod:`.sources`: where the camera position, centre and radii came from (:class:`Source`);
+- :mod:`.pipeline`: :func:`calibrate_camera`, landmarks (and an omni-image) to a table: the path ``panomap fit``,
+  the learn page and the demo share.
 """

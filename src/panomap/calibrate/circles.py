@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PanomapError
-from ..geometry import FloatArray
+from ..geometry import FloatArray, pixel_polar
 
 RAYS = 720
 COARSE_SIDE = 400
@@ -405,7 +405,7 @@ def _robust_circle(points: FloatArray, centre: tuple[float, float], radius: floa
 
 def _ellipse(points: FloatArray, circle: Circle) -> Ellipse | None:
     """The rim as an ellipse, when it is measurably one (else None)."""
-    distance = np.hypot(points[:, 0] - circle.centre[0], points[:, 1] - circle.centre[1]) - circle.radius
+    distance = pixel_polar(points, circle.centre)[0] - circle.radius
     inliers = points[np.abs(distance) < max(INLIER_SIGMAS * circle.rms_px, 0.5)]
     if len(inliers) < MIN_RIM_FRACTION * RAYS:
         return None

@@ -54,7 +54,7 @@ from ..camera.radial import (
     valid_elevation_range,
 )
 from ..errors import PanomapError
-from ..geometry import FloatArray, azimuth_elevation
+from ..geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
 from .landmarks import MIN_LANDMARKS, Landmarks
 
 MIN_ELEVATION_SPREAD = math.radians(1.0)
@@ -281,7 +281,7 @@ def fit_camera(
             f"spread {math.degrees(float(np.ptp(rho))):.3f} deg); the radial fit needs them spread "
             "in elevation"
         )
-    r, phi = _polar(landmarks.pixels, (u0, v0))
+    r, phi = pixel_polar(landmarks.pixels, (u0, v0))
     axis_source = "given"
     if axis is None:
         axis, axis_source = _detect_axis(rho, r), "detected"
@@ -314,20 +314,20 @@ def fit_camera(
         # Model and outliers were chosen about the starting centre, whose error (a few px on a real mirror,
         # where the rim's centre is not the axis) swamps the differences between models: choose again
         # about the refined centre, and refine from there.
-        r, phi = _polar(landmarks.pixels, centre_fit)
+        r, phi = pixel_polar(landmarks.pixels, centre_fit)
         data = replace(data, r=r, phi=phi)
         inliers, kind, selection = _choose(candidates, data, annulus, reject_outliers)
         radial, phi0 = _fit(kind, data, inliers)
         radial, phi0, centre_fit = _refine(radial, phi0, centre_fit, landmarks.pixels, data, inliers, True)
     weights = _radial_weights(radial, data)
-    r_fit, _ = _polar(landmarks.pixels, centre_fit)
+    r_fit, _ = pixel_polar(landmarks.pixels, centre_fit)
     covariance = coefficient_covariance(
         radial, rho[inliers], r_fit[inliers], None if kind == "paper" else weights[inliers]
     )
     camera_model = CameraModel(centre_fit, radial, s, phi0)
     predicted = camera_model.pixels(theta, rho)
     residuals = np.linalg.norm(predicted - landmarks.pixels, axis=1)
-    r_now, phi_now = _polar(landmarks.pixels, centre_fit)
+    r_now, phi_now = pixel_polar(landmarks.pixels, centre_fit)
     return CameraFit(
         model=camera_model,
         landmarks=landmarks,
@@ -351,12 +351,6 @@ def fit_camera(
             "model_requested": model,
         },
     )
-
-
-def _polar(pixels: FloatArray, centre: tuple[float, float]) -> tuple[FloatArray, FloatArray]:
-    du = pixels[:, 0] - centre[0]
-    dv = pixels[:, 1] - centre[1]
-    return np.hypot(du, dv), np.arctan2(dv, du)
 
 
 def _radial_sigma(radial: RadialFunction | None, data: _Data) -> FloatArray:
@@ -570,8 +564,7 @@ def _refine(
 
     def residuals(p: FloatArray) -> FloatArray:
         f, offset, c = unpack(p)
-        r_obs = np.hypot(uv[:, 0] - c[0], uv[:, 1] - c[1])
-        phi_obs = np.arctan2(uv[:, 1] - c[1], uv[:, 0] - c[0])
+        r_obs, phi_obs = pixel_polar(uv, c)
         radial_error = (f(rho) - r_obs) / radial_sigma
         angle = np.angle(np.exp(1j * (data.s * theta + offset - phi_obs)))
         tangential_error = r_obs * angle / np.sqrt(data.pixel_sigma**2 + (r_obs * sigma_theta) ** 2)
@@ -592,7 +585,7 @@ def _refine(
 def _check_inside(landmarks: Landmarks, image_size: tuple[int, int]) -> None:
     width, height = image_size
     u, v = landmarks.pixels[:, 0], landmarks.pixels[:, 1]
-    outside = np.flatnonzero((u < -0.5) | (u > width - 0.5) | (v < -0.5) | (v > height - 0.5))
+    outside = np.flatnonzero(~inside_image(u, v, image_size))  # (landmarks are finite)
     if outside.size:
         k = outside[0]
         raise PanomapError(

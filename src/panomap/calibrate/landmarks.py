@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import PanomapError
 from ..files import read_text
 from ..geometry import FloatArray
+from ..values import NotFinite, finite_number
 
 COLUMNS = ("u", "v", "X", "Y", "Z")
 MIN_LANDMARKS = 5
@@ -98,12 +99,9 @@ def read_landmarks(path: str | Path) -> Landmarks:
 
 def _number(value: Any, what: str) -> float:
     try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise PanomapError(f"{what} is not a number: {value!r}") from None
-    if not math.isfinite(number):
-        raise PanomapError(f"{what} is not finite: {value!r}")
-    return number
+        return finite_number(value)
+    except NotFinite as exc:
+        raise PanomapError(f"{what} is not {'finite' if exc.number else 'a number'}: {value!r}") from None
 
 
 def _from_csv(text: str) -> Landmarks:

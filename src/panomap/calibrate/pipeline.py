@@ -1,26 +1,133 @@
-"""From landmarks to a pano-mapping table: the one path ``panomap fit`` and ``panomap learn`` share.
+"""From landmarks (and an omni-image) to a pano-mapping table: the path ``fit``, ``learn`` and ``demo`` share.
 
-Both call :func:`fit_table`, so a table saved from the browser is the table
-``panomap fit`` makes from the same landmarks, camera position, centre and radii.
+:func:`calibrate_camera` finds the image circles when something is missing and an
+omni-image is given, chooses the centre and the radii recording where each
+came from (a :class:`~panomap.calibrate.sources.Source`), fits the camera
+(:func:`panomap.fit_camera`) and fills its table (:mod:`panomap.calibrate.make_table`).
+A table saved from the browser is the table ``panomap fit`` makes from the same
+landmarks, camera position, centre and radii.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-from ..table.table import PanoMappingTable, create_table
-from .fit import fit_camera
+from numpy.typing import NDArray
+
+from ..errors import PanomapError
+from ..io.images import read_image
+from ..table.table import PanoMappingTable
+from .circles import ImageCircles, find_image_circles
+from .fit import CameraFit, fit_camera
 from .landmarks import Landmarks
+from .make_table import choose_annulus, table_for
+from .sources import QUANTITIES, Origin, Source, source_texts
 
 
-def fit_table(
-    landmarks: Landmarks,
-    camera_position: tuple[float, float, float],
-    centre: tuple[float, float],
-    *,
-    image_size: tuple[int, int] | None = None,
+@dataclass(frozen=True)
+class CircleChoice:
+    """The centre and radii (px) :func:`choose_circles` settled on; None where still open.
+
+    ``sources`` holds those it detected, in the order recorded; ``warnings`` says
+    what it could not do (and what it did instead).
+    """
+
+    centre: tuple[float, float] | None
+    cutoff_radius: float | None
+    outer_radius: float | None
+    circles: ImageCircles | None
+    sources: Mapping[str, Origin]
+    warnings: tuple[str, ...] = ()
+
+    def settled(self) -> tuple[tuple[float, float], float, float]:
+        """(centre, cut-off radius, outer radius); PanomapError when one is still open."""
+        if self.centre is None or self.cutoff_radius is None or self.outer_radius is None:
+            raise PanomapError("the image centre and radii are not all known")
+        return self.centre, self.cutoff_radius, self.outer_radius
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """What :func:`calibrate_camera` made.
+
+    Attributes
+    ----------
+    table : PanoMappingTable
+        The table; its ``info`` holds the provenance texts, the fit report and
+        the table's own warnings (where it reaches beyond the landmarks).
+    fit : CameraFit
+        The camera fit.
+    sources : mapping of str to Origin
+        Where the camera position, centre and radii came from, in the order recorded.
+    circles : ImageCircles or None
+        The image circles, when they were found.
+    warnings : tuple of str
+        What could not be done, and what was done instead (e.g. the circles
+        not found where the centre was given: the default radii are used).
+    """
+
+    table: PanoMappingTable
+    fit: CameraFit
+    sources: Mapping[str, Origin]
+    circles: ImageCircles | None
+    warnings: tuple[str, ...]
+
+
+def choose_circles(
+    omni: NDArray[Any],
+    centre: tuple[float, float] | None = None,
     cutoff_radius: float | None = None,
     outer_radius: float | None = None,
+    *,
+    name: str | Path | None = None,
+) -> CircleChoice:
+    """The centre and radii: the given ones, the rest found in the omni-image.
+
+    The circles are looked for only when something is missing. When they are
+    not found but the centre is given, the radii stay open (for their
+    defaults) and a warning says so. A camera that does not see itself (no
+    cut-off disc) gets the cut-off radius 0, :attr:`Source.DETECTED_NONE`.
+
+    Raises
+    ------
+    PanomapError
+        When the centre is not given and the circles are not found (naming
+        the image file ``name``, when given).
+    """
+    if centre is not None and cutoff_radius is not None and outer_radius is not None:
+        return CircleChoice(centre, cutoff_radius, outer_radius, None, {})
+    try:
+        circles = find_image_circles(omni)
+    except PanomapError as exc:
+        error = PanomapError(exc.detail, name)
+        if centre is None:
+            raise error from None
+        return CircleChoice(centre, cutoff_radius, outer_radius, None, {}, (f"{error}; using the default radii",))
+    sources: dict[str, Origin] = {}
+    if centre is None:
+        centre, sources["centre"] = circles.centre, Origin(Source.DETECTED)
+    if outer_radius is None:
+        outer_radius, sources["outer_radius"] = circles.outer_radius, Origin(Source.DETECTED)
+    if cutoff_radius is None:
+        cutoff_radius = circles.cutoff_radius or 0.0
+        sources["cutoff_radius"] = Origin(Source.DETECTED if circles.cutoff else Source.DETECTED_NONE)
+    return CircleChoice(centre, cutoff_radius, outer_radius, circles, sources)
+
+
+def calibrate_camera(
+    landmarks: Landmarks,
+    camera_position: tuple[float, float, float] | None = None,
+    *,
+    centre: tuple[float, float] | None = None,
+    cutoff_radius: float | None = None,
+    outer_radius: float | None = None,
+    omni: NDArray[Any] | str | Path | None = None,
+    image_size: tuple[int, int] | None = None,
+    sources: Mapping[str, Source] | None = None,
+    info: Mapping[str, Any] | None = None,
     table_size: tuple[int, int] | None = None,
     model: str = "auto",
     azimuth: str = "fit",
@@ -29,54 +136,101 @@ def fit_table(
     pixel_sigma: float = 1.0,
     world_sigma: float | None = None,
     reject_outliers: bool = True,
-    info: dict[str, Any] | None = None,
-) -> PanoMappingTable:
-    """Fit the camera (:func:`panomap.fit_camera`) and fill its table (:func:`panomap.create_table`).
+    models_cover_annulus: bool = True,
+) -> Calibration:
+    """Landmarks (and an omni-image) to a fitted camera and its pano-mapping table.
 
     Parameters
     ----------
     landmarks : Landmarks
         At least 5 pairs.
-    camera_position : (X0, Y0, Z0)
-        World units.
-    centre : (u0, v0)
-        Image centre, px.
-    image_size : (width, height), optional
+    camera_position : (X0, Y0, Z0), optional
+        World units; default the landmarks' own (from a JSON landmark file).
+    centre : (u0, v0), optional
+        Image centre, px; found in ``omni`` when not given.
     cutoff_radius, outer_radius : float, optional
-        The visible annulus, px; when both are given, automatic model choice
-        only takes models that run monotonically across it.
+        The visible annulus, px; found in ``omni`` when not given, else their
+        defaults (:func:`panomap.create_table`).
+    omni : (H, W[, C]) ndarray or path, optional
+        An omni-image of the camera (or its file): its size is the image size, and the
+        image circles are looked for in it when the centre or a radius is
+        missing (:func:`choose_circles`).
+    image_size : (width, height), optional
+        When no ``omni`` is given (an omni-image's own size wins).
+    sources : mapping of str to Source, optional
+        Where the given camera position, centre and radii came from, in the
+        order to record them (entries for values not given are left out).
+        The rest follow in the order camera position, centre, cut-off and
+        outer radius as :attr:`Source.GIVEN` (the camera position
+        :attr:`Source.LANDMARK_FILE` when it is the landmarks' own); then
+        those found in ``omni``, then the defaults.
+    info : mapping, optional
+        More to store in the table's ``info``, after the provenance.
     table_size : (M, N), optional
         Default: about one entry per pixel.
     model, azimuth, axis, refine_centre, pixel_sigma, world_sigma, reject_outliers
         As :func:`panomap.fit_camera`.
-    info : dict, optional
-        Provenance stored in the table (``sources``, ``image_circles``).
+    models_cover_annulus : bool
+        When both radii are known before the fit, automatic model choice
+        only takes models that run monotonically across the annulus (its
+        ``annulus``); False leaves the choice to the landmarks alone (the
+        table still checks the given radii).
 
     Raises
     ------
     PanomapError
-        From the fit or the table, saying why.
+        With no camera position or no centre at all, or from the circles, the
+        fit or the table, saying why.
     """
-    annulus = None if cutoff_radius is None or outer_radius is None else (cutoff_radius, outer_radius)
+    position = camera_position if camera_position is not None else landmarks.camera
+    if position is None:
+        raise PanomapError("no camera position: give one, or landmarks that hold it")
+    given = {
+        "camera_position": position,
+        "centre": centre,
+        "cutoff_radius": cutoff_radius,
+        "outer_radius": outer_radius,
+    }
+    unknown = sorted(set(sources or {}) - set(QUANTITIES))
+    if unknown:
+        raise PanomapError(f"sources: unknown quantity {', '.join(unknown)}; they are {', '.join(QUANTITIES)}")
+    recorded = {name: Origin(source) for name, source in (sources or {}).items() if given[name] is not None}
+    for name in QUANTITIES:
+        if given[name] is not None and name not in recorded:
+            from_landmarks = name == "camera_position" and camera_position is None
+            recorded[name] = Origin(Source.LANDMARK_FILE if from_landmarks else Source.GIVEN)
+    table_info: dict[str, Any] = {}
+    choice = CircleChoice(centre, cutoff_radius, outer_radius, None, {})
+    if omni is not None:
+        file = omni if isinstance(omni, str | Path) else None
+        image = read_image(omni) if isinstance(omni, str | Path) else omni
+        image_size = (int(image.shape[1]), int(image.shape[0]))
+        choice = choose_circles(image, centre, cutoff_radius, outer_radius, name=file)
+        recorded |= choice.sources
+        if choice.circles is not None:
+            table_info["image_circles"] = choice.circles.to_dict()
+    if choice.centre is None:
+        raise PanomapError("no image centre: give one, or an omni-image to find it in")
+    if refine_centre:
+        recorded["centre"] = Origin(recorded["centre"].source, refined=True)
+    cutoff, outer = choice.cutoff_radius, choice.outer_radius
     camera_fit = fit_camera(
         landmarks,
-        camera_position,
-        centre,
+        position,
+        choice.centre,
         model=model,
         azimuth=azimuth,
         axis=axis,
         image_size=image_size,
-        annulus=annulus,
+        annulus=None if cutoff is None or outer is None or not models_cover_annulus else (cutoff, outer),
         refine_centre=refine_centre,
         pixel_sigma=pixel_sigma,
         world_sigma=world_sigma,
         reject_outliers=reject_outliers,
     )
-    return create_table(
-        camera_fit,
-        size=table_size,
-        image_size=image_size,
-        cutoff_radius=cutoff_radius,
-        outer_radius=outer_radius,
-        info=info,
-    )
+    annulus = choose_annulus(camera_fit, image_size, cutoff, outer)
+    recorded.setdefault("cutoff_radius", Origin(annulus.cutoff_source))
+    recorded.setdefault("outer_radius", Origin(annulus.outer_source))
+    table_info["sources"] = source_texts(recorded)
+    table = table_for(camera_fit, annulus, size=table_size, image_size=image_size, info=table_info | dict(info or {}))
+    return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings)

@@ -11,11 +11,12 @@ import click
 
 from ..calibrate.circles import ImageCircles, draw_overlay, find_image_circles
 from ..calibrate.landmarks import read_landmarks
-from ..calibrate.pipeline import fit_table
+from ..calibrate.pipeline import calibrate_camera
 from ..camera.radial import MODELS
 from ..errors import PanomapError
-from ..io.images import image_size, read_image, write_image
-from ..table.table import PanoMappingTable, load_table
+from ..io.images import read_image, write_image
+from ..table.file import load_table
+from ..table.table import PanoMappingTable, check_table_size
 from .options import FINITE, PATH, SIZE
 
 
@@ -118,53 +119,22 @@ def fit(
 ) -> None:
     """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table."""
     pairs = read_landmarks(landmarks)
-    position = camera or pairs.camera
-    if position is None:
+    if camera is None and pairs.camera is None:
         raise PanomapError('no camera position: give --camera X0 Y0 Z0 or "camera" in the JSON', landmarks)
-    info: dict[str, Any] = {}
-    sources = {"camera_position": "given" if camera else "landmark file"}
-    sources |= {
-        name: "given"
-        for name, value in (("centre", centre), ("cutoff_radius", cutoff_radius), ("outer_radius", outer_radius))
-        if value is not None
-    }
-    size = _image_size(None, image_size)
-    if image is not None:
-        omni = read_image(image)
-        size = (int(omni.shape[1]), int(omni.shape[0]))
-        if centre is None or cutoff_radius is None or outer_radius is None:
-            try:
-                circles = find_image_circles_in(image, omni)
-            except PanomapError as exc:
-                if centre is None:
-                    raise
-                # The centre is given: only the radii were wanted; keep their defaults and say so.
-                click.echo(f"panomap: warning: {exc}; using the default radii", err=True)
-                circles = None
-        else:
-            circles = None
-        if circles is not None:
-            info["image_circles"] = circles.to_dict()
-            if centre is None:
-                centre, sources["centre"] = circles.centre, "detected"
-            if outer_radius is None:
-                outer_radius, sources["outer_radius"] = circles.outer_radius, "detected"
-            if cutoff_radius is None:
-                cutoff_radius = circles.cutoff_radius or 0.0
-                sources["cutoff_radius"] = "detected" if circles.cutoff else "detected: none (no self-occlusion disc)"
-    if centre is None:
+    size = _image_size(image_size)
+    if centre is None and image is None:
         raise PanomapError("no image centre: give --centre U0 V0, or --image OMNI to find it", landmarks)
-    info["sources"] = sources
-    if refine_centre:
-        sources["centre"] = f"{sources['centre']}, refined with the landmarks"
     try:
-        table = fit_table(
+        if table_size is not None:
+            check_table_size(table_size, what="--size")
+        result = calibrate_camera(
             pairs,
-            position,
-            centre,
-            image_size=size,
+            camera,
+            centre=centre,
             cutoff_radius=cutoff_radius,
             outer_radius=outer_radius,
+            omni=image,
+            image_size=size,
             table_size=table_size,
             model=model,
             azimuth=azimuth,
@@ -173,10 +143,12 @@ def fit(
             pixel_sigma=pixel_sigma,
             world_sigma=world_sigma,
             reject_outliers=not keep_outliers,
-            info=info,
         )
     except PanomapError as exc:
         raise PanomapError(exc.detail, exc.source or landmarks) from None
+    for warning in result.warnings:
+        click.echo(f"panomap: warning: {warning}", err=True)
+    table = result.table
     table.save(output)
     if plot is not None:
         from ..io.plot import save_fit_plot
@@ -232,15 +204,12 @@ def find_image_circles_in(path: Path, image: Any) -> ImageCircles:
         raise PanomapError(exc.detail, path) from None
 
 
-def _image_size(image: Path | None, size: tuple[int, int] | None) -> tuple[int, int] | None:
-    if image is not None:
-        return image_size(image)
+def _image_size(size: tuple[int, int] | None) -> tuple[int, int] | None:
     if size is not None:
         width, height = size
         if width <= 0 or height <= 0:
             raise PanomapError(f"--image-size {width}x{height}: must be positive")
-        return size
-    return None
+    return size
 
 
 def _describe_fit(table: PanoMappingTable) -> str:

@@ -15,15 +15,14 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..calibrate.circles import find_image_circles
-from ..calibrate.fit import fit_camera
 from ..calibrate.landmarks import Landmarks, landmarks_to_csv
+from ..calibrate.pipeline import calibrate_camera, choose_circles
+from ..calibrate.sources import Source
 from ..files import write_text_atomic
 from ..io.images import save_map, write_image
 from ..io.plot import save_fit_plot
 from ..remap import Remapper
 from ..simulate import load_room, render, standard_cameras
-from ..table.table import create_table
 from ..views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
 
 IMAGE_SIZE = (1024, 1024)
@@ -58,29 +57,27 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
     write_text_atomic(out / "landmarks.csv", landmarks_to_csv(landmarks))
     yield f"picked {len(landmarks)} landmarks spread in elevation: {out / 'landmarks.csv'}"
 
-    circles = find_image_circles(omni)
-    cutoff = circles.cutoff_radius or 0.0
+    found = choose_circles(omni)
+    centre, cutoff, outer = found.settled()
     yield (
-        f"found the image centre ({circles.centre[0]:.2f}, {circles.centre[1]:.2f}), cut-off radius {cutoff:.2f} px "
-        f"and image circle {circles.outer_radius:.2f} px (true: ({camera.centre[0]:.2f}, {camera.centre[1]:.2f}), "
+        f"found the image centre ({centre[0]:.2f}, {centre[1]:.2f}), cut-off radius {cutoff:.2f} px "
+        f"and image circle {outer:.2f} px (true: ({camera.centre[0]:.2f}, {camera.centre[1]:.2f}), "
         f"{camera.cutoff_radius:.2f} px, {camera.outer_radius:.2f} px)"
     )
-    fit = fit_camera(landmarks, room.camera, circles.centre, image_size=IMAGE_SIZE)
-    table = create_table(
-        fit,
-        image_size=IMAGE_SIZE,
+    # Recorded as the centre and radii, then the camera position (the order the table file has always had).
+    detected = {name: found.sources[name].source for name in ("centre", "cutoff_radius", "outer_radius")}
+    result = calibrate_camera(
+        landmarks,
+        room.camera,
+        centre=centre,
         cutoff_radius=cutoff,
-        outer_radius=circles.outer_radius,
-        info={
-            "sources": {
-                "centre": "detected",
-                "cutoff_radius": "detected",
-                "outer_radius": "detected",
-                "camera_position": "given",
-            },
-            "image_circles": circles.to_dict(),
-        },
+        outer_radius=outer,
+        image_size=IMAGE_SIZE,
+        sources=detected | {"camera_position": Source.GIVEN},
+        info={"image_circles": None if found.circles is None else found.circles.to_dict()},
+        models_cover_annulus=False,
     )
+    fit, table = result.fit, result.table
     table.save(out / "table.npz")
     save_fit_plot(table, out / "fit.png")
     m, n = table.size

@@ -6,11 +6,12 @@ Angles on the command line are in degrees; lengths in world units; sizes as
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
 import click
+
+from ..values import NotFinite, finite_number
 
 
 class Size(click.ParamType):
@@ -38,12 +39,9 @@ class Finite(click.ParamType):
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float:
         try:
-            number = float(value)
-        except (TypeError, ValueError):
-            self.fail(f"{value!r} is not a number", param, ctx)
-        if not math.isfinite(number):
-            self.fail(f"{value!r} is not a finite number", param, ctx)
-        return number
+            return finite_number(value)
+        except NotFinite as exc:
+            self.fail(str(exc), param, ctx)
 
 
 SIZE = Size()

@@ -13,7 +13,8 @@ import numpy as np
 from ..calibrate.landmarks import read_points
 from ..files import write_text_atomic
 from ..geometry import ray_plane_points
-from ..table.table import SAMPLINGS, load_table
+from ..table.file import load_table
+from ..table.sampling import SAMPLINGS
 from .options import FINITE, PATH
 
 

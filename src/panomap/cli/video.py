@@ -18,7 +18,8 @@ from typing import Any
 import click
 
 from ..remap import INTERPOLATIONS
-from ..table.table import SAMPLINGS, load_table
+from ..table.file import load_table
+from ..table.sampling import SAMPLINGS
 from ..video.output import EncoderSettings
 from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video

@@ -18,7 +18,8 @@ import numpy as np
 from ..errors import PanomapError
 from ..io.images import pgm_map_paths, read_image, save_map, save_map_pgm, write_image
 from ..remap import INTERPOLATIONS, Remapper
-from ..table.table import SAMPLINGS, load_table
+from ..table.file import load_table
+from ..table.sampling import SAMPLINGS
 from ..views import View, build_map, view_kinds
 from ..views.base import Param, ParameterError, Value
 from ..views.spec import view_from_params

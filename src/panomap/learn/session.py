@@ -4,7 +4,7 @@ Convention: pixel (u, v) = (column, row), the centre of the top-left pixel at
 (0, 0); world Z up; the camera position is the mirror (lens) centre O_m.
 
 The session holds no geometry: it validates what the page sends (with
-:mod:`panomap.learn.validate`), fits with :func:`panomap.pipeline.fit_table`
+:mod:`panomap.learn.validate`), fits with :func:`panomap.calibrate_camera`
 (the path ``panomap fit`` takes), and draws previews with the library's views.
 Every change replaces the state and refits at once; the page debounces.
 Files are read and written only in ``folder``, by bare name, atomically.
@@ -21,12 +21,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..calibrate.circles import find_image_circles
 from ..calibrate.landmarks import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
-from ..calibrate.pipeline import fit_table
+from ..calibrate.pipeline import calibrate_camera, choose_circles
+from ..calibrate.sources import Source
 from ..camera.radial import MODELS
 from ..errors import PanomapError
 from ..files import write_text_atomic
+from ..geometry import inside_image
 from ..io.images import encode_png
 from ..io.plot import fit_curve
 from ..remap import Remapper
@@ -131,13 +132,15 @@ class Session:
     def _start_circles(self) -> tuple[Circles, dict[str, Any] | None, str | None]:
         width, height = self.image_size
         try:
-            found = find_image_circles(self.image)
+            found = choose_circles(self.image)
         except PanomapError as exc:
             guess = Circles(((width - 1) / 2, (height - 1) / 2), 0.0, min(width, height) / 2 - 0.5)
             guessed = f"could not find the image circles ({exc.detail}); starting from a guess: drag them into place"
             return guess, None, guessed
-        note = None if found.cutoff is not None else "no cut-off disc found (a fisheye?): the cut-off radius is 0"
-        return Circles(found.centre, found.cutoff_radius or 0.0, found.outer_radius), found.to_dict(), note
+        centre, cutoff, outer = found.settled()
+        none = found.sources["cutoff_radius"].source is Source.DETECTED_NONE
+        note = "no cut-off disc found (a fisheye?): the cut-off radius is 0" if none else None
+        return Circles(centre, cutoff, outer), None if found.circles is None else found.circles.to_dict(), note
 
     def state(self) -> dict[str, Any]:
         """Everything the page shows, as JSON-ready data."""
@@ -190,7 +193,7 @@ class Session:
             raise RequestError(f"circles: missing {', '.join(missing)}")
         width, height = self.image_size
         u0, v0 = numbers(value["centre"], 2, "circles.centre")
-        if not (-0.5 <= u0 <= width - 0.5 and -0.5 <= v0 <= height - 0.5):
+        if not inside_image(u0, v0, self.image_size):
             raise RequestError(f"the centre ({u0:g}, {v0:g}) is outside the {width} x {height} image")
         cutoff = finite(value["cutoff_radius"], "circles.cutoff_radius")
         outer = finite(value["outer_radius"], "circles.outer_radius")
@@ -218,7 +221,7 @@ class Session:
                 raise RequestError(f"two landmarks are named {name!r}; names must differ")
             seen.add(name)
             u, v = finite(item.get("u"), f"{what}: u"), finite(item.get("v"), f"{what}: v")
-            if not (-0.5 <= u <= width - 0.5 and -0.5 <= v <= height - 0.5):
+            if not inside_image(u, v, self.image_size):
                 raise RequestError(f"{what}: pixel ({u:g}, {v:g}) is outside the {width} x {height} image")
             given = [item.get(c) for c in ("X", "Y", "Z")]
             if all(c is None for c in given):
@@ -254,41 +257,38 @@ class Session:
             status |= {"need": 0, "message": "give the camera position X0, Y0, Z0 to fit"}
         else:
             try:
-                self.table = fit_table(
+                self.table = calibrate_camera(
                     landmarks,
                     self.camera,
-                    self.circles.centre,
-                    image_size=self.image_size,
+                    centre=self.circles.centre,
                     cutoff_radius=self.circles.cutoff_radius,
                     outer_radius=self.circles.outer_radius,
+                    image_size=self.image_size,
                     model=self.model,
+                    sources=self._sources(),
                     info=self._info(),
-                )
+                ).table
             except PanomapError as exc:
                 status |= {"need": 0, "message": f"the fit failed: {exc.detail}"}
             else:
                 status = self._fit_report(self.table, pending)
         self.fit_status = status
 
-    def _info(self) -> dict[str, Any]:
+    def _sources(self) -> dict[str, Source]:
+        """The circles as detected, or set on the page; the camera position given."""
         detected = self.detected
         adjusted = detected is None or (
             tuple(detected["centre"]) != self.circles.centre
             or detected["outer_radius"] != self.circles.outer_radius
             or (detected["cutoff_radius"] or 0.0) != self.circles.cutoff_radius
         )
-        how = "set in panomap learn" if adjusted else "detected"
-        info: dict[str, Any] = {
-            "sources": {
-                "centre": how,
-                "cutoff_radius": how,
-                "outer_radius": how,
-                "camera_position": "given",
-            },
-            "learned_with": f"panomap learn on {self.image_name}",
-        }
-        if detected is not None:
-            info["image_circles"] = detected
+        how = Source.SET_IN_LEARN if adjusted else Source.DETECTED
+        return {"centre": how, "cutoff_radius": how, "outer_radius": how, "camera_position": Source.GIVEN}
+
+    def _info(self) -> dict[str, Any]:
+        info: dict[str, Any] = {"learned_with": f"panomap learn on {self.image_name}"}
+        if self.detected is not None:
+            info["image_circles"] = self.detected
         return info
 
     def _fit_report(self, table: PanoMappingTable, pending: str) -> dict[str, Any]:

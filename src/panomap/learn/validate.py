@@ -8,11 +8,11 @@ server answers it with HTTP 400 (or the error's ``status``) and
 from __future__ import annotations
 
 import json
-import math
 import re
 from typing import Any
 
 from ..errors import PanomapError
+from ..values import NotFinite, finite_number
 
 MAX_BODY_BYTES = 1 << 20
 MAX_LANDMARKS = 500
@@ -63,9 +63,10 @@ def finite(value: Any, what: str, limit: float | None = None) -> float:
     """A finite JSON number (not a bool, not a string), at most ``limit`` in size."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise RequestError(f"{what} must be a number, not {json.dumps(value)[:40]}")
-    number = float(value)
-    if not math.isfinite(number):
-        raise RequestError(f"{what} must be finite")
+    try:
+        number = finite_number(value)
+    except NotFinite:
+        raise RequestError(f"{what} must be finite") from None
     if limit is not None and abs(number) > limit:
         raise RequestError(f"{what} = {number:g} is too large (at most {limit:g} in size)")
     return number

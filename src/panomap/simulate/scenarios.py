@@ -17,9 +17,9 @@ from numpy.typing import NDArray
 
 from panomap.calibrate.fit import fit_camera
 from panomap.calibrate.landmarks import Landmarks
+from panomap.calibrate.make_table import create_table
 from panomap.geometry import ray_from_angles
 from panomap.simulate.cameras import RadialCamera
-from panomap.table.table import create_table
 
 ROOM_SIZE = (6.0, 5.0, 2.6)
 CAMERA_POSITION = (3.1, 2.4, 2.45)

@@ -37,6 +37,7 @@ from typing import Any
 
 from ..errors import PanomapError
 from ..files import read_text
+from ..values import NotFinite, finite_number
 from .base import Value, View, view_kinds
 
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
@@ -52,12 +53,9 @@ class NamedView:
 
 def _number(key: str, value: Any) -> float:
     try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise PanomapError(f"{key}={value!r} is not a number") from None
-    if isinstance(value, bool) or not math.isfinite(number):
-        raise PanomapError(f"{key}={value!r} is not a finite number")
-    return number
+        return finite_number(value, bools=False)
+    except NotFinite as exc:
+        raise PanomapError(f"{key}={exc}") from None
 
 
 def _pair(key: str, value: Any) -> tuple[float, float]:

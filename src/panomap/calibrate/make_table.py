@@ -1,0 +1,190 @@
+"""From a fitted camera to its pano-mapping table: the radii, the range, the size and the checks.
+
+:func:`create_table` chooses what the fit leaves open (the radii, when not
+given, and the table size), checks that the radial function covers the given
+annulus, fills the table (:func:`panomap.table.table.fill_entries`) and stores
+in its ``info`` where each radius came from, the fit report with the radius'
+standard error, and warnings where the table reaches beyond the landmarks.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..camera.radial import radius_standard_error, valid_elevation_range
+from ..errors import PanomapError
+from ..geometry import TWO_PI, pixel_polar
+from ..table.table import PanoMappingTable, check_table_size, fill_entries
+from .fit import CameraFit, annulus_coverage_problem
+from .sources import Source
+
+# Default sizes stop here: bilinear sampling is then within 1e-3 px of the model.
+DEFAULT_MAX_SIZE = (4096, 1024)
+# The table may reach this far beyond the landmarks' elevations before a warning says so.
+EXTRAPOLATION_WARNING_DEG = 3.0
+
+
+@dataclass(frozen=True)
+class Annulus:
+    """The visible annulus of a table, px, and where each radius came from."""
+
+    cutoff_radius: float
+    outer_radius: float
+    cutoff_source: Source
+    outer_source: Source
+
+
+def choose_annulus(
+    fit: CameraFit, image_size: tuple[int, int] | None, cutoff_radius: float | None, outer_radius: float | None
+) -> Annulus:
+    """The given radii (:attr:`Source.GIVEN`), or their defaults.
+
+    The cut-off radius defaults to 0 (none); the outer radius to the largest
+    circle about the centre inside the image (or reaching the farthest
+    landmark, if that is further), or the farthest landmark when there is no
+    image size.
+
+    Raises
+    ------
+    PanomapError
+        Unless 0 <= cut-off radius < outer radius, both finite.
+    """
+    cutoff_source = outer_source = Source.GIVEN
+    if cutoff_radius is None:
+        cutoff_radius, cutoff_source = 0.0, Source.DEFAULT_NONE
+    if outer_radius is None:
+        u0, v0 = fit.model.centre
+        farthest = float(pixel_polar(fit.landmarks.pixels, (u0, v0))[0].max())
+        if image_size is not None:
+            width, height = image_size
+            inscribed = min(u0 + 0.5, v0 + 0.5, width - 0.5 - u0, height - 0.5 - v0)
+            outer_radius, outer_source = max(float(inscribed), farthest), Source.DEFAULT_INSIDE_IMAGE
+        else:
+            outer_radius, outer_source = farthest, Source.DEFAULT_FARTHEST_LANDMARK
+    cutoff_radius, outer_radius = float(cutoff_radius), float(outer_radius)
+    if not (math.isfinite(cutoff_radius) and math.isfinite(outer_radius)) or not 0 <= cutoff_radius < outer_radius:
+        raise PanomapError(
+            f"the cut-off radius ({cutoff_radius:g} px) must be >= 0 and below the outer radius ({outer_radius:g} px)"
+        )
+    return Annulus(cutoff_radius, outer_radius, cutoff_source, outer_source)
+
+
+def create_table(
+    fit: CameraFit,
+    *,
+    size: tuple[int, int] | None = None,
+    image_size: tuple[int, int] | None = None,
+    cutoff_radius: float | None = None,
+    outer_radius: float | None = None,
+    info: dict[str, Any] | None = None,
+) -> PanoMappingTable:
+    """Make the pano-mapping table of a fitted camera.
+
+    Parameters
+    ----------
+    fit : CameraFit
+        The landmark fit.
+    size : (M, N), optional
+        Default: about one entry per pixel along the image circle (M) and
+        along the radius (N).
+    image_size : (width, height), optional
+        The omni-images' size; limits the default outer radius and marks
+        pixels outside the image invalid.
+    cutoff_radius : float, optional
+        Radius (px) of the self-occlusion disc; default 0 (none).
+    outer_radius : float, optional
+        Radius (px) of the image circle; default the largest circle about the
+        centre inside the image (or reaching the farthest landmark, if that is
+        further), or the farthest landmark when there is no image size.
+    info : dict, optional
+        Stored in the table; its ``sources`` (quantity -> text) gain the
+        radii's when it lacks them.
+
+    The elevation range runs from the cut-off radius to the outer radius,
+    narrowed to where f_r is monotonic and around the landmarks.
+    """
+    annulus = choose_annulus(fit, image_size, cutoff_radius, outer_radius)
+    sources = dict(info.get("sources", {})) if info else {}
+    sources.setdefault("cutoff_radius", annulus.cutoff_source.value)
+    sources.setdefault("outer_radius", annulus.outer_source.value)
+    return table_for(fit, annulus, size=size, image_size=image_size, info=dict(info or {}) | {"sources": sources})
+
+
+def table_for(
+    fit: CameraFit,
+    annulus: Annulus,
+    *,
+    size: tuple[int, int] | None,
+    image_size: tuple[int, int] | None,
+    info: dict[str, Any],
+) -> PanoMappingTable:
+    """The table of ``fit`` over ``annulus``; ``info`` (with its ``sources``) is stored as given.
+
+    When either radius was given (not a default), f_r must run monotonically
+    from one to the other.
+    """
+    cutoff_radius, outer_radius = annulus.cutoff_radius, annulus.outer_radius
+    if not (annulus.cutoff_source.is_default and annulus.outer_source.is_default):
+        problem = annulus_coverage_problem(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius)
+        if problem:
+            raise PanomapError(
+                f"the fitted radial function ({fit.model.radial.kind}) {problem}; it must run monotonically "
+                "from the cut-off radius to the image circle (try another radial model, or check the radii)"
+            )
+    rho_s, rho_e = valid_elevation_range(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius)
+    if size is None:
+        r_span = abs(float(fit.model.radial(rho_e) - fit.model.radial(rho_s)))
+        reach = max(float(np.nanmax(np.abs(fit.model.radial(np.array([rho_s, rho_e]))))), 1.0)
+        m = min(8 * math.ceil(TWO_PI * reach / 8), DEFAULT_MAX_SIZE[0])
+        size = (max(m, 16), min(max(math.ceil(r_span), 16), DEFAULT_MAX_SIZE[1]))
+    size = check_table_size(size)
+    entries = fill_entries(fit.model, size, (rho_s, rho_e))
+    table_info = dict(info)
+    table_info["fit"] = fit.report() | {"uncertainty": _uncertainty(fit, (rho_s, rho_e))}
+    table_info["warnings"] = _range_warnings(fit.landmark_range, (rho_s, rho_e))
+    return PanoMappingTable(
+        entries=entries,
+        elevation_range=(rho_s, rho_e),
+        model=fit.model,
+        camera_position=fit.camera_position,
+        image_size=image_size,
+        cutoff_radius=cutoff_radius,
+        outer_radius=outer_radius,
+        info=table_info,
+    )
+
+
+def _uncertainty(fit: CameraFit, elevation_range: tuple[float, float]) -> dict[str, Any]:
+    """Standard error of f_r (px) on a grid over the table's range, and its summary."""
+    rho = np.linspace(*elevation_range, 91)
+    se = radius_standard_error(fit.model.radial, fit.covariance, rho)
+    low, high = fit.landmark_range
+    inside = (rho >= low) & (rho <= high)
+    return {
+        "elevation_deg": np.degrees(rho).tolist(),
+        "radius_se_px": se.tolist(),
+        "max_se_in_landmark_range_px": float(se[inside].max()) if inside.any() else None,
+        "max_se_px": float(se.max()),
+    }
+
+
+def _range_warnings(landmark_range: tuple[float, float], table_range: tuple[float, float]) -> list[str]:
+    """Warnings where the table reaches beyond the landmarks' elevations by more than a few degrees."""
+    warnings = []
+    below = math.degrees(landmark_range[0] - table_range[0])
+    above = math.degrees(table_range[1] - landmark_range[1])
+    if below > EXTRAPOLATION_WARNING_DEG:
+        warnings.append(
+            f"the table reaches {below:.1f} deg below the lowest landmark "
+            f"({math.degrees(landmark_range[0]):.1f} deg): the radius there is extrapolated"
+        )
+    if above > EXTRAPOLATION_WARNING_DEG:
+        warnings.append(
+            f"the table reaches {above:.1f} deg above the highest landmark "
+            f"({math.degrees(landmark_range[1]):.1f} deg): the radius there is extrapolated"
+        )
+    return warnings

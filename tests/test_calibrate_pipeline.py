@@ -1,0 +1,113 @@
+"""calibrate_camera: where each input came from (typed, stored as the texts the table file has always had),
+warnings as data, and the small shared helpers (finite numbers, pixel polar coordinates, inside the image)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from panomap.calibrate.pipeline import calibrate_camera, choose_circles
+from panomap.calibrate.sources import Origin, Source
+from panomap.errors import PanomapError
+from panomap.geometry import inside_image, pixel_polar
+from panomap.simulate import standard_cameras
+from panomap.simulate.sampling import spread_landmarks
+from panomap.values import NotFinite, finite_number
+
+SIZE = (640, 600)
+CAMERA = standard_cameras(SIZE, centre=(321.4, 298.2), s=1, phi0=-0.5)["parabolic"]
+POSITION = (3.0, 2.0, 2.5)
+LANDMARKS = spread_landmarks(CAMERA, POSITION, 12, np.random.default_rng(5))
+# A grey image: no image circle to find in it.
+PLAIN = np.full((SIZE[1], SIZE[0]), 90, np.uint8)
+
+
+def test_source_texts_are_the_table_files() -> None:
+    # These texts are in every table file written so far: they must not change.
+    assert [s.value for s in Source] == [
+        "given",
+        "landmark file",
+        "detected",
+        "detected: none (no self-occlusion disc)",
+        "set in panomap learn",
+        "default (none)",
+        "default (largest circle inside the image)",
+        "default (farthest landmark)",
+    ]
+    assert [s for s in Source if s.is_default] == [
+        Source.DEFAULT_NONE,
+        Source.DEFAULT_INSIDE_IMAGE,
+        Source.DEFAULT_FARTHEST_LANDMARK,
+    ]
+    assert str(Origin(Source.DETECTED, refined=True)) == "detected, refined with the landmarks"
+
+
+def test_given_centre_without_circles_keeps_the_default_radii_and_warns() -> None:
+    result = calibrate_camera(LANDMARKS, POSITION, centre=CAMERA.centre, omni=PLAIN, refine_centre=False)
+    assert len(result.warnings) == 1 and result.warnings[0].endswith("; using the default radii")
+    assert result.circles is None
+    assert result.sources == {
+        "camera_position": Origin(Source.GIVEN),
+        "centre": Origin(Source.GIVEN),
+        "cutoff_radius": Origin(Source.DEFAULT_NONE),
+        "outer_radius": Origin(Source.DEFAULT_INSIDE_IMAGE),
+    }
+    table = result.table
+    assert list(table.info) == ["sources", "fit", "warnings"]
+    assert table.info["sources"] == {name: str(origin) for name, origin in result.sources.items()}
+    assert table.image_size == SIZE and table.cutoff_radius == 0.0
+
+
+def test_no_centre_at_all_is_an_error() -> None:
+    with pytest.raises(PanomapError, match="no image circle found"):
+        calibrate_camera(LANDMARKS, POSITION, omni=PLAIN)
+    with pytest.raises(PanomapError, match="no image centre"):
+        calibrate_camera(LANDMARKS, POSITION)
+    with pytest.raises(PanomapError, match="no image circle found"):
+        choose_circles(PLAIN)
+
+
+def test_stated_sources_keep_their_order_and_the_rest_follow() -> None:
+    result = calibrate_camera(
+        LANDMARKS,
+        POSITION,
+        centre=CAMERA.centre,
+        cutoff_radius=CAMERA.cutoff_radius,
+        outer_radius=CAMERA.outer_radius,
+        image_size=SIZE,
+        sources={"outer_radius": Source.SET_IN_LEARN, "centre": Source.DETECTED},
+        info={"note": "kept"},
+        refine_centre=True,
+    )
+    assert list(result.table.info["sources"].items()) == [
+        ("outer_radius", "set in panomap learn"),
+        ("centre", "detected, refined with the landmarks"),
+        ("camera_position", "given"),
+        ("cutoff_radius", "given"),
+    ]
+    assert list(result.table.info) == ["sources", "note", "fit", "warnings"]
+    with pytest.raises(PanomapError, match="unknown quantity"):
+        calibrate_camera(LANDMARKS, POSITION, centre=CAMERA.centre, sources={"centre_px": Source.GIVEN})
+
+
+def test_finite_number_says_why() -> None:
+    assert finite_number("2.5") == 2.5 and finite_number(True) == 1.0
+    for value, number in (("x", False), (None, False), ("nan", True), (math.inf, True)):
+        with pytest.raises(NotFinite) as caught:
+            finite_number(value)
+        assert caught.value.number is number
+    with pytest.raises(NotFinite, match="is not a finite number"):
+        finite_number(False, bools=False)
+
+
+def test_pixel_polar_and_inside_image_follow_the_conventions() -> None:
+    # Image angle from +u towards +v (down): the pixel below the centre is at +pi/2.
+    r, phi = pixel_polar([[10.0, 20.0], [13.0, 24.0], [10.0, 23.0]], (10.0, 20.0))
+    np.testing.assert_allclose(r, [0.0, 5.0, 3.0])
+    np.testing.assert_allclose(phi[2], math.pi / 2)
+    # Pixel centres at integers: the image spans [-0.5, W - 0.5] x [-0.5, H - 0.5].
+    u = np.array([-0.5, -0.51, 639.5, 639.51, np.nan])
+    assert inside_image(u, np.zeros_like(u), SIZE).tolist() == [True, False, True, False, False]
+    assert inside_image(0.0, 599.5, SIZE) is True and inside_image(0.0, 599.6, SIZE) is False
