@@ -507,7 +507,7 @@ def create_table(
     entries = fill_entries(fit.model, size, (rho_s, rho_e))
     table_info = dict(info or {})
     table_info["sources"] = sources
-    table_info["fit"] = fit.report() | {"uncertainty": _uncertainty(fit, (rho_s, rho_e))}
+    table_info["fit"] = fit.report().to_dict() | {"uncertainty": _uncertainty(fit, (rho_s, rho_e))}
     table_info["warnings"] = _range_warnings(fit.landmark_range, (rho_s, rho_e))
     return PanoMappingTable(
         entries=entries,
