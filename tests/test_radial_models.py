@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 from numpy.polynomial import polynomial
 
 from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.landmarks import landmarks_to_csv
 from panomap.camera.radial import RadialFunction, fit_radial
 from panomap.camera.radial_models import AUTO_CANDIDATES, MODELS, RADIAL_KINDS
+from panomap.cli.app import main
 from panomap.errors import PanomapError
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks
@@ -94,3 +98,15 @@ def test_refining_the_centre_with_the_paper_model_is_refused_in_library_words() 
         "the paper model takes the centre as given; refining the centre needs another model than 'paper'"
     )
     assert "--" not in error.value.detail
+
+
+def test_the_command_line_names_its_flag_for_the_same_refusal(tmp_path: Path) -> None:
+    camera = standard_cameras((640, 600), centre=(321.4, 298.2))["parabolic"]
+    position = (3.0, 2.0, 2.5)
+    (tmp_path / "lm.csv").write_text(landmarks_to_csv(spread_landmarks(camera, position, 12, np.random.default_rng(5))))
+    arguments = [tmp_path / "lm.csv", "-o", tmp_path / "x.npz", "--camera", *position, "--centre", *camera.centre]
+    result = CliRunner().invoke(main, ["fit", *map(str, arguments), "--model", "paper", "--refine-centre"])
+    assert result.exit_code != 0 and not (tmp_path / "x.npz").exists()
+    assert result.stderr.strip().endswith(
+        "lm.csv: the paper model takes the centre as given; --refine-centre needs another model"
+    )

@@ -130,6 +130,10 @@ class AxisPolynomial(RadialKind):
 
     powers: tuple[int, ...] = (1,)
 
+    def __post_init__(self) -> None:
+        if not self.powers or list(self.powers) != sorted(set(self.powers)) or self.powers[0] < 1:
+            raise ValueError(f"{self.name}: powers must be distinct, increasing and >= 1, not {self.powers}")
+
     @property
     def parameters(self) -> tuple[str, ...]:
         return tuple(f"a{p}" for p in self.powers)
