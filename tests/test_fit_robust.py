@@ -42,7 +42,7 @@ def test_a_landmark_50_px_off_is_flagged_and_the_fit_holds(name: str, seed: int)
         annulus=(camera.cutoff_radius, camera.outer_radius),
     )
     assert fit.outliers == [trial.landmarks.names[trial.outlier]]
-    assert fit.report()["landmarks"][trial.outlier]["outlier"] is True
+    assert fit.report().landmarks[trial.outlier].outlier is True
     # The noise floor is about 3 px (1 cm at 2 m); measured worst errors here are 2-3.3 px.
     assert worst_error(camera, trial, probe_points(camera)) < 4.0
 

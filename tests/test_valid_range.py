@@ -6,7 +6,8 @@ import math
 
 import pytest
 
-from panomap.camera.radial import RadialFunction, valid_elevation_range
+from panomap.camera.radial import RadialFunction
+from panomap.camera.valid_range import valid_elevation_range
 
 
 @pytest.mark.parametrize(

@@ -42,6 +42,7 @@ _EXPORTS = {
     "Landmarks": "calibrate.landmarks",
     "read_landmarks": "calibrate.landmarks",
     "CameraFit": "calibrate.fit",
+    "FitReport": "calibrate.report",
     "fit_camera": "calibrate.fit",
     "Source": "calibrate.sources",
     "Calibration": "calibrate.pipeline",

@@ -17,7 +17,7 @@ squares of the 4th-degree polynomial with the centre pair):
 2. **Handedness** ``s`` from the landmarks' image angles; ``phi0`` and f_r by
    weighted least squares (they separate while the centre is fixed).
 3. **Model choice** by leave-one-out cross-validation among the radial models
-   of :mod:`panomap.radial` that are monotonic over the landmarks and cover
+   of :mod:`panomap.camera.radial_models` that are monotonic over the landmarks and cover
    the annulus (cut-off to image circle) when it is known; the model with
    fewest parameters whose score is within one standard error of the best
    wins (the one-standard-error rule).
@@ -36,26 +36,20 @@ squares of the 4th-degree polynomial with the centre pair):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from ..camera.model import CameraModel
-from ..camera.radial import (
-    AUTO_CANDIDATES,
-    AXES,
-    MODEL_PARAMETERS,
-    MODELS,
-    RadialFunction,
-    coefficient_covariance,
-    fit_radial,
-    is_monotonic,
-    valid_elevation_range,
-)
+from ..camera.radial import RadialFunction, fit_radial
+from ..camera.radial_models import AUTO_CANDIDATES, AXES, MODELS, RadialKind, radial_kind
+from ..camera.uncertainty import coefficient_covariance
+from ..camera.valid_range import is_monotonic, valid_elevation_range
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
 from .landmarks import MIN_LANDMARKS, Landmarks
+from .report import FitReport, FitSettings, LandmarkResidual
 
 MIN_ELEVATION_SPREAD = math.radians(1.0)
 AZIMUTH_MODES = ("fit", "paper")
@@ -98,7 +92,7 @@ class CameraFit:
         Weighted mean resultant length (0..1) of ``phi - s*theta``.
     selection : dict
         Leave-one-out RMS residual (px) of each candidate radial model.
-    settings : dict
+    settings : FitSettings
         The noise model and options used.
     """
 
@@ -115,8 +109,8 @@ class CameraFit:
     axis_source: str
     azimuth_mode: str
     azimuth_consistency: float
-    selection: dict[str, float] = field(default_factory=dict)
-    settings: dict[str, Any] = field(default_factory=dict)
+    selection: dict[str, float]
+    settings: FitSettings
 
     @property
     def rms_px(self) -> float:
@@ -139,41 +133,47 @@ class CameraFit:
         rho = self.rho[self.inliers]
         return float(np.min(rho)), float(np.max(rho))
 
-    def report(self) -> dict[str, Any]:
-        """The fit report as plain data (angles in degrees, residuals in px)."""
-        rows = []
-        for k, record in enumerate(self.landmarks.to_records()):
-            rows.append(
-                record
-                | {
-                    "azimuth_deg": math.degrees(float(self.theta[k])),
-                    "elevation_deg": math.degrees(float(self.rho[k])),
-                    "u_fit": float(self.predicted[k, 0]),
-                    "v_fit": float(self.predicted[k, 1]),
-                    "residual_px": float(self.residuals_px[k]),
-                    "radial_residual_px": float(self.radial_residuals_px[k]),
-                    "outlier": not bool(self.inliers[k]),
-                }
+    def report(self) -> FitReport:
+        """The fit report (angles in degrees, residuals in px)."""
+        rows = tuple(
+            LandmarkResidual(
+                name=name,
+                u=pixel[0],
+                v=pixel[1],
+                X=world[0],
+                Y=world[1],
+                Z=world[2],
+                azimuth_deg=math.degrees(float(self.theta[k])),
+                elevation_deg=math.degrees(float(self.rho[k])),
+                u_fit=float(self.predicted[k, 0]),
+                v_fit=float(self.predicted[k, 1]),
+                residual_px=float(self.residuals_px[k]),
+                radial_residual_px=float(self.radial_residuals_px[k]),
+                outlier=not bool(self.inliers[k]),
             )
+            for k, (name, pixel, world) in enumerate(
+                zip(self.landmarks.names, self.landmarks.pixels.tolist(), self.landmarks.world.tolist(), strict=True)
+            )
+        )
         low, high = self.landmark_range
-        return {
-            "model": self.model.radial.kind,
-            "axis": self.model.radial.axis,
-            "axis_source": self.axis_source,
-            "azimuth_mode": self.azimuth_mode,
-            "s": self.model.s,
-            "phi0_deg": math.degrees(self.model.phi0),
-            "centre": list(self.model.centre),
-            "azimuth_consistency": self.azimuth_consistency,
-            "rms_px": self.rms_px,
-            "max_px": self.max_px,
-            "outliers": self.outliers,
-            "landmark_elevation_range_deg": [math.degrees(low), math.degrees(high)],
-            "model_selection_loo_rms_px": {k: (v if math.isfinite(v) else None) for k, v in self.selection.items()},
-            "covariance": self.covariance.tolist(),
-            "settings": self.settings,
-            "landmarks": rows,
-        }
+        return FitReport(
+            model=self.model.radial.kind,
+            axis=self.model.axis,
+            axis_source=self.axis_source,
+            azimuth_mode=self.azimuth_mode,
+            s=self.model.s,
+            phi0_deg=math.degrees(self.model.phi0),
+            centre=self.model.centre,
+            azimuth_consistency=self.azimuth_consistency,
+            rms_px=self.rms_px,
+            max_px=self.max_px,
+            outliers=tuple(self.outliers),
+            landmark_elevation_range_deg=(math.degrees(low), math.degrees(high)),
+            model_selection_loo_rms_px={k: (v if math.isfinite(v) else None) for k, v in self.selection.items()},
+            covariance=tuple(tuple(row) for row in self.covariance.tolist()),
+            settings=self.settings,
+            landmarks=rows,
+        )
 
 
 @dataclass(frozen=True)
@@ -218,7 +218,7 @@ def fit_camera(
     centre : (u0, v0)
         Image centre, px (the start, with ``refine_centre``).
     model : str
-        ``"auto"`` (leave-one-out choice) or one of ``panomap.radial.MODELS``;
+        ``"auto"`` (leave-one-out choice) or one of ``panomap.camera.radial_models.MODELS``;
         ``"paper"`` is Algorithm 1 exactly.
     azimuth : {"fit", "paper"}
         Estimate ``s`` and ``phi0``, or take the paper's ``s = +1, phi0 = 0``.
@@ -251,8 +251,11 @@ def fit_camera(
         raise PanomapError(f"azimuth must be 'fit' or 'paper', not {azimuth!r}")
     if axis is not None and axis not in AXES:
         raise PanomapError(f"axis must be 'down' or 'up', not {axis!r}")
-    if refine_centre and model == "paper":
-        raise PanomapError("the paper model takes the centre as given; --refine-centre needs another model")
+    requested = None if model == "auto" else radial_kind(model)
+    if refine_centre and requested is not None and requested.centre_given:
+        raise PanomapError(
+            f"the {model} model takes the centre as given; refining the centre needs another model than {model!r}"
+        )
     camera = tuple(float(c) for c in camera_position)
     if len(camera) != 3 or not all(math.isfinite(c) for c in camera):
         raise PanomapError("the camera position must be three finite numbers X0 Y0 Z0")
@@ -301,14 +304,16 @@ def fit_camera(
         s=s,
         azimuth_mode=azimuth,
     )
-    candidates: tuple[str, ...] = AUTO_CANDIDATES if model == "auto" else (model,)
+    candidates = tuple(map(radial_kind, AUTO_CANDIDATES)) if requested is None else (requested,)
     if refine_centre:
-        # The paper's model takes the centre as given (Algorithm 1); choosing it would leave the centre unrefined.
-        candidates = tuple(k for k in candidates if k != "paper")
-    inliers, kind, selection = _choose(candidates, data, annulus, reject_outliers and model != "paper")
+        # A kind that takes the centre as given (Algorithm 1) would leave the centre unrefined.
+        candidates = tuple(k for k in candidates if not k.centre_given)
+    # A kind asked for by name that does not follow the noise model is fitted as printed: no outlier search.
+    robust = reject_outliers and (requested is None or requested.weighted)
+    inliers, kind, selection = _choose(candidates, data, annulus, robust)
     radial, phi0 = _fit(kind, data, inliers)
     centre_fit = (u0, v0)
-    if kind != "paper":
+    if kind.weighted:
         radial, phi0, centre_fit = _refine(radial, phi0, (u0, v0), landmarks.pixels, data, inliers, refine_centre)
     if refine_centre:
         # Model and outliers were chosen about the starting centre, whose error (a few px on a real mirror,
@@ -321,9 +326,7 @@ def fit_camera(
         radial, phi0, centre_fit = _refine(radial, phi0, centre_fit, landmarks.pixels, data, inliers, True)
     weights = _radial_weights(radial, data)
     r_fit, _ = pixel_polar(landmarks.pixels, centre_fit)
-    covariance = coefficient_covariance(
-        radial, rho[inliers], r_fit[inliers], None if kind == "paper" else weights[inliers]
-    )
+    covariance = coefficient_covariance(radial, rho[inliers], r_fit[inliers], weights[inliers])
     camera_model = CameraModel(centre_fit, radial, s, phi0)
     predicted = camera_model.pixels(theta, rho)
     residuals = np.linalg.norm(predicted - landmarks.pixels, axis=1)
@@ -343,13 +346,13 @@ def fit_camera(
         azimuth_mode=azimuth,
         azimuth_consistency=_consistency(phi_now - s * theta, r_now),
         selection=selection,
-        settings={
-            "pixel_sigma_px": float(pixel_sigma),
-            "world_sigma": float(world_sigma),
-            "refine_centre": refine_centre,
-            "reject_outliers": reject_outliers,
-            "model_requested": model,
-        },
+        settings=FitSettings(
+            pixel_sigma_px=float(pixel_sigma),
+            world_sigma=float(world_sigma),
+            refine_centre=refine_centre,
+            reject_outliers=reject_outliers,
+            model_requested=model,
+        ),
     )
 
 
@@ -368,15 +371,13 @@ def _radial_weights(radial: RadialFunction, data: _Data) -> FloatArray:
     return 1.0 / _radial_sigma(radial, data)
 
 
-def _fit(kind: str, data: _Data, subset: FloatArray) -> tuple[RadialFunction, float]:
+def _fit(kind: RadialKind, data: _Data, subset: FloatArray) -> tuple[RadialFunction, float]:
     """f_r and phi0 from the landmarks in ``subset`` (bool mask), the centre fixed."""
     rho, r = data.rho[subset], data.r[subset]
-    if kind == "paper":
-        radial = fit_radial("paper", rho, r, data.axis)
-    else:
-        radial = fit_radial(kind, rho, r, data.axis)
+    radial = fit_radial(kind.name, rho, r, data.axis)
+    if kind.weighted:
         for _ in range(WEIGHT_ITERATIONS):
-            radial = fit_radial(kind, rho, r, data.axis, 1.0 / _radial_sigma(radial, data)[subset])
+            radial = fit_radial(kind.name, rho, r, data.axis, 1.0 / _radial_sigma(radial, data)[subset])
     if data.azimuth_mode == "paper":
         return radial, 0.0
     delta = data.phi[subset] - data.s * data.theta[subset]
@@ -398,7 +399,7 @@ def _pixel_error(radial: RadialFunction, phi0: float, data: _Data, index: int) -
     return float(np.hypot(radial(data.rho[index]) - data.r[index], data.r[index] * angle))
 
 
-def _leave_one_out(kind: str, data: _Data, subset: FloatArray) -> tuple[FloatArray, FloatArray]:
+def _leave_one_out(kind: RadialKind, data: _Data, subset: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Whitened and pixel errors of each landmark in ``subset`` under a fit made without it."""
     members = np.flatnonzero(subset)
     whitened = np.full(members.size, np.inf)
@@ -415,7 +416,7 @@ def _leave_one_out(kind: str, data: _Data, subset: FloatArray) -> tuple[FloatArr
     return np.where(np.isfinite(whitened), whitened, np.inf), np.where(np.isfinite(pixels), pixels, np.inf)
 
 
-def _acceptable(kind: str, data: _Data, subset: FloatArray, annulus: tuple[float, float] | None) -> str | None:
+def _acceptable(kind: RadialKind, data: _Data, subset: FloatArray, annulus: tuple[float, float] | None) -> str | None:
     """Why ``kind`` cannot serve (None when it can): no fit, not monotonic, does not cover the annulus."""
     try:
         radial, _ = _fit(kind, data, subset)
@@ -450,12 +451,12 @@ def annulus_coverage_problem(
 
 
 def _select(
-    candidates: tuple[str, ...],
+    candidates: tuple[RadialKind, ...],
     data: _Data,
     subset: FloatArray,
     annulus: tuple[float, float] | None,
     robust: bool,
-) -> tuple[str, dict[str, float]]:
+) -> tuple[RadialKind, dict[str, float]]:
     """The model with the best leave-one-out score; the LOO RMS (px) of every candidate.
 
     The score is the RMS of the whitened leave-one-out errors; the model with
@@ -471,22 +472,23 @@ def _select(
     reasons: dict[str, str] = {}
     count = int(subset.sum())
     for kind in candidates:
-        needed = MODEL_PARAMETERS[kind] - (1 if kind == "paper" else 0)
+        name = kind.name
+        needed = kind.needed_elevations
         if len(candidates) > 1 and count - 1 < needed + 1:
-            reasons[kind] = f"needs more than {needed + 1} landmarks"
-            selection[kind] = math.inf
+            reasons[name] = f"needs more than {needed + 1} landmarks"
+            selection[name] = math.inf
             continue
         problem = _acceptable(kind, data, subset, annulus)
         if problem:
-            reasons[kind] = problem
-            selection[kind] = math.inf
+            reasons[name] = problem
+            selection[name] = math.inf
             continue
         if len(candidates) == 1:
             return kind, {}
         whitened, pixels = _leave_one_out(kind, data, subset)
-        selection[kind] = float(np.sqrt(np.mean(pixels**2)))
-        scores[kind] = float(np.median(whitened)) if robust else float(np.sqrt(np.mean(whitened**2)))
-        spreads[kind] = float(np.std(whitened**2, ddof=1) / math.sqrt(whitened.size)) if whitened.size > 1 else 0.0
+        selection[name] = float(np.sqrt(np.mean(pixels**2)))
+        scores[name] = float(np.median(whitened)) if robust else float(np.sqrt(np.mean(whitened**2)))
+        spreads[name] = float(np.std(whitened**2, ddof=1) / math.sqrt(whitened.size)) if whitened.size > 1 else 0.0
     usable = {k: v for k, v in scores.items() if math.isfinite(v)}
     if not usable:
         detail = "; ".join(f"{k}: {v}" for k, v in reasons.items())
@@ -500,14 +502,14 @@ def _select(
         spread = spreads[best_kind] if math.isfinite(spreads[best_kind]) else 0.0
         limit = math.sqrt(best**2 + spread)
     for kind in candidates:  # in order of preference: fewer parameters first
-        if kind in usable and usable[kind] <= limit + 1e-12:
+        if kind.name in usable and usable[kind.name] <= limit + 1e-12:
             return kind, selection
     raise AssertionError("unreachable: the best model is among the usable ones")
 
 
 def _choose(
-    candidates: tuple[str, ...], data: _Data, annulus: tuple[float, float] | None, reject_outliers: bool
-) -> tuple[FloatArray, str, dict[str, float]]:
+    candidates: tuple[RadialKind, ...], data: _Data, annulus: tuple[float, float] | None, reject_outliers: bool
+) -> tuple[FloatArray, RadialKind, dict[str, float]]:
     """Inliers, the chosen model and every candidate's leave-one-out RMS (px).
 
     With ``reject_outliers``: choose robustly, drop the worst landmark if it is
@@ -526,9 +528,9 @@ def _choose(
     return inliers, kind, selection
 
 
-def _drop_worst(kind: str, data: _Data, inliers: FloatArray) -> FloatArray | None:
+def _drop_worst(kind: RadialKind, data: _Data, inliers: FloatArray) -> FloatArray | None:
     """``inliers`` less the worst leave-one-out landmark if it exceeds 5 robust sigmas, else None."""
-    if int(inliers.sum()) - 1 < MODEL_PARAMETERS[kind] + 3:
+    if int(inliers.sum()) - 1 < kind.parameter_count + 3:
         return None
     whitened, _ = _leave_one_out(kind, data, inliers)
     scale = max(1.0, float(np.median(whitened)) / MEDIAN_2D_NORM)

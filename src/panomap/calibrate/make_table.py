@@ -10,16 +10,18 @@ standard error, and warnings where the table reaches beyond the landmarks.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from ..camera.radial import radius_standard_error, valid_elevation_range
+from ..camera.uncertainty import radius_standard_error
+from ..camera.valid_range import valid_elevation_range
 from ..errors import PanomapError
 from ..geometry import TWO_PI, pixel_polar
 from ..table.table import PanoMappingTable, check_table_size, fill_entries
 from .fit import CameraFit, annulus_coverage_problem
+from .report import RadiusUncertainty
 from .sources import Source
 
 # Default sizes stop here: bilinear sampling is then within 1e-3 px of the model.
@@ -144,7 +146,7 @@ def table_for(
     size = check_table_size(size)
     entries = fill_entries(fit.model, size, (rho_s, rho_e))
     table_info = dict(info)
-    table_info["fit"] = fit.report() | {"uncertainty": _uncertainty(fit, (rho_s, rho_e))}
+    table_info["fit"] = replace(fit.report(), uncertainty=_uncertainty(fit, (rho_s, rho_e))).to_dict()
     table_info["warnings"] = _range_warnings(fit.landmark_range, (rho_s, rho_e))
     return PanoMappingTable(
         entries=entries,
@@ -158,18 +160,18 @@ def table_for(
     )
 
 
-def _uncertainty(fit: CameraFit, elevation_range: tuple[float, float]) -> dict[str, Any]:
+def _uncertainty(fit: CameraFit, elevation_range: tuple[float, float]) -> RadiusUncertainty:
     """Standard error of f_r (px) on a grid over the table's range, and its summary."""
     rho = np.linspace(*elevation_range, 91)
     se = radius_standard_error(fit.model.radial, fit.covariance, rho)
     low, high = fit.landmark_range
     inside = (rho >= low) & (rho <= high)
-    return {
-        "elevation_deg": np.degrees(rho).tolist(),
-        "radius_se_px": se.tolist(),
-        "max_se_in_landmark_range_px": float(se[inside].max()) if inside.any() else None,
-        "max_se_px": float(se.max()),
-    }
+    return RadiusUncertainty(
+        elevation_deg=tuple(np.degrees(rho).tolist()),
+        radius_se_px=tuple(se.tolist()),
+        max_se_in_landmark_range_px=float(se[inside].max()) if inside.any() else None,
+        max_se_px=float(se.max()),
+    )
 
 
 def _range_warnings(landmark_range: tuple[float, float], table_range: tuple[float, float]) -> list[str]:

@@ -52,6 +52,15 @@ class CameraModel:
         object.__setattr__(self, "s", int(self.s))
         object.__setattr__(self, "phi0", float(self.phi0))
 
+    @property
+    def axis(self) -> str:
+        """Which pole the image centre sees: ``"down"`` (a ceiling camera) or ``"up"``.
+
+        The radial function carries it (it is a function of the angle from
+        that pole, and the table file stores it with it); read it here.
+        """
+        return self.radial.axis
+
     def image_angle(self, theta: ArrayLike) -> FloatArray:
         """Image angle phi (rad) of azimuth(s) theta (rad)."""
         return self.s * np.asarray(theta, dtype=np.float64) + self.phi0

@@ -12,7 +12,8 @@ import click
 from ..calibrate.circles import ImageCircles, draw_overlay, find_image_circles
 from ..calibrate.landmarks import read_landmarks
 from ..calibrate.pipeline import calibrate_camera
-from ..camera.radial import MODELS
+from ..calibrate.report import FitReport, table_fit_report
+from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError
 from ..io.images import read_image, write_image
 from ..table.file import load_table
@@ -124,6 +125,10 @@ def fit(
     size = _image_size(image_size)
     if centre is None and image is None:
         raise PanomapError("no image centre: give --centre U0 V0, or --image OMNI to find it", landmarks)
+    if refine_centre and model != "auto" and radial_kind(model).centre_given:
+        raise PanomapError(
+            f"the {model} model takes the centre as given; --refine-centre needs another model", landmarks
+        )
     try:
         if table_size is not None:
             check_table_size(table_size, what="--size")
@@ -213,44 +218,48 @@ def _image_size(size: tuple[int, int] | None) -> tuple[int, int] | None:
 
 
 def _describe_fit(table: PanoMappingTable) -> str:
-    fit = table.info.get("fit", {})
-    lines = []
-    selection = fit.get("model_selection_loo_rms_px") or {}
-    chosen = fit.get("model")
+    """The fit: the model chosen, the azimuth mapping, every landmark's residual, and the table."""
+    fit = table_fit_report(table)
+    if fit is None:
+        raise PanomapError("the table holds no fit report")
+    selection = fit.model_selection_loo_rms_px
     if selection:
         ranked = ", ".join(
             f"{k} {v:.3f}" if v is not None else f"{k} -"
             for k, v in sorted(selection.items(), key=lambda kv: (kv[1] is None, kv[1] or 0))
         )
-        lines.append(f"radial model: {chosen} (leave-one-out RMS px: {ranked})")
+        chosen = f"radial model: {fit.model} (leave-one-out RMS px: {ranked})"
     else:
-        lines.append(f"radial model: {chosen} (forced)")
-    mirrored = "mirrored" if fit.get("s") == -1 else "not mirrored"
-    lines.append(
-        f"camera looks {fit.get('axis')} ({fit.get('axis_source')}); azimuth mapping phi = "
-        f"{'-' if fit.get('s') == -1 else ''}theta {fit.get('phi0_deg', 0.0):+.2f} deg "
-        f"({mirrored}, {'fitted' if fit.get('azimuth_mode') == 'fit' else 'assumed as in the paper'}; "
-        f"consistency {fit.get('azimuth_consistency', float('nan')):.3f})"
+        chosen = f"radial model: {fit.model} (forced)"
+    mirrored = "mirrored" if fit.s == -1 else "not mirrored"
+    azimuth = (
+        f"camera looks {fit.axis} ({fit.axis_source}); azimuth mapping phi = "
+        f"{'-' if fit.s == -1 else ''}theta {fit.phi0_deg:+.2f} deg "
+        f"({mirrored}, {'fitted' if fit.azimuth_mode == 'fit' else 'assumed as in the paper'}; "
+        f"consistency {fit.azimuth_consistency:.3f})"
     )
-    lines.append(f"{'landmark':<12} {'u':>9} {'v':>9} {'elev deg':>9} {'azim deg':>9} {'resid px':>9}")
-    for row in fit.get("landmarks", []):
+    return "\n".join([chosen, azimuth, _describe_residuals(table, fit)])
+
+
+def _describe_residuals(table: PanoMappingTable, fit: FitReport | None) -> str:
+    """Every landmark's residual, their RMS and the radius's standard error (when there is a fit), and the table."""
+    lines = [f"{'landmark':<12} {'u':>9} {'v':>9} {'elev deg':>9} {'azim deg':>9} {'resid px':>9}"]
+    for row in () if fit is None else fit.landmarks:
         lines.append(
-            f"{row['name'][:12]:<12} {row['u']:9.2f} {row['v']:9.2f} {row['elevation_deg']:9.2f} "
-            f"{row['azimuth_deg']:9.2f} {row['residual_px']:9.3f}"
-            + ("  OUTLIER (not used)" if row.get("outlier") else "")
+            f"{row.name[:12]:<12} {row.u:9.2f} {row.v:9.2f} {row.elevation_deg:9.2f} "
+            f"{row.azimuth_deg:9.2f} {row.residual_px:9.3f}" + ("  OUTLIER (not used)" if row.outlier else "")
         )
-    if fit.get("outliers"):
-        lines.append(f"outliers dropped: {', '.join(fit['outliers'])}")
-    lines.append(
-        f"residuals: RMS {fit.get('rms_px', float('nan')):.3f} px, max {fit.get('max_px', float('nan')):.3f} px"
-    )
-    uncertainty = fit.get("uncertainty") or {}
-    if uncertainty:
-        inside = uncertainty.get("max_se_in_landmark_range_px")
+    if fit is not None and fit.outliers:
+        lines.append(f"outliers dropped: {', '.join(fit.outliers)}")
+    rms, largest = (math.nan, math.nan) if fit is None else (fit.rms_px, fit.max_px)
+    lines.append(f"residuals: RMS {rms:.3f} px, max {largest:.3f} px")
+    uncertainty = None if fit is None else fit.uncertainty
+    if uncertainty is not None:
+        inside = uncertainty.max_se_in_landmark_range_px
         lines.append(
             "radius standard error: up to "
             + (f"{inside:.2f} px within the landmarks' elevations, " if inside is not None else "")
-            + f"up to {uncertainty['max_se_px']:.2f} px over the table's range"
+            + f"up to {uncertainty.max_se_px:.2f} px over the table's range"
         )
     lines.append(_describe_table(table))
     return "\n".join(lines)
@@ -287,9 +296,8 @@ def info(table: Path, as_json: bool) -> None:
         f"image size: {size}; centre (u0, v0) = ({model.centre[0]:.3f}, {model.centre[1]:.3f}) "
         f"({loaded.info.get('sources', {}).get('centre', '?')})",
         f"camera position (X0, Y0, Z0) = {tuple(round(c, 6) for c in loaded.camera_position)}",
-        f"radial model: {model.radial.kind}, axis {model.radial.axis}, coefficients "
+        f"radial model: {model.radial.kind}, axis {model.axis}, coefficients "
         + ", ".join(f"{c:.9g}" for c in model.radial.coefficients),
         f"azimuth mapping: s = {model.s:+d}, phi0 = {math.degrees(model.phi0):.4f} deg",
     ]
-    text = _describe_fit(loaded).splitlines()
-    click.echo("\n".join(lines + text[2:]))
+    click.echo("\n".join([*lines, _describe_residuals(loaded, table_fit_report(loaded))]))

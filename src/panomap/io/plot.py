@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ..calibrate.report import table_fit_report
 from ..files import write_bytes_atomic
 from ..table.table import PanoMappingTable
 
@@ -20,23 +21,23 @@ def fit_plot_png(table: PanoMappingTable) -> bytes:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fit = table.info.get("fit", {})
-    landmarks = fit.get("landmarks", [])
+    fit = table_fit_report(table)
+    landmarks = () if fit is None else fit.landmarks
     u0, v0 = table.model.centre
     rho_s, rho_e = table.elevation_range
     rho = np.linspace(rho_s, rho_e, 512)
-    elevation = np.array([row["elevation_deg"] for row in landmarks], dtype=float)
-    radius = np.array([math.hypot(row["u"] - u0, row["v"] - v0) for row in landmarks], dtype=float)
-    residual = np.array([row["residual_px"] for row in landmarks], dtype=float)
+    elevation = np.array([row.elevation_deg for row in landmarks], dtype=float)
+    radius = np.array([math.hypot(row.u - u0, row.v - v0) for row in landmarks], dtype=float)
+    residual = np.array([row.residual_px for row in landmarks], dtype=float)
 
     figure, (top, bottom) = plt.subplots(
         2, 1, figsize=(7, 6), sharex=True, gridspec_kw={"height_ratios": [3, 1]}, constrained_layout=True
     )
     top.plot(np.degrees(rho), table.model.radial(rho), color="tab:blue", label=f"f_r ({table.model.radial.kind})")
-    uncertainty = fit.get("uncertainty") or {}
-    if uncertainty:
-        band_rho = np.radians(np.asarray(uncertainty["elevation_deg"]))
-        band = 2 * np.asarray(uncertainty["radius_se_px"])
+    uncertainty = None if fit is None else fit.uncertainty
+    if uncertainty is not None:
+        band_rho = np.radians(np.asarray(uncertainty.elevation_deg))
+        band = 2 * np.asarray(uncertainty.radius_se_px)
         curve = table.model.radial(band_rho)
         top.fill_between(
             np.degrees(band_rho), curve - band, curve + band, color="tab:blue", alpha=0.25, label="+-2 standard errors"
@@ -45,10 +46,8 @@ def fit_plot_png(table: PanoMappingTable) -> bytes:
     top.axhline(table.cutoff_radius, color="grey", lw=0.8, ls=":", label="cut-off / outer radius")
     top.axhline(table.outer_radius, color="grey", lw=0.8, ls=":")
     top.set_ylabel("image radius r (px)")
-    top.set_title(
-        f"Radial stretching function: RMS {fit.get('rms_px', float('nan')):.2f} px, "
-        f"max {fit.get('max_px', float('nan')):.2f} px"
-    )
+    rms, largest = (math.nan, math.nan) if fit is None else (fit.rms_px, fit.max_px)
+    top.set_title(f"Radial stretching function: RMS {rms:.2f} px, max {largest:.2f} px")
     top.legend(loc="best")
     top.grid(alpha=0.3)
     bottom.bar(elevation, residual, width=max(np.ptp(np.degrees(rho)) / 150, 0.2), color="tab:red")
@@ -78,12 +77,12 @@ def fit_curve(table: PanoMappingTable) -> dict[str, Any]:
         centre), ``residual_px`` and ``outlier``; ``cutoff_radius_px``,
         ``outer_radius_px``.
     """
-    fit = table.info.get("fit", {})
+    fit = table_fit_report(table)
     u0, v0 = table.model.centre
-    uncertainty = fit.get("uncertainty") or {}
-    if uncertainty:
-        rho = np.radians(np.asarray(uncertainty["elevation_deg"], dtype=float))
-        se = np.asarray(uncertainty["radius_se_px"], dtype=float)
+    uncertainty = None if fit is None else fit.uncertainty
+    if uncertainty is not None:
+        rho = np.radians(np.asarray(uncertainty.elevation_deg, dtype=float))
+        se = np.asarray(uncertainty.radius_se_px, dtype=float)
     else:
         rho = np.linspace(*table.elevation_range, 91)
         se = np.zeros_like(rho)
@@ -93,13 +92,13 @@ def fit_curve(table: PanoMappingTable) -> dict[str, Any]:
         "se_px": se.tolist(),
         "landmarks": [
             {
-                "name": row["name"],
-                "elevation_deg": row["elevation_deg"],
-                "radius_px": math.hypot(row["u"] - u0, row["v"] - v0),
-                "residual_px": row["residual_px"],
-                "outlier": bool(row.get("outlier")),
+                "name": row.name,
+                "elevation_deg": row.elevation_deg,
+                "radius_px": math.hypot(row.u - u0, row.v - v0),
+                "residual_px": row.residual_px,
+                "outlier": row.outlier,
             }
-            for row in fit.get("landmarks", [])
+            for row in (() if fit is None else fit.landmarks)
         ],
         "cutoff_radius_px": table.cutoff_radius,
         "outer_radius_px": table.outer_radius,

@@ -23,8 +23,9 @@ from numpy.typing import NDArray
 
 from ..calibrate.landmarks import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
 from ..calibrate.pipeline import calibrate_camera, choose_circles
+from ..calibrate.report import table_fit_report
 from ..calibrate.sources import Source
-from ..camera.radial import MODELS
+from ..camera.radial_models import MODELS
 from ..errors import PanomapError
 from ..files import write_text_atomic
 from ..geometry import inside_image
@@ -292,9 +293,11 @@ class Session:
         return info
 
     def _fit_report(self, table: PanoMappingTable, pending: str) -> dict[str, Any]:
-        fit = table.info["fit"]
+        fit = table_fit_report(table)
+        if fit is None:  # (fit_table always writes one)
+            raise AssertionError("a table made by fit_table has a fit report")
         curve = fit_curve(table)
-        by_name = {row["name"]: row for row in fit["landmarks"]}
+        by_name = {row.name: row for row in fit.landmarks}
         rows = []
         for entry in self.entries:
             row = by_name.get(entry.name)
@@ -302,32 +305,32 @@ class Session:
                 rows.append(
                     {
                         "name": entry.name,
-                        "residual_px": row["residual_px"],
-                        "outlier": bool(row["outlier"]),
-                        "u_fit": row["u_fit"],
-                        "v_fit": row["v_fit"],
-                        "elevation_deg": row["elevation_deg"],
-                        "azimuth_deg": row["azimuth_deg"],
+                        "residual_px": row.residual_px,
+                        "outlier": row.outlier,
+                        "u_fit": row.u_fit,
+                        "v_fit": row.v_fit,
+                        "elevation_deg": row.elevation_deg,
+                        "azimuth_deg": row.azimuth_deg,
                     }
                 )
         m, n = table.size
-        outliers = ", ".join(fit["outliers"]) or "none"
+        outliers = ", ".join(fit.outliers) or "none"
         return {
             "ok": True,
             "revision": self.revision,
             "complete": len(by_name),
             "need": 0,
             "message": (
-                f"model {fit['model']}: RMS {fit['rms_px']:.3f} px, max {fit['max_px']:.3f} px over "
-                f"{len(by_name) - len(fit['outliers'])} landmarks; outliers: {outliers}{pending}"
+                f"model {fit.model}: RMS {fit.rms_px:.3f} px, max {fit.max_px:.3f} px over "
+                f"{len(by_name) - len(fit.outliers)} landmarks; outliers: {outliers}{pending}"
             ),
-            "model": fit["model"],
-            "rms_px": fit["rms_px"],
-            "max_px": fit["max_px"],
-            "s": fit["s"],
-            "phi0_deg": fit["phi0_deg"],
-            "axis": fit["axis"],
-            "outliers": fit["outliers"],
+            "model": fit.model,
+            "rms_px": fit.rms_px,
+            "max_px": fit.max_px,
+            "s": fit.s,
+            "phi0_deg": fit.phi0_deg,
+            "axis": fit.axis,
+            "outliers": list(fit.outliers),
             "warnings": table.info.get("warnings", []),
             "table_size": [m, n],
             "elevation_range_deg": [math.degrees(x) for x in table.elevation_range],

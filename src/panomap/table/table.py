@@ -207,7 +207,7 @@ class PanoMappingTable:
         rho_nodes = np.append(self.elevations(), self.elevation_range[1])
         radii = radial(rho_nodes[:-1])
         radii = np.append(radii, 2 * radii[-1] - radii[-2])
-        sign = 1.0 if radial.axis == "down" else -1.0
+        sign = 1.0 if self.model.axis == "down" else -1.0
         increasing = sign * radii
         if not (np.all(np.isfinite(increasing)) and np.all(np.diff(increasing) > 0)):
             raise PanomapError(

@@ -124,12 +124,12 @@ class FloorView(View):
     def check_plane(self, table: PanoMappingTable) -> None:
         """Refuse a plane the table's camera cannot see: at or above O_m looking down, at or below looking up."""
         z0 = table.camera_position[2]
-        if table.model.radial.axis == "down" and self.z_plane >= z0:
+        if table.model.axis == "down" and self.z_plane >= z0:
             raise PanomapError(
                 f"the plane Z = {self.z_plane:g} is at or above the camera (Z0 = {z0:g}); "
                 "a camera looking down sees only planes below it"
             )
-        if table.model.radial.axis == "up" and self.z_plane <= z0:
+        if table.model.axis == "up" and self.z_plane <= z0:
             raise PanomapError(
                 f"the plane Z = {self.z_plane:g} is at or below the camera (Z0 = {z0:g}); "
                 "a camera looking up sees only planes above it"

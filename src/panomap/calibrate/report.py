@@ -1,0 +1,349 @@
+"""The fit report: what :func:`panomap.calibrate.fit.fit_camera` chose and how well it fits, typed.
+
+A table stores it in ``info["fit"]`` as :meth:`FitReport.to_dict` writes it
+(angles in degrees, residuals in px), with the radius's standard error over
+the table's range added as ``"uncertainty"``; :func:`table_fit_report` reads
+it back from a table.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
+
+from ..errors import PanomapError
+
+if TYPE_CHECKING:
+    from ..table.table import PanoMappingTable
+
+
+@dataclass(frozen=True)
+class LandmarkResidual:
+    """One landmark and where the fitted model puts it.
+
+    Attributes
+    ----------
+    name : str
+    u, v : float
+        The landmark's pixel, px.
+    X, Y, Z : float
+        Its world point, world units (named as in the landmark files).
+    azimuth_deg, elevation_deg : float
+        Its ray from the camera, deg.
+    u_fit, v_fit : float
+        Where the model puts it, px.
+    residual_px : float
+        Distance from its pixel to that place, px.
+    radial_residual_px : float
+        Fitted minus measured image radius, px.
+    outlier : bool
+        Dropped from the fit.
+    """
+
+    name: str
+    u: float
+    v: float
+    X: float
+    Y: float
+    Z: float
+    azimuth_deg: float
+    elevation_deg: float
+    u_fit: float
+    v_fit: float
+    residual_px: float
+    radial_residual_px: float
+    outlier: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: Any) -> LandmarkResidual:
+        return cls(**_Reader(data, "a landmark row", cls).scalars())
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """The noise model and options a fit used.
+
+    Attributes
+    ----------
+    pixel_sigma_px : float
+        Standard deviation of the landmarks' pixels, px.
+    world_sigma : float
+        Standard deviation of their world coordinates, world units.
+    refine_centre, reject_outliers : bool
+    model_requested : str
+        ``"auto"`` or the radial model asked for.
+    """
+
+    pixel_sigma_px: float
+    world_sigma: float
+    refine_centre: bool
+    reject_outliers: bool
+    model_requested: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: Any) -> FitSettings:
+        return cls(**_Reader(data, "the fit settings", cls).scalars())
+
+
+@dataclass(frozen=True)
+class RadiusUncertainty:
+    """The standard error of f_r over a table's elevation range.
+
+    Attributes
+    ----------
+    elevation_deg : tuple of float
+        The elevations sampled, deg.
+    radius_se_px : tuple of float
+        The standard error of the radius there, px.
+    max_se_in_landmark_range_px : float or None
+        Its largest value between the lowest and highest landmark (None when no
+        sample falls there).
+    max_se_px : float
+        Its largest value over the table's range.
+    """
+
+    elevation_deg: tuple[float, ...]
+    radius_se_px: tuple[float, ...]
+    max_se_in_landmark_range_px: float | None
+    max_se_px: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "elevation_deg": list(self.elevation_deg),
+            "radius_se_px": list(self.radius_se_px),
+            "max_se_in_landmark_range_px": self.max_se_in_landmark_range_px,
+            "max_se_px": self.max_se_px,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any) -> RadiusUncertainty:
+        uncertainty = _Reader(data, "the radius uncertainty", cls)
+        elevation = uncertainty.numbers("elevation_deg")
+        se = uncertainty.numbers("radius_se_px")
+        if len(se) != len(elevation):
+            raise _malformed(f"the radius uncertainty has {len(elevation)} elevations and {len(se)} standard errors")
+        return cls(elevation_deg=elevation, radius_se_px=se, **uncertainty.scalars())
+
+
+@dataclass(frozen=True)
+class FitReport:
+    """What a camera fit chose and how well it fits the landmarks.
+
+    Attributes
+    ----------
+    model : str
+        The radial model kind chosen.
+    axis : {"down", "up"}
+    axis_source : {"given", "detected"}
+    azimuth_mode : {"fit", "paper"}
+    s : {+1, -1}
+    phi0_deg : float
+    centre : (u0, v0)
+        The image centre, px (refined, when the fit refined it).
+    azimuth_consistency : float
+        Weighted mean resultant length (0..1) of ``phi - s*theta``.
+    rms_px, max_px : float
+        RMS and largest residual over the inliers, px.
+    outliers : tuple of str
+        Names of the landmarks dropped.
+    landmark_elevation_range_deg : (low, high)
+        Lowest and highest inlier elevation, deg.
+    model_selection_loo_rms_px : mapping of str to float or None
+        Leave-one-out RMS residual (px) of each candidate model (None where it
+        could not serve); empty when the model was forced.
+    covariance : tuple of tuple of float
+        Covariance (p, p) of the radial model's coefficients.
+    settings : FitSettings
+    landmarks : tuple of LandmarkResidual
+        Every landmark, outliers included, in the order given.
+    uncertainty : RadiusUncertainty or None
+        The radius's standard error over a table's range: added when a table
+        is made from the fit.
+    """
+
+    model: str
+    axis: str
+    axis_source: str
+    azimuth_mode: str
+    s: int
+    phi0_deg: float
+    centre: tuple[float, float]
+    azimuth_consistency: float
+    rms_px: float
+    max_px: float
+    outliers: tuple[str, ...]
+    landmark_elevation_range_deg: tuple[float, float]
+    model_selection_loo_rms_px: Mapping[str, float | None]
+    covariance: tuple[tuple[float, ...], ...]
+    settings: FitSettings
+    landmarks: tuple[LandmarkResidual, ...]
+    uncertainty: RadiusUncertainty | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "model_selection_loo_rms_px", MappingProxyType(dict(self.model_selection_loo_rms_px)))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The report as plain data, in the layout a table file stores (``uncertainty`` only when known)."""
+        data: dict[str, Any] = {
+            "model": self.model,
+            "axis": self.axis,
+            "axis_source": self.axis_source,
+            "azimuth_mode": self.azimuth_mode,
+            "s": self.s,
+            "phi0_deg": self.phi0_deg,
+            "centre": list(self.centre),
+            "azimuth_consistency": self.azimuth_consistency,
+            "rms_px": self.rms_px,
+            "max_px": self.max_px,
+            "outliers": list(self.outliers),
+            "landmark_elevation_range_deg": list(self.landmark_elevation_range_deg),
+            "model_selection_loo_rms_px": dict(self.model_selection_loo_rms_px),
+            "covariance": [list(row) for row in self.covariance],
+            "settings": self.settings.to_dict(),
+            "landmarks": [row.to_dict() for row in self.landmarks],
+        }
+        if self.uncertainty is not None:
+            data["uncertainty"] = self.uncertainty.to_dict()
+        return data
+
+    @classmethod
+    def from_dict(cls, data: Any) -> FitReport:
+        """Read a report back, as a table file stores it.
+
+        Raises
+        ------
+        PanomapError
+            If an entry is missing, unexpected or of the wrong type.
+        """
+        report = _Reader(data, "the fit report", cls, optional=("uncertainty",))
+        selection = report.mapping("model_selection_loo_rms_px")
+        for name, value in selection.items():
+            if value is not None and not _is_number(value):
+                raise _malformed(f"the selection score of {name!r} is {value!r}")
+        covariance = tuple(_numbers(row, "a covariance row") for row in report.items("covariance"))
+        if any(len(row) != len(covariance) for row in covariance):
+            raise _malformed("the covariance is not a square matrix")
+        centre = report.numbers("centre")
+        elevation_range = report.numbers("landmark_elevation_range_deg")
+        if len(centre) != 2 or len(elevation_range) != 2:
+            raise _malformed("the centre or the elevation range is not a pair")
+        scalars = report.scalars()
+        if scalars["s"] not in (1, -1):
+            raise _malformed(f"s is {scalars['s']}, not +1 or -1")
+        uncertainty = data.get("uncertainty")
+        return cls(
+            centre=(centre[0], centre[1]),
+            outliers=tuple(_text(name, "an outlier's name") for name in report.items("outliers")),
+            landmark_elevation_range_deg=(elevation_range[0], elevation_range[1]),
+            model_selection_loo_rms_px={
+                str(name): None if value is None else float(value) for name, value in selection.items()
+            },
+            covariance=covariance,
+            settings=FitSettings.from_dict(data["settings"]),
+            landmarks=tuple(LandmarkResidual.from_dict(row) for row in report.items("landmarks")),
+            uncertainty=None if uncertainty is None else RadiusUncertainty.from_dict(uncertainty),
+            **scalars,
+        )
+
+
+def table_fit_report(table: PanoMappingTable) -> FitReport | None:
+    """The fit report a table holds (None for a table made without a fit).
+
+    Raises
+    ------
+    PanomapError
+        If the table's report is malformed.
+    """
+    data = table.info.get("fit")
+    return None if data is None else FitReport.from_dict(data)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _malformed(detail: str) -> PanomapError:
+    return PanomapError(f"the fit report is malformed ({detail})")
+
+
+def _numbers(values: Any, what: str) -> tuple[float, ...]:
+    if not isinstance(values, list) or not all(_is_number(v) for v in values):
+        raise _malformed(f"{what} is not a list of numbers")
+    return tuple(float(v) for v in values)
+
+
+def _text(value: Any, what: str) -> str:
+    if not isinstance(value, str):
+        raise _malformed(f"{what} is not text")
+    return value
+
+
+class _Reader:
+    """Typed access to one JSON object of the report; every failure is a PanomapError saying where."""
+
+    def __init__(self, data: Any, what: str, cls: type, optional: tuple[str, ...] = ()) -> None:
+        self.fields = [f for f in fields(cls) if f.name not in optional]
+        keys = [f.name for f in self.fields]
+        if not isinstance(data, dict):
+            raise _malformed(f"{what} is not an object")
+        missing = [key for key in keys if key not in data]
+        if missing:
+            raise _malformed(f"{what} lacks {', '.join(missing)}")
+        unexpected = [str(key) for key in data if key not in keys and key not in optional]
+        if unexpected:
+            raise _malformed(f"{what} has unexpected entries {', '.join(unexpected)}")
+        self.data: dict[str, Any] = data
+        self.what = what
+
+    def _where(self, key: str) -> str:
+        return f"{key!r} in {self.what}"
+
+    def _typed(self, key: str, types: type | tuple[type, ...], kind: str) -> Any:
+        """The value at ``key`` if it is of ``types`` (True and False are not numbers)."""
+        value = self.data[key]
+        if not isinstance(value, types) or (isinstance(value, bool) and types is not bool):
+            raise _malformed(f"{self._where(key)} is not {kind}")
+        return value
+
+    def number(self, key: str) -> float:
+        return float(self._typed(key, (int, float), "a number"))
+
+    def optional_number(self, key: str) -> float | None:
+        return None if self.data[key] is None else self.number(key)
+
+    def integer(self, key: str) -> int:
+        return int(self._typed(key, int, "an integer"))
+
+    def flag(self, key: str) -> bool:
+        return bool(self._typed(key, bool, "true or false"))
+
+    def text(self, key: str) -> str:
+        return _text(self.data[key], self._where(key))
+
+    def items(self, key: str) -> list[Any]:
+        return list(self._typed(key, list, "a list"))
+
+    def mapping(self, key: str) -> dict[Any, Any]:
+        return dict(self._typed(key, dict, "an object"))
+
+    def numbers(self, key: str) -> tuple[float, ...]:
+        return _numbers(self.data[key], self._where(key))
+
+    def scalars(self) -> dict[str, Any]:
+        """The fields of a scalar type (a number, text, true or false), read by their names."""
+        read = {
+            "float": self.number,
+            "float | None": self.optional_number,
+            "int": self.integer,
+            "bool": self.flag,
+            "str": self.text,
+        }
+        return {f.name: read[str(f.type)](f.name) for f in self.fields if str(f.type) in read}

@@ -1,0 +1,237 @@
+"""The radial model kinds: each one class (or one instance of a family) registered once.
+
+Convention: ``rho`` is the elevation (rad, Z up, negative below the horizon
+through O_m); ``r`` the distance (px) from the image centre. ``axis`` says
+which pole the image centre sees: ``"down"`` (a ceiling camera, the paper's
+case: the centre sees rho = -pi/2) or ``"up"`` (the centre sees +pi/2).
+``alpha`` is the angle of a ray from that pole: ``rho + pi/2`` looking down,
+``pi/2 - rho`` looking up.
+
+A kind declares its name, its parameters in order, how it evaluates
+``r = f_r(rho)`` from them and how it is fitted to landmark (rho, r) pairs,
+and what the fit may do with it (:attr:`RadialKind.centre_given`,
+:attr:`RadialKind.weighted`). :data:`RADIAL_KINDS` holds them by name, in the
+order the command line lists them; a new model is one class and one line in
+:data:`RADIAL_KINDS`. The kinds:
+
+- ``paper``: ``(a0, a1, a2, a3, a4)``, ``r = sum a_k rho^k`` (eq. 2), fitted
+  by least squares together with the centre pair (the optical axis landing on
+  the image centre, r = 0), exactly as Algorithm 1 prints it.
+- ``odd1``, ``odd3``, ``odd5``: ``(a1[, a3[, a5]])``,
+  ``r = a1 alpha + a3 alpha^3 + a5 alpha^5``: the usual fisheye form; passes
+  through the axis by construction.
+- ``poly2``, ``poly3``: ``(a1, a2[, a3])``, ``r = a1 alpha + a2 alpha^2 + a3 alpha^3``:
+  low-degree polynomials through the optical axis (r = 0 where it lands).
+- ``unified``: ``(gamma, xi)``, ``r = gamma sin(alpha) / (xi + cos(alpha))``:
+  the unified model of single-viewpoint mirror cameras (xi = 1 parabolic,
+  0 < xi < 1 hyperbolic, xi = 0 a pinhole); NaN where ``xi + cos(alpha) <= 0``.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import PanomapError
+from ..geometry import HALF_PI, FloatArray
+
+AXES = ("down", "up")
+
+
+def axis_elevation(axis: str) -> float:
+    """Elevation (rad) that the image centre sees: -pi/2 down, +pi/2 up."""
+    return -HALF_PI if axis == "down" else HALF_PI
+
+
+def alpha_of_rho(rho: ArrayLike, axis: str) -> FloatArray:
+    """Angle (rad) of a ray from the pole the image centre sees."""
+    rho = np.asarray(rho, dtype=np.float64)
+    return rho + HALF_PI if axis == "down" else HALF_PI - rho
+
+
+@dataclass(frozen=True)
+class RadialKind(ABC):
+    """One radial model kind: its parameters, its evaluation and its fit.
+
+    Attributes
+    ----------
+    name : str
+        The name in files, on the command line and in reports.
+    selection_rank : int
+        Automatic selection prefers fewer parameters; among kinds with as many,
+        the lower rank.
+    centre_given : bool (class)
+        The centre pair (r = 0 where the optical axis lands) is one of the
+        fit's data: the centre is taken as given and cannot be refined.
+    weighted : bool (class)
+        The fit follows the noise model: weighted least squares, the joint
+        refinement on whitened residuals and, when the kind is asked for by
+        name, outlier rejection. False for Algorithm 1, printed unweighted.
+    """
+
+    name: str
+    selection_rank: int = 0
+
+    centre_given: ClassVar[bool] = False
+    weighted: ClassVar[bool] = True
+
+    @property
+    @abstractmethod
+    def parameters(self) -> tuple[str, ...]:
+        """The parameters' names, in the order of the coefficients."""
+
+    @property
+    def parameter_count(self) -> int:
+        return len(self.parameters)
+
+    @property
+    def needed_elevations(self) -> int:
+        """Distinct landmark elevations a fit needs (the centre pair gives one more)."""
+        return self.parameter_count - (1 if self.centre_given else 0)
+
+    @abstractmethod
+    def evaluate(self, coefficients: tuple[float, ...], rho: FloatArray, axis: str) -> FloatArray:
+        """Image radius (px) at elevations ``rho`` (rad); NaN where undefined."""
+
+    @abstractmethod
+    def fit(self, rho: FloatArray, r: FloatArray, axis: str, weights: FloatArray | None) -> tuple[float, ...]:
+        """Least-squares coefficients from landmark (rho, r) pairs, weighted by ``weights`` (1/px) if ``weighted``."""
+
+
+@dataclass(frozen=True)
+class PaperPolynomial(RadialKind):
+    """The paper's 4th-degree polynomial in rho (eq. 2), fitted as Algorithm 1 prints it."""
+
+    centre_given: ClassVar[bool] = True
+    weighted: ClassVar[bool] = False
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        return ("a0", "a1", "a2", "a3", "a4")
+
+    def evaluate(self, coefficients: tuple[float, ...], rho: FloatArray, axis: str) -> FloatArray:
+        return np.asarray(np.polynomial.polynomial.polyval(rho, coefficients), dtype=np.float64)
+
+    def fit(self, rho: FloatArray, r: FloatArray, axis: str, weights: FloatArray | None) -> tuple[float, ...]:
+        # Algorithm 1, step 3: the centre pair first, then every landmark, raw rho; unweighted.
+        rho_all, r_all = with_centre_pair(rho, r, axis)
+        design = np.vander(rho_all, self.parameter_count, increasing=True)
+        coefficients, *_ = np.linalg.lstsq(design, r_all, rcond=None)
+        return tuple(coefficients)
+
+
+@dataclass(frozen=True)
+class AxisPolynomial(RadialKind):
+    """``r = sum a_p alpha^p`` over ``powers`` (all >= 1): a polynomial through the optical axis."""
+
+    powers: tuple[int, ...] = (1,)
+
+    def __post_init__(self) -> None:
+        if not self.powers or list(self.powers) != sorted(set(self.powers)) or self.powers[0] < 1:
+            raise ValueError(f"{self.name}: powers must be distinct, increasing and >= 1, not {self.powers}")
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        return tuple(f"a{p}" for p in self.powers)
+
+    def evaluate(self, coefficients: tuple[float, ...], rho: FloatArray, axis: str) -> FloatArray:
+        full = np.zeros(max(self.powers) + 1)  # coefficients of alpha^0, alpha^1, ...
+        full[list(self.powers)] = coefficients
+        return np.asarray(np.polynomial.polynomial.polyval(alpha_of_rho(rho, axis), full), dtype=np.float64)
+
+    def fit(self, rho: FloatArray, r: FloatArray, axis: str, weights: FloatArray | None) -> tuple[float, ...]:
+        alpha = alpha_of_rho(rho, axis)
+        w = np.ones_like(r) if weights is None else np.asarray(weights, dtype=np.float64)
+        design = np.stack([alpha**p for p in self.powers], axis=-1)
+        coefficients, *_ = np.linalg.lstsq(design * w[:, None], r * w, rcond=None)
+        return tuple(coefficients)
+
+
+@dataclass(frozen=True)
+class Unified(RadialKind):
+    """The unified model of single-viewpoint mirror cameras, ``r = gamma sin(alpha) / (xi + cos(alpha))``."""
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        return ("gamma", "xi")
+
+    def evaluate(self, coefficients: tuple[float, ...], rho: FloatArray, axis: str) -> FloatArray:
+        alpha = alpha_of_rho(rho, axis)
+        gamma, xi = coefficients
+        denominator = xi + np.cos(alpha)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = gamma * np.sin(alpha) / denominator
+        return np.where(denominator > 0, r, np.nan)
+
+    def fit(self, rho: FloatArray, r: FloatArray, axis: str, weights: FloatArray | None) -> tuple[float, ...]:
+        """(gamma, xi) minimising the weighted radial residual; gamma is solved in closed form."""
+        from scipy import optimize  # here, not at the top: importing SciPy costs every command 0.6 s
+
+        alpha = alpha_of_rho(rho, axis)
+        w = np.ones_like(r) if weights is None else np.asarray(weights, dtype=np.float64)
+        xi_low = max(0.0, -float(np.cos(alpha.max()))) + 1e-6
+        xi_high = 50.0
+
+        def profile(xi: float) -> tuple[float, float]:
+            g = w * np.sin(alpha) / (xi + np.cos(alpha))
+            gamma = float(g @ (w * r) / (g @ g))
+            return float(np.sum((gamma * g - w * r) ** 2)), gamma
+
+        grid = xi_low + (xi_high - xi_low) * np.linspace(0.0, 1.0, 401) ** 3
+        costs = np.array([profile(x)[0] for x in grid])
+        best = int(np.argmin(costs))
+        lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+        result = optimize.minimize_scalar(
+            lambda x: profile(x)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}
+        )
+        xi = float(result.x) if result.fun <= costs[best] else float(grid[best])
+        return profile(xi)[1], xi
+
+
+def with_centre_pair(rho: FloatArray, r: FloatArray, axis: str) -> tuple[FloatArray, FloatArray]:
+    """The paper's (O_c, O_m) pair first, then the landmarks: ``r = 0`` at the pole the centre sees."""
+    return np.concatenate([[axis_elevation(axis)], rho]), np.concatenate([[0.0], r])
+
+
+def _registry(*kinds: RadialKind) -> dict[str, RadialKind]:
+    registry: dict[str, RadialKind] = {}
+    for kind in kinds:
+        if kind.name in registry:
+            raise AssertionError(f"radial model {kind.name!r} is registered twice")
+        registry[kind.name] = kind
+    return registry
+
+
+# Every radial model, by name, in the order the command line lists them.
+RADIAL_KINDS: dict[str, RadialKind] = _registry(
+    PaperPolynomial("paper"),
+    AxisPolynomial("odd1", powers=(1,)),
+    AxisPolynomial("odd3", powers=(1, 3)),
+    AxisPolynomial("odd5", powers=(1, 3, 5)),
+    AxisPolynomial("poly2", selection_rank=2, powers=(1, 2)),
+    AxisPolynomial("poly3", selection_rank=2, powers=(1, 2, 3)),
+    Unified("unified", selection_rank=1),
+)
+MODELS = tuple(RADIAL_KINDS)
+# The order in which automatic selection prefers models that tie: fewer parameters first.
+AUTO_CANDIDATES = tuple(
+    sorted(MODELS, key=lambda name: (RADIAL_KINDS[name].parameter_count, RADIAL_KINDS[name].selection_rank))
+)
+
+
+def radial_kind(name: str) -> RadialKind:
+    """The registered kind called ``name``.
+
+    Raises
+    ------
+    PanomapError
+        If there is none.
+    """
+    kind = RADIAL_KINDS.get(name)
+    if kind is None:
+        raise PanomapError(f"unknown radial model {name!r} (known: {', '.join(MODELS)})")
+    return kind

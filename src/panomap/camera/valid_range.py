@@ -1,0 +1,100 @@
+"""Where a radial function can serve a table: finite, monotonic, within the annulus.
+
+Convention: as in :mod:`panomap.camera.radial_models`; "monotonic in the
+axis's sense" means r grows with rho looking down and falls looking up.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import PanomapError
+from ..geometry import HALF_PI
+
+if TYPE_CHECKING:
+    from .radial import RadialFunction
+
+
+def is_monotonic(radial: RadialFunction, rho_low: float, rho_high: float, samples: int = 1024) -> bool:
+    """Whether f_r is finite and strictly monotonic, in the axis's sense, on [low, high]."""
+    rho = np.linspace(rho_low, rho_high, samples)
+    r = radial(rho)
+    if not np.all(np.isfinite(r)):
+        return False
+    steps = np.diff(r)
+    return bool(np.all(steps > 0) if radial.axis == "down" else np.all(steps < 0))
+
+
+def valid_elevation_range(
+    radial: RadialFunction,
+    landmark_range: tuple[float, float],
+    cutoff_radius: float,
+    outer_radius: float,
+    samples: int = 20001,
+) -> tuple[float, float]:
+    """The widest elevation interval around the landmarks where the table is valid.
+
+    Grows ``landmark_range`` in both directions while f_r stays finite,
+    strictly monotonic in the axis's sense, and within
+    ``[cutoff_radius, outer_radius]``; ends that stop at a radius are refined
+    to where f_r equals that radius.
+
+    Returns
+    -------
+    (rho_s, rho_e) : tuple of float
+        Elevations (rad), ``rho_s < rho_e``.
+
+    Raises
+    ------
+    PanomapError
+        If f_r is not monotonic over the landmarks or a landmark falls outside
+        the annulus.
+    """
+    low, high = landmark_range
+    if not is_monotonic(radial, low, high):
+        raise PanomapError(
+            f"the fitted radial function ({radial.kind}) is not monotonic between the "
+            f"landmarks' elevations {np.degrees(low):.2f} and {np.degrees(high):.2f} deg; "
+            "the landmarks are inconsistent or too few"
+        )
+    r_low, r_high = sorted((float(radial(low)), float(radial(high))))
+    if r_low < cutoff_radius - 1e-9 or r_high > outer_radius + 1e-9:
+        raise PanomapError(
+            f"landmarks reach radii {r_low:.1f}..{r_high:.1f} px, outside the annulus "
+            f"{cutoff_radius:.1f}..{outer_radius:.1f} px given by the cut-off and outer radii"
+        )
+    # The landmarks' ends join the grid; grid points within 1e-9 rad of them go, or a step of
+    # ~1e-17 rad between near-duplicates could round to no rise and stop the growth there.
+    grid = np.linspace(-HALF_PI, HALF_PI, samples)
+    grid = np.sort(np.concatenate([grid[(np.abs(grid - low) > 1e-9) & (np.abs(grid - high) > 1e-9)], [low, high]]))
+    r = radial(grid)
+    sign = 1.0 if radial.axis == "down" else -1.0
+    inside = np.isfinite(r) & (r >= cutoff_radius) & (r <= outer_radius)
+    rising = np.concatenate([sign * np.diff(r) > 0, [False]])  # step from k to k+1 keeps order
+    start = int(np.searchsorted(grid, low))
+    stop = int(np.searchsorted(grid, high))
+    while start > 0 and inside[start - 1] and rising[start - 1]:
+        start -= 1
+    while stop < grid.size - 1 and inside[stop + 1] and rising[stop]:
+        stop += 1
+    rho_s, rho_e = float(grid[start]), float(grid[stop])
+    if start > 0 and rising[start - 1] and np.isfinite(r[start - 1]):
+        rho_s = _refine_bound(radial, grid[start - 1], grid[start], cutoff_radius, outer_radius)
+    if stop < grid.size - 1 and rising[stop] and np.isfinite(r[stop + 1]):
+        rho_e = _refine_bound(radial, grid[stop], grid[stop + 1], cutoff_radius, outer_radius)
+    return rho_s, rho_e
+
+
+def _refine_bound(radial: RadialFunction, a: float, b: float, cutoff_radius: float, outer_radius: float) -> float:
+    """Elevation in [a, b] where f_r crosses the cut-off or outer radius."""
+    from scipy import optimize  # here, not at the top: importing SciPy costs every command 0.6 s
+
+    ra, rb = float(radial(a)), float(radial(b))
+    for bound in (cutoff_radius, outer_radius):
+        if (ra - bound) * (rb - bound) <= 0 and ra != rb:
+            return float(optimize.brentq(lambda x, level=bound: float(radial(x)) - level, a, b, xtol=1e-14))
+    # Neither crossed (cannot happen when exactly one endpoint is inside): keep the inside one.
+    inside_a = cutoff_radius <= ra <= outer_radius
+    return float(a if inside_a else b)
