@@ -7,8 +7,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 from click.testing import CliRunner
-from panomap.cli.app import main
 
+from panomap.cli.app import main
 from panomap.simulate import load_room, render_rays
 from panomap.table.table import load_table
 from panomap.views.views import Band, CylinderPanorama

@@ -17,10 +17,10 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from panomap.cli.app import main
 
 from panomap.camera.model import CameraModel
 from panomap.camera.radial import RadialFunction
+from panomap.cli.app import main
 from panomap.errors import PanomapError
 from panomap.io.images import map_to_pgm, save_map_pgm
 from panomap.remap import Remapper
