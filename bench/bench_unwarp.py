@@ -20,6 +20,7 @@ from collections.abc import Callable
 import numpy as np
 
 from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.landmarks import Landmarks
 from panomap.calibrate.make_table import create_table
 from panomap.remap import Remapper
 from panomap.simulate import standard_cameras
@@ -71,7 +72,7 @@ def main() -> None:
 
     camera = standard_cameras(IMAGE_SIZE)["parabolic"]
     position = (0.0, 0.0, 2.5)
-    landmarks = spread_landmarks(camera, position, 20, np.random.default_rng(0))
+    landmarks = Landmarks(*spread_landmarks(camera, position, 20, np.random.default_rng(0)))
     fit = fit_camera(landmarks, position, camera.centre, image_size=IMAGE_SIZE)
     table = create_table(
         fit, image_size=IMAGE_SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=camera.outer_radius

@@ -88,7 +88,7 @@ def make_clip(folder: Path, frames: int) -> tuple[Path, Path, float]:
     x0, y0, z0 = (float(c) for c in room.camera)
     position = (x0, y0, z0)
     horizon = float(camera.radius_of_rho(0.0))
-    landmarks = spread_landmarks(camera, position, 40, np.random.default_rng(0))
+    landmarks = Landmarks(*spread_landmarks(camera, position, 40, np.random.default_rng(0)))
     below = np.hypot(*(landmarks.pixels - np.asarray(camera.centre)).T) < horizon - 1
     landmarks = Landmarks(
         landmarks.pixels[below],

@@ -20,9 +20,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from panomap.learn.example import make_example  # noqa: E402
 from panomap.learn.server import make_server, serve_in_thread  # noqa: E402
 from panomap.learn.session import Session  # noqa: E402
+from panomap.simulate.example import make_example  # noqa: E402
 
 ARGS = [
     "--headless",

@@ -13,8 +13,9 @@ from panomap.calibrate.sources import Origin, Source
 from panomap.errors import PanomapError
 from panomap.geometry import inside_image, pixel_polar
 from panomap.simulate import standard_cameras
-from panomap.simulate.sampling import spread_landmarks
 from panomap.values import NotFinite, finite_number
+
+from helpers import spread_landmarks
 
 SIZE = (640, 600)
 CAMERA = standard_cameras(SIZE, centre=(321.4, 298.2), s=1, phi0=-0.5)["parabolic"]

@@ -21,8 +21,10 @@ from panomap.calibrate.circles import find_image_circles
 from panomap.calibrate.landmarks import landmarks_to_csv
 from panomap.cli.app import main
 from panomap.errors import PanomapError
-from panomap.simulate import load_room, render, spread_landmarks, standard_cameras
+from panomap.simulate import load_room, render, standard_cameras
 from panomap.table.file import load_table
+
+from helpers import spread_landmarks
 
 SIZE = (640, 600)
 ROOM = load_room()

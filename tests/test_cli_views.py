@@ -10,41 +10,23 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from click.testing import CliRunner, Result
 
-from panomap.calibrate.landmarks import landmarks_to_csv
-from panomap.cli.app import main
 from panomap.simulate import standard_cameras
-from panomap.simulate.sampling import spread_landmarks
 from panomap.table.file import load_table
 from panomap.views import FloorView, PerspectiveView, build_map
+
+from helpers import assert_one_line_error, run, write_cli_inputs
 
 SIZE = (640, 600)
 CAMERA = standard_cameras(SIZE, centre=(321.4, 298.2), s=1, phi0=-0.5)["parabolic"]
 POSITION = (3.0, 2.0, 2.5)
 
 
-def run(*args: object) -> Result:
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def assert_one_line_error(result: Result, *fragments: str) -> None:
-    assert result.exit_code != 0
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, result.stderr
-    assert "Traceback" not in result.output + result.stderr
-    for fragment in fragments:
-        assert fragment in lines[0], lines[0]
-
-
 @pytest.fixture(scope="module")
 def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder with a fitted table (cam.npz) and an omni-image of its camera (omni.png)."""
     folder = tmp_path_factory.mktemp("views")
-    landmarks = spread_landmarks(CAMERA, POSITION, 12, np.random.default_rng(5))
-    (folder / "lm.csv").write_text(landmarks_to_csv(landmarks))
-    v, u = np.mgrid[0 : SIZE[1], 0 : SIZE[0]]
-    cv2.imwrite(str(folder / "omni.png"), np.stack([u % 256, v % 256, (u + v) % 256], axis=-1).astype(np.uint8))
+    write_cli_inputs(folder, CAMERA, POSITION)
     result = run(
         "fit",
         folder / "lm.csv",

@@ -15,9 +15,10 @@ from panomap.calibrate.make_table import create_table
 from panomap.calibrate.report import FitReport, LandmarkResidual, RadiusUncertainty, table_fit_report
 from panomap.errors import PanomapError
 from panomap.simulate import standard_cameras
-from panomap.simulate.sampling import spread_landmarks
 from panomap.table.file import load_table
 from panomap.table.table import PanoMappingTable
+
+from helpers import spread_landmarks
 
 SIZE = (640, 600)
 POSITION = (3.0, 2.0, 2.5)

@@ -6,17 +6,19 @@ import numpy as np
 import pytest
 
 from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.landmarks import Landmarks
 from panomap.calibrate.make_table import create_table
 from panomap.simulate.scenarios import (
     CAMERA_POSITION,
     IMAGE_SIZE,
     make_landmarks,
     scenario_cameras,
-    worst_error,
 )
 from panomap.simulate.scenarios import (
     test_points as probe_points,
 )
+
+from helpers import worst_error
 
 CAMERAS = scenario_cameras()
 
@@ -35,7 +37,7 @@ def test_a_landmark_50_px_off_is_flagged_and_the_fit_holds(name: str, seed: int)
     trial = make_landmarks(camera, 12, np.random.default_rng(seed), outlier_px=50.0)
     assert trial.outlier is not None
     fit = fit_camera(
-        trial.landmarks,
+        Landmarks(*trial.landmarks),
         CAMERA_POSITION,
         camera.centre,
         image_size=IMAGE_SIZE,
@@ -50,7 +52,7 @@ def test_a_landmark_50_px_off_is_flagged_and_the_fit_holds(name: str, seed: int)
 def test_the_paper_model_keeps_every_landmark_and_is_unweighted() -> None:
     camera = CAMERAS["equidistant"]
     trial = make_landmarks(camera, 12, np.random.default_rng(3), outlier_px=50.0)
-    fit = fit_camera(trial.landmarks, CAMERA_POSITION, camera.centre, model="paper")
+    fit = fit_camera(Landmarks(*trial.landmarks), CAMERA_POSITION, camera.centre, model="paper")
     assert fit.outliers == []
     rho = np.concatenate([[-np.pi / 2], fit.rho])
     r = np.concatenate([[0.0], np.hypot(*(trial.landmarks.pixels - camera.centre).T)])
@@ -69,8 +71,6 @@ def test_uncertainty_grows_beyond_the_landmarks_and_extrapolation_is_warned() ->
         )
         < -30
     )
-    from panomap.calibrate.landmarks import Landmarks
-
     lower = Landmarks(
         trial.landmarks.pixels[keep],
         trial.landmarks.world[keep],
@@ -92,7 +92,7 @@ def test_a_model_within_one_standard_error_with_fewer_parameters_is_chosen() -> 
     camera = CAMERAS["equidistant"]
     trial = make_landmarks(camera, 10, np.random.default_rng(7007), spread=False)
     fit = fit_camera(
-        trial.landmarks,
+        Landmarks(*trial.landmarks),
         CAMERA_POSITION,
         camera.centre,
         image_size=IMAGE_SIZE,

@@ -14,13 +14,12 @@ import math
 import numpy as np
 import pytest
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.make_table import create_table
 from panomap.geometry import azimuth_elevation
 from panomap.simulate import SVP_CAMERA_NAMES, standard_cameras
-from panomap.simulate.sampling import spread_landmarks
 from panomap.table.table import PanoMappingTable
 from panomap.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
+
+from helpers import learn_table, spread_landmarks
 
 SIZE = (800, 760)
 CAMERA_POSITION = (3.1, 2.4, 2.45)
@@ -33,8 +32,7 @@ def learn(
 ) -> tuple[PanoMappingTable, tuple[float, float]]:
     camera = CAMERAS[name]
     landmarks = spread_landmarks(camera, CAMERA_POSITION, count, np.random.default_rng(seed))
-    fit = fit_camera(landmarks, CAMERA_POSITION, camera.centre, model=model, image_size=SIZE)
-    table = create_table(fit, image_size=SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=camera.outer_radius)
+    table, fit = learn_table(camera, CAMERA_POSITION, landmarks, SIZE, model=model)
     return table, fit.landmark_range
 
 
@@ -120,8 +118,7 @@ def spherical_errors_by_distance() -> dict[float, float]:
     camera = CAMERAS["spherical"]
     rng = np.random.default_rng(3)
     landmarks = spread_landmarks(camera, CAMERA_POSITION, 20, rng, distance_range=(1.5, 3.0))
-    fit = fit_camera(landmarks, CAMERA_POSITION, camera.centre, image_size=SIZE)
-    table = create_table(fit, image_size=SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=camera.outer_radius)
+    table, fit = learn_table(camera, CAMERA_POSITION, landmarks, SIZE)
     figures = {}
     for distance in (0.5, 1.0, 2.0, 4.0, 8.0):
         # The same elevations at every distance: the band scales with D.

@@ -2,7 +2,7 @@
 
 Ground truth: the bundled room rendered through a simulated hyperbolic-mirror camera
 (rotated, mirrored, off-centre) and the room's landmarks at their true pixels, from the
-simulated camera's closed-form projection (:mod:`panomap.learn.example`).
+simulated camera's closed-form projection (:mod:`panomap.simulate.example`).
 """
 
 from __future__ import annotations
@@ -26,17 +26,12 @@ from click.testing import CliRunner
 from panomap.calibrate.landmarks import Landmarks, landmarks_to_json, read_landmarks
 from panomap.cli.app import main
 from panomap.errors import PanomapError
-from panomap.learn.example import Example, make_example
 from panomap.learn.server import LearnServer, json_safe, make_server, serve_in_thread
 from panomap.learn.session import Session
+from panomap.simulate.example import Example
 from panomap.table.file import load_table
 
 SIZE = (480, 480)
-
-
-@pytest.fixture(scope="module")
-def example() -> Example:
-    return make_example(SIZE, count=8, supersample=1)
 
 
 class Client:

@@ -23,9 +23,9 @@ from click.testing import CliRunner
 
 from panomap.calibrate.landmarks import Landmarks, read_landmarks
 from panomap.cli.app import main
-from panomap.learn.example import Example, make_example
 from panomap.learn.server import LearnServer, make_server, serve_in_thread
 from panomap.learn.session import Session
+from panomap.simulate.example import Example
 from panomap.table.file import load_table
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -69,11 +69,6 @@ def browser() -> Iterator[Any]:
         chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
         yield chromium
         chromium.close()
-
-
-@pytest.fixture(scope="module")
-def example() -> Example:
-    return make_example(SIZE, count=8, supersample=1)
 
 
 class Page:

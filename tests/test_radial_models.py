@@ -17,7 +17,8 @@ from panomap.camera.radial_models import AUTO_CANDIDATES, MODELS, RADIAL_KINDS
 from panomap.cli.app import main
 from panomap.errors import PanomapError
 from panomap.simulate import standard_cameras
-from panomap.simulate.sampling import spread_landmarks
+
+from helpers import spread_landmarks
 
 
 def example_coefficients(kind: str, axis: str) -> tuple[float, ...]:

@@ -8,15 +8,14 @@ import math
 import numpy as np
 import pytest
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.make_table import create_table
 from panomap.camera.model import CameraModel
 from panomap.camera.radial import RadialFunction
 from panomap.errors import PanomapError
 from panomap.geometry import azimuth_elevation, ray_from_angles, ray_plane_points
 from panomap.simulate import SVP_CAMERA_NAMES, standard_cameras
-from panomap.simulate.sampling import spread_landmarks
 from panomap.table.table import PanoMappingTable, fill_entries
+
+from helpers import learn_table, spread_landmarks
 
 SIZE = (800, 760)
 CAMERA_POSITION = (3.1, 2.4, 2.45)
@@ -27,8 +26,7 @@ CAMERAS = standard_cameras(SIZE, centre=(412.3, 371.6), s=-1, phi0=0.9)
 def learn(name: str, model: str = "auto") -> PanoMappingTable:
     camera = CAMERAS[name]
     landmarks = spread_landmarks(camera, CAMERA_POSITION, 20, np.random.default_rng(0))
-    fit = fit_camera(landmarks, CAMERA_POSITION, camera.centre, model=model, image_size=SIZE)
-    return create_table(fit, image_size=SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=camera.outer_radius)
+    return learn_table(camera, CAMERA_POSITION, landmarks, SIZE, model=model)[0]
 
 
 def annulus_pixels(table: PanoMappingTable, radii: np.ndarray, angles: np.ndarray) -> np.ndarray:

@@ -27,21 +27,18 @@ import av
 import cv2
 import numpy as np
 import pytest
-from click.testing import CliRunner, Result
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.make_table import create_table
-from panomap.cli.app import main
 from panomap.io.images import read_image
 from panomap.remap import Remapper
 from panomap.simulate import load_room, render, standard_cameras
-from panomap.simulate.sampling import spread_landmarks
 from panomap.table.file import load_table
 from panomap.video.frames import FrameRemapper, _chroma_map
 from panomap.video.output import EncoderSettings
 from panomap.video.source import Selection
 from panomap.video.unwarp import ViewOutput, unwarp_video
 from panomap.views import GenericPanorama, PerspectiveView, build_map
+
+from helpers import assert_one_line_error, learn_table, run, spread_landmarks
 
 SIZE = (320, 320)
 RATE = 25
@@ -50,19 +47,6 @@ CAMERA = standard_cameras(SIZE, centre=(160.3, 159.6), s=-1, phi0=0.4)["equidist
 PANORAMA = "panorama:size=480x120"
 PERSPECTIVE = "perspective:yaw=30,pitch=-35,fov=90,size=160x120"
 LOSSLESS_BGR = ["--codec", "ffv1", "--pix-fmt", "bgr0"]
-
-
-def run(*args: object) -> Result:
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def assert_one_line_error(result: Result, *fragments: str) -> None:
-    assert result.exit_code == 1, result.output + result.stderr
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, result.stderr
-    assert "Traceback" not in result.output + result.stderr
-    for fragment in fragments:
-        assert fragment in lines[0], lines[0]
 
 
 def write_clip(path: Path, frames: int, audio: bool = True, container_format: str | None = None) -> None:
@@ -126,8 +110,7 @@ def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder with the camera's table (cam.npz) and a clip (clip.mp4, 40 frames, audio)."""
     folder = tmp_path_factory.mktemp("video")
     landmarks = spread_landmarks(CAMERA, POSITION, 20, np.random.default_rng(3))
-    fit = fit_camera(landmarks, POSITION, CAMERA.centre, image_size=SIZE)
-    table = create_table(fit, image_size=SIZE, cutoff_radius=CAMERA.cutoff_radius, outer_radius=CAMERA.outer_radius)
+    table, _ = learn_table(CAMERA, POSITION, landmarks, SIZE)
     table.save(folder / "cam.npz")
     write_clip(folder / "clip.mp4", FRAMES)
     return folder
@@ -394,7 +377,7 @@ def test_bad_input_gets_one_line_before_any_work(work: Path, tmp_path: Path) -> 
         ((table, clip, "-o", tmp_path / "o.mp4", "--view", PANORAMA, "--pix-fmt", "rgb24"), ("cannot take rgb24",)),
     ]
     for args, fragments in cases:
-        assert_one_line_error(run("video", *args), *fragments)
+        assert_one_line_error(run("video", *args), *fragments, exit_code=1)
     # A table of another camera size.
     write_clip(tmp_path / "small.mp4", 2, audio=False)
     with av.open(str(tmp_path / "other.mp4"), "w") as container:
@@ -409,6 +392,7 @@ def test_bad_input_gets_one_line_before_any_work(work: Path, tmp_path: Path) -> 
         "other.mp4",
         "160 x 160",
         "320 x 320",
+        exit_code=1,
     )
     usage = run("video", table, clip, "-o", tmp_path / "o.mp4", "--view", PANORAMA, "--view", PERSPECTIVE)
     assert usage.exit_code == 2 and "{name}" in usage.stderr

@@ -16,17 +16,16 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.make_table import create_table
 from panomap.camera.model import CameraModel
 from panomap.camera.radial import RadialFunction
 from panomap.errors import PanomapError
 from panomap.geometry import azimuth_elevation
 from panomap.remap import Remapper
 from panomap.simulate import SVP_CAMERA_NAMES, load_room, render, standard_cameras
-from panomap.simulate.sampling import spread_landmarks
 from panomap.table.table import PanoMappingTable, fill_entries
 from panomap.views import Band, CylinderPanorama, FloorView, PerspectiveView, build_map
+
+from helpers import learn_table, spread_landmarks
 
 SIZE = (800, 760)
 CAMERA_POSITION = (3.1, 2.4, 2.45)
@@ -44,8 +43,7 @@ def learn(name: str) -> tuple[PanoMappingTable, tuple[float, float]]:
         landmarks = spread_landmarks(camera, CAMERA_POSITION, 20, np.random.default_rng(3), distance_range=(1.5, 3.0))
     else:
         landmarks = spread_landmarks(camera, CAMERA_POSITION, 20, np.random.default_rng(0))
-    fit = fit_camera(landmarks, CAMERA_POSITION, camera.centre, image_size=SIZE)
-    table = create_table(fit, image_size=SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=camera.outer_radius)
+    table, fit = learn_table(camera, CAMERA_POSITION, landmarks, SIZE)
     return table, fit.landmark_range
 
 
@@ -285,8 +283,7 @@ def rendered_room(name: str) -> tuple[PanoMappingTable, np.ndarray]:
     camera = standard_cameras(SIZE, centre=(401.3, 386.8), s=-1, phi0=0.6)[name]
     omni = render(room, camera, supersample=3)
     landmarks = spread_landmarks(camera, room.camera, 20, np.random.default_rng(0))
-    fit = fit_camera(landmarks, room.camera, camera.centre, image_size=SIZE)
-    table = create_table(fit, image_size=SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=camera.outer_radius)
+    table, _ = learn_table(camera, room.camera, landmarks, SIZE)
     return table, omni
 
 
@@ -443,10 +440,9 @@ def reference_sample(table: PanoMappingTable, theta: np.ndarray, rho: np.ndarray
 def test_table_sampling_matches_the_plain_float64_way(outer_beyond_image: bool) -> None:
     camera = CAMERAS["hyperbolic"]
     landmarks = spread_landmarks(camera, CAMERA_POSITION, 20, np.random.default_rng(0))
-    fit = fit_camera(landmarks, CAMERA_POSITION, camera.centre, image_size=SIZE)
     # An image circle reaching past the image's edge makes some entries fall outside it.
     outer = camera.outer_radius + (60.0 if outer_beyond_image else 0.0)
-    table = create_table(fit, image_size=SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=outer)
+    table, _ = learn_table(camera, CAMERA_POSITION, landmarks, SIZE, outer_radius=outer)
     rng = np.random.default_rng(11)
     theta = rng.uniform(-7.0, 14.0, 60_000)  # any azimuth wraps
     rho = rng.uniform(-1.8, 0.6, 60_000)  # some beyond the range at both ends

@@ -18,7 +18,6 @@ from typing import Any
 from numpy.typing import NDArray
 
 from ..errors import PanomapError
-from ..io.images import read_image
 from ..table.table import PanoMappingTable
 from .circles import ImageCircles, find_image_circles
 from .fit import CameraFit, fit_camera
@@ -124,7 +123,8 @@ def calibrate_camera(
     centre: tuple[float, float] | None = None,
     cutoff_radius: float | None = None,
     outer_radius: float | None = None,
-    omni: NDArray[Any] | str | Path | None = None,
+    omni: NDArray[Any] | None = None,
+    omni_name: str | Path | None = None,
     image_size: tuple[int, int] | None = None,
     sources: Mapping[str, Source] | None = None,
     info: Mapping[str, Any] | None = None,
@@ -151,10 +151,12 @@ def calibrate_camera(
     cutoff_radius, outer_radius : float, optional
         The visible annulus, px; found in ``omni`` when not given, else their
         defaults (:func:`panomap.create_table`).
-    omni : (H, W[, C]) ndarray or path, optional
-        An omni-image of the camera (or its file): its size is the image size, and the
+    omni : (H, W[, C]) ndarray, optional
+        An omni-image of the camera: its size is the image size, and the
         image circles are looked for in it when the centre or a radius is
         missing (:func:`choose_circles`).
+    omni_name : str or path, optional
+        The omni-image's file, named in errors and warnings about it.
     image_size : (width, height), optional
         When no ``omni`` is given (an omni-image's own size wins).
     sources : mapping of str to Source, optional
@@ -202,10 +204,8 @@ def calibrate_camera(
     table_info: dict[str, Any] = {}
     choice = CircleChoice(centre, cutoff_radius, outer_radius, None, {})
     if omni is not None:
-        file = omni if isinstance(omni, str | Path) else None
-        image = read_image(omni) if isinstance(omni, str | Path) else omni
-        image_size = (int(image.shape[1]), int(image.shape[0]))
-        choice = choose_circles(image, centre, cutoff_radius, outer_radius, name=file)
+        image_size = (int(omni.shape[1]), int(omni.shape[0]))
+        choice = choose_circles(omni, centre, cutoff_radius, outer_radius, name=omni_name)
         recorded |= choice.sources
         if choice.circles is not None:
             table_info["image_circles"] = choice.circles.to_dict()

@@ -22,12 +22,13 @@ from panomap.simulate.room import (
     render,
     render_rays,
 )
-from panomap.simulate.sampling import spread_landmarks
+from panomap.simulate.sampling import LandmarkPairs, spread_landmarks
 
 __all__ = [
     "RADIAL_LAWS",
     "SVP_CAMERA_NAMES",
     "WALL_NAMES",
+    "LandmarkPairs",
     "Opening",
     "RadialCamera",
     "Room",

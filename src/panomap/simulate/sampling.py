@@ -1,11 +1,27 @@
-"""Landmark pairs from a simulated camera: world points spread in elevation, exact pixels."""
+"""Landmark pairs from a simulated camera: world points spread in elevation, exact pixels.
+
+The pairs are plain arrays (:class:`LandmarkPairs`): the simulation is the ground truth and
+imports nothing from the code under test; ``Landmarks(*pairs)`` makes the library's type.
+"""
 
 from __future__ import annotations
 
-import numpy as np
+from typing import NamedTuple
 
-from panomap.calibrate.landmarks import Landmarks
+import numpy as np
+from numpy.typing import NDArray
+
 from panomap.simulate.cameras import SimulatedCamera
+
+
+class LandmarkPairs(NamedTuple):
+    """Simulated landmark point pairs, in the order of ``panomap.Landmarks``'s fields:
+    ``pixels`` (n, 2) true (u, v) in px, ``world`` (n, 3) world points, ``names`` "L1", "L2", ...
+    """
+
+    pixels: NDArray[np.float64]
+    world: NDArray[np.float64]
+    names: tuple[str, ...]
 
 
 def spread_landmarks(
@@ -16,7 +32,7 @@ def spread_landmarks(
     elevation_range: tuple[float, float] | None = None,
     distance_range: tuple[float, float] = (1.0, 4.0),
     pixel_noise: float = 0.0,
-) -> Landmarks:
+) -> LandmarkPairs:
     """``count`` landmarks evenly spread in elevation, at random azimuths and distances.
 
     Parameters
@@ -46,4 +62,4 @@ def spread_landmarks(
         raise ValueError("a simulated landmark is not visible; narrow the elevation range")
     pixels = pixels + rng.normal(0.0, pixel_noise, pixels.shape) if pixel_noise > 0 else pixels
     names = tuple(f"L{k + 1}" for k in range(count))
-    return Landmarks(pixels, offsets + np.asarray(camera_position), names)
+    return LandmarkPairs(pixels, offsets + np.asarray(camera_position), names)

@@ -4,7 +4,8 @@ Used by ``bench/bench_fit.py`` and ``tests/test_fit_robust.py``. Landmarks lie
 where rays from the camera hit the room's floor, walls (or ceiling); world
 points get Gaussian noise in world units, pixels in px. The error of a fit is
 the worst pixel error over test points at elevations -85..-5 deg that the
-camera sees.
+camera sees (``worst_error`` in ``tests/helpers.py``: this module is ground truth
+and imports nothing from the code under test).
 """
 
 from __future__ import annotations
@@ -15,11 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.make_table import create_table
 from panomap.geometry import ray_from_angles
 from panomap.simulate.cameras import RadialCamera
+from panomap.simulate.sampling import LandmarkPairs
 
 ROOM_SIZE = (6.0, 5.0, 2.6)
 CAMERA_POSITION = (3.1, 2.4, 2.45)
@@ -88,7 +87,7 @@ def hit_room(directions: NDArray[np.float64]) -> NDArray[np.float64]:
 class Trial:
     """One trial's landmarks, and which one (if any) was made an outlier."""
 
-    landmarks: Landmarks
+    landmarks: LandmarkPairs
     outlier: int | None = None
 
 
@@ -121,7 +120,7 @@ def make_landmarks(
         angle = rng.uniform(0, 2 * math.pi)
         pixels[outlier] += outlier_px * np.array([math.cos(angle), math.sin(angle)])
     names = tuple(f"L{k + 1}" for k in range(count))
-    return Trial(Landmarks(pixels, world, names), outlier)
+    return Trial(LandmarkPairs(pixels, world, names), outlier)
 
 
 def test_points(camera: RadialCamera, count: int = 4000) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -135,23 +134,3 @@ def test_points(camera: RadialCamera, count: int = 4000) -> tuple[NDArray[np.flo
     truth = camera.project(world - np.asarray(CAMERA_POSITION))
     visible = np.all(np.isfinite(truth), axis=1)
     return world[visible], truth[visible]
-
-
-def worst_error(
-    camera: RadialCamera, trial: Trial, points: tuple[NDArray[np.float64], NDArray[np.float64]], model: str = "auto"
-) -> float:
-    """Worst pixel error (px) over the test points of the table learned from the trial (inf if a point is missed)."""
-    annulus = (camera.cutoff_radius, camera.outer_radius)
-    fit = fit_camera(
-        trial.landmarks, CAMERA_POSITION, camera.centre, model=model, image_size=IMAGE_SIZE, annulus=annulus
-    )
-    table = create_table(
-        fit,
-        image_size=IMAGE_SIZE,
-        cutoff_radius=camera.cutoff_radius,
-        outer_radius=camera.outer_radius,
-        size=(2048, 512),
-    )
-    world, truth = points
-    error = np.linalg.norm(table.project(world) - truth, axis=1)
-    return float(np.max(np.where(np.isnan(error), np.inf, error)))

@@ -1,5 +1,8 @@
 """A simulated camera to learn, with known answers: for the learning page's tests and screenshots.
 
+(``tests/test_learn*.py`` and ``docs/make_screenshots.py``; it lives here, not in
+:mod:`panomap.learn`, because it is ground truth and the shipped tool does not use it.)
+
 The bundled room rendered through a simulated ceiling camera (hyperbolic
 mirror, rotated and mirrored, centre off the image middle), and the room's
 landmarks with their true pixels, computed by the simulated camera's
@@ -14,8 +17,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..simulate import load_room, render, standard_cameras
-from ..simulate.cameras import SimulatedCamera
+from panomap.simulate.cameras import SimulatedCamera, standard_cameras
+from panomap.simulate.room import load_room, render
 
 
 @dataclass(frozen=True)
