@@ -68,10 +68,10 @@ def main() -> None:
     1. panomap fit LANDMARKS.csv -o cam.npz --camera X0 Y0 Z0 --centre U0 V0
     2. panomap panorama cam.npz omni.png -o pano.png
        panomap cylinder cam.npz omni.png -o cyl.png --distance 2 --band -2.4 0 --size 2048x512
-       panomap plane    cam.npz omni.png -o view.png --distance 2 --plane-width 2 \\
-                        --band -2.4 0 --azimuth-deg 30 --size 800x800
-       panomap perspective cam.npz omni.png -o ptz.png --yaw-deg 270 --pitch-deg -30 \\
-                        --fov-deg 100 --size 1280x720
+       panomap plane    cam.npz omni.png -o view.png --distance 2 --width 2 \\
+                        --band -2.4 0 --azimuth 30 --size 800x800
+       panomap perspective cam.npz omni.png -o ptz.png --yaw 270 --pitch -30 \\
+                        --fov 100 --size 1280x720
        panomap floor    cam.npz omni.png -o floor.png --z 0 --x 0 6 --y 0 5 --resolution 0.01
        panomap unproject cam.npz pixels.csv -o rays.csv --z 0
     3. panomap demo   (renders a simulated room and does all of it)

@@ -24,6 +24,7 @@ from ..io.plot import save_fit_plot
 from ..remap import Remapper
 from ..simulate import load_room, render, standard_cameras
 from ..views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
+from .options import FOLDER
 
 IMAGE_SIZE = (1024, 1024)
 LANDMARK_COUNT = 12
@@ -112,11 +113,7 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
 
 @click.command()
 @click.option(
-    "--out",
-    type=click.Path(path_type=Path, file_okay=False),
-    default=Path("demo-out"),
-    show_default=True,
-    help="Folder for everything the demo writes.",
+    "--out", type=FOLDER, default=Path("demo-out"), show_default=True, help="Folder for everything the demo writes."
 )
 @click.option(
     "--camera",

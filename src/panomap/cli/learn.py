@@ -9,7 +9,7 @@ import click
 from ..calibrate.landmarks import read_landmarks
 from ..errors import PanomapError
 from ..io.images import read_image
-from .options import FINITE, PATH
+from .options import FINITE, FOLDER, PATH
 
 
 @click.command("learn")
@@ -21,7 +21,7 @@ from .options import FINITE, PATH
 @click.option(
     "--dir",
     "folder",
-    type=click.Path(path_type=Path, file_okay=False),
+    type=FOLDER,
     default=Path("."),
     show_default=True,
     help="The only folder the page saves into and loads from.",
@@ -35,7 +35,7 @@ from .options import FINITE, PATH
     show_default=True,
     help="Address to listen on. Anything but loopback lets other machines use the page (and save files).",
 )
-def _learn(
+def learn(
     omni: Path,
     landmarks: Path | None,
     camera: tuple[float, float, float] | None,
@@ -72,7 +72,3 @@ def _learn(
         click.echo("panomap learn: stopped")
     finally:
         server.server_close()
-
-
-# Declared, so that type checkers know it through the import cycle with panomap.cli.
-learn: click.Command = _learn

@@ -47,3 +47,4 @@ class Finite(click.ParamType):
 SIZE = Size()
 FINITE = Finite()
 PATH = click.Path(path_type=Path, dir_okay=False)
+FOLDER = click.Path(path_type=Path, file_okay=False)

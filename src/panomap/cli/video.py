@@ -1,7 +1,7 @@
 """``panomap video``: unwarp a video file or live stream into one video per view.
 
 The command line edge of :mod:`panomap.video`; view SPECs are parsed by
-:mod:`panomap.viewspec`.
+:mod:`panomap.views.spec`.
 """
 
 from __future__ import annotations

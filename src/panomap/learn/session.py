@@ -294,8 +294,8 @@ class Session:
 
     def _fit_report(self, table: PanoMappingTable, pending: str) -> dict[str, Any]:
         fit = table_fit_report(table)
-        if fit is None:  # (fit_table always writes one)
-            raise AssertionError("a table made by fit_table has a fit report")
+        if fit is None:  # (calibrate_camera always writes one)
+            raise AssertionError("a table made by calibrate_camera has a fit report")
         curve = fit_curve(table)
         by_name = {row.name: row for row in fit.landmarks}
         rows = []
