@@ -378,7 +378,7 @@ def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius
 
 def _robust_circle(points: FloatArray, centre: tuple[float, float], radius: float) -> Circle:
     """Geometric circle fit with a soft-L1 loss, then least squares on the inliers."""
-    from scipy import optimize  # here, not at the top: importing SciPy costs every command 0.6 s
+    from scipy import optimize  # here, not at the top: importing SciPy is slow
 
     def residuals(p: FloatArray, xy: FloatArray) -> FloatArray:
         return np.hypot(xy[:, 0] - p[0], xy[:, 1] - p[1]) - p[2]

@@ -61,6 +61,9 @@ OUTLIER_SIGMAS = 5.0
 # Median of the norm of a 2-D standard normal vector: sqrt(2 ln 2).
 MEDIAN_2D_NORM = math.sqrt(2 * math.log(2))
 WEIGHT_ITERATIONS = 3
+# Leave-one-out is exact up to this many landmarks; above, k-fold cross-validation keeps the cost linear.
+EXACT_LOO_MAX = 40
+CV_FOLDS = 10
 
 
 @dataclass(frozen=True)
@@ -393,26 +396,40 @@ def _whitened(radial: RadialFunction, phi0: float, data: _Data, index: Any) -> F
     return np.asarray(np.hypot(radial_error, tangential_error))
 
 
-def _pixel_error(radial: RadialFunction, phi0: float, data: _Data, index: int) -> float:
-    """Distance (px) between landmark ``index`` and where the model puts it."""
+def _pixel_error(radial: RadialFunction, phi0: float, data: _Data, index: Any) -> FloatArray:
+    """Distance (px) between the landmarks at ``index`` and where the model puts them."""
     angle = np.angle(np.exp(1j * (data.s * data.theta[index] + phi0 - data.phi[index])))
-    return float(np.hypot(radial(data.rho[index]) - data.r[index], data.r[index] * angle))
+    return np.asarray(np.hypot(radial(data.rho[index]) - data.r[index], data.r[index] * angle))
+
+
+def _folds(data: _Data, members: FloatArray) -> list[FloatArray]:
+    """Positions (into ``members``) held out together: one each up to ``EXACT_LOO_MAX`` landmarks, else
+    ``CV_FOLDS`` folds dealt in elevation order (each fold spans the landmarks' elevations)."""
+    if members.size <= EXACT_LOO_MAX:
+        return [np.array([position]) for position in range(members.size)]
+    order = np.argsort(data.rho[members], kind="stable")
+    return [order[fold::CV_FOLDS] for fold in range(CV_FOLDS)]
 
 
 def _leave_one_out(kind: RadialKind, data: _Data, subset: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Whitened and pixel errors of each landmark in ``subset`` under a fit made without it."""
+    """Whitened and pixel errors of each landmark in ``subset`` under a fit made without it.
+
+    Exact leave-one-out up to ``EXACT_LOO_MAX`` landmarks; above, ``CV_FOLDS``-fold
+    cross-validation (each landmark's error under a fit without its fold), so
+    that the cost grows linearly with the number of landmarks.
+    """
     members = np.flatnonzero(subset)
     whitened = np.full(members.size, np.inf)
     pixels = np.full(members.size, np.inf)
-    for position, k in enumerate(members):
+    for positions in _folds(data, members):
         others = subset.copy()
-        others[k] = False
+        others[members[positions]] = False
         try:
             radial, phi0 = _fit(kind, data, others)
         except PanomapError:
             continue
-        whitened[position] = float(_whitened(radial, phi0, data, [k])[0])
-        pixels[position] = _pixel_error(radial, phi0, data, int(k))
+        whitened[positions] = _whitened(radial, phi0, data, members[positions])
+        pixels[positions] = _pixel_error(radial, phi0, data, members[positions])
     return np.where(np.isfinite(whitened), whitened, np.inf), np.where(np.isfinite(pixels), pixels, np.inf)
 
 
@@ -529,16 +546,25 @@ def _choose(
 
 
 def _drop_worst(kind: RadialKind, data: _Data, inliers: FloatArray) -> FloatArray | None:
-    """``inliers`` less the worst leave-one-out landmark if it exceeds 5 robust sigmas, else None."""
-    if int(inliers.sum()) - 1 < kind.parameter_count + 3:
+    """``inliers`` less the worst held-out landmark if it exceeds 5 robust sigmas, else None.
+
+    Above ``EXACT_LOO_MAX`` landmarks (k-fold errors, where one landmark barely moves the
+    fit of the others) every landmark beyond that bound goes at once.
+    """
+    count = int(inliers.sum())
+    if count - 1 < kind.parameter_count + 3:
         return None
     whitened, _ = _leave_one_out(kind, data, inliers)
     scale = max(1.0, float(np.median(whitened)) / MEDIAN_2D_NORM)
-    worst = int(np.argmax(whitened))
-    if whitened[worst] <= OUTLIER_SIGMAS * scale:
+    beyond = whitened > OUTLIER_SIGMAS * scale
+    if not beyond.any():
         return None
+    if count <= EXACT_LOO_MAX:
+        beyond = np.arange(whitened.size) == int(np.argmax(whitened))
+    elif count - int(beyond.sum()) < max(kind.parameter_count + 3, count // 2):
+        return None  # most of the landmarks "outliers": the model is wrong, not the landmarks
     fewer = inliers.copy()
-    fewer[np.flatnonzero(inliers)[worst]] = False
+    fewer[np.flatnonzero(inliers)[beyond]] = False
     return fewer
 
 
@@ -552,7 +578,7 @@ def _refine(
     refine_centre: bool,
 ) -> tuple[RadialFunction, float, tuple[float, float]]:
     """Joint nonlinear least squares of f_r, phi0 and (optionally) the centre on whitened residuals."""
-    from scipy import optimize  # here, not at the top: importing SciPy costs every command 0.6 s
+    from scipy import optimize  # here, not at the top: importing SciPy is slow
 
     count = len(radial.coefficients)
     rho, theta = data.rho[subset], data.theta[subset]
@@ -597,7 +623,7 @@ def _check_inside(landmarks: Landmarks, image_size: tuple[int, int]) -> None:
 
 def _detect_axis(rho: FloatArray, r: FloatArray) -> str:
     """``"down"`` when the image radius grows with elevation, else ``"up"``."""
-    from scipy import stats  # here, not at the top: importing SciPy costs every command 0.6 s
+    from scipy import stats  # here, not at the top: importing SciPy is slow
 
     correlation = stats.spearmanr(rho, r).statistic
     if not np.isfinite(correlation) or abs(correlation) < 0.5:

@@ -89,7 +89,7 @@ def valid_elevation_range(
 
 def _refine_bound(radial: RadialFunction, a: float, b: float, cutoff_radius: float, outer_radius: float) -> float:
     """Elevation in [a, b] where f_r crosses the cut-off or outer radius."""
-    from scipy import optimize  # here, not at the top: importing SciPy costs every command 0.6 s
+    from scipy import optimize  # here, not at the top: importing SciPy is slow
 
     ra, rb = float(radial(a)), float(radial(b))
     for bound in (cutoff_radius, outer_radius):
