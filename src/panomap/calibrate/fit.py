@@ -40,6 +40,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..camera.model import CameraModel
 from ..camera.radial import RadialFunction, fit_radial
@@ -61,6 +62,7 @@ OUTLIER_SIGMAS = 5.0
 # Median of the norm of a 2-D standard normal vector: sqrt(2 ln 2).
 MEDIAN_2D_NORM = math.sqrt(2 * math.log(2))
 WEIGHT_ITERATIONS = 3
+IndexArray = NDArray[np.intp]
 # Leave-one-out is exact up to this many landmarks; above, k-fold cross-validation keeps the cost linear.
 EXACT_LOO_MAX = 40
 CV_FOLDS = 10
@@ -402,7 +404,7 @@ def _pixel_error(radial: RadialFunction, phi0: float, data: _Data, index: Any) -
     return np.asarray(np.hypot(radial(data.rho[index]) - data.r[index], data.r[index] * angle))
 
 
-def _folds(data: _Data, members: FloatArray) -> list[FloatArray]:
+def _folds(data: _Data, members: IndexArray) -> list[IndexArray]:
     """Positions (into ``members``) held out together: one each up to ``EXACT_LOO_MAX`` landmarks, else
     ``CV_FOLDS`` folds dealt in elevation order (each fold spans the landmarks' elevations)."""
     if members.size <= EXACT_LOO_MAX:
