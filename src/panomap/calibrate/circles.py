@@ -55,13 +55,13 @@ INLIER_SIGMAS = 3.0
 MIN_RIM_FRACTION = 0.2
 # ... spread around the circle: in at least this many of 12 sectors of 30 deg, a third of the rays agree.
 MIN_RIM_SECTORS = 4
-# Rays (of those whose rim falls inside the frame) that agree on a rim that needs no other candidate.
-CONVINCING_RIM_FRACTION = 0.6
+# Rays (of those in the frame) stepping across a rim that needs no other candidate.
+CONVINCING_RIM_FRACTION = 0.85
 # Rays (of those in the frame) along which the level steps across the circle: 0.8-0.97 on
 # real rims, 0.4-0.7 on circles through scene edges. A mirror's rim in a bright housing
 # (darker inside than out) steps less clearly: 0.5.
 MIN_STEPPING_FRACTION = 0.75
-MIN_STEPPING_FRACTION_DARK_INSIDE = 0.55
+MIN_STEPPING_FRACTION_DARK_INSIDE = 0.62
 # Sharp real rims fit to 0.2-0.9 px RMS, a soft (vignetted) one to 1.5 px; a false circle
 # through scene edges fits worse.
 MAX_RIM_RMS_PX = 2.0
@@ -270,7 +270,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
                 continue
             if best is None or found.rank > best.rank:
                 best = found
-        if best is not None and best.circle.inliers >= CONVINCING_RIM_FRACTION * best.rays_in_frame:
+        if best is not None and best.stepping >= CONVINCING_RIM_FRACTION * best.rays_in_frame:
             break
     if best is None:
         reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
@@ -344,6 +344,8 @@ def _iterate_rim(smooth: NDArray[Any], centre: tuple[float, float], radius: floa
                 f"{'bright-to-dark' if polarity > 0 else 'dark-to-bright'} rim"
             )
         circle = _robust_circle(points, centre, radius, consensus=iteration == 0)
+        if circle.inliers < MIN_RIM_FRACTION * RAYS:
+            break  # no rim here: rejected below, without iterating
         moved = math.dist(circle.centre, centre) + abs(circle.radius - radius)
         centre, radius = circle.centre, circle.radius
         if not (0 <= centre[0] < width and 0 <= centre[1] < height) or radius < 0.2 * min(height, width):
@@ -718,8 +720,20 @@ def _least_squares_circle(points: FloatArray, start: FloatArray) -> FloatArray:
         distance = np.hypot(du, dv)
         if np.any(distance == 0):
             raise PanomapError("the circle fit did not converge (an edge point at the centre)")
-        jacobian = np.stack([-du / distance, -dv / distance, -np.ones_like(du)], axis=-1)
-        step, *_ = np.linalg.lstsq(jacobian, -(distance - params[2]), rcond=None)
+        cu, cv = du / distance, dv / distance
+        residual = distance - params[2]
+        # Normal equations of the Jacobian [-cu, -cv, -1] (3 x 3: cheap, and well conditioned for an arc).
+        normal = np.array(
+            [
+                [np.dot(cu, cu), np.dot(cu, cv), cu.sum()],
+                [np.dot(cu, cv), np.dot(cv, cv), cv.sum()],
+                [cu.sum(), cv.sum(), float(len(cu))],
+            ]
+        )
+        try:
+            step = np.linalg.solve(normal, np.array([np.dot(cu, residual), np.dot(cv, residual), residual.sum()]))
+        except np.linalg.LinAlgError:
+            raise PanomapError("the circle fit did not converge (the edge points do not constrain a circle)") from None
         params += step
         if float(np.max(np.abs(step))) < 1e-7:
             return params
