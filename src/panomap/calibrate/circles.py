@@ -253,7 +253,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         (lambda: _voted_circles(small, factor, polarity=-1, count=6), -1),
     )
     for stage, polarity in stages:
-        if best is not None and polarity != best.polarity:
+        if best is not None and (polarity != best.polarity or best.convincing):
             break
         try:
             candidates = stage()
@@ -270,8 +270,8 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
                 continue
             if best is None or found.rank > best.rank:
                 best = found
-        if best is not None and best.stepping >= CONVINCING_RIM_FRACTION * best.rays_in_frame:
-            break
+            if best.convincing:
+                break
     if best is None:
         reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
         raise NoImageCircle(
@@ -310,6 +310,11 @@ class _Rim:
     rays_in_frame: float
     polarity: int
     stepping: int
+
+    @property
+    def convincing(self) -> bool:
+        """Whether the level steps across the circle on so many rays that no other candidate is needed."""
+        return self.stepping >= CONVINCING_RIM_FRACTION * self.rays_in_frame
 
     @property
     def rank(self) -> float:
