@@ -247,12 +247,15 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
     best: _Rim | None = None
     # A bright disc in a dark border first (the blob, then the circle transform); a rim
     # that is darker inside than out (a mirror in a bright housing) only when that fails.
+    # Each stage: its candidates, the rim's polarity, and how far (a fraction of the radius)
+    # the rim is looked for around a candidate: the blob's start may be rough (dark scene
+    # touching the rim); the circle transform's is good to a few px.
     stages = (
-        (lambda: _coarse_circle(small, factor), 1),
-        (lambda: _voted_circles(small, factor, polarity=1), 1),
-        (lambda: _voted_circles(small, factor, polarity=-1, count=6), -1),
+        (lambda: _coarse_circle(small, factor), 1, (NARROW_REACH, WIDE_REACH)),
+        (lambda: _voted_circles(small, factor, polarity=1), 1, (NARROW_REACH,)),
+        (lambda: _voted_circles(small, factor, polarity=-1, count=6), -1, (NARROW_REACH, WIDE_REACH)),
     )
-    for stage, polarity in stages:
+    for stage, polarity, reaches in stages:
         if best is not None and (polarity != best.polarity or best.convincing):
             break
         try:
@@ -264,7 +267,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
             if best is not None and math.dist(centre, best.circle.centre) < 2 and abs(radius - best.circle.radius) < 2:
                 continue  # the same circle again
             try:
-                found = _refine_rim(smooth, centre, radius, polarity)
+                found = _refine_rim(smooth, centre, radius, polarity, reaches)
             except PanomapError as exc:
                 reasons.append(exc.detail)
                 continue
@@ -322,14 +325,16 @@ class _Rim:
         return self.stepping if self.polarity > 0 else self.circle.radius
 
 
-def _refine_rim(smooth: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int) -> _Rim:
+def _refine_rim(
+    smooth: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reaches: tuple[float, ...]
+) -> _Rim:
     """Rim edge points and the robust circle through them, iterated from a start circle.
 
-    The rim is first looked for within 6% of the start radius (a good start: the
-    scene further in is then no distraction), then within 15% (a rough one).
+    The rim is first looked for within ``reaches[0]`` of the start radius (a good start:
+    the scene further in is then no distraction), then within each next reach.
     """
     failure = PanomapError("no image circle found")
-    for reach in (NARROW_REACH, WIDE_REACH):
+    for reach in reaches:
         try:
             return _iterate_rim(smooth, centre, radius, polarity, reach)
         except PanomapError as exc:
