@@ -7,21 +7,26 @@ Method (paper 2.1 and 3 find these automatically; refs. [18, 19] use circle
 transforms):
 
 1. **Start.** The image circle is the bright disc inside a dark border: a
-   threshold of the smoothed, downscaled image, its largest blob with its holes
-   filled, and a circle fitted to its outline away from the frame's edges (the
-   visible arcs of a circle the frame cuts). Where that does not convince, a
+   threshold of the smoothed, downscaled image, its largest blob, and a circle
+   fitted to its outline where it meets its convex hull, away from the frame's
+   edges (the visible arcs of a circle the frame cuts, not the dents of dark
+   scene). Where that does not convince, a
    gradient circle transform of the downscaled image gives candidates: strong
    edges vote along their gradient for a centre, then for a radius.
 2. **Rim edge points.** Along 720 rays from that centre, the intensity profile
-   across the rim is sampled at full resolution (bilinear), smoothed, and the
-   steepest bright-to-dark step is located to a fraction of a pixel. Only steps
-   whose neighbourhood lies in the frame count: the frame's border is no rim.
-3. **Robust circle fit.** A geometric least-squares circle with a soft-L1
-   loss, then a refit on the inliers (points within 3 robust sigmas); steps 2-3
-   repeat from the new centre. An ellipse is fitted to the same inliers and
-   reported when the rim is measurably elliptical (non-square pixels, a tilted
-   mirror); its centre is then the image centre. A rim darker inside than out
-   (a mirror in a bright housing) is tried only when no bright disc is found.
+   across the rim is sampled at full resolution (bilinear) and smoothed along
+   the ray; each ray's outermost clear bright-to-dark drop is located to a
+   fraction of a pixel. Only drops whose neighbourhood lies in the frame count:
+   the frame's border is no rim.
+3. **Robust circle fit.** A consensus circle through three edge points (seeded
+   RANSAC), then geometric least squares (Gauss-Newton) on the points near it,
+   then on the inliers (within 3 robust sigmas); steps 2-3 repeat from the new
+   centre. A rim must be seen on enough rays, all round, and the level must step
+   across it on most rays in the frame; that count ranks candidates. An ellipse
+   is fitted to the same inliers and reported when the rim is measurably
+   elliptical (non-square pixels, a tilted mirror); its centre is then the image
+   centre. A rim darker inside than out (a mirror in a bright housing) is tried
+   only when no bright disc is found.
 4. **Cut-off disc.** The radius where the median over the rays of the radial
    gradient rises most (a dark self-reflection, textured or not, against the
    scene), then each ray's steepest rise near it, fitted the same way. A
@@ -47,6 +52,11 @@ from ..geometry import FloatArray
 
 RAYS = 720
 COARSE_SIDE = 400
+STEP = 0.5  # px between profile samples
+PROFILE_SIGMA_PX = 1.0  # smoothing of the profiles along their rays
+# Samples either side of an edge (4 px) that must lie in the frame, and those whose levels are compared.
+EDGE_HALF_WINDOW = 8
+LEVEL_SAMPLES = 16
 # Edge points further than this from the fitted circle (in robust sigmas) are outliers.
 INLIER_SIGMAS = 3.0
 # Rays (of RAYS) whose rim points must agree: a circle cut by the frame by 15% of its
@@ -59,7 +69,8 @@ MIN_RIM_SECTORS = 4
 CONVINCING_RIM_FRACTION = 0.85
 # Rays (of those in the frame) along which the level steps across the circle: 0.8-0.97 on
 # real rims, 0.4-0.7 on circles through scene edges. A mirror's rim in a bright housing
-# (darker inside than out) steps less clearly: 0.5.
+# (darker inside than out) steps less clearly (0.5-0.8 on the real one), and circles
+# through scene edges reach 0.53 there.
 MIN_STEPPING_FRACTION = 0.75
 MIN_STEPPING_FRACTION_DARK_INSIDE = 0.62
 # Sharp real rims fit to 0.2-0.9 px RMS, a soft (vignetted) one to 1.5 px; a false circle
@@ -241,7 +252,6 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
             f"no image circle found: the image is too small ({width} x {height}) to find an image circle in",
             frame_centre,
         )
-    smooth = grey  # profiles are smoothed along their rays
     small, factor = _downscaled(grey)
     reasons: list[str] = []
     best: _Rim | None = None
@@ -267,7 +277,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
             if best is not None and math.dist(centre, best.circle.centre) < 2 and abs(radius - best.circle.radius) < 2:
                 continue  # the same circle again
             try:
-                found = _refine_rim(smooth, centre, radius, polarity, reaches)
+                found = _refine_rim(grey, centre, radius, polarity, reaches)
             except PanomapError as exc:
                 reasons.append(exc.detail)
                 continue
@@ -287,7 +297,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
     ellipse = _ellipse(best.points, outer)
     if ellipse is not None:
         centre = ellipse.centre
-    cutoff = _cutoff_circle(smooth, centre, outer.radius)
+    cutoff = _cutoff_circle(grey, centre, outer.radius)
     return ImageCircles(
         centre=centre,
         outer=outer,
@@ -326,7 +336,7 @@ class _Rim:
 
 
 def _refine_rim(
-    smooth: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reaches: tuple[float, ...]
+    grey: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reaches: tuple[float, ...]
 ) -> _Rim:
     """Rim edge points and the robust circle through them, iterated from a start circle.
 
@@ -336,18 +346,18 @@ def _refine_rim(
     failure = PanomapError("no image circle found")
     for reach in reaches:
         try:
-            return _iterate_rim(smooth, centre, radius, polarity, reach)
+            return _iterate_rim(grey, centre, radius, polarity, reach)
         except PanomapError as exc:
             failure = exc
     raise failure
 
 
-def _iterate_rim(smooth: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reach: float) -> _Rim:
+def _iterate_rim(grey: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reach: float) -> _Rim:
     """:func:`_refine_rim` with the first search ``reach`` times the radius wide."""
-    height, width = smooth.shape
+    height, width = grey.shape
     circle = None
     for iteration in range(4):
-        points = _rim_points(smooth, centre, radius, polarity, reach if iteration == 0 else NARROW_REACH)
+        points = _rim_points(grey, centre, radius, polarity, reach if iteration == 0 else NARROW_REACH)
         if len(points) < MIN_RIM_FRACTION * RAYS:
             raise PanomapError(
                 f"no image circle found: only {len(points)} of {RAYS} rays cross a "
@@ -374,7 +384,7 @@ def _iterate_rim(smooth: NDArray[Any], centre: tuple[float, float], radius: floa
             f"no image circle found: the rim's edge points do not lie on a circle "
             f"({circle.inliers} of {RAYS} agree, in {sectors} of 12 sectors, RMS {circle.rms_px:.2f} px)"
         )
-    stepping = _stepping_rays(smooth, circle, polarity)
+    stepping = _stepping_rays(grey, circle, polarity)
     least = MIN_STEPPING_FRACTION if polarity > 0 else MIN_STEPPING_FRACTION_DARK_INSIDE
     if stepping < least * in_frame:
         raise PanomapError(
@@ -384,10 +394,10 @@ def _iterate_rim(smooth: NDArray[Any], centre: tuple[float, float], radius: floa
     return _Rim(circle, points, in_frame, polarity, stepping)
 
 
-def _stepping_rays(smooth: NDArray[Any], circle: Circle, polarity: int) -> int:
+def _stepping_rays(grey: NDArray[Any], circle: Circle, polarity: int) -> int:
     """Rays along which the level 2-12 px inside the circle exceeds that 2-12 px outside by 8 grey levels."""
     radii = circle.radius + np.concatenate([np.arange(-12.0, -2.0, STEP), np.arange(2.5, 12.5, STEP)])
-    samples, _, _ = _profiles(smooth, circle.centre, radii)
+    samples, _, _ = _profiles(grey, circle.centre, radii)
     half = samples.shape[1] // 2
     inside, outside = _row_medians(samples[:, :half]), _row_medians(samples[:, half:])
     with np.errstate(invalid="ignore"):
@@ -522,13 +532,8 @@ def _cropping_edges(centre: tuple[float, float], radius: float, shape: tuple[int
     """The frame edges that cut the circle, in the order left, top, right, bottom."""
     height, width = shape
     u, v = centre
-    beyond = {
-        "left": u - radius < -0.5,
-        "top": v - radius < -0.5,
-        "right": u + radius > width - 0.5,
-        "bottom": v + radius > height - 0.5,
-    }
-    return tuple(edge for edge, cut in beyond.items() if cut)
+    beyond = (u - radius < -0.5, v - radius < -0.5, u + radius > width - 0.5, v + radius > height - 0.5)
+    return tuple(edge for edge, cut in zip(FRAME_EDGES, beyond, strict=True) if cut)
 
 
 def _fraction_in_frame(centre: tuple[float, float], radius: float, shape: tuple[int, int]) -> float:
@@ -565,13 +570,6 @@ def _subpixel_peak(values: NDArray[Any], index: NDArray[Any]) -> FloatArray:
     with np.errstate(divide="ignore", invalid="ignore"):
         offset = np.where(denominator != 0, 0.5 * (left - right) / denominator, 0.0)
     return index + np.clip(offset, -0.5, 0.5)
-
-
-STEP = 0.5  # px between profile samples
-PROFILE_SIGMA_PX = 1.0
-# Samples either side of an edge (4 px) that must lie in the frame, and those whose levels are compared.
-EDGE_HALF_WINDOW = 8
-LEVEL_SAMPLES = 16
 
 
 def _step_levels(samples: NDArray[Any], index: NDArray[Any]) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
