@@ -269,6 +269,12 @@ def test_cli_centre_reports_the_cropping_and_a_missing_rim(tmp_path: Path) -> No
     # The part of a 265 px circle inside rows -0.5 .. 479.5 (pixel edges), its centre at row 238.2.
     inside = 1 - (math.acos(238.7 / 265.0) + math.acos((479.5 - 238.2) / 265.0)) / math.pi
     assert data["rim_in_frame"] == pytest.approx(inside, abs=0.01)
+    # The arcs fitted lie in the frame: none reaches the top (270 deg) or the bottom (90 deg).
+    arcs = data["rim_arcs_deg"]
+    assert arcs and all(end - start <= 180 for start, end in arcs)
+    for angle in (90.0, 270.0, 450.0, 630.0):
+        assert not any(start <= angle <= end for start, end in arcs)
+    assert sum(end - start for start, end in arcs) / 360 == pytest.approx(data["rim_seen"], abs=0.05)
 
     fisheye = standard_cameras((640, 480), outer_radius=420.0)["equidistant"]
     cv2.imwrite(str(tmp_path / "full.png"), render(ROOM, fisheye, supersample=1))

@@ -183,6 +183,9 @@ class ImageCircles:
         with the circle: at most ``rim_in_frame``, less where dark scene touches it.
     rim_polarity : str
         ``'bright inside'`` (a bright disc in a dark border) or ``'dark inside'``.
+    rim_arcs_deg : tuple of (start, end)
+        The arcs of the rim the circle was fitted to, in image angle (deg, from +u
+        towards +v), ``start < end``, ``end`` past 360 for an arc across 0 deg.
     """
 
     centre: tuple[float, float]
@@ -193,6 +196,7 @@ class ImageCircles:
     rim_in_frame: float = 1.0
     rim_seen: float = 1.0
     rim_polarity: str = "bright inside"
+    rim_arcs_deg: tuple[tuple[float, float], ...] = ()
 
     @property
     def outer_radius(self) -> float:
@@ -214,6 +218,7 @@ class ImageCircles:
             "rim_in_frame": self.rim_in_frame,
             "rim_seen": self.rim_seen,
             "rim_polarity": self.rim_polarity,
+            "rim_arcs_deg": [list(arc) for arc in self.rim_arcs_deg],
         }
 
 
@@ -307,6 +312,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         rim_in_frame=_fraction_in_frame(outer.centre, outer.radius, (height, width)),
         rim_seen=outer.inliers / outer.rays,
         rim_polarity="bright inside" if best.polarity > 0 else "dark inside",
+        rim_arcs_deg=_arcs(best.points, outer),
     )
 
 
@@ -410,6 +416,28 @@ def _sectors_seen(points: FloatArray, circle: Circle) -> int:
     on = np.abs(np.hypot(du, dv) - circle.radius) < max(INLIER_SIGMAS * circle.rms_px, 0.5)
     sector = (np.floor(np.arctan2(dv[on], du[on]) / (math.pi / 6)).astype(np.int64)) % 12
     return int(np.sum(np.bincount(sector, minlength=12) >= RAYS / 12 / 3))
+
+
+def _arcs(points: FloatArray, circle: Circle) -> tuple[tuple[float, float], ...]:
+    """The arcs (start, end deg) the points on the circle cover: gaps up to 2 deg bridged, arcs under 2 deg dropped."""
+    du, dv = points[:, 0] - circle.centre[0], points[:, 1] - circle.centre[1]
+    on = np.abs(np.hypot(du, dv) - circle.radius) < max(INLIER_SIGMAS * circle.rms_px, 0.5)
+    seen = np.zeros(360, dtype=bool)
+    seen[np.floor(np.degrees(np.arctan2(dv[on], du[on])) % 360).astype(np.int64) % 360] = True
+    if seen.all():
+        return ((0.0, 360.0),)
+    # Bridge gaps of up to 2 deg, then read the runs from the first degree not seen.
+    bridged = seen | (np.roll(seen, 1) & np.roll(seen, -2)) | (np.roll(seen, 2) & np.roll(seen, -1))
+    start = int(np.argmin(bridged))
+    runs, begin = [], None
+    for k in range(start, start + 361):
+        if bridged[k % 360] and begin is None:
+            begin = k
+        elif not bridged[k % 360] and begin is not None:
+            if k - begin >= 2:
+                runs.append((float(begin % 360), float(begin % 360 + k - begin)))
+            begin = None
+    return tuple(sorted(runs))
 
 
 def _downscaled(grey: NDArray[Any]) -> tuple[NDArray[Any], int]:
@@ -810,8 +838,9 @@ def _ellipse_rms(points: FloatArray, centre: tuple[float, float], axes: tuple[fl
 def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[Any]:
     """An 8-bit BGR copy of ``image`` with the found circles and centre drawn on it.
 
-    The image circle is green (the ellipse too, when there is one), the cut-off
-    disc red, the centre a yellow cross; drawn with 1/16 px precision.
+    The image circle is green, thicker on the arcs of the rim it was fitted to
+    (the ellipse darker green, when there is one), the cut-off disc red, the
+    centre a yellow cross; drawn with 1/16 px precision.
     """
     grey_or_colour = image if image.dtype == np.uint8 else (image / 257).astype(np.uint8)
     if grey_or_colour.ndim == 2 or grey_or_colour.shape[2] == 1:
@@ -834,6 +863,21 @@ def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[Any]:
         cv2.LINE_AA,
         shift,
     )
+    # The arcs the rim was fitted to, thicker.
+    radius = round(circles.outer.radius * scale)
+    for start, end in circles.rim_arcs_deg:
+        cv2.ellipse(
+            canvas,
+            at(circles.outer.centre),
+            (radius, radius),
+            0,
+            start,
+            end,
+            (0, 255, 0),
+            3 * thickness,
+            cv2.LINE_AA,
+            shift,
+        )
     if circles.ellipse is not None:
         e = circles.ellipse
         axes = (round(e.semi_axes[0] * scale), round(e.semi_axes[1] * scale))
