@@ -2,10 +2,12 @@
 
 Run: ``.venv/bin/python bench/bench_centre.py``
 
-1. Times ``find_image_circles`` on a rendered 1920 x 1920 omni-image (noise and
-   JPEG as in the tests) against decoding that JPEG, in the same run.
-2. Where ``../shared/data/real`` is present, prints a Markdown table of the
-   centre found in every real image against the centre of the established
+1. Times ``find_image_circles`` on 1920 x 1920 omni-images (noise and JPEG as in
+   the tests) against decoding each JPEG, in the same run: the bundled textured
+   room through a mirror camera, a checkerboard filling the view, and a fisheye
+   whose circle a 16:9 frame (1920 x 1080) cuts at top and bottom.
+2. Where the real data sets (not bundled) are present, prints a Markdown table of
+   the centre found in every real image against the centre of the established
    calibration shipped beside it (OCamCalib's; for the Mei folder, OpenCV's
    omnidir). Those calibrations estimate the optical axis, which can sit a few
    pixels off the rim's centre on a real mirror.
@@ -17,47 +19,65 @@ import json
 import math
 import statistics
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from panomap.calibrate.circles import find_image_circles
-from panomap.errors import PanomapError
+from panomap.calibrate.circles import NoImageCircle, find_image_circles
 from panomap.io.images import read_image
 from panomap.simulate import load_room, render, standard_cameras
 
 REAL = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real"
 
 
+def median_seconds(function: Callable[[], object], repeats: int = 7) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def scenes() -> dict[str, tuple[np.ndarray, object]]:
+    """Name: (8-bit BGR image, the simulated camera it was made with)."""
+    room = load_room()
+    mirror = standard_cameras((1920, 1920), centre=(975.3, 941.8))["hyperbolic"]
+    # A checkerboard of 48 px squares filling the annulus: edges everywhere, as in a calibration image.
+    v, u = np.mgrid[0:1920, 0:1920]
+    r = np.hypot(u - mirror.centre[0], v - mirror.centre[1])
+    board = np.where((u // 48 + v // 48) % 2 == 0, 235, 25).astype(np.uint8)
+    checker = np.where((r < mirror.outer_radius) & (r > mirror.cutoff_radius), board, 0).astype(np.uint8)
+    checker = cv2.cvtColor(cv2.GaussianBlur(checker, (0, 0), 0.7), cv2.COLOR_GRAY2BGR)
+    fisheye = standard_cameras((1920, 1080), centre=(961.7, 538.4), outer_radius=600.0)["equidistant"]
+    return {
+        "textured room, hyperbolic mirror, 1920 x 1920": (render(room, mirror, supersample=1), mirror),
+        "checkerboard filling the view, 1920 x 1920": (checker, mirror),
+        "fisheye cut at top and bottom, 1920 x 1080": (render(room, fisheye, supersample=1), fisheye),
+    }
+
+
 def speed() -> None:
     rng = np.random.default_rng(0)
-    camera = standard_cameras((1920, 1920), centre=(975.3, 941.8))["hyperbolic"]
-    image = render(load_room(), camera, supersample=1)
-    noisy = np.clip(image + rng.normal(0, 5, image.shape), 0, 255).astype(np.uint8)
-    ok, encoded = cv2.imencode(".jpg", noisy, [cv2.IMWRITE_JPEG_QUALITY, 75])
-    assert ok
-    decoded = cv2.imdecode(encoded, cv2.IMREAD_UNCHANGED)
-
-    def median_seconds(function: object, repeats: int = 7) -> float:
-        times = []
-        for _ in range(repeats):
-            start = time.perf_counter()
-            function()  # type: ignore[operator]
-            times.append(time.perf_counter() - start)
-        return statistics.median(times)
-
-    decode = median_seconds(lambda: cv2.imdecode(encoded, cv2.IMREAD_UNCHANGED))
-    detect = median_seconds(lambda: find_image_circles(decoded))
-    found = find_image_circles(decoded)
-    print("1920 x 1920 hyperbolic-mirror render, noise 5, JPEG 75:")
-    print(f"  decode the JPEG (baseline): {decode * 1e3:7.1f} ms")
-    print(f"  find_image_circles:         {detect * 1e3:7.1f} ms  ({detect / decode:.2f}x the decode)")
-    print(
-        f"  centre error {math.dist(found.centre, camera.centre):.3f} px, outer radius error "
-        f"{found.outer_radius - camera.outer_radius:+.3f} px, cut-off radius error "
-        f"{(found.cutoff_radius or 0) - camera.cutoff_radius:+.3f} px"
-    )
+    for name, (image, camera) in scenes().items():
+        noisy = np.clip(image + rng.normal(0, 5, image.shape), 0, 255).astype(np.uint8)
+        ok, encoded = cv2.imencode(".jpg", noisy, [cv2.IMWRITE_JPEG_QUALITY, 75])
+        assert ok
+        decoded = cv2.imdecode(encoded, cv2.IMREAD_UNCHANGED)
+        decode = median_seconds(lambda: cv2.imdecode(encoded, cv2.IMREAD_UNCHANGED))  # noqa: B023
+        detect = median_seconds(lambda: find_image_circles(decoded))  # noqa: B023
+        found = find_image_circles(decoded)
+        print(f"{name}, noise 5, JPEG 75:")
+        print(f"  decode the JPEG (baseline): {decode * 1e3:7.1f} ms")
+        print(f"  find_image_circles:         {detect * 1e3:7.1f} ms  ({detect / decode:.2f}x the decode)")
+        print(
+            f"  centre error {math.dist(found.centre, camera.centre):.3f} px, outer radius error "  # type: ignore[attr-defined]
+            f"{found.outer_radius - camera.outer_radius:+.3f} px, cut-off radius error "  # type: ignore[attr-defined]
+            f"{(found.cutoff_radius or 0) - camera.cutoff_radius:+.3f} px, "  # type: ignore[attr-defined]
+            f"cropped by {', '.join(found.cropped_by) or 'nothing'}, rim seen on {found.rim_seen:.0%} of the rays"
+        )
 
 
 def reference_centre(folder: Path) -> tuple[float, float] | None:
@@ -80,35 +100,38 @@ def real_table() -> None:
         return
     print()
     print(
-        "| folder | images found / all | centre found (u, v), median | calibration centre | distance (px) | "
-        "outer radius (px) | cut-off radius (px) | why not found |"
+        "| folder | found / all | cut-off disc in | centre found (u, v), median | calibration centre | "
+        "distance (px), median / worst | outer radius (px) | cropped by | rim seen | time per image (ms) |"
     )
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for folder in sorted(p for p in REAL.iterdir() if p.is_dir()):
         reference = reference_centre(folder)
-        found, reasons = [], []
+        found, reasons, times = [], [], []
         for path in sorted((folder / "images").iterdir()):
+            image = read_image(path)
+            start = time.perf_counter()
             try:
-                found.append(find_image_circles(read_image(path)))
-            except PanomapError as exc:
+                found.append(find_image_circles(image))
+            except NoImageCircle as exc:
                 reasons.append(exc.detail)
+            times.append(time.perf_counter() - start)
         total = len(found) + len(reasons)
-        if found:
-            u = statistics.median(c.centre[0] for c in found)
-            v = statistics.median(c.centre[1] for c in found)
-            outer = statistics.median(c.outer_radius for c in found)
-            cutoffs = [c.cutoff_radius for c in found if c.cutoff_radius is not None]
-            cutoff = f"{statistics.median(cutoffs):.1f} in {len(cutoffs)}" if cutoffs else "none"
-            distance = f"{math.dist((u, v), reference):.2f}" if reference else "-"
-            centre = f"({u:.2f}, {v:.2f})"
-        else:
-            centre = distance = outer_text = cutoff = "-"
-        outer_text = f"{outer:.1f}" if found else "-"
         ref = f"({reference[0]:.2f}, {reference[1]:.2f})" if reference else "-"
-        why = reasons[0] if reasons else ""
+        if not found:
+            per_image = statistics.median(times) * 1e3
+            print(f"| {folder.name} | 0 / {total} | - | - | {ref} | - | - | - | - | {per_image:.0f} |")
+            continue
+        u = statistics.median(c.centre[0] for c in found)
+        v = statistics.median(c.centre[1] for c in found)
+        outer = statistics.median(c.outer_radius for c in found)
+        cutoffs = sum(c.cutoff is not None for c in found)
+        distances = [math.dist(c.centre, reference) for c in found] if reference else []
+        distance = f"{statistics.median(distances):.2f} / {max(distances):.2f}" if distances else "-"
+        cropped = ", ".join(sorted({edge for c in found for edge in c.cropped_by})) or "-"
+        seen = statistics.median(c.rim_seen for c in found)
         print(
-            f"| {folder.name} | {len(found)} / {total} | {centre} | {ref} | {distance} | {outer_text} | {cutoff} "
-            f"| {why} |"
+            f"| {folder.name} | {len(found)} / {total} | {cutoffs} | ({u:.2f}, {v:.2f}) | {ref} | {distance} "
+            f"| {outer:.1f} | {cropped} | {seen:.0%} | {statistics.median(times) * 1e3:.0f} |"
         )
 
 

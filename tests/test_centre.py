@@ -3,7 +3,10 @@
 Issue's bar: rendered images of every simulated camera, centre at random
 sub-pixel places up to 40 px from the middle, Gaussian noise of 5 grey levels
 and JPEG at quality 75: centre error <= 0.5 px and radii <= 1 px over 20 seeded
-trials each.
+trials each. The same for circles cut by one or two frame edges by up to 15% of
+their radius (4:3 and 16:9 sensors), and with dark vignetting and a dim side; the
+tolerances below are a few times the worst error measured (docs/centre.md).
+Ground truth comes from panomap.simulate, which imports nothing under test.
 """
 
 from __future__ import annotations
@@ -17,11 +20,11 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from panomap.calibrate.circles import find_image_circles
+from panomap.calibrate.circles import NoImageCircle, find_image_circles
 from panomap.calibrate.landmarks import landmarks_to_csv
 from panomap.cli.app import main
 from panomap.errors import PanomapError
-from panomap.simulate import load_room, render, standard_cameras
+from panomap.simulate import load_room, noisy_jpeg, render, standard_cameras, vignette
 from panomap.table.file import load_table
 
 from helpers import spread_landmarks
@@ -33,10 +36,7 @@ TRIALS = 20
 
 def degrade(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """Gaussian noise of 5 grey levels, then JPEG at quality 75."""
-    noisy = np.clip(image + rng.normal(0.0, 5.0, image.shape), 0, 255).astype(np.uint8)
-    ok, encoded = cv2.imencode(".jpg", noisy, [cv2.IMWRITE_JPEG_QUALITY, 75])
-    assert ok
-    return cv2.imdecode(encoded, cv2.IMREAD_UNCHANGED)
+    return noisy_jpeg(image, rng, noise=5.0, quality=75)
 
 
 def random_centre(rng: np.random.Generator) -> tuple[float, float]:
@@ -95,8 +95,9 @@ def test_no_circle_is_an_error_not_a_guess(kind: str) -> None:
         image = np.full((480, 640), 128, np.uint8)
     else:
         image = rng.integers(0, 256, (480, 640), dtype=np.uint8)
-    with pytest.raises(PanomapError, match="no image circle found"):
+    with pytest.raises(NoImageCircle, match="no image circle found") as raised:
         find_image_circles(image)
+    assert raised.value.frame_centre == (319.5, 239.5)
 
 
 def test_sixteen_bit_and_grey_images_work() -> None:
@@ -123,7 +124,9 @@ def test_cli_centre_prints_and_draws(tmp_path: Path) -> None:
     assert overlay[rim[1], rim[0], 1] > 150
 
     text = runner.invoke(main, ["centre", str(tmp_path / "omni.png")]).output
-    assert text.startswith("centre: 251.3")
+    u0, v0 = map(float, text.splitlines()[0].removeprefix("centre: ").split())
+    assert math.dist((u0, v0), camera.centre) < 0.05
+    assert "frame cuts" not in text and "rim seen on 100% of the rays, bright inside" in text
     plain = tmp_path / "photo.png"
     cv2.imwrite(str(plain), np.full((100, 120), 90, np.uint8))
     failed = runner.invoke(main, ["centre", str(plain)])
@@ -159,3 +162,175 @@ def test_fit_finds_the_centre_and_radii_when_not_given(tmp_path: Path) -> None:
     assert math.dist(table.model.centre, camera.centre) < 0.2
     assert table.cutoff_radius == pytest.approx(camera.cutoff_radius, abs=0.5)
     assert "image_circles" in table.info
+
+
+# Frames that cut the circle: (width, height), which edges, and how the centre is drawn.
+CROPPED_FRAMES = {
+    "4:3, top and bottom": (640, 480),
+    "16:9, top and bottom": (800, 450),
+    "top only": (600, 600),
+    "left and top": (600, 600),
+}
+
+
+def cropped_camera(frame: str, name: str, rng: np.random.Generator) -> object:
+    """A camera whose circle the frame cuts by 0.5-15% of its radius on the edges named by ``frame``."""
+    width, height = CROPPED_FRAMES[frame]
+    cut = rng.uniform(0.005, 0.15)
+    jitter = rng.uniform(-2.0, 2.0, 2)
+    if frame == "top only":
+        radius = 250.0 + jitter[0]
+        centre = ((width - 1) / 2 + 10 * jitter[1], radius * (1 - cut) - 0.5)
+    elif frame == "left and top":
+        radius = 260.0 + jitter[0]
+        centre = (radius * (1 - cut) - 0.5, radius * (1 - rng.uniform(0.005, 0.15)) - 0.5)
+    else:
+        radius = (height / 2) / (1 - cut)
+        centre = ((width - 1) / 2 + jitter[0], (height - 1) / 2 + jitter[1] / 4)
+    return standard_cameras((width, height), centre=centre, phi0=rng.uniform(0, 2 * math.pi), outer_radius=radius)[name]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("frame", list(CROPPED_FRAMES))
+def test_circles_cut_by_the_frame(frame: str) -> None:
+    """Measured worst over these trials: centre 0.015 px, outer radius 0.015 px, cut-off radius 0.04 px."""
+    rng = np.random.default_rng(200 + len(frame))
+    worst = {"centre": 0.0, "outer": 0.0, "cutoff": 0.0}
+    expected_edges = {
+        "4:3, top and bottom": ("top", "bottom"),
+        "16:9, top and bottom": ("top", "bottom"),
+        "top only": ("top",),
+        "left and top": ("left", "top"),
+    }[frame]
+    for name in ["equidistant", "equisolid", "parabolic", "hyperbolic", "spherical"]:
+        for _ in range(2):
+            camera = cropped_camera(frame, name, rng)
+            found = find_image_circles(degrade(render(ROOM, camera, supersample=2), rng))
+            worst["centre"] = max(worst["centre"], math.dist(found.centre, camera.centre))
+            worst["outer"] = max(worst["outer"], abs(found.outer_radius - camera.outer_radius))
+            assert found.cropped_by == expected_edges
+            assert 0.5 < found.rim_in_frame < 1.0
+            assert found.rim_seen <= found.rim_in_frame + 0.01
+            if camera.cutoff_radius == 0:
+                assert found.cutoff is None
+            else:
+                assert found.cutoff is not None
+                worst["cutoff"] = max(worst["cutoff"], abs(found.cutoff.radius - camera.cutoff_radius))
+    print(frame, {k: round(v, 3) for k, v in worst.items()})
+    # About 3 times the worst measured; the issue's bar is 0.5 px and 1 px.
+    assert worst["centre"] <= 0.05
+    assert worst["outer"] <= 0.05
+    assert worst["cutoff"] <= 0.15
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("frame", ["uncropped", "4:3, top and bottom"])
+def test_vignetting_and_a_dim_side(frame: str) -> None:
+    """Rim at half brightness all round and a sixth on one side. Measured worst: centre 0.053 px, radius 0.046 px."""
+    rng = np.random.default_rng(300 + len(frame))
+    worst = {"centre": 0.0, "outer": 0.0}
+    for name in ["equidistant", "equisolid", "parabolic", "hyperbolic", "spherical"]:
+        for _ in range(2):
+            if frame == "uncropped":
+                camera = standard_cameras(SIZE, centre=random_centre(rng), phi0=rng.uniform(0, 2 * math.pi))[name]
+            else:
+                camera = cropped_camera(frame, name, rng)
+            image = render(ROOM, camera, supersample=2)
+            dimmed = vignette(
+                image, camera.centre, camera.outer_radius, falloff=0.5, dim=0.35, dim_angle=rng.uniform(0, 2 * math.pi)
+            )
+            found = find_image_circles(degrade(dimmed, rng))
+            worst["centre"] = max(worst["centre"], math.dist(found.centre, camera.centre))
+            worst["outer"] = max(worst["outer"], abs(found.outer_radius - camera.outer_radius))
+            assert (found.cutoff is None) == (camera.cutoff_radius == 0)
+    print(frame, {k: round(v, 3) for k, v in worst.items()})
+    assert worst["centre"] <= 0.15
+    assert worst["outer"] <= 0.15
+
+
+@pytest.mark.parametrize(("size", "radius"), [((640, 480), 420.0), ((640, 360), 380.0)])
+def test_a_full_frame_fisheye_has_no_rim_and_says_so(size: tuple[int, int], radius: float) -> None:
+    """The circle holds the whole frame: no rim to fit; the answer carries the frame centre to start from."""
+    rng = np.random.default_rng(5)
+    for name in ["equidistant", "equisolid"]:
+        camera = standard_cameras(size, phi0=rng.uniform(0, 2 * math.pi), outer_radius=radius)[name]
+        with pytest.raises(NoImageCircle, match="no rim is visible") as raised:
+            find_image_circles(degrade(render(ROOM, camera, supersample=1), rng))
+        assert raised.value.frame_centre == ((size[0] - 1) / 2, (size[1] - 1) / 2)
+        assert isinstance(raised.value, PanomapError)  # callers that only know PanomapError still stop
+
+
+def test_cli_centre_reports_the_cropping_and_a_missing_rim(tmp_path: Path) -> None:
+    camera = standard_cameras((640, 480), centre=(321.4, 238.2), outer_radius=265.0)["hyperbolic"]
+    cv2.imwrite(str(tmp_path / "cropped.png"), render(ROOM, camera, supersample=2))
+    runner = CliRunner()
+    text = runner.invoke(main, ["centre", str(tmp_path / "cropped.png")]).output
+    assert "the frame cuts the image circle at its top and bottom edges" in text
+    data = json.loads(runner.invoke(main, ["centre", str(tmp_path / "cropped.png"), "--json"]).output)
+    assert data["cropped_by"] == ["top", "bottom"]
+    # The part of a 265 px circle inside rows -0.5 .. 479.5 (pixel edges), its centre at row 238.2.
+    inside = 1 - (math.acos(238.7 / 265.0) + math.acos((479.5 - 238.2) / 265.0)) / math.pi
+    assert data["rim_in_frame"] == pytest.approx(inside, abs=0.01)
+    # The arcs fitted lie in the frame: none reaches the top (270 deg) or the bottom (90 deg).
+    arcs = data["rim_arcs_deg"]
+    assert arcs and all(end - start <= 180 for start, end in arcs)
+    for angle in (90.0, 270.0, 450.0, 630.0):
+        assert not any(start <= angle <= end for start, end in arcs)
+    assert sum(end - start for start, end in arcs) / 360 == pytest.approx(data["rim_seen"], abs=0.05)
+
+    fisheye = standard_cameras((640, 480), outer_radius=420.0)["equidistant"]
+    cv2.imwrite(str(tmp_path / "full.png"), render(ROOM, fisheye, supersample=1))
+    failed = runner.invoke(main, ["centre", str(tmp_path / "full.png")])
+    assert failed.exit_code == 1
+    lines = failed.stderr.strip().splitlines()
+    assert len(lines) == 1 and "no rim is visible" in lines[0] and "(319.5, 239.5)" in lines[0]
+
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+# Per real set: worst distance (px) of the rim centre from the established calibration's
+# centre (about twice the worst measured: the rim's centre is not the optical axis on a
+# real camera), the images whose rim must be found, and those with a cut-off disc.
+REAL_SETS = {
+    "ocam_kaidan_catadioptric": (1.8, 17, 16),
+    "ocam_vmr_catadioptric": (5.5, 10, 10),
+    "mei_paracatadioptric": (7.0, 10, 10),
+    "ocam_fisheye_imgback": (14.0, 11, 0),
+    "ocam_miniomni_catadioptric": (18.0, 5, 0),
+}
+
+
+def real_reference(folder: Path) -> tuple[float, float]:
+    """(u, v) centre of the calibration shipped in ``folder``, 0-based."""
+    ocam = folder / "ocam_model.json"
+    if ocam.exists():
+        model = json.loads(ocam.read_text())
+        return float(model["yc_col_0based"]), float(model["xc_row_0based"])
+    data = json.loads((folder / "omnidir_calibration.json").read_text())
+    k = data["models"][data["primary"]]["K"]
+    return float(k[0][2]), float(k[1][2])
+
+
+@pytest.mark.real_data
+@pytest.mark.slow
+@pytest.mark.skipif(not REAL.is_dir(), reason=f"real data not found at {REAL} (../shared is not beside the repo)")
+@pytest.mark.parametrize("folder", list(REAL_SETS))
+def test_real_sets(folder: str) -> None:
+    """Measured (docs/centre.md): found on 17/17, 10/10, 10/10, 11/11 and 5/15 images; where not, NoImageCircle."""
+    from panomap.io.images import read_image
+
+    bound, least_found, least_cutoffs = REAL_SETS[folder]
+    reference = real_reference(REAL / folder)
+    found = cutoffs = 0
+    worst = 0.0
+    for path in sorted((REAL / folder / "images").iterdir()):
+        try:
+            circles = find_image_circles(read_image(path))
+        except NoImageCircle:
+            continue
+        found += 1
+        cutoffs += circles.cutoff is not None
+        worst = max(worst, math.dist(circles.centre, reference))
+    print(folder, found, cutoffs, round(worst, 2))
+    assert found >= least_found
+    assert cutoffs >= least_cutoffs
+    assert worst <= bound

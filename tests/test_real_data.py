@@ -40,8 +40,11 @@ def test_a_centre_found_is_near_the_calibrations_or_it_is_an_error(folder: str) 
     """Never a guess: every image gives a centre within a few px of the calibration's, or an error.
 
     The calibration estimates the optical axis, which can sit a few pixels off the rim's
-    centre on a real mirror (measured: 0.5 px for kaidan, 2.2 px for vmr).
+    centre on a real mirror (measured worst: 0.9 px for kaidan, 2.7 px for vmr); the
+    imgback fisheye's rim is soft and cut by the frame (7.0 px), miniomni's is a mirror's
+    edge in a bright housing (9.3 px; docs/centre.md).
     """
+    bound = {"ocam_fisheye_imgback": 14.0, "ocam_miniomni_catadioptric": 18.0}.get(folder, 4.0)
     reference = ocam_centre(folder)
     found = 0
     for path in sorted((REAL / folder / "images").iterdir()):
@@ -51,8 +54,8 @@ def test_a_centre_found_is_near_the_calibrations_or_it_is_an_error(folder: str) 
             assert "no image circle found" in str(exc)
             continue
         found += 1
-        assert math.dist(circles.centre, reference) < 4.0, path.name
-    if folder in ("ocam_kaidan_catadioptric", "ocam_vmr_catadioptric"):
+        assert math.dist(circles.centre, reference) < bound, path.name
+    if folder in ("ocam_kaidan_catadioptric", "ocam_vmr_catadioptric", "ocam_fisheye_imgback"):
         assert found == len(list((REAL / folder / "images").iterdir()))
 
 
@@ -89,10 +92,11 @@ def test_ten_corners_reproject_all_others_within_a_pixel(folder: str) -> None:
     assert refined["s"] == -1
     expected_phi0 = 87.5 if folder == "ocam_fisheye_imgback" else 90.0
     assert abs(refined["phi0_deg"] - expected_phi0) < 0.3, refined["phi0_deg"]
-    if folder != "ocam_vmr_catadioptric":
-        # Measured 0.52-0.66 px with the centre held where it was found (or the calibration's).
+    if folder not in ("ocam_vmr_catadioptric", "ocam_fisheye_imgback"):
+        # Measured 0.52-0.66 px with the centre held where it was found (or the calibration's);
+        # vmr's and imgback's rim centres are 1.5-2.2 px off the axis, which the default holds.
         assert result["fits"]["default"]["rms_px"] <= 0.8, result["fits"]["default"]
-    detected = folder in ("ocam_kaidan_catadioptric", "ocam_vmr_catadioptric")
+    detected = folder in ("ocam_kaidan_catadioptric", "ocam_vmr_catadioptric", "ocam_fisheye_imgback")
     assert result["centre"].source.startswith("detected" if detected else "calibration's")
 
 

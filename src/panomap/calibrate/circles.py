@@ -7,27 +7,39 @@ Method (paper 2.1 and 3 find these automatically; refs. [18, 19] use circle
 transforms):
 
 1. **Start.** The image circle is the bright disc inside a dark border: a
-   threshold of the smoothed, downscaled image, its largest blob with its holes
-   filled, gives a first centre and radius (a circle transform, by moments).
+   threshold of the smoothed, downscaled image, its largest blob, and a circle
+   fitted to its outline where it meets its convex hull, away from the frame's
+   edges (the visible arcs of a circle the frame cuts, not the dents of dark
+   scene). Where that does not convince, a
+   gradient circle transform of the downscaled image gives candidates: strong
+   edges vote along their gradient for a centre, then for a radius.
 2. **Rim edge points.** Along 720 rays from that centre, the intensity profile
-   across the rim is sampled at full resolution (bilinear), smoothed, and the
-   steepest bright-to-dark step is located to a fraction of a pixel.
-3. **Robust circle fit.** A geometric least-squares circle with a soft-L1
-   loss, then a refit on the inliers (points within 3 robust sigmas); steps 2-3
-   repeat from the new centre. An ellipse is fitted to the same inliers and
-   reported when the rim is measurably elliptical (non-square pixels, a tilted
-   mirror); its centre is then the image centre.
-4. **Cut-off disc.** From the centre, each ray's first dark-to-bright step
-   inside the image circle, fitted the same way. A fisheye, whose centre sees
-   the scene, has none; the disc is reported only when most rays agree on it.
+   across the rim is sampled at full resolution (bilinear) and smoothed along
+   the ray; each ray's outermost clear bright-to-dark drop is located to a
+   fraction of a pixel. Only drops whose neighbourhood lies in the frame count:
+   the frame's border is no rim.
+3. **Robust circle fit.** A consensus circle through three edge points (seeded
+   RANSAC), then geometric least squares (Gauss-Newton) on the points near it,
+   then on the inliers (within 3 robust sigmas); steps 2-3 repeat from the new
+   centre. A rim must be seen on enough rays, all round, and the level must step
+   across it on most rays in the frame; that count ranks candidates. An ellipse
+   is fitted to the same inliers and reported when the rim is measurably
+   elliptical (non-square pixels, a tilted mirror); its centre is then the image
+   centre. A rim darker inside than out (a mirror in a bright housing) is tried
+   only when no bright disc is found.
+4. **Cut-off disc.** The radius where the median over the rays of the radial
+   gradient rises most (a dark self-reflection, textured or not, against the
+   scene), then each ray's steepest rise near it, fitted the same way. A
+   fisheye, whose centre sees the scene, has none.
 
-Every failure is an error with a reason, never a guess.
+Every failure is an error with a reason, never a guess; where no rim is visible
+at all, the error (:class:`NoImageCircle`) carries the frame centre as a
+starting value.
 """
 
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,15 +52,67 @@ from ..geometry import FloatArray, pixel_polar
 
 RAYS = 720
 COARSE_SIDE = 400
+STEP = 0.5  # px between profile samples
+PROFILE_SIGMA_PX = 1.0  # smoothing of the profiles along their rays
+# Samples either side of an edge (4 px) that must lie in the frame, and those whose levels are compared.
+EDGE_HALF_WINDOW = 8
+LEVEL_SAMPLES = 16
 # Edge points further than this from the fitted circle (in robust sigmas) are outliers.
 INLIER_SIGMAS = 3.0
-MIN_RIM_FRACTION = 0.35
-CONVINCING_RIM_FRACTION = 0.6
-# Real rims fit to 0.2-0.9 px RMS; a false circle through scene edges fits worse.
-MAX_RIM_RMS_PX = 1.5
-MIN_CUTOFF_FRACTION = 0.6
+# Rays (of RAYS) whose rim points must agree: a circle cut by the frame by 15% of its
+# radius on two sides still shows 64% of its rim, but dark scene may hide much of that
+# (a real fisheye cut at top and bottom shows a quarter of its rim).
+MIN_RIM_FRACTION = 0.2
+# ... spread around the circle: in at least this many of 12 sectors of 30 deg, a third of the rays agree.
+MIN_RIM_SECTORS = 4
+# Rays (of those in the frame) stepping across a rim that needs no other candidate.
+CONVINCING_RIM_FRACTION = 0.85
+# Rays (of those in the frame) along which the level steps across the circle: 0.8-0.97 on
+# real rims, 0.4-0.7 on circles through scene edges. A mirror's rim in a bright housing
+# (darker inside than out) steps less clearly (0.5-0.8 on the real one), and circles
+# through scene edges reach 0.53 there.
+MIN_STEPPING_FRACTION = 0.75
+MIN_STEPPING_FRACTION_DARK_INSIDE = 0.62
+# Sharp real rims fit to 0.2-0.9 px RMS, a soft (vignetted) one to 1.5 px; a false circle
+# through scene edges fits worse.
+MAX_RIM_RMS_PX = 2.0
+MIN_CUTOFF_FRACTION = 0.5
+MAX_CUTOFF_RMS_PX = 1.5
+# Median over the rays of the radial gradient (grey levels per px) at the cut-off disc's edge.
+CUTOFF_MIN_MEDIAN_RISE = 3.0
 # An ellipse is reported when its axes differ by more than this fraction and it fits clearly better.
 ELLIPSE_MIN_ECCENTRICITY = 0.003
+# The circle transform: the strongest edge pixels that vote, and the weakest gradient (Sobel units) that may.
+VOTING_EDGES = 6000
+VOTING_MIN_GRADIENT = 20.0
+# How far (a fraction of the radius) the rim is looked for from a start circle: a good one, a rough one.
+NARROW_REACH = 0.06
+WIDE_REACH = 0.15
+# A drop of at least this fraction of the steepest on its ray is a clear one.
+CLEAR_DROP = 0.3
+# Circles through three edge points tried by the consensus fit.
+CONSENSUS_SAMPLES = 200
+GAUSS_NEWTON_ITERATIONS = 50
+# Edge points this close to a circle (px) measure its spread.
+NEAR_PX = 3.0
+# ... or this fraction of the radius, when more: a rim that is an ellipse strays that far from a circle.
+NEAR_FRACTION = 0.015
+FRAME_EDGES = ("left", "top", "right", "bottom")
+
+
+class NoImageCircle(PanomapError):
+    """No rim is visible: a full-frame fisheye, an ordinary photo or a blank image.
+
+    Attributes
+    ----------
+    frame_centre : (u, v)
+        The middle of the frame, px: a starting value for a centre that the
+        landmarks then refine.
+    """
+
+    def __init__(self, message: str, frame_centre: tuple[float, float], source: object | None = None) -> None:
+        super().__init__(message, source)
+        self.frame_centre = frame_centre
 
 
 @dataclass(frozen=True)
@@ -97,6 +161,8 @@ class Ellipse:
 class ImageCircles:
     """What :func:`find_image_circles` found.
 
+    The valid region of the image is the image circle intersected with the frame.
+
     Attributes
     ----------
     centre : (u0, v0)
@@ -107,12 +173,30 @@ class ImageCircles:
         The self-occlusion disc; None when there is none (a fisheye).
     ellipse : Ellipse or None
         The rim as an ellipse, when it measurably is one.
+    cropped_by : tuple of str
+        The frame edges that cut the image circle, of ``FRAME_EDGES`` (left, top,
+        right, bottom); empty when the whole circle is in the frame.
+    rim_in_frame : float
+        Fraction of the circle's circumference inside the frame.
+    rim_seen : float
+        Fraction of the rays (all around) on which the rim was found and agrees
+        with the circle: at most ``rim_in_frame``, less where dark scene touches it.
+    rim_polarity : str
+        ``'bright inside'`` (a bright disc in a dark border) or ``'dark inside'``.
+    rim_arcs_deg : tuple of (start, end)
+        The arcs of the rim the circle was fitted to, in image angle (deg, from +u
+        towards +v), ``start < end``, ``end`` past 360 for an arc across 0 deg.
     """
 
     centre: tuple[float, float]
     outer: Circle
     cutoff: Circle | None
     ellipse: Ellipse | None
+    cropped_by: tuple[str, ...] = ()
+    rim_in_frame: float = 1.0
+    rim_seen: float = 1.0
+    rim_polarity: str = "bright inside"
+    rim_arcs_deg: tuple[tuple[float, float], ...] = ()
 
     @property
     def outer_radius(self) -> float:
@@ -130,6 +214,11 @@ class ImageCircles:
             "outer": self.outer.to_dict(),
             "cutoff": None if self.cutoff is None else self.cutoff.to_dict(),
             "ellipse": None if self.ellipse is None else self.ellipse.to_dict(),
+            "cropped_by": list(self.cropped_by),
+            "rim_in_frame": self.rim_in_frame,
+            "rim_seen": self.rim_seen,
+            "rim_polarity": self.rim_polarity,
+            "rim_arcs_deg": [list(arc) for arc in self.rim_arcs_deg],
         }
 
 
@@ -146,6 +235,9 @@ def to_grey(image: NDArray[Any]) -> NDArray[Any]:
 def find_image_circles(image: NDArray[Any]) -> ImageCircles:
     """Find the image centre, the image circle and the cut-off disc of an omni-image.
 
+    The image circle may be cut by any of the frame's edges (a 4:3 or 16:9 sensor
+    under a round image): it is fitted to the arcs of its rim that are visible.
+
     Parameters
     ----------
     image : (H, W[, C]) ndarray
@@ -153,104 +245,274 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
 
     Raises
     ------
-    PanomapError
-        When there is no image circle (an ordinary photo, a blank image).
+    NoImageCircle
+        When no rim is visible (a full-frame fisheye, an ordinary photo, a blank
+        image); it carries the frame centre as a starting value.
     """
     grey = to_grey(image)
     height, width = grey.shape
+    frame_centre = ((width - 1) / 2, (height - 1) / 2)
     if min(height, width) < 32:
-        raise PanomapError(f"the image is too small ({width} x {height}) to find an image circle in")
-    smooth = cv2.GaussianBlur(grey, (0, 0), 1.0)
+        raise NoImageCircle(
+            f"no image circle found: the image is too small ({width} x {height}) to find an image circle in",
+            frame_centre,
+        )
+    small, factor = _downscaled(grey)
     reasons: list[str] = []
-    best: tuple[Circle, FloatArray] | None = None
-    # The dark-border blob first; the circle transform's candidates when it is not convincing.
-    for stage in (_coarse_circle, _hough_circles):
+    best: _Rim | None = None
+    # A bright disc in a dark border first (the blob, then the circle transform); a rim
+    # that is darker inside than out (a mirror in a bright housing) only when that fails.
+    # Each stage: its candidates, the rim's polarity, and how far (a fraction of the radius)
+    # the rim is looked for around a candidate: the blob's start may be rough (dark scene
+    # touching the rim); the circle transform's is good to a few px.
+    stages = (
+        (lambda: _coarse_circle(small, factor), 1, (NARROW_REACH, WIDE_REACH)),
+        (lambda: _voted_circles(small, factor, polarity=1), 1, (NARROW_REACH,)),
+        (lambda: _voted_circles(small, factor, polarity=-1, count=6), -1, (NARROW_REACH, WIDE_REACH)),
+    )
+    for stage, polarity, reaches in stages:
+        if best is not None and (polarity != best.polarity or best.convincing):
+            break
         try:
-            candidates = stage(grey)
+            candidates = stage()
         except PanomapError as exc:
             reasons.append(exc.detail)
             continue
         for centre, radius in candidates:
+            if best is not None and math.dist(centre, best.circle.centre) < 2 and abs(radius - best.circle.radius) < 2:
+                continue  # the same circle again
             try:
-                found = _refine_rim(smooth, centre, radius)
+                found = _refine_rim(grey, centre, radius, polarity, reaches)
             except PanomapError as exc:
                 reasons.append(exc.detail)
                 continue
-            if best is None or found[0].inliers > best[0].inliers:
+            if best is None or found.rank > best.rank:
                 best = found
-        if best is not None and best[0].inliers >= CONVINCING_RIM_FRACTION * RAYS:
-            break
+            if best.convincing:
+                break
     if best is None:
-        raise PanomapError(reasons[0] if reasons else "no image circle found")
-    outer, points = best
+        reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
+        raise NoImageCircle(
+            f"{reason}; no rim is visible (a full-frame fisheye, or not an omni-image): "
+            f"the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a starting value",
+            frame_centre,
+        )
+    outer = best.circle
     centre = outer.centre
-    ellipse = _ellipse(points, outer)
+    ellipse = _ellipse(best.points, outer)
     if ellipse is not None:
         centre = ellipse.centre
-    cutoff = _cutoff_circle(smooth, centre, outer.radius)
-    return ImageCircles(centre=centre, outer=outer, cutoff=cutoff, ellipse=ellipse)
+    cutoff = _cutoff_circle(grey, centre, outer.radius)
+    return ImageCircles(
+        centre=centre,
+        outer=outer,
+        cutoff=cutoff,
+        ellipse=ellipse,
+        cropped_by=_cropping_edges(outer.centre, outer.radius, (height, width)),
+        rim_in_frame=_fraction_in_frame(outer.centre, outer.radius, (height, width)),
+        rim_seen=outer.inliers / outer.rays,
+        rim_polarity="bright inside" if best.polarity > 0 else "dark inside",
+        rim_arcs_deg=_arcs(best.points, outer),
+    )
 
 
-def _refine_rim(smooth: NDArray[Any], centre: tuple[float, float], radius: float) -> tuple[Circle, FloatArray]:
-    """Rim edge points and the robust circle through them, iterated from a start circle."""
+@dataclass(frozen=True)
+class _Rim:
+    """A rim found: its circle, its edge points (n, 2), how many rays fall in the frame, its polarity.
+
+    ``stepping`` counts the rays that cross a step across the circle (the levels
+    just inside and just outside it differ), edge or not: what ranks candidates.
+    """
+
+    circle: Circle
+    points: FloatArray
+    rays_in_frame: float
+    polarity: int
+    stepping: int
+
+    @property
+    def convincing(self) -> bool:
+        """Whether the level steps across the circle on so many rays that no other candidate is needed."""
+        return self.stepping >= CONVINCING_RIM_FRACTION * self.rays_in_frame
+
+    @property
+    def rank(self) -> float:
+        """Which of two rims to keep: the one with more stepping rays; of dark-inside ones, the larger."""
+        return self.stepping if self.polarity > 0 else self.circle.radius
+
+
+def _refine_rim(
+    grey: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reaches: tuple[float, ...]
+) -> _Rim:
+    """Rim edge points and the robust circle through them, iterated from a start circle.
+
+    The rim is first looked for within ``reaches[0]`` of the start radius (a good start:
+    the scene further in is then no distraction), then within each next reach.
+    """
+    failure = PanomapError("no image circle found")
+    for reach in reaches:
+        try:
+            return _iterate_rim(grey, centre, radius, polarity, reach)
+        except PanomapError as exc:
+            failure = exc
+    raise failure
+
+
+def _iterate_rim(grey: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reach: float) -> _Rim:
+    """:func:`_refine_rim` with the first search ``reach`` times the radius wide."""
+    height, width = grey.shape
     circle = None
-    for _ in range(3):
-        points = _rim_points(smooth, centre, radius)
+    for iteration in range(4):
+        points = _rim_points(grey, centre, radius, polarity, reach if iteration == 0 else NARROW_REACH)
         if len(points) < MIN_RIM_FRACTION * RAYS:
             raise PanomapError(
-                f"no image circle found: only {len(points)} of {RAYS} rays cross a bright-to-dark rim "
-                "(is this an omni-image with a dark border?)"
+                f"no image circle found: only {len(points)} of {RAYS} rays cross a "
+                f"{'bright-to-dark' if polarity > 0 else 'dark-to-bright'} rim"
             )
-        circle = _robust_circle(points, centre, radius)
-        moved = math.dist(circle.centre, centre)
+        circle = _robust_circle(points, centre, radius, consensus=iteration == 0)
+        if circle.inliers < MIN_RIM_FRACTION * RAYS:
+            break  # no rim here: rejected below, without iterating
+        moved = math.dist(circle.centre, centre) + abs(circle.radius - radius)
         centre, radius = circle.centre, circle.radius
+        if not (0 <= centre[0] < width and 0 <= centre[1] < height) or radius < 0.2 * min(height, width):
+            raise PanomapError("no image circle found: the only circle is too small or off the image")
         if moved < 0.01:
             break
     assert circle is not None
-    if circle.inliers < MIN_RIM_FRACTION * RAYS or (
-        circle.rms_px > MAX_RIM_RMS_PX and _ellipse(points, circle) is None
+    in_frame = _fraction_in_frame(circle.centre, circle.radius, (height, width)) * RAYS
+    sectors = _sectors_seen(points, circle)
+    if (
+        circle.inliers < MIN_RIM_FRACTION * RAYS
+        or sectors < MIN_RIM_SECTORS
+        or (circle.rms_px > MAX_RIM_RMS_PX and _ellipse(points, circle) is None)
     ):
         raise PanomapError(
             f"no image circle found: the rim's edge points do not lie on a circle "
-            f"({circle.inliers} of {RAYS} agree, RMS {circle.rms_px:.2f} px)"
+            f"({circle.inliers} of {RAYS} agree, in {sectors} of 12 sectors, RMS {circle.rms_px:.2f} px)"
         )
-    height, width = smooth.shape
-    if circle.radius < 0.2 * min(height, width) or not (0 <= centre[0] < width and 0 <= centre[1] < height):
-        raise PanomapError("no image circle found: the only circle is too small or off the image")
-    return circle, points
+    stepping = _stepping_rays(grey, circle, polarity)
+    least = MIN_STEPPING_FRACTION if polarity > 0 else MIN_STEPPING_FRACTION_DARK_INSIDE
+    if stepping < least * in_frame:
+        raise PanomapError(
+            f"no image circle found: the levels inside and outside the best circle differ on only "
+            f"{stepping} of the {in_frame:.0f} rays in the frame"
+        )
+    return _Rim(circle, points, in_frame, polarity, stepping)
 
 
-def _hough_circles(grey: NDArray[Any], count: int = 3) -> list[tuple[tuple[float, float], float]]:
-    """Up to ``count`` strongest large circles of a circle transform of the downscaled image."""
+def _stepping_rays(grey: NDArray[Any], circle: Circle, polarity: int) -> int:
+    """Rays along which the level 2-12 px inside the circle exceeds that 2-12 px outside by 8 grey levels."""
+    radii = circle.radius + np.concatenate([np.arange(-12.0, -2.0, STEP), np.arange(2.5, 12.5, STEP)])
+    samples, _, _ = _profiles(grey, circle.centre, radii)
+    half = samples.shape[1] // 2
+    inside, outside = _row_medians(samples[:, :half]), _row_medians(samples[:, half:])
+    with np.errstate(invalid="ignore"):
+        return int(np.sum(polarity * (inside - outside) > 8.0))
+
+
+def _sectors_seen(points: FloatArray, circle: Circle) -> int:
+    """Sectors of 30 deg (of 12) in which at least a third of the rays have a point on the circle."""
+    du, dv = points[:, 0] - circle.centre[0], points[:, 1] - circle.centre[1]
+    on = np.abs(np.hypot(du, dv) - circle.radius) < max(INLIER_SIGMAS * circle.rms_px, 0.5)
+    sector = (np.floor(np.arctan2(dv[on], du[on]) / (math.pi / 6)).astype(np.int64)) % 12
+    return int(np.sum(np.bincount(sector, minlength=12) >= RAYS / 12 / 3))
+
+
+def _arcs(points: FloatArray, circle: Circle) -> tuple[tuple[float, float], ...]:
+    """The arcs (start, end deg) the points on the circle cover: gaps up to 2 deg bridged, arcs under 2 deg dropped."""
+    du, dv = points[:, 0] - circle.centre[0], points[:, 1] - circle.centre[1]
+    on = np.abs(np.hypot(du, dv) - circle.radius) < max(INLIER_SIGMAS * circle.rms_px, 0.5)
+    seen = np.zeros(360, dtype=bool)
+    seen[np.floor(np.degrees(np.arctan2(dv[on], du[on])) % 360).astype(np.int64) % 360] = True
+    if seen.all():
+        return ((0.0, 360.0),)
+    # Bridge gaps of up to 2 deg, then read the runs from the first degree not seen.
+    bridged = seen | (np.roll(seen, 1) & np.roll(seen, -2)) | (np.roll(seen, 2) & np.roll(seen, -1))
+    start = int(np.argmin(bridged))
+    runs, begin = [], None
+    for k in range(start, start + 361):
+        if bridged[k % 360] and begin is None:
+            begin = k
+        elif not bridged[k % 360] and begin is not None:
+            if k - begin >= 2:
+                runs.append((float(begin % 360), float(begin % 360 + k - begin)))
+            begin = None
+    return tuple(sorted(runs))
+
+
+def _downscaled(grey: NDArray[Any]) -> tuple[NDArray[Any], int]:
+    """The image shrunk by an integer factor to at most COARSE_SIDE px a side, smoothed; and that factor."""
     height, width = grey.shape
     factor = max(1, math.ceil(max(height, width) / COARSE_SIDE))
     small = cv2.resize(grey, (width // factor, height // factor), interpolation=cv2.INTER_AREA)
-    small8 = np.clip(cv2.GaussianBlur(small, (0, 0), 1.5), 0, 255).astype(np.uint8)
-    side = min(small8.shape)
-    found = cv2.HoughCircles(
-        small8,
-        cv2.HOUGH_GRADIENT,
-        dp=1,
-        minDist=side / 8,
-        param1=60,
-        param2=20,
-        minRadius=int(0.2 * side),
-        maxRadius=int(0.75 * max(small8.shape)),
-    )
-    if found is None:
-        return []
-    return [
-        (((u + 0.5) * factor - 0.5, (v + 0.5) * factor - 0.5), r * factor)
-        for u, v, r in found[0, :count].astype(np.float64)
-    ]
+    return cv2.GaussianBlur(small, (0, 0), 1.5), factor
 
 
-def _coarse_circle(grey: NDArray[Any]) -> list[tuple[tuple[float, float], float]]:
-    """First centre and radius (full-resolution px) from the largest bright blob of a downscaled image."""
-    height, width = grey.shape
-    factor = max(1, math.ceil(max(height, width) / COARSE_SIDE))
-    small = cv2.resize(grey, (width // factor, height // factor), interpolation=cv2.INTER_AREA)
-    small = cv2.GaussianBlur(small, (0, 0), 1.5)
+def _full_resolution(point: tuple[float, float], factor: int) -> tuple[float, float]:
+    """A position in the downscaled image in full-resolution px: sample k is at (k + 0.5) * factor - 0.5."""
+    return (point[0] + 0.5) * factor - 0.5, (point[1] + 0.5) * factor - 0.5
+
+
+def _voted_circles(
+    small: NDArray[Any], factor: int, polarity: int, count: int = 3
+) -> list[tuple[tuple[float, float], float]]:
+    """Up to ``count`` circles of a gradient circle transform of the downscaled image.
+
+    Each strong edge pixel votes for centres along its gradient, on the bright side
+    (``polarity`` +1: a disc brighter than its surround) or the dark side (-1), at
+    every distance a rim may have; the strongest centres get the radius most of their
+    edges point from. Its cost is bounded by the number of edge pixels kept, whatever
+    the scene.
+    """
+    height, width = small.shape
+    gx = cv2.Sobel(small, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(small, cv2.CV_32F, 0, 1, ksize=3)
+    magnitude = np.hypot(gx, gy).ravel()
+    keep = min(VOTING_EDGES, magnitude.size // 8)
+    strongest = np.argpartition(magnitude, -keep)[-keep:]
+    strongest = strongest[magnitude[strongest] > VOTING_MIN_GRADIENT]
+    if len(strongest) < 50:
+        raise PanomapError("no image circle found: the image has almost no edges")
+    y, x = np.divmod(strongest, width)
+    weight = magnitude[strongest]
+    dx = polarity * gx.ravel()[strongest] / weight
+    dy = polarity * gy.ravel()[strongest] / weight
+    r_min, r_max = 0.2 * min(height, width), 0.75 * max(height, width)
+    # Votes every 1.5 px into cells of 2 x 2 px: the centre need only be good enough to start from.
+    distances = np.arange(r_min, r_max, 1.5, dtype=np.float32)
+    cells = (height + 1) // 2, (width + 1) // 2
+    cu = np.floor((x[:, None] + distances[None, :] * dx[:, None]) / 2).astype(np.int64)
+    cv = np.floor((y[:, None] + distances[None, :] * dy[:, None]) / 2).astype(np.int64)
+    inside = (cu >= 0) & (cu < cells[1]) & (cv >= 0) & (cv < cells[0])
+    votes = np.bincount((cv * cells[1] + cu)[inside], minlength=cells[0] * cells[1]).astype(np.float32)
+    accumulator = cv2.GaussianBlur(votes.reshape(cells), (0, 0), 1.0)
+    candidates = []
+    for _ in range(count):
+        cell_v, cell_u = np.unravel_index(int(np.argmax(accumulator)), accumulator.shape)
+        if accumulator[cell_v, cell_u] <= 0:
+            break
+        cv2.circle(accumulator, (int(cell_u), int(cell_v)), max(2, round(min(cells) / 10)), 0.0, -1)
+        peak_u, peak_v = 2 * cell_u + 0.5, 2 * cell_v + 0.5
+        # The radius: the distance most of the edges pointing at this centre lie at.
+        to_u, to_v = peak_u - x, peak_v - y
+        distance = np.hypot(to_u, to_v)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            aligned = (to_u * dx + to_v * dy) / distance > 0.95
+        aligned &= (distance >= r_min) & (distance < r_max)
+        if aligned.sum() < 20:
+            continue
+        histogram = np.bincount(np.rint(distance[aligned]).astype(np.int64), weights=weight[aligned])
+        radius = float(np.argmax(np.convolve(histogram, np.ones(3) / 3, mode="same")))
+        candidates.append((_full_resolution((float(peak_u), float(peak_v)), factor), radius * factor))
+    return candidates
+
+
+def _coarse_circle(small: NDArray[Any], factor: int) -> list[tuple[tuple[float, float], float]]:
+    """First centre and radius (full-resolution px) from the largest bright blob of the downscaled image.
+
+    Where the blob is cut by the frame, the circle is fitted to its outline away from
+    the frame's edges: the arcs of the rim that are visible.
+    """
     dark = float(np.percentile(small, 2))
     bright = float(np.percentile(small, 60))
     if bright - dark < 10:
@@ -263,46 +525,69 @@ def _coarse_circle(grey: NDArray[Any]) -> list[tuple[tuple[float, float], float]
         raise PanomapError("no image circle found: nothing stands out from the border")
     contour = max(contours, key=cv2.contourArea)
     area = cv2.contourArea(contour)
-    moments = cv2.moments(contour)
-    if area < 0.05 * small.size or moments["m00"] <= 0:
+    if area < 0.05 * small.size:
         raise PanomapError("no image circle found: the largest bright region is too small")
-    # Moments of the filled outline are those of the disc, holes and dark scene parts included.
-    cu = moments["m10"] / moments["m00"]
-    cv = moments["m01"] / moments["m00"]
-    radius = math.sqrt(area / math.pi)
-    touches = _touches_border(contour, small.shape)
-    if touches > 0.5:
-        raise PanomapError(
-            "no image circle found: the bright region fills the frame (an ordinary photo, not an omni-image?)"
-        )
-    if touches > 0:
-        # A circle cut by the frame: its moments are biased; the enclosing circle is a better start.
-        (cu, cv), radius = cv2.minEnclosingCircle(contour)
-    # Sample positions of the small image: pixel centres at (k + 0.5) * factor - 0.5.
-    centre = ((cu + 0.5) * factor - 0.5, (cv + 0.5) * factor - 0.5)
-    return [(centre, radius * factor)]
+    points = contour.reshape(-1, 2).astype(np.float64)
+    height, width = small.shape
+    on_border = (points[:, 0] <= 1) | (points[:, 1] <= 1) | (points[:, 0] >= width - 2) | (points[:, 1] >= height - 2)
+    if np.sum(~on_border) < 0.3 * len(points):
+        raise PanomapError("no image circle found: the bright region fills the frame (no rim around it)")
+    # Dark scene touching the rim dents the blob; the outline where it meets its convex hull is the rim.
+    hull = cv2.convexHull(contour)
+    on_hull = np.array([abs(cv2.pointPolygonTest(hull, (float(u), float(v)), True)) < 1.5 for u, v in points])
+    arcs = points[on_hull & ~on_border]
+    if len(arcs) < 20:
+        arcs = points[~on_border]
+    (cu, cv), radius = _algebraic_circle(arcs)
+    return [(_full_resolution((cu, cv), factor), radius * factor)]
 
 
-def _touches_border(contour: NDArray[Any], shape: tuple[int, ...]) -> float:
-    """Fraction of the contour's points on the image border."""
-    points = contour.reshape(-1, 2)
-    height, width = shape[:2]
-    on_border = (points[:, 0] <= 0) | (points[:, 1] <= 0) | (points[:, 0] >= width - 1) | (points[:, 1] >= height - 1)
-    return float(np.mean(on_border))
+def _algebraic_circle(points: FloatArray) -> tuple[tuple[float, float], float]:
+    """Least-squares circle through points (n, 2) in the algebraic sense (Kasa), refitted on the closer half."""
+    use = points
+    for _ in range(2):
+        x, y = use[:, 0], use[:, 1]
+        design = np.stack([x, y, np.ones_like(x)], axis=-1)
+        (a, b, c), *_ = np.linalg.lstsq(design, x**2 + y**2, rcond=None)
+        cu, cv = a / 2, b / 2
+        radius = math.sqrt(max(c + cu**2 + cv**2, 0.0))
+        distance = np.abs(np.hypot(points[:, 0] - cu, points[:, 1] - cv) - radius)
+        use = points[distance <= np.median(distance) * 2 + 1]
+    return (float(cu), float(cv)), radius
+
+
+def _cropping_edges(centre: tuple[float, float], radius: float, shape: tuple[int, int]) -> tuple[str, ...]:
+    """The frame edges that cut the circle, in the order left, top, right, bottom."""
+    height, width = shape
+    u, v = centre
+    beyond = (u - radius < -0.5, v - radius < -0.5, u + radius > width - 0.5, v + radius > height - 0.5)
+    return tuple(edge for edge, cut in zip(FRAME_EDGES, beyond, strict=True) if cut)
+
+
+def _fraction_in_frame(centre: tuple[float, float], radius: float, shape: tuple[int, int]) -> float:
+    """Fraction of the circle's circumference inside the frame."""
+    height, width = shape
+    angles = np.linspace(0.0, 2 * math.pi, 3600, endpoint=False)
+    u = centre[0] + radius * np.cos(angles)
+    v = centre[1] + radius * np.sin(angles)
+    return float(np.mean((u >= -0.5) & (u <= width - 0.5) & (v >= -0.5) & (v <= height - 0.5)))
 
 
 def _profiles(
-    grey: NDArray[Any], centre: tuple[float, float], radii: FloatArray
+    grey: NDArray[Any], centre: tuple[float, float], radii: FloatArray, rays: int = RAYS
 ) -> tuple[NDArray[Any], FloatArray, FloatArray]:
-    """Bilinear samples (RAYS, R) of ``grey`` along rays at ``radii``; NaN outside the image."""
-    angles = np.linspace(0.0, 2 * math.pi, RAYS, endpoint=False)
+    """Bilinear samples (rays, R) of ``grey`` along rays at ``radii``; NaN outside the image."""
+    angles = np.linspace(0.0, 2 * math.pi, rays, endpoint=False)
     cos, sin = np.cos(angles), np.sin(angles)
     map_u = (centre[0] + cos[:, None] * radii[None, :]).astype(np.float32)
     map_v = (centre[1] + sin[:, None] * radii[None, :]).astype(np.float32)
     height, width = grey.shape
     samples = cv2.remap(grey, map_u, map_v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
     inside = (map_u >= 0) & (map_u <= width - 1) & (map_v >= 0) & (map_v <= height - 1)
-    return np.where(inside, samples, np.nan), cos, sin
+    samples = np.where(inside, samples, np.float32(np.nan))
+    # Smoothed along each ray (sigma 1 px; NaN spreads to the samples it touches): far
+    # cheaper than smoothing the whole image, and it is across the rim that noise matters.
+    return cv2.GaussianBlur(samples, (13, 1), PROFILE_SIGMA_PX / STEP, borderType=cv2.BORDER_REPLICATE), cos, sin
 
 
 def _subpixel_peak(values: NDArray[Any], index: NDArray[Any]) -> FloatArray:
@@ -315,92 +600,209 @@ def _subpixel_peak(values: NDArray[Any], index: NDArray[Any]) -> FloatArray:
     return index + np.clip(offset, -0.5, 0.5)
 
 
-STEP = 0.5  # px between profile samples
+def _step_levels(samples: NDArray[Any], index: NDArray[Any]) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+    """Median level just before and just after each row's edge at ``index``, and whether its window is in the frame."""
+    rows = np.arange(samples.shape[0])[:, None]
+    count = samples.shape[1]
+    near = np.clip(index[:, None] + np.arange(-EDGE_HALF_WINDOW, EDGE_HALF_WINDOW + 1)[None, :], 0, count - 1)
+    in_frame = np.all(np.isfinite(samples[rows, near]), axis=1)
+    in_frame &= (index >= EDGE_HALF_WINDOW) & (index < count - EDGE_HALF_WINDOW)
+    offsets = np.arange(4, 4 + LEVEL_SAMPLES)[None, :]
+    before = samples[rows, np.clip(index[:, None] - offsets, 0, count - 1)]
+    after = samples[rows, np.clip(index[:, None] + offsets, 0, count - 1)]
+    return _row_medians(before), _row_medians(after), in_frame
 
 
-def _rim_points(grey: NDArray[Any], centre: tuple[float, float], radius: float) -> FloatArray:
-    """Sub-pixel rim edge points (n, 2): the steepest bright-to-dark step near ``radius``."""
-    half = max(0.08 * radius, 8.0)
+def _row_medians(values: NDArray[Any]) -> FloatArray:
+    """Median of each row's finite values (NaN where it has none): ``np.nanmedian(axis=1)``, vectorised."""
+    ordered = np.sort(values, axis=1)  # NaN sort last
+    count = np.sum(np.isfinite(values), axis=1)
+    rows = np.arange(values.shape[0])
+    low = ordered[rows, np.maximum(count - 1, 0) // 2]
+    high = ordered[rows, np.maximum(count, 1) // 2 - (count == 0)]
+    return np.where(count > 0, 0.5 * (low + high), np.nan)
+
+
+def _rim_points(
+    grey: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reach: float
+) -> FloatArray:
+    """Sub-pixel rim edge points (n, 2): the steepest step near ``radius``, from bright to dark going out.
+
+    ``polarity`` -1 looks for the steepest dark-to-bright step instead. Only edges
+    whose neighbourhood lies in the frame count: the frame's border is no rim. The
+    search runs ``reach`` times the radius either side of it. Each ray's outermost
+    clear drop is taken, not its steepest: past the rim the border stays dark, while
+    a scene edge inside the disc (a dark target, a checkerboard) may be steeper than
+    a soft rim.
+    """
+    half = max(reach * radius, 8.0)
     radii = np.arange(max(radius - half, 1.0), radius + half, STEP)
     samples, cos, sin = _profiles(grey, centre, radii)
+    samples = polarity * samples
     gradient = np.gradient(samples, axis=1)
-    usable = np.all(np.isfinite(samples), axis=1)
     gradient = np.where(np.isfinite(gradient), gradient, 0.0)
     index = np.clip(np.argmin(gradient[:, 1:-1], axis=1) + 1, 1, len(radii) - 2)
     rows = np.arange(RAYS)
+    drops = -gradient / STEP
+    peak = (drops[:, 1:-1] >= drops[:, :-2]) & (drops[:, 1:-1] > drops[:, 2:])
+    clear = peak & (drops[:, 1:-1] > np.maximum(2.0, CLEAR_DROP * drops[rows, index])[:, None])
+    last = clear.shape[1] - 1 - np.argmax(clear[:, ::-1], axis=1)
+    index = np.where(clear.any(axis=1), last + 1, index)
     drop = -gradient[rows, index] / STEP
-    position = np.arange(len(radii))[None, :]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # rays whose profile is all outside: NaN, dropped below
-        outside = np.nanmedian(np.where(position > index[:, None] + 4, samples, np.nan), axis=1)
-        inside = np.nanmedian(np.where(position < index[:, None] - 4, samples, np.nan), axis=1)
-    step = inside - outside
-    # A rim: a steep step down to something clearly darker.
-    good = usable & (drop > 2.0) & (step > 8.0)
+    inside, outside, in_frame = _step_levels(samples, index)
+    # A rim: a steep step to something clearly darker (brighter for polarity -1).
+    good = in_frame & (drop > 2.0) & (inside - outside > 8.0)
     where = radii[0] + STEP * _subpixel_peak(-gradient, index)
     r = where[good]
-    return np.stack([centre[0] + r * cos[good], centre[1] + r * sin[good]], axis=-1)
+    points = np.stack([centre[0] + r * cos[good], centre[1] + r * sin[good]], axis=-1)
+    height, width = grey.shape
+    margin = 1.5  # px: the last rows and columns of a frame are often darker or softer
+    away = (
+        (points[:, 0] > margin)
+        & (points[:, 0] < width - 1 - margin)
+        & (points[:, 1] > margin)
+        & (points[:, 1] < height - 1 - margin)
+    )
+    return points[away]
 
 
 def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius: float) -> Circle | None:
-    """The self-occlusion disc: each ray's first dark-to-bright step; None when rays disagree."""
-    radii = np.arange(1.0, 0.75 * outer_radius, STEP)
-    samples, cos, sin = _profiles(grey, centre, radii)
-    core = samples[:, radii < 4.0]
-    dark_level = float(np.nanmedian(core)) if core.size else float("nan")
-    content_level = float(np.nanmedian(samples))
-    if not math.isfinite(dark_level) or content_level - dark_level < 15.0:
+    """The self-occlusion disc: a dark-to-bright step at one radius on most rays; None when there is none.
+
+    The disc's radius is where the median over the rays of the radial gradient peaks,
+    so that a textured or lit self-reflection, or scene edges, do not hide it; each
+    ray's steepest rise near that radius is then fitted as the rim is.
+    """
+    # The median over a quarter of the rays finds the radius; all of them then find the edge.
+    radii = np.arange(2.0, 0.75 * outer_radius, STEP)
+    samples, _, _ = _profiles(grey, centre, radii, RAYS // 4)
+    gradient = np.gradient(samples, axis=1) / STEP
+    if not np.isfinite(gradient).any():
         return None
-    level = dark_level + 0.5 * (content_level - dark_level)
-    above = samples > level
-    first = np.argmax(above, axis=1)
-    has = above[np.arange(RAYS), first] & (first > 2)
-    gradient = np.gradient(samples, axis=1)
-    gradient = np.where(np.isfinite(gradient), gradient, 0.0)
-    # The steepest rise within 3 px of the crossing.
-    window = round(3.0 / STEP)
-    offsets = np.arange(-window, window + 1)
-    candidates = np.clip(first[:, None] + offsets[None, :], 1, len(radii) - 2)
-    best = candidates[np.arange(RAYS), np.argmax(np.take_along_axis(gradient, candidates, axis=1), axis=1)]
-    where = radii[0] + STEP * _subpixel_peak(gradient, best)
-    good = has & np.all(np.isfinite(samples[:, : max(int(first.max()), 1)]), axis=1)
+    # The median gradient per radius over the rays that are in the frame there.
+    score = np.nan_to_num(_row_medians(gradient.T))
+    score = np.convolve(score, np.ones(5) / 5, mode="same")
+    index = int(np.argmax(score))
+    if score[index] < CUTOFF_MIN_MEDIAN_RISE:
+        return None
+    radius = float(radii[index])
+    half = max(3.0, 0.05 * radius)
+    margin = STEP * (EDGE_HALF_WINDOW + LEVEL_SAMPLES + 4)
+    radii = np.arange(max(radius - half - margin, 1.0), radius + half + margin, STEP)
+    samples, cos, sin = _profiles(grey, centre, radii)
+    gradient = np.gradient(samples, axis=1) / STEP
+    finite = np.isfinite(gradient)
+    window = np.abs(radii - radius) <= half
+    rising = np.where(window[None, :] & finite, gradient, -np.inf)
+    best = np.clip(np.argmax(rising, axis=1), 1, len(radii) - 2)
+    rows = np.arange(RAYS)
+    before, after, in_frame = _step_levels(samples, best)
+    good = in_frame & (gradient[rows, best] > 2.0) & (after - before > 8.0)
     if good.sum() < MIN_CUTOFF_FRACTION * RAYS:
         return None
+    where = radii[0] + STEP * _subpixel_peak(np.where(finite, gradient, 0.0), best)
     r = where[good]
     points = np.stack([centre[0] + r * cos[good], centre[1] + r * sin[good]], axis=-1)
-    start = float(np.median(r))
-    circle = _robust_circle(points, centre, start)
+    try:
+        circle = _robust_circle(points, centre, radius)
+    except PanomapError:
+        return None
     agrees = math.dist(circle.centre, centre) < max(2.0, 0.05 * circle.radius)
-    if circle.inliers < MIN_CUTOFF_FRACTION * RAYS or circle.rms_px > 1.5 or not agrees:
+    if circle.inliers < MIN_CUTOFF_FRACTION * RAYS or circle.rms_px > MAX_CUTOFF_RMS_PX or not agrees:
         return None
     return circle
 
 
-def _robust_circle(points: FloatArray, centre: tuple[float, float], radius: float) -> Circle:
-    """Geometric circle fit with a soft-L1 loss, then least squares on the inliers."""
-    from scipy import optimize  # here, not at the top: importing SciPy is slow
+def _robust_circle(points: FloatArray, centre: tuple[float, float], radius: float, consensus: bool = True) -> Circle:
+    """Geometric circle fit: a consensus circle, then least squares on the points near it, three times.
+
+    The points within NEAR_PX (or NEAR_FRACTION of the radius) of the consensus circle (of the start circle, without
+    ``consensus``: it is already close) give the first fit and the spread; the
+    inliers are then the points within INLIER_SIGMAS of it.
+    """
 
     def residuals(p: FloatArray, xy: FloatArray) -> FloatArray:
         return np.hypot(xy[:, 0] - p[0], xy[:, 1] - p[1]) - p[2]
 
-    start = np.array([centre[0], centre[1], radius], dtype=np.float64)
-    robust = optimize.least_squares(residuals, start, loss="soft_l1", f_scale=0.5, args=(points,))
-    r = residuals(robust.x, points)
-    sigma = max(1.4826 * float(np.median(np.abs(r - np.median(r)))), 0.1)
-    inliers = np.abs(r) < INLIER_SIGMAS * sigma
+    if consensus:
+        centre, radius = _consensus_circle(points, centre, radius)
+    params = np.array([centre[0], centre[1], radius], dtype=np.float64)
+    near = max(NEAR_PX, NEAR_FRACTION * radius)
+    inliers = np.abs(residuals(params, points)) < near
+    for _ in range(3):
+        if inliers.sum() < 3:
+            raise PanomapError("no circle found: too few consistent edge points")
+        params = _least_squares_circle(points[inliers], params)
+        r = residuals(params, points)
+        sigma = max(1.4826 * float(np.median(np.abs(r[inliers] - np.median(r[inliers])))), 0.1)
+        inliers = np.abs(r) < min(INLIER_SIGMAS * sigma, near)
     if inliers.sum() < 3:
         raise PanomapError("no circle found: too few consistent edge points")
-    final = optimize.least_squares(residuals, robust.x, args=(points[inliers],))
-    if not final.success:
-        raise PanomapError(f"the circle fit did not converge ({final.message})")
-    r = residuals(final.x, points[inliers])
+    r = residuals(params, points[inliers])
     return Circle(
-        centre=(float(final.x[0]), float(final.x[1])),
-        radius=float(final.x[2]),
+        centre=(float(params[0]), float(params[1])),
+        radius=float(params[2]),
         rms_px=float(np.sqrt(np.mean(r**2))),
         inliers=int(inliers.sum()),
         rays=RAYS,
     )
+
+
+def _least_squares_circle(points: FloatArray, start: FloatArray) -> FloatArray:
+    """Geometric least-squares circle ``[u, v, r]`` through points (n, 2), by Gauss-Newton from ``start``."""
+    params = np.array(start, dtype=np.float64)
+    for _ in range(GAUSS_NEWTON_ITERATIONS):
+        du, dv = points[:, 0] - params[0], points[:, 1] - params[1]
+        distance = np.hypot(du, dv)
+        if np.any(distance == 0):
+            raise PanomapError("the circle fit did not converge (an edge point at the centre)")
+        cu, cv = du / distance, dv / distance
+        residual = distance - params[2]
+        # Normal equations of the Jacobian [-cu, -cv, -1] (3 x 3: cheap, and well conditioned for an arc).
+        normal = np.array(
+            [
+                [np.dot(cu, cu), np.dot(cu, cv), cu.sum()],
+                [np.dot(cu, cv), np.dot(cv, cv), cv.sum()],
+                [cu.sum(), cv.sum(), float(len(cu))],
+            ]
+        )
+        try:
+            step = np.linalg.solve(normal, np.array([np.dot(cu, residual), np.dot(cv, residual), residual.sum()]))
+        except np.linalg.LinAlgError:
+            raise PanomapError("the circle fit did not converge (the edge points do not constrain a circle)") from None
+        params += step
+        if float(np.max(np.abs(step))) < 1e-7:
+            return params
+    raise PanomapError(f"the circle fit did not converge in {GAUSS_NEWTON_ITERATIONS} iterations")
+
+
+def _consensus_circle(
+    points: FloatArray, centre: tuple[float, float], radius: float
+) -> tuple[tuple[float, float], float]:
+    """The circle through three of the points that most points lie within 1.5 px of (seeded RANSAC).
+
+    Circles far from the start (centre moved by more than a third of the radius, or
+    radius changed by more than a third) are not considered; the start circle itself
+    is, so that a good start is kept.
+    """
+    rng = np.random.default_rng(0)
+    triples = points[rng.integers(0, len(points), (CONSENSUS_SAMPLES, 3))]
+    (ax, ay), (bx, by), (cx, cy) = (triples[:, k].T for k in range(3))
+    d = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a2, b2, c2 = ax**2 + ay**2, bx**2 + by**2, cx**2 + cy**2
+        us = (a2 * (by - cy) + b2 * (cy - ay) + c2 * (ay - by)) / d
+        vs = (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / d
+    rs = np.hypot(ax - us, ay - vs)
+    plausible = (
+        np.isfinite(us) & (np.hypot(us - centre[0], vs - centre[1]) < radius / 3) & (np.abs(rs - radius) < radius / 3)
+    )
+    us = np.concatenate([[centre[0]], us[plausible]])
+    vs = np.concatenate([[centre[1]], vs[plausible]])
+    rs = np.concatenate([[radius], rs[plausible]])
+    distance = np.abs(np.hypot(points[None, :, 0] - us[:, None], points[None, :, 1] - vs[:, None]) - rs[:, None])
+    best = int(np.argmax(np.sum(distance < 1.5, axis=1)))
+    return (float(us[best]), float(vs[best])), float(rs[best])
 
 
 def _ellipse(points: FloatArray, circle: Circle) -> Ellipse | None:
@@ -436,8 +838,9 @@ def _ellipse_rms(points: FloatArray, centre: tuple[float, float], axes: tuple[fl
 def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[Any]:
     """An 8-bit BGR copy of ``image`` with the found circles and centre drawn on it.
 
-    The image circle is green (the ellipse too, when there is one), the cut-off
-    disc red, the centre a yellow cross; drawn with 1/16 px precision.
+    The image circle is green, thicker on the arcs of the rim it was fitted to
+    (the ellipse darker green, when there is one), the cut-off disc red, the
+    centre a yellow cross; drawn with 1/16 px precision.
     """
     grey_or_colour = image if image.dtype == np.uint8 else (image / 257).astype(np.uint8)
     if grey_or_colour.ndim == 2 or grey_or_colour.shape[2] == 1:
@@ -460,6 +863,21 @@ def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[Any]:
         cv2.LINE_AA,
         shift,
     )
+    # The arcs the rim was fitted to, thicker.
+    radius = round(circles.outer.radius * scale)
+    for start, end in circles.rim_arcs_deg:
+        cv2.ellipse(
+            canvas,
+            at(circles.outer.centre),
+            (radius, radius),
+            0,
+            start,
+            end,
+            (0, 255, 0),
+            3 * thickness,
+            cv2.LINE_AA,
+            shift,
+        )
     if circles.ellipse is not None:
         e = circles.ellipse
         axes = (round(e.semi_axes[0] * scale), round(e.semi_axes[1] * scale))

@@ -174,8 +174,10 @@ def centre(image: Path, as_json: bool, overlay: Path | None) -> None:
     """Find the image centre, the cut-off radius and the image circle of an omni-image.
 
     The centre is the rim's centre to a fraction of a pixel (the ellipse's, when the
-    rim is one); the cut-off radius is "none" for a camera that does not see itself
-    (a fisheye). Fails with a reason, never a guess, when there is no image circle.
+    rim is one), fitted to the arcs of the rim that are visible when the frame cuts
+    the circle; the cut-off radius is "none" for a camera that does not see itself
+    (a fisheye). Fails with a reason, never a guess, when no rim is visible (a
+    full-frame fisheye: the message gives the frame centre as a starting value).
     """
     omni = read_image(image)
     circles = find_image_circles_in(image, omni)
@@ -192,6 +194,13 @@ def centre(image: Path, as_json: bool, overlay: Path | None) -> None:
         f"outer radius: {circles.outer.radius:.2f} px (fit RMS {circles.outer.rms_px:.2f} px, "
         f"{circles.outer.inliers} of {circles.outer.rays} rays)"
     )
+    if circles.cropped_by:
+        edges = " and ".join(circles.cropped_by)
+        click.echo(
+            f"the frame cuts the image circle at its {edges} edge{'s' if len(circles.cropped_by) > 1 else ''}: "
+            f"{circles.rim_in_frame:.0%} of the rim lies in the frame, the valid region is the circle within the frame"
+        )
+    click.echo(f"rim seen on {circles.rim_seen:.0%} of the rays, {circles.rim_polarity}")
     if circles.ellipse is not None:
         e = circles.ellipse
         click.echo(

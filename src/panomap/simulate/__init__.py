@@ -13,6 +13,7 @@ from panomap.simulate.cameras import (
     SphericalMirrorCamera,
     standard_cameras,
 )
+from panomap.simulate.degrade import noisy_jpeg, vignette
 from panomap.simulate.room import (
     WALL_NAMES,
     Opening,
@@ -36,8 +37,10 @@ __all__ = [
     "SphericalMirrorCamera",
     "Wall",
     "load_room",
+    "noisy_jpeg",
     "render",
     "render_rays",
     "spread_landmarks",
     "standard_cameras",
+    "vignette",
 ]

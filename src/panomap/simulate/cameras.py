@@ -743,10 +743,13 @@ def standard_cameras(
     centre: tuple[float, float] | None = None,
     s: int = 1,
     phi0: float = 0.0,
+    outer_radius: float | None = None,
 ) -> dict[str, SimulatedCamera]:
     """The named simulated cameras used across the tests, each filling a ``size`` image.
 
-    Every image circle has radius ``0.47*min(size)`` px. The cameras look down.
+    Every image circle has radius ``0.47*min(size)`` px (``outer_radius`` when given: a
+    larger one is cut by the frame, as a round image on a 4:3 or 16:9 sensor). The
+    cameras look down.
 
     - ``'equidistant'``, ``'equisolid'``: fisheyes, ``alpha_max = 95 deg``, no cut-off;
     - ``'parabolic'``: unified ``xi = 1``, ``alpha`` in ``[12, 105] deg``;
@@ -770,6 +773,8 @@ def standard_cameras(
         Handedness for all cameras.
     phi0 : float
         Image-angle offset (rad) for all cameras.
+    outer_radius : float or None
+        Radius of every image circle (px), > 0; default ``0.47*min(size)``.
 
     Returns
     -------
@@ -777,7 +782,9 @@ def standard_cameras(
         Keys ``'equidistant', 'equisolid', 'parabolic', 'hyperbolic', 'spherical'``.
     """
     width, height = int(size[0]), int(size[1])
-    outer = _STANDARD_OUTER_FRACTION * min(width, height)
+    outer = _STANDARD_OUTER_FRACTION * min(width, height) if outer_radius is None else float(outer_radius)
+    if not (math.isfinite(outer) and outer > 0):
+        raise PanomapError(f"outer_radius must be finite and > 0, got {outer_radius!r}")
     base_centre = ((width - 1) / 2.0, (height - 1) / 2.0) if centre is None else centre
     rng = None if seed is None else np.random.default_rng(seed)
 
