@@ -32,6 +32,7 @@ def test_source_texts_are_the_table_files() -> None:
         "landmark file",
         "detected",
         "detected: none (no self-occlusion disc)",
+        "frame centre (no image circle found)",
         "set in panomap learn",
         "default (none)",
         "default (largest circle inside the image)",
@@ -61,13 +62,33 @@ def test_given_centre_without_circles_keeps_the_default_radii_and_warns() -> Non
     assert table.image_size == SIZE and table.cutoff_radius == 0.0
 
 
+def test_no_rim_starts_from_the_frame_centre_and_the_landmarks_refine_it() -> None:
+    """A full-frame image (no rim): the fit goes on from the frame's middle, 2.3 px off, with a warning."""
+    result = calibrate_camera(LANDMARKS, POSITION, omni=PLAIN)
+    assert result.sources["centre"] == Origin(Source.FRAME_CENTRE, refined=True)
+    assert result.fit.centre_start == ((SIZE[0] - 1) / 2, (SIZE[1] - 1) / 2)
+    assert len(result.warnings) == 1 and "no image circle found" in result.warnings[0]
+    assert "starting from the frame centre" in result.warnings[0]
+    # Exact landmarks: the refined centre lands on the simulated camera's (measured 1e-6 px).
+    assert math.dist(result.fit.model.centre, CAMERA.centre) < 1e-3
+    assert result.fit.centre_shift_px == pytest.approx(math.dist(CAMERA.centre, result.fit.centre_start), abs=1e-3)
+    choice = choose_circles(PLAIN)
+    assert choice.circles is None and choice.centre == result.fit.centre_start
+
+
 def test_no_centre_at_all_is_an_error() -> None:
-    with pytest.raises(PanomapError, match="no image circle found"):
-        calibrate_camera(LANDMARKS, POSITION, omni=PLAIN)
     with pytest.raises(PanomapError, match="no image centre"):
         calibrate_camera(LANDMARKS, POSITION)
-    with pytest.raises(PanomapError, match="no image circle found"):
-        choose_circles(PLAIN)
+
+
+def test_a_given_centre_is_kept_and_a_detected_one_refined_by_default() -> None:
+    kept = calibrate_camera(LANDMARKS, POSITION, centre=(321.0, 298.0), image_size=SIZE)
+    assert kept.fit.model.centre == (321.0, 298.0) and not kept.fit.settings.refine_centre
+    asked = calibrate_camera(LANDMARKS, POSITION, centre=(321.0, 298.0), image_size=SIZE, refine_centre=True)
+    assert math.dist(asked.fit.model.centre, CAMERA.centre) < 1e-3
+    # The paper's model takes the centre as given: not refined by default, even from the frame centre.
+    paper = calibrate_camera(LANDMARKS, POSITION, omni=PLAIN, model="paper")
+    assert paper.fit.model.centre == paper.fit.centre_start and not paper.fit.settings.refine_centre
 
 
 def test_stated_sources_keep_their_order_and_the_rest_follow() -> None:

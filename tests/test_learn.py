@@ -279,6 +279,8 @@ def test_saved_files_are_what_panomap_fit_makes(client: Client, example: Example
             repr(circles["outer_radius"]),
             "--image-size",
             f"{SIZE[0]}x{SIZE[1]}",
+            # The page refines the centre it detected, as fit --image does; a given centre is kept unless asked.
+            "--refine-centre",
         ],
     )
     assert result.exit_code == 0, result.output
@@ -319,7 +321,10 @@ def test_an_image_without_circles_starts_from_a_guess(folder: Path) -> None:
     assert state["circles"]["centre"] == [149.5, 99.5]
     assert state["circles"]["outer_radius"] == 99.5 and state["circles"]["cutoff_radius"] == 0.0
     assert state["circles"]["detected"] is None
-    assert state["circles"]["note"].startswith("could not find the image circles")
+    # No rim at all: the frame centre starts the fit and the landmarks refine it; the radii are a guess.
+    note = state["circles"]["note"]
+    assert note.startswith("no image circle found") and "the landmarks refine" in note and "drag them" in note
+    assert session._sources()["centre"].value == "frame centre (no image circle found)"
 
 
 def test_the_command_serves_until_interrupted(tmp_path: Path, example: Example) -> None:

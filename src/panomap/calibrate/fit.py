@@ -99,6 +99,9 @@ class CameraFit:
         Leave-one-out RMS residual (px) of each candidate radial model.
     settings : FitSettings
         The noise model and options used.
+    centre_start : (u0, v0)
+        The centre the fit started from (px): ``model.centre`` is the same
+        unless the fit refined it.
     """
 
     model: CameraModel
@@ -116,6 +119,7 @@ class CameraFit:
     azimuth_consistency: float
     selection: dict[str, float]
     settings: FitSettings
+    centre_start: tuple[float, float] | None = None
 
     @property
     def rms_px(self) -> float:
@@ -126,6 +130,13 @@ class CameraFit:
     def max_px(self) -> float:
         """Largest residual (px) over the inliers."""
         return float(np.max(self.residuals_px[self.inliers]))
+
+    @property
+    def centre_shift_px(self) -> float:
+        """How far (px) the fit moved the centre from where it started (0 when it did not refine it)."""
+        if self.centre_start is None:
+            return 0.0
+        return math.dist(self.model.centre, self.centre_start)
 
     @property
     def outliers(self) -> list[str]:
@@ -178,6 +189,7 @@ class CameraFit:
             covariance=tuple(tuple(row) for row in self.covariance.tolist()),
             settings=self.settings,
             landmarks=rows,
+            centre_start=self.centre_start,
         )
 
 
@@ -358,6 +370,7 @@ def fit_camera(
             reject_outliers=reject_outliers,
             model_requested=model,
         ),
+        centre_start=(u0, v0),
     )
 
 

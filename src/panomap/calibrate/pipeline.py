@@ -17,9 +17,10 @@ from typing import Any
 
 from numpy.typing import NDArray
 
+from ..camera.radial_models import radial_kind
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
-from .circles import ImageCircles, find_image_circles
+from .circles import ImageCircles, NoImageCircle, find_image_circles
 from .fit import CameraFit, fit_camera
 from .landmarks import Landmarks
 from .make_table import choose_annulus, table_for
@@ -100,6 +101,15 @@ def choose_circles(
         return CircleChoice(centre, cutoff_radius, outer_radius, None, {})
     try:
         circles = find_image_circles(omni)
+    except NoImageCircle as exc:
+        error = PanomapError(exc.detail, name)
+        if centre is not None:
+            return CircleChoice(centre, cutoff_radius, outer_radius, None, {}, (f"{error}; using the default radii",))
+        u, v = exc.frame_centre
+        warning = f"{error}; starting from the frame centre ({u:.1f}, {v:.1f}), which the landmarks refine"
+        return CircleChoice(
+            exc.frame_centre, cutoff_radius, outer_radius, None, {"centre": Origin(Source.FRAME_CENTRE)}, (warning,)
+        )
     except PanomapError as exc:
         error = PanomapError(exc.detail, name)
         if centre is None:
@@ -132,7 +142,7 @@ def calibrate_camera(
     model: str = "auto",
     azimuth: str = "fit",
     axis: str | None = None,
-    refine_centre: bool = False,
+    refine_centre: bool | None = None,
     pixel_sigma: float = 1.0,
     world_sigma: float | None = None,
     reject_outliers: bool = True,
@@ -170,7 +180,11 @@ def calibrate_camera(
         More to store in the table's ``info``, after the provenance.
     table_size : (M, N), optional
         Default: about one entry per pixel.
-    model, azimuth, axis, refine_centre, pixel_sigma, world_sigma, reject_outliers
+    refine_centre : bool, optional
+        Refine the centre with the landmarks. Default: when the centre was not
+        given (found in the image, or the frame's middle where no image circle
+        is found) and the model does not take the centre as given (``paper``).
+    model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers
         As :func:`panomap.fit_camera`.
     models_cover_annulus : bool
         When both radii are known before the fit, automatic model choice
@@ -211,6 +225,9 @@ def calibrate_camera(
             table_info["image_circles"] = choice.circles.to_dict()
     if choice.centre is None:
         raise PanomapError("no image centre: give one, or an omni-image to find it in")
+    if refine_centre is None:
+        estimate = recorded["centre"].source.is_estimate
+        refine_centre = estimate and (model == "auto" or not radial_kind(model).centre_given)
     if refine_centre:
         recorded["centre"] = Origin(recorded["centre"].source, refined=True)
     cutoff, outer = choice.cutoff_radius, choice.outer_radius

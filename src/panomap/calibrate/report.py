@@ -167,6 +167,9 @@ class FitReport:
     uncertainty : RadiusUncertainty or None
         The radius's standard error over a table's range: added when a table
         is made from the fit.
+    centre_start : (u0, v0) or None
+        The centre the fit started from, px (None in tables made before it was
+        recorded); ``centre`` differs from it when the fit refined the centre.
     """
 
     model: str
@@ -186,6 +189,7 @@ class FitReport:
     settings: FitSettings
     landmarks: tuple[LandmarkResidual, ...]
     uncertainty: RadiusUncertainty | None = None
+    centre_start: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "model_selection_loo_rms_px", MappingProxyType(dict(self.model_selection_loo_rms_px)))
@@ -210,6 +214,8 @@ class FitReport:
             "settings": self.settings.to_dict(),
             "landmarks": [row.to_dict() for row in self.landmarks],
         }
+        if self.centre_start is not None:
+            data["centre_start"] = list(self.centre_start)
         if self.uncertainty is not None:
             data["uncertainty"] = self.uncertainty.to_dict()
         return data
@@ -223,7 +229,7 @@ class FitReport:
         PanomapError
             If an entry is missing, unexpected or of the wrong type.
         """
-        report = _Reader(data, "the fit report", cls, optional=("uncertainty",))
+        report = _Reader(data, "the fit report", cls, optional=("uncertainty", "centre_start"))
         selection = report.mapping("model_selection_loo_rms_px")
         for name, value in selection.items():
             if value is not None and not _is_number(value):
@@ -239,7 +245,11 @@ class FitReport:
         if scalars["s"] not in (1, -1):
             raise _malformed(f"s is {scalars['s']}, not +1 or -1")
         uncertainty = data.get("uncertainty")
+        start = None if data.get("centre_start") is None else _numbers(data["centre_start"], "the starting centre")
+        if start is not None and len(start) != 2:
+            raise _malformed("the starting centre is not a pair")
         return cls(
+            centre_start=None if start is None else (start[0], start[1]),
             centre=(centre[0], centre[1]),
             outliers=tuple(_text(name, "an outlier's name") for name in report.items("outliers")),
             landmark_elevation_range_deg=(elevation_range[0], elevation_range[1]),

@@ -21,10 +21,16 @@ class Source(enum.Enum):
     LANDMARK_FILE = "landmark file"
     DETECTED = "detected"
     DETECTED_NONE = "detected: none (no self-occlusion disc)"
+    FRAME_CENTRE = "frame centre (no image circle found)"
     SET_IN_LEARN = "set in panomap learn"
     DEFAULT_NONE = "default (none)"
     DEFAULT_INSIDE_IMAGE = "default (largest circle inside the image)"
     DEFAULT_FARTHEST_LANDMARK = "default (farthest landmark)"
+
+    @property
+    def is_estimate(self) -> bool:
+        """True for a centre that only starts the fit: found in the image, or the frame's middle."""
+        return self in (Source.DETECTED, Source.FRAME_CENTRE)
 
     @property
     def is_default(self) -> bool:

@@ -79,10 +79,11 @@ from .options import FINITE, PATH, SIZE
     "--axis", type=click.Choice(["down", "up"]), help="Force the viewing direction [default: from the landmarks]."
 )
 @click.option(
-    "--refine-centre",
-    is_flag=True,
-    help="Refine the centre together with the radial function and phi0 (advised when the centre is found in "
-    "--image: on a real mirror the rim's centre can be pixels from the optical axis).",
+    "--refine-centre/--no-refine-centre",
+    default=None,
+    help="Refine the centre together with the radial function and phi0 [default: refined when the centre is "
+    "found in --image (on a real mirror the rim's centre can be pixels from the optical axis), kept when --centre "
+    "gives it].",
 )
 @click.option(
     "--pixel-sigma",
@@ -112,7 +113,7 @@ def fit(
     model: str,
     azimuth: str,
     axis: str | None,
-    refine_centre: bool,
+    refine_centre: bool | None,
     pixel_sigma: float,
     world_sigma: float | None,
     keep_outliers: bool,
@@ -125,7 +126,7 @@ def fit(
     size = _image_size(image_size)
     if centre is None and image is None:
         raise PanomapError("no image centre: give --centre U0 V0, or --image OMNI to find it", landmarks)
-    if refine_centre and model != "auto" and radial_kind(model).centre_given:
+    if refine_centre is True and model != "auto" and radial_kind(model).centre_given:
         raise PanomapError(
             f"the {model} model takes the centre as given; --refine-centre needs another model", landmarks
         )
@@ -248,7 +249,14 @@ def _describe_fit(table: PanoMappingTable) -> str:
         f"({mirrored}, {'fitted' if fit.azimuth_mode == 'fit' else 'assumed as in the paper'}; "
         f"consistency {fit.azimuth_consistency:.3f})"
     )
-    return "\n".join([chosen, azimuth, _describe_residuals(table, fit)])
+    lines = [chosen, azimuth]
+    if fit.settings.refine_centre and fit.centre_start is not None:
+        (u0, v0), (us, vs) = fit.centre, fit.centre_start
+        lines.append(
+            f"centre refined with the landmarks: ({u0:.2f}, {v0:.2f}), "
+            f"{math.hypot(u0 - us, v0 - vs):.2f} px from the start ({us:.2f}, {vs:.2f})"
+        )
+    return "\n".join([*lines, _describe_residuals(table, fit)])
 
 
 def _describe_residuals(table: PanoMappingTable, fit: FitReport | None) -> str:

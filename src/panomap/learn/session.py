@@ -111,6 +111,8 @@ class Session:
         self.image_png = encode_png(image)
         self._lock = threading.Lock()
         self.circles, self.detected, self.circles_note = self._start_circles()
+        # The page's first circles, when no rim was found: their centre only starts the fit (refined).
+        self._guess = self.circles if self.detected is None else None
         self.entries: list[Entry] = []
         self.camera = camera
         if landmarks is not None:
@@ -132,12 +134,15 @@ class Session:
 
     def _start_circles(self) -> tuple[Circles, dict[str, Any] | None, str | None]:
         width, height = self.image_size
+        guess = Circles(((width - 1) / 2, (height - 1) / 2), 0.0, min(width, height) / 2 - 0.5)
         try:
             found = choose_circles(self.image)
         except PanomapError as exc:
-            guess = Circles(((width - 1) / 2, (height - 1) / 2), 0.0, min(width, height) / 2 - 0.5)
             guessed = f"could not find the image circles ({exc.detail}); starting from a guess: drag them into place"
             return guess, None, guessed
+        if found.circles is None:  # no rim at all: the frame centre, refined by the landmarks
+            note = f"{found.warnings[0]}; the radii are a guess: drag them into place" if found.warnings else None
+            return guess, None, note
         centre, cutoff, outer = found.settled()
         none = found.sources["cutoff_radius"].source is Source.DETECTED_NONE
         note = "no cut-off disc found (a fisheye?): the cut-off radius is 0" if none else None
@@ -284,7 +289,10 @@ class Session:
             or (detected["cutoff_radius"] or 0.0) != self.circles.cutoff_radius
         )
         how = Source.SET_IN_LEARN if adjusted else Source.DETECTED
-        return {"centre": how, "cutoff_radius": how, "outer_radius": how, "camera_position": Source.GIVEN}
+        centre = how
+        if self._guess is not None and self.circles.centre == self._guess.centre:
+            centre = Source.FRAME_CENTRE
+        return {"centre": centre, "cutoff_radius": how, "outer_radius": how, "camera_position": Source.GIVEN}
 
     def _info(self) -> dict[str, Any]:
         info: dict[str, Any] = {"learned_with": f"panomap learn on {self.image_name}"}
@@ -315,6 +323,10 @@ class Session:
                 )
         m, n = table.size
         outliers = ", ".join(fit.outliers) or "none"
+        refined = ""
+        if fit.settings.refine_centre and fit.centre_start is not None:
+            shift = math.dist(fit.centre, fit.centre_start)
+            refined = f"; centre refined to ({fit.centre[0]:.2f}, {fit.centre[1]:.2f}), {shift:.2f} px from the rim's"
         return {
             "ok": True,
             "revision": self.revision,
@@ -322,8 +334,10 @@ class Session:
             "need": 0,
             "message": (
                 f"model {fit.model}: RMS {fit.rms_px:.3f} px, max {fit.max_px:.3f} px over "
-                f"{len(by_name) - len(fit.outliers)} landmarks; outliers: {outliers}{pending}"
+                f"{len(by_name) - len(fit.outliers)} landmarks; outliers: {outliers}{refined}{pending}"
             ),
+            "centre": list(fit.centre),
+            "centre_refined": fit.settings.refine_centre,
             "model": fit.model,
             "rms_px": fit.rms_px,
             "max_px": fit.max_px,
