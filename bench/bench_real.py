@@ -53,6 +53,7 @@ from numpy.typing import NDArray
 from panomap.calibrate.circles import find_image_circles
 from panomap.calibrate.fit import fit_camera
 from panomap.calibrate.landmarks import Landmarks
+from panomap.calibrate.pipeline import calibrate_camera
 from panomap.errors import PanomapError
 from panomap.geometry import azimuth_elevation
 from panomap.io.images import read_image
@@ -192,6 +193,19 @@ def evaluate(folder: Path, trials: int = 0) -> dict[str, Any]:
             "centre": fit.model.centre,
             "outliers": fit.outliers,
         }
+    # What `panomap fit --image IMAGE` does with no other option, with each of the folder's images.
+    landmarks = Landmarks(corners.pixels[chosen], corners.world[chosen], tuple(f"corner{k}" for k in chosen))
+    theta, rho = azimuth_elevation(corners.world[others])
+    per_image = []
+    for path in sorted((folder / "images").iterdir()):
+        try:
+            fit = calibrate_camera(landmarks, (0.0, 0.0, 0.0), omni=read_image(path)).fit
+        except PanomapError:
+            per_image.append(math.inf)
+            continue
+        error = np.linalg.norm(fit.model.pixels(theta, rho) - corners.pixels[others], axis=1)
+        per_image.append(float(np.sqrt(np.mean(error**2))))
+    result["fit_image_rms_px"] = per_image
     draws = []
     rng = np.random.default_rng(2007)
     for _ in range(trials):
@@ -231,8 +245,11 @@ def main() -> None:
         "RMS / p95 / max reprojection error (px) on all other corners, from 10 corners spread in elevation; "
         "the tool's RMS on the same corners (and on all of them, SOURCE.md)"
     )
-    print("| folder | centre | other corners | default | refined centre | paper | tool | random spread choices |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    print(
+        "| folder | centre | other corners | fit --image, RMS over its images: median / worst | default | "
+        "refined centre | paper | tool | random spread choices |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in results:
 
         def cell(fit: dict[str, Any]) -> str:
@@ -247,6 +264,8 @@ def main() -> None:
         where = "detected" if r["centre"].source.startswith("detected") else "calibration's"
         print(
             f"| {r['folder'].removeprefix('ocam_')} | {where} | {r['corners'] - LANDMARK_COUNT} | "
+            f"{np.median(r['fit_image_rms_px']):.2f} / {np.max(r['fit_image_rms_px']):.2f} "
+            f"({len(r['fit_image_rms_px'])} images) | "
             f"{cell(r['fits']['default'])} | {cell(r['fits']['refined centre'])} | {cell(r['fits']['paper'])} | "
             f"{r['tool_rms_px']:.2f} ({r['tool_rms_all_px']:.2f}) | {spread} |"
         )
