@@ -65,6 +65,8 @@ WEIGHT_ITERATIONS = 3
 IndexArray = NDArray[np.intp]
 # Leave-one-out is exact up to this many landmarks; above, k-fold cross-validation keeps the cost linear.
 EXACT_LOO_MAX = 40
+# A landmark this many pixel sigmas beyond the cut-off disc or the image circle is measurement noise: kept.
+RIM_SLACK_SIGMAS = 3.0
 CV_FOLDS = 10
 
 
@@ -458,18 +460,30 @@ def _acceptable(kind: RadialKind, data: _Data, subset: FloatArray, annulus: tupl
     if not is_monotonic(radial, low, high):
         return "not monotonic over the landmarks"
     if annulus is not None:
-        problem = annulus_coverage_problem(radial, (low, high), *annulus)
+        problem = annulus_coverage_problem(radial, (low, high), *annulus, slack_px=rim_slack_px(data.pixel_sigma))
         if problem:
             return problem
     return None
 
 
+def rim_slack_px(pixel_sigma: float) -> float:
+    """How far (px) a landmark may lie beyond the annulus and still count as on it: measurement noise."""
+    return RIM_SLACK_SIGMAS * pixel_sigma
+
+
 def annulus_coverage_problem(
-    radial: RadialFunction, landmark_range: tuple[float, float], cutoff_radius: float, outer_radius: float
+    radial: RadialFunction,
+    landmark_range: tuple[float, float],
+    cutoff_radius: float,
+    outer_radius: float,
+    slack_px: float = 0.0,
 ) -> str | None:
-    """Why f_r does not run monotonically from the cut-off radius to the image circle (None if it does)."""
+    """Why f_r does not run monotonically from the cut-off radius to the image circle (None if it does).
+
+    Landmarks up to ``slack_px`` beyond the annulus are allowed (see :func:`valid_elevation_range`).
+    """
     try:
-        rho_s, rho_e = valid_elevation_range(radial, landmark_range, cutoff_radius, outer_radius)
+        rho_s, rho_e = valid_elevation_range(radial, landmark_range, cutoff_radius, outer_radius, slack_px=slack_px)
     except PanomapError as exc:
         return exc.detail
     ends = sorted((float(radial(rho_s)), float(radial(rho_e))))

@@ -20,7 +20,7 @@ from ..camera.valid_range import valid_elevation_range
 from ..errors import PanomapError
 from ..geometry import TWO_PI, pixel_polar
 from ..table.table import PanoMappingTable, check_table_size, fill_entries
-from .fit import CameraFit, annulus_coverage_problem
+from .fit import CameraFit, annulus_coverage_problem, rim_slack_px
 from .report import RadiusUncertainty
 from .sources import Source
 
@@ -130,14 +130,17 @@ def table_for(
     from one to the other.
     """
     cutoff_radius, outer_radius = annulus.cutoff_radius, annulus.outer_radius
+    slack = rim_slack_px(fit.settings.pixel_sigma_px)
     if not (annulus.cutoff_source.is_default and annulus.outer_source.is_default):
-        problem = annulus_coverage_problem(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius)
+        problem = annulus_coverage_problem(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius, slack)
         if problem:
             raise PanomapError(
                 f"the fitted radial function ({fit.model.radial.kind}) {problem}; it must run monotonically "
                 "from the cut-off radius to the image circle (try another radial model, or check the radii)"
             )
-    rho_s, rho_e = valid_elevation_range(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius)
+    rho_s, rho_e = valid_elevation_range(
+        fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius, slack_px=slack
+    )
     if size is None:
         r_span = abs(float(fit.model.radial(rho_e) - fit.model.radial(rho_s)))
         reach = max(float(np.nanmax(np.abs(fit.model.radial(np.array([rho_s, rho_e]))))), 1.0)
@@ -147,7 +150,9 @@ def table_for(
     entries = fill_entries(fit.model, size, (rho_s, rho_e))
     table_info = dict(info)
     table_info["fit"] = replace(fit.report(), uncertainty=_uncertainty(fit, (rho_s, rho_e))).to_dict()
-    table_info["warnings"] = _range_warnings(fit.landmark_range, (rho_s, rho_e))
+    table_info["warnings"] = _rim_notes(fit, cutoff_radius, outer_radius) + _range_warnings(
+        fit.landmark_range, (rho_s, rho_e)
+    )
     return PanoMappingTable(
         entries=entries,
         elevation_range=(rho_s, rho_e),
@@ -172,6 +177,25 @@ def _uncertainty(fit: CameraFit, elevation_range: tuple[float, float]) -> Radius
         max_se_in_landmark_range_px=float(se[inside].max()) if inside.any() else None,
         max_se_px=float(se.max()),
     )
+
+
+def _rim_notes(fit: CameraFit, cutoff_radius: float, outer_radius: float) -> list[str]:
+    """Notes on landmarks the fit puts just beyond the annulus (within the noise allowance): kept."""
+    r = fit.model.radial(fit.rho[fit.inliers])
+    names = [name for name, keep in zip(fit.landmarks.names, fit.inliers, strict=True) if keep]
+    notes = []
+    for where, beyond in (
+        ("beyond the image circle", r - outer_radius),
+        ("inside the cut-off disc", cutoff_radius - r),
+    ):
+        over = np.flatnonzero(beyond > 1e-6)
+        if over.size:
+            worst = int(over[np.argmax(beyond[over])])
+            notes.append(
+                f"{over.size} landmark(s) lie just {where} (up to {beyond[worst]:.1f} px, {names[worst]!r}): "
+                "within the pixel noise, kept; the table stops at the circle"
+            )
+    return notes
 
 
 def _range_warnings(landmark_range: tuple[float, float], table_range: tuple[float, float]) -> list[str]:

@@ -33,13 +33,16 @@ def valid_elevation_range(
     cutoff_radius: float,
     outer_radius: float,
     samples: int = 20001,
+    slack_px: float = 0.0,
 ) -> tuple[float, float]:
     """The widest elevation interval around the landmarks where the table is valid.
 
     Grows ``landmark_range`` in both directions while f_r stays finite,
     strictly monotonic in the axis's sense, and within
     ``[cutoff_radius, outer_radius]``; ends that stop at a radius are refined
-    to where f_r equals that radius.
+    to where f_r equals that radius. A landmark end up to ``slack_px`` beyond
+    the annulus (measurement noise at its rim) is allowed: the interval then
+    stops where f_r reaches the annulus.
 
     Returns
     -------
@@ -60,11 +63,12 @@ def valid_elevation_range(
             "the landmarks are inconsistent or too few"
         )
     r_low, r_high = sorted((float(radial(low)), float(radial(high))))
-    if r_low < cutoff_radius - 1e-9 or r_high > outer_radius + 1e-9:
+    if r_low < cutoff_radius - slack_px - 1e-9 or r_high > outer_radius + slack_px + 1e-9:
         raise PanomapError(
             f"landmarks reach radii {r_low:.1f}..{r_high:.1f} px, outside the annulus "
             f"{cutoff_radius:.1f}..{outer_radius:.1f} px given by the cut-off and outer radii"
         )
+    low, high = _within_annulus(radial, low, high, cutoff_radius, outer_radius)
     # The landmarks' ends join the grid; grid points within 1e-9 rad of them go, or a step of
     # ~1e-17 rad between near-duplicates could round to no rise and stop the growth there.
     grid = np.linspace(-HALF_PI, HALF_PI, samples)
@@ -98,3 +102,27 @@ def _refine_bound(radial: RadialFunction, a: float, b: float, cutoff_radius: flo
     # Neither crossed (cannot happen when exactly one endpoint is inside): keep the inside one.
     inside_a = cutoff_radius <= ra <= outer_radius
     return float(a if inside_a else b)
+
+
+def _within_annulus(
+    radial: RadialFunction, low: float, high: float, cutoff_radius: float, outer_radius: float
+) -> tuple[float, float]:
+    """``[low, high]`` narrowed, at an end whose radius lies beyond the annulus, to where f_r reaches it.
+
+    f_r is monotonic on ``[low, high]`` (checked by the caller), so each crossing is unique.
+    """
+    from scipy import optimize  # here, not at the top: importing SciPy is slow
+
+    ends = [low, high]
+    for bound in (cutoff_radius, outer_radius):
+        for k in (0, 1):
+            r_end = float(radial(ends[k]))
+            beyond = r_end < cutoff_radius - 1e-9 if bound == cutoff_radius else r_end > outer_radius + 1e-9
+            other = ends[1 - k]
+            if beyond and (float(radial(other)) - bound) * (r_end - bound) < 0:
+                ends[k] = float(
+                    optimize.brentq(
+                        lambda x, level=bound: float(radial(x)) - level, *sorted((ends[k], other)), xtol=1e-14
+                    )
+                )
+    return ends[0], ends[1]
