@@ -196,11 +196,15 @@ def check_memory(sizes: Sequence[tuple[int, int]], memory_limit: int | None = No
         memory_limit = None if total is None else total * 3 // 4
     if memory_limit is not None and needed > memory_limit:
         raise PanomapError(
-            f"the views need about {needed / 1e9:.1f} GB of memory ({len(sizes)} view(s), "
-            f"{pixels / 1e6:.0f} megapixels in all), more than the {memory_limit / 1e9:.1f} GB available "
-            "(3/4 of this machine's): make the views smaller or run fewer at once"
+            f"the views need about {_amount(needed)} of memory ({len(sizes)} view(s), {pixels:,} pixels "
+            f"in all), more than the {_amount(memory_limit)} available (3/4 of this machine's): "
+            "make the views smaller or run fewer at once"
         )
     return needed
+
+
+def _amount(size: int) -> str:
+    return f"{size / 1e9:.1f} GB" if size >= 1e9 else f"{size / 1e6:.1f} MB"
 
 
 def _run(
