@@ -160,7 +160,8 @@ def video(
 
     Every output keeps the input's frame rate and timestamps, and a copy of its
     audio. Frames that fail to decode are reported and skipped. Live inputs run
-    until stopped: Ctrl-C (or SIGTERM) finishes every output cleanly, playable.
+    until stopped: Ctrl-C (or SIGTERM, or SIGHUP) finishes every output cleanly,
+    playable.
 
     \b
     View SPECs (angles in degrees, lengths in world units; pairs A:B; sizes WxH):

@@ -86,7 +86,7 @@ def _render(
             raise PanomapError("its folder does not exist", path)
         check_replaceable(path)
     table = load_table(table_path)
-    image = read_image(image_path, table.image_size, f"the table {table_path} is for")
+    image = read_image(image_path, table.image_size, f"the table {table_path}")
     map_uv = build_map(table, view, sampling)
     remapper = Remapper(map_uv, (image.shape[1], image.shape[0]), interp)
     with all_or_none():
