@@ -182,6 +182,18 @@ def check_replaceable(path: str | Path) -> int:
     return stat.S_IMODE(info.st_mode)
 
 
+def check_output(path: str | Path) -> None:
+    """Refuse, before any work, an output whose folder is missing or not writable, or that
+    cannot be replaced (:func:`check_replaceable`)."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise PanomapError("its folder does not exist", path)
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise PanomapError("its folder is not writable", path)
+    check_replaceable(path)
+
+
 def _identity(path: Path) -> tuple[object, ...]:
     """What makes two paths the same file: device and inode if it exists, else its resolved path."""
     try:

@@ -16,7 +16,7 @@ import click
 import numpy as np
 
 from ..errors import PanomapError
-from ..files import all_or_none, check_output_paths, check_replaceable
+from ..files import all_or_none, check_output, check_output_paths
 from ..io.images import pgm_map_paths, read_image, save_map, save_map_pgm, write_image
 from ..remap import INTERPOLATIONS, Remapper
 from ..table.file import load_table
@@ -82,9 +82,7 @@ def _render(
     )
     extra = [path for path in (save_map_path, *pgm_paths) if path is not None]
     for path in [output, *extra]:
-        if not (path.parent if str(path.parent) else Path(".")).is_dir():
-            raise PanomapError("its folder does not exist", path)
-        check_replaceable(path)
+        check_output(path)
     table = load_table(table_path)
     image = read_image(image_path, table.image_size, f"the table {table_path}")
     map_uv = build_map(table, view, sampling)
