@@ -14,7 +14,7 @@ import pytest
 from panomap.camera.model import CameraModel
 from panomap.camera.radial import RadialFunction
 from panomap.errors import PanomapError
-from panomap.table.file import _digest, load_table
+from panomap.table.file import _digest, load_table, metadata_digest
 from panomap.table.table import PanoMappingTable, fill_entries
 
 
@@ -33,11 +33,15 @@ def small_table() -> PanoMappingTable:
     )
 
 
-def rewrite(path: Path, meta_change: dict | None = None, entries: np.ndarray | None = None) -> None:
+def rewrite(path: Path, meta_change: dict | None = None, entries: np.ndarray | None = None, seal: bool = True) -> None:
+    """Change the metadata (and the entries); ``seal``: with a metadata checksum that matches, as an
+    editor who knows the format would, so that what is checked behind the checksum shows."""
     with np.load(path) as archive:
         meta = json.loads(str(archive["meta"][()]))
         stored = archive["entries"]
     meta.update(meta_change or {})
+    if seal and "metadata_sha256" in meta:
+        meta["metadata_sha256"] = metadata_digest(meta)
     np.savez(path, entries=stored if entries is None else entries, meta=np.array(json.dumps(meta)))
 
 
@@ -86,8 +90,8 @@ def test_not_a_table(tmp_path: Path) -> None:
 def test_other_version(tmp_path: Path) -> None:
     path = tmp_path / "t.npz"
     small_table().save(path)
-    rewrite(path, {"version": 2})
-    with pytest.raises(PanomapError, match="version 2; this panomap reads version 1"):
+    rewrite(path, {"version": 3})
+    with pytest.raises(PanomapError, match="version 3; this panomap reads versions 1 and 2"):
         load_table(path)
 
 

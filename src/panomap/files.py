@@ -1,18 +1,66 @@
 """Writing files safely: everything goes to a temporary name and is renamed when done.
 
-A failed or interrupted write never leaves a half-written output behind.
+A failed or interrupted write never leaves a half-written output behind:
+
+- each output is written to ``.NAME.PID-XXXXXXXX.partSUFFIX`` in its own
+  folder and renamed over ``NAME`` only when complete; any error removes it
+  and leaves an existing ``NAME`` as it was. A temporary whose process (PID)
+  is gone, left by a run that was killed, is removed by the next write of
+  the same output;
+- within :func:`all_or_none`, the renames wait for the end of the block: a
+  run writes all of its outputs or none;
+- an existing output that is read-only is refused (as ``cp`` refuses it), and
+  one that is replaced keeps its mode;
+- every error names the user's path (never the temporary one) and says why
+  ("No space left on device");
+- :func:`check_output_paths` refuses an output that is one of the run's inputs
+  (the same file, through symbolic or hard links too) or another of its outputs.
 """
 
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
-from typing import BinaryIO, cast
+from typing import IO, BinaryIO, cast
 
 from .errors import PanomapError
+
+# The (temporary, final) pairs of the innermost all_or_none block, None outside one.
+_PENDING: ContextVar[list[tuple[Path, Path]] | None] = ContextVar("panomap_pending_outputs", default=None)
+
+
+@contextmanager
+def all_or_none() -> Iterator[None]:
+    """Keep the outputs written in this block under their temporary names until it ends.
+
+    They are all renamed into place when the block ends normally, and all
+    removed when it raises. A block inside another joins the outer one.
+    """
+    if _PENDING.get() is not None:
+        yield
+        return
+    pending: list[tuple[Path, Path]] = []
+    token = _PENDING.set(pending)
+    try:
+        yield
+    except BaseException:
+        for temporary, _ in pending:
+            temporary.unlink(missing_ok=True)
+        raise
+    finally:
+        _PENDING.reset(token)
+    for done, (temporary, path) in enumerate(pending):
+        try:
+            os.replace(temporary, path)
+        except OSError as exc:
+            for left, _ in pending[done:]:
+                left.unlink(missing_ok=True)
+            raise PanomapError(f"cannot write it ({exc.strerror or exc})", path) from None
 
 
 @contextmanager
@@ -21,24 +69,35 @@ def atomic_output(path: str | Path) -> Iterator[BinaryIO]:
 
     The temporary name keeps ``path``'s suffix, so tools that choose a format
     by suffix see the right one. On any exception the temporary file is removed
-    and ``path`` is left as it was.
+    and ``path`` is left as it was; an ``OSError`` while writing becomes a
+    PanomapError naming ``path``.
     """
     path = Path(path)
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():
         raise PanomapError("its folder does not exist", path)
+    mode = check_replaceable(path)
+    remove_stale_temporaries(path)
     try:
-        handle = tempfile.NamedTemporaryFile(
-            "wb", dir=directory, prefix=f".{path.name}.", suffix=f".part{path.suffix}", delete=False
-        )
+        handle = _open_temporary(directory, path)
     except OSError as exc:
         raise PanomapError(f"cannot write there ({exc.strerror or exc})", path) from None
     temporary = Path(handle.name)
     try:
-        with handle:
-            yield cast(BinaryIO, handle)
-        os.chmod(temporary, _new_file_mode())
-        os.replace(temporary, path)
+        try:
+            with handle:
+                yield cast(BinaryIO, handle)
+            os.chmod(temporary, mode)
+        except OSError as exc:
+            raise PanomapError(f"cannot write it ({exc.strerror or exc})", path) from None
+        pending = _PENDING.get()
+        if pending is not None:
+            pending.append((temporary, path))
+            return
+        try:
+            os.replace(temporary, path)
+        except OSError as exc:
+            raise PanomapError(f"cannot write it ({exc.strerror or exc})", path) from None
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
@@ -53,6 +112,125 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """
     with atomic_output(path) as handle:
         yield Path(handle.name)
+
+
+def _open_temporary(directory: Path, path: Path) -> IO[bytes]:
+    """The temporary file for ``path`` (a seam: tests replace it to inject write faults)."""
+    return tempfile.NamedTemporaryFile(
+        "wb", dir=directory, prefix=f".{path.name}.{os.getpid()}-", suffix=f".part{path.suffix}", delete=False
+    )
+
+
+def _temporary_owner(name: str, path: Path) -> int | None:
+    """The process id in the name of one of ``path``'s temporaries; None if ``name`` is not one."""
+    head, tail = f".{path.name}.", f".part{path.suffix}"
+    if not (name.startswith(head) and name.endswith(tail)) or len(name) <= len(head) + len(tail):
+        return None
+    pid, dash, _ = name[len(head) : -len(tail)].partition("-")
+    return int(pid) if dash and pid.isdigit() else None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
+
+
+def remove_stale_temporaries(path: str | Path) -> list[Path]:
+    """Remove the temporaries of ``path`` that a killed run left (their process is gone); returns them."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    removed = []
+    try:
+        names = [entry.name for entry in os.scandir(directory)]
+    except OSError:
+        return []
+    for name in names:
+        pid = _temporary_owner(name, path)
+        if pid is not None and pid != os.getpid() and not _alive(pid):
+            try:
+                (directory / name).unlink()
+            except OSError:
+                continue
+            removed.append(directory / name)
+    return removed
+
+
+def check_replaceable(path: str | Path) -> int:
+    """The mode ``path`` will get: its own if it exists, else an ordinary new file's.
+
+    Raises
+    ------
+    PanomapError
+        If ``path`` is a folder, or a file that is read-only (``cp`` refuses it;
+        root included, since panomap goes by the mode bits).
+    """
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        return _new_file_mode()
+    except OSError as exc:
+        raise PanomapError(f"cannot write it ({exc.strerror or exc})", path) from None
+    if stat.S_ISDIR(info.st_mode):
+        raise PanomapError("it is a folder, not a file", path)
+    if not info.st_mode & stat.S_IWUSR or not os.access(path, os.W_OK):
+        raise PanomapError("the file is read-only; not replaced (make it writable or choose another name)", path)
+    return stat.S_IMODE(info.st_mode)
+
+
+def check_output(path: str | Path) -> None:
+    """Refuse, before any work, an output whose folder is missing or not writable, or that
+    cannot be replaced (:func:`check_replaceable`)."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise PanomapError("its folder does not exist", path)
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise PanomapError("its folder is not writable", path)
+    check_replaceable(path)
+
+
+def _identity(path: Path) -> tuple[object, ...]:
+    """What makes two paths the same file: device and inode if it exists, else its resolved path."""
+    try:
+        info = os.stat(path)
+    except OSError:
+        return ("path", os.path.normcase(os.path.realpath(path)))
+    return ("file", info.st_dev, info.st_ino)
+
+
+def check_output_paths(
+    inputs: Iterable[tuple[str, str | Path | None]], outputs: Iterable[tuple[str, str | Path | None]]
+) -> None:
+    """Refuse an output that is one of the inputs, or that another output also names.
+
+    Each item is ``(what, path)`` (``("the image", "a.png")``); a None path is
+    skipped. Paths are compared as files: through symbolic links, hard links
+    and different spellings of the same path.
+
+    Raises
+    ------
+    PanomapError
+        Naming the output and what it collides with.
+    """
+    seen: dict[tuple[object, ...], tuple[str, str, bool]] = {}
+    for what, path in inputs:
+        if path is not None:
+            seen.setdefault(_identity(Path(path)), (what, str(path), True))
+    for what, path in outputs:
+        if path is None:
+            continue
+        key = _identity(Path(path))
+        if key in seen:
+            other, other_path, is_input = seen[key]
+            if is_input:
+                raise PanomapError(f"{what} is {other} ({other_path}): refusing to overwrite an input", path)
+            raise PanomapError(f"{what} and {other} ({other_path}) are the same file: give each its own", path)
+        seen[key] = (what, str(path), False)
 
 
 def read_text(path: str | Path, encoding: str = "utf-8-sig") -> str:

@@ -15,6 +15,7 @@ from ..calibrate.pipeline import calibrate_camera
 from ..calibrate.report import FitReport, table_fit_report
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError
+from ..files import all_or_none, check_output_paths
 from ..io.images import read_image, write_image
 from ..table.file import load_table
 from ..table.table import PanoMappingTable, check_table_size
@@ -120,6 +121,7 @@ def fit(
     plot: Path | None,
 ) -> None:
     """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table."""
+    check_output_paths([("the landmarks", landmarks), ("the image", image)], [("the output", output), ("--plot", plot)])
     pairs = read_landmarks(landmarks)
     if camera is None and pairs.camera is None:
         raise PanomapError('no camera position: give --camera X0 Y0 Z0 or "camera" in the JSON', landmarks)
@@ -156,11 +158,12 @@ def fit(
     for warning in result.warnings:
         click.echo(f"panomap: warning: {warning}", err=True)
     table = result.table
-    table.save(output)
-    if plot is not None:
-        from ..io.plot import save_fit_plot
+    with all_or_none():
+        table.save(output)
+        if plot is not None:
+            from ..io.plot import save_fit_plot
 
-        save_fit_plot(table, plot)
+            save_fit_plot(table, plot)
     click.echo(_describe_fit(table))
     click.echo(f"wrote {output}" + (f" and {plot}" if plot else ""))
     for warning in table.info.get("warnings", []):
@@ -180,6 +183,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None) -> None:
     (a fisheye). Fails with a reason, never a guess, when no rim is visible (a
     full-frame fisheye: the message gives the frame centre as a starting value).
     """
+    check_output_paths([("the input image", image)], [("--overlay", overlay)])
     omni = read_image(image)
     circles = find_image_circles_in(image, omni)
     if overlay is not None:

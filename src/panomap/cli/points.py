@@ -11,7 +11,7 @@ import click
 import numpy as np
 
 from ..calibrate.landmarks import read_points
-from ..files import write_text_atomic
+from ..files import check_output_paths, write_text_atomic
 from ..geometry import ray_plane_points
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
@@ -25,6 +25,7 @@ from .options import FINITE, PATH
 @click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True)
 def project(table: Path, points: Path, output: Path, table_sampling: str) -> None:
     """World points (CSV with X,Y,Z) to pixels through the table; u,v empty where not visible."""
+    check_output_paths([("the table", table), ("the points", points)], [("the output", output)])
     loaded = load_table(table)
     header, rows, xyz = read_points(points)
     uv = loaded.project(xyz, table_sampling)
@@ -54,6 +55,7 @@ def project(table: Path, points: Path, output: Path, table_sampling: str) -> Non
 )
 def unproject(table: Path, pixels: Path, output: Path, z_plane: float | None) -> None:
     """Pixels (CSV with u,v) to rays: azimuth and elevation, empty outside the valid region."""
+    check_output_paths([("the table", table), ("the pixels", pixels)], [("the output", output)])
     loaded = load_table(table)
     header, rows, uv = read_points(pixels, ("u", "v"))
     theta, rho = loaded.unproject(uv)

@@ -17,6 +17,7 @@ from typing import Any
 
 import click
 
+from ..files import check_output_paths
 from ..remap import INTERPOLATIONS
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
@@ -44,9 +45,14 @@ def output_paths(pattern: str, views: list[NamedView]) -> list[Path]:
     return [Path(pattern.replace("{name}", item.name)) for item in views]
 
 
+# The signals that finish every output cleanly (SIGHUP where the system has it).
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, *((signal.SIGHUP,) if hasattr(signal, "SIGHUP") else ()))
+
+
 @contextlib.contextmanager
 def stop_on_signals(stop: threading.Event) -> Iterator[None]:
-    """The first SIGINT or SIGTERM sets ``stop`` (a clean finish); a second SIGINT aborts."""
+    """The first SIGINT, SIGTERM or SIGHUP (the terminal closed) sets ``stop`` (a clean finish);
+    a second SIGINT aborts."""
     previous: dict[Any, Any] = {}
 
     def handler(signum: int, frame: Any) -> None:
@@ -54,7 +60,7 @@ def stop_on_signals(stop: threading.Event) -> Iterator[None]:
             raise KeyboardInterrupt
         stop.set()
 
-    for signum in (signal.SIGINT, signal.SIGTERM):
+    for signum in STOP_SIGNALS:
         previous[signum] = signal.signal(signum, handler)
     try:
         yield
@@ -154,7 +160,8 @@ def video(
 
     Every output keeps the input's frame rate and timestamps, and a copy of its
     audio. Frames that fail to decode are reported and skipped. Live inputs run
-    until stopped: Ctrl-C (or SIGTERM) finishes every output cleanly, playable.
+    until stopped: Ctrl-C (or SIGTERM, or SIGHUP) finishes every output cleanly,
+    playable.
 
     \b
     View SPECs (angles in degrees, lengths in world units; pairs A:B; sizes WxH):
@@ -191,6 +198,10 @@ def video(
         codec, pix_fmt, crf, preset, _bitrate(bitrate) if bitrate is not None else None, tuple(options)
     )
     selection = Selection(start, duration, every)
+    check_output_paths(
+        [("the table", table), ("the input", source if Path(source).is_file() else None)],
+        [(f"the output of view {item.name}", path) for item, path in zip(named, paths, strict=True)],
+    )
     loaded = load_table(table)
     stop = threading.Event()
     progress = _Progress(not quiet and sys.stderr.isatty())

@@ -16,6 +16,7 @@ import click
 import numpy as np
 
 from ..errors import PanomapError
+from ..files import all_or_none, check_output, check_output_paths
 from ..io.images import pgm_map_paths, read_image, save_map, save_map_pgm, write_image
 from ..remap import INTERPOLATIONS, Remapper
 from ..table.file import load_table
@@ -71,27 +72,27 @@ def _render(
 ) -> None:
     save_map_path, pgm_prefix = maps
     view = make_view()
+    if save_map_path is not None and save_map_path.suffix.lower() != ".npy":
+        raise click.BadParameter(f"{save_map_path} is not a .npy file name", param_hint="--save-map")
+    pgm_paths = pgm_map_paths(pgm_prefix) if pgm_prefix is not None else (None, None)
+    check_output_paths(
+        [("the table", table_path), ("the input image", image_path)],
+        [("the output", output), ("--save-map", save_map_path)]
+        + [(f"--save-map-pgm's {path.name}", path) for path in pgm_paths if path is not None],
+    )
+    extra = [path for path in (save_map_path, *pgm_paths) if path is not None]
+    for path in [output, *extra]:
+        check_output(path)
     table = load_table(table_path)
-    image = read_image(image_path)
-    if table.image_size is not None and (image.shape[1], image.shape[0]) != table.image_size:
-        raise PanomapError(
-            f"the image is {image.shape[1]} x {image.shape[0]}, the table {table_path} is for "
-            f"{table.image_size[0]} x {table.image_size[1]} images",
-            image_path,
-        )
-    extra = [save_map_path] if save_map_path is not None else []
-    if pgm_prefix is not None:
-        extra += pgm_map_paths(pgm_prefix)
-    for path in extra:
-        if not (path.parent if str(path.parent) else Path(".")).is_dir():
-            raise PanomapError("its folder does not exist", path)
+    image = read_image(image_path, table.image_size, f"the table {table_path}")
     map_uv = build_map(table, view, sampling)
     remapper = Remapper(map_uv, (image.shape[1], image.shape[0]), interp)
-    write_image(output, remapper(image))
-    if save_map_path is not None:
-        save_map(save_map_path, map_uv)
-    if pgm_prefix is not None:
-        save_map_pgm(pgm_prefix, map_uv)
+    with all_or_none():
+        write_image(output, remapper(image))
+        if save_map_path is not None:
+            save_map(save_map_path, map_uv)
+        if pgm_prefix is not None:
+            save_map_pgm(pgm_prefix, map_uv)
     valid = float(np.mean(np.all(np.isfinite(map_uv), axis=2)))
     click.echo(
         f"wrote {output} ({map_uv.shape[1]} x {map_uv.shape[0]}, {valid:.0%} of pixels with a source)"

@@ -7,6 +7,8 @@ temporary file and a rename.
 
 from __future__ import annotations
 
+import threading
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -19,34 +21,91 @@ from ..files import write_bytes_atomic, write_with
 
 SIXTEEN_BIT_SUFFIXES = {".png", ".tif", ".tiff", ".pgm", ".ppm", ".pnm"}
 ALPHA_SUFFIXES = {".png", ".tif", ".tiff", ".webp"}
+# The largest image read (width x height): 16384 x 16384, 768 MB as 8-bit BGR. A larger one
+# is refused from its header, before its pixels take memory.
+MAX_IMAGE_PIXELS = 16384 * 16384
+_PILLOW_LOCK = threading.Lock()  # header_size changes Pillow's process-wide limit for a moment
 
 
-def read_image(path: str | Path) -> NDArray[Any]:
+def read_image(
+    path: str | Path, expected_size: tuple[int, int] | None = None, expected_by: str = "the table"
+) -> NDArray[Any]:
     """Read an image unchanged (depth, channels).
+
+    The size is read from the file's header before anything is decoded: an
+    image beyond :data:`MAX_IMAGE_PIXELS`, or not of ``expected_size``
+    (width, height) when one is given, is refused without decoding it.
 
     Raises
     ------
     PanomapError
-        Naming the file when it is missing, unreadable or of an unsupported depth.
+        Naming the file when it is missing, unreadable, too large, not of
+        ``expected_size`` ("the image is W x H, {expected_by} is for ..."), or
+        of an unsupported depth.
     """
     path = Path(path)
     if not path.exists():
         raise PanomapError("no such image file", path)
     if not path.is_file():
         raise PanomapError("not a file", path)
+    declared = header_size(path)
+    if declared is not None:
+        _check_size(path, declared, expected_size, expected_by)
     data = np.fromfile(path, dtype=np.uint8)
     image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
     if image is None:
         raise PanomapError("cannot read it as an image (unknown format or corrupt)", path)
     if image.dtype not in (np.uint8, np.uint16):
         raise PanomapError(f"images must be 8- or 16-bit, this one is {image.dtype}", path)
+    _check_size(path, (int(image.shape[1]), int(image.shape[0])), expected_size, expected_by)
     return image
 
 
+def header_size(path: str | Path) -> tuple[int, int] | None:
+    """(width, height) from an image file's header, without decoding it; None if Pillow cannot tell.
+
+    Pillow (which matplotlib requires) reads the headers of PNG, JPEG, TIFF,
+    WebP, BMP and PNM lazily; the formats only OpenCV reads are checked after
+    decoding instead.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    with _PILLOW_LOCK, warnings.catch_warnings():
+        # Pillow's own bomb check would refuse a large header before telling its size: the
+        # limit here is MAX_IMAGE_PIXELS, checked by the caller.
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
+        try:
+            with Image.open(path) as image:
+                width, height = image.size
+        except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
+            return None
+        finally:
+            Image.MAX_IMAGE_PIXELS = limit
+    return int(width), int(height)
+
+
 def image_size(path: str | Path) -> tuple[int, int]:
-    """(width, height) of an image file."""
+    """(width, height) of an image file, from its header where Pillow reads it."""
+    size = header_size(path)
+    if size is not None:
+        return size
     image = read_image(path)
     return int(image.shape[1]), int(image.shape[0])
+
+
+def _check_size(path: Path, size: tuple[int, int], expected_size: tuple[int, int] | None, expected_by: str) -> None:
+    width, height = size
+    if expected_size is not None and (width, height) != tuple(expected_size):
+        raise PanomapError(
+            f"the image is {width} x {height}, {expected_by} is for {expected_size[0]} x {expected_size[1]} images",
+            path,
+        )
+    if width * height > MAX_IMAGE_PIXELS:
+        raise PanomapError(
+            f"the image is {width} x {height}: more than the {MAX_IMAGE_PIXELS // 1_000_000} megapixels panomap reads",
+            path,
+        )
 
 
 def write_image(path: str | Path, image: NDArray[Any]) -> None:

@@ -3,17 +3,28 @@
 ``meta`` is JSON text with ``format = "panomap-table"``, ``version``, the
 model, the elevation range, radii, image size, camera position, the table's
 ``info`` (where the centre and radii came from, the landmarks and the fit
-report), and the SHA-256 of ``entries``. Loading checks all of it and that the
-entries are what the model gives.
+report), the SHA-256 of ``entries`` and (version 2) the SHA-256 of the
+metadata itself. Loading checks all of it, in an order that bounds memory and
+time before the work starts:
+
+1. the arrays' declared shapes and types, from their headers, against the
+   limits (nothing is read yet);
+2. every metadata field against its schema (:class:`TableMetadata`), then the
+   metadata's checksum (version 2; version 1 files, whose checksum covers
+   only the entries, still load);
+3. the entries: their shape against the metadata, their checksum, and that
+   they are what the model gives.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,13 +32,33 @@ from numpy.typing import NDArray
 from ..camera.model import CameraModel
 from ..errors import PanomapError
 from ..files import write_with
-from .table import PanoMappingTable, fill_entries
+from .sampling import MAX_TABLE_SIDE
+from .table import MAX_TABLE_ENTRIES, PanoMappingTable, fill_entries
 
 TABLE_FORMAT = "panomap-table"
-TABLE_VERSION = 1
+TABLE_VERSION = 2
+READ_VERSIONS = (1, 2)
 # Entries are float32: about 1e-4 px at radii of 2000 px. A loaded table whose
 # entries stray further than this from its own model is corrupt.
 ENTRY_TOLERANCE_PX = 1e-2
+# The metadata's JSON text, at most (characters): a fit report of thousands of landmarks fits.
+MAX_METADATA_CHARS = 1 << 22
+# An image side a table can be for, at most (px).
+MAX_IMAGE_SIDE = 1 << 20
+_FIELDS = {
+    "format",
+    "version",
+    "size",
+    "elevation_range_rad",
+    "model",
+    "camera_position",
+    "image_size",
+    "cutoff_radius_px",
+    "outer_radius_px",
+    "info",
+    "entries_sha256",
+    "metadata_sha256",
+}
 
 
 def table_metadata(table: PanoMappingTable) -> dict[str, Any]:
@@ -50,6 +81,7 @@ def table_metadata(table: PanoMappingTable) -> dict[str, Any]:
 def save_table(table: PanoMappingTable, path: str | Path) -> None:
     """Write the table to ``path`` (an ``.npz``), through a temporary file."""
     meta = table_metadata(table) | {"entries_sha256": _digest(table.entries)}
+    meta["metadata_sha256"] = metadata_digest(meta)
     text = json.dumps(meta, indent=1, allow_nan=False)
 
     def writer(handle: Any) -> None:
@@ -62,6 +94,182 @@ def _digest(entries: NDArray[np.float32]) -> str:
     return hashlib.sha256(np.ascontiguousarray(entries, dtype="<f4").data).hexdigest()
 
 
+def metadata_digest(meta: dict[str, Any]) -> str:
+    """SHA-256 of the metadata (all but ``metadata_sha256``) as canonical JSON: sorted keys, no spaces."""
+    body = {key: value for key, value in meta.items() if key != "metadata_sha256"}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False, ensure_ascii=True)
+    return hashlib.sha256(text.encode("ascii")).hexdigest()
+
+
+# ----------------------------------------------------------------------------- the metadata's schema
+
+
+def _malformed(detail: str) -> PanomapError:
+    return PanomapError(f"the table's metadata is malformed ({detail})")
+
+
+def _numbers(meta: dict[str, Any], key: str, count: int, integer: bool = False) -> tuple[Any, ...]:
+    """``meta[key]``: a list of ``count`` finite numbers (integers if ``integer``)."""
+    value = meta[key]
+    kinds = (int,) if integer else (int, float)
+    if (
+        not isinstance(value, list)
+        or len(value) != count
+        or not all(isinstance(x, kinds) and not isinstance(x, bool) for x in value)
+        or not all(math.isfinite(x) for x in value)
+    ):
+        what = "integers" if integer else "finite numbers"
+        raise _malformed(f"{key} is {_shown(value)}, not a list of {count} {what}")
+    return tuple(int(x) for x in value) if integer else tuple(float(x) for x in value)
+
+
+def _number(meta: dict[str, Any], key: str) -> float:
+    value = meta[key]
+    if not isinstance(value, int | float) or isinstance(value, bool) or not math.isfinite(value):
+        raise _malformed(f"{key} is {_shown(value)}, not a finite number")
+    return float(value)
+
+
+def _shown(value: Any) -> str:
+    text = json.dumps(value, allow_nan=True) if not isinstance(value, float) else repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _check_info(info: Any) -> dict[str, Any]:
+    """``info``'s structure where the table's users rely on it (the fit report's own fields
+    are checked by :class:`panomap.calibrate.report.FitReport` when it is read)."""
+    if info is None:
+        return {}
+    if not isinstance(info, dict):
+        raise _malformed(f"info is {_shown(info)}, not an object")
+    sources = info.get("sources", {})
+    if not isinstance(sources, dict) or not all(isinstance(v, str) for v in sources.values()):
+        raise _malformed(f"info.sources is {_shown(sources)}, not an object of texts")
+    warnings = info.get("warnings", [])
+    if not isinstance(warnings, list) or not all(isinstance(w, str) for w in warnings):
+        raise _malformed(f"info.warnings is {_shown(warnings)}, not a list of texts")
+    for key in ("fit", "image_circles"):
+        if info.get(key) is not None and not isinstance(info[key], dict):
+            raise _malformed(f"info.{key} is {_shown(info[key])}, not an object")
+    return dict(info)
+
+
+@dataclass(frozen=True)
+class TableMetadata:
+    """A table file's metadata, every field checked (:meth:`from_dict`); ``model`` as stored."""
+
+    version: int
+    size: tuple[int, int]
+    elevation_range: tuple[float, float]
+    model: CameraModel
+    camera_position: tuple[float, float, float]
+    image_size: tuple[int, int] | None
+    cutoff_radius: float
+    outer_radius: float
+    info: dict[str, Any]
+    entries_sha256: str
+
+    @classmethod
+    def from_dict(cls, meta: Any) -> TableMetadata:
+        """Check the metadata as a whole: format, version, every field's type and range, the checksum.
+
+        Raises
+        ------
+        PanomapError
+            With one line saying which field is wrong and how.
+        """
+        if not isinstance(meta, dict) or meta.get("format") != TABLE_FORMAT:
+            raise PanomapError("not a panomap table (wrong format tag)")
+        version = meta.get("version")
+        if version not in READ_VERSIONS or isinstance(version, bool):
+            raise PanomapError(
+                f"table format version {version!r}; this panomap reads versions "
+                + " and ".join(map(str, READ_VERSIONS))
+            )
+        required = _FIELDS - {"metadata_sha256", "info"} | ({"metadata_sha256"} if version >= 2 else set())
+        missing, unknown = sorted(required - set(meta)), sorted(set(meta) - _FIELDS)
+        if missing or unknown:
+            raise _malformed(", ".join([*(f"no {k}" for k in missing), *(f"unknown field {k}" for k in unknown)]))
+        m, n = _numbers(meta, "size", 2, integer=True)
+        if not (2 <= m <= MAX_TABLE_SIDE and 2 <= n <= MAX_TABLE_SIDE) or m * n > MAX_TABLE_ENTRIES:
+            raise _malformed(f"size {m}x{n}: 2 to {MAX_TABLE_SIDE} a side, {MAX_TABLE_ENTRIES:,} entries at most")
+        elevation_range = _numbers(meta, "elevation_range_rad", 2)
+        camera_position = _numbers(meta, "camera_position", 3)
+        image_size = None if meta["image_size"] is None else _numbers(meta, "image_size", 2, integer=True)
+        if image_size is not None and not all(1 <= side <= MAX_IMAGE_SIDE for side in image_size):
+            raise _malformed(f"image_size {image_size[0]}x{image_size[1]} is not a size of an image")
+        cutoff, outer = _number(meta, "cutoff_radius_px"), _number(meta, "outer_radius_px")
+        if not 0 <= cutoff < outer:
+            raise _malformed(f"the radii must be 0 <= cutoff_radius_px < outer_radius_px, not {cutoff:g}, {outer:g}")
+        if not isinstance(meta["model"], dict):
+            raise _malformed(f"model is {_shown(meta['model'])}, not an object")
+        try:
+            model = CameraModel.from_dict(meta["model"])
+        except PanomapError as exc:
+            raise _malformed(exc.detail) from None
+        if image_size is not None:
+            (u0, v0), (width, height) = model.centre, image_size
+            farthest = max(math.hypot(u - u0, v - v0) for u in (-0.5, width - 0.5) for v in (-0.5, height - 0.5))
+            if cutoff >= farthest:
+                raise _malformed(f"cutoff_radius_px {cutoff:g} leaves no pixel of a {width} x {height} image visible")
+        info = _check_info(meta.get("info"))
+        for key in ("entries_sha256", "metadata_sha256"):
+            value = meta.get(key, "0" * 64)
+            if not isinstance(value, str) or len(value) != 64 or set(value) - set("0123456789abcdef"):
+                raise _malformed(f"{key} is {_shown(value)}, not a SHA-256 in hex")
+        if version >= 2 and meta["metadata_sha256"] != metadata_digest(meta):
+            raise PanomapError("the metadata does not match its checksum (corrupt or edited)")
+        return cls(
+            version,
+            (m, n),
+            (elevation_range[0], elevation_range[1]),
+            model,
+            (camera_position[0], camera_position[1], camera_position[2]),
+            None if image_size is None else (image_size[0], image_size[1]),
+            cutoff,
+            outer,
+            info,
+            meta["entries_sha256"],
+        )
+
+
+# ----------------------------------------------------------------------------- loading
+
+
+def _array_header(archive: Any, name: str) -> tuple[tuple[int, ...], np.dtype[Any]]:
+    """The shape and dtype an ``.npz`` member declares, read from its header without reading the array."""
+    member: IO[bytes]
+    with archive.zip.open(f"{name}.npy") as member:
+        version = np.lib.format.read_magic(member)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(member)
+        elif version == (2, 0):
+            shape, _, dtype = np.lib.format.read_array_header_2_0(member)
+        else:
+            raise ValueError(f"array format version {version}")
+    return tuple(int(x) for x in shape), dtype
+
+
+def _check_declared(
+    entries: tuple[tuple[int, ...], np.dtype[Any]], meta: tuple[tuple[int, ...], np.dtype[Any]]
+) -> None:
+    """Refuse arrays whose declared shapes or types are beyond the limits, before reading them."""
+    shape, dtype = entries
+    if dtype != np.dtype("<f4") or len(shape) != 3 or shape[2] != 2:
+        raise PanomapError(f"entries are declared {shape} {dtype}, not (M, N, 2) float32 (corrupt)")
+    m, n = shape[:2]
+    if max(m, n) > MAX_TABLE_SIDE or m * n > MAX_TABLE_ENTRIES:
+        raise PanomapError(
+            f"the file declares a {m} x {n} table: more than the limits ({MAX_TABLE_SIDE} a side, "
+            f"{MAX_TABLE_ENTRIES:,} entries); not read"
+        )
+    shape, dtype = meta
+    if shape != () or dtype.kind != "U" or dtype.itemsize // 4 > MAX_METADATA_CHARS:
+        raise PanomapError(
+            f"the metadata is declared {shape} {dtype}, not a text of at most {MAX_METADATA_CHARS:,} characters"
+        )
+
+
 def load_table(path: str | Path) -> PanoMappingTable:
     """Read a table file, checking its format, version and contents.
 
@@ -69,7 +277,9 @@ def load_table(path: str | Path) -> PanoMappingTable:
     ------
     PanomapError
         Naming the file, when it is missing, not a table, corrupt or
-        truncated, of another version, or its entries disagree with its model.
+        truncated, of another version, declares arrays beyond the limits, has
+        a malformed or edited metadata field, or its entries disagree with
+        its checksum or its model.
     """
     path = Path(path)
     try:
@@ -80,61 +290,44 @@ def load_table(path: str | Path) -> PanoMappingTable:
         raise PanomapError(f"cannot read it ({exc.strerror or exc})", path) from None
     try:
         with file, np.load(file, allow_pickle=False) as archive:
-            names = set(archive.files)
-            if not {"entries", "meta"} <= names:
-                raise PanomapError("not a panomap table (no entries/meta inside)", path)
-            meta_text = str(archive["meta"][()])
+            if not isinstance(archive, np.lib.npyio.NpzFile) or not {"entries", "meta"} <= set(archive.files):
+                raise PanomapError("not a panomap table (no entries/meta inside)")
+            _check_declared(_array_header(archive, "entries"), _array_header(archive, "meta"))
+            try:
+                meta = TableMetadata.from_dict(json.loads(str(archive["meta"][()])))
+            except json.JSONDecodeError:
+                raise PanomapError("the table's metadata is not valid JSON (corrupt)") from None
+            if (meta.size[0], meta.size[1], 2) != _array_header(archive, "entries")[0]:
+                shape = _array_header(archive, "entries")[0]
+                raise PanomapError(
+                    f"entries have shape {shape} float32, metadata says ({meta.size[0]}, {meta.size[1]}, 2) float32"
+                )
             entries = archive["entries"]
-    except PanomapError:
-        raise
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, path) from None
     except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, zipfile.LargeZipFile) as exc:
         raise PanomapError(
             f"not a readable panomap table: corrupt or truncated ({exc.__class__.__name__})", path
         ) from None
-    try:
-        meta = json.loads(meta_text)
-    except json.JSONDecodeError:
-        raise PanomapError("the table's metadata is not valid JSON (corrupt)", path) from None
-    if not isinstance(meta, dict) or meta.get("format") != TABLE_FORMAT:
-        raise PanomapError("not a panomap table (wrong format tag)", path)
-    if meta.get("version") != TABLE_VERSION:
-        raise PanomapError(
-            f"table format version {meta.get('version')!r}; this panomap reads version {TABLE_VERSION}", path
-        )
     try:
         return _table_from(meta, entries)
     except PanomapError as exc:
         raise PanomapError(exc.detail, path) from None
 
 
-def _table_from(meta: dict[str, Any], entries: NDArray[Any]) -> PanoMappingTable:
-    try:
-        m, n = (int(x) for x in meta["size"])
-        if entries.dtype != np.float32 or entries.shape != (m, n, 2):
-            raise PanomapError(
-                f"entries have shape {entries.shape} {entries.dtype}, metadata says ({m}, {n}, 2) float32"
-            )
-        if meta.get("entries_sha256") != _digest(entries):
-            raise PanomapError("the entries do not match their checksum (corrupt)")
-        model = CameraModel.from_dict(meta["model"])
-        rho_s, rho_e = (float(x) for x in meta["elevation_range_rad"])
-        image_size = meta["image_size"]
-        table = PanoMappingTable(
-            entries=entries,
-            elevation_range=(rho_s, rho_e),
-            model=model,
-            camera_position=tuple(float(x) for x in meta["camera_position"]),  # type: ignore[arg-type]
-            image_size=None if image_size is None else (int(image_size[0]), int(image_size[1])),
-            cutoff_radius=float(meta["cutoff_radius_px"]),
-            outer_radius=float(meta["outer_radius_px"]),
-            info=dict(meta.get("info") or {}),
-        )
-    except PanomapError:
-        raise
-    except (KeyError, TypeError, ValueError) as exc:
-        raise PanomapError(
-            f"the table's metadata is incomplete or malformed ({exc.__class__.__name__}: {exc})"
-        ) from None
+def _table_from(meta: TableMetadata, entries: NDArray[Any]) -> PanoMappingTable:
+    if meta.entries_sha256 != _digest(entries):
+        raise PanomapError("the entries do not match their checksum (corrupt)")
+    table = PanoMappingTable(
+        entries=entries,
+        elevation_range=meta.elevation_range,
+        model=meta.model,
+        camera_position=meta.camera_position,
+        image_size=meta.image_size,
+        cutoff_radius=meta.cutoff_radius,
+        outer_radius=meta.outer_radius,
+        info=meta.info,
+    )
     if not _entries_match_model(entries, table.model, table.elevation_range):
         raise PanomapError("the entries disagree with the table's own model (corrupt)")
     return table

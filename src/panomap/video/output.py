@@ -103,6 +103,18 @@ class Writer:
                 while True:  # unblock the producer
                     self.inbox.get_nowait()
 
+    def close(self) -> None:
+        """Finish the container (its index and trailer are written here: a full disk shows now).
+
+        An error is kept in ``error`` (the first one the writer met wins), never
+        raised: every writer is closed, then the caller reports.
+        """
+        try:
+            self.container.close()
+        except (av.error.FFmpegError, OSError) as exc:
+            if self.error is None:
+                self.error = exc
+
 
 def open_writer(
     path: Path,
