@@ -157,7 +157,8 @@ def test_fit_finds_the_centre_and_radii_when_not_given(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.stderr
     table = load_table(tmp_path / "t.npz")
     sources = table.info["sources"]
-    assert sources["centre"] == "detected" and sources["cutoff_radius"] == "detected"
+    # The detected centre starts the fit and the landmarks refine it (the default when it is not given).
+    assert sources["centre"] == "detected, refined with the landmarks" and sources["cutoff_radius"] == "detected"
     assert sources["outer_radius"] == "given" and table.outer_radius == 298
     assert math.dist(table.model.centre, camera.centre) < 0.2
     assert table.cutoff_radius == pytest.approx(camera.cutoff_radius, abs=0.5)

@@ -10,6 +10,7 @@ from typing import Any
 import click
 
 from ..calibrate.circles import ImageCircles, draw_overlay, find_image_circles
+from ..calibrate.diagnosis import diagnose
 from ..calibrate.landmarks import read_landmarks
 from ..calibrate.pipeline import calibrate_camera
 from ..calibrate.report import FitReport, table_fit_report
@@ -165,6 +166,8 @@ def fit(
 
             save_fit_plot(table, plot)
     click.echo(_describe_fit(table))
+    for note in diagnose(result.fit):
+        click.echo(f"diagnosis: {note}")
     click.echo(f"wrote {output}" + (f" and {plot}" if plot else ""))
     for warning in table.info.get("warnings", []):
         click.echo(f"panomap: warning: {warning}", err=True)

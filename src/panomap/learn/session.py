@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..calibrate.diagnosis import diagnose
 from ..calibrate.landmarks import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
 from ..calibrate.pipeline import calibrate_camera, choose_circles
 from ..calibrate.report import table_fit_report
@@ -263,7 +264,7 @@ class Session:
             status |= {"need": 0, "message": "give the camera position X0, Y0, Z0 to fit"}
         else:
             try:
-                self.table = calibrate_camera(
+                calibration = calibrate_camera(
                     landmarks,
                     self.camera,
                     centre=self.circles.centre,
@@ -273,11 +274,12 @@ class Session:
                     model=self.model,
                     sources=self._sources(),
                     info=self._info(),
-                ).table
+                )
             except PanomapError as exc:
                 status |= {"need": 0, "message": f"the fit failed: {exc.detail}"}
             else:
-                status = self._fit_report(self.table, pending)
+                self.table = calibration.table
+                status = self._fit_report(self.table, pending) | {"diagnosis": diagnose(calibration.fit)}
         self.fit_status = status
 
     def _sources(self) -> dict[str, Source]:

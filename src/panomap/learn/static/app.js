@@ -602,7 +602,7 @@
     status.className = fit.ok ? "ok" : fit.need > 0 ? "waiting" : "failed";
     const warnings = $("fit-warnings");
     warnings.replaceChildren(
-      ...(fit.warnings || []).map((text) => {
+      ...[...(fit.warnings || []), ...(fit.diagnosis || []).map((text) => `diagnosis: ${text}`)].map((text) => {
         const li = document.createElement("li");
         li.textContent = text;
         return li;

@@ -1,0 +1,91 @@
+"""What a fit's residuals say, in words: patterns that point to a cause, and what to do.
+
+Convention: residuals are the fit's radial residuals (fitted minus measured
+radius, px) of the inlier landmarks, against their azimuth theta and elevation
+rho (rad); ``pixel_sigma`` is the landmarks' pixel noise (px).
+
+- **Sinusoidal in azimuth** (``a cos(theta) + b sin(theta)``): the image centre
+  is off, or the camera's axis is not vertical (a tilted mount).
+- **A trend in elevation** (a low-degree polynomial in rho): the radial model
+  does not follow the camera.
+- **Dropped landmarks**: a world point or pixel measured wrong.
+
+A pattern is reported when it explains most of the residuals' variance and
+its size is well above the noise (``PATTERN_SIGMAS`` pixel sigmas), with at
+least ``MIN_LANDMARKS`` inliers to see it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .fit import CameraFit
+
+PATTERN_SIGMAS = 2.0
+EXPLAINED_FRACTION = 0.5
+MIN_LANDMARKS = 8
+
+
+def diagnose(fit: CameraFit) -> list[str]:
+    """Sentences on the patterns in ``fit``'s residuals (empty when there is none)."""
+    notes = []
+    keep = fit.inliers
+    residual = fit.radial_residuals_px[keep]
+    theta, rho = fit.theta[keep], fit.rho[keep]
+    sigma = fit.settings.pixel_sigma_px
+    if residual.size >= MIN_LANDMARKS:
+        amplitude, towards = _sinusoid(theta, residual)
+        if amplitude is not None and amplitude > PATTERN_SIGMAS * sigma:
+            notes.append(
+                f"the radial residuals swing with azimuth (amplitude {amplitude:.1f} px, largest towards "
+                f"{math.degrees(towards):.0f} deg): the image centre is off or the camera is tilted; "
+                + (
+                    "the centre was refined, so check the mount (is the axis vertical?) and the camera position"
+                    if fit.settings.refine_centre
+                    else "let the landmarks refine the centre, or check the mount"
+                )
+            )
+        trend = _trend(rho, residual)
+        if trend is not None and trend > PATTERN_SIGMAS * sigma:
+            notes.append(
+                f"the radial residuals trend with elevation (by {trend:.1f} px across the landmarks): the radial "
+                f"model ({fit.model.radial.kind}) does not follow this camera; let the model be chosen "
+                "automatically, or add landmarks across the elevations"
+            )
+    if fit.outliers:
+        notes.append(
+            f"dropped as outliers: {', '.join(fit.outliers)}: their world point or pixel is probably wrong; "
+            "measure them again"
+        )
+    return notes
+
+
+def _explains(design: np.ndarray, residual: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Least-squares coefficients of ``design`` for ``residual`` and the fraction of variance they explain."""
+    total = float(np.sum((residual - residual.mean()) ** 2))
+    if total <= 0:
+        return None
+    coefficients, *_ = np.linalg.lstsq(design, residual, rcond=None)
+    left = float(np.sum((residual - design @ coefficients) ** 2))
+    return coefficients, 1.0 - left / total
+
+
+def _sinusoid(theta: np.ndarray, residual: np.ndarray) -> tuple[float | None, float]:
+    """Amplitude (px) and azimuth (rad) of the residuals' sinusoid in azimuth, when it explains most of them."""
+    found = _explains(np.stack([np.ones_like(theta), np.cos(theta), np.sin(theta)], axis=1), residual)
+    if found is None or found[1] < EXPLAINED_FRACTION:
+        return None, 0.0
+    _, a, b = found[0]
+    return float(math.hypot(a, b)), float(math.atan2(b, a)) % (2 * math.pi)
+
+
+def _trend(rho: np.ndarray, residual: np.ndarray) -> float | None:
+    """Range (px) of a quadratic trend of the residuals in elevation, when it explains most of them."""
+    x = (rho - rho.mean()) / max(float(np.ptp(rho)), 1e-9)
+    found = _explains(np.stack([np.ones_like(x), x, x**2], axis=1), residual)
+    if found is None or found[1] < EXPLAINED_FRACTION:
+        return None
+    values = np.stack([np.ones_like(x), x, x**2], axis=1) @ found[0]
+    return float(np.ptp(values))

@@ -1,0 +1,67 @@
+"""The fit report's diagnosis in words, on simulated cameras whose error is known (a centre off, a wrong model)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from panomap.calibrate.diagnosis import diagnose
+from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.landmarks import Landmarks
+from panomap.simulate import standard_cameras
+
+from helpers import spread_landmarks
+
+SIZE = (960, 960)
+POSITION = (3.0, 2.0, 2.5)
+CAMERAS = standard_cameras(SIZE, centre=(481.2, 478.9), s=1, phi0=0.3)
+NOISE = np.random.default_rng(11)
+
+
+def noisy(camera_name: str, count: int = 16, sigma: float = 0.3) -> Landmarks:
+    landmarks = spread_landmarks(CAMERAS[camera_name], POSITION, count, np.random.default_rng(4))
+    return Landmarks(
+        landmarks.pixels + NOISE.normal(0, sigma, landmarks.pixels.shape), landmarks.world, landmarks.names
+    )
+
+
+def test_a_clean_fit_has_nothing_to_say() -> None:
+    camera = CAMERAS["hyperbolic"]
+    assert diagnose(fit_camera(noisy("hyperbolic"), POSITION, camera.centre)) == []
+
+
+def test_a_centre_6_px_off_shows_as_a_swing_in_azimuth_towards_the_offset() -> None:
+    camera = CAMERAS["equidistant"]
+    offset = np.array([6.0 * math.cos(0.8), 6.0 * math.sin(0.8)])  # image direction 0.8 rad
+    fit = fit_camera(noisy("equidistant"), POSITION, tuple(np.asarray(camera.centre) + offset))
+    notes = diagnose(fit)
+    assert len(notes) == 1 and "swing with azimuth" in notes[0] and "refine the centre" in notes[0]
+    amplitude = float(notes[0].split("amplitude ")[1].split(" px")[0])
+    towards = math.radians(float(notes[0].split("towards ")[1].split(" deg")[0]))
+    # The radius measured about the wrong centre is short by offset . u: the residual swings with
+    # the offset's size (part of it absorbed by phi0 and the model: measured 5.8 px) towards its
+    # image direction, azimuth (0.8 - phi0)/s.
+    assert 4.0 < amplitude < 7.0
+    assert abs(math.remainder(towards - (0.8 - 0.3), 2 * math.pi)) < math.radians(10)
+    # Refining the centre removes it.
+    assert diagnose(fit_camera(fit.landmarks, POSITION, fit.model.centre, refine_centre=True)) == []
+
+
+def test_a_model_that_cannot_follow_the_camera_shows_as_a_trend_in_elevation() -> None:
+    camera = CAMERAS["hyperbolic"]
+    fit = fit_camera(noisy("hyperbolic"), POSITION, camera.centre, model="odd1")
+    notes = diagnose(fit)
+    assert any("trend with elevation" in note and "(odd1)" in note for note in notes)
+
+
+def test_a_landmark_measured_wrong_is_named() -> None:
+    camera = CAMERAS["parabolic"]
+    landmarks = noisy("parabolic")
+    pixels = landmarks.pixels.copy()
+    pixels[5] += (30.0, -40.0)
+    fit = fit_camera(Landmarks(pixels, landmarks.world, landmarks.names), POSITION, camera.centre)
+    notes = diagnose(fit)
+    assert notes == [
+        f"dropped as outliers: {landmarks.names[5]}: their world point or pixel is probably wrong; measure them again"
+    ]
