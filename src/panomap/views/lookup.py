@@ -1,0 +1,257 @@
+"""Maps with no per-pixel trigonometry: the table resampled once into a direction-indexed lookup.
+
+The exact way to build a map (:func:`~panomap.views.base.build_map` with
+``exact=True``) takes every pixel's azimuth and elevation (two ``arctan2``
+over the whole view) and samples the table there. The perspective and floor
+views instead read their rays here, in a handful of array passes and one
+``cv2.remap`` per coordinate, from a lookup made once per table:
+
+- **The lookup** is the table sampled (bilinear, as the exact path samples it)
+  at the texels of an S x S image over the stereographic projection of ray
+  directions from the pole the table does not see. A ray d (any length) lands
+  at ``p = (d_x, d_y)/(|d| + c*d_z)``, with ``c = -1`` for a table looking down
+  (``rho_s + rho_e < 0``: the projection is from straight up) and ``c = +1``
+  for one looking up; texel (X, Y) holds ``p = ((X, Y) - c0)/K``. The
+  visible pole is at the centre, azimuth is ``atan2(p_y, p_x)`` and the angle
+  from the visible pole ``2*atan(|p|)``.
+- **A map** is then ``(X, Y) = c0 + K*(d_x, d_y)/(|d| + c*d_z)`` read from the
+  lookup by ``cv2.remap``: no transcendental function per pixel.
+- **Accuracy.** Texels are ``LOOKUP_STEP`` rad apart at the visible pole and
+  closer elsewhere, so interpolating the lookup reproduces the exact map to
+  about 1e-3 px (a 1920 px mirror image; ``bench/bench_views.py`` prints the
+  largest difference, and the tests bound it at 0.01 px on several cameras).
+- **Validity** is decided exactly, not from the lookup: a ray has a source when
+  its elevation is in [rho_s, rho_e], i.e. when ``q = d_z/(|d| + c*d_z)``
+  (increasing with sin(rho)) is in the range of the ends, and (for tables whose
+  entries leave the image) when the pixel lies on the image. The lookup extends
+  the table's first and last cells linearly a few rows beyond its range, so the
+  texels next to the edge of the range are as exact as the others.
+
+A table whose far edge is too far past the horizon for the lookup to stay
+small (``MAX_LOOKUP_SIDE``) gets no lookup; its views take the exact path.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ..geometry import TWO_PI, FloatArray, inside_image
+from ..table.table import PanoMappingTable
+
+# Texel spacing (rad) at the visible pole; it shrinks towards the far edge. Halving it quarters
+# the interpolation error (0.0007 px at 2.5e-3 on the bench's 1920 px mirror) and the memory.
+LOOKUP_STEP = 2.5e-3
+# Texels beyond the far edge of the range, so that pixels near it read only texels of the lookup.
+EDGE_TEXELS = 3
+# At most this many texels a side (two float32 images: 72 MB at 3072); tables reaching further
+# past the horizon (about 31 deg) have no lookup.
+MAX_LOOKUP_SIDE = 3072
+
+# cv2.LUT of a validity mask (0 or 255): NaN where invalid, 0 where valid.
+_NAN_UNLESS_VALID = np.full((1, 256), np.nan, dtype=np.float32)
+_NAN_UNLESS_VALID[0, 255] = 0.0
+
+
+@dataclass(frozen=True)
+class DirectionLookup:
+    """A table resampled over ray directions (see the module docstring).
+
+    Attributes
+    ----------
+    u, v : (S, S) float32 ndarray
+        The pixel of the ray through each texel (read-only); NaN far outside the table's range.
+    pole : float
+        c: -1 for a table looking down, +1 for one looking up.
+    scale, centre : float
+        K (texels per unit of p) and c0 (the texel of p = 0).
+    q_range : (float, float)
+        ``K*q`` of the table's first and last elevations.
+    image_size : (width, height) or None
+        Where pixels must land to have a source; None when every entry is on the image.
+    """
+
+    u: NDArray[np.float32]
+    v: NDArray[np.float32]
+    pole: float
+    scale: float
+    centre: float
+    q_range: tuple[float, float]
+    image_size: tuple[int, int] | None
+
+
+_LOOKUPS: dict[int, DirectionLookup | None] = {}
+
+
+def direction_lookup(table: PanoMappingTable) -> DirectionLookup | None:
+    """The table's lookup, made on first use and kept while the table lives; None when it has none."""
+    key = id(table)
+    if key not in _LOOKUPS:
+        _LOOKUPS[key] = make_lookup(table)
+        weakref.finalize(table, _LOOKUPS.pop, key, None)
+    return _LOOKUPS[key]
+
+
+def make_lookup(table: PanoMappingTable, step: float = LOOKUP_STEP) -> DirectionLookup | None:
+    """Sample ``table`` into a :class:`DirectionLookup` of texels ``step`` rad apart at the visible pole."""
+    m, n = table.size
+    rho_s, rho_e = table.elevation_range
+    pole = -1.0 if rho_s + rho_e < 0 else 1.0
+    # Angle of the table's far edge from the visible pole, and where it lands (|p|).
+    far = math.pi / 2 + (rho_e if pole < 0 else -rho_s)
+    scale = 2.0 / step  # dp/dangle is 1/2 at the pole
+    half = math.ceil(scale * math.tan(far / 2) + EDGE_TEXELS) if far < math.pi - 1e-6 else MAX_LOOKUP_SIDE
+    side = 2 * half + 1
+    if side > MAX_LOOKUP_SIDE:
+        return None
+    centre = float(half)
+
+    # The table's entries as images, row j + pad holding elevation row j, the first and last cells
+    # continued linearly by pad rows (the exact path continues the last cell the same way), and
+    # columns M..M+2 repeating 0..2 (the azimuth wrap).
+    row_step = (rho_e - rho_s) / n
+    pad = math.ceil(2 * step / row_step) + 2
+    transposed = cv2.transpose(np.ascontiguousarray(table.entries))  # (N, M, 2)
+    images = []
+    for channel in (0, 1):
+        image = np.empty((n + 2 * pad, m + 3), dtype=np.float32)
+        image[pad : pad + n, :m] = transposed[..., channel]
+        first, second, before, last = (transposed[j, :, channel].astype(np.float64) for j in (0, 1, n - 2, n - 1))
+        for k in range(1, pad + 1):
+            image[pad - k, :m] = first - k * (second - first)
+            image[pad + n - 1 + k, :m] = last + k * (last - before)
+        image[:, m:] = image[:, np.arange(3) % m]
+        images.append(image)
+
+    # Each texel's azimuth and elevation as table indices, in float64, for one quadrant (x, y >= 0,
+    # the axes included); the others follow by symmetry about the centre.
+    p = np.arange(half + 1) / scale
+    theta = np.arctan2(p[:, None], p[None, :])
+    rho = pole * (math.pi / 2 - 2 * np.arctan(np.hypot(p[:, None], p[None, :])))
+    map_y = _unfold(((rho - rho_s) / row_step + pad).astype(np.float32), lambda quadrant: quadrant)
+    to_index = m / TWO_PI
+    map_x = _unfold(
+        (theta * to_index).astype(np.float32),
+        lambda quadrant: np.float32(m / 2) - quadrant,  # pi - theta, to the left of the axis
+        lambda quadrant: np.float32(m / 2) + quadrant,  # pi + theta, below and left
+        lambda quadrant: np.float32(m) - quadrant,  # 2 pi - theta, below and right
+    )
+    u, v = (_remap(image, map_x, map_y) for image in images)
+    for image in (u, v):
+        image.setflags(write=False)
+
+    def k_q(rho: float) -> float:
+        sine = math.sin(rho)
+        return scale * sine / (1 + pole * sine) if 1 + pole * sine > 0 else -pole * math.inf
+
+    # As the exact path decides it: every value it can read, the extrapolated last row included.
+    reach = [image[pad : pad + n + 1] for image in images]
+    all_inside = table.image_size is None or bool(
+        inside_image(reach[0].min(), reach[1].min(), table.image_size)
+        and inside_image(reach[0].max(), reach[1].max(), table.image_size)
+    )
+    return DirectionLookup(
+        u, v, pole, scale, centre, (k_q(rho_s), k_q(rho_e)), None if all_inside else table.image_size
+    )
+
+
+def _unfold(
+    quadrant: NDArray[np.float32],
+    left: Callable[[NDArray[np.float32]], NDArray[np.float32]],
+    below_left: Callable[[NDArray[np.float32]], NDArray[np.float32]] | None = None,
+    below: Callable[[NDArray[np.float32]], NDArray[np.float32]] | None = None,
+) -> NDArray[np.float32]:
+    """The (2h + 1) square image whose quadrant x, y >= 0 is ``quadrant`` ((h + 1) square, row y, column x).
+
+    The other quadrants are the mirror images of ``quadrant`` passed through ``left`` (x < 0),
+    ``below_left`` and ``below`` (y < 0); the last two default to ``left`` and the identity.
+    """
+    below_left = left if below_left is None else below_left
+    below = below if below is not None else (lambda values: values)
+    h = quadrant.shape[0] - 1
+    out = np.empty((2 * h + 1, 2 * h + 1), dtype=np.float32)
+    out[h:, h:] = quadrant
+    out[h:, :h] = left(quadrant[:, :0:-1])
+    out[:h, h:] = below(quadrant[:0:-1, :])
+    out[:h, :h] = below_left(quadrant[:0:-1, :0:-1])
+    return out
+
+
+def lookup_map(
+    lookup: DirectionLookup,
+    rows: list[FloatArray],
+    cols: list[FloatArray],
+    length: NDArray[np.float32],
+) -> NDArray[np.float32]:
+    """The (H, W, 2) float32 map of rays ``d[l, k, a] = rows[a][l] + cols[a][k]`` (world axes), NaN without a source.
+
+    Parameters
+    ----------
+    lookup : DirectionLookup
+    rows : three (H,) arrays
+    cols : three (W,) arrays
+        The rays' x, y and z components as a row term plus a column term (as
+        :func:`~panomap.views.grid.grid_angles` takes them).
+    length : (H, W) float32 ndarray
+        ``|d|`` of every ray.
+    """
+    return read_lookup(lookup, *lookup_coordinates(lookup, rows, cols, length))
+
+
+def lookup_coordinates(
+    lookup: DirectionLookup,
+    rows: list[FloatArray],
+    cols: list[FloatArray],
+    length: NDArray[np.float32],
+) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.uint8]]:
+    """Where rays (as :func:`lookup_map` takes them) read the lookup: texel x and y, (H, W) float32, and validity.
+
+    Validity is 255 where the ray's elevation is in the table's range, 0 elsewhere.
+    """
+
+    def component(axis: int) -> NDArray[np.float32]:
+        return np.add(rows[axis].astype(np.float32)[:, None], cols[axis].astype(np.float32)[None, :])
+
+    d_z = component(2)
+    # w = |d| + c d_z, then K/w; zero (infinite) only at the unseen pole, which is invalid.
+    inverse = np.subtract(length, d_z) if lookup.pole < 0 else np.add(length, d_z)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        np.divide(np.float32(lookup.scale), inverse, out=inverse)
+        q = np.multiply(d_z, inverse, out=d_z)
+        valid = np.asarray(cv2.inRange(q, *lookup.q_range), dtype=np.uint8)
+        x, y = (component(axis) for axis in (0, 1))
+        for coordinate in (x, y):
+            coordinate *= inverse
+            coordinate += np.float32(lookup.centre)
+    return x, y, valid
+
+
+def read_lookup(
+    lookup: DirectionLookup, x: NDArray[np.float32], y: NDArray[np.float32], valid: NDArray[np.uint8]
+) -> NDArray[np.float32]:
+    """The (H, W, 2) map read from the lookup at texels (x, y); NaN where not ``valid`` or off the image.
+
+    ``valid`` (255 or 0) is overwritten.
+    """
+    u, v = (_remap(image, x, y) for image in (lookup.u, lookup.v))
+    if lookup.image_size is not None:
+        width, height = lookup.image_size
+        for coordinate, top in ((u, width - 0.5), (v, height - 0.5)):
+            valid &= np.asarray(cv2.inRange(coordinate, -0.5, top), dtype=np.uint8)
+    if cv2.countNonZero(valid) < valid.size:
+        nan_where_invalid = np.asarray(cv2.LUT(valid, _NAN_UNLESS_VALID), dtype=np.float32)
+        u += nan_where_invalid
+        v += nan_where_invalid
+    return np.asarray(cv2.merge([u, v]), dtype=np.float32)
+
+
+def _remap(image: NDArray[np.float32], x: NDArray[np.float32], y: NDArray[np.float32]) -> NDArray[np.float32]:
+    """``image`` read bilinearly at (x, y), NaN off it."""
+    out = cv2.remap(image, x, y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
+    return np.asarray(out, dtype=np.float32)
