@@ -18,8 +18,8 @@ views instead read their rays here, in a handful of array passes and one
   lookup by ``cv2.remap``: no transcendental function per pixel.
 - **Accuracy.** Texels are ``LOOKUP_STEP`` rad apart at the visible pole and
   closer elsewhere, so interpolating the lookup reproduces the exact map to
-  about 1e-3 px (a 1920 px mirror image; ``bench/bench_views.py`` prints the
-  largest difference, and the tests bound it at 0.01 px on several cameras).
+  about 2e-3 px (``bench/bench_views.py`` prints the largest difference; the
+  tests bound it on several cameras).
 - **Validity** is decided exactly, not from the lookup: a ray has a source when
   its elevation is in [rho_s, rho_e], i.e. when ``q = d_z/(|d| + c*d_z)``
   (increasing with sin(rho)) is in the range of the ends, and (for tables whose
@@ -34,6 +34,7 @@ small (``MAX_LOOKUP_SIDE``) gets no lookup; its views take the exact path.
 from __future__ import annotations
 
 import math
+import threading
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -45,14 +46,20 @@ from numpy.typing import NDArray
 from ..geometry import TWO_PI, FloatArray, inside_image
 from ..table.table import PanoMappingTable
 
-# Texel spacing (rad) at the visible pole; it shrinks towards the far edge. Halving it quarters
-# the interpolation error (0.0007 px at 2.5e-3 on the bench's 1920 px mirror) and the memory.
-LOOKUP_STEP = 2.5e-3
+# Texel spacing (rad) at the visible pole; it shrinks towards the far edge. The error is mostly
+# float32 rounding: the worst measured is 0.002 px (a hyperbolic mirror, 800 px image) at 5e-3,
+# 0.001 px at 2.5e-3; halving the step quadruples the memory (9 MB at 5e-3 for a table reaching
+# 15 deg above the horizon), and a larger lookup reads more slowly (fewer cache hits).
+LOOKUP_STEP = 5e-3
 # Texels beyond the far edge of the range, so that pixels near it read only texels of the lookup.
 EDGE_TEXELS = 3
-# At most this many texels a side (two float32 images: 72 MB at 3072); tables reaching further
-# past the horizon (about 31 deg) have no lookup.
-MAX_LOOKUP_SIDE = 3072
+# At most this many texels a side (two float32 images, 32 MB); tables reaching further past
+# the horizon (about 47 deg) have no lookup.
+MAX_LOOKUP_SIDE = 2048
+
+# Rays whose elevations' sines are known to lie this far inside the table's are all valid unchecked
+# (far more than float32 rounding).
+SINE_MARGIN = 1e-4
 
 # cv2.LUT of a validity mask (0 or 255): NaN where invalid, 0 where valid.
 _NAN_UNLESS_VALID = np.full((1, 256), np.nan, dtype=np.float32)
@@ -73,6 +80,8 @@ class DirectionLookup:
         K (texels per unit of p) and c0 (the texel of p = 0).
     q_range : (float, float)
         ``K*q`` of the table's first and last elevations.
+    sine_range : (float, float)
+        Their sines.
     image_size : (width, height) or None
         Where pixels must land to have a source; None when every entry is on the image.
     """
@@ -83,6 +92,7 @@ class DirectionLookup:
     scale: float
     centre: float
     q_range: tuple[float, float]
+    sine_range: tuple[float, float]
     image_size: tuple[int, int] | None
 
 
@@ -157,7 +167,14 @@ def make_lookup(table: PanoMappingTable, step: float = LOOKUP_STEP) -> Direction
         and inside_image(reach[0].max(), reach[1].max(), table.image_size)
     )
     return DirectionLookup(
-        u, v, pole, scale, centre, (k_q(rho_s), k_q(rho_e)), None if all_inside else table.image_size
+        u,
+        v,
+        pole,
+        scale,
+        centre,
+        (k_q(rho_s), k_q(rho_e)),
+        (math.sin(rho_s), math.sin(rho_e)),
+        None if all_inside else table.image_size,
     )
 
 
@@ -188,6 +205,7 @@ def lookup_map(
     rows: list[FloatArray],
     cols: list[FloatArray],
     length: NDArray[np.float32],
+    sine_range: tuple[float, float] | None = None,
 ) -> NDArray[np.float32]:
     """The (H, W, 2) float32 map of rays ``d[l, k, a] = rows[a][l] + cols[a][k]`` (world axes), NaN without a source.
 
@@ -200,8 +218,11 @@ def lookup_map(
         :func:`~panomap.views.grid.grid_angles` takes them).
     length : (H, W) float32 ndarray
         ``|d|`` of every ray.
+    sine_range : (float, float), optional
+        Bounds of ``d_z/|d|`` over the rays, when the view knows them: rays
+        well inside the table's range need no check of their elevation.
     """
-    return read_lookup(lookup, *lookup_coordinates(lookup, rows, cols, length))
+    return read_lookup(lookup, *lookup_coordinates(lookup, rows, cols, length, sine_range))
 
 
 def lookup_coordinates(
@@ -209,42 +230,73 @@ def lookup_coordinates(
     rows: list[FloatArray],
     cols: list[FloatArray],
     length: NDArray[np.float32],
-) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.uint8]]:
+    sine_range: tuple[float, float] | None = None,
+) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.uint8] | None]:
     """Where rays (as :func:`lookup_map` takes them) read the lookup: texel x and y, (H, W) float32, and validity.
 
-    Validity is 255 where the ray's elevation is in the table's range, 0 elsewhere.
+    Validity is 255 where the ray's elevation is in the table's range, 0
+    elsewhere; None when ``sine_range`` shows every ray is in it. x and y are
+    this thread's scratch memory, good until its next map of the same size.
     """
 
-    def component(axis: int) -> NDArray[np.float32]:
-        return np.add(rows[axis].astype(np.float32)[:, None], cols[axis].astype(np.float32)[None, :])
+    # Scratch memory; the last two (read_lookup's u and v) hold K/w meanwhile.
+    d_z, x, y, inverse, _ = _scratch(length.shape)
 
-    d_z = component(2)
+    def component(axis: int, out: NDArray[np.float32]) -> NDArray[np.float32]:
+        return np.add(rows[axis].astype(np.float32)[:, None], cols[axis].astype(np.float32)[None, :], out=out)
+
+    low, high = lookup.sine_range
+    unchecked = sine_range is not None and low + SINE_MARGIN < sine_range[0] and sine_range[1] < high - SINE_MARGIN
+    component(2, d_z)
     # w = |d| + c d_z, then K/w; zero (infinite) only at the unseen pole, which is invalid.
-    inverse = np.subtract(length, d_z) if lookup.pole < 0 else np.add(length, d_z)
+    if lookup.pole < 0:
+        np.subtract(length, d_z, out=inverse)
+    else:
+        np.add(length, d_z, out=inverse)
+    valid = None
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         np.divide(np.float32(lookup.scale), inverse, out=inverse)
-        q = np.multiply(d_z, inverse, out=d_z)
-        valid = np.asarray(cv2.inRange(q, *lookup.q_range), dtype=np.uint8)
-        x, y = (component(axis) for axis in (0, 1))
-        for coordinate in (x, y):
+        if not unchecked:
+            q = np.multiply(d_z, inverse, out=d_z)
+            valid = np.asarray(cv2.inRange(q, *lookup.q_range), dtype=np.uint8)
+        for axis, coordinate in enumerate((x, y)):
+            component(axis, coordinate)
             coordinate *= inverse
             coordinate += np.float32(lookup.centre)
     return x, y, valid
 
 
+_SCRATCH = threading.local()
+
+
+def _scratch(shape: tuple[int, ...]) -> list[NDArray[np.float32]]:
+    """Five float32 arrays of ``shape``, this thread's, kept for the next map of that shape.
+
+    Fresh memory costs page faults on every write; a moving view asks for map after map of one size.
+    """
+    kept = getattr(_SCRATCH, "arrays", [])
+    if not kept or kept[0].shape != shape:
+        kept = [np.empty(shape, dtype=np.float32) for _ in range(5)]
+        _SCRATCH.arrays = kept
+    return kept
+
+
 def read_lookup(
-    lookup: DirectionLookup, x: NDArray[np.float32], y: NDArray[np.float32], valid: NDArray[np.uint8]
+    lookup: DirectionLookup, x: NDArray[np.float32], y: NDArray[np.float32], valid: NDArray[np.uint8] | None
 ) -> NDArray[np.float32]:
     """The (H, W, 2) map read from the lookup at texels (x, y); NaN where not ``valid`` or off the image.
 
-    ``valid`` (255 or 0) is overwritten.
+    ``valid`` (255 or 0; None: all valid) is overwritten.
     """
-    u, v = (_remap(image, x, y) for image in (lookup.u, lookup.v))
+    _, _, _, u, v = _scratch(x.shape)
+    for image, out in ((lookup.u, u), (lookup.v, v)):
+        cv2.remap(image, x, y, cv2.INTER_LINEAR, dst=out, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
     if lookup.image_size is not None:
         width, height = lookup.image_size
         for coordinate, top in ((u, width - 0.5), (v, height - 0.5)):
-            valid &= np.asarray(cv2.inRange(coordinate, -0.5, top), dtype=np.uint8)
-    if cv2.countNonZero(valid) < valid.size:
+            inside = np.asarray(cv2.inRange(coordinate, -0.5, top), dtype=np.uint8)
+            valid = inside if valid is None else np.bitwise_and(valid, inside, out=valid)
+    if valid is not None and cv2.countNonZero(valid) < valid.size:
         nan_where_invalid = np.asarray(cv2.LUT(valid, _NAN_UNLESS_VALID), dtype=np.float32)
         u += nan_where_invalid
         v += nan_where_invalid
