@@ -267,18 +267,22 @@ def lookup_coordinates(
 
 
 _SCRATCH = threading.local()
+# Maps up to this many pixels keep their scratch memory (5 x 4 bytes a pixel: 80 MB at most).
+SCRATCH_PIXELS = 4_000_000
 
 
 def _scratch(shape: tuple[int, ...]) -> list[NDArray[np.float32]]:
-    """Five float32 arrays of ``shape``, this thread's, kept for the next map of that shape.
+    """Five float32 arrays of ``shape``, this thread's, kept for its next map of that shape.
 
-    Fresh memory costs page faults on every write; a moving view asks for map after map of one size.
+    Fresh memory costs page faults on every write, and a moving view asks for
+    map after map of one size. Only maps up to ``SCRATCH_PIXELS`` keep theirs.
     """
     kept = getattr(_SCRATCH, "arrays", [])
-    if not kept or kept[0].shape != shape:
-        kept = [np.empty(shape, dtype=np.float32) for _ in range(5)]
-        _SCRATCH.arrays = kept
-    return kept
+    if kept and kept[0].shape == shape:
+        return kept
+    arrays = [np.empty(shape, dtype=np.float32) for _ in range(5)]
+    _SCRATCH.arrays = arrays if math.prod(shape) <= SCRATCH_PIXELS else []
+    return arrays
 
 
 def read_lookup(
