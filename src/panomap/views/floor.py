@@ -26,7 +26,7 @@ from .base import (
     register,
 )
 from .grid import grid_angles
-from .lookup import direction_lookup, lookup_map
+from .lookup import lookup_map, lookup_when_worth_it
 
 
 @register
@@ -147,7 +147,7 @@ class FloorView(View):
 
     def quick_map(self, table: PanoMappingTable, sampling: str) -> NDArray[np.float32] | None:
         """The bilinear map read from the table's :mod:`direction lookup <panomap.views.lookup>`."""
-        lookup = direction_lookup(table) if sampling == "bilinear" else None
+        lookup = lookup_when_worth_it(table) if sampling == "bilinear" else None
         if lookup is None:
             return None
         rows, cols = self._rays(table)

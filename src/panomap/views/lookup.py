@@ -99,6 +99,26 @@ class DirectionLookup:
 _LOOKUPS: dict[int, DirectionLookup | None] = {}
 
 
+_ASKED: set[int] = set()
+
+
+def lookup_when_worth_it(table: PanoMappingTable) -> DirectionLookup | None:
+    """The table's lookup from the second map of it on; None for the first (which then takes the exact way).
+
+    Making the lookup costs about as much as two exact maps: a lone map (a still
+    render, one view of a video) is made sooner the exact way; from a second map
+    of the same table on (a PTZ view that moves, several views) the lookup pays.
+    """
+    key = id(table)
+    if key in _LOOKUPS:
+        return _LOOKUPS[key]
+    if key not in _ASKED:
+        _ASKED.add(key)
+        weakref.finalize(table, _ASKED.discard, key)
+        return None
+    return direction_lookup(table)
+
+
 def direction_lookup(table: PanoMappingTable) -> DirectionLookup | None:
     """The table's lookup, made on first use and kept while the table lives; None when it has none."""
     key = id(table)

@@ -16,7 +16,7 @@ from ..geometry import HALF_PI, FloatArray
 from ..table.table import PanoMappingTable
 from .base import OUTPUT_SIZE, AngleArray, Param, Value, View, check_finite, check_view_size, register
 from .grid import grid_angles
-from .lookup import direction_lookup, lookup_map
+from .lookup import lookup_map, lookup_when_worth_it
 
 
 @register
@@ -150,7 +150,7 @@ class PerspectiveView(View):
         field of view and kept (for the last few), so turning the camera costs
         only the lookup.
         """
-        lookup = direction_lookup(table) if sampling == "bilinear" else None
+        lookup = lookup_when_worth_it(table) if sampling == "bilinear" else None
         if lookup is None:
             return None
         forward, right, down = self.axes()
