@@ -131,6 +131,61 @@ def sample_entries(
     fj *= n / (rho_e - rho_s)
     fi_flat[count:] = 0.0
     fj_flat[count:] = OUTSIDE
+    interpolation = _to_table_indices(fi_flat, fj_flat, m, n, sampling)
+    map_x = fi_flat.astype(np.float32, copy=False).reshape(rows, cols)
+    map_y = fj_flat.astype(np.float32, copy=False).reshape(rows, cols)
+    uv = _read(images, image_size, map_x, map_y, interpolation)
+    return np.asarray(uv.reshape(-1, 2)[:count].reshape(*shape, 2), dtype=np.float32)
+
+
+def sample_grid(
+    images: RemapImages,
+    elevation_range: tuple[float, float],
+    image_size: tuple[int, int] | None,
+    theta: ArrayLike,
+    rho: ArrayLike,
+    sampling: str = "bilinear",
+) -> NDArray[np.float32]:
+    """Pixels (H, W, 2) of the grid of rays ``theta[k]`` (W,) by ``rho[l]`` (H,), read from :func:`remap_images`.
+
+    The same map as :func:`sample_entries` of the broadcast (H, W) angles,
+    value for value where the angles are finite, from one row of indices and
+    one column (a panorama's).
+    """
+    if sampling not in SAMPLINGS:
+        raise PanomapError(f"table sampling must be bilinear or nearest, not {sampling!r}")
+    theta_in, rho_in = np.asarray(theta).reshape(-1), np.asarray(rho).reshape(-1)
+    dtype = np.float32 if theta_in.dtype == np.float32 and rho_in.dtype == np.float32 else np.float64
+    n, m = images.u.shape[0] - 2, images.u.shape[1] - 3
+    rho_s, rho_e = elevation_range
+    fi: NDArray[np.floating[Any]] = np.empty(theta_in.size, dtype)
+    fj: NDArray[np.floating[Any]] = np.empty(rho_in.size, dtype)
+    np.multiply(theta_in, m / TWO_PI, out=fi, casting="unsafe")
+    np.subtract(rho_in, rho_s, out=fj, casting="unsafe")
+    fj *= n / (rho_e - rho_s)
+    with np.errstate(invalid="ignore"):
+        if not (fi.size and bool(fi.min() >= 0) and bool(fi.max() <= m + 1)):
+            fi -= m * np.floor(fi / m)
+            # A column of NaN azimuths reads the border (NaN), as sample_entries sends it there.
+            np.copyto(fi, OUTSIDE, where=~np.isfinite(fi))
+        # Rows outside the range read only the NaN border (sample_entries gets NaN there too).
+        np.copyto(fj, OUTSIDE, where=~((fj >= 0) & (fj <= n)))
+    if sampling == "nearest":
+        np.floor(fi, out=fi)
+        np.floor(fj, out=fj)
+        np.minimum(fj, n - 1, out=fj)
+    interpolation = cv2.INTER_NEAREST if sampling == "nearest" else cv2.INTER_LINEAR
+    width, height = fi.size, fj.size
+    map_x = np.asarray(cv2.repeat(fi.astype(np.float32).reshape(1, width), height, 1), dtype=np.float32)
+    map_y = np.asarray(cv2.repeat(fj.astype(np.float32).reshape(height, 1), 1, width), dtype=np.float32)
+    return _read(images, image_size, map_x, map_y, interpolation)
+
+
+def _to_table_indices(fi_flat: NDArray[Any], fj_flat: NDArray[Any], m: int, n: int, sampling: str) -> int:
+    """Turn fractional indices into the images' read positions, in place; return the cv2 interpolation.
+
+    Invalid rays are sent to the NaN border; nearest sampling floors.
+    """
     with np.errstate(invalid="ignore"):
         # The padded images hold columns M..M+2 (= 0..2): indices up to M + 1 need no wrapping.
         # NaN anywhere makes these comparisons false, and the careful path below runs.
@@ -146,16 +201,23 @@ def sample_entries(
             invalid = ~((fj_flat >= 0) & (fj_flat <= n) & np.isfinite(fi_flat))
             np.copyto(fi_flat, 0.0, where=invalid)
             np.copyto(fj_flat, OUTSIDE, where=invalid)
-    u_image, v_image, all_inside = images
     if sampling == "nearest":
         np.floor(fi_flat, out=fi_flat)
         np.floor(fj_flat, out=fj_flat)
         np.minimum(fj_flat, n - 1, out=fj_flat)
-        interpolation = cv2.INTER_NEAREST
-    else:
-        interpolation = cv2.INTER_LINEAR
-    map_x = fi_flat.astype(np.float32, copy=False).reshape(rows, cols)
-    map_y = fj_flat.astype(np.float32, copy=False).reshape(rows, cols)
+        return cv2.INTER_NEAREST
+    return cv2.INTER_LINEAR
+
+
+def _read(
+    images: RemapImages,
+    image_size: tuple[int, int] | None,
+    map_x: NDArray[np.float32],
+    map_y: NDArray[np.float32],
+    interpolation: int,
+) -> NDArray[np.float32]:
+    """The (rows, cols, 2) pixels at read positions ``map_x``, ``map_y``; NaN off the image."""
+    u_image, v_image, all_inside = images
     u = cv2.remap(u_image, map_x, map_y, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
     v = cv2.remap(v_image, map_x, map_y, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
     uv = cv2.merge([u, v])
@@ -163,7 +225,7 @@ def sample_entries(
         width, height = image_size
         inside = cv2.inRange(uv, (-0.5, -0.5), (width - 0.5, height - 0.5))  # (inside_image, in OpenCV)
         uv[inside == 0] = np.nan
-    return np.asarray(uv.reshape(-1, 2)[:count].reshape(*shape, 2), dtype=np.float32)
+    return np.asarray(uv, dtype=np.float32)
 
 
 def _remap_grid(shape: tuple[int, ...]) -> tuple[int, int]:

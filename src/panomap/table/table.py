@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..camera.model import CameraModel
 from ..errors import PanomapError
 from ..geometry import TWO_PI, FloatArray, azimuth_elevation, inside_image, pixel_polar, wrap_azimuth
-from .sampling import MAX_TABLE_SIDE, RemapImages, remap_images, sample_entries
+from .sampling import MAX_TABLE_SIDE, RemapImages, remap_images, sample_entries, sample_grid
 
 MAX_TABLE_ENTRIES = 50_000_000
 # Pixels this close outside the annulus or the radial profile's ends (px) still unproject:
@@ -126,6 +126,11 @@ class PanoMappingTable:
         return sample_entries(
             self._remap_images, self.elevation_range, self.image_size, theta, rho, sampling, overwrite=overwrite
         )
+
+    def sample_grid(self, theta: ArrayLike, rho: ArrayLike, sampling: str = "bilinear") -> NDArray[np.float32]:
+        """Pixels (H, W, 2) of the rays ``theta[k]`` (W,) by ``rho[l]`` (H,): :meth:`sample` of the
+        broadcast grid, value for value, without making it (a panorama's map)."""
+        return sample_grid(self._remap_images, self.elevation_range, self.image_size, theta, rho, sampling)
 
     @cached_property
     def _remap_images(self) -> RemapImages:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import PanomapError
 from ..geometry import FloatArray
@@ -62,9 +63,17 @@ class CylinderPanorama(View):
 
     def angles(self, table: PanoMappingTable) -> tuple[FloatArray, FloatArray]:
         width, height = self.size
-        theta = np.broadcast_to(panorama_azimuths(self.theta_start, width), (height, width))
-        rho = np.broadcast_to(np.arctan2(self.band.heights(height), self.distance)[:, None], (height, width))
-        return theta, rho
+        theta, rho = self._columns_rows()
+        return np.broadcast_to(theta, (height, width)), np.broadcast_to(rho[:, None], (height, width))
+
+    def quick_map(self, table: PanoMappingTable, sampling: str) -> NDArray[np.float32]:
+        """The exact map, sampled from one row of azimuths and one column of elevations."""
+        return table.sample_grid(*self._columns_rows(), sampling)
+
+    def _columns_rows(self) -> tuple[FloatArray, FloatArray]:
+        """Azimuth (rad) of each column, (W,), and elevation of each row, (H,)."""
+        width, height = self.size
+        return panorama_azimuths(self.theta_start, width), np.arctan2(self.band.heights(height), self.distance)
 
     def points(self, table: PanoMappingTable) -> FloatArray:
         """The (H, W, 3) points relative to O_m that the pixels see (the same for every table)."""

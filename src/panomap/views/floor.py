@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import PanomapError
 from ..geometry import FloatArray, pixel_centres
@@ -24,6 +26,7 @@ from .base import (
     register,
 )
 from .grid import grid_angles
+from .lookup import lookup_map, lookup_when_worth_it
 
 
 @register
@@ -140,6 +143,26 @@ class FloorView(View):
 
     def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:
         """Azimuth and elevation (rad) of every pixel, each (H, W) float32 (see :func:`grid_angles`)."""
+        return grid_angles(*self._rays(table))
+
+    def quick_map(self, table: PanoMappingTable, sampling: str) -> NDArray[np.float32] | None:
+        """The bilinear map read from the table's :mod:`direction lookup <panomap.views.lookup>`."""
+        lookup = lookup_when_worth_it(table) if sampling == "bilinear" else None
+        if lookup is None:
+            return None
+        rows, cols = self._rays(table)
+        # |d|^2 = X^2 + (Y^2 + Z^2): a column term plus a row term.
+        lengths = np.add(
+            (np.square(rows[1]) + np.square(rows[2])).astype(np.float32)[:, None],
+            np.square(cols[0]).astype(np.float32)[None, :],
+        )
+        return lookup_map(lookup, rows, cols, np.sqrt(lengths, out=lengths), _sine_range(cols[0], rows[1], rows[2][0]))
+
+    def _rays(self, table: PanoMappingTable) -> tuple[list[FloatArray], list[FloatArray]]:
+        """The rays to the pixels' points, relative to O_m, as row and column terms (see :func:`grid_angles`).
+
+        Refuses a plane the camera cannot see (:meth:`check_plane`).
+        """
         self.check_plane(table)
         width, height = self.size
         fx, fy = pixel_centres(width, height)
@@ -147,4 +170,18 @@ class FloorView(View):
         x0, y0, z0 = table.camera_position
         rows = [np.zeros(height), y_max - fy * (y_max - y_min) - y0, np.full(height, self.z_plane - z0)]
         cols = [x_min + fx * (x_max - x_min) - x0, np.zeros(width), np.zeros(width)]
-        return grid_angles(rows, cols)
+        return rows, cols
+
+
+def _sine_range(xs: FloatArray, ys: FloatArray, z: float) -> tuple[float, float]:
+    """Bounds of ``z/|d|`` over rays ``d = (x, y, z)``, x in ``xs``, y in ``ys``: the nearest and farthest corners."""
+
+    def nearest(values: FloatArray) -> float:
+        low, high = float(values.min()), float(values.max())
+        return 0.0 if low <= 0.0 <= high else min(abs(low), abs(high))
+
+    def farthest(values: FloatArray) -> float:
+        return float(np.abs(values).max())
+
+    sines = [z / math.sqrt(a**2 + b**2 + z**2) for a, b in ((nearest(xs), nearest(ys)), (farthest(xs), farthest(ys)))]
+    return min(sines), max(sines)

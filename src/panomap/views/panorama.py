@@ -7,8 +7,9 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
 import numpy as np
+from numpy.typing import NDArray
 
-from ..geometry import pixel_centres
+from ..geometry import FloatArray, pixel_centres
 from ..table.table import PanoMappingTable
 from .base import AngleArray, Param, Value, View, check_finite, check_view_size, register
 from .grid import panorama_azimuths
@@ -59,8 +60,16 @@ class GenericPanorama(View):
 
     def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:
         width, height = self.output_size(table)
+        theta, rho = self._columns_rows(table)
+        return np.broadcast_to(theta, (height, width)), np.broadcast_to(rho[:, None], (height, width))
+
+    def quick_map(self, table: PanoMappingTable, sampling: str) -> NDArray[np.float32]:
+        """The exact map, sampled from one row of azimuths and one column of elevations."""
+        return table.sample_grid(*self._columns_rows(table), sampling)
+
+    def _columns_rows(self, table: PanoMappingTable) -> tuple[FloatArray, FloatArray]:
+        """Azimuth (rad) of each column, (W,), and elevation of each row, (H,)."""
+        width, height = self.output_size(table)
         _, fy = pixel_centres(1, height)
         rho_s, rho_e = table.elevation_range
-        theta = np.broadcast_to(panorama_azimuths(self.theta_start, width), (height, width))
-        rho = np.broadcast_to((rho_e - fy * (rho_e - rho_s))[:, None], (height, width))
-        return theta, rho
+        return panorama_azimuths(self.theta_start, width), rho_e - fy * (rho_e - rho_s)

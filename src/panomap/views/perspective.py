@@ -5,16 +5,18 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any, ClassVar, Self
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PanomapError
 from ..geometry import HALF_PI, FloatArray
 from ..table.table import PanoMappingTable
 from .base import OUTPUT_SIZE, AngleArray, Param, Value, View, check_finite, check_view_size, register
 from .grid import grid_angles
+from .lookup import lookup_map, lookup_when_worth_it
 
 
 @register
@@ -107,11 +109,7 @@ class PerspectiveView(View):
 
     def _offsets(self) -> tuple[FloatArray, FloatArray]:
         """x (W,) and y (H,): ``(k + 0.5 - W/2)/f`` and ``(l + 0.5 - H/2)/f``."""
-        width, height = self.size
-        f = self.focal
-        x = np.asarray((np.arange(width) + 0.5 - width / 2) / f, dtype=np.float64)
-        y = np.asarray((np.arange(height) + 0.5 - height / 2) / f, dtype=np.float64)
-        return x, y
+        return _offsets(self.size, self.fov)
 
     def rays(self) -> FloatArray:
         """The (H, W, 3) ray directions ``F + x R + y Dn`` (world axes, not unit) the pixels see."""
@@ -144,3 +142,60 @@ class PerspectiveView(View):
         forward, right, down = self.axes()
         x, y = self._offsets()
         return grid_angles([forward[a] + y * down[a] for a in range(3)], [x * right[a] for a in range(3)])
+
+    def quick_map(self, table: PanoMappingTable, sampling: str) -> NDArray[np.float32] | None:
+        """The bilinear map read from the table's :mod:`direction lookup <panomap.views.lookup>`.
+
+        The rays' lengths ``sqrt(1 + x^2 + y^2)`` are made once per size and
+        field of view and kept (for the last few), so turning the camera costs
+        only the lookup.
+        """
+        lookup = lookup_when_worth_it(table) if sampling == "bilinear" else None
+        if lookup is None:
+            return None
+        forward, right, down = self.axes()
+        x, y = self._offsets()
+        rows = [forward[a] + y * down[a] for a in range(3)]
+        cols = [x * right[a] for a in range(3)]
+        return lookup_map(lookup, rows, cols, _ray_lengths(self.size, self.fov), self._sine_range())
+
+    def _sine_range(self) -> tuple[float, float]:
+        """Bounds of the sine of the pixels' elevations (``d_z/|d|``).
+
+        Elevation has no extremum on the sphere but at the poles, so over the
+        pixels it is extreme on the border pixels or at a pole the view sees.
+        """
+        forward, right, down = self.axes()
+        x, y = self._offsets()
+        top_bottom = forward[2] + x[None, :] * right[2] + y[[0, -1], None] * down[2]
+        left_right = forward[2] + x[None, [0, -1]] * right[2] + y[:, None] * down[2]
+        sines = [top_bottom / np.sqrt(1 + x[None, :] ** 2 + y[[0, -1], None] ** 2)]
+        sines.append(left_right / np.sqrt(1 + x[None, [0, -1]] ** 2 + y[:, None] ** 2))
+        low = min(float(values.min()) for values in sines)
+        high = max(float(values.max()) for values in sines)
+        # A pole the camera faces lands at x = R_z/F_z, y = Dn_z/F_z (from d = F + x R + y Dn, d_x = d_y = 0
+        # up to scale): inside the pixels' extent, it is seen.
+        if forward[2] != 0.0:
+            pole_x, pole_y = right[2] / forward[2], down[2] / forward[2]
+            half_x, half_y = abs(x[0]) + 0.5 / self.focal, abs(y[0]) + 0.5 / self.focal
+            if abs(pole_x) <= half_x and abs(pole_y) <= half_y:
+                low, high = (-1.0, high) if forward[2] < 0 else (low, 1.0)
+        return low, high
+
+
+def _offsets(size: tuple[int, int], fov: float) -> tuple[FloatArray, FloatArray]:
+    """x (W,) and y (H,) of a view of ``size`` and ``fov`` (see :meth:`PerspectiveView._offsets`)."""
+    width, height = size
+    f = (width / 2.0) / math.tan(fov / 2.0)
+    x = np.asarray((np.arange(width) + 0.5 - width / 2) / f, dtype=np.float64)
+    y = np.asarray((np.arange(height) + 0.5 - height / 2) / f, dtype=np.float64)
+    return x, y
+
+
+@lru_cache(maxsize=4)
+def _ray_lengths(size: tuple[int, int], fov: float) -> NDArray[np.float32]:
+    """``|F + x R + y Dn| = sqrt(1 + x^2 + y^2)``, (H, W) float32, read-only: the same for every yaw, pitch, roll."""
+    x, y = _offsets(size, fov)
+    lengths = np.sqrt(1.0 + np.square(x)[None, :] + np.square(y)[:, None]).astype(np.float32)
+    lengths.setflags(write=False)
+    return lengths
