@@ -289,7 +289,9 @@ def build_map(
     has one (the perspective and floor views read a lookup of the table by ray
     direction, within 0.01 px of the exact map and with the same pixels
     valid; the panoramas sample the table at their row and column angles,
-    giving the exact map); ``exact=True`` takes the exact way always.
+    giving the exact map); ``exact=True`` takes the exact way always. The
+    lookup is made from the second such map of a table on (it costs about two
+    exact maps): a lone map, as a still render or a video's, is exact.
     """
     if not exact:
         quick = view.quick_map(table, sampling)
