@@ -19,7 +19,7 @@ from panomap.simulate import SVP_CAMERA_NAMES, standard_cameras
 from panomap.table.table import PanoMappingTable
 from panomap.views import Band, CylinderPanorama, GenericPanorama, PlaneView, build_map
 
-from helpers import learn_table, spread_landmarks
+from helpers import assert_view_errors_within, learn_table, spread_landmarks
 
 SIZE = (800, 760)
 CAMERA_POSITION = (3.1, 2.4, 2.45)
@@ -62,8 +62,7 @@ def test_fit_recovers_rotation_and_mirroring(name: str) -> None:
 def test_cylinder_map_matches_ground_truth(name: str) -> None:
     table, rho_range = learn(name)
     view = CylinderPanorama(2.0, Band(-3.0, 0.6), (720, 240), theta_start=1.3)
-    errors = view_errors(table, view, name, rho_range)
-    assert np.percentile(errors, 95) < 0.5, f"p95 {np.percentile(errors, 95):.3f} px"
+    assert_view_errors_within(view_errors(table, view, name, rho_range), name)
 
 
 @pytest.mark.parametrize("name", SVP_CAMERA_NAMES)
@@ -71,8 +70,7 @@ def test_cylinder_map_matches_ground_truth(name: str) -> None:
 def test_plane_map_matches_ground_truth(name: str, azimuth_deg: float) -> None:
     table, rho_range = learn(name)
     view = PlaneView(1.5, 2.4, Band(-2.4, 0.3), math.radians(azimuth_deg), (300, 300))
-    errors = view_errors(table, view, name, rho_range)
-    assert np.percentile(errors, 95) < 0.5, f"p95 {np.percentile(errors, 95):.3f} px"
+    assert_view_errors_within(view_errors(table, view, name, rho_range), name)
 
 
 @pytest.mark.parametrize("name", SVP_CAMERA_NAMES)
@@ -98,7 +96,7 @@ def test_paper_model_reproduces_the_paper_on_an_equidistant_fisheye() -> None:
     table, rho_range = learn("equidistant", model="paper")
     assert table.model.radial.kind == "paper"
     view = CylinderPanorama(2.0, Band(-3.0, 0.6), (720, 240))
-    assert np.percentile(view_errors(table, view, "equidistant", rho_range), 95) < 0.5
+    assert_view_errors_within(view_errors(table, view, "equidistant", rho_range), "equidistant")
 
 
 def test_nearest_table_sampling_is_within_one_table_cell() -> None:

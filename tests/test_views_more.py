@@ -2,8 +2,8 @@
 
 Ground truth as in test_ground_truth.py: 20 exact landmarks spread over each simulated
 camera's visible range, centre given, image rotated by 0.9 rad and mirrored; the exported
-maps must agree with the camera's true projection within 0.5 px (95th percentile) inside
-the landmarks' elevation range.
+maps must agree with the camera's true projection inside the landmarks' elevation range within
+a few times the measured error, 95th percentile and maximum (``helpers.VIEW_P95_PX``, ``VIEW_MAX_PX``).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from panomap.simulate import SVP_CAMERA_NAMES, load_room, render, standard_camer
 from panomap.table.table import PanoMappingTable, fill_entries
 from panomap.views import Band, CylinderPanorama, FloorView, PerspectiveView, build_map
 
-from helpers import learn_table, spread_landmarks
+from helpers import assert_view_errors_within, learn_table, spread_landmarks
 
 SIZE = (800, 760)
 CAMERA_POSITION = (3.1, 2.4, 2.45)
@@ -228,8 +228,7 @@ PERSPECTIVE_GRID = [
 @pytest.mark.parametrize(("yaw", "pitch", "roll", "fov"), PERSPECTIVE_GRID)
 def test_perspective_map_matches_ground_truth(name: str, yaw: float, pitch: float, roll: float, fov: float) -> None:
     view = PerspectiveView(yaw * DEG, pitch * DEG, roll * DEG, fov * DEG, (160, 120))
-    errors = perspective_errors(name, view)
-    assert np.percentile(errors, 95) < 0.5, f"p95 {np.percentile(errors, 95):.3f} px"
+    assert_view_errors_within(perspective_errors(name, view), name)
 
 
 FLOOR_GRID = [
@@ -245,15 +244,14 @@ def test_floor_map_matches_ground_truth(
     name: str, z_plane: float, x_range: tuple[float, float], y_range: tuple[float, float]
 ) -> None:
     view = FloorView(z_plane, x_range, y_range, (200, 150))
-    errors = floor_errors(name, view)
-    assert np.percentile(errors, 95) < 0.5, f"p95 {np.percentile(errors, 95):.3f} px"
+    assert_view_errors_within(floor_errors(name, view), name)
 
 
 def test_spherical_mirror_figures() -> None:
-    """No single viewpoint: errors depend on distance; reported, with a loose bound.
+    """No single viewpoint: errors depend on distance; reported, with a bound about 3x the measured.
 
     Rays are compared at 2 m (inside the landmarks' 1.5-3 m) and the floor at its true
-    distances. Measured: worst p95 0.33 px over the perspective grid, 0.15-0.39 px on floors.
+    distances. Measured: worst p95 0.175 px over the perspective grid, 0.28 px on floors.
     """
     perspective = {
         (y, p, r, f): float(
@@ -269,8 +267,8 @@ def test_spherical_mirror_figures() -> None:
     }
     print("spherical mirror, perspective p95 (px): worst", round(max(perspective.values()), 3))
     print("spherical mirror, floor p95 (px) by plane height:", {z: round(e, 3) for z, e in floors.items()})
-    assert max(perspective.values()) < 2.0
-    assert max(floors.values()) < 2.0
+    assert max(perspective.values()) < 0.5
+    assert max(floors.values()) < 0.8
 
 
 # ----------------------------------------------------------------------------- straight lines
