@@ -135,8 +135,9 @@ def test_unproject_gives_rays_and_floor_points_that_project_back(work: Path) -> 
     result = run("project", work / "cam.npz", work / "floor_points.csv", "-o", work / "back.csv")
     assert result.exit_code == 0, result.stderr
     back = np.array([[float(row["u"]), float(row["v"])] for row in read_csv(work / "back.csv")])
-    # Round trip through the plane and the table: 6 decimals of metres are 1e-6 m, far below 0.01 px.
-    np.testing.assert_allclose(back, np.array(pixels[:9]), atol=0.01)
+    # Round trip through the plane and the table: 6 decimals of metres are 1e-6 m; the CSV keeps
+    # 4 decimals of pixels (5e-5 px); the README promises 1e-3 px.
+    np.testing.assert_allclose(back, np.array(pixels[:9]), atol=1e-3)
     # Without --z: only the angles; a plane above this ceiling camera is reached by no ray.
     result = run("unproject", work / "cam.npz", work / "px.csv", "-o", work / "rays2.csv")
     assert result.exit_code == 0

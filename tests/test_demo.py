@@ -33,5 +33,6 @@ def test_demo_writes_views_that_match_a_direct_render_of_the_room(tmp_path: Path
     unwarped = cv2.imread(str(tmp_path / "cylinder.png")).astype(np.float32)
     difference = np.abs(unwarped - direct).mean(axis=-1)
     # The omni-image is a resampled, anti-aliased render: edges differ, flat areas do not.
-    assert np.median(difference) < 3.0
-    assert np.mean(difference < 20) > 0.9
+    # Measured: median and 75th percentile 0 (flat areas are the same colour), 94.2% within 20 levels.
+    assert np.percentile(difference, 75) < 1.0
+    assert np.mean(difference < 20) > 0.93

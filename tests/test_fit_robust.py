@@ -27,7 +27,8 @@ CAMERAS = scenario_cameras()
 def test_exact_landmarks_give_a_tenth_of_a_pixel(name: str) -> None:
     camera = CAMERAS[name]
     trial = make_landmarks(camera, 10, np.random.default_rng(1), pixel_sigma=0.0, world_sigma=0.0)
-    assert worst_error(camera, trial, probe_points(camera)) <= 0.1
+    # Measured 0.0007-0.0022 px (float32 table entries and bilinear sampling): the bar is about 3x the worst.
+    assert worst_error(camera, trial, probe_points(camera)) <= 0.007
 
 
 @pytest.mark.parametrize("name", ["equisolid", "hyperbolic-0.9"])

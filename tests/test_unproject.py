@@ -126,7 +126,8 @@ def test_camera_looking_up_and_the_centre_pixel() -> None:
     assert rho[1] == pytest.approx(math.pi / 2 - 0.5, abs=1e-12)
     assert theta[1] == pytest.approx(0.3, abs=1e-12)
     pixels = np.array([[250.0, 200.0], [120.5, 100.25], [330.0, 180.0]])
-    np.testing.assert_allclose(table.sample(*table.unproject(pixels)), pixels, atol=0.01)
+    # Measured 1.16e-3 px: the bilinear table's chord between this small table's azimuth entries.
+    np.testing.assert_allclose(table.sample(*table.unproject(pixels)), pixels, atol=3e-3)
 
 
 def test_a_radial_function_that_is_not_monotonic_is_refused() -> None:
@@ -159,4 +160,5 @@ def test_unproject_then_meet_the_floor_round_trips_through_project() -> None:
     theta, rho = table.unproject(pixels)
     world = ray_plane_points(table.camera_position, theta, rho, 0.0)
     assert np.all(np.isfinite(world))  # these pixels all look below the horizon
-    assert np.max(np.linalg.norm(table.project(world) - pixels, axis=-1)) < 0.01
+    # Measured 2.8e-4 px (float32 entries); the README promises 1e-3 px.
+    assert np.max(np.linalg.norm(table.project(world) - pixels, axis=-1)) < 1e-3
