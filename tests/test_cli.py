@@ -276,3 +276,29 @@ def test_the_package_loads_its_names_on_first_use() -> None:
 
     with pytest.raises(AttributeError, match="no attribute 'nothing'"):
         panomap.nothing  # noqa: B018
+
+
+def test_bare_panomap_prints_its_help_laid_out() -> None:
+    """Issue 14: a bare `panomap` printed its whole help flattened into one error line."""
+    result = subprocess.run([sys.executable, "-m", "panomap"], capture_output=True, text=True, check=False)
+    assert result.returncode == 0 and result.stderr == ""
+    lines = result.stdout.splitlines()
+    assert lines[0] == "Usage: python -m panomap [OPTIONS] COMMAND [ARGS]..."
+    assert any(line.strip().startswith("fit ") for line in lines) and len(lines) > 20
+
+
+def test_long_landmark_names_are_printed_whole_and_one_ray_is_singular(work: Path) -> None:
+    """Issue 14: names were cut to 12 characters in the fit report and info; "1 rays reach"."""
+    text = (work / "lm.csv").read_text().splitlines()
+    header, rows = text[0], text[1:]
+    assert header == "name,u,v,X,Y,Z"
+    named = [f"corner_of_the_north_wall_{k}," + row.split(",", 1)[1] for k, row in enumerate(rows)]
+    (work / "lm.csv").write_text("\n".join([header, *named]) + "\n")
+    table_path = fit_table(work)
+    for output in (run("info", table_path).output,):
+        for k in range(len(rows)):
+            assert f"corner_of_the_north_wall_{k} " in output
+    (work / "px.csv").write_text(f"u,v\n{CAMERA.centre[0] + 150.0},{CAMERA.centre[1]}\n")
+    result = run("unproject", table_path, work / "px.csv", "-o", work / "rays.csv", "--z", 0)
+    assert result.exit_code == 0, result.stderr
+    assert "1 ray reaches the plane Z = 0" in result.output

@@ -27,6 +27,12 @@ from .views import VIEW_COMMANDS
 COMMANDS = (fit, centre, info, *VIEW_COMMANDS, project, unproject, video, learn, demo)
 
 
+# Click 8.2 raises this for a group called without a command (8.1 printed the help itself).
+_NO_ARGS_IS_HELP: type[click.UsageError] = getattr(
+    click.exceptions, "NoArgsIsHelpError", type("_Never", (click.UsageError,), {})
+)
+
+
 def _fail(message: str, code: int = 1) -> NoReturn:
     click.echo(f"panomap: error: {message}", err=True)
     sys.exit(code)
@@ -39,6 +45,9 @@ class PanomapGroup(click.Group):
         kwargs["standalone_mode"] = False
         try:
             result = super().main(*args, **kwargs)
+        except _NO_ARGS_IS_HELP as exc:  # bare `panomap` (or a bare group): the help, as it is laid out
+            click.echo(exc.ctx.get_help() if exc.ctx is not None else exc.format_message())
+            sys.exit(0)
         except click.UsageError as exc:
             where = exc.ctx.command_path if exc.ctx is not None else "panomap"
             message = " ".join(exc.format_message().split())

@@ -268,10 +268,12 @@ def _describe_fit(table: PanoMappingTable) -> str:
 
 def _describe_residuals(table: PanoMappingTable, fit: FitReport | None) -> str:
     """Every landmark's residual, their RMS and the radius's standard error (when there is a fit), and the table."""
-    lines = [f"{'landmark':<12} {'u':>9} {'v':>9} {'elev deg':>9} {'azim deg':>9} {'resid px':>9}"]
-    for row in () if fit is None else fit.landmarks:
+    rows = () if fit is None else fit.landmarks
+    width = max([12, *(len(row.name) for row in rows)])  # whole names: a cut one can name two landmarks
+    lines = [f"{'landmark':<{width}} {'u':>9} {'v':>9} {'elev deg':>9} {'azim deg':>9} {'resid px':>9}"]
+    for row in rows:
         lines.append(
-            f"{row.name[:12]:<12} {row.u:9.2f} {row.v:9.2f} {row.elevation_deg:9.2f} "
+            f"{row.name:<{width}} {row.u:9.2f} {row.v:9.2f} {row.elevation_deg:9.2f} "
             f"{row.azimuth_deg:9.2f} {row.residual_px:9.3f}" + ("  OUTLIER (not used)" if row.outlier else "")
         )
     if fit is not None and fit.outliers:

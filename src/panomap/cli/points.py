@@ -80,5 +80,5 @@ def unproject(table: Path, pixels: Path, output: Path, z_plane: float | None) ->
     message = f"wrote {output} ({valid} of {len(rows)} pixels in the valid region"
     if z_plane is not None:
         reached = int(np.count_nonzero(np.all(np.isfinite(world), axis=1)))
-        message += f"; {reached} rays reach the plane Z = {z_plane:g}"
+        message += f"; {reached} {'ray reaches' if reached == 1 else 'rays reach'} the plane Z = {z_plane:g}"
     click.echo(message + ")")
