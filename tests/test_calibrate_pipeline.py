@@ -133,3 +133,13 @@ def test_pixel_polar_and_inside_image_follow_the_conventions() -> None:
     u = np.array([-0.5, -0.51, 639.5, 639.51, np.nan])
     assert inside_image(u, np.zeros_like(u), SIZE).tolist() == [True, False, True, False, False]
     assert inside_image(0.0, 599.5, SIZE) is True and inside_image(0.0, 599.6, SIZE) is False
+
+
+def test_a_given_radius_is_named_as_given_when_the_circles_are_not_found() -> None:
+    """Issue 14: with --outer-radius given, the warning said "using the default radii"."""
+    result = calibrate_camera(
+        LANDMARKS, POSITION, centre=CAMERA.centre, outer_radius=CAMERA.outer_radius, omni=PLAIN, refine_centre=False
+    )
+    assert len(result.warnings) == 1
+    assert result.warnings[0].endswith("; using the given outer radius and the default cut-off one")
+    assert result.table.outer_radius == CAMERA.outer_radius

@@ -201,7 +201,9 @@ def test_bad_fit_arguments(work: Path, args: list[object], message: str) -> None
         (["--size", "big"], "is not a size like 1024x512"),
         (["--band", 1, -1], "z_bottom < z_top"),
         (["--distance", -2], "distance must be positive"),
-        (["--plane-width", 5], "needs width <= 2 D"),
+        (["--plane-width", 5], "needs width < 2 D"),
+        # Exactly 2 D: the plane passes through the camera (issue 14: it wrote a meaningless image, exit 0).
+        (["--plane-width", 4], "needs width < 2 D"),
     ],
 )
 def test_bad_view_parameters(work: Path, options: list[object], message: str) -> None:

@@ -76,6 +76,15 @@ class Calibration:
     warnings: tuple[str, ...]
 
 
+def _radii_note(error: PanomapError, cutoff_radius: float | None, outer_radius: float | None) -> str:
+    """The warning when the circles are not found but the centre is given: which radii are defaults."""
+    missing = [name for name, value in (("cut-off", cutoff_radius), ("outer", outer_radius)) if value is None]
+    if len(missing) == 2:
+        return f"{error}; using the default radii"
+    given = "outer" if missing == ["cut-off"] else "cut-off"
+    return f"{error}; using the given {given} radius and the default {missing[0]} one"
+
+
 def choose_circles(
     omni: NDArray[Any],
     centre: tuple[float, float] | None = None,
@@ -104,7 +113,9 @@ def choose_circles(
     except NoImageCircle as exc:
         error = PanomapError(exc.detail, name)
         if centre is not None:
-            return CircleChoice(centre, cutoff_radius, outer_radius, None, {}, (f"{error}; using the default radii",))
+            return CircleChoice(
+                centre, cutoff_radius, outer_radius, None, {}, (_radii_note(error, cutoff_radius, outer_radius),)
+            )
         u, v = exc.frame_centre
         warning = f"{error}; starting from the frame centre ({u:.1f}, {v:.1f}), which the landmarks refine"
         return CircleChoice(
@@ -114,7 +125,9 @@ def choose_circles(
         error = PanomapError(exc.detail, name)
         if centre is None:
             raise error from None
-        return CircleChoice(centre, cutoff_radius, outer_radius, None, {}, (f"{error}; using the default radii",))
+        return CircleChoice(
+            centre, cutoff_radius, outer_radius, None, {}, (_radii_note(error, cutoff_radius, outer_radius),)
+        )
     sources: dict[str, Origin] = {}
     if centre is None:
         centre, sources["centre"] = circles.centre, Origin(Source.DETECTED)

@@ -23,9 +23,9 @@ class PlaneView(View):
     Parameters
     ----------
     distance : float
-        Horizontal distance D of both vertical edges from O_m.
+        Horizontal distance D of both vertical edges from O_m (not of the plane's middle).
     width : float
-        Plane width W_p (world units), at most 2 D.
+        Plane width W_p (world units), less than 2 D (at 2 D the plane passes through O_m).
     band : Band
         Heights relative to O_m.
     azimuth : float
@@ -39,7 +39,7 @@ class PlaneView(View):
     summary: ClassVar[str] = "Perspective view of a vertical W_p x band plane at distance D (paper 2.3.3)."
     params: ClassVar[tuple[Param, ...]] = (
         Param("distance", Value.NUMBER, "Horizontal distance D of both vertical edges."),
-        Param("width", Value.NUMBER, "Plane width W_p (at most 2 D).", aliases=("--plane-width",)),
+        Param("width", Value.NUMBER, "Plane width W_p (less than 2 D).", aliases=("--plane-width",)),
         Param("band", Value.PAIR, "Heights of the plane's bottom and top relative to the camera.", metavar="ZB ZT"),
         Param("azimuth", Value.ANGLE, "Azimuth of the plane's centre.", aliases=("--azimuth-deg",)),
         OUTPUT_SIZE,
@@ -58,9 +58,11 @@ class PlaneView(View):
             raise PanomapError(f"the distance must be positive, not {self.distance:g}")
         if self.width <= 0:
             raise PanomapError(f"the plane width must be positive, not {self.width:g}")
-        if self.width > 2 * self.distance:
+        if self.width >= 2 * self.distance:
+            # At W_p = 2 D the plane passes through the camera: it subtends 180 deg and has no perspective view.
             raise PanomapError(
-                f"a plane {self.width:g} wide cannot have both edges at distance {self.distance:g} (needs width <= 2 D)"
+                f"a plane {self.width:g} wide cannot have both edges at distance {self.distance:g} and stay in "
+                "front of the camera (needs width < 2 D; D is the distance to the plane's vertical edges)"
             )
         object.__setattr__(self, "size", check_view_size(self.size))
 
