@@ -90,8 +90,8 @@ def test_not_a_table(tmp_path: Path) -> None:
 def test_other_version(tmp_path: Path) -> None:
     path = tmp_path / "t.npz"
     small_table().save(path)
-    rewrite(path, {"version": 3})
-    with pytest.raises(PanomapError, match="version 3; this panomap reads versions 1 and 2"):
+    rewrite(path, {"version": 4})
+    with pytest.raises(PanomapError, match="version 4; this panomap reads versions 1, 2 and 3"):
         load_table(path)
 
 

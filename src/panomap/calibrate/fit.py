@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera.model import CameraModel
+from ..camera.orientation import tilt_rotation, to_camera
 from ..camera.radial import RadialFunction, fit_radial
 from ..camera.radial_models import AUTO_CANDIDATES, AXES, MODELS, RadialKind, radial_kind
 from ..camera.uncertainty import coefficient_covariance
@@ -50,7 +51,16 @@ from ..camera.valid_range import is_monotonic, valid_elevation_range
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
 from .landmarks import MIN_LANDMARKS, Landmarks
-from .report import FitReport, FitSettings, LandmarkResidual
+from .mount import (
+    MountOptions,
+    MountProblem,
+    MountSolution,
+    camera_rays,
+    held_out_errors,
+    joint_fit,
+    tilt_standard_errors,
+)
+from .report import FitReport, FitSettings, LandmarkResidual, MountReport
 
 MIN_ELEVATION_SPREAD = math.radians(1.0)
 AZIMUTH_MODES = ("fit", "paper")
@@ -68,6 +78,17 @@ EXACT_LOO_MAX = 40
 # A landmark this many pixel sigmas beyond the cut-off disc or the image circle is measurement noise: kept.
 RIM_SLACK_SIGMAS = 3.0
 CV_FOLDS = 10
+# The tape's default standard deviation on each coordinate of the camera position: this fraction of the
+# median landmark distance (2 cm at 2 m).
+DEFAULT_CAMERA_SIGMA_FRACTION = 0.01
+TILT_MODES = ("fit", "none")
+# A tilt given as a pair (tilt_deg, toward_deg) is at most this far off the vertical.
+MAX_TILT_DEG = 45.0
+# A held-out landmark counts at most this many sigmas in the mount's cross-validation score:
+# an undetected outlier cannot decide it.
+MOUNT_SCORE_CAP_SIGMAS = 5.0
+# A mount with more unknowns must beat a simpler one's cross-validation score by this fraction.
+MOUNT_TOLERANCE = 0.02
 
 
 @dataclass(frozen=True)
@@ -104,6 +125,11 @@ class CameraFit:
     centre_start : (u0, v0)
         The centre the fit started from (px): ``model.centre`` is the same
         unless the fit refined it.
+    rho_camera : (n,) ndarray, optional
+        Landmark elevations (rad) in the camera's axes, where f_r applies
+        (``rho`` is in the world's; the same for a level camera).
+    mount : MountReport, optional
+        The camera's tilt and position as fitted, and how they were chosen.
     """
 
     model: CameraModel
@@ -122,6 +148,8 @@ class CameraFit:
     selection: dict[str, float]
     settings: FitSettings
     centre_start: tuple[float, float] | None = None
+    rho_camera: FloatArray | None = None
+    mount: MountReport | None = None
 
     @property
     def rms_px(self) -> float:
@@ -147,8 +175,8 @@ class CameraFit:
 
     @property
     def landmark_range(self) -> tuple[float, float]:
-        """Lowest and highest inlier landmark elevation (rad)."""
-        rho = self.rho[self.inliers]
+        """Lowest and highest inlier landmark elevation (rad) in the camera's axes (where f_r applies)."""
+        rho = (self.rho if self.rho_camera is None else self.rho_camera)[self.inliers]
         return float(np.min(rho)), float(np.max(rho))
 
     def report(self) -> FitReport:
@@ -192,6 +220,7 @@ class CameraFit:
             settings=self.settings,
             landmarks=rows,
             centre_start=self.centre_start,
+            mount=self.mount,
         )
 
 
@@ -225,6 +254,8 @@ def fit_camera(
     pixel_sigma: float = 1.0,
     world_sigma: float | None = None,
     reject_outliers: bool = True,
+    tilt: str | tuple[float, float] = "fit",
+    camera_sigma: float | None = None,
 ) -> CameraFit:
     """Fit the camera model to landmark pairs.
 
@@ -257,6 +288,17 @@ def fit_camera(
         default 0.4% of the median landmark distance.
     reject_outliers : bool
         Drop landmarks that disagree with the rest (named in the report).
+    tilt : "fit", "none" or (tilt_deg, toward_deg)
+        ``"fit"``: estimate the tilt of the camera's axis off the vertical and
+        keep it when cross-validation says the landmarks support it;
+        ``"none"``: the camera is level (the paper's assumption); a pair fixes
+        it: the optical axis ``tilt_deg`` off the vertical, leaning toward world
+        azimuth ``toward_deg`` (:mod:`panomap.camera.orientation`).
+    camera_sigma : float, optional
+        Standard deviation (world units) of each coordinate of
+        ``camera_position`` (a tape measurement); the fit refines the position
+        when cross-validation says the landmarks support it. 0 keeps it exact;
+        default 1% of the median landmark distance.
 
     Raises
     ------
@@ -285,6 +327,9 @@ def fit_camera(
         raise PanomapError(f"the pixel sigma must be positive, not {pixel_sigma}")
     if world_sigma is not None and not (math.isfinite(world_sigma) and world_sigma >= 0):
         raise PanomapError(f"the world sigma must be zero or positive, not {world_sigma}")
+    if camera_sigma is not None and not (math.isfinite(camera_sigma) and camera_sigma >= 0):
+        raise PanomapError(f"the camera sigma must be zero or positive, not {camera_sigma}")
+    tilt_given = _given_tilt(tilt)
     n = len(landmarks)
     if n < MIN_LANDMARKS:
         raise PanomapError(f"only {n} landmark(s); at least {MIN_LANDMARKS} are needed")
@@ -296,7 +341,7 @@ def fit_camera(
     at_camera = np.flatnonzero(distance < 1e-9)
     if at_camera.size:
         raise PanomapError(f"landmark {landmarks.names[at_camera[0]]!r} is at the camera position")
-    theta, rho = azimuth_elevation(d)
+    theta_world, rho = azimuth_elevation(d)
     if float(np.ptp(rho)) < MIN_ELEVATION_SPREAD:
         raise PanomapError(
             f"all landmarks are at one elevation ({math.degrees(float(np.mean(rho))):.2f} deg, "
@@ -309,6 +354,11 @@ def fit_camera(
         axis, axis_source = _detect_axis(rho, r), "detected"
     if world_sigma is None:
         world_sigma = DEFAULT_WORLD_SIGMA_FRACTION * float(np.median(distance))
+    if camera_sigma is None:
+        camera_sigma = DEFAULT_CAMERA_SIGMA_FRACTION * float(np.median(distance))
+    rotation_given = None if tilt_given is None else tilt_rotation(*map(math.radians, tilt_given), axis)
+    d = to_camera(d, rotation_given)
+    theta, rho = azimuth_elevation(d)
     horizontal = np.hypot(d[:, 0], d[:, 1])
     s = 1 if azimuth == "paper" else _handedness(theta, phi, r)
     data = _Data(
@@ -343,19 +393,47 @@ def fit_camera(
         inliers, kind, selection = _choose(candidates, data, annulus, reject_outliers)
         radial, phi0 = _fit(kind, data, inliers)
         radial, phi0, centre_fit = _refine(radial, phi0, centre_fit, landmarks.pixels, data, inliers, True)
+    problem = MountProblem(
+        world=landmarks.world,
+        pixels=landmarks.pixels,
+        camera=np.asarray(camera),
+        kind=kind.name,
+        axis=axis,
+        s=s,
+        pixel_sigma=float(pixel_sigma),
+        world_sigma=float(world_sigma),
+        camera_sigma=float(camera_sigma),
+        rotation=rotation_given,
+    )
+    solution = MountSolution(radial, phi0, centre_fit, np.zeros(2), np.zeros(3), np.empty((0, 0)))
+    mount_choice = None
+    options = _mount_options(tilt, float(camera_sigma), refine_centre)
+    if len(options) > 1 and kind.weighted and azimuth == "fit":
+        mount_choice = _choose_mount(problem, options, (inliers, kind, selection, solution), data, candidates, annulus, robust)
+        inliers, kind, selection, solution = mount_choice.chosen
+        problem = replace(problem, kind=kind.name)
+        radial, phi0, centre_fit = solution.radial, solution.phi0, solution.centre
+    rotation = solution.rotation(problem)
+    camera_fit = solution.camera(problem)
+    d = camera_rays(problem, solution.w, solution.delta)
+    theta, rho = azimuth_elevation(d)
+    data = replace(data, theta=theta, rho=rho)
+    theta_world, rho_world = azimuth_elevation(landmarks.world - camera_fit)
     weights = _radial_weights(radial, data)
     r_fit, _ = pixel_polar(landmarks.pixels, centre_fit)
     covariance = coefficient_covariance(radial, rho[inliers], r_fit[inliers], weights[inliers])
-    camera_model = CameraModel(centre_fit, radial, s, phi0)
-    predicted = camera_model.pixels(theta, rho)
+    camera_model = CameraModel(centre_fit, radial, s, phi0, None if rotation is None else tuple(map(tuple, rotation)))
+    predicted = camera_model.pixels(theta_world, rho_world)
     residuals = np.linalg.norm(predicted - landmarks.pixels, axis=1)
     r_now, phi_now = pixel_polar(landmarks.pixels, centre_fit)
     return CameraFit(
         model=camera_model,
         landmarks=landmarks,
-        camera_position=(camera[0], camera[1], camera[2]),
-        theta=theta,
-        rho=rho,
+        camera_position=(float(camera_fit[0]), float(camera_fit[1]), float(camera_fit[2])),
+        theta=theta_world,
+        rho=rho_world,
+        rho_camera=rho,
+        mount=_mount_report(problem, solution, tilt, mount_choice, camera_model),
         predicted=predicted,
         residuals_px=residuals,
         radial_residuals_px=radial(rho) - r_now,
@@ -679,3 +757,128 @@ def _handedness(theta: FloatArray, phi: FloatArray, r: FloatArray) -> int:
     plus = _consistency(phi - theta, r)
     minus = _consistency(phi + theta, r)
     return 1 if plus >= minus else -1
+
+
+# ----------------------------------------------------------------------------- the mount: tilt and position
+
+
+@dataclass(frozen=True)
+class _MountChoice:
+    """The mounts tried, their cross-validation scores, and the one chosen (inliers, kind, selection, solution)."""
+
+    chosen: tuple[FloatArray, RadialKind, dict[str, float], MountSolution]
+    chosen_options: MountOptions
+    scores: dict[str, float]
+
+
+def _given_tilt(tilt: str | tuple[float, float]) -> tuple[float, float] | None:
+    """The pair (tilt_deg, toward_deg) when ``tilt`` fixes it, None for ``"fit"`` or ``"none"``."""
+    if isinstance(tilt, str):
+        if tilt not in TILT_MODES:
+            raise PanomapError(f"tilt must be 'fit', 'none' or a pair (tilt_deg, toward_deg), not {tilt!r}")
+        return None
+    try:
+        tilt_deg, toward_deg = (float(x) for x in tilt)
+    except (TypeError, ValueError):
+        raise PanomapError(f"tilt must be 'fit', 'none' or a pair (tilt_deg, toward_deg), not {tilt!r}") from None
+    if not (math.isfinite(tilt_deg) and math.isfinite(toward_deg) and 0 <= tilt_deg <= MAX_TILT_DEG):
+        raise PanomapError(
+            f"the tilt must be 0 to {MAX_TILT_DEG:g} deg and its azimuth finite, not {tilt_deg:g}, {toward_deg:g}"
+        )
+    return tilt_deg, toward_deg
+
+
+def _mount_options(tilt: str | tuple[float, float], camera_sigma: float, refine_centre: bool) -> list[MountOptions]:
+    """The mounts to try, simplest first: level with the position as given, then what may be refined."""
+    tilts = [False, True] if tilt == "fit" else [False]
+    positions = [False, True] if camera_sigma > 0 else [False]
+    return [
+        MountOptions(centre=refine_centre, tilt=t, position=p)
+        for p in positions
+        for t in tilts
+    ]
+
+
+def _choose_mount(
+    problem: MountProblem,
+    options: list[MountOptions],
+    level: tuple[FloatArray, RadialKind, dict[str, float], MountSolution],
+    data: _Data,
+    candidates: tuple[RadialKind, ...],
+    annulus: tuple[float, float] | None,
+    robust: bool,
+) -> _MountChoice:
+    """Fit each mount (refined, then the model and outliers chosen again in its frame) and keep the one
+    whose held-out errors are smallest; a mount with more unknowns must win by ``MOUNT_TOLERANCE``.
+    """
+    fits: dict[MountOptions, tuple[FloatArray, RadialKind, dict[str, float], MountSolution]] = {options[0]: level}
+    inliers, _, _, start = level
+    for option in options[1:]:
+        try:
+            first = joint_fit(problem, start, inliers, option)
+            rays = camera_rays(problem, first.w, first.delta)
+            theta, rho = azimuth_elevation(rays)
+            r, phi = pixel_polar(problem.pixels, first.centre)
+            distance = np.linalg.norm(rays, axis=1)
+            moved = replace(
+                data,
+                theta=theta,
+                rho=rho,
+                r=r,
+                phi=phi,
+                sigma_rho=problem.world_sigma / distance,
+                sigma_theta=problem.world_sigma / np.maximum(np.hypot(rays[:, 0], rays[:, 1]), 1e-12),
+            )
+            kept, kind, selection = _choose(candidates, moved, annulus, robust)
+            radial, phi0 = _fit(kind, moved, kept)
+            again = MountSolution(radial, phi0, first.centre, first.w, first.delta, first.covariance)
+            solution = joint_fit(replace(problem, kind=kind.name), again, kept, option)
+        except PanomapError:
+            continue
+        fits[option] = (kept, kind, selection, solution)
+    common = np.logical_and.reduce([fit[0] for fit in fits.values()])
+    members = np.flatnonzero(common)
+    folds = _folds(data, members)
+    cap = MOUNT_SCORE_CAP_SIGMAS**2
+    scores: dict[str, float] = {}
+    best: MountOptions | None = None
+    for option, (_, kind, _, solution) in fits.items():
+        whitened, _ = held_out_errors(replace(problem, kind=kind.name), solution, common, folds, option)
+        score = float(np.sqrt(np.mean(np.minimum(whitened**2, cap))))
+        scores[option.name] = score
+        if best is None or score < scores[best.name] * (1 - MOUNT_TOLERANCE):
+            best = option
+    assert best is not None
+    return _MountChoice(fits[best], best, scores)
+
+
+def _mount_report(
+    problem: MountProblem,
+    solution: MountSolution,
+    tilt: str | tuple[float, float],
+    choice: _MountChoice | None,
+    model: CameraModel,
+) -> MountReport:
+    """The mount as fitted: tilt and its standard errors, the position and its shift, how they were chosen."""
+    tilt_rad, toward_rad = model.tilt
+    refined = choice.chosen_options if choice is not None else MountOptions()
+    tilt_se = toward_se = None
+    if refined.tilt and solution.covariance.shape[0] >= 2:
+        tilt_se_rad, toward_se_rad = tilt_standard_errors(solution.w, solution.covariance[:2, :2])
+        tilt_se, toward_se = math.degrees(tilt_se_rad), math.degrees(toward_se_rad)
+        toward_se = toward_se if math.isfinite(toward_se) else None
+    camera = solution.camera(problem)
+    return MountReport(
+        tilt_mode="given" if not isinstance(tilt, str) else tilt,
+        tilt_deg=math.degrees(tilt_rad),
+        toward_deg=math.degrees(toward_rad),
+        tilt_se_deg=tilt_se,
+        toward_se_deg=toward_se,
+        tilt_fitted=refined.tilt,
+        camera_given=(float(problem.camera[0]), float(problem.camera[1]), float(problem.camera[2])),
+        camera=(float(camera[0]), float(camera[1]), float(camera[2])),
+        camera_sigma=problem.camera_sigma,
+        position_refined=refined.position,
+        chosen=refined.name,
+        cross_validation={} if choice is None else dict(choice.scores),
+    )

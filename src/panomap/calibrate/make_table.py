@@ -138,8 +138,9 @@ def table_for(
                 f"the fitted radial function ({fit.model.radial.kind}) {problem}; it must run monotonically "
                 "from the cut-off radius to the image circle (try another radial model, or check the radii)"
             )
-    rho_s, rho_e = valid_elevation_range(
-        fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius, slack_px=slack
+    rho_s, rho_e = world_range(
+        valid_elevation_range(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius, slack_px=slack),
+        fit.model.tilt[0],
     )
     if size is None:
         r_span = abs(float(fit.model.radial(rho_e) - fit.model.radial(rho_s)))
@@ -163,6 +164,24 @@ def table_for(
         outer_radius=outer_radius,
         info=table_info,
     )
+
+
+def world_range(camera_range: tuple[float, float], tilt_rad: float) -> tuple[float, float]:
+    """The world elevations (rad) seen at every azimuth by a camera ``tilt_rad`` off the vertical that sees
+    ``camera_range`` in its own axes: each end moves inward by the tilt, except a pole, which stays seen.
+    """
+    low, high = camera_range
+    pole = 1e-9
+    if low > -math.pi / 2 + pole:
+        low += tilt_rad
+    if high < math.pi / 2 - pole:
+        high -= tilt_rad
+    if not low < high:
+        raise PanomapError(
+            f"a camera tilted {math.degrees(tilt_rad):.1f} deg sees no world elevation at every azimuth "
+            f"(its own range is {math.degrees(camera_range[0]):.1f} to {math.degrees(camera_range[1]):.1f} deg)"
+        )
+    return low, high
 
 
 def _uncertainty(fit: CameraFit, elevation_range: tuple[float, float]) -> RadiusUncertainty:

@@ -8,6 +8,7 @@ it back from a table.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
 from types import MappingProxyType
@@ -134,6 +135,79 @@ class RadiusUncertainty:
 
 
 @dataclass(frozen=True)
+class MountReport:
+    """How the camera is mounted, as fitted: its tilt off the vertical and its position.
+
+    Attributes
+    ----------
+    tilt_mode : {"fit", "none", "given"}
+        What was asked: estimate the tilt, take the camera as level, or a given tilt.
+    tilt_deg : float
+        Angle of the optical axis off the vertical, deg (0 for a level camera).
+    toward_deg : float
+        World azimuth toward which the optical axis leans, deg.
+    tilt_se_deg, toward_se_deg : float or None
+        Their standard errors, deg (None when the tilt was not fitted, or has no direction).
+    tilt_fitted : bool
+        The tilt was estimated and kept (cross-validation chose it).
+    camera_given : (X0, Y0, Z0)
+        The position given (the tape measurement), world units.
+    camera : (X0, Y0, Z0)
+        The position used: refined when ``position_refined``.
+    camera_sigma : float
+        The given position's standard deviation on each coordinate, world units (0: exact).
+    position_refined : bool
+    chosen : str
+        The mount chosen: ``"level, position as given"``, ``"tilt"``, ``"position"`` or ``"tilt + position"``.
+    cross_validation : mapping of str to float
+        Each mount tried and its held-out RMS error in sigmas (smaller is better).
+    """
+
+    tilt_mode: str
+    tilt_deg: float
+    toward_deg: float
+    tilt_se_deg: float | None
+    toward_se_deg: float | None
+    tilt_fitted: bool
+    camera_given: tuple[float, float, float]
+    camera: tuple[float, float, float]
+    camera_sigma: float
+    position_refined: bool
+    chosen: str
+    cross_validation: Mapping[str, float]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cross_validation", MappingProxyType(dict(self.cross_validation)))
+
+    @property
+    def camera_shift(self) -> float:
+        """How far (world units) the fit moved the camera from the given position."""
+        return math.dist(self.camera, self.camera_given)
+
+    def to_dict(self) -> dict[str, Any]:
+        data = {f.name: getattr(self, f.name) for f in fields(self)}
+        data["cross_validation"] = dict(self.cross_validation)
+        data["camera_given"], data["camera"] = list(self.camera_given), list(self.camera)
+        return data
+
+    @classmethod
+    def from_dict(cls, data: Any) -> MountReport:
+        mount = _Reader(data, "the mount", cls)
+        given, camera = mount.numbers("camera_given"), mount.numbers("camera")
+        if len(given) != 3 or len(camera) != 3:
+            raise _malformed("a camera position of the mount is not three numbers")
+        scores = mount.mapping("cross_validation")
+        if not all(_is_number(value) for value in scores.values()):
+            raise _malformed("a cross-validation score of the mount is not a number")
+        return cls(
+            camera_given=(given[0], given[1], given[2]),
+            camera=(camera[0], camera[1], camera[2]),
+            cross_validation={str(k): float(v) for k, v in scores.items()},
+            **mount.scalars(),
+        )
+
+
+@dataclass(frozen=True)
 class FitReport:
     """What a camera fit chose and how well it fits the landmarks.
 
@@ -170,6 +244,9 @@ class FitReport:
     centre_start : (u0, v0) or None
         The centre the fit started from, px (None in tables made before it was
         recorded); ``centre`` differs from it when the fit refined the centre.
+    mount : MountReport or None
+        The camera's tilt and position as fitted (None in tables made before
+        they were fitted, and for the paper's model).
     """
 
     model: str
@@ -190,6 +267,7 @@ class FitReport:
     landmarks: tuple[LandmarkResidual, ...]
     uncertainty: RadiusUncertainty | None = None
     centre_start: tuple[float, float] | None = None
+    mount: MountReport | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "model_selection_loo_rms_px", MappingProxyType(dict(self.model_selection_loo_rms_px)))
@@ -218,6 +296,8 @@ class FitReport:
             data["centre_start"] = list(self.centre_start)
         if self.uncertainty is not None:
             data["uncertainty"] = self.uncertainty.to_dict()
+        if self.mount is not None:
+            data["mount"] = self.mount.to_dict()
         return data
 
     @classmethod
@@ -229,7 +309,7 @@ class FitReport:
         PanomapError
             If an entry is missing, unexpected or of the wrong type.
         """
-        report = _Reader(data, "the fit report", cls, optional=("uncertainty", "centre_start"))
+        report = _Reader(data, "the fit report", cls, optional=("uncertainty", "centre_start", "mount"))
         selection = report.mapping("model_selection_loo_rms_px")
         for name, value in selection.items():
             if value is not None and not _is_number(value):
@@ -260,6 +340,7 @@ class FitReport:
             settings=FitSettings.from_dict(data["settings"]),
             landmarks=tuple(LandmarkResidual.from_dict(row) for row in report.items("landmarks")),
             uncertainty=None if uncertainty is None else RadiusUncertainty.from_dict(uncertainty),
+            mount=None if data.get("mount") is None else MountReport.from_dict(data["mount"]),
             **scalars,
         )
 

@@ -3,6 +3,10 @@
 Convention: ``u = u0 + r cos(phi)``, ``v = v0 + r sin(phi)``,
 ``phi = s*theta + phi0`` and ``r = f_r(rho)``; theta, rho in rad as in
 :mod:`panomap.geometry`. The paper's assumption is ``s = +1, phi0 = 0``.
+
+A tilted camera (beyond the paper) has a ``rotation`` R, camera to world
+(:mod:`panomap.camera.orientation`): its methods take and give **world**
+angles, and apply the model above to the ray in the camera's axes, ``R.T d``.
 """
 
 from __future__ import annotations
@@ -15,7 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import PanomapError
-from ..geometry import FloatArray
+from ..geometry import FloatArray, azimuth_elevation, ray_from_angles
+from .orientation import tilt_angles, to_camera, to_world
 from .radial import RadialFunction
 
 
@@ -33,12 +38,15 @@ class CameraModel:
         Handedness: -1 when the image is mirrored.
     phi0 : float
         Image angle (rad) of azimuth 0.
+    rotation : (3, 3) tuple of tuples, optional
+        R, camera to world, of a tilted camera; None for a level one (R = I).
     """
 
     centre: tuple[float, float]
     radial: RadialFunction
     s: int = 1
     phi0: float = 0.0
+    rotation: tuple[tuple[float, float, float], ...] | None = None
 
     def __post_init__(self) -> None:
         u0, v0 = (float(c) for c in self.centre)
@@ -51,6 +59,15 @@ class CameraModel:
         object.__setattr__(self, "centre", (u0, v0))
         object.__setattr__(self, "s", int(self.s))
         object.__setattr__(self, "phi0", float(self.phi0))
+        if self.rotation is not None:
+            matrix = np.asarray(self.rotation, dtype=np.float64)
+            if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
+                raise PanomapError("the camera rotation is not a finite 3 x 3 matrix")
+            if not np.allclose(matrix @ matrix.T, np.eye(3), atol=1e-9) or np.linalg.det(matrix) < 0:
+                raise PanomapError("the camera rotation is not a rotation (orthonormal, determinant +1)")
+            level = np.allclose(matrix, np.eye(3), atol=0, rtol=0)
+            rows = tuple(tuple(float(x) for x in row) for row in matrix)
+            object.__setattr__(self, "rotation", None if level else rows)
 
     @property
     def axis(self) -> str:
@@ -61,30 +78,61 @@ class CameraModel:
         """
         return self.radial.axis
 
+    @property
+    def tilt(self) -> tuple[float, float]:
+        """(tilt_rad, toward_rad): the optical axis' angle off the vertical and the azimuth it leans toward."""
+        return (0.0, 0.0) if self.rotation is None else tilt_angles(self.rotation, self.axis)
+
+    def camera_angles(self, theta: ArrayLike, rho: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Azimuth and elevation (rad) in the camera's axes of world rays at ``theta``, ``rho`` (rad)."""
+        if self.rotation is None:
+            return np.asarray(theta, dtype=np.float64), np.asarray(rho, dtype=np.float64)
+        theta, rho = np.broadcast_arrays(np.asarray(theta, dtype=np.float64), np.asarray(rho, dtype=np.float64))
+        return azimuth_elevation(to_camera(ray_from_angles(theta, rho), self.rotation))
+
+    def world_angles(self, theta_camera: ArrayLike, rho_camera: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """World azimuth and elevation (rad) of rays at ``theta_camera``, ``rho_camera`` in the camera's axes."""
+        if self.rotation is None:
+            return np.asarray(theta_camera, dtype=np.float64), np.asarray(rho_camera, dtype=np.float64)
+        theta, rho = np.broadcast_arrays(
+            np.asarray(theta_camera, dtype=np.float64), np.asarray(rho_camera, dtype=np.float64)
+        )
+        return azimuth_elevation(to_world(ray_from_angles(theta, rho), self.rotation))
+
     def image_angle(self, theta: ArrayLike) -> FloatArray:
-        """Image angle phi (rad) of azimuth(s) theta (rad)."""
+        """Image angle phi (rad) of azimuth(s) theta (rad) in the camera's axes."""
         return self.s * np.asarray(theta, dtype=np.float64) + self.phi0
 
     def pixels(self, theta: ArrayLike, rho: ArrayLike) -> FloatArray:
-        """Pixels (..., 2) of rays with azimuth ``theta`` and elevation ``rho`` (rad)."""
+        """Pixels (..., 2) of world rays with azimuth ``theta`` and elevation ``rho`` (rad)."""
+        theta, rho = self.camera_angles(theta, rho)
         r = self.radial(rho)
         phi = self.image_angle(theta)
         u0, v0 = self.centre
         return np.stack([u0 + r * np.cos(phi), v0 + r * np.sin(phi)], axis=-1)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        """Plain data; ``rotation`` (rows of R) only for a tilted camera."""
+        data: dict[str, Any] = {
             "centre": list(self.centre),
             "s": self.s,
             "phi0_rad": self.phi0,
             "radial": self.radial.to_dict(),
         }
+        if self.rotation is not None:
+            data["rotation"] = [list(row) for row in self.rotation]
+        return data
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> CameraModel:
         try:
             u0, v0 = data["centre"]
-            return cls((u0, v0), RadialFunction.from_dict(data["radial"]), int(data["s"]), float(data["phi0_rad"]))
+            rotation = data.get("rotation")
+            if rotation is not None:
+                rotation = tuple(tuple(float(x) for x in row) for row in rotation)
+            return cls(
+                (u0, v0), RadialFunction.from_dict(data["radial"]), int(data["s"]), float(data["phi0_rad"]), rotation
+            )
         except (KeyError, TypeError, ValueError) as exc:
             if isinstance(exc, PanomapError):
                 raise

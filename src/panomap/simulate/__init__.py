@@ -11,6 +11,8 @@ from panomap.simulate.cameras import (
     RadialCamera,
     SimulatedCamera,
     SphericalMirrorCamera,
+    TiltedCamera,
+    mount_rotation,
     standard_cameras,
 )
 from panomap.simulate.degrade import noisy_jpeg, vignette
@@ -35,8 +37,10 @@ __all__ = [
     "Room",
     "SimulatedCamera",
     "SphericalMirrorCamera",
+    "TiltedCamera",
     "Wall",
     "load_room",
+    "mount_rotation",
     "noisy_jpeg",
     "render",
     "render_rays",

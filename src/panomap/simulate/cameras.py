@@ -3,7 +3,7 @@
 Convention (see ``shared/conventions.md``):
 
 - World frame: right-handed, Z up. Every camera's axes are parallel to the world's; its
-  optical axis is vertical. Points given to :meth:`project` and ray origins returned by
+  optical axis is vertical; :class:`TiltedCamera` mounts any of them with a rotation. Points given to :meth:`project` and ray origins returned by
   :meth:`trace` are *relative to the nominal camera position* O_m, in world axes.
 - Ray of a point with offset ``d = P - O_m``: azimuth ``theta = atan2(d_y, d_x)`` in
   ``[0, 2*pi)`` (counter-clockwise from +X seen from above), elevation
@@ -35,6 +35,8 @@ __all__ = [
     "RadialCamera",
     "SimulatedCamera",
     "SphericalMirrorCamera",
+    "TiltedCamera",
+    "mount_rotation",
     "standard_cameras",
 ]
 
@@ -846,3 +848,83 @@ def standard_cameras(
         beta_max=beta_max,
     )
     return cams
+
+
+# ----------------------------------------------------------------------------------------
+# A tilted mount: any camera above, its axes rotated off the world's
+# ----------------------------------------------------------------------------------------
+
+
+def mount_rotation(tilt: float, toward: float, looking_down: bool = True) -> NDArray[np.float64]:
+    """Rotation (3, 3), camera axes to world axes, of a camera whose optical axis is ``tilt`` (rad) off the
+    vertical (the nadir looking down, the zenith looking up), leaning toward world azimuth ``toward`` (rad).
+
+    Built here from the two directions (the smallest rotation taking the vertical to the tilted axis),
+    independently of the library's own.
+    """
+    vertical = np.array([0.0, 0.0, -1.0 if looking_down else 1.0])
+    optical = np.array(
+        [math.sin(tilt) * math.cos(toward), math.sin(tilt) * math.sin(toward), vertical[2] * math.cos(tilt)]
+    )
+    axis = np.cross(vertical, optical)
+    sine = float(np.linalg.norm(axis))
+    if sine < 1e-15:
+        return np.eye(3)
+    k = axis / sine
+    cosine = float(vertical @ optical)
+    k_cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + sine * k_cross + (1.0 - cosine) * (k_cross @ k_cross)
+
+
+@dataclass(frozen=True)
+class TiltedCamera:
+    """A simulated camera mounted with its axes rotated by ``rotation`` (camera to world).
+
+    :meth:`project` takes points relative to O_m in world axes and projects ``R.T d``
+    through ``camera``; :meth:`trace` returns rays in world axes. Every other attribute is
+    the inner camera's (``elevation_range`` is in the camera's own axes).
+    """
+
+    camera: SimulatedCamera
+    rotation: NDArray[np.float64]
+
+    @property
+    def name(self) -> str:
+        return f"{self.camera.name} (tilted)"
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        return self.camera.image_size
+
+    @property
+    def centre(self) -> tuple[float, float]:
+        return self.camera.centre
+
+    @property
+    def s(self) -> int:
+        return self.camera.s
+
+    @property
+    def phi0(self) -> float:
+        return self.camera.phi0
+
+    @property
+    def cutoff_radius(self) -> float:
+        return self.camera.cutoff_radius
+
+    @property
+    def outer_radius(self) -> float:
+        return self.camera.outer_radius
+
+    @property
+    def elevation_range(self) -> tuple[float, float]:
+        return self.camera.elevation_range
+
+    def project(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Pixels (..., 2) of points (..., 3) relative to O_m in world axes; NaN if unseen."""
+        return self.camera.project(_as_points(points) @ self.rotation)
+
+    def trace(self, uv: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Ray origins and unit directions (..., 3), relative to O_m in world axes, of pixels (..., 2)."""
+        origins, directions = self.camera.trace(uv)
+        return origins @ self.rotation.T, directions @ self.rotation.T

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from panomap.geometry import ray_from_angles
-from panomap.simulate.cameras import RadialCamera
+from panomap.simulate.cameras import RadialCamera, SimulatedCamera, TiltedCamera
 from panomap.simulate.sampling import LandmarkPairs
 
 ROOM_SIZE = (6.0, 5.0, 2.6)
@@ -92,7 +92,7 @@ class Trial:
 
 
 def make_landmarks(
-    camera: RadialCamera,
+    camera: RadialCamera | TiltedCamera,
     count: int,
     rng: np.random.Generator,
     *,
@@ -103,14 +103,18 @@ def make_landmarks(
 ) -> Trial:
     """Landmarks on the room's surfaces, evenly spread in elevation or at random, with noise.
 
-    Elevations cover the camera's visible range less 2 deg at each end; with
-    ``outlier_px`` one landmark's pixel is moved that far in a random direction.
+    Elevations cover the camera's visible range less 2 deg at each end (in the
+    camera's own axes, for a :class:`TiltedCamera`); with ``outlier_px`` one
+    landmark's pixel is moved that far in a random direction.
     """
     low, high = camera.elevation_range
     low, high = low + math.radians(2), high - math.radians(2)
     rho = np.linspace(low, high, count) if spread else rng.uniform(low, high, count)
     theta = rng.uniform(0, 2 * math.pi, count)
-    world = hit_room(ray_from_angles(theta, rho))
+    directions = ray_from_angles(theta, rho)
+    if isinstance(camera, TiltedCamera):
+        directions = directions @ camera.rotation.T
+    world = hit_room(directions)
     pixels = camera.project(world - np.asarray(CAMERA_POSITION))
     pixels = pixels + rng.normal(0, pixel_sigma, pixels.shape)
     world = world + rng.normal(0, world_sigma, world.shape)
@@ -123,7 +127,7 @@ def make_landmarks(
     return Trial(LandmarkPairs(pixels, world, names), outlier)
 
 
-def test_points(camera: RadialCamera, count: int = 4000) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def test_points(camera: SimulatedCamera, count: int = 4000) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """World points at elevations -85..-5 deg on the room's surfaces that the camera sees, and their true pixels."""
     side = int(math.sqrt(count))
     theta, rho = np.meshgrid(

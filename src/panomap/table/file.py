@@ -3,14 +3,15 @@
 ``meta`` is JSON text with ``format = "panomap-table"``, ``version``, the
 model, the elevation range, radii, image size, camera position, the table's
 ``info`` (where the centre and radii came from, the landmarks and the fit
-report), the SHA-256 of ``entries`` and (version 2) the SHA-256 of the
-metadata itself. Loading checks all of it, in an order that bounds memory and
+report), the SHA-256 of ``entries`` and (since version 2) the SHA-256 of the
+metadata itself. Version 3 adds the camera's rotation to the model (a tilted
+camera; absent for a level one); versions 1 and 2 still load. Loading checks all of it, in an order that bounds memory and
 time before the work starts:
 
 1. the arrays' declared shapes and types, from their headers, against the
    limits (nothing is read yet);
 2. every metadata field against its schema (:class:`TableMetadata`), then the
-   metadata's checksum (version 2; version 1 files, whose checksum covers
+   metadata's checksum (versions 2 and 3; version 1 files, whose checksum covers
    only the entries, still load);
 3. the entries: their shape against the metadata, their checksum, and that
    they are what the model gives.
@@ -36,8 +37,10 @@ from .sampling import MAX_TABLE_SIDE
 from .table import MAX_TABLE_ENTRIES, PanoMappingTable, fill_entries
 
 TABLE_FORMAT = "panomap-table"
-TABLE_VERSION = 2
-READ_VERSIONS = (1, 2)
+TABLE_VERSION = 3
+READ_VERSIONS = (1, 2, 3)
+# Version 3 added the camera's rotation (a tilted camera) to the model; older files hold level cameras.
+ROTATION_VERSION = 3
 # Entries are float32: about 1e-4 px at radii of 2000 px. A loaded table whose
 # entries stray further than this from its own model is corrupt.
 ENTRY_TOLERANCE_PX = 1e-2
@@ -184,7 +187,8 @@ class TableMetadata:
         if version not in READ_VERSIONS or isinstance(version, bool):
             raise PanomapError(
                 f"table format version {version!r}; this panomap reads versions "
-                + " and ".join(map(str, READ_VERSIONS))
+                + ", ".join(map(str, READ_VERSIONS[:-1]))
+                + f" and {READ_VERSIONS[-1]}"
             )
         required = _FIELDS - {"metadata_sha256", "info"} | ({"metadata_sha256"} if version >= 2 else set())
         missing, unknown = sorted(required - set(meta)), sorted(set(meta) - _FIELDS)
@@ -203,6 +207,8 @@ class TableMetadata:
             raise _malformed(f"the radii must be 0 <= cutoff_radius_px < outer_radius_px, not {cutoff:g}, {outer:g}")
         if not isinstance(meta["model"], dict):
             raise _malformed(f"model is {_shown(meta['model'])}, not an object")
+        if version < ROTATION_VERSION and "rotation" in meta["model"]:
+            raise _malformed(f"a version {version} table holds no camera rotation (version {ROTATION_VERSION} does)")
         try:
             model = CameraModel.from_dict(meta["model"])
         except PanomapError as exc:

@@ -188,6 +188,7 @@ class PanoMappingTable:
         r, phi = pixel_polar(points, self.model.centre)
         theta = np.where(r == 0, 0.0, wrap_azimuth(self.model.s * (phi - self.model.phi0)))
         rho_nodes, increasing, sign = self._radial_profile
+        tilted = self.model.rotation is not None
         low, high = increasing[0], increasing[-1]
         with np.errstate(invalid="ignore"):
             slack = PROFILE_SLACK_PX
@@ -198,6 +199,12 @@ class PanoMappingTable:
             # The annulus' own edges sit on the profile's ends to rounding (they were solved for).
             valid &= (target >= low - slack) & (target <= high + slack)
         rho = np.interp(np.where(valid, target, low), increasing, rho_nodes)
+        if tilted:
+            # Those are the camera's angles: into the world's, and within the table's (world) range.
+            theta, rho = self.model.world_angles(theta, rho)
+            theta = np.where(np.isfinite(theta), theta, 0.0)
+            with np.errstate(invalid="ignore"):
+                valid &= (rho >= self.elevation_range[0] - 1e-12) & (rho <= self.elevation_range[1] + 1e-12)
         return np.where(valid, theta, np.nan), np.where(valid, rho, np.nan)
 
     @cached_property
@@ -209,9 +216,18 @@ class PanoMappingTable:
         (+1 looking down, -1 up) makes ``sign * r`` increase with rho.
         """
         radial = self.model.radial
-        rho_nodes = np.append(self.elevations(), self.elevation_range[1])
-        radii = radial(rho_nodes[:-1])
-        radii = np.append(radii, 2 * radii[-1] - radii[-2])
+        if self.model.rotation is not None:
+            # A tilted camera: the table's rays reach camera elevations up to the tilt beyond its (world)
+            # range; its rows are no longer one radius each, so f_r itself is inverted over that span.
+            tilt = self.model.tilt[0]
+            low = max(self.elevation_range[0] - tilt, -math.pi / 2)
+            high = min(self.elevation_range[1] + tilt, math.pi / 2)
+            rho_nodes = np.linspace(low, high, 4 * self.size[1] + 1)
+            radii = radial(rho_nodes)
+        else:
+            rho_nodes = np.append(self.elevations(), self.elevation_range[1])
+            radii = radial(rho_nodes[:-1])
+            radii = np.append(radii, 2 * radii[-1] - radii[-2])
         sign = 1.0 if self.model.axis == "down" else -1.0
         increasing = sign * radii
         if not (np.all(np.isfinite(increasing)) and np.all(np.diff(increasing) > 0)):
@@ -240,13 +256,17 @@ def fill_entries(
 
     ``u_ij = u0 + r_j cos(phi_i)``, ``v_ij = v0 + r_j sin(phi_i)`` with
     ``r_j = f_r(rho_j)`` and ``phi_i = s*theta_i + phi0`` (eqs. 5-8, plus the
-    centre and azimuth mapping of the conventions). ``rows`` picks azimuths
+    centre and azimuth mapping of the conventions); for a tilted camera, the
+    world ray (theta_i, rho_j) through :meth:`CameraModel.pixels`. ``rows`` picks azimuths
     i (the same values as those rows of the whole table).
     """
     m, n = size
     rho_s, rho_e = elevation_range
     theta = TWO_PI * np.arange(m)[rows] / m
     rho = rho_s + np.arange(n) * (rho_e - rho_s) / n
+    if model.rotation is not None:
+        # A tilted camera: each world ray through R into the camera's axes (no longer separable).
+        return np.asarray(model.pixels(theta[:, None], rho[None, :]), dtype=np.float32)
     r = model.radial(rho)
     phi = model.image_angle(theta)
     u0, v0 = model.centre
