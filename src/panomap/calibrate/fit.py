@@ -88,7 +88,7 @@ MAX_TILT_DEG = 45.0
 # an undetected outlier cannot decide it.
 MOUNT_SCORE_CAP_SIGMAS = 5.0
 # A mount with more unknowns must beat a simpler one's cross-validation score by this fraction.
-MOUNT_TOLERANCE = 0.02
+MOUNT_TOLERANCE = 0.05
 
 
 @dataclass(frozen=True)
@@ -409,7 +409,9 @@ def fit_camera(
     mount_choice = None
     options = _mount_options(tilt, float(camera_sigma), refine_centre)
     if len(options) > 1 and kind.weighted and azimuth == "fit":
-        mount_choice = _choose_mount(problem, options, (inliers, kind, selection, solution), data, candidates, annulus, robust)
+        mount_choice = _choose_mount(
+            problem, options, (inliers, kind, selection, solution), data, candidates, annulus, robust
+        )
         inliers, kind, selection, solution = mount_choice.chosen
         problem = replace(problem, kind=kind.name)
         radial, phi0, centre_fit = solution.radial, solution.phi0, solution.centre
@@ -792,11 +794,7 @@ def _mount_options(tilt: str | tuple[float, float], camera_sigma: float, refine_
     """The mounts to try, simplest first: level with the position as given, then what may be refined."""
     tilts = [False, True] if tilt == "fit" else [False]
     positions = [False, True] if camera_sigma > 0 else [False]
-    return [
-        MountOptions(centre=refine_centre, tilt=t, position=p)
-        for p in positions
-        for t in tilts
-    ]
+    return [MountOptions(centre=refine_centre, tilt=t, position=p) for p in positions for t in tilts]
 
 
 def _choose_mount(
@@ -814,6 +812,17 @@ def _choose_mount(
     fits: dict[MountOptions, tuple[FloatArray, RadialKind, dict[str, float], MountSolution]] = {options[0]: level}
     inliers, _, _, start = level
     for option in options[1:]:
+        # A mount with the position refined starts from the same mount with the position as given: the model
+        # and outliers chosen there (a position shift of a few cm barely moves the rays; a tilt turns them all).
+        simpler = replace(option, position=False)
+        if option.position and simpler in fits:
+            kept, kind, selection, base = fits[simpler]
+            try:
+                solution = joint_fit(replace(problem, kind=kind.name), base, kept, option)
+            except PanomapError:
+                continue
+            fits[option] = (kept, kind, selection, solution)
+            continue
         try:
             first = joint_fit(problem, start, inliers, option)
             rays = camera_rays(problem, first.w, first.delta)

@@ -138,17 +138,18 @@ def table_for(
                 f"the fitted radial function ({fit.model.radial.kind}) {problem}; it must run monotonically "
                 "from the cut-off radius to the image circle (try another radial model, or check the radii)"
             )
-    rho_s, rho_e = world_range(
-        valid_elevation_range(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius, slack_px=slack),
-        fit.model.tilt[0],
+    camera_range = valid_elevation_range(
+        fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius, slack_px=slack
     )
+    rho_s, rho_e = world_range(camera_range, fit.model.tilt[0])
+    tilted = fit.model.rotation is not None
     if size is None:
         r_span = abs(float(fit.model.radial(rho_e) - fit.model.radial(rho_s)))
         reach = max(float(np.nanmax(np.abs(fit.model.radial(np.array([rho_s, rho_e]))))), 1.0)
         m = min(8 * math.ceil(TWO_PI * reach / 8), DEFAULT_MAX_SIZE[0])
         size = (max(m, 16), min(max(math.ceil(r_span), 16), DEFAULT_MAX_SIZE[1]))
     size = check_table_size(size)
-    entries = fill_entries(fit.model, size, (rho_s, rho_e))
+    entries = fill_entries(fit.model, size, (rho_s, rho_e), camera_range=camera_range if tilted else None)
     table_info = dict(info)
     table_info["fit"] = replace(fit.report(), uncertainty=_uncertainty(fit, (rho_s, rho_e))).to_dict()
     table_info["warnings"] = _rim_notes(fit, cutoff_radius, outer_radius) + _range_warnings(
@@ -163,25 +164,17 @@ def table_for(
         cutoff_radius=cutoff_radius,
         outer_radius=outer_radius,
         info=table_info,
+        camera_elevation_range=camera_range if tilted else None,
     )
 
 
 def world_range(camera_range: tuple[float, float], tilt_rad: float) -> tuple[float, float]:
-    """The world elevations (rad) seen at every azimuth by a camera ``tilt_rad`` off the vertical that sees
-    ``camera_range`` in its own axes: each end moves inward by the tilt, except a pole, which stays seen.
+    """The world elevations (rad) seen at some azimuth by a camera ``tilt_rad`` off the vertical that sees
+    ``camera_range`` in its own axes: each end moves outward by the tilt, up to the poles. (Where the camera
+    does not see a world ray of that band, the table's entry is NaN.)
     """
     low, high = camera_range
-    pole = 1e-9
-    if low > -math.pi / 2 + pole:
-        low += tilt_rad
-    if high < math.pi / 2 - pole:
-        high -= tilt_rad
-    if not low < high:
-        raise PanomapError(
-            f"a camera tilted {math.degrees(tilt_rad):.1f} deg sees no world elevation at every azimuth "
-            f"(its own range is {math.degrees(camera_range[0]):.1f} to {math.degrees(camera_range[1]):.1f} deg)"
-        )
-    return low, high
+    return max(low - tilt_rad, -math.pi / 2), min(high + tilt_rad, math.pi / 2)
 
 
 def _uncertainty(fit: CameraFit, elevation_range: tuple[float, float]) -> RadiusUncertainty:

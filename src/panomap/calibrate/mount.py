@@ -158,9 +158,7 @@ def residual_parts(
     return solution.radial(rho) - r_obs, r_obs * angle, radial_sigma, tangential_sigma
 
 
-def joint_fit(
-    problem: MountProblem, start: MountSolution, subset: FloatArray, options: MountOptions
-) -> MountSolution:
+def joint_fit(problem: MountProblem, start: MountSolution, subset: FloatArray, options: MountOptions) -> MountSolution:
     """Nonlinear least squares of f_r, phi0 and what ``options`` names, on the landmarks in ``subset`` (bool, n).
 
     Sigmas are those of ``start`` (fixed while the fit runs, as in the

@@ -61,6 +61,7 @@ _FIELDS = {
     "info",
     "entries_sha256",
     "metadata_sha256",
+    "camera_elevation_range_rad",
 }
 
 
@@ -78,7 +79,11 @@ def table_metadata(table: PanoMappingTable) -> dict[str, Any]:
         "cutoff_radius_px": table.cutoff_radius,
         "outer_radius_px": table.outer_radius,
         "info": table.info,
-    }
+    } | (
+        {}
+        if table.camera_elevation_range is None
+        else {"camera_elevation_range_rad": list(table.camera_elevation_range)}
+    )
 
 
 def save_table(table: PanoMappingTable, path: str | Path) -> None:
@@ -171,6 +176,7 @@ class TableMetadata:
     outer_radius: float
     info: dict[str, Any]
     entries_sha256: str
+    camera_elevation_range: tuple[float, float] | None = None
 
     @classmethod
     def from_dict(cls, meta: Any) -> TableMetadata:
@@ -190,7 +196,9 @@ class TableMetadata:
                 + ", ".join(map(str, READ_VERSIONS[:-1]))
                 + f" and {READ_VERSIONS[-1]}"
             )
-        required = _FIELDS - {"metadata_sha256", "info"} | ({"metadata_sha256"} if version >= 2 else set())
+        required = _FIELDS - {"metadata_sha256", "info", "camera_elevation_range_rad"} | (
+            {"metadata_sha256"} if version >= 2 else set()
+        )
         missing, unknown = sorted(required - set(meta)), sorted(set(meta) - _FIELDS)
         if missing or unknown:
             raise _malformed(", ".join([*(f"no {k}" for k in missing), *(f"unknown field {k}" for k in unknown)]))
@@ -213,6 +221,13 @@ class TableMetadata:
             model = CameraModel.from_dict(meta["model"])
         except PanomapError as exc:
             raise _malformed(exc.detail) from None
+        camera_range = None
+        if (model.rotation is None) != ("camera_elevation_range_rad" not in meta):
+            raise _malformed("camera_elevation_range_rad is there exactly when the model has a rotation")
+        if model.rotation is not None:
+            camera_range = _numbers(meta, "camera_elevation_range_rad", 2)
+            if not -math.pi / 2 <= camera_range[0] < camera_range[1] <= math.pi / 2:
+                raise _malformed(f"camera_elevation_range_rad {camera_range} is not an elevation range")
         if image_size is not None:
             (u0, v0), (width, height) = model.centre, image_size
             farthest = max(math.hypot(u - u0, v - v0) for u in (-0.5, width - 0.5) for v in (-0.5, height - 0.5))
@@ -236,6 +251,7 @@ class TableMetadata:
             outer,
             info,
             meta["entries_sha256"],
+            None if camera_range is None else (camera_range[0], camera_range[1]),
         )
 
 
@@ -333,16 +349,22 @@ def _table_from(meta: TableMetadata, entries: NDArray[Any]) -> PanoMappingTable:
         cutoff_radius=meta.cutoff_radius,
         outer_radius=meta.outer_radius,
         info=meta.info,
+        camera_elevation_range=meta.camera_elevation_range,
     )
-    if not _entries_match_model(entries, table.model, table.elevation_range):
+    if not _entries_match_model(entries, table.model, table.elevation_range, table.camera_elevation_range):
         raise PanomapError("the entries disagree with the table's own model (corrupt)")
     return table
 
 
 def _entries_match_model(
-    entries: NDArray[np.float32], model: CameraModel, elevation_range: tuple[float, float], block: int = 256
+    entries: NDArray[np.float32],
+    model: CameraModel,
+    elevation_range: tuple[float, float],
+    camera_range: tuple[float, float] | None = None,
+    block: int = 256,
 ) -> bool:
-    """True when every entry is finite and within ENTRY_TOLERANCE_PX of :func:`fill_entries`'s.
+    """True when every entry is within ENTRY_TOLERANCE_PX of :func:`fill_entries`'s: finite, or NaN exactly
+    where a tilted camera does not see the entry's ray.
 
     Compared ``block`` azimuths at a time, so that the check needs a few
     megabytes of scratch memory rather than several copies of the table.
@@ -350,7 +372,13 @@ def _entries_match_model(
     m, n = entries.shape[:2]
     for start in range(0, m, block):
         rows = slice(start, start + block)
-        difference = np.abs(fill_entries(model, (m, n), elevation_range, rows) - entries[rows])
+        expected = fill_entries(model, (m, n), elevation_range, rows, camera_range)
+        difference = np.abs(expected - entries[rows])
+        if camera_range is not None:
+            unseen = np.isnan(expected)
+            if not np.array_equal(unseen, np.isnan(entries[rows])):
+                return False
+            difference[unseen] = 0.0
         if not float(difference.max()) <= ENTRY_TOLERANCE_PX:  # (NaN fails too)
             return False
     return True

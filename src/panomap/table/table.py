@@ -35,6 +35,8 @@ MAX_TABLE_ENTRIES = 50_000_000
 # Pixels this close outside the annulus or the radial profile's ends (px) still unproject:
 # the ends are solved to rounding, and a pixel's radius is computed to rounding.
 PROFILE_SLACK_PX = 1e-6
+# A tilted camera's table entry is kept this close (rad) outside the camera's elevation range: rounding.
+CAMERA_RANGE_SLACK_RAD = 1e-9
 
 
 @dataclass(frozen=True)
@@ -57,6 +59,12 @@ class PanoMappingTable:
         The visible annulus, px.
     info : dict
         Provenance (where the centre and radii came from) and the fit report.
+    camera_elevation_range : (low, high), optional
+        A tilted camera's valid elevations (rad) in its own axes (from the
+        cut-off disc to the image circle): the table's (world) range reaches
+        up to the tilt beyond them, and its entries there whose ray the
+        camera does not see are NaN. Required when the model has a rotation,
+        None otherwise.
     """
 
     entries: NDArray[np.float32]
@@ -67,6 +75,15 @@ class PanoMappingTable:
     cutoff_radius: float
     outer_radius: float
     info: dict[str, Any] = field(default_factory=dict)
+    camera_elevation_range: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if (self.model.rotation is None) != (self.camera_elevation_range is None):
+            raise PanomapError(
+                "a table has a camera elevation range exactly when its camera is tilted"
+                if self.model.rotation is None
+                else "a tilted camera's table needs its camera elevation range"
+            )
 
     def __post_init__(self) -> None:
         entries = np.ascontiguousarray(self.entries, dtype=np.float32)
@@ -216,13 +233,10 @@ class PanoMappingTable:
         (+1 looking down, -1 up) makes ``sign * r`` increase with rho.
         """
         radial = self.model.radial
-        if self.model.rotation is not None:
-            # A tilted camera: the table's rays reach camera elevations up to the tilt beyond its (world)
-            # range; its rows are no longer one radius each, so f_r itself is inverted over that span.
-            tilt = self.model.tilt[0]
-            low = max(self.elevation_range[0] - tilt, -math.pi / 2)
-            high = min(self.elevation_range[1] + tilt, math.pi / 2)
-            rho_nodes = np.linspace(low, high, 4 * self.size[1] + 1)
+        if self.camera_elevation_range is not None:
+            # A tilted camera: its rows are no longer one radius each, so f_r itself is inverted over the
+            # camera's own range.
+            rho_nodes = np.linspace(*self.camera_elevation_range, 4 * self.size[1] + 1)
             radii = radial(rho_nodes)
         else:
             rho_nodes = np.append(self.elevations(), self.elevation_range[1])
@@ -250,14 +264,20 @@ class PanoMappingTable:
 
 
 def fill_entries(
-    model: CameraModel, size: tuple[int, int], elevation_range: tuple[float, float], rows: slice = slice(None)
+    model: CameraModel,
+    size: tuple[int, int],
+    elevation_range: tuple[float, float],
+    rows: slice = slice(None),
+    camera_range: tuple[float, float] | None = None,
 ) -> NDArray[np.float32]:
     """Algorithm 2: entries (M, N, 2) float32 of the table of ``model``.
 
     ``u_ij = u0 + r_j cos(phi_i)``, ``v_ij = v0 + r_j sin(phi_i)`` with
     ``r_j = f_r(rho_j)`` and ``phi_i = s*theta_i + phi0`` (eqs. 5-8, plus the
     centre and azimuth mapping of the conventions); for a tilted camera, the
-    world ray (theta_i, rho_j) through :meth:`CameraModel.pixels`. ``rows`` picks azimuths
+    world ray (theta_i, rho_j) through :meth:`CameraModel.pixels`, NaN where its
+    elevation in the camera's axes is outside ``camera_range`` (rad, required
+    then: the camera does not see it). ``rows`` picks azimuths
     i (the same values as those rows of the whole table).
     """
     m, n = size
@@ -266,7 +286,17 @@ def fill_entries(
     rho = rho_s + np.arange(n) * (rho_e - rho_s) / n
     if model.rotation is not None:
         # A tilted camera: each world ray through R into the camera's axes (no longer separable).
-        return np.asarray(model.pixels(theta[:, None], rho[None, :]), dtype=np.float32)
+        if camera_range is None:
+            raise PanomapError("a tilted camera's entries need its camera elevation range")
+        theta_camera, rho_camera = model.camera_angles(theta[:, None], rho[None, :])
+        r = model.radial(rho_camera)
+        phi = model.image_angle(theta_camera)
+        seen = (rho_camera >= camera_range[0] - CAMERA_RANGE_SLACK_RAD) & (
+            rho_camera <= camera_range[1] + CAMERA_RANGE_SLACK_RAD
+        )
+        r = np.where(seen, r, np.nan)
+        u0, v0 = model.centre
+        return np.stack([u0 + r * np.cos(phi), v0 + r * np.sin(phi)], axis=-1).astype(np.float32)
     r = model.radial(rho)
     phi = model.image_angle(theta)
     u0, v0 = model.centre
