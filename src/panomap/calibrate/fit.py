@@ -87,8 +87,9 @@ MAX_TILT_DEG = 45.0
 # A held-out landmark counts at most this many sigmas in the mount's cross-validation score:
 # an undetected outlier cannot decide it.
 MOUNT_SCORE_CAP_SIGMAS = 5.0
-# A mount with more unknowns must beat a simpler one's cross-validation score by this fraction.
-MOUNT_TOLERANCE = 0.05
+# A mount with more unknowns must beat a simpler one's held-out errors by this many standard errors of the
+# mean paired improvement (one-sided, about 2.5% false alarms where the errors are normal).
+MOUNT_SIGNIFICANCE = 2.0
 
 
 @dataclass(frozen=True)
@@ -806,8 +807,8 @@ def _choose_mount(
     annulus: tuple[float, float] | None,
     robust: bool,
 ) -> _MountChoice:
-    """Fit each mount (refined, then the model and outliers chosen again in its frame) and keep the one
-    whose held-out errors are smallest; a mount with more unknowns must win by ``MOUNT_TOLERANCE``.
+    """Fit each mount (refined, then the model and outliers chosen again in its frame) and keep, in order
+    of their unknowns, each that clearly beats the best so far on held-out errors (:func:`_clearly_better`).
     """
     fits: dict[MountOptions, tuple[FloatArray, RadialKind, dict[str, float], MountSolution]] = {options[0]: level}
     inliers, _, _, start = level
@@ -850,15 +851,26 @@ def _choose_mount(
     folds = _folds(data, members)
     cap = MOUNT_SCORE_CAP_SIGMAS**2
     scores: dict[str, float] = {}
-    best: MountOptions | None = None
+    squared: dict[MountOptions, FloatArray] = {}
+    best = options[0]
     for option, (_, kind, _, solution) in fits.items():
         whitened, _ = held_out_errors(replace(problem, kind=kind.name), solution, common, folds, option)
-        score = float(np.sqrt(np.mean(np.minimum(whitened**2, cap))))
-        scores[option.name] = score
-        if best is None or score < scores[best.name] * (1 - MOUNT_TOLERANCE):
+        squared[option] = np.minimum(whitened**2, cap)
+        scores[option.name] = float(np.sqrt(np.mean(squared[option])))
+        if option is not best and _clearly_better(squared[option], squared[best]):
             best = option
-    assert best is not None
     return _MountChoice(fits[best], best, scores)
+
+
+def _clearly_better(errors: FloatArray, than: FloatArray) -> bool:
+    """Whether held-out squared errors ``errors`` are smaller than ``than`` (same landmarks) beyond chance:
+    the mean of the paired improvements exceeds ``MOUNT_SIGNIFICANCE`` standard errors of it."""
+    gain = than - errors
+    if gain.size < 3:
+        return False
+    mean = float(np.mean(gain))
+    spread = float(np.std(gain, ddof=1)) / math.sqrt(gain.size)
+    return mean > MOUNT_SIGNIFICANCE * spread and mean > 0
 
 
 def _mount_report(
