@@ -22,11 +22,12 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
+from panomap.cli.video import summary
 from panomap.errors import PanomapError
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.table.file import load_table
 from panomap.video.live import Reconnect, check_segment_names, segment_path
-from panomap.video.report import VideoReport
+from panomap.video.report import Gap, VideoReport
 from panomap.video.unwarp import ViewOutput, unwarp_video
 from panomap.views import GenericPanorama
 
@@ -374,3 +375,30 @@ def test_backoff_doubles_up_to_its_cap_and_segments_are_numbered() -> None:
     check_segment_names([Path("a.mp4"), Path("b.mp4"), Path("a_1.mp4"), Path("x/a_001.mp4")])
     with pytest.raises(PanomapError, match="would overwrite"):
         check_segment_names([Path("cam.mp4"), Path("cam_002.mp4")])
+
+
+def test_the_summary_lists_each_gap_and_every_segment() -> None:
+    gaps = [
+        Gap("the stream ended", 120, 4.8, 3.24, 2, "resumed", 1),
+        Gap("no data for 10 s", 300, 17.0, 0.51, 1, "resumed", 2),
+        Gap("the stream ended", 410, 25.0, 15.5, 5, "gave up", None, "cannot open it as a video (Connection refused)"),
+    ]
+    outputs = [Path("out.mp4"), Path("out_001.mp4"), Path("out_002.mp4")]
+    report = VideoReport(frames_read=410, frames_written=410, seconds=41.0, outputs=outputs, segments=3, gaps=gaps)
+    assert report.gave_up
+    assert summary(report) == (
+        "unwarped, until the input was lost, 410 frames, 2 gaps (3.2 s after frame 120, 0.5 s after frame 300)"
+        ", 3 segments in 41.0 s (10.0 fps): out.mp4, out_001.mp4, out_002.mp4"
+    )
+    assert gaps[0].describe("rtsp://cam") == (
+        "rtsp://cam: the input dropped after frame 120 (the stream ended); "
+        "reconnected after a gap of 3.2 s (2 attempts), writing segment 1"
+    )
+    assert (
+        gaps[2]
+        .describe("rtsp://cam")
+        .endswith(
+            "5 attempts to reconnect failed over 15.5 s; the last: cannot open it as a video (Connection refused)"
+            ": gave up"
+        )
+    )

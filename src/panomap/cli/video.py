@@ -275,7 +275,7 @@ def summary(report: VideoReport) -> str:
     gaps = [gap for gap in report.gaps if gap.outcome == "resumed"]
     if gaps:
         each = ", ".join(f"{gap.seconds:.1f} s after frame {gap.frames_before}" for gap in gaps)
-        extra += f", {len(gaps)} gap{'s' if len(gaps) > 1 else ''} ({each}) in {report.segments} segments"
+        extra += f", {len(gaps)} gap{'s' if len(gaps) > 1 else ''} ({each}), {report.segments} segments"
     if report.gave_up:
         how = "unwarped, until the input was lost,"
     return (

@@ -179,6 +179,8 @@ def unwarp_video(
                 report.segments += 1
                 segment += 1
             if state.dropped is None or stop.is_set():
+                if gap is not None:  # stopped after a reconnect, before its first frame
+                    report.gaps.append(gap.close(time.monotonic(), "stopped"))
                 break
             if gap is None:
                 gap = _OpenGap(state.dropped, report.frames_written, state.last_frame_at, started_at)
