@@ -65,6 +65,8 @@ _EXPORTS = {
     "parse_view_spec": "views.spec",
     "Remapper": "remap",
     # video
+    "Reconnect": "video.live",
+    "Gap": "video.report",
     "unwarp_video": "video.unwarp",
 }
 

@@ -17,11 +17,14 @@ from typing import Any
 
 import click
 
+from ..errors import PanomapError
 from ..files import check_output_paths
 from ..remap import INTERPOLATIONS
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
+from ..video.live import Reconnect
 from ..video.output import EncoderSettings
+from ..video.report import VideoReport
 from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video
 from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
@@ -134,6 +137,23 @@ class _Progress:
     is_flag=True,
     help="OpenCV's fixed-point maps (1/32 px, less memory; slower on YUV planes) instead of float maps.",
 )
+@click.option(
+    "--reconnect",
+    "attempts",
+    type=click.IntRange(min=0),
+    metavar="N",
+    help="A live input that drops: reconnect attempts per drop, waiting 0.5, 1, 2, 4, 8, 8 ... s "
+    "before each, writing on into new files (out_001.mp4, ...) [default: 5].",
+)
+@click.option("--no-reconnect", is_flag=True, help="End the run when a live input drops.")
+@click.option(
+    "--timeout",
+    "timeout_s",
+    type=click.FloatRange(min=0, min_open=True),
+    default=10.0,
+    show_default=True,
+    help="A live input silent this long (s) has dropped; also the limit for each connection attempt.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary.")
 def video(
     table: Path,
@@ -154,6 +174,9 @@ def video(
     interp: str,
     table_sampling: str,
     fixed_point: bool,
+    attempts: int | None,
+    no_reconnect: bool,
+    timeout_s: float,
     quiet: bool,
 ) -> None:
     """Unwarp a video (file, RTSP/HTTP URL or V4L2 device) into one video per view.
@@ -162,6 +185,14 @@ def video(
     audio. Frames that fail to decode are reported and skipped. Live inputs run
     until stopped: Ctrl-C (or SIGTERM, or SIGHUP) finishes every output cleanly,
     playable.
+
+    A live input that drops (it ends, a read fails, or it is silent for
+    --timeout) is reconnected with backoff; the files so far are closed,
+    complete, and the output goes on in numbered segments: out.mp4, then
+    out_001.mp4, out_002.mp4, ... Each gap is one line on stderr and is in
+    the summary. If every attempt fails, the run ends with exit code 1, every
+    segment written kept. --no-reconnect ends the run at the first drop
+    (exit code 0).
 
     \b
     View SPECs (angles in degrees, lengths in world units; pairs A:B; sizes WxH):
@@ -198,6 +229,9 @@ def video(
         codec, pix_fmt, crf, preset, _bitrate(bitrate) if bitrate is not None else None, tuple(options)
     )
     selection = Selection(start, duration, every)
+    if no_reconnect and attempts:
+        raise click.UsageError("give --reconnect N or --no-reconnect, not both")
+    reconnect = Reconnect(attempts=0 if no_reconnect else (5 if attempts is None else attempts), timeout_s=timeout_s)
     check_output_paths(
         [("the table", table), ("the input", source if Path(source).is_file() else None)],
         [(f"the output of view {item.name}", path) for item, path in zip(named, paths, strict=True)],
@@ -220,15 +254,31 @@ def video(
                 stop=stop,
                 progress=progress,
                 warn=progress.write,
+                reconnect=reconnect,
             )
     finally:
         progress.close()
-    if quiet:
-        return
+    last = report.gaps[-1] if report.gaps else None
+    if last is not None and last.outcome in ("stopped", "not reconnecting"):
+        click.echo(last.describe(source), err=True)
+    if not quiet:
+        click.echo(summary(report))
+    if last is not None and last.outcome == "gave up":
+        raise PanomapError(last.describe(source) + " (the segments written so far are kept)")
+
+
+def summary(report: VideoReport) -> str:
+    """The run in one line: frames, speed, audio, gaps and the files written."""
     fps = report.frames_written / report.seconds if report.seconds > 0 else 0.0
     how = "stopped by a signal after" if report.interrupted else "unwarped"
     extra = f", {report.frames_skipped} skipped" if report.frames_skipped else ""
-    click.echo(
+    gaps = [gap for gap in report.gaps if gap.outcome == "resumed"]
+    if gaps:
+        each = ", ".join(f"{gap.seconds:.1f} s after frame {gap.frames_before}" for gap in gaps)
+        extra += f", {len(gaps)} gap{'s' if len(gaps) > 1 else ''} ({each}), {report.segments} segments"
+    if report.gave_up:
+        how = "unwarped, until the input was lost,"
+    return (
         f"{how} {report.frames_written} frames{extra} in {report.seconds:.1f} s ({fps:.1f} fps)"
         f"{', audio copied' if report.audio else ''}: " + ", ".join(str(path) for path in report.outputs)
     )

@@ -1,7 +1,9 @@
 """The input: open a file, stream or device, select frames (start, duration, every) and read them.
 
 Timestamps: every frame keeps its input timestamp, less the ``start`` offset when one is given
-(as ``ffmpeg -ss``). Damage is reported and skipped.
+(as ``ffmpeg -ss``). Damage is reported and skipped. A live input that drops (see
+:mod:`panomap.video.live`) is read again after it reconnects: the selection goes on where it
+was, counting only the time received.
 """
 
 from __future__ import annotations
@@ -9,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import math
 import queue
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from fractions import Fraction
@@ -44,10 +47,12 @@ def is_live(source: str) -> bool:
     return "://" in source or source.startswith("/dev/")
 
 
-def open_input(source: str, open_timeout: float = 10.0) -> Any:
+def open_input(source: str, open_timeout: float = 10.0, read_timeout: float | None = None) -> Any:
     """Open a video file, an RTSP/HTTP URL or a V4L2 device (``/dev/videoN``) with PyAV.
 
-    Raises PanomapError naming the input when it cannot be opened or holds no video.
+    ``open_timeout`` and ``read_timeout`` (s; default: the open timeout) bound
+    how long opening and each read of a network input may wait. Raises
+    PanomapError naming the input when it cannot be opened or holds no video.
     """
     options: dict[str, str] = {}
     container_format = None
@@ -58,13 +63,43 @@ def open_input(source: str, open_timeout: float = 10.0) -> Any:
     elif "://" not in source and not Path(source).is_file():
         raise PanomapError("no such file" if not Path(source).exists() else "not a file", source)
     try:
-        container = av.open(source, format=container_format, options=options, timeout=(open_timeout, open_timeout))
+        container = av.open(
+            source, format=container_format, options=options, timeout=(open_timeout, read_timeout or open_timeout)
+        )
     except (av.error.FFmpegError, OSError, ValueError) as exc:
         raise PanomapError(f"cannot open it as a video ({reason(exc)})", source) from None
     if not container.streams.video:
         container.close()
         raise PanomapError("it holds no video stream", source)
     return container
+
+
+def drops(source: str, container: Any) -> bool:
+    """True for a live input of unknown length: its end, a read error or a silence is a drop.
+
+    A file served over HTTP (its size known) ends at its end, as a file does.
+    """
+    return is_live(source) and not (container.size or 0) > 0
+
+
+@dataclass
+class ReadState:
+    """What reading has seen, kept from one connection of a live input to the next.
+
+    Times in seconds: ``received_s`` of input (from the first frame, the
+    selection's clock) and wall-clock ``time.monotonic()`` instants.
+    """
+
+    received_s: float = 0.0  # input seconds received before this connection, and in it so far
+    index: int = 0  # frames inside the selection so far (for ``every``)
+    first_frame_at: float | None = None  # when this connection's first frame came
+    last_frame_at: float | None = None  # when the last frame came (any connection)
+    dropped: str | None = None  # why this connection dropped; None if it ended otherwise
+    ended: bool = False  # the selection's end was reached: nothing more to read
+
+    def next_connection(self) -> None:
+        self.first_frame_at = None
+        self.dropped = None
 
 
 def expected_frames(stream: Any, selection: Selection, live: bool) -> int | None:
@@ -101,22 +136,31 @@ def read_frames(
     on_audio: Callable[[Any], None],
     warn: Callable[[str], None],
     report: VideoReport,
+    state: ReadState | None = None,
+    drop_timeout_s: float | None = None,
 ) -> None:
     """Demux and decode, putting the selected frames (in the work format) on ``frames``; END last.
 
     Times are measured from the stream's start (files) or its first frame (live inputs).
+    With ``drop_timeout_s`` (a live input that can drop, read with that timeout), the
+    input's end, a read error or a silence is recorded as a drop in ``state.dropped``
+    instead of reported; ``state`` carries the selection over to the next connection.
     """
     source = str(container.name)
+    state = state or ReadState()
+    state.next_connection()
     time_base = stream.time_base
     live = is_live(source)
+    # Input time of the selection's zero: the stream's start (files), the first frame less
+    # what earlier connections gave (live inputs).
     origin: float | None = None if live else _stream_start(stream)
     if selection.start > 0 and not live:
         with contextlib.suppress(av.error.FFmpegError):
             container.seek(int((selection.start + _stream_start(stream)) / time_base), stream=stream, backward=True)
     # Seconds subtracted from every timestamp: the start (from the first frame, on a live input).
     shift = 0.0 if selection.start == 0 else (None if origin is None else origin + selection.start)
-    index = 0
     streams = [stream] + ([audio_stream] if audio_stream is not None else [])
+    can_drop = drop_timeout_s is not None
 
     def window(seconds: float) -> int:
         """-1 before the selection, 0 inside, 1 after it."""
@@ -128,7 +172,7 @@ def read_frames(
         return 0
 
     try:
-        for packet in _demux(container, streams, warn):
+        for packet in _demux(container, streams, warn, can_drop):
             if halted():
                 return
             if packet.stream.type == "audio":
@@ -151,32 +195,46 @@ def read_frames(
                     continue
                 seconds = float(frame.pts * time_base)
                 if origin is None:
-                    origin = seconds
+                    origin = seconds - state.received_s
+                if live:
+                    state.received_s = max(state.received_s, seconds - origin)
                 place = window(seconds)
                 if place < 0:
                     continue
                 if place > 0:
+                    state.ended = True
                     return
                 report.frames_read += 1
                 if shift is None:
                     shift = origin + selection.start
-                index += 1
-                if (index - 1) % selection.every:
+                state.index += 1
+                if (state.index - 1) % selection.every:
                     continue
                 frame.pts -= round(shift / float(time_base))
                 if frame.format.name != work:
                     frame = frame.reformat(format=work)
+                state.last_frame_at = time.monotonic()
+                if state.first_frame_at is None:
+                    state.first_frame_at = state.last_frame_at
                 if not put(frames, frame, halted):
                     return
+        if can_drop and not halted():
+            state.dropped = "the stream ended"
     except Exception as exc:  # reading ends; what was read is kept
-        report.problems.append(f"{source}: reading stopped: {reason(exc)}")
-        warn(report.problems[-1])
+        if can_drop:
+            state.dropped = f"no data for {drop_timeout_s:g} s" if isinstance(exc, av.error.ExitError) else reason(exc)
+        else:
+            report.problems.append(f"{source}: reading stopped: {reason(exc)}")
+            warn(report.problems[-1])
     finally:
         put(frames, END, halted)
 
 
-def _demux(container: Any, streams: list[Any], warn: Callable[[str], None]) -> Iterator[Any]:
-    """Packets of ``streams``; a damaged stretch is reported and demuxing resumes after it, if it can."""
+def _demux(container: Any, streams: list[Any], warn: Callable[[str], None], can_drop: bool = False) -> Iterator[Any]:
+    """Packets of ``streams``; a damaged stretch is reported and demuxing resumes after it, if it can.
+
+    With ``can_drop``, a failure to read (a lost connection, a timeout) is raised at once.
+    """
     failures = 0
     while True:
         try:
@@ -187,6 +245,8 @@ def _demux(container: Any, streams: list[Any], warn: Callable[[str], None]) -> I
         except av.error.EOFError:
             return
         except av.error.FFmpegError as exc:
+            if can_drop and isinstance(exc, OSError | av.error.ExitError):
+                raise
             failures += 1
             warn(f"{container.name}: damaged data skipped ({reason(exc)})")
             if failures >= 3:

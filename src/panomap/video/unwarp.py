@@ -17,6 +17,10 @@ to the plane; chroma taken as centred between the luma samples). Otherwise
 frames are converted once to BGR, exactly as a still image is read.
 Timestamps: every output frame keeps its input frame's timestamp, less the
 ``start`` offset when one is given (as ``ffmpeg -ss``).
+
+A live input that drops is reconnected (:mod:`panomap.video.live`): each
+connection writes its own *segment*, a complete file per view (``out.mp4``,
+then ``out_001.mp4``, ...), and every gap is recorded in the report.
 """
 
 from __future__ import annotations
@@ -38,9 +42,10 @@ from ..table.table import PanoMappingTable
 from ..views import View, build_map
 from .frames import REMAP_THREADS, FrameRemapper, check_output_size, opencv_threads, work_format
 from .handoff import END, QUEUE_FRAMES, put, reason
+from .live import Reconnect, check_segment_names, segment_path
 from .output import EncoderSettings, Writer, container_format, open_writer
-from .report import VideoReport
-from .source import Selection, copy_packet, expected_frames, is_live, open_input, read_frames
+from .report import Gap, GapOutcome, VideoReport
+from .source import ReadState, Selection, copy_packet, drops, expected_frames, is_live, open_input, read_frames
 
 # ----------------------------------------------------------------------------- input
 
@@ -68,6 +73,7 @@ def unwarp_video(
     progress: Callable[[int, int | None], None] | None = None,
     warn: Callable[[str], None] | None = None,
     memory_limit: int | None = None,
+    reconnect: Reconnect = Reconnect(),
 ) -> VideoReport:
     """Unwarp ``source`` into one video per view; returns what was done.
 
@@ -85,6 +91,16 @@ def unwarp_video(
     refused before any work. OpenCV runs on :data:`REMAP_THREADS` thread(s) during the
     call (process-wide, as ``cv2.setNumThreads`` is); the caller's setting is
     restored after.
+
+    A live input of unknown length that drops (it ends, fails to read, or
+    sends nothing for ``reconnect.timeout_s``) is reconnected with
+    exponential backoff (``reconnect``): the files written so far are closed,
+    complete, and the run goes on in the next segment's files (``out.mp4``,
+    then ``out_001.mp4``, ... :func:`panomap.video.live.segment_path`). Each
+    gap is reported (``warn``, one line, once it ends) and kept in
+    ``report.gaps``; a run that cannot reconnect returns with its last gap's
+    outcome ``"gave up"`` (:attr:`VideoReport.gave_up`), every segment written
+    kept. ``stop`` also ends a reconnect wait at once.
     """
     stop = stop or threading.Event()
     warn = warn or (lambda message: None)
@@ -103,44 +119,146 @@ def unwarp_video(
             raise PanomapError("its folder does not exist", path)
         if not os.access(folder, os.W_OK | os.X_OK):
             raise PanomapError("its folder is not writable", path)
-    container = open_input(source)
+    container = open_input(source, reconnect.timeout_s, reconnect.timeout_s)
+    can_drop = drops(source, container)
+    if can_drop and reconnect.attempts > 0:
+        check_segment_names(paths)
     report = VideoReport()
-    started = time.perf_counter()
+    started, started_at = time.perf_counter(), time.monotonic()
     try:
-        stream = container.streams.video[0]
-        stream.thread_type = "AUTO"
-        size = (stream.codec_context.width, stream.codec_context.height)
-        if table.image_size is not None and size != tuple(table.image_size):
-            raise PanomapError(
-                f"its frames are {size[0]} x {size[1]}, the table is for "
-                f"{table.image_size[0]} x {table.image_size[1]} images",
-                source,
-            )
-        in_format = stream.codec_context.pix_fmt or "yuv420p"
+        size = _check_input(container, table, source)
+        in_format = container.streams.video[0].codec_context.pix_fmt or "yuv420p"
         work = work_format(in_format, encoder.pix_fmt)
         sizes = [item.view.output_size(table) for item in outputs]
         for view_size in sizes:
             check_output_size(work, view_size)
         check_memory(sizes, memory_limit)
+        remappers: list[FrameRemapper] = []
 
         def build_remappers() -> list[FrameRemapper]:
-            """Made while the first frames decode (a few tenths of a second saved at start-up)."""
-            maps = [build_map(table, item.view, sampling) for item in outputs]
-            return [FrameRemapper(map_uv, size, work, interpolation, fixed_point) for map_uv in maps]
+            """Made while the first frames decode (a few tenths of a second saved at start-up); once."""
+            if not remappers:
+                maps = [build_map(table, item.view, sampling) for item in outputs]
+                remappers.extend(FrameRemapper(map_uv, size, work, interpolation, fixed_point) for map_uv in maps)
+            return remappers
 
-        audio_stream = container.streams.audio[0] if audio and container.streams.audio else None
-        report.audio = audio_stream is not None
-        rate = stream.average_rate or stream.guessed_rate
-        if rate is not None and selection.every > 1:
-            rate = Fraction(rate) / selection.every
-        time_base = stream.time_base or Fraction(1, 90000)
+        state = ReadState()
+        gap: _OpenGap | None = None  # the drop being reconnected, until a frame comes
+        segment = 0
+
+        def on_first_frame() -> None:
+            nonlocal gap
+            if gap is None:
+                return
+            assert state.first_frame_at is not None and state.last_frame_at is not None
+            closed = gap.close(state.first_frame_at, "resumed", segment)
+            report.gaps.append(closed)
+            warn(closed.describe(source))
+            gap = None
+
+        while True:
+            written = _write_segment(
+                container,
+                [segment_path(path, segment) for path in paths],
+                sizes,
+                work,
+                build_remappers,
+                encoder,
+                selection,
+                audio,
+                stop,
+                progress,
+                warn,
+                report,
+                state,
+                reconnect.timeout_s if can_drop else None,
+                on_first_frame,
+            )
+            container.close()
+            if written:
+                report.segments += 1
+                segment += 1
+            if state.dropped is None or stop.is_set():
+                if gap is not None:  # stopped after a reconnect, before its first frame
+                    report.gaps.append(gap.close(time.monotonic(), "stopped"))
+                break
+            if gap is None:
+                gap = _OpenGap(state.dropped, report.frames_written, state.last_frame_at, started_at)
+            if reconnect.attempts == 0:
+                report.gaps.append(gap.close(time.monotonic(), "not reconnecting"))
+                break
+            opened = _reopen(source, table, size, reconnect, gap, stop)
+            if opened is None:
+                outcome: GapOutcome = "stopped" if stop.is_set() else "gave up"
+                report.interrupted = stop.is_set()
+                report.gaps.append(gap.close(time.monotonic(), outcome))
+                break
+            container = opened
+        if report.frames_written == 0:
+            why = f" ({report.gaps[-1].describe(source)})" if report.gaps else ""
+            raise PanomapError(f"no frame could be decoded (nothing written){why}", source)
+    finally:
+        container.close()
+        report.seconds = time.perf_counter() - started
+    return report
+
+
+class _NothingWritten(Exception):
+    """A segment got no frame: its files are removed (all_or_none)."""
+
+
+def _check_input(container: Any, table: PanoMappingTable, source: str) -> tuple[int, int]:
+    """The video's frame size (W, H), refused unless it is the table's image size."""
+    stream = container.streams.video[0]
+    size = (stream.codec_context.width, stream.codec_context.height)
+    if table.image_size is not None and size != tuple(table.image_size):
+        raise PanomapError(
+            f"its frames are {size[0]} x {size[1]}, the table is for "
+            f"{table.image_size[0]} x {table.image_size[1]} images",
+            source,
+        )
+    return size
+
+
+def _write_segment(
+    container: Any,
+    paths: list[Path],
+    sizes: list[tuple[int, int]],
+    work: str,
+    build_remappers: Callable[[], list[FrameRemapper]],
+    encoder: EncoderSettings,
+    selection: Selection,
+    audio: bool,
+    stop: threading.Event,
+    progress: Callable[[int, int | None], None] | None,
+    warn: Callable[[str], None],
+    report: VideoReport,
+    state: ReadState,
+    drop_timeout_s: float | None,
+    on_first_frame: Callable[[], None],
+) -> bool:
+    """Read one connection of the input into one file per view; True if any frame was written.
+
+    The files are renamed into place together when the connection ends, or all
+    removed if a writer fails (PanomapError) or no frame came (False).
+    """
+    stream = container.streams.video[0]
+    stream.thread_type = "AUTO"
+    audio_stream = container.streams.audio[0] if audio and container.streams.audio else None
+    report.audio = report.audio or audio_stream is not None
+    rate = stream.average_rate or stream.guessed_rate
+    if rate is not None and selection.every > 1:
+        rate = Fraction(rate) / selection.every
+    time_base = stream.time_base or Fraction(1, 90000)
+    before = report.frames_written
+    try:
         with contextlib.ExitStack() as files:
             files.enter_context(all_or_none())  # every output renamed into place at the end, or none
             writers: list[Writer] = []
             try:
-                for item, view_size in zip(outputs, sizes, strict=True):
-                    temporary = files.enter_context(atomic_path(item.path))
-                    writers.append(open_writer(item.path, temporary, view_size, rate, time_base, encoder, audio_stream))
+                for path, view_size in zip(paths, sizes, strict=True):
+                    temporary = files.enter_context(atomic_path(path))
+                    writers.append(open_writer(path, temporary, view_size, rate, time_base, encoder, audio_stream))
                 with opencv_threads(REMAP_THREADS):
                     _run(
                         container,
@@ -154,6 +272,9 @@ def unwarp_video(
                         progress,
                         warn,
                         report,
+                        state,
+                        drop_timeout_s,
+                        on_first_frame,
                     )
             finally:
                 for writer in writers:
@@ -161,13 +282,73 @@ def unwarp_video(
             failed = next((writer for writer in writers if writer.error is not None), None)
             if failed is not None:  # (the old file of that name is kept; the partial one removed)
                 raise PanomapError(f"writing failed ({reason(failed.error)})", failed.path)  # type: ignore[arg-type]
-            if report.frames_written == 0:
-                raise PanomapError("no frame could be decoded (nothing written)", source)
-        report.outputs = paths
-    finally:
-        container.close()
-        report.seconds = time.perf_counter() - started
-    return report
+            if report.frames_written == before:
+                raise _NothingWritten
+    except _NothingWritten:
+        return False
+    report.outputs.extend(paths)
+    return True
+
+
+@dataclass
+class _OpenGap:
+    """A drop being reconnected: what is known before it ends."""
+
+    reason: str
+    frames_before: int
+    last_frame_at: float | None  # time.monotonic() of the last frame before it (None: no frame yet)
+    run_started_at: float  # time.monotonic() when the run started
+    attempts: int = 0
+    last_failure: str | None = None
+    dropped_at: float = 0.0
+
+    def __post_init__(self) -> None:
+        self.dropped_at = time.monotonic()
+
+    def close(self, end: float, outcome: GapOutcome, segment: int | None = None) -> Gap:
+        """The gap as it ended at ``end`` (time.monotonic())."""
+        begin = self.last_frame_at if self.last_frame_at is not None else self.dropped_at
+        return Gap(
+            self.reason,
+            self.frames_before,
+            begin - self.run_started_at,
+            end - begin,
+            self.attempts,
+            outcome,
+            segment,
+            self.last_failure,
+        )
+
+
+def _reopen(
+    source: str,
+    table: PanoMappingTable,
+    size: tuple[int, int],
+    reconnect: Reconnect,
+    gap: _OpenGap,
+    stop: threading.Event,
+) -> Any | None:
+    """Open ``source`` again, waiting before each attempt (backoff); None when attempts run out or on ``stop``.
+
+    A stream that comes back with frames of another size ends the run (PanomapError).
+    """
+    while gap.attempts < reconnect.attempts:
+        if stop.wait(reconnect.wait_s(gap.attempts + 1)):
+            return None
+        gap.attempts += 1
+        try:
+            container = open_input(source, reconnect.timeout_s, reconnect.timeout_s)
+        except PanomapError as exc:
+            gap.last_failure = exc.detail
+            continue
+        try:
+            if _check_input(container, table, source) != size:
+                raise PanomapError("its frame size changed when it reconnected", source)
+        except BaseException:
+            container.close()
+            raise
+        return container
+    return None
 
 
 # Memory a run takes per pixel of its views (bytes): the map, the remap's maps, the queued
@@ -219,6 +400,9 @@ def _run(
     progress: Callable[[int, int | None], None] | None,
     warn: Callable[[str], None],
     report: VideoReport,
+    state: ReadState,
+    drop_timeout_s: float | None,
+    on_first_frame: Callable[[], None],
 ) -> None:
     """Run reader, remapping (here) and writers until the input ends, ``stop`` is set or a writer fails."""
     frames: queue.Queue[Any] = queue.Queue(QUEUE_FRAMES)
@@ -239,13 +423,15 @@ def _run(
 
     reader = threading.Thread(
         target=read_frames,
-        args=(container, stream, audio_stream, work, selection, frames, halted, on_audio, warn, report),
+        args=(container, stream, audio_stream, work, selection, frames, halted, on_audio, warn, report, state),
+        kwargs={"drop_timeout_s": drop_timeout_s},
         name="panomap-read",
         daemon=True,
     )
     reader.start()
     try:
         remappers = build_remappers()
+        first = True
         while not halted():
             try:
                 frame = frames.get(timeout=0.1)
@@ -253,6 +439,9 @@ def _run(
                 continue
             if frame is END:
                 break
+            if first:
+                on_first_frame()
+                first = False
             for remapper, writer in zip(remappers, writers, strict=True):
                 put(writer.inbox, remapper(frame), lambda w=writer: w.error is not None)  # type: ignore[misc]
             report.frames_written += 1
