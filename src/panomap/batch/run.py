@@ -100,7 +100,7 @@ def connect(address: str | None, workers: int | None = None, timeout_s: float = 
             threads_per_worker=1,
             processes=True,
             dashboard_address=":0" if _has_dashboard() else None,
-            silence_logs=logging.ERROR,
+            silence_logs=logging.CRITICAL,  # a failing task is reported here, in one line
         ) as cluster,
         Client(cluster) as client,
     ):
@@ -160,6 +160,7 @@ def run_job(
                 failure = Failed(str(item.input.path), item.key, describe(exc))
                 record.add_failed(failure)
                 report.failed.append(failure)
+                warn(f"failed: {failure.error}")
     if not images and not probes:
         report.seconds = time.perf_counter() - started
         return report
@@ -218,7 +219,7 @@ def run_job(
             failure = Failed(str(item.input.path), item.key, error)
             record.add_failed(failure)
             report.failed.append(failure)
-            warn(f"failed: {error}")
+            warn(f"failed: {error}")  # (as it happens; the report lists them all)
             advance(1, 0)
 
         while not waiting.is_empty():

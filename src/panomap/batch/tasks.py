@@ -4,12 +4,14 @@ Every function here is a plain top-level function of plain values (paths, frozen
 dataclasses), so that Dask can ship it to any worker. Each worker process keeps the
 tables it has loaded and the maps it has built (:data:`_TABLES`, :data:`_REMAPPERS`),
 keyed by the table's path and the SHA-256 of its file: every task of a camera after the
-first on a worker starts at once. Outputs appear atomically (:mod:`panomap.files`).
+first on a worker starts at once (still images reuse the maps too; a video builds its own, as
+``panomap video`` does, see :func:`video_table`). Outputs appear atomically (:mod:`panomap.files`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import copy
 import hashlib
 import shutil
 import time
@@ -149,9 +151,20 @@ def unwarp_images(
     return results
 
 
+def video_table(item: Item) -> PanoMappingTable:
+    """The cached table as a new object (its arrays shared) for one video run.
+
+    :func:`panomap.views.build_map` decides per table object whether a perspective or floor
+    map is made the exact way (the first) or from the direction lookup (later ones); a fresh
+    object makes every video task's maps exactly those of ``panomap video`` on that input,
+    whichever worker runs it and whatever it ran before (so segments join seamlessly).
+    """
+    return copy.copy(cached_table(item.input.table, item.table_sha256))
+
+
 def unwarp_whole_video(item: Item, views: Sequence[NamedView], settings: Settings) -> ItemResult:
     """Unwarp one video into every view (one decode); raises on failure (Dask retries it)."""
-    table = cached_table(item.input.table, item.table_sha256)
+    table = video_table(item)
     report = unwarp_video(
         table,
         str(item.input.path),
@@ -173,7 +186,7 @@ def parts_folder(item: Item) -> Path:
 def unwarp_segment(item: Item, views: Sequence[NamedView], settings: Settings, segment: Segment) -> PartResult:
     """Unwarp one time segment of a video into a part file per view (MP4, whose edit lists keep
     the timestamps exact); raises on failure (Dask retries it)."""
-    table = cached_table(item.input.table, item.table_sha256)
+    table = video_table(item)
     folder = parts_folder(item)
     folder.mkdir(parents=True, exist_ok=True)
     paths = tuple(folder / f"{segment.index:06d}_{output.view}.mp4" for output in item.outputs)

@@ -190,7 +190,7 @@ def batch(
                 chunk=chunk,
                 progress=bar,
                 stop=stop,
-                warn=bar.write,
+                warn=lambda message: bar.write(f"panomap batch: {message}"),
                 on_dashboard=None if quiet else lambda link: bar.write(f"Dask dashboard: {link}"),
             )
     finally:
@@ -204,8 +204,6 @@ def batch(
             f"record: {record.path}"
         )
     if report.failed:
-        for failure in report.failed:
-            click.echo(f"panomap batch: failed: {failure.error}", err=True)
         raise PanomapError(
             f"{len(report.failed)} of {report.inputs} inputs failed (listed above, and in the record "
             f"{record.path}); run the same command again to retry them"
