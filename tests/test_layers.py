@@ -2,7 +2,7 @@
 
 The order, lowest first (STYLE.md, habit 17: layers never climb):
 
-    errors, geometry, files < camera < table, remap < views < calibrate < io < video < learn < cli
+    errors, geometry, files < camera < table, remap < views < calibrate < io < video < learn < batch < cli
 
 A module may import its own layer and the ones below. ``simulate`` is the ground truth, outside
 the chain: it imports only ``errors`` and ``geometry``, and only the command line (the demo) uses
@@ -30,6 +30,7 @@ LAYERS = [
     {"io"},
     {"video"},
     {"learn"},
+    {"batch"},
     {"cli"},
 ]
 RANK = {name: rank for rank, names in enumerate(LAYERS) for name in names}

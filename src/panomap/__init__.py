@@ -16,6 +16,9 @@ The pieces, in the paper's order:
   :func:`build_map`, and ``view.remapper(table)`` (a :class:`Remapper`) to apply
   them to any number of frames.
 - Pixels back to rays: ``table.unproject(uv)``.
+- Video: :func:`unwarp_video`; many inputs at once, on Dask, resumably:
+  :func:`find_inputs`, :func:`make_job`, :class:`Record`, :func:`run_job` ->
+  :class:`BatchReport` (:mod:`panomap.batch`).
 
 Conventions are in :mod:`panomap.geometry` and ``docs/conventions.md``.
 """
@@ -68,6 +71,12 @@ _EXPORTS = {
     "Reconnect": "video.live",
     "Gap": "video.report",
     "unwarp_video": "video.unwarp",
+    # batches, on Dask
+    "find_inputs": "batch.job",
+    "make_job": "batch.job",
+    "Record": "batch.record",
+    "run_job": "batch.run",
+    "BatchReport": "batch.run",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -16,6 +16,7 @@ import click
 
 from .. import __version__
 from ..errors import PanomapError
+from .batch import batch
 from .calibrate import centre, fit, info
 from .demo import demo
 from .learn import learn
@@ -24,7 +25,7 @@ from .video import video
 from .views import VIEW_COMMANDS
 
 # Every command, registered here and nowhere else.
-COMMANDS = (fit, centre, info, *VIEW_COMMANDS, project, unproject, video, learn, demo)
+COMMANDS = (fit, centre, info, *VIEW_COMMANDS, project, unproject, video, batch, learn, demo)
 
 
 # Click 8.2 raises this for a group called without a command (8.1 printed the help itself).

@@ -1,0 +1,262 @@
+"""A batch job: which inputs, through which camera's table, into which views, written where.
+
+Inputs come from globs and folders (one table for all), or from a manifest
+(CSV, JSON or YAML) that maps each input to its camera's table, so that
+several cameras run in one job::
+
+    input,table,camera                      # CSV: a header, then one row per input
+    cams/north/0001.jpg,north.npz,north     # camera: optional (default: the table's stem)
+
+    [{"input": "cams/north/0001.jpg", "table": "north.npz", "camera": "north"}, ...]   # JSON/YAML
+
+Relative paths in a manifest are taken from the manifest's own folder. Inputs are still
+images (by suffix: ``.png``, ``.jpg``, ``.tif``, ...) or videos (``.mp4``, ``.mkv``, ...).
+
+The output template names each output with ``{camera}``, ``{stem}`` (the input's name
+without its suffix), ``{name}`` (the view's name) and ``{ext}`` (the input's suffix, without
+the dot), as ``{camera}/{stem}_{name}.mp4``. Videos take the template's suffix; still
+images keep their own format (the template's suffix is replaced by the input's).
+
+Every path in a job is absolute: on a cluster, every machine must see the same paths
+(shared storage).
+"""
+
+from __future__ import annotations
+
+import csv
+import glob
+import hashlib
+import io
+import json
+import string
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import PanomapError
+from ..files import read_text
+from ..video.output import EncoderSettings
+from ..views.spec import NamedView
+
+IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".pgm", ".ppm", ".pnm"})
+VIDEO_SUFFIXES = frozenset({".mp4", ".m4v", ".mov", ".mkv", ".webm", ".avi", ".ts", ".nut"})
+MANIFEST_SUFFIXES = frozenset({".csv", ".json", ".yaml", ".yml"})
+TEMPLATE_KEYS = ("camera", "stem", "name", "ext")
+
+
+@dataclass(frozen=True)
+class BatchInput:
+    """One input file, the table of its camera and the camera's name (absolute paths)."""
+
+    path: Path
+    table: Path
+    camera: str
+
+    @property
+    def is_video(self) -> bool:
+        return self.path.suffix.lower() in VIDEO_SUFFIXES
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How every input is unwarped: as ``panomap video`` and the view commands take them."""
+
+    encoder: EncoderSettings = EncoderSettings()
+    interpolation: str = "linear"
+    sampling: str = "bilinear"
+    audio: bool = True
+
+
+@dataclass(frozen=True)
+class Output:
+    """One output file: the view it holds (by name) and its path."""
+
+    view: str
+    path: Path
+
+
+@dataclass(frozen=True)
+class Item:
+    """One input and its outputs (one per view), with the key that says what made them.
+
+    ``key`` is a SHA-256 over the input's path, size and modification time, the table's
+    checksum, the views and the settings: an output recorded under another key is redone.
+    """
+
+    input: BatchInput
+    outputs: tuple[Output, ...]
+    key: str
+    table_sha256: str
+
+
+@dataclass(frozen=True)
+class Job:
+    """A whole batch: every input with its outputs, the views and the settings."""
+
+    items: tuple[Item, ...]
+    views: tuple[NamedView, ...]
+    settings: Settings = field(default_factory=Settings)
+
+
+def kind_of(path: Path) -> str | None:
+    """``"image"``, ``"video"`` or None, by suffix."""
+    suffix = path.suffix.lower()
+    return "image" if suffix in IMAGE_SUFFIXES else "video" if suffix in VIDEO_SUFFIXES else None
+
+
+def find_inputs(patterns: Sequence[str], table: Path | None, camera: str | None = None) -> list[BatchInput]:
+    """The inputs named by ``patterns``: files, folders (every image and video inside, recursively)
+    and globs (``cams/*.jpg``, ``**`` too), or one manifest file (``.csv``, ``.json``, ``.yaml``).
+
+    Without a manifest, ``table`` is every input's table and ``camera`` (default: the table's
+    stem) its camera name. Raises PanomapError naming what matched nothing.
+    """
+    manifests = [p for p in patterns if Path(p).suffix.lower() in MANIFEST_SUFFIXES and Path(p).is_file()]
+    if manifests:
+        if len(patterns) > 1:
+            raise PanomapError("a manifest names every input: give it alone")
+        if table is not None:
+            raise PanomapError("the manifest names each input's table: give no --table", manifests[0])
+        return read_manifest(Path(manifests[0]))
+    if table is None:
+        raise PanomapError("give the table with --table TABLE (or a manifest mapping inputs to tables)")
+    table = table.absolute()
+    found: list[Path] = []
+    for pattern in patterns:
+        path = Path(pattern)
+        if path.is_dir():
+            matches = sorted(p for p in path.rglob("*") if p.is_file() and kind_of(p) is not None)
+            if not matches:
+                raise PanomapError("the folder holds no image or video", path)
+        elif path.is_file():
+            if kind_of(path) is None:
+                raise PanomapError("not an image or video file name (unknown suffix)", path)
+            matches = [path]
+        else:
+            matches = sorted(Path(p) for p in glob.glob(pattern, recursive=True) if kind_of(Path(p)) is not None)
+            if not matches:
+                problem = "matches no image or video" if glob.has_magic(pattern) else "no such file"
+                raise PanomapError(problem, pattern)
+        found += matches
+    unique = list(dict.fromkeys(p.absolute() for p in found))
+    name = camera if camera is not None else table.stem
+    return [BatchInput(path, table, name) for path in unique]
+
+
+def read_manifest(path: Path) -> list[BatchInput]:
+    """The inputs of a manifest (see the module docstring); PanomapError naming the file and row."""
+    text = read_text(path)
+    suffix = path.suffix.lower()
+    rows: Any
+    try:
+        if suffix == ".csv":
+            rows = list(csv.DictReader(io.StringIO(text)))
+        elif suffix == ".json":
+            rows = json.loads(text)
+        else:
+            import yaml
+
+            rows = yaml.safe_load(text)
+    except Exception as exc:  # any parse error is the file's problem
+        raise PanomapError(f"not a valid {suffix[1:].upper()} manifest: {' '.join(str(exc).split())}", path) from None
+    if not isinstance(rows, list) or not rows:
+        raise PanomapError("a manifest must list its inputs (rows of input, table[, camera])", path)
+    folder = path.absolute().parent
+    inputs = []
+    for number, row in enumerate(rows, start=1):
+        if not isinstance(row, dict) or not row.get("input") or not row.get("table"):
+            raise PanomapError(f"row {number} needs an input and a table", path)
+        unknown = sorted(set(row) - {"input", "table", "camera"})
+        if unknown:
+            raise PanomapError(f"row {number}: unknown column {', '.join(map(str, unknown))}", path)
+        source, table = folder / str(row["input"]), folder / str(row["table"])
+        if kind_of(source) is None:
+            raise PanomapError(f"row {number}: {row['input']} is not an image or video file name", path)
+        camera = str(row.get("camera") or table.stem)
+        inputs.append(BatchInput(source, table, camera))
+    return inputs
+
+
+def check_template(template: str) -> None:
+    """Refuse a template with an unknown key, or one that could not tell views apart."""
+    try:
+        keys = [key for _, key, _, _ in string.Formatter().parse(template) if key is not None]
+    except ValueError as exc:
+        raise PanomapError(f"the output template {template!r} is malformed ({exc})") from None
+    unknown = sorted({key for key in keys if key not in TEMPLATE_KEYS})
+    if unknown:
+        raise PanomapError(
+            f"the output template {template!r} has an unknown key {{{unknown[0]}}} (keys: "
+            + ", ".join(f"{{{key}}}" for key in TEMPLATE_KEYS)
+            + ")"
+        )
+    if not Path(template).suffix:
+        raise PanomapError(f"the output template {template!r} needs a file suffix (e.g. .mp4)")
+
+
+def output_path(template: str, item: BatchInput, view: str) -> Path:
+    """The output of ``view`` for ``item`` (absolute); still images keep their own suffix."""
+    path = Path(template.format(camera=item.camera, stem=item.path.stem, name=view, ext=item.path.suffix.lstrip(".")))
+    if not item.is_video:
+        path = path.with_suffix(item.path.suffix)
+    return path.absolute()
+
+
+def file_digest(path: Path, chunk: int = 1 << 20) -> str:
+    """SHA-256 of a file's bytes (hex)."""
+    digest = hashlib.sha256()
+    with path.open("rb") as handle:
+        while block := handle.read(chunk):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def make_job(
+    inputs: Iterable[BatchInput], views: Sequence[NamedView], template: str, settings: Settings = Settings()
+) -> Job:
+    """The job: every input's outputs and key, checked before any work.
+
+    Raises PanomapError for a template with an unknown key, a missing input or table, two
+    outputs of one path, or an output that is an input.
+    """
+    if not views:
+        raise PanomapError("give at least one view")
+    check_template(template)
+    inputs = list(inputs)
+    if not inputs:
+        raise PanomapError("the job has no input")
+    names = [view.name for view in views]
+    if len(views) > 1 and "{name}" not in template:
+        raise PanomapError("with several views the output template needs {name}, e.g. '{stem}_{name}.mp4'")
+    tables: dict[Path, str] = {}
+    seen: dict[Path, str] = {}
+    sources = {item.path for item in inputs}
+    described = json.dumps([repr(view) for view in views]) + repr(settings)
+    items = []
+    for item in inputs:
+        if not item.path.is_file():
+            raise PanomapError("no such input file" if not item.path.exists() else "not a file", item.path)
+        if item.table not in tables:
+            if not item.table.is_file():
+                raise PanomapError("no such table file", item.table)
+            tables[item.table] = file_digest(item.table)
+        outputs = []
+        for name in names:
+            path = output_path(template, item, name)
+            if path in sources:
+                raise PanomapError(f"the output of {item.path} is an input: refusing to overwrite it", path)
+            if path in seen:
+                raise PanomapError(
+                    f"two outputs would be this file ({seen[path]} and {item.path}): put {{stem}} or {{camera}} "
+                    "in the template",
+                    path,
+                )
+            seen[path] = str(item.path)
+            outputs.append(Output(name, path))
+        info = item.path.stat()
+        key = hashlib.sha256(
+            f"{item.path}\0{info.st_size}\0{info.st_mtime_ns}\0{tables[item.table]}\0{described}".encode()
+        ).hexdigest()
+        items.append(Item(item, tuple(outputs), key, tables[item.table]))
+    return Job(tuple(items), tuple(views), settings)

@@ -1,0 +1,267 @@
+"""Running a job on Dask distributed: a local cluster by default, or an existing one.
+
+Without a scheduler address (argument or ``DASK_SCHEDULER_ADDRESS``), the job starts an
+in-process :class:`distributed.LocalCluster` of one single-threaded worker process per core
+and stops it at the end. With an address, the same tasks go to that cluster's workers,
+which must see the job's paths (shared storage) and have panomap installed.
+
+The tasks (:mod:`panomap.batch.tasks`): still images in chunks, one task per video, or one
+per time segment of a video plus a join; each retried ``retries`` times (a worker that dies
+takes its tasks with it: the scheduler gives them to another). An image that fails in its
+chunk is tried again alone. Only this process writes the record, as results come in, so
+that a job stopped at any point (``stop``, a signal, a kill) is resumed by running it
+again: what is complete is skipped, the rest is redone.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import os
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..errors import PanomapError
+from ..files import check_output
+from .job import Item, Job
+from .record import Failed, Record
+from .segments import Probe, plan_segments, probe
+from .tasks import ItemResult, PartResult, describe, join_video, unwarp_images, unwarp_segment, unwarp_whole_video
+
+SCHEDULER_VARIABLE = "DASK_SCHEDULER_ADDRESS"
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Where a job stands: inputs and frames done, of how many (frames: None while unknown)."""
+
+    inputs_done: int
+    inputs_total: int
+    frames_done: int
+    frames_total: int | None
+
+
+@dataclass
+class BatchReport:
+    """What a run of a job did."""
+
+    inputs: int = 0
+    skipped: int = 0
+    done: int = 0
+    outputs: int = 0
+    frames: int = 0
+    failed: list[Failed] = field(default_factory=list)
+    interrupted: bool = False
+    seconds: float = 0.0
+    workers: int = 0
+    dashboard: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        """Every input of the job is complete."""
+        return not self.failed and not self.interrupted
+
+
+def scheduler_address(address: str | None) -> str | None:
+    """The scheduler to use: ``address``, else ``DASK_SCHEDULER_ADDRESS``, else None (a local cluster)."""
+    return address or os.environ.get(SCHEDULER_VARIABLE) or None
+
+
+def _has_dashboard() -> bool:
+    try:
+        import bokeh  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@contextlib.contextmanager
+def connect(address: str | None, workers: int | None = None, timeout_s: float = 20.0) -> Iterator[Any]:
+    """A Dask client: of the scheduler at ``address``, or of a local cluster of ``workers``
+    single-threaded worker processes (default: one per core), stopped on exit."""
+    from distributed import Client, LocalCluster
+
+    if address is not None:
+        try:
+            client = Client(address, timeout=timeout_s)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise PanomapError(f"cannot reach the Dask scheduler at {address} ({describe(exc)})") from None
+        with client:
+            yield client
+        return
+    count = workers or os.cpu_count() or 1
+    with (
+        LocalCluster(
+            n_workers=count,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0" if _has_dashboard() else None,
+            silence_logs=logging.CRITICAL,  # a failing task is reported here, in one line
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        yield client
+
+
+def chunk_size(images: int, workers: int) -> int:
+    """Images per task: about four tasks per worker (so that a slow or lost worker costs little), 1 to 16."""
+    return max(1, min(16, math.ceil(images / (4 * max(1, workers)))))
+
+
+def run_job(
+    job: Job,
+    record: Record,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    force: bool = False,
+    retries: int = 2,
+    segment_s: float | None = None,
+    chunk: int | None = None,
+    progress: Callable[[Progress], None] | None = None,
+    stop: threading.Event | None = None,
+    warn: Callable[[str], None] | None = None,
+    on_dashboard: Callable[[str], None] | None = None,
+) -> BatchReport:
+    """Run ``job``, skipping the inputs ``record`` holds as complete (all of them with ``force``).
+
+    Every output is checked before any work (its folder made; an output that cannot be
+    replaced is refused). ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``) names an existing
+    cluster; otherwise a local one of ``workers`` processes runs the job. Videos longer than
+    ``segment_s`` seconds are split into segments of that length. A failing input is tried
+    ``retries`` more times, then recorded as failed, and the job goes on. Setting ``stop``
+    cancels what has not finished (what has is recorded). ``progress`` is called as results
+    come in; ``on_dashboard`` gets the Dask dashboard's address when there is one.
+    """
+    started = time.perf_counter()
+    stop = stop or threading.Event()
+    warn = warn or (lambda message: None)
+    report = BatchReport(inputs=len(job.items))
+    pending = [item for item in job.items if force or not record.complete(item)]
+    report.skipped = len(job.items) - len(pending)
+    for item in pending:
+        for output in item.outputs:
+            try:
+                output.path.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise PanomapError(f"cannot make its folder ({exc.strerror or exc})", output.path) from None
+            check_output(output.path)
+    images = [item for item in pending if not item.input.is_video]
+    probes: dict[Item, Probe] = {}
+    for item in pending:
+        if item.input.is_video:
+            try:
+                probes[item] = probe(item.input.path)
+            except PanomapError as exc:
+                failure = Failed(str(item.input.path), item.key, describe(exc))
+                record.add_failed(failure)
+                report.failed.append(failure)
+                warn(f"failed: {failure.error}")
+    if not images and not probes:
+        report.seconds = time.perf_counter() - started
+        return report
+    known = [info.frames for info in probes.values()]
+    frames_total = None if None in known else len(images) + sum(frame or 0 for frame in known)
+    total = len(images) + len(probes)
+    state = {"inputs": 0, "frames": 0}
+
+    def advance(inputs: int, frames: int) -> None:
+        state["inputs"] += inputs
+        state["frames"] += frames
+        if progress is not None:
+            progress(Progress(state["inputs"], total, state["frames"], frames_total))
+
+    with connect(scheduler_address(scheduler), workers) as client:
+        from distributed import as_completed
+
+        report.workers = len(client.scheduler_info().get("workers", {}))
+        link = getattr(client, "dashboard_link", None) if _has_dashboard() else None
+        if link and on_dashboard is not None:
+            report.dashboard = link
+            on_dashboard(link)
+        kinds: dict[Any, tuple[str, Any]] = {}
+        size = chunk or chunk_size(len(images), report.workers)
+        for first in range(0, len(images), size):
+            group = images[first : first + size]
+            future = client.submit(unwarp_images, group, job.views, job.settings, retries=retries, pure=False)
+            kinds[future] = ("images", group)
+        for item, info in probes.items():
+            segments = plan_segments(info, segment_s) if segment_s is not None else []
+            if len(segments) > 1:
+                parts = [
+                    client.submit(unwarp_segment, item, job.views, job.settings, s, retries=retries, pure=False)
+                    for s in segments
+                ]
+                for part_future in parts:
+                    kinds[part_future] = ("segment", item)
+                join = client.submit(join_video, item, parts, retries=retries, pure=False)
+                kinds[join] = ("video", item)
+            else:
+                future = client.submit(unwarp_whole_video, item, job.views, job.settings, retries=retries, pure=False)
+                kinds[future] = ("video", item)
+        waiting = as_completed(list(kinds))
+
+        def finish(result: ItemResult, item: Item) -> None:
+            record.add_done(result.done)
+            report.done += 1
+            report.outputs += len(result.done)
+            frames = result.done[0].frames if result.done else 0
+            report.frames += frames
+            advance(1, 0 if item.input.is_video else frames)
+
+        def fail(item: Item, error: str) -> None:
+            if str(item.input.path) not in error:
+                error = f"{item.input.path}: {error}"
+            failure = Failed(str(item.input.path), item.key, error)
+            record.add_failed(failure)
+            report.failed.append(failure)
+            warn(f"failed: {error}")  # (as it happens; the report lists them all)
+            advance(1, 0)
+
+        while not waiting.is_empty():
+            if stop.is_set():
+                report.interrupted = True
+                client.cancel(list(kinds))
+                break
+            if not waiting.has_ready():
+                time.sleep(0.05)
+                continue
+            for future in waiting.next_batch(block=False):
+                kind, payload = kinds[future]
+                error = future.status == "error"
+                if kind == "segment":
+                    if not error:
+                        part: PartResult = future.result()
+                        advance(0, part.frames)
+                    continue
+                if kind == "video":
+                    if error:
+                        fail(payload, describe(future.exception()))
+                    else:
+                        finish(future.result(), payload)
+                    continue
+                if kind == "single":
+                    if error:
+                        fail(payload, describe(future.exception()))
+                    else:
+                        finish(future.result()[0], payload)
+                    continue
+                if error:  # a whole chunk failed (after its retries): each image alone
+                    results = [ItemResult(str(item.input.path), error="retry") for item in payload]
+                else:
+                    results = future.result()
+                for item, outcome in zip(payload, results, strict=True):
+                    if outcome.error is None:
+                        finish(outcome, item)
+                        continue
+                    again = client.submit(
+                        unwarp_images, [item], job.views, job.settings, True, retries=retries, pure=False
+                    )
+                    kinds[again] = ("single", item)
+                    waiting.add(again)
+    report.seconds = time.perf_counter() - started
+    return report

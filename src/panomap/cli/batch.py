@@ -1,0 +1,216 @@
+"""``panomap batch``: many images and videos, of one camera or several, unwarped on Dask.
+
+The command line edge of :mod:`panomap.batch`.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+import click
+
+from ..batch.job import TEMPLATE_KEYS, Settings, find_inputs, make_job
+from ..batch.record import Record
+from ..batch.run import SCHEDULER_VARIABLE, Progress, run_job
+from ..errors import PanomapError
+from ..remap import INTERPOLATIONS
+from ..table.sampling import SAMPLINGS
+from ..video.output import EncoderSettings
+from ..views.spec import KINDS, name_views, parse_view_spec, read_views_file
+from .options import PATH
+from .video import _bitrate, stop_on_signals
+
+
+class _Bar:
+    """One tqdm bar for the whole job on a terminal (frames, fps, ETA; inputs as its postfix)."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
+        self.bar: Any = None
+
+    def __call__(self, progress: Progress) -> None:
+        if not self.enabled:
+            return
+        if self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=progress.frames_total, unit="frame", dynamic_ncols=True, file=sys.stderr)
+        self.bar.set_postfix_str(f"{progress.inputs_done}/{progress.inputs_total} inputs", refresh=False)
+        self.bar.update(progress.frames_done - self.bar.n)
+
+    def write(self, message: str) -> None:
+        if self.bar is not None:
+            self.bar.write(message, file=sys.stderr)
+        else:
+            click.echo(message, err=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+@click.command()
+@click.argument("inputs", nargs=-1, required=True, metavar="INPUT...")
+@click.option(
+    "-o",
+    "--output",
+    "template",
+    required=True,
+    metavar="TEMPLATE",
+    help="Output path per input and view, with " + ", ".join(f"{{{k}}}" for k in TEMPLATE_KEYS) + " "
+    "(e.g. '{camera}/{stem}_{name}.mp4'); still images keep their own format.",
+)
+@click.option("--table", type=PATH, help="The table of every input (without a manifest).")
+@click.option("--camera", help="The camera's name for {camera} (without a manifest; default: the table's stem).")
+@click.option(
+    "--view",
+    "specs",
+    multiple=True,
+    metavar="SPEC",
+    help="A view, KIND:key=value,... with KIND one of " + ", ".join(KINDS) + " (as panomap video). Repeatable.",
+)
+@click.option("--views", "views_file", type=PATH, help="A JSON or YAML file of named views (as panomap video).")
+@click.option(
+    "--record",
+    "record_path",
+    type=PATH,
+    default=Path("panomap-batch.jsonl"),
+    show_default=True,
+    help="The JSON-lines record of finished outputs: a rerun skips what it holds as complete.",
+)
+@click.option("--force", is_flag=True, help="Redo every output, complete or not.")
+@click.option(
+    "--scheduler",
+    metavar="ADDRESS",
+    help=f"A Dask scheduler (tcp://host:8786) to run on; default ${SCHEDULER_VARIABLE}, else a local cluster.",
+)
+@click.option("--workers", type=click.IntRange(min=1), help="Worker processes of the local cluster (default: cores).")
+@click.option(
+    "--segment",
+    "segment_s",
+    type=click.FloatRange(min=0, min_open=True),
+    metavar="SECONDS",
+    help="Split videos longer than this into segments of this length, unwarped in parallel and joined.",
+)
+@click.option("--chunk", type=click.IntRange(min=1), help="Still images per task (default: about 4 tasks per worker).")
+@click.option("--retries", type=click.IntRange(min=0), default=2, show_default=True, help="Retries of a failing input.")
+@click.option("--codec", default="libx264", show_default=True, help="Video encoder (FFmpeg name).")
+@click.option("--pix-fmt", default="yuv420p", show_default=True, help="Encoded pixel format.")
+@click.option("--crf", type=click.IntRange(0, 63), default=20, show_default=True, help="Quality (x264/x265).")
+@click.option("--preset", default="veryfast", show_default=True, help="Speed preset (x264/x265).")
+@click.option("--bitrate", help="Target bit rate instead of --crf, e.g. 8M.")
+@click.option(
+    "--encoder-option", "encoder_options", multiple=True, metavar="KEY=VALUE", help="More encoder options. Repeatable."
+)
+@click.option("--no-audio", is_flag=True, help="Do not copy the videos' audio.")
+@click.option("--interp", type=click.Choice(list(INTERPOLATIONS)), default="linear", show_default=True)
+@click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True)
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary (failures are still reported).")
+def batch(
+    inputs: tuple[str, ...],
+    template: str,
+    table: Path | None,
+    camera: str | None,
+    specs: tuple[str, ...],
+    views_file: Path | None,
+    record_path: Path,
+    force: bool,
+    scheduler: str | None,
+    workers: int | None,
+    segment_s: float | None,
+    chunk: int | None,
+    retries: int,
+    codec: str,
+    pix_fmt: str,
+    crf: int,
+    preset: str,
+    bitrate: str | None,
+    encoder_options: tuple[str, ...],
+    no_audio: bool,
+    interp: str,
+    table_sampling: str,
+    quiet: bool,
+) -> None:
+    """Unwarp many images and videos (one camera or several) into views, on Dask.
+
+    INPUT is a file, a folder (every image and video in it), a glob ('cams/**/*.jpg'), or
+    one manifest (.csv, .json, .yaml) mapping each input to its camera's table:
+
+    \b
+      input,table,camera
+      north/0001.jpg,north.npz,north
+      south/day1.mp4,south.npz,south
+
+    The job runs on a local Dask cluster (one worker per core) unless --scheduler (or
+    DASK_SCHEDULER_ADDRESS) names an existing one, whose workers must see the same paths.
+    Every finished output is recorded (--record); run the same command again to finish an
+    interrupted or failed job: complete outputs are skipped. A failing input is retried,
+    then reported, and the rest goes on; the exit code is 1 if any input failed.
+
+    \b
+    Example:
+      panomap batch cams.csv -o 'out/{camera}/{stem}_{name}.mp4' \\
+          --view panorama:size=2048x512 --view perspective:yaw=30,pitch=-20,fov=90,size=1280x720,name=door
+    """
+    parsed = [parse_view_spec(spec) for spec in specs]
+    if views_file is not None:
+        parsed += [(item.name, item.view) for item in read_views_file(views_file)]
+    if not parsed:
+        raise click.UsageError("give at least one --view SPEC or a --views file")
+    named = name_views(parsed)
+    options = []
+    for item in encoder_options:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise click.BadParameter(f"{item!r} is not KEY=VALUE", param_hint="--encoder-option")
+        options.append((key, value))
+    encoder = EncoderSettings(
+        codec, pix_fmt, crf, preset, _bitrate(bitrate) if bitrate is not None else None, tuple(options)
+    )
+    found = find_inputs(inputs, table, camera)
+    if any(item.is_video for item in found):
+        encoder.check()
+    job = make_job(found, named, template, Settings(encoder, interp, table_sampling, not no_audio))
+    record = Record(record_path)
+    stop = threading.Event()
+    bar = _Bar(not quiet and sys.stderr.isatty())
+    try:
+        with stop_on_signals(stop):
+            report = run_job(
+                job,
+                record,
+                scheduler=scheduler,
+                workers=workers,
+                force=force,
+                retries=retries,
+                segment_s=segment_s,
+                chunk=chunk,
+                progress=bar,
+                stop=stop,
+                warn=lambda message: bar.write(f"panomap batch: {message}"),
+                on_dashboard=None if quiet else lambda link: bar.write(f"Dask dashboard: {link}"),
+            )
+    finally:
+        bar.close()
+    if not quiet:
+        fps = report.frames / report.seconds if report.seconds > 0 else 0.0
+        skipped = f", {report.skipped} already complete" if report.skipped else ""
+        click.echo(
+            f"unwarped {report.done} of {report.inputs} inputs ({report.outputs} outputs, {report.frames} frames) "
+            f"in {report.seconds:.1f} s ({fps:.1f} frames/s) on {report.workers} worker(s){skipped}; "
+            f"record: {record.path}"
+        )
+    if report.failed:
+        raise PanomapError(
+            f"{len(report.failed)} of {report.inputs} inputs failed (listed above, and in the record "
+            f"{record.path}); run the same command again to retry them"
+        )
+    if report.interrupted:
+        click.echo(
+            f"panomap batch: interrupted: run the same command again to finish ({record.path} holds what is done)",
+            err=True,
+        )
+        sys.exit(130)

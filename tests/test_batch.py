@@ -1,0 +1,342 @@
+"""``panomap batch`` and :mod:`panomap.batch`: jobs on Dask, resumable, on a local cluster and a real one.
+
+The inputs are made here: the bundled room rendered through a simulated equidistant fisheye
+(320 x 320), still images turned by a few degrees each (so that every output differs), and
+a 40-frame clip of the room turning 3 deg per frame. Outputs are checked against the view
+commands' and ``panomap video``'s own outputs (bit for bit for images, decoded frame for
+frame for lossless video), never against numbers the batch code produced.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import av
+import cv2
+import numpy as np
+import pytest
+
+import panomap
+from panomap.batch.job import Job, Settings, find_inputs, make_job
+from panomap.batch.record import Record
+from panomap.batch.run import Progress, run_job
+from panomap.simulate import load_room, render, standard_cameras
+from panomap.video.output import EncoderSettings
+from panomap.views.spec import name_views, parse_view_spec
+
+from helpers import assert_one_line_error, learn_table, run, spread_landmarks
+
+SIZE = (320, 320)
+CAMERA = standard_cameras(SIZE, centre=(160.3, 159.6), s=-1, phi0=0.4)["equidistant"]
+PANORAMA = "panorama:size=480x120"
+DOOR = "perspective:yaw=30,pitch=-35,fov=90,size=160x120,name=door"
+# The same views as the view commands take them (the commands make their one map the exact way).
+COMMANDS = {
+    "panorama": ["panorama", "--size", "480x120"],
+    "door": ["perspective", "--yaw", "30", "--pitch", "-35", "--fov", "90", "--size", "160x120"],
+}
+VIEWS = name_views([parse_view_spec(PANORAMA), parse_view_spec(DOOR)])
+LOSSLESS = Settings(EncoderSettings("libx264", "yuv420p", 0, "veryfast"))  # x264 crf 0: lossless, B-frames
+RATE, FRAMES, IMAGES = 25, 40, 8
+SRC = str(Path(panomap.__file__).resolve().parents[1])
+
+room = load_room()
+OMNI = render(room, CAMERA, supersample=1)
+
+
+def turned(degrees: float) -> np.ndarray:
+    return cv2.warpAffine(OMNI, cv2.getRotationMatrix2D(CAMERA.centre, degrees, 1.0), SIZE)
+
+
+def write_clip(path: Path) -> None:
+    """FRAMES frames of the turning room, H.264 yuv420p, RATE fps, no audio."""
+    with av.open(str(path), "w") as container:
+        video = container.add_stream("libx264", rate=RATE)
+        video.width, video.height = SIZE
+        video.pix_fmt = "yuv420p"
+        video.options = {"preset": "ultrafast", "crf": "16"}
+        for index in range(FRAMES):
+            frame = av.VideoFrame.from_ndarray(turned(3.0 * index), format="bgr24")
+            frame.pts = index
+            for packet in video.encode(frame):
+                container.mux(packet)
+        for packet in video.encode(None):
+            container.mux(packet)
+
+
+def decoded(path: Path) -> list[tuple[float, np.ndarray]]:
+    """(time in s, frame as yuv420p planes) of every frame: compared without any conversion."""
+    with av.open(str(path)) as container:
+        stream = container.streams.video[0]
+        return [(float(f.pts * stream.time_base), f.to_ndarray(format="yuv420p")) for f in container.decode(stream)]
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def record_lines(path: Path) -> list[dict[str, object]]:
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """cam.npz (the learned table), images/i0..i7.png (the room turned 0, 5, ... deg), clip.mp4."""
+    folder = tmp_path_factory.mktemp("batch")
+    landmarks = spread_landmarks(CAMERA, tuple(room.camera), 20, np.random.default_rng(3))
+    table, _ = learn_table(CAMERA, tuple(room.camera), landmarks, SIZE)
+    table.save(folder / "cam.npz")
+    (folder / "images").mkdir()
+    for index in range(IMAGES):
+        cv2.imwrite(str(folder / "images" / f"i{index}.png"), turned(5.0 * index))
+    write_clip(folder / "clip.mp4")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def cluster() -> Iterator[str]:
+    """A local Dask cluster of two single-threaded worker processes, shared by the tests; its address."""
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as local:
+        yield local.scheduler_address
+
+
+def image_job(work: Path, out: Path, count: int = IMAGES) -> Job:
+    inputs = find_inputs([str(work / "images" / f"i{k}.png") for k in range(count)], work / "cam.npz")
+    return make_job(inputs, VIEWS, str(out / "{camera}" / "{stem}_{name}.png"))
+
+
+# ----------------------------------------------------------------------------- the outputs
+
+
+def test_a_two_camera_manifest_on_the_default_local_cluster_equals_the_view_commands_bit_for_bit(
+    work: Path, tmp_path: Path
+) -> None:
+    shutil.copy(work / "cam.npz", tmp_path / "north.npz")
+    shutil.copy(work / "cam.npz", tmp_path / "south.npz")
+    rows = ["input,table,camera"]
+    rows += [f"{work}/images/i{k}.png,north.npz,north" for k in range(3)]
+    rows += [f"{work}/images/i{k}.png,south.npz," for k in range(3, 5)]  # camera: the table's stem
+    (tmp_path / "job.csv").write_text("\n".join(rows) + "\n")
+    result = run(
+        "batch", tmp_path / "job.csv", "-o", tmp_path / "out/{camera}/{stem}_{name}.mp4",
+        "--view", PANORAMA, "--view", DOOR, "--record", tmp_path / "rec.jsonl", "--workers", "2",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "unwarped 5 of 5 inputs (10 outputs, 5 frames)" in result.output and "2 worker(s)" in result.output
+    lines = record_lines(tmp_path / "rec.jsonl")
+    assert len(lines) == 10 and all(line["status"] == "done" and line["frames"] == 1 for line in lines)
+    by_output = {line["output"]: line for line in lines}
+    for k in range(5):
+        camera = "north" if k < 3 else "south"
+        for name, command in COMMANDS.items():
+            made = tmp_path / "out" / camera / f"i{k}_{name}.png"  # images keep their format
+            alone = tmp_path / f"alone_{k}_{name}.png"
+            single = run(
+                command[0], tmp_path / f"{camera}.npz", work / "images" / f"i{k}.png", "-o", alone, *command[1:]
+            )
+            assert single.exit_code == 0, single.stderr
+            assert made.read_bytes() == alone.read_bytes(), made
+            line = by_output[str(made)]
+            assert line["sha256"] == sha256(made) and line["bytes"] == made.stat().st_size
+            assert line["input"] == str(work / "images" / f"i{k}.png") and line["view"] == name
+    assert not list((tmp_path / "out").rglob(".*"))  # no temporary left
+
+
+def test_a_segmented_video_equals_the_unsegmented_one_frame_for_frame(work: Path, tmp_path: Path, cluster: str) -> None:
+    """Lossless x264 (with B-frames): every frame and timestamp of the joined output as the whole run's."""
+    inputs = find_inputs([str(work / "clip.mp4")], work / "cam.npz")
+    outputs = {}
+    for how, segment in (("whole", None), ("parts", 0.5)):
+        job = make_job(inputs, VIEWS, str(tmp_path / how / "{stem}_{name}.mp4"), LOSSLESS)
+        report = run_job(job, Record(tmp_path / f"{how}.jsonl"), scheduler=cluster, segment_s=segment)
+        assert report.ok and report.done == 1 and report.frames == FRAMES, report
+        outputs[how] = job.items[0].outputs
+    for whole, parts in zip(outputs["whole"], outputs["parts"], strict=True):
+        a, b = decoded(whole.path), decoded(parts.path)
+        assert len(a) == len(b) == FRAMES
+        assert [t for t, _ in b] == pytest.approx([k / RATE for k in range(FRAMES)], abs=1e-6)  # continuous
+        assert [t for t, _ in a] == [t for t, _ in b]
+        differ = [k for k, ((_, x), (_, y)) in enumerate(zip(a, b, strict=True)) if not np.array_equal(x, y)]
+        assert differ == [], (
+            whole.path.name,
+            differ,
+            [int(np.abs(a[k][1].astype(int) - b[k][1]).max()) for k in differ],
+        )
+    line = record_lines(tmp_path / "parts.jsonl")[0]
+    assert line["frames"] == FRAMES and line["sha256"] == sha256(Path(str(line["output"])))
+    assert not (tmp_path / "parts" / ".panomap-parts").exists()  # the segments are gone
+    # And the whole run equals panomap video's own output.
+    alone = tmp_path / "alone.mp4"
+    single = run("video", work / "cam.npz", work / "clip.mp4", "-o", alone, "--view", PANORAMA, "--crf", "0")
+    assert single.exit_code == 0, single.stderr
+    pairs = zip(decoded(alone), decoded(outputs["whole"][0].path), strict=True)
+    assert all(np.array_equal(x, y) for (_, x), (_, y) in pairs)
+
+
+# ----------------------------------------------------------------------------- resuming
+
+
+def test_an_interrupted_job_rerun_redoes_only_what_is_unfinished(work: Path, tmp_path: Path, cluster: str) -> None:
+    job = image_job(work, tmp_path / "out")
+    stop = threading.Event()
+
+    def progress(state: Progress) -> None:
+        if state.inputs_done >= 3:
+            stop.set()
+
+    first = run_job(job, Record(tmp_path / "rec.jsonl"), scheduler=cluster, chunk=1, progress=progress, stop=stop)
+    assert first.interrupted and not first.ok and 3 <= first.done < IMAGES
+    finished = {line["output"]: line for line in record_lines(tmp_path / "rec.jsonl")}
+    assert len(finished) == 2 * first.done
+    before = {path: Path(path).stat().st_mtime_ns for path in finished}
+    # One finished output damaged since: it is redone too.
+    damaged = Path(sorted(finished)[0])
+    damaged.write_bytes(damaged.read_bytes()[:100])
+    time.sleep(0.01)
+    second = run_job(job, Record(tmp_path / "rec.jsonl"), scheduler=cluster)
+    assert second.ok and second.skipped == first.done - 1 and second.done == IMAGES - first.done + 1
+    for path, mtime in before.items():
+        damaged_input = Path(path).name.split("_")[0] == damaged.name.split("_")[0]
+        assert (Path(path).stat().st_mtime_ns == mtime) != damaged_input, path
+    record = Record(tmp_path / "rec.jsonl")
+    assert all(record.complete(item) for item in job.items)
+    third = run_job(job, Record(tmp_path / "rec.jsonl"), scheduler=cluster, force=True)
+    assert third.done == IMAGES and third.skipped == 0
+
+
+def test_a_failing_input_is_retried_recorded_and_the_rest_goes_on(work: Path, tmp_path: Path, cluster: str) -> None:
+    folder = tmp_path / "in"
+    shutil.copytree(work / "images", folder)
+    (folder / "i2.png").write_bytes(b"not a png")
+    (folder / "i5.png").unlink()
+    cv2.imwrite(str(folder / "i5.png"), np.zeros((100, 100, 3), np.uint8))  # the wrong size
+    os.environ["DASK_SCHEDULER_ADDRESS"] = cluster
+    try:
+        result = run(
+            "batch", folder, "--table", work / "cam.npz", "-o", tmp_path / "out/{stem}_{name}.jpg",
+            "--view", PANORAMA, "--view", DOOR, "--record", tmp_path / "rec.jsonl", "-q",
+        )  # fmt: skip
+    finally:
+        del os.environ["DASK_SCHEDULER_ADDRESS"]
+    assert result.exit_code == 1, result.output + result.stderr
+    errors = result.stderr.splitlines()
+    assert len(errors) == 3 and "Traceback" not in result.stderr
+    assert "i2.png: cannot read it as an image" in result.stderr
+    assert "i5.png: the image is 100 x 100, the table" in result.stderr
+    assert errors[-1].startswith("panomap: error: 2 of 8 inputs failed")
+    lines = record_lines(tmp_path / "rec.jsonl")
+    assert sorted(Path(str(line["input"])).name for line in lines if line["status"] == "failed") == ["i2.png", "i5.png"]
+    assert len([line for line in lines if line["status"] == "done"]) == 12
+    assert not (tmp_path / "out" / "i2_panorama.png").exists()
+
+
+def test_bad_jobs_get_one_line_errors(work: Path, tmp_path: Path) -> None:
+    images = work / "images"
+    common = ["--view", PANORAMA, "--record", tmp_path / "rec.jsonl"]
+    result = run("batch", images, "--table", tmp_path / "missing.npz", "-o", tmp_path / "{stem}.png", *common)
+    assert_one_line_error(result, "missing.npz", "no such table file", exit_code=1)
+    result = run("batch", images, "--table", work / "cam.npz", "-o", tmp_path / "{stem}_{view}.png", *common)
+    assert_one_line_error(result, "unknown key {view}", "{camera}, {stem}, {name}, {ext}", exit_code=1)
+    result = run("batch", images, "--table", work / "cam.npz", "-o", tmp_path / "same.png", *common)
+    assert_one_line_error(result, "two outputs would be this file", exit_code=1)
+    result = run(
+        "batch", tmp_path / "nothing*.png", "--table", work / "cam.npz", "-o", tmp_path / "{stem}.png", *common
+    )
+    assert_one_line_error(result, "matches no image or video", exit_code=1)
+    (tmp_path / "job.csv").write_text("input,table\nimages/i0.png,\n")
+    result = run("batch", tmp_path / "job.csv", "-o", tmp_path / "{stem}.png", *common)
+    assert_one_line_error(result, "job.csv: row 1 needs an input and a table", exit_code=1)
+    result = run("batch", images, "--table", work / "cam.npz", "-o", tmp_path / "{stem}.png")
+    assert_one_line_error(result, "give at least one --view", exit_code=2)
+    assert not (tmp_path / "rec.jsonl").exists()
+
+
+# ----------------------------------------------------------------------------- a real cluster, a worker killed
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def start(*args: str) -> subprocess.Popen[bytes]:
+    """A Dask process of its own session (so that killing its group takes its nanny and worker)."""
+    env = os.environ | {"PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    return subprocess.Popen(
+        [sys.executable, "-m", *args],
+        env=env,
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_job_on_a_real_cluster_loses_nothing(work: Path, tmp_path: Path, cluster: str) -> None:
+    """``dask scheduler`` and two ``dask worker`` processes; one killed (SIGKILL, nanny and all)
+    when the first result comes in: every output complete and equal to a run without the kill."""
+    inputs = find_inputs([str(work / "images"), str(work / "clip.mp4")], work / "cam.npz")
+    reference = make_job(inputs, VIEWS, str(tmp_path / "ref" / "{stem}_{name}.mp4"), LOSSLESS)
+    assert run_job(reference, Record(tmp_path / "ref.jsonl"), scheduler=cluster, segment_s=0.4, chunk=1).ok
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    processes = [start("distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")]
+    try:
+        for name in ("w1", "w2"):
+            processes.append(
+                start("distributed.cli.dask_worker", address, "--nthreads", "1", "--name", name, "--no-dashboard")
+            )
+        from distributed import Client
+
+        with Client(address, timeout=30) as client:
+            client.wait_for_workers(2, timeout=60)
+        killed: list[int] = []
+
+        def progress(state: Progress) -> None:
+            if not killed:
+                os.killpg(processes[1].pid, signal.SIGKILL)
+                killed.append(processes[1].pid)
+
+        job = make_job(inputs, VIEWS, str(tmp_path / "out" / "{stem}_{name}.mp4"), LOSSLESS)
+        report = run_job(
+            job, Record(tmp_path / "rec.jsonl"), scheduler=address, segment_s=0.4, chunk=1, progress=progress
+        )
+        assert killed and processes[1].wait(timeout=10) != 0
+        assert report.ok and report.done == IMAGES + 1 and report.workers == 2, report
+        for made, ref in zip(job.items, reference.items, strict=True):
+            for output, expected in zip(made.outputs, ref.outputs, strict=True):
+                if output.path.suffix == ".png":
+                    assert output.path.read_bytes() == expected.path.read_bytes(), output.path
+                else:
+                    a, b = decoded(output.path), decoded(expected.path)
+                    assert len(a) == FRAMES and [t for t, _ in a] == [t for t, _ in b]
+                    assert all(np.array_equal(x, y) for (_, x), (_, y) in zip(a, b, strict=True))
+        lines = record_lines(tmp_path / "rec.jsonl")
+        assert sorted(line["output"] for line in lines) == sorted(str(o.path) for i in job.items for o in i.outputs)
+        assert all(line["sha256"] == sha256(Path(str(line["output"]))) for line in lines)
+        assert {line["frames"] for line in lines} == {1, FRAMES}
+        assert not list((tmp_path / "out").rglob(".*part*"))
+    finally:
+        for process in processes:
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGTERM)
+        for process in processes:
+            try:
+                process.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.wait()
