@@ -12,7 +12,8 @@ optical axis tilted by a uniform 1-3 deg toward a random azimuth
 - ``tape-1cm``, ``tape-2cm``: the position given to the fit is that far off, in a random direction.
 
 Per trial, the worst pixel error over every visible test point at elevations
--85..-5 deg at least 5 px inside the annulus (about 0.5 deg: what a 2 cm error of the position moves a ray near the nadir) (inf when the table misses one). Printed per camera: median, 90th
+-85..-5 deg at least 5 px inside the annulus (about 0.5 deg: what a 2 cm error
+of the position moves a ray near the nadir), inf when the table misses one. Printed per camera: median, 90th
 percentile and worst trial of
 
 - **default**: ``fit_camera`` with its defaults (what ``panomap fit`` does);

@@ -357,7 +357,9 @@ def fit_camera(
         world_sigma = DEFAULT_WORLD_SIGMA_FRACTION * float(np.median(distance))
     if camera_sigma is None:
         camera_sigma = DEFAULT_CAMERA_SIGMA_FRACTION * float(np.median(distance))
-    rotation_given = None if tilt_given is None else tilt_rotation(*map(math.radians, tilt_given), axis)
+    rotation_given = None
+    if tilt_given is not None:
+        rotation_given = tilt_rotation(math.radians(tilt_given[0]), math.radians(tilt_given[1]), axis)
     d = to_camera(d, rotation_given)
     theta, rho = azimuth_elevation(d)
     horizontal = np.hypot(d[:, 0], d[:, 1])

@@ -1,10 +1,11 @@
 """Simulated omnidirectional cameras with known ground truth.
 
-Convention (see ``shared/conventions.md``):
+Convention (see ``docs/conventions.md``):
 
 - World frame: right-handed, Z up. Every camera's axes are parallel to the world's; its
-  optical axis is vertical; :class:`TiltedCamera` mounts any of them with a rotation. Points given to :meth:`project` and ray origins returned by
-  :meth:`trace` are *relative to the nominal camera position* O_m, in world axes.
+  optical axis is vertical (:class:`TiltedCamera` mounts any of them with a rotation).
+  Points given to :meth:`project` and ray origins returned by :meth:`trace` are
+  *relative to the nominal camera position* O_m, in world axes.
 - Ray of a point with offset ``d = P - O_m``: azimuth ``theta = atan2(d_y, d_x)`` in
   ``[0, 2*pi)`` (counter-clockwise from +X seen from above), elevation
   ``rho = atan2(d_z, hypot(d_x, d_y))`` (negative below the horizontal plane through O_m).

@@ -4,9 +4,10 @@
 model, the elevation range, radii, image size, camera position, the table's
 ``info`` (where the centre and radii came from, the landmarks and the fit
 report), the SHA-256 of ``entries`` and (since version 2) the SHA-256 of the
-metadata itself. Version 3 adds the camera's rotation to the model (a tilted
-camera; absent for a level one); versions 1 and 2 still load. Loading checks all of it, in an order that bounds memory and
-time before the work starts:
+metadata itself. Version 3 adds a tilted camera's rotation (in the model) and
+its own elevation range; versions 1 and 2 (level cameras only) still load.
+Loading checks all of it, in an order that bounds memory and time before the
+work starts:
 
 1. the arrays' declared shapes and types, from their headers, against the
    limits (nothing is read yet);

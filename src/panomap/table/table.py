@@ -84,8 +84,6 @@ class PanoMappingTable:
                 if self.model.rotation is None
                 else "a tilted camera's table needs its camera elevation range"
             )
-
-    def __post_init__(self) -> None:
         entries = np.ascontiguousarray(self.entries, dtype=np.float32)
         if entries.ndim != 3 or entries.shape[2] != 2 or entries.shape[0] < 2 or entries.shape[1] < 2:
             raise PanomapError(f"table entries must have shape (M, N, 2) with M, N >= 2, not {entries.shape}")
