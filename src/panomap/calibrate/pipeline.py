@@ -160,6 +160,8 @@ def calibrate_camera(
     world_sigma: float | None = None,
     reject_outliers: bool = True,
     models_cover_annulus: bool = True,
+    tilt: str | tuple[float, float] = "fit",
+    camera_sigma: float | None = None,
 ) -> Calibration:
     """Landmarks (and an omni-image) to a fitted camera and its pano-mapping table.
 
@@ -197,8 +199,9 @@ def calibrate_camera(
         Refine the centre with the landmarks. Default: when the centre was not
         given (found in the image, or the frame's middle where no image circle
         is found) and the model does not take the centre as given (``paper``).
-    model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers
-        As :func:`panomap.fit_camera`.
+    model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers, tilt, camera_sigma
+        As :func:`panomap.fit_camera` (by default the tilt and the camera
+        position are refined where cross-validation says the landmarks support it).
     models_cover_annulus : bool
         When both radii are known before the fit, automatic model choice
         only takes models that run monotonically across the annulus (its
@@ -257,6 +260,8 @@ def calibrate_camera(
         pixel_sigma=pixel_sigma,
         world_sigma=world_sigma,
         reject_outliers=reject_outliers,
+        tilt=tilt,
+        camera_sigma=camera_sigma,
     )
     annulus = choose_annulus(camera_fit, image_size, cutoff, outer)
     recorded.setdefault("cutoff_radius", Origin(annulus.cutoff_source))

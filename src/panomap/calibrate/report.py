@@ -294,10 +294,10 @@ class FitReport:
         }
         if self.centre_start is not None:
             data["centre_start"] = list(self.centre_start)
-        if self.uncertainty is not None:
-            data["uncertainty"] = self.uncertainty.to_dict()
         if self.mount is not None:
             data["mount"] = self.mount.to_dict()
+        if self.uncertainty is not None:
+            data["uncertainty"] = self.uncertainty.to_dict()
         return data
 
     @classmethod

@@ -13,14 +13,14 @@ from ..calibrate.circles import ImageCircles, draw_overlay, find_image_circles
 from ..calibrate.diagnosis import diagnose
 from ..calibrate.landmarks import read_landmarks
 from ..calibrate.pipeline import calibrate_camera
-from ..calibrate.report import FitReport, table_fit_report
+from ..calibrate.report import FitReport, MountReport, table_fit_report
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError
 from ..files import all_or_none, check_output_paths
 from ..io.images import read_image, write_image
 from ..table.file import load_table
 from ..table.table import PanoMappingTable, check_table_size
-from .options import FINITE, PATH, SIZE
+from .options import FINITE, PATH, SIZE, TILT
 
 
 @click.command()
@@ -100,6 +100,24 @@ from .options import FINITE, PATH, SIZE
     help="Standard deviation of the landmarks' world coordinates (world units) [default: 0.4% of their "
     "median distance].",
 )
+@click.option(
+    "--tilt",
+    "tilt",
+    type=TILT,
+    default="fit",
+    show_default=True,
+    metavar="fit|none|'DEG AZ_DEG'",
+    help="The camera's axis off the vertical: 'fit' estimates it and keeps it when cross-validation says the "
+    "landmarks support it; 'none' takes the camera as level (the paper); 'DEG AZ_DEG' (one argument, quoted) fixes "
+    "it: the optical axis DEG off the vertical, leaning toward world azimuth AZ_DEG.",
+)
+@click.option(
+    "--camera-sigma",
+    type=FINITE,
+    help="Standard deviation of each coordinate of --camera (world units: a tape measurement); the fit refines "
+    "the position when cross-validation says the landmarks support it; 0 keeps it exact [default: 1% of the "
+    "landmarks' median distance].",
+)
 @click.option("--keep-outliers", is_flag=True, help="Keep landmarks that disagree with the rest (default: drop them).")
 @click.option("--plot", type=PATH, help="Also write the fit plot (PNG): the curve, landmarks and residuals.")
 def fit(
@@ -118,6 +136,8 @@ def fit(
     refine_centre: bool | None,
     pixel_sigma: float,
     world_sigma: float | None,
+    tilt: str | tuple[float, float],
+    camera_sigma: float | None,
     keep_outliers: bool,
     plot: Path | None,
 ) -> None:
@@ -153,6 +173,8 @@ def fit(
             pixel_sigma=pixel_sigma,
             world_sigma=world_sigma,
             reject_outliers=not keep_outliers,
+            tilt=tilt,
+            camera_sigma=camera_sigma,
         )
     except PanomapError as exc:
         raise PanomapError(exc.detail, exc.source or landmarks) from None
@@ -263,7 +285,38 @@ def _describe_fit(table: PanoMappingTable) -> str:
             f"centre refined with the landmarks: ({u0:.2f}, {v0:.2f}), "
             f"{math.hypot(u0 - us, v0 - vs):.2f} px from the start ({us:.2f}, {vs:.2f})"
         )
+    if fit is not None and fit.mount is not None:
+        lines.extend(describe_mount(fit.mount))
     return "\n".join([*lines, _describe_residuals(table, fit)])
+
+
+def describe_mount(mount: MountReport) -> list[str]:
+    """The tilt and the camera position as fitted, in a line each (a level camera at its given place: none)."""
+    lines = []
+    if mount.tilt_deg > 0:
+        how = {"fit": "fitted", "given": "given"}.get(mount.tilt_mode, mount.tilt_mode)
+        spread = ""
+        if mount.tilt_se_deg is not None:
+            toward_se = "" if mount.toward_se_deg is None else f" +- {mount.toward_se_deg:.1f}"
+            spread = f" +- {mount.tilt_se_deg:.2f}"
+            lines.append(
+                f"tilt ({how}): the optical axis is {mount.tilt_deg:.2f}{spread} deg off the vertical, leaning "
+                f"toward azimuth {mount.toward_deg:.1f}{toward_se} deg"
+            )
+        else:
+            lines.append(
+                f"tilt ({how}): the optical axis is {mount.tilt_deg:.2f} deg off the vertical, leaning toward "
+                f"azimuth {mount.toward_deg:.1f} deg"
+            )
+    elif mount.tilt_mode == "fit" and mount.cross_validation:
+        lines.append("tilt: none (the landmarks do not show one beyond their noise)")
+    if mount.position_refined:
+        x, y, z = mount.camera
+        lines.append(
+            f"camera position refined with the landmarks: ({x:.4g}, {y:.4g}, {z:.4g}), "
+            f"{mount.camera_shift:.3g} from the given one (its sigma {mount.camera_sigma:.3g} a coordinate)"
+        )
+    return lines
 
 
 def _describe_residuals(table: PanoMappingTable, fit: FitReport | None) -> str:

@@ -44,7 +44,28 @@ class Finite(click.ParamType):
             self.fail(str(exc), param, ctx)
 
 
+class Tilt(click.ParamType):
+    """``fit``, ``none``, or ``"DEG AZ_DEG"`` (one argument): the tilt off the vertical and its azimuth, deg."""
+
+    name = "tilt"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, tuple) or value in ("fit", "none"):
+            return value
+        parts = str(value).replace(",", " ").split()
+        try:
+            if len(parts) != 2:
+                raise NotFinite(value, number=False)
+            tilt_deg, toward_deg = (finite_number(part) for part in parts)
+        except NotFinite:
+            self.fail(f"{value!r} is not 'fit', 'none' or two numbers 'DEG AZ_DEG'", param, ctx)
+        if not 0 <= tilt_deg <= 45:
+            self.fail(f"a tilt of {tilt_deg:g} deg: give 0 to 45 deg off the vertical", param, ctx)
+        return (tilt_deg, toward_deg)
+
+
 SIZE = Size()
 FINITE = Finite()
+TILT = Tilt()
 PATH = click.Path(path_type=Path, dir_okay=False)
 FOLDER = click.Path(path_type=Path, file_okay=False)
