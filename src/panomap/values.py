@@ -32,6 +32,8 @@ def finite_number(value: Any, *, bools: bool = True) -> float:
     """
     try:
         number = float(value)
+    except OverflowError:  # an integer beyond the floats' range: a number, but not a finite float
+        raise NotFinite(value, number=True) from None
     except (TypeError, ValueError):
         raise NotFinite(value, number=False) from None
     if not math.isfinite(number) or (isinstance(value, bool) and not bools):
