@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import PanomapError
 from ..files import read_text
 from ..geometry import FloatArray
-from ..values import NotFinite, finite_number
+from ..values import NotFinite, TooLarge, finite_number
 
 COLUMNS = ("u", "v", "X", "Y", "Z")
 MIN_LANDMARKS = 5
@@ -117,6 +117,8 @@ def read_landmarks(path: str | Path) -> Landmarks:
 def _number(value: Any, what: str) -> float:
     try:
         return finite_number(value)
+    except TooLarge as exc:
+        raise PanomapError(f"{what} is too large: {value!r} (at most {exc.limit:g} in size)") from None
     except NotFinite as exc:
         raise PanomapError(f"{what} is not {'finite' if exc.number else 'a number'}: {value!r}") from None
 

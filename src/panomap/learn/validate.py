@@ -12,7 +12,7 @@ import re
 from typing import Any
 
 from ..errors import PanomapError
-from ..values import NotFinite, finite_number
+from ..values import NotFinite, TooLarge, finite_number
 
 MAX_BODY_BYTES = 1 << 20
 MAX_LANDMARKS = 500
@@ -71,6 +71,8 @@ def finite(value: Any, what: str, limit: float | None = None) -> float:
         raise RequestError(f"{what} must be a number, not {json.dumps(value)[:40]}")
     try:
         number = finite_number(value)
+    except TooLarge as exc:
+        raise RequestError(f"{what} = {value:g} is too large (at most {exc.limit:g} in size)") from None
     except NotFinite:
         raise RequestError(f"{what} must be finite") from None
     if limit is not None and abs(number) > limit:
