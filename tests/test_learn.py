@@ -562,6 +562,7 @@ def test_an_ipv6_host_is_served(served: Any) -> None:
             pytest.skip(f"no IPv6 here: {exc}")
         raise
     assert server.url.startswith("http://[::1]:")
+    assert served(host="[::1]", port=0).url.startswith("http://[::1]:")  # as written in a URL
     client = Client(server)
     assert client.get("/api/state")["image"]["name"] == "omni.png"
     status, answer = client.post("/api/state", {"model": "auto"}, {"Origin": server.url.rstrip("/")})

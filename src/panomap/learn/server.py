@@ -288,6 +288,8 @@ def make_server(
     PanomapError
         When the address cannot be bound (the port is in use, the host is not this machine's).
     """
+    if host.startswith("[") and host.endswith("]"):  # an IPv6 address as written in a URL
+        host = host[1:-1]
     try:
         return LearnServer((host, port), session, idle_timeout_s)
     except OSError as exc:
