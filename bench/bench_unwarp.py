@@ -46,7 +46,7 @@ def paper_cylinder(table: PanoMappingTable, image: np.ndarray, view: CylinderPan
         if not 0 <= j < n:
             continue
         for k in range(width):
-            theta_q = (view.theta_start - 2 * math.pi * (k + 0.5) / width) % (2 * math.pi)
+            theta_q = (view.theta_start_rad - 2 * math.pi * (k + 0.5) / width) % (2 * math.pi)
             i = math.floor(theta_q * (m / (2 * math.pi))) % m  # eq. 9
             u, v = entries[i, j]
             col, row = round(float(u)), round(float(v))

@@ -304,3 +304,79 @@ def test_long_landmark_names_are_printed_whole_and_one_ray_is_singular(work: Pat
     result = run("unproject", table_path, work / "px.csv", "-o", work / "rays.csv", "--z", 0)
     assert result.exit_code == 0, result.stderr
     assert "1 ray reaches the plane Z = 0" in result.output
+
+
+def test_a_huge_number_is_refused_in_one_line_without_a_numpy_warning(work: Path) -> None:
+    """1e300 is finite, but no camera, room or pixel is that large: refused with its place named (issue 14:
+    ``fit --camera 1e300 ...`` printed NumPy's overflow RuntimeWarning, ``floor --x 0 1e300`` too)."""
+    table_path = fit_table(work)
+    (work / "far.csv").write_text((work / "lm.csv").read_text() + "far,1,2,1e300,0,0\n")
+    (work / "points.csv").write_text("X,Y,Z\n1,2,0\n1e300,0,0\n")
+    usage = "'1e300' is too large (at most 1e+09 in size)"
+    cases = [
+        (
+            ["fit", work / "lm.csv", "-o", work / "t.npz", "--camera", "1e300", 0, 2, "--image", work / "omni.png"],
+            2,
+            usage,
+        ),
+        (
+            ["floor", table_path, work / "omni.png", "-o", work / "t.png", "--z", 0, "--x", 0, "1e300", "--y", 0, 1],
+            2,
+            usage,
+        ),
+        (
+            ["fit", work / "far.csv", "-o", work / "t.npz", "--camera", *POSITION, "--image", work / "omni.png"],
+            1,
+            "X is too large",
+        ),
+        (["project", table_path, work / "points.csv", "-o", work / "t.csv"], 1, "row 3, X is too large: '1e300'"),
+        (
+            [
+                "video",
+                table_path,
+                work / "none.mp4",
+                "-o",
+                work / "t.mp4",
+                "--view",
+                "cylinder:distance=1e300,band=-1:0,size=64x32",
+            ],
+            1,
+            "distance='1e300' is too large",
+        ),
+    ]
+    for args, code, message in cases:
+        result = subprocess.run(
+            [sys.executable, "-m", "panomap", *(str(a) for a in args)], capture_output=True, text=True, check=False
+        )
+        assert result.returncode == code, result.stderr
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and message in lines[0], result.stderr
+        assert "Warning" not in result.stderr
+    assert not any(work.glob("t.*"))
+
+
+def test_a_broken_image_gets_our_one_line_and_nothing_from_libpng_or_opencv(tmp_path: Path) -> None:
+    """In a real process (libpng and OpenCV write to the stderr file descriptor, not through Python)."""
+    cv2.imwrite(str(tmp_path / "good.png"), (np.random.default_rng(1).random((200, 300, 3)) * 255).astype(np.uint8))
+    data = (tmp_path / "good.png").read_bytes()
+    (tmp_path / "half.png").write_bytes(data[: len(data) // 2])  # libpng: "libpng error: ... incomplete"
+    (tmp_path / "head.png").write_bytes(data[:100])  # OpenCV: "[ WARN:0@...] ... PNG input buffer is incomplete"
+    # A Radiance header declaring 40000 x 40000 (Pillow cannot read it; OpenCV raised cv2.error, a traceback).
+    (tmp_path / "huge.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 40000 +X 40000\nxxxx")
+    (tmp_path / "short.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4000 +X 4000\nxxxx")  # [ERROR]
+    for name, message in (
+        ("half.png", "a truncated or corrupt PNG"),
+        ("head.png", "a truncated or corrupt PNG"),
+        ("huge.hdr", "cannot read it as an image"),
+        ("short.hdr", "cannot read it as an image"),
+    ):
+        result = subprocess.run(
+            [sys.executable, "-m", "panomap", "centre", str(tmp_path / name)],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert result.returncode == 1
+        lines = result.stderr.splitlines()
+        assert len(lines) == 1, result.stderr
+        assert lines[0].startswith(f"panomap: error: {tmp_path / name}: ") and message in lines[0], lines

@@ -97,8 +97,8 @@ def test_sampling_outside_the_elevation_range_is_nan() -> None:
 
 def test_generic_panorama_columns_decrease_in_azimuth_rows_decrease_in_elevation() -> None:
     table = make_table(m=8, n=4)
-    theta, rho = GenericPanorama(size=(4, 2), theta_start=0.0).angles(table)
-    # Column k sees theta_start - 2 pi (k + 0.5)/W, wrapped.
+    theta, rho = GenericPanorama(size=(4, 2), theta_start_rad=0.0).angles(table)
+    # Column k sees theta_start_rad - 2 pi (k + 0.5)/W, wrapped.
     np.testing.assert_allclose(theta[0], np.mod(-2 * math.pi * (np.arange(4) + 0.5) / 4, 2 * math.pi))
     # Row l sees rho_e - (l + 0.5)/H of the range: the top row is the highest.
     np.testing.assert_allclose(rho[:, 0], [-math.pi / 8, -3 * math.pi / 8])
@@ -112,7 +112,7 @@ def test_generic_panorama_of_table_size_with_nearest_is_the_table_itself() -> No
 
 
 def test_cylinder_pixels_see_points_at_distance_and_band_heights() -> None:
-    view = CylinderPanorama(2.0, Band(-1.0, 0.5), (4, 3), theta_start=math.pi / 2)
+    view = CylinderPanorama(2.0, Band(-1.0, 0.5), (4, 3), theta_start_rad=math.pi / 2)
     points = view.points(make_table())
     np.testing.assert_allclose(np.hypot(points[..., 0], points[..., 1]), 2.0)
     np.testing.assert_allclose(points[:, 0, 2], [0.25, -0.25, -0.75])  # z_top - (l + 0.5)(z_top - z_bottom)/H
@@ -122,7 +122,7 @@ def test_cylinder_pixels_see_points_at_distance_and_band_heights() -> None:
 
 
 def test_plane_edges_at_distance_d_left_at_higher_azimuth() -> None:
-    view = PlaneView(distance=2.0, width=2.0, band=Band(-1.0, 0.0), azimuth=math.radians(30), size=(1000, 2))
+    view = PlaneView(distance=2.0, width=2.0, band=Band(-1.0, 0.0), azimuth_rad=math.radians(30), size=(1000, 2))
     phi = math.acos(1 - 4.0 / 8.0)  # eq. 13: 60 deg for W_p = D
     assert view.subtended == pytest.approx(phi)
     points = view.points(make_table())

@@ -61,7 +61,7 @@ def test_fit_recovers_rotation_and_mirroring(name: str) -> None:
 @pytest.mark.parametrize("name", SVP_CAMERA_NAMES)
 def test_cylinder_map_matches_ground_truth(name: str) -> None:
     table, rho_range = learn(name)
-    view = CylinderPanorama(2.0, Band(-3.0, 0.6), (720, 240), theta_start=1.3)
+    view = CylinderPanorama(2.0, Band(-3.0, 0.6), (720, 240), theta_start_rad=1.3)
     assert_view_errors_within(view_errors(table, view, name, rho_range), name)
 
 
@@ -77,7 +77,7 @@ def test_plane_map_matches_ground_truth(name: str, azimuth_deg: float) -> None:
 def test_generic_panorama_columns_hold_one_azimuth_rows_one_elevation(name: str) -> None:
     table, rho_range = learn(name)
     width, height = 360, 90
-    map_uv = build_map(table, GenericPanorama((width, height), theta_start=0.4))
+    map_uv = build_map(table, GenericPanorama((width, height), theta_start_rad=0.4))
     _origins, directions = CAMERAS[name].trace(map_uv)
     theta, rho = azimuth_elevation(directions)
     expected_theta = np.mod(0.4 - 2 * np.pi * (np.arange(width) + 0.5) / width, 2 * np.pi)

@@ -10,11 +10,14 @@ from __future__ import annotations
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
+import threading
 import urllib.error
 import urllib.request
 from collections.abc import Iterator
+from email.message import Message
 from pathlib import Path
 from typing import Any
 
@@ -23,9 +26,10 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from panomap.calibrate.landmarks import Landmarks, landmarks_to_json, read_landmarks
+from panomap.calibrate.landmarks import Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
 from panomap.cli.app import main
 from panomap.errors import PanomapError
+from panomap.learn import session as session_module
 from panomap.learn.server import LearnServer, json_safe, make_server, serve_in_thread
 from panomap.learn.session import Session
 from panomap.simulate.example import Example
@@ -43,20 +47,28 @@ class Client:
     def request(
         self, method: str, path: str, body: bytes | None = None, headers: dict[str, str] | None = None
     ) -> tuple[int, bytes]:
+        status, _, answer = self.exchange(method, path, body, headers)
+        return status, answer
+
+    def exchange(
+        self, method: str, path: str, body: bytes | None = None, headers: dict[str, str] | None = None
+    ) -> tuple[int, Message, bytes]:
+        """Status, headers and body of one request."""
         request = urllib.request.Request(self.url + path, body, headers or {}, method=method)
         try:
             with urllib.request.urlopen(request, timeout=30) as response:
-                return response.status, response.read()
+                return response.status, response.headers, response.read()
         except urllib.error.HTTPError as exc:
-            return exc.code, exc.read()
+            return exc.code, exc.headers, exc.read()
 
     def get(self, path: str) -> Any:
         status, body = self.request("GET", path)
         assert status == 200, body
         return json.loads(body)
 
-    def post(self, path: str, data: Any) -> tuple[int, Any]:
-        status, body = self.request("POST", path, json.dumps(data).encode(), {"Content-Type": "application/json"})
+    def post(self, path: str, data: Any, headers: dict[str, str] | None = None) -> tuple[int, Any]:
+        sent = {"Content-Type": "application/json"} | (headers or {})
+        status, body = self.request("POST", path, json.dumps(data).encode(), sent)
         return status, json.loads(body)
 
     def post_raw(self, path: str, body: bytes, content_type: str = "application/json") -> tuple[int, Any]:
@@ -177,6 +189,9 @@ GOOD = {"name": "a", "u": 100.0, "v": 100.0, "X": 1.0, "Y": 2.0, "Z": 0.0}
         (b'{"circles": {"centre": [900, 2], "cutoff_radius": 0, "outer_radius": 40}}', "outside the 480 x 480"),
         (b'{"circles": {"centre": [9, 2]}}', "circles: missing cutoff_radius, outer_radius"),
         (b"\xff\xfe", "not UTF-8"),
+        (b'{"camera": ' + b"[" * 100_000 + b"]" * 100_000 + b"}", "nested too deeply"),
+        (b'{"camera": [' + b"7" * 5000 + b", 1, 2]}", "a number too long to read"),
+        (b'{"camera": [1' + b"0" * 400 + b", 1, 2]}", "camera[0] must be finite"),
     ],
 )
 def test_bad_state_is_refused_with_a_clear_error_and_changes_nothing(client: Client, body: bytes, message: str) -> None:
@@ -392,3 +407,201 @@ def test_a_port_in_use_is_refused_with_a_reason(example: Example, folder: Path) 
             make_server(session, port=first.server_address[1])
     finally:
         first.server_close()
+
+
+# ----------------------------------------------------------------------------- hardening (issue 14)
+
+
+@pytest.fixture
+def served(example: Example, folder: Path) -> Iterator[Any]:
+    """``start(**make_server options)``: a server for the example image, stopped at the end."""
+    started: list[tuple[LearnServer, threading.Thread]] = []
+
+    def start(serve: bool = True, **options: Any) -> LearnServer:
+        server = make_server(Session(example.image, "omni.png", folder), **options)
+        started.append((server, serve_in_thread(server) if serve else threading.Thread()))
+        return server
+
+    yield start
+    for server, thread in started:
+        if thread.is_alive():
+            server.shutdown()
+            thread.join(5)
+        server.server_close()
+
+
+def test_a_silent_connection_is_closed_after_the_idle_timeout(served: Any) -> None:
+    server = served(idle_timeout_s=0.5, port=0)
+    with socket.create_connection(server.server_address[:2], timeout=30) as conn:
+        conn.sendall(b"GET /api/state HTTP/1.1\r\n")  # ... and never the rest: a stalled client
+        # The server closes it (EOF) after half a second; without a timeout this recv waits 30 s and fails.
+        assert conn.recv(1024) == b""
+
+
+def test_thirty_concurrent_connections_are_all_answered(served: Any) -> None:
+    # Thirty clients connect before the server accepts any: all must fit in the listen queue
+    # (with socketserver's backlog of 5 the kernel drops the others' SYNs and they time out).
+    server = served(serve=False, port=0)
+    connections = [socket.create_connection(server.server_address[:2], timeout=3) for _ in range(30)]
+    thread = serve_in_thread(server)
+    try:
+        host = f"{server.server_address[0]}:{server.server_address[1]}"
+        for conn in connections:
+            conn.settimeout(30)
+            conn.sendall(f"GET /api/files HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n".encode())
+        for conn in connections:
+            answer = b""
+            while chunk := conn.recv(65536):
+                answer += chunk
+            assert answer.startswith(b"HTTP/1.1 200 "), answer[:200]
+    finally:
+        for conn in connections:
+            conn.close()
+        server.shutdown()
+        thread.join(5)
+
+
+def test_a_long_fit_does_not_block_reading_the_state(
+    client: Client, example: Example, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    fitting, release = threading.Event(), threading.Event()
+    real = session_module.calibrate_camera
+
+    def held_fit(*args: Any, **kwargs: Any) -> Any:
+        fitting.set()
+        assert release.wait(60), "the test never released the fit"
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(session_module, "calibrate_camera", held_fit)
+    before = client.get("/api/state")
+    answers: list[tuple[int, Any]] = []
+    body = {"camera": list(example.camera_position), "landmarks": true_landmarks(example)}
+    update = threading.Thread(target=lambda: answers.append(client.post("/api/state", body)))
+    update.start()
+    try:
+        assert fitting.wait(30)
+        # While the fit waits, the page's reads are answered, with the state before the change.
+        assert client.get("/api/state") == before
+        assert client.get("/api/files") == {"landmarks": [], "tables": []}
+        status, _ = client.request("GET", "/api/image")
+        assert status == 200
+    finally:
+        release.set()
+        update.join(60)
+    assert answers and answers[0][0] == 200 and answers[0][1]["fit"]["ok"]
+    after = client.get("/api/state")
+    assert after["revision"] == before["revision"] + 1 and after["fit"]["ok"]
+
+
+def test_every_answer_forbids_framing(client: Client) -> None:
+    for method, path, body in (
+        ("GET", "/", None),
+        ("GET", "/static/app.js", None),
+        ("GET", "/api/state", None),
+        ("GET", "/api/image", None),
+        ("GET", "/api/nothing", None),
+        ("POST", "/api/state", b"{}"),
+        ("POST", "/api/state", b"{bad"),
+        ("PUT", "/api/state", b"{}"),
+    ):
+        status, headers, _ = client.exchange(method, path, body, {"Content-Type": "application/json"})
+        assert headers["X-Frame-Options"] == "DENY", (method, path, status)
+        assert "frame-ancestors 'none'" in headers["Content-Security-Policy"], (method, path, status)
+
+
+def test_a_foreign_origin_cannot_change_anything(client: Client, example: Example, folder: Path) -> None:
+    client.post("/api/state", {"camera": list(example.camera_position), "landmarks": true_landmarks(example)})
+    before = client.get("/api/state")
+    own = "http://" + client.url.split("://")[1]
+    for origin in ("http://evil.example", "null", own + ".evil.example", own.replace("http:", "https:")):
+        for path, body in (
+            ("/api/state", {"camera": [0, 0, 1]}),
+            ("/api/landmarks/save", {"name": "lm.csv"}),
+            ("/api/table/save", {"name": "cam.npz"}),
+        ):
+            status, answer = client.post(path, body, {"Origin": origin})
+            assert status == 403 and "another site's page" in answer["error"], (origin, path, answer)
+    assert client.get("/api/state") == before and not list(folder.iterdir())
+    # The page's own origin (a browser sends it) and none (a script) are served.
+    assert client.post("/api/landmarks/save", {"name": "lm.csv"}, {"Origin": own})[0] == 200
+    assert client.post("/api/table/save", {"name": "cam.npz"})[0] == 200
+
+
+def test_saving_onto_an_existing_file_needs_overwrite(client: Client, example: Example, folder: Path) -> None:
+    client.post("/api/state", {"camera": list(example.camera_position), "landmarks": true_landmarks(example)})
+    for path, name in (
+        ("/api/landmarks/save", "lm.csv"),
+        ("/api/landmarks/save", "lm.json"),
+        ("/api/table/save", "cam.npz"),
+    ):
+        (folder / name).write_text("kept")
+        status, answer = client.post(path, {"name": name})
+        assert status == 409 and answer["exists"] == name, answer
+        assert f"'{name}' already exists" in answer["error"] and "overwrite" in answer["error"]
+        assert (folder / name).read_text() == "kept"
+        status, answer = client.post(path, {"name": name, "overwrite": "yes"})
+        assert status == 400 and "overwrite must be true or false" in answer["error"]
+        assert (folder / name).read_text() == "kept"
+        status, answer = client.post(path, {"name": name, "overwrite": True})
+        assert status == 200 and answer == {"wrote": name}
+    assert read_landmarks(folder / "lm.csv").names == example.names
+    assert load_table(folder / "cam.npz").size is not None
+    # A folder of that name is never replaced, overwrite or not: 400 with the reason, no traceback.
+    (folder / "sub.csv").mkdir()
+    for overwrite in (False, True):
+        status, answer = client.post("/api/landmarks/save", {"name": "sub.csv", "overwrite": overwrite})
+        assert status == 400 and "'sub.csv' is a folder" in answer["error"], answer
+    assert (folder / "sub.csv").is_dir()
+
+
+def test_an_ipv6_host_is_served(served: Any) -> None:
+    try:
+        server = served(host="::1", port=0)
+    except PanomapError as exc:  # a machine without IPv6: nothing to test
+        if "address" in str(exc).lower() and not socket.has_ipv6:
+            pytest.skip(f"no IPv6 here: {exc}")
+        raise
+    assert server.url.startswith("http://[::1]:")
+    assert served(host="[::1]", port=0).url.startswith("http://[::1]:")  # as written in a URL
+    client = Client(server)
+    assert client.get("/api/state")["image"]["name"] == "omni.png"
+    status, answer = client.post("/api/state", {"model": "auto"}, {"Origin": server.url.rstrip("/")})
+    assert status == 200, answer
+
+
+def test_formula_names_are_escaped_in_csv_and_read_back(client: Client, example: Example, folder: Path) -> None:
+    names = ["=HYPERLINK(1)", "+1", "-2", "@SUM(A1)", "plain", "a-b"]
+    rows = [row | {"name": name} for row, name in zip(true_landmarks(example), names, strict=False)]
+    status, _ = client.post("/api/state", {"camera": list(example.camera_position), "landmarks": rows})
+    assert status == 200
+    status, answer = client.post("/api/landmarks/save", {"name": "lm.csv"})
+    assert status == 200, answer
+    cells = [line.split(",")[0] for line in (folder / "lm.csv").read_text().splitlines()[1:]]
+    # OWASP: a cell a spreadsheet would run starts with a single quote instead.
+    assert cells == ["'=HYPERLINK(1)", "'+1", "'-2", "'@SUM(A1)", "plain", "a-b"]
+    assert read_landmarks(folder / "lm.csv").names == tuple(names)
+    # The library's writer round-trips any name, commas and quotes too.
+    odd = ("a,b", 'say "hi"', "\tTAB", "-", "'=quoted", "'")
+    path = folder / "odd.csv"
+    path.write_text(landmarks_to_csv(Landmarks(example.pixels[:6], example.world[:6], odd)))
+    assert read_landmarks(path).names == odd
+
+
+def test_a_landmark_file_meets_the_limits_of_typed_input(
+    client: Client, example: Example, folder: Path, tmp_path: Path
+) -> None:
+    far = Landmarks(example.pixels, example.world, example.names, (1e9, 0.0, 2.0))
+    (folder / "far.json").write_text(landmarks_to_json(far))
+    before = client.get("/api/state")
+    status, answer = client.post("/api/landmarks/load", {"name": "far.json"})
+    assert (
+        status == 400
+        and answer["error"] == "load landmarks: far.json: camera[0] = 1e+09 is too large (at most 1e+06 in size)"
+    )
+    assert client.get("/api/state") == before
+    cv2.imwrite(str(tmp_path / "omni.png"), example.image)
+    result = CliRunner().invoke(main, ["learn", str(tmp_path / "omni.png"), "--landmarks", str(folder / "far.json")])
+    assert result.exit_code == 1
+    assert result.stderr.strip() == (
+        "panomap: error: the landmarks to start with: camera[0] = 1e+09 is too large (at most 1e+06 in size)"
+    )

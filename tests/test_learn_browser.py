@@ -214,6 +214,19 @@ def test_learning_a_camera_in_the_browser(browser: Any, serve: Any, example: Exa
     page.click("#save-table")
     page.wait_for_selector("#files-status[data-done='cam.npz']")
     assert files_under(tmp_path) == {"work", "work/lm.csv", "work/cam.npz"}
+    # Saving onto an existing file asks first: "Cancel" leaves the file alone, "OK" replaces it.
+    asked, answers = [], iter([False, True])
+    page.on(
+        "dialog", lambda dialog: (asked.append(dialog.message), (dialog.accept if next(answers) else dialog.dismiss)())
+    )
+    (folder / "lm.csv").write_text("kept\n")
+    page.click("#save-landmarks")
+    page.wait_for_selector("#files-status[data-done='error']")
+    assert "'lm.csv' already exists" in page.inner_text("#files-status")
+    assert (folder / "lm.csv").read_text() == "kept\n"
+    page.click("#save-landmarks")
+    page.wait_for_selector("#files-status[data-done='lm.csv']")
+    assert asked == ["lm.csv already exists in the folder. Replace it?"] * 2
     view.close()
 
     saved = read_landmarks(folder / "lm.csv")

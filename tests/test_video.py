@@ -376,9 +376,19 @@ def test_bad_input_gets_one_line_before_any_work(work: Path, tmp_path: Path) -> 
         ),
         ((table, clip, "-o", tmp_path / "o.mp4", "--view", PANORAMA, "--codec", "nope"), ("unknown video encoder",)),
         ((table, clip, "-o", tmp_path / "o.mp4", "--view", PANORAMA, "--pix-fmt", "rgb24"), ("cannot take rgb24",)),
+        (
+            (table, clip, "-o", tmp_path / "o.mp4", "--view", PANORAMA, "--encoder-option", "foo=bar"),
+            ("the video encoder libx264 has no option 'foo'", "ffmpeg -h encoder=libx264"),
+        ),
+        (
+            (table, clip, "-o", tmp_path / "o.mp4", "--view", PANORAMA, "--encoder-option", "crf=abc"),
+            ("o.mp4", "the video encoder libx264 refused its options (preset=veryfast, crf=abc): Invalid argument"),
+        ),
     ]
     for args, fragments in cases:
-        assert_one_line_error(run("video", *args), *fragments, exit_code=1)
+        result = run("video", *args)
+        assert_one_line_error(result, *fragments, exit_code=1)
+        assert "audio" not in result.stderr  # (the clip has audio: no error may blame it wrongly)
     # A table of another camera size.
     write_clip(tmp_path / "small.mp4", 2, audio=False)
     with av.open(str(tmp_path / "other.mp4"), "w") as container:
@@ -545,6 +555,24 @@ def test_memory_stays_flat_over_a_long_stream(work: Path, tmp_path: Path) -> Non
     assert report.frames_written == 600
     warm = samples[150]
     assert max(samples[k] for k in samples if k >= 150) - warm < 8.0, samples
+
+
+def test_an_encoder_option_it_knows_is_passed_on(work: Path, tmp_path: Path) -> None:
+    """A generic option (g: the keyframe interval) and one of x264's own (tune) are taken, not refused."""
+    args = ["--encoder-option", "g=5", "--encoder-option", "tune=zerolatency", "--no-audio"]
+    result = run("video", work / "cam.npz", work / "clip.mp4", "-o", tmp_path / "a.mp4", "--view", PANORAMA, *args)
+    assert result.exit_code == 0, result.stderr
+    with av.open(str(tmp_path / "a.mp4")) as container:
+        keys = [packet.is_keyframe for packet in container.demux(video=0) if packet.size]
+    assert len(keys) == FRAMES and keys[::5] == [True] * (FRAMES // 5)
+
+
+def test_the_help_points_at_what_it_prints(work: Path) -> None:
+    text = " ".join(run("video", "--help").output.split())  # (click wraps the option help)
+    assert "see below" not in text
+    # What the options point at is printed before them, under the description.
+    assert text.index("View SPECs") < text.index("see the View SPECs above")
+    assert text.index("A --views file") < text.index("see the --views file above")
 
 
 def test_selection_and_encoder_settings_refuse_nonsense() -> None:

@@ -103,7 +103,7 @@ def test_the_documented_older_flags_are_still_aliases() -> None:
     # Degrees on the command line, under either name; radians in the view.
     view = view_from_command("perspective", ["--yaw-deg", "30", "--pitch", "-20", "--fov-deg", "90", "--size", "8x6"])
     assert view == parse_view_spec("perspective:yaw=30,pitch=-20,fov=90,size=8x6")[1]
-    assert view.yaw == math.radians(30)  # type: ignore[attr-defined]
+    assert view.yaw_rad == math.radians(30)  # type: ignore[attr-defined]
 
 
 def test_size_errors_speak_the_callers_words() -> None:
@@ -151,3 +151,51 @@ def test_views_of_a_surface_give_its_points_relative_to_the_camera(kind: str) ->
     # float32 angles (perspective and floor) round to about 2.4e-7 rad.
     assert np.max(np.abs(np.angle(np.exp(1j * (theta_seen - theta))))) < 2e-6
     assert np.max(np.abs(rho_seen - rho)) < 2e-6
+
+
+def test_every_angle_in_the_python_api_says_its_unit() -> None:
+    """A view's angle fields are named ``..._rad`` (issue 14: ``PlaneView(..., azimuth=90)`` was 90 rad,
+    silently); the specs and the command line keep their degree names. Positional use still works."""
+    from dataclasses import fields
+
+    from panomap.views import Band, CylinderPanorama, PerspectiveView, PlaneView
+
+    angle_params = {kind: {p.name for p in cls.params if p.value is Value.ANGLE} for kind, cls in view_kinds().items()}
+    assert angle_params == {
+        "panorama": {"start"},
+        "cylinder": {"start"},
+        "plane": {"azimuth"},
+        "perspective": {"yaw", "pitch", "roll", "fov"},
+        "floor": set(),
+    }
+    named = {
+        kind: [f.name for f in fields(cls) if f.name.endswith(("_rad", "_deg"))] for kind, cls in view_kinds().items()
+    }  # type: ignore[arg-type]
+    assert named == {
+        "panorama": ["theta_start_rad"],
+        "cylinder": ["theta_start_rad"],
+        "plane": ["azimuth_rad"],
+        "perspective": ["yaw_rad", "pitch_rad", "roll_rad", "fov_rad"],
+        "floor": [],
+    }
+    band = Band(-1.0, 0.5)
+    # The unitless names, and degree names, are not taken: the caller must say radians.
+    for make in (
+        lambda: PlaneView(2.0, 2.0, band, azimuth=90, size=(10, 10)),  # type: ignore[call-arg]
+        lambda: PlaneView(2.0, 2.0, band, azimuth_deg=90, size=(10, 10)),  # type: ignore[call-arg]
+        lambda: PerspectiveView(yaw=0.0, pitch=0.0, roll=0.0, fov=1.0, size=(10, 10)),  # type: ignore[call-arg]
+        lambda: GenericPanorama((10, 10), theta_start=1.0),  # type: ignore[call-arg]
+        lambda: CylinderPanorama(2.0, band, (10, 10), theta_start=1.0),  # type: ignore[call-arg]
+    ):
+        with pytest.raises(TypeError, match="unexpected keyword argument"):
+            make()
+    # Positional use is unchanged, and a field of view or a pitch given in degrees is out of range.
+    view = PlaneView(2.0, 2.0, band, math.radians(90), (10, 10))
+    spec = {"distance": 2, "width": 2, "band": (-1, 0.5), "azimuth": 90, "size": (10, 10)}
+    assert view == view_from_params("plane", spec)  # the spec's azimuth=90 is in degrees
+    with pytest.raises(
+        PanomapError, match=r"field of view must be more than 0 and less than 180 deg, not 5156\.62 deg"
+    ):
+        PerspectiveView(0.0, 0.0, 0.0, 90.0, (10, 10))
+    with pytest.raises(PanomapError, match="pitch must be between -90 and 90 deg"):
+        PerspectiveView(0.0, -30.0, 0.0, 1.0, (10, 10))

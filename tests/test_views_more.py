@@ -198,7 +198,7 @@ def test_floor_plane_must_be_on_the_side_the_camera_sees() -> None:
         (lambda: PerspectiveView(0, 0, 0, math.pi, (10, 10)), "not 180 deg"),
         (lambda: PerspectiveView(0, 0, 0, 4.0, (10, 10)), "less than 180 deg"),
         (lambda: PerspectiveView(0, 1.6, 0, 1.0, (10, 10)), "pitch must be between -90 and 90 deg"),
-        (lambda: PerspectiveView(math.nan, 0, 0, 1.0, (10, 10)), "yaw must be a finite number"),
+        (lambda: PerspectiveView(math.nan, 0, 0, 1.0, (10, 10)), "yaw_rad must be a finite number"),
         (lambda: PerspectiveView(0, 0, 0, 1.0, (0, 10)), "must be positive"),
         (lambda: FloorView(0, (1, 1), (0, 5), (10, 10)), "the x extent 1..1 is empty"),
         (lambda: FloorView(0, (0, 6), (5, 0), (10, 10)), "the y extent 5..0 is empty"),
@@ -323,7 +323,7 @@ def cylinder_pixels(view: CylinderPanorama, d: np.ndarray) -> np.ndarray:
     theta = np.mod(np.arctan2(d[..., 1], d[..., 0]), 2 * np.pi)
     height = d[..., 2] * view.distance / np.hypot(d[..., 0], d[..., 1])
     width, rows = view.size
-    k = np.mod(view.theta_start - theta, 2 * np.pi) / (2 * np.pi) * width - 0.5
+    k = np.mod(view.theta_start_rad - theta, 2 * np.pi) / (2 * np.pi) * width - 0.5
     l = (view.band.z_top - height) / (view.band.z_top - view.band.z_bottom) * rows - 0.5  # noqa: E741
     return np.stack([k, l], axis=-1)
 

@@ -5,6 +5,10 @@ Files:
 - CSV: a header with at least ``u,v,X,Y,Z`` (any order, any case, an
   optional ``name`` column), one landmark per row; world coordinates in world
   units, pixels in the conventions' (u, v) (centre of the top-left pixel at 0, 0).
+  A name that a spreadsheet would take for a formula (one starting with ``=``,
+  ``+``, ``-``, ``@``, a tab or a carriage return) is written with a ``'`` before
+  it, as OWASP advises against CSV injection, and so is one that starts with
+  ``'``; reading drops that one ``'`` again, so names round-trip.
 - JSON: ``{"camera": [X0, Y0, Z0], "landmarks": [{"name": ..., "u": ...,
   "v": ..., "X": ..., "Y": ..., "Z": ...}, ...]}``; ``camera`` is optional.
 """
@@ -12,6 +16,7 @@ Files:
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 from dataclasses import dataclass
@@ -23,10 +28,22 @@ import numpy as np
 from ..errors import PanomapError
 from ..files import read_text
 from ..geometry import FloatArray
-from ..values import NotFinite, finite_number
+from ..values import NotFinite, TooLarge, finite_number
 
 COLUMNS = ("u", "v", "X", "Y", "Z")
 MIN_LANDMARKS = 5
+# First characters of a CSV cell that spreadsheets run as a formula, and the escape itself.
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r", "'")
+
+
+def escape_csv_name(name: str) -> str:
+    """``name`` made safe to open in a spreadsheet: a ``'`` before a formula's first character."""
+    return "'" + name if name.startswith(FORMULA_STARTS) else name
+
+
+def unescape_csv_name(cell: str) -> str:
+    """The name :func:`escape_csv_name` wrote into ``cell``."""
+    return cell[1:] if cell.startswith("'") and cell[1:].startswith(FORMULA_STARTS) else cell
 
 
 @dataclass(frozen=True)
@@ -100,6 +117,8 @@ def read_landmarks(path: str | Path) -> Landmarks:
 def _number(value: Any, what: str) -> float:
     try:
         return finite_number(value)
+    except TooLarge as exc:
+        raise PanomapError(f"{what} is too large: {value!r} (at most {exc.limit:g} in size)") from None
     except NotFinite as exc:
         raise PanomapError(f"{what} is not {'finite' if exc.number else 'a number'}: {value!r}") from None
 
@@ -125,7 +144,7 @@ def _from_csv(text: str) -> Landmarks:
         values = [_number(row[index[c]].strip(), f"row {line}, {c}") for c in COLUMNS]
         pixels.append(values[:2])
         world.append(values[2:])
-        name = row[name_index].strip() if name_index is not None else ""
+        name = unescape_csv_name(row[name_index].strip()) if name_index is not None else ""
         names.append(name or f"L{line - 1}")
     return Landmarks(np.array(pixels).reshape(-1, 2), np.array(world).reshape(-1, 3), tuple(names))
 
@@ -159,12 +178,18 @@ def _from_json(text: str) -> Landmarks:
 
 
 def landmarks_to_csv(landmarks: Landmarks) -> str:
-    """The landmarks as CSV text with the header ``name,u,v,X,Y,Z``."""
-    lines = ["name,u,v,X,Y,Z"]
+    """The landmarks as CSV text with the header ``name,u,v,X,Y,Z``.
+
+    Numbers are written with ``repr`` (they read back exactly); names are quoted
+    where CSV needs it and escaped where a spreadsheet would run them
+    (:func:`escape_csv_name`); :func:`read_landmarks` gives the same names back.
+    """
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(["name", *COLUMNS])
     for record in landmarks.to_records():
-        values = ",".join(repr(float(record[c])) for c in COLUMNS)
-        lines.append(f"{record['name']},{values}")
-    return "\n".join(lines) + "\n"
+        writer.writerow([escape_csv_name(record["name"]), *(repr(float(record[c])) for c in COLUMNS)])
+    return text.getvalue()
 
 
 def read_points(

@@ -115,16 +115,24 @@ class _Progress:
     "specs",
     multiple=True,
     metavar="SPEC",
-    help="A view, as KIND:key=value,... with KIND one of " + ", ".join(KINDS) + " (see below). Repeatable.",
+    help="A view, as KIND:key=value,... with KIND one of "
+    + ", ".join(KINDS)
+    + " (see the View SPECs above). Repeatable.",
 )
-@click.option("--views", "views_file", type=PATH, help="A JSON or YAML file of named views (see below).")
+@click.option(
+    "--views", "views_file", type=PATH, help="A JSON or YAML file of named views (see the --views file above)."
+)
 @click.option("--codec", default="libx264", show_default=True, help="Video encoder (FFmpeg name).")
 @click.option("--pix-fmt", default="yuv420p", show_default=True, help="Encoded pixel format.")
 @click.option("--crf", type=click.IntRange(0, 63), default=20, show_default=True, help="Quality (x264/x265).")
 @click.option("--preset", default="veryfast", show_default=True, help="Speed preset (x264/x265).")
 @click.option("--bitrate", help="Target bit rate instead of --crf, e.g. 8M.")
 @click.option(
-    "--encoder-option", "encoder_options", multiple=True, metavar="KEY=VALUE", help="More encoder options. Repeatable."
+    "--encoder-option",
+    "encoder_options",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="More options of the encoder (as ffmpeg -h encoder=NAME lists them); an unknown one is refused. Repeatable.",
 )
 @click.option("--start", type=FINITE, default=0.0, show_default=True, help="Start at this time (s).")
 @click.option("--duration", type=FINITE, help="Stop after this many seconds of input.")

@@ -3,6 +3,11 @@
 Images are NumPy arrays (H, W) or (H, W, C) with C in 1, 3, 4, uint8 or
 uint16, channels in OpenCV's order (BGR[A]). Every write goes through a
 temporary file and a rename.
+
+A bad image gets one PanomapError and nothing else on stderr: OpenCV's own log
+(``[ WARN ]``, ``[ERROR]`` lines) is silenced while it decodes, and a PNG is
+checked whole (its chunks and their CRCs, by Pillow) before libpng sees it,
+since libpng writes its complaint about a truncated file straight to stderr.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ ALPHA_SUFFIXES = {".png", ".tif", ".tiff", ".webp"}
 # is refused from its header, before its pixels take memory.
 MAX_IMAGE_PIXELS = 16384 * 16384
 _PILLOW_LOCK = threading.Lock()  # header_size changes Pillow's process-wide limit for a moment
+_OPENCV_LOG_LOCK = threading.Lock()  # OpenCV's log level is process-wide
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 def read_image(
@@ -52,13 +59,51 @@ def read_image(
     if declared is not None:
         _check_size(path, declared, expected_size, expected_by)
     data = np.fromfile(path, dtype=np.uint8)
-    image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
+    if data[: len(PNG_SIGNATURE)].tobytes() == PNG_SIGNATURE:
+        problem = png_problem(path)
+        if problem is not None:
+            raise PanomapError(f"cannot read it as an image (a truncated or corrupt PNG: {problem})", path)
+    image = _decode(data) if data.size else None
     if image is None:
         raise PanomapError("cannot read it as an image (unknown format or corrupt)", path)
     if image.dtype not in (np.uint8, np.uint16):
         raise PanomapError(f"images must be 8- or 16-bit, this one is {image.dtype}", path)
     _check_size(path, (int(image.shape[1]), int(image.shape[0])), expected_size, expected_by)
     return image
+
+
+def _decode(data: NDArray[np.uint8]) -> NDArray[Any] | None:
+    """``cv2.imdecode`` with OpenCV's log silenced; None for what it cannot decode (or refuses as too large)."""
+    logging = cv2.utils.logging
+    with _OPENCV_LOG_LOCK:
+        level = logging.getLogLevel()
+        logging.setLogLevel(logging.LOG_LEVEL_SILENT)
+        try:
+            return cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+        except cv2.error:
+            return None
+        finally:
+            logging.setLogLevel(level)
+
+
+def png_problem(path: str | Path) -> str | None:
+    """What is wrong with a PNG file's structure (a missing end, a bad CRC), or None if it is whole.
+
+    Pillow walks the chunks and checks their CRCs without decoding the pixels.
+    """
+    from PIL import Image
+
+    with _PILLOW_LOCK, warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (a bomb warning: the size was checked by the caller)
+        limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
+        try:
+            with Image.open(path) as image:
+                image.verify()
+        except Exception as exc:  # Pillow raises OSError, SyntaxError, struct.error, ...: all say "corrupt"
+            return " ".join(str(exc).split()) or exc.__class__.__name__
+        finally:
+            Image.MAX_IMAGE_PIXELS = limit
+    return None
 
 
 def header_size(path: str | Path) -> tuple[int, int] | None:

@@ -19,8 +19,15 @@ API (bodies and answers are JSON unless said otherwise; errors are
   ``{"name": "cam.npz"}``: bare names in the server's folder only.
 
 POSTs must say ``Content-Type: application/json`` (a cross-site form cannot, so
-other sites' pages cannot drive the server), and on a loopback address the
-``Host`` header must name it (against DNS rebinding).
+other sites' pages cannot drive the server), a POST's ``Origin``, when sent, must
+be the page's own (403 otherwise), and on a loopback address the ``Host`` header
+must name it (against DNS rebinding). Every answer forbids framing
+(``X-Frame-Options: DENY``, CSP ``frame-ancestors 'none'``). The saves refuse
+to replace an existing file (409, with ``"exists": name``) unless the body says
+``"overwrite": true``.
+
+Connections idle for ``IDLE_TIMEOUT_S`` (a half-open one, a client that stops
+sending) are closed; the listen queue holds ``LISTEN_BACKLOG`` connections.
 """
 
 from __future__ import annotations
@@ -28,6 +35,8 @@ from __future__ import annotations
 import ipaddress
 import json
 import math
+import socket
+import sys
 import threading
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -38,6 +47,12 @@ from urllib.parse import urlsplit
 from ..errors import PanomapError
 from .session import Session
 from .validate import MAX_BODY_BYTES, RequestError, only_keys, parse_body
+
+# Seconds a connection may stay silent (before its request, or between requests) before it is closed.
+IDLE_TIMEOUT_S = 20.0
+# Connections waiting to be accepted (socketserver's default of 5 resets a burst of page requests).
+LISTEN_BACKLOG = 128
+CONTENT_SECURITY_POLICY = "default-src 'self'; img-src 'self' blob: data:; frame-ancestors 'none'"
 
 STATIC_FILES = {
     "/": ("index.html", "text/html; charset=utf-8"),
@@ -78,13 +93,28 @@ def _host_text(host: str | bytes | bytearray) -> str:
 
 
 class LearnServer(ThreadingHTTPServer):
-    """A threading HTTP server holding the session it serves."""
+    """A threading HTTP server holding the session it serves.
+
+    One daemon thread per connection; a connection silent for ``idle_timeout_s``
+    seconds is closed, so idle or half-open connections do not hold threads. An
+    IPv6 host (one with a ``:``, as ``::1``) gets an IPv6 socket.
+    """
 
     daemon_threads = True
+    request_queue_size = LISTEN_BACKLOG
 
-    def __init__(self, address: tuple[str, int], session: Session) -> None:
-        super().__init__(address, LearnHandler)
+    def __init__(self, address: tuple[str, int], session: Session, idle_timeout_s: float = IDLE_TIMEOUT_S) -> None:
+        if ":" in address[0]:
+            self.address_family = socket.AF_INET6
         self.session = session
+        self.idle_timeout_s = idle_timeout_s
+        super().__init__(address, LearnHandler)
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """A client that went away or fell silent ends its connection quietly; anything else is a bug: shown."""
+        if isinstance(sys.exc_info()[1], ConnectionError | TimeoutError):
+            return
+        super().handle_error(request, client_address)
 
     @property
     def url(self) -> str:
@@ -108,6 +138,11 @@ class LearnHandler(BaseHTTPRequestHandler):
     server_version = "panomap-learn"
     protocol_version = "HTTP/1.1"
 
+    def setup(self) -> None:
+        super().setup()
+        # A read that waits longer ends the connection (handle_one_request closes it on the timeout).
+        self.connection.settimeout(self.server.idle_timeout_s)
+
     def log_message(self, format: str, *args: Any) -> None:
         """Quiet: the terminal shows the address and errors, not every request."""
 
@@ -119,7 +154,8 @@ class LearnHandler(BaseHTTPRequestHandler):
         self.send_header("Content-Length", str(len(body)))
         self.send_header("Cache-Control", "no-store")
         self.send_header("X-Content-Type-Options", "nosniff")
-        self.send_header("Content-Security-Policy", "default-src 'self'; img-src 'self' blob: data:")
+        self.send_header("Content-Security-Policy", CONTENT_SECURITY_POLICY)
+        self.send_header("X-Frame-Options", "DENY")
         if self.close_connection:
             self.send_header("Connection", "close")
         self.end_headers()
@@ -133,10 +169,10 @@ class LearnHandler(BaseHTTPRequestHandler):
             text = json.dumps(json_safe(data), allow_nan=False)
         self._send(status, text.encode("utf-8"), "application/json")
 
-    def _error(self, status: int, message: str) -> None:
+    def _error(self, status: int, message: str, extra: dict[str, Any] | None = None) -> None:
         # The request's body may be unread: end the connection rather than parse it as the next request.
         self.close_connection = True
-        self._json({"error": message}, status)
+        self._json({"error": message} | (extra or {}), status)
 
     def _guarded(self, action: Any) -> None:
         try:
@@ -144,7 +180,7 @@ class LearnHandler(BaseHTTPRequestHandler):
                 raise RequestError("this server answers only requests addressed to it by its loopback name", 403)
             action()
         except RequestError as exc:
-            self._error(exc.status, exc.detail)
+            self._error(exc.status, exc.detail, exc.extra)
         except PanomapError as exc:
             self._error(400, str(exc))
         except Exception as exc:  # a bug: say so on the page and keep serving
@@ -154,6 +190,16 @@ class LearnHandler(BaseHTTPRequestHandler):
     def _host_ok(self) -> bool:
         allowed = self.server.allowed_hosts()
         return allowed is None or self.headers.get("Host", "") in allowed
+
+    def _check_origin(self) -> None:
+        """Refuse a state-changing request sent by another site's page (a browser says whose in ``Origin``).
+
+        Scripts (curl, urllib) send no ``Origin``: they are let through, as the
+        ``Host`` and ``Content-Type`` checks already bind them to this server.
+        """
+        origin = self.headers.get("Origin")
+        if origin is not None and origin != f"http://{self.headers.get('Host', '')}":
+            raise RequestError(f"refused a request sent from another site's page (Origin {origin[:80]})", 403)
 
     # ------------------------------------------------------------------ methods
 
@@ -167,12 +213,13 @@ class LearnHandler(BaseHTTPRequestHandler):
         self._guarded(self._post)
 
     def do_PUT(self) -> None:
-        self._not_allowed()
+        self._guarded(self._not_allowed)
 
     do_DELETE = do_PATCH = do_PUT
 
     def _not_allowed(self) -> None:
-        self._error(HTTPStatus.METHOD_NOT_ALLOWED, f"{self.command} is not supported here")
+        self._check_origin()
+        raise RequestError(f"{self.command} is not supported here", HTTPStatus.METHOD_NOT_ALLOWED)
 
     def _get(self) -> None:
         path = urlsplit(self.path).path
@@ -207,6 +254,7 @@ class LearnHandler(BaseHTTPRequestHandler):
         return parse_body(self.rfile.read(length))
 
     def _post(self) -> None:
+        self._check_origin()
         path = urlsplit(self.path).path
         session = self.server.session
         routes = {"/api/state", "/api/landmarks/save", "/api/landmarks/load", "/api/table/save"}
@@ -215,29 +263,39 @@ class LearnHandler(BaseHTTPRequestHandler):
         data = self._body()
         if path == "/api/state":
             self._json(session.update(data))
-            return
-        only_keys(data, ("name",), path)
-        if path == "/api/landmarks/save":
-            self._json({"wrote": session.save_landmarks(data.get("name"))})
         elif path == "/api/landmarks/load":
+            only_keys(data, ("name",), path)
             self._json(session.load_landmarks(data.get("name")))
         else:
-            self._json({"wrote": session.save_table(data.get("name"))})
+            only_keys(data, ("name", "overwrite"), path)
+            overwrite = data.get("overwrite", False)
+            if not isinstance(overwrite, bool):
+                raise RequestError(f"{path}: overwrite must be true or false")
+            save = session.save_landmarks if path == "/api/landmarks/save" else session.save_table
+            self._json({"wrote": save(data.get("name"), overwrite=overwrite)})
 
 
-def make_server(session: Session, host: str = "127.0.0.1", port: int = 0) -> LearnServer:
+def make_server(
+    session: Session, host: str = "127.0.0.1", port: int = 0, idle_timeout_s: float = IDLE_TIMEOUT_S
+) -> LearnServer:
     """A server for ``session`` bound to ``host:port`` (port 0: a free one), not yet serving.
+
+    ``host`` is a name or an IPv4 or IPv6 address (``::1``); connections silent for
+    ``idle_timeout_s`` seconds are closed.
 
     Raises
     ------
     PanomapError
         When the address cannot be bound (the port is in use, the host is not this machine's).
     """
+    if host.startswith("[") and host.endswith("]"):  # an IPv6 address as written in a URL
+        host = host[1:-1]
     try:
-        return LearnServer((host, port), session)
+        return LearnServer((host, port), session, idle_timeout_s)
     except OSError as exc:
+        shown = f"[{host}]" if ":" in host else host
         raise PanomapError(
-            f"cannot listen on {host}:{port} ({exc.strerror or exc}); choose another --port (0 picks a free one)"
+            f"cannot listen on {shown}:{port} ({exc.strerror or exc}); choose another --port (0 picks a free one)"
         ) from None
 
 

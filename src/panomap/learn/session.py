@@ -6,8 +6,12 @@ Convention: pixel (u, v) = (column, row), the centre of the top-left pixel at
 The session holds no geometry: it validates what the page sends (with
 :mod:`panomap.learn.validate`), fits with :func:`panomap.calibrate_camera`
 (the path ``panomap fit`` takes), and draws previews with the library's views.
-Every change replaces the state and refits at once; the page debounces.
-Files are read and written only in ``folder``, by bare name, atomically.
+Every change refits at once (the page debounces) and then replaces the state.
+The fit runs outside the state's lock (changes are fitted one at a time, under
+a lock of their own), so the page's reads are answered while a long fit runs;
+they see the previous state until the new one is complete.
+Files are read and written only in ``folder``, by bare name, atomically; an
+existing file is replaced only when the request says ``overwrite``.
 """
 
 from __future__ import annotations
@@ -110,7 +114,9 @@ class Session:
         self.image_name = image_name
         self.image_size = (int(image.shape[1]), int(image.shape[0]))
         self.image_png = encode_png(image)
+        # _lock guards the state (short holds only); _fit_lock lets one change be fitted at a time.
         self._lock = threading.Lock()
+        self._fit_lock = threading.Lock()
         self.circles, self.detected, self.circles_note = self._start_circles()
         # The page's first circles, when no rim was found: their centre only starts the fit (refined).
         self._guess = self.circles if self.detected is None else None
@@ -122,14 +128,17 @@ class Session:
                 self.entries = self._entries(landmarks.to_records())
             except RequestError as exc:
                 raise PanomapError(f"the landmarks to start with: {exc.detail}") from None
-            if camera is None:
-                self.camera = landmarks.camera
+            if camera is None and landmarks.camera is not None:
+                try:
+                    self.camera = self._camera(list(landmarks.camera))
+                except RequestError as exc:
+                    raise PanomapError(f"the landmarks to start with: {exc.detail}") from None
         self.model = "auto"
         self.revision = 0
         self.table: PanoMappingTable | None = None
         self.fit_status: dict[str, Any] = {}
         self._preview: tuple[int, bytes] | None = None
-        self._refit()
+        self._commit(self.camera, self.circles, self.entries, self.model)
 
     # ------------------------------------------------------------------ state
 
@@ -171,19 +180,42 @@ class Session:
     def update(self, data: dict[str, Any]) -> dict[str, Any]:
         """Replace the fields ``data`` holds (camera, circles, landmarks, model), refit, return the state."""
         only_keys(data, ("camera", "circles", "landmarks", "model"), "state")
-        camera = self.camera
+        given: dict[str, Any] = {}
         if "camera" in data:
-            camera = None if data["camera"] is None else self._camera(data["camera"])
-        circles = self._circles(data["circles"]) if "circles" in data else self.circles
-        entries = self._entries(data["landmarks"]) if "landmarks" in data else self.entries
-        model = self.model
+            given["camera"] = None if data["camera"] is None else self._camera(data["camera"])
+        if "circles" in data:
+            given["circles"] = self._circles(data["circles"])
+        if "landmarks" in data:
+            given["entries"] = self._entries(data["landmarks"])
         if "model" in data:
             if data["model"] not in FIT_MODELS:
                 raise RequestError(f"model must be one of {', '.join(FIT_MODELS)}, not {data['model']!r}")
-            model = str(data["model"])
+            given["model"] = str(data["model"])
+        with self._fit_lock:  # the fields not given are those of the change fitted last
+            return self._commit(
+                given.get("camera", self.camera),
+                given.get("circles", self.circles),
+                given.get("entries", self.entries),
+                given.get("model", self.model),
+            )
+
+    def _commit(
+        self,
+        camera: tuple[float, float, float] | None,
+        circles: Circles,
+        entries: list[Entry],
+        model: str,
+    ) -> dict[str, Any]:
+        """Fit these inputs (without the state's lock), then make them and the fit the state; return it.
+
+        Called with ``_fit_lock`` held (or before the session is shared), so
+        the revision cannot change during the fit.
+        """
+        revision = self.revision + 1
+        table, status = self._fit(camera, circles, entries, model, revision)
         with self._lock:
             self.camera, self.circles, self.entries, self.model = camera, circles, entries, model
-            self._refit()
+            self.revision, self.table, self.fit_status = revision, table, status
             return self._state()
 
     @staticmethod
@@ -241,58 +273,67 @@ class Session:
 
     # ------------------------------------------------------------------ fit
 
-    def _complete(self) -> Landmarks:
-        done = [e for e in self.entries if e.world is not None]
+    @staticmethod
+    def _complete(entries: list[Entry], camera: tuple[float, float, float] | None) -> Landmarks:
+        done = [e for e in entries if e.world is not None]
         return Landmarks(
             np.array([[e.u, e.v] for e in done], dtype=float).reshape(-1, 2),
             np.array([e.world for e in done], dtype=float).reshape(-1, 3),
             tuple(e.name for e in done),
-            self.camera,
+            camera,
         )
 
-    def _refit(self) -> None:
-        self.revision += 1
-        self.table = None
-        landmarks = self._complete()
-        waiting = len(self.entries) - len(landmarks)
-        status: dict[str, Any] = {"ok": False, "revision": self.revision, "complete": len(landmarks)}
+    def _fit(
+        self,
+        camera: tuple[float, float, float] | None,
+        circles: Circles,
+        entries: list[Entry],
+        model: str,
+        revision: int,
+    ) -> tuple[PanoMappingTable | None, dict[str, Any]]:
+        """The table (None without a fit) and the fit's status for these inputs; reads no mutable state."""
+        table = None
+        landmarks = self._complete(entries, camera)
+        waiting = len(entries) - len(landmarks)
+        status: dict[str, Any] = {"ok": False, "revision": revision, "complete": len(landmarks)}
         pending = f" ({waiting} still without a world point)" if waiting else ""
         if len(landmarks) < MIN_LANDMARKS:
             need = MIN_LANDMARKS - len(landmarks)
             status |= {"need": need, "message": f"need {need} more landmark(s) with world points to fit{pending}"}
-        elif self.camera is None:
+        elif camera is None:
             status |= {"need": 0, "message": "give the camera position X0, Y0, Z0 to fit"}
         else:
             try:
                 calibration = calibrate_camera(
                     landmarks,
-                    self.camera,
-                    centre=self.circles.centre,
-                    cutoff_radius=self.circles.cutoff_radius,
-                    outer_radius=self.circles.outer_radius,
+                    camera,
+                    centre=circles.centre,
+                    cutoff_radius=circles.cutoff_radius,
+                    outer_radius=circles.outer_radius,
                     image_size=self.image_size,
-                    model=self.model,
-                    sources=self._sources(),
+                    model=model,
+                    sources=self._sources(circles),
                     info=self._info(),
                 )
             except PanomapError as exc:
                 status |= {"need": 0, "message": f"the fit failed: {exc.detail}"}
             else:
-                self.table = calibration.table
-                status = self._fit_report(self.table, pending) | {"diagnosis": diagnose(calibration.fit)}
-        self.fit_status = status
+                table = calibration.table
+                status = self._fit_report(table, entries, revision, pending) | {"diagnosis": diagnose(calibration.fit)}
+        return table, status
 
-    def _sources(self) -> dict[str, Source]:
-        """The circles as detected, or set on the page; the camera position given."""
+    def _sources(self, circles: Circles | None = None) -> dict[str, Source]:
+        """The circles (the state's, by default) as detected, or set on the page; the camera position given."""
+        circles = self.circles if circles is None else circles
         detected = self.detected
         adjusted = detected is None or (
-            tuple(detected["centre"]) != self.circles.centre
-            or detected["outer_radius"] != self.circles.outer_radius
-            or (detected["cutoff_radius"] or 0.0) != self.circles.cutoff_radius
+            tuple(detected["centre"]) != circles.centre
+            or detected["outer_radius"] != circles.outer_radius
+            or (detected["cutoff_radius"] or 0.0) != circles.cutoff_radius
         )
         how = Source.SET_IN_LEARN if adjusted else Source.DETECTED
         centre = how
-        if self._guess is not None and self.circles.centre == self._guess.centre:
+        if self._guess is not None and circles.centre == self._guess.centre:
             centre = Source.FRAME_CENTRE
         return {"centre": centre, "cutoff_radius": how, "outer_radius": how, "camera_position": Source.GIVEN}
 
@@ -302,14 +343,15 @@ class Session:
             info["image_circles"] = self.detected
         return info
 
-    def _fit_report(self, table: PanoMappingTable, pending: str) -> dict[str, Any]:
+    @staticmethod
+    def _fit_report(table: PanoMappingTable, entries: list[Entry], revision: int, pending: str) -> dict[str, Any]:
         fit = table_fit_report(table)
         if fit is None:  # (calibrate_camera always writes one)
             raise AssertionError("a table made by calibrate_camera has a fit report")
         curve = fit_curve(table)
         by_name = {row.name: row for row in fit.landmarks}
         rows = []
-        for entry in self.entries:
+        for entry in entries:
             row = by_name.get(entry.name)
             if row is not None:
                 rows.append(
@@ -331,7 +373,7 @@ class Session:
             refined = f"; centre refined to ({fit.centre[0]:.2f}, {fit.centre[1]:.2f}), {shift:.2f} px from the rim's"
         return {
             "ok": True,
-            "revision": self.revision,
+            "revision": revision,
             "complete": len(by_name),
             "need": 0,
             "message": (
@@ -376,8 +418,29 @@ class Session:
             raise RequestError(f"{what}: {name!r} is not in the folder {self.folder}")
         return path
 
-    def save_landmarks(self, name: Any) -> str:
-        """Write the landmarks (CSV, or JSON with the camera) into the folder; returns the file name."""
+    def _replaceable(self, path: Path, overwrite: bool, what: str) -> None:
+        """Refuse a folder of that name, and an existing file unless ``overwrite`` (409, with ``exists``)."""
+        if path.is_dir():
+            raise RequestError(f"{what}: {path.name!r} is a folder in {self.folder}, not a file; choose another name")
+        if (path.exists() or path.is_symlink()) and not overwrite:
+            raise RequestError(
+                f"{what}: {path.name!r} already exists in {self.folder}; send overwrite to replace it",
+                409,
+                {"exists": path.name},
+            )
+
+    def _write(self, path: Path, write: Any) -> None:
+        """Run ``write(path)``; an error names the bare file name, not the server's folder."""
+        try:
+            write(path)
+        except PanomapError as exc:
+            raise RequestError(f"{path.name}: {exc.detail}") from None
+
+    def save_landmarks(self, name: Any, overwrite: bool = False) -> str:
+        """Write the landmarks (CSV, or JSON with the camera) into the folder; returns the file name.
+
+        An existing file of that name is replaced only if ``overwrite``.
+        """
         with self._lock:
             path = self._path(name, LANDMARK_SUFFIXES, "save landmarks")
             waiting = [e.name for e in self.entries if e.world is None]
@@ -385,9 +448,10 @@ class Session:
                 raise RequestError(f"landmark(s) {', '.join(waiting)} have no world point yet; type X, Y, Z first")
             if not self.entries:
                 raise RequestError("there are no landmarks to save")
-            landmarks = self._complete()
+            self._replaceable(path, overwrite, "save landmarks")
+            landmarks = self._complete(self.entries, self.camera)
             text = landmarks_to_json(landmarks) if path.suffix.lower() == ".json" else landmarks_to_csv(landmarks)
-            write_text_atomic(path, text)
+            self._write(path, lambda p: write_text_atomic(p, text))
             return path.name
 
     def load_landmarks(self, name: Any) -> dict[str, Any]:
@@ -399,21 +463,26 @@ class Session:
             landmarks = read_landmarks(path)
         except PanomapError as exc:
             raise RequestError(f"load landmarks: {path.name}: {exc.detail}") from None
-        entries = self._entries([r for r in landmarks.to_records()])
-        with self._lock:
-            self.entries = entries
-            if landmarks.camera is not None:
-                self.camera = landmarks.camera
-            self._refit()
-            return self._state()
+        # The same checks as typed landmarks and camera: names, pixels in the image, the 1e6 limit.
+        try:
+            entries = self._entries(landmarks.to_records())
+            camera = None if landmarks.camera is None else self._camera(list(landmarks.camera))
+        except RequestError as exc:
+            raise RequestError(f"load landmarks: {path.name}: {exc.detail}") from None
+        with self._fit_lock:
+            return self._commit(self.camera if camera is None else camera, self.circles, entries, self.model)
 
-    def save_table(self, name: Any) -> str:
-        """Write the current fit's table (.npz) into the folder; returns the file name."""
+    def save_table(self, name: Any, overwrite: bool = False) -> str:
+        """Write the current fit's table (.npz) into the folder; returns the file name.
+
+        An existing file of that name is replaced only if ``overwrite``.
+        """
         with self._lock:
             path = self._path(name, TABLE_SUFFIXES, "save table")
             if self.table is None:
                 raise RequestError(f"no table to save: {self.fit_status.get('message', 'no fit')}", 409)
-            self.table.save(path)
+            self._replaceable(path, overwrite, "save table")
+            self._write(path, self.table.save)
             return path.name
 
     def files(self) -> dict[str, list[str]]:

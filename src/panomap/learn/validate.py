@@ -12,7 +12,7 @@ import re
 from typing import Any
 
 from ..errors import PanomapError
-from ..values import NotFinite, finite_number
+from ..values import NotFinite, TooLarge, finite_number
 
 MAX_BODY_BYTES = 1 << 20
 MAX_LANDMARKS = 500
@@ -26,11 +26,13 @@ FILE_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
 
 
 class RequestError(PanomapError):
-    """A bad request, with the HTTP status to answer it with (400 by default)."""
+    """A bad request, with the HTTP status to answer it with (400 by default) and more fields for its answer."""
 
-    def __init__(self, message: str, status: int = 400) -> None:
+    def __init__(self, message: str, status: int = 400, extra: dict[str, Any] | None = None) -> None:
         super().__init__(message)
         self.status = status
+        # More fields of the error's JSON answer, for the page (``{"exists": name}``).
+        self.extra = extra or {}
 
 
 def _refuse_constant(name: str) -> Any:
@@ -47,6 +49,10 @@ def parse_body(body: bytes) -> dict[str, Any]:
         raise RequestError("the request body is not UTF-8 text") from None
     except json.JSONDecodeError as exc:
         raise RequestError(f"the request body is not valid JSON ({exc})") from None
+    except RecursionError:
+        raise RequestError("the request body's JSON is nested too deeply") from None
+    except ValueError as exc:  # an integer of more digits than Python converts (4300)
+        raise RequestError(f"the request body holds a number too long to read ({exc})") from None
     if not isinstance(data, dict):
         raise RequestError("the request body must be a JSON object")
     return data
@@ -65,6 +71,8 @@ def finite(value: Any, what: str, limit: float | None = None) -> float:
         raise RequestError(f"{what} must be a number, not {json.dumps(value)[:40]}")
     try:
         number = finite_number(value)
+    except TooLarge as exc:
+        raise RequestError(f"{what} = {value:g} is too large (at most {exc.limit:g} in size)") from None
     except NotFinite:
         raise RequestError(f"{what} must be finite") from None
     if limit is not None and abs(number) > limit:

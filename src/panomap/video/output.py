@@ -34,7 +34,9 @@ class EncoderSettings:
     bitrate : int or None
         Target bit rate (bit/s) instead of a constant quality.
     options : tuple of (key, value)
-        Further encoder options, as FFmpeg's ``-KEY VALUE``.
+        Further encoder options, as FFmpeg's ``-KEY VALUE``: the encoder's own
+        (``x264-params``, ``tune``) or any encoder's (``g``, ``bf``); a name the
+        encoder does not know is refused by :meth:`check`.
     """
 
     codec: str = "libx264"
@@ -55,7 +57,7 @@ class EncoderSettings:
         return options | dict(self.options)
 
     def check(self) -> None:
-        """Refuse an unknown encoder or a pixel format it cannot take, before any work."""
+        """Refuse an unknown encoder, a pixel format it cannot take or an option it does not know, before any work."""
         try:
             codec = av.codec.Codec(self.codec, "w")
         except (av.error.FFmpegError, ValueError):
@@ -65,6 +67,18 @@ class EncoderSettings:
         formats = [f.name for f in codec.video_formats or ()]
         if formats and self.pix_fmt not in formats:
             raise PanomapError(f"the encoder {self.codec} cannot take {self.pix_fmt} (it takes {', '.join(formats)})")
+        supported = av.codec.CodecContext.create(codec).supported_options
+        known = {option.name for option in (*supported.generic, *supported.private)}
+        unknown = [key for key, _ in self.options if key not in known]
+        if unknown:
+            raise PanomapError(
+                f"the video encoder {self.codec} has no option {', '.join(repr(k) for k in unknown)} "
+                f"(--encoder-option; its options: ffmpeg -h encoder={self.codec})"
+            )
+
+    def described(self) -> str:
+        """The options passed to the encoder, as ``key=value, ...`` (for messages)."""
+        return ", ".join(f"{key}={value}" for key, value in self.codec_options().items()) or "none"
 
 
 @dataclass
@@ -138,6 +152,18 @@ def open_writer(
         if encoder.bitrate is not None:
             video.bit_rate = encoder.bitrate
         video.options = encoder.codec_options()
+    except (av.error.FFmpegError, ValueError, TypeError) as exc:
+        container.close()
+        raise PanomapError(f"cannot encode {encoder.codec} {encoder.pix_fmt} into it: {reason(exc)}", path) from None
+    try:
+        # Opened on its own (start_encoding then skips it), so that a value it refuses is blamed on it.
+        video.codec_context.open()
+    except (av.error.FFmpegError, ValueError, TypeError) as exc:
+        container.close()
+        raise PanomapError(
+            f"the video encoder {encoder.codec} refused its options ({encoder.described()}): {reason(exc)}", path
+        ) from None
+    try:
         audio: Any = container.add_stream_from_template(audio_template) if audio_template is not None else None
         container.start_encoding()
     except (av.error.FFmpegError, ValueError, TypeError) as exc:

@@ -5,7 +5,9 @@ samples at its centre, ``(k + 0.5)/W`` across and ``(l + 0.5)/H`` down the
 view's extent. Views are upright (higher elevation higher up) and not
 mirrored (what is on your left, standing at O_m facing the view, is on the
 left), so azimuth decreases from left to right. Lengths are relative to O_m,
-in world units; angles in rad.
+in world units; angles in rad, and every angle field says so in its name
+(``yaw_rad``, ``fov_rad``, ``azimuth_rad``, ``theta_start_rad``), as the
+specs and the command line, which take degrees, say ``yaw=30`` / ``--yaw-deg``.
 
 A view is a frozen value. ``view.angles(table)`` gives the (H, W) azimuth and
 elevation of every output pixel; :func:`build_map` turns them into the

@@ -29,7 +29,7 @@ class CylinderPanorama(View):
     band : Band
         Heights relative to O_m (the paper's band is 0..H).
     size : (W, H)
-    theta_start : float
+    theta_start_rad : float
         Azimuth (rad) at the left edge, as for the generic panorama.
     """
 
@@ -46,10 +46,10 @@ class CylinderPanorama(View):
     distance: float
     band: Band
     size: tuple[int, int]
-    theta_start: float = 0.0
+    theta_start_rad: float = 0.0
 
     def __post_init__(self) -> None:
-        check_finite(distance=self.distance, theta_start=self.theta_start)
+        check_finite(distance=self.distance, theta_start_rad=self.theta_start_rad)
         if self.distance <= 0:
             raise PanomapError(f"the distance must be positive, not {self.distance:g}")
         object.__setattr__(self, "size", check_view_size(self.size))
@@ -73,12 +73,12 @@ class CylinderPanorama(View):
     def _columns_rows(self) -> tuple[FloatArray, FloatArray]:
         """Azimuth (rad) of each column, (W,), and elevation of each row, (H,)."""
         width, height = self.size
-        return panorama_azimuths(self.theta_start, width), np.arctan2(self.band.heights(height), self.distance)
+        return panorama_azimuths(self.theta_start_rad, width), np.arctan2(self.band.heights(height), self.distance)
 
     def points(self, table: PanoMappingTable) -> FloatArray:
         """The (H, W, 3) points relative to O_m that the pixels see (the same for every table)."""
         width, height = self.size
-        theta = panorama_azimuths(self.theta_start, width)
+        theta = panorama_azimuths(self.theta_start_rad, width)
         out = np.empty((height, width, 3))
         out[..., 0] = self.distance * np.cos(theta)[None, :]
         out[..., 1] = self.distance * np.sin(theta)[None, :]

@@ -11,10 +11,10 @@ from ..geometry import TWO_PI, FloatArray, pixel_centres, wrap_azimuth
 from .base import AngleArray
 
 
-def panorama_azimuths(theta_start: float, width: int) -> FloatArray:
-    """``theta_start - 2*pi*(k + 0.5)/W`` wrapped to [0, 2*pi); shape (W,)."""
+def panorama_azimuths(theta_start_rad: float, width: int) -> FloatArray:
+    """``theta_start_rad - 2*pi*(k + 0.5)/W`` wrapped to [0, 2*pi); shape (W,)."""
     fx, _ = pixel_centres(width, 1)
-    return wrap_azimuth(theta_start - TWO_PI * fx)
+    return wrap_azimuth(theta_start_rad - TWO_PI * fx)
 
 
 def grid_angles(rows: list[FloatArray], cols: list[FloatArray]) -> tuple[AngleArray, AngleArray]:

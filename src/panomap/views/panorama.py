@@ -27,9 +27,9 @@ class GenericPanorama(View):
     ----------
     size : (W, H), optional
         Output size; default the table's (M, N), as in the paper.
-    theta_start : float
+    theta_start_rad : float
         Azimuth (rad) at the left edge; column k sees
-        ``theta_start - 2*pi*(k + 0.5)/W``. Rows are evenly spaced in
+        ``theta_start_rad - 2*pi*(k + 0.5)/W``. Rows are evenly spaced in
         elevation over the table's range, highest at the top.
     """
 
@@ -44,12 +44,12 @@ class GenericPanorama(View):
     example: ClassVar[str] = "size=2048x512,start=0"
 
     size: tuple[int, int] | None = None
-    theta_start: float = 0.0
+    theta_start_rad: float = 0.0
 
     def __post_init__(self) -> None:
         if self.size is not None:
             object.__setattr__(self, "size", check_view_size(self.size))
-        check_finite(theta_start=self.theta_start)
+        check_finite(theta_start_rad=self.theta_start_rad)
 
     @classmethod
     def from_params(cls, values: Mapping[str, Any]) -> Self:
@@ -72,4 +72,4 @@ class GenericPanorama(View):
         width, height = self.output_size(table)
         _, fy = pixel_centres(1, height)
         rho_s, rho_e = table.elevation_range
-        return panorama_azimuths(self.theta_start, width), rho_e - fy * (rho_e - rho_s)
+        return panorama_azimuths(self.theta_start_rad, width), rho_e - fy * (rho_e - rho_s)

@@ -26,15 +26,15 @@ class PerspectiveView(View):
 
     Parameters
     ----------
-    yaw : float
+    yaw_rad : float
         psi, the azimuth (rad) of the optical axis.
-    pitch : float
+    pitch_rad : float
         tau, its elevation (rad), in [-pi/2, pi/2]; negative looks down,
         -pi/2 straight down.
-    roll : float
+    roll_rad : float
         omega (rad), about the optical axis: positive tips the camera's right
         side down, which turns the scene counter-clockwise in the image.
-    fov : float
+    fov_rad : float
         Horizontal field of view (rad), strictly between 0 and pi.
     size : (W, H)
 
@@ -69,21 +69,21 @@ class PerspectiveView(View):
     )
     example: ClassVar[str] = "yaw=30,pitch=-20,roll=0,fov=90,size=1280x720"
 
-    yaw: float
-    pitch: float
-    roll: float
-    fov: float
+    yaw_rad: float
+    pitch_rad: float
+    roll_rad: float
+    fov_rad: float
     size: tuple[int, int]
 
     def __post_init__(self) -> None:
-        check_finite(yaw=self.yaw, pitch=self.pitch, roll=self.roll, fov=self.fov)
-        if not 0.0 < self.fov < math.pi:
+        check_finite(yaw_rad=self.yaw_rad, pitch_rad=self.pitch_rad, roll_rad=self.roll_rad, fov_rad=self.fov_rad)
+        if not 0.0 < self.fov_rad < math.pi:
             raise PanomapError(
-                f"the field of view must be more than 0 and less than 180 deg, not {math.degrees(self.fov):g} deg"
+                f"the field of view must be more than 0 and less than 180 deg, not {math.degrees(self.fov_rad):g} deg"
             )
-        if abs(self.pitch) > HALF_PI + 1e-12:
+        if abs(self.pitch_rad) > HALF_PI + 1e-12:
             raise PanomapError(
-                f"the pitch must be between -90 and 90 deg, not {math.degrees(self.pitch):g} deg "
+                f"the pitch must be between -90 and 90 deg, not {math.degrees(self.pitch_rad):g} deg "
                 "(turn the yaw by 180 deg instead)"
             )
         object.__setattr__(self, "size", check_view_size(self.size))
@@ -95,11 +95,11 @@ class PerspectiveView(View):
     @property
     def focal(self) -> float:
         """f = (W/2)/tan(fov/2), px."""
-        return (self.size[0] / 2.0) / math.tan(self.fov / 2.0)
+        return (self.size[0] / 2.0) / math.tan(self.fov_rad / 2.0)
 
     def axes(self) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Forward F, right R and down Dn, each (3,) unit vectors in world axes."""
-        psi, tau, omega = self.yaw, self.pitch, self.roll
+        psi, tau, omega = self.yaw_rad, self.pitch_rad, self.roll_rad
         forward = np.array([math.cos(tau) * math.cos(psi), math.cos(tau) * math.sin(psi), math.sin(tau)])
         right0 = np.array([math.sin(psi), -math.cos(psi), 0.0])
         down0 = np.cross(forward, right0)
@@ -109,7 +109,7 @@ class PerspectiveView(View):
 
     def _offsets(self) -> tuple[FloatArray, FloatArray]:
         """x (W,) and y (H,): ``(k + 0.5 - W/2)/f`` and ``(l + 0.5 - H/2)/f``."""
-        return _offsets(self.size, self.fov)
+        return _offsets(self.size, self.fov_rad)
 
     def rays(self) -> FloatArray:
         """The (H, W, 3) ray directions ``F + x R + y Dn`` (world axes, not unit) the pixels see."""
@@ -157,7 +157,7 @@ class PerspectiveView(View):
         x, y = self._offsets()
         rows = [forward[a] + y * down[a] for a in range(3)]
         cols = [x * right[a] for a in range(3)]
-        return lookup_map(lookup, rows, cols, _ray_lengths(self.size, self.fov), self._sine_range())
+        return lookup_map(lookup, rows, cols, _ray_lengths(self.size, self.fov_rad), self._sine_range())
 
     def _sine_range(self) -> tuple[float, float]:
         """Bounds of the sine of the pixels' elevations (``d_z/|d|``).

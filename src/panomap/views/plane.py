@@ -28,7 +28,7 @@ class PlaneView(View):
         Plane width W_p (world units), less than 2 D (at 2 D the plane passes through O_m).
     band : Band
         Heights relative to O_m.
-    azimuth : float
+    azimuth_rad : float
         Centre azimuth theta_c (rad); the left edge is at ``theta_c + phi/2``,
         the right at ``theta_c - phi/2``, ``phi = acos(1 - W_p^2/(2 D^2))``
         (eq. 13).
@@ -49,11 +49,11 @@ class PlaneView(View):
     distance: float
     width: float
     band: Band
-    azimuth: float
+    azimuth_rad: float
     size: tuple[int, int]
 
     def __post_init__(self) -> None:
-        check_finite(distance=self.distance, width=self.width, azimuth=self.azimuth)
+        check_finite(distance=self.distance, width=self.width, azimuth_rad=self.azimuth_rad)
         if self.distance <= 0:
             raise PanomapError(f"the distance must be positive, not {self.distance:g}")
         if self.width <= 0:
@@ -79,8 +79,8 @@ class PlaneView(View):
         """The (H, W, 3) points relative to O_m that the pixels see (the same for every table)."""
         width, height = self.size
         half = self.subtended / 2
-        left = self.distance * np.array([math.cos(self.azimuth + half), math.sin(self.azimuth + half)])
-        right = self.distance * np.array([math.cos(self.azimuth - half), math.sin(self.azimuth - half)])
+        left = self.distance * np.array([math.cos(self.azimuth_rad + half), math.sin(self.azimuth_rad + half)])
+        right = self.distance * np.array([math.cos(self.azimuth_rad - half), math.sin(self.azimuth_rad - half)])
         fx, _ = pixel_centres(width, 1)
         xy = left + fx[:, None] * (right - left)
         heights = self.band.heights(height)

@@ -531,7 +531,12 @@
     }
     const response = await fetch(path, options);
     const data = await response.json();
-    if (!response.ok) throw new Error(data.error || `${response.status} ${response.statusText}`);
+    if (!response.ok) {
+      const error = new Error(data.error || `${response.status} ${response.statusText}`);
+      error.status = response.status;
+      error.data = data;
+      throw error;
+    }
     return data;
   }
 
@@ -756,11 +761,23 @@
     }
   }
 
+  // A save onto an existing file is refused (409, "exists"); ask, and resend with overwrite if the user agrees.
+  async function postFile(path, name) {
+    try {
+      return await api("POST", path, { name });
+    } catch (error) {
+      const exists = error.status === 409 && error.data && error.data.exists;
+      if (!exists || !window.confirm(`${exists} already exists in the folder. Replace it?`)) throw error;
+      return api("POST", path, { name, overwrite: true });
+    }
+  }
+
   async function fileAction(path, inputId, after) {
     await sync();
     const status = $("files-status");
     try {
-      const answer = await api("POST", path, { name: $(inputId).value.trim() });
+      const name = $(inputId).value.trim();
+      const answer = path.endsWith("/save") ? await postFile(path, name) : await api("POST", path, { name });
       status.textContent = answer.wrote ? `wrote ${answer.wrote}` : `loaded ${$(inputId).value.trim()}`;
       status.dataset.done = answer.wrote || "loaded";
       showMessage(status.textContent, false);
