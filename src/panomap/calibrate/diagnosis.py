@@ -46,6 +46,7 @@ def diagnose(fit: CameraFit) -> list[str]:
                     if fit.settings.refine_centre
                     else "let the landmarks refine the centre, or check the mount"
                 )
+                + ("" if fit.mount is None or fit.mount.tilt_mode == "fit" else " (or let the fit find the tilt)")
             )
         trend = _trend(rho, residual)
         if trend is not None and trend > PATTERN_SIGMAS * sigma:

@@ -1,0 +1,221 @@
+"""A tilted camera and a tape-measured position: the rotation convention, the fit, the table and its file.
+
+Ground truth: ``panomap.simulate.TiltedCamera`` (a simulated camera whose axes are turned by
+``mount_rotation``, built there independently of ``panomap.camera.orientation``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from panomap.calibrate.fit import fit_camera
+from panomap.calibrate.make_table import create_table
+from panomap.camera.orientation import tilt_angles, tilt_rotation
+from panomap.errors import PanomapError
+from panomap.geometry import azimuth_elevation
+from panomap.simulate.cameras import TiltedCamera, mount_rotation, standard_cameras
+from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras
+from panomap.table.file import load_table, metadata_digest
+
+from helpers import assert_one_line_error, run, spread_landmarks
+
+POSITION = (0.0, 0.0, 2.5)
+TILT_DEG, TOWARD_DEG = 2.0, 50.0
+
+
+@pytest.mark.parametrize("axis", ["down", "up"])
+@pytest.mark.parametrize(("tilt_deg", "toward_deg"), [(0.0, 0.0), (2.0, 50.0), (3.0, 300.0), (30.0, 181.0)])
+def test_the_rotation_is_the_simulators(axis: str, tilt_deg: float, toward_deg: float) -> None:
+    """The library's R of a tilt equals the simulator's, built another way; and its angles come back."""
+    ours = tilt_rotation(math.radians(tilt_deg), math.radians(toward_deg), axis)
+    theirs = mount_rotation(math.radians(tilt_deg), math.radians(toward_deg), looking_down=axis == "down")
+    np.testing.assert_allclose(ours, theirs, atol=1e-15)
+    tilt, toward = tilt_angles(ours, axis)
+    assert tilt == pytest.approx(math.radians(tilt_deg), abs=1e-12)
+    if tilt_deg:
+        assert math.degrees(toward) == pytest.approx(toward_deg, abs=1e-9)
+    # The optical axis leans toward that azimuth: a ray along it, in world axes.
+    nominal = np.array([0.0, 0.0, -1.0 if axis == "down" else 1.0])
+    optical = ours @ nominal
+    assert math.degrees(math.atan2(optical[1], optical[0])) % 360 == pytest.approx(toward_deg, abs=1e-9) or not tilt_deg
+
+
+@pytest.fixture(scope="module", params=["equidistant", "hyperbolic"])
+def tilted(request: pytest.FixtureRequest) -> tuple[TiltedCamera, object, object]:
+    """A standard camera tilted 2 deg toward azimuth 50 deg, fitted from 20 exact landmarks, and its table."""
+    base = standard_cameras(seed=3)[request.param]
+    camera = TiltedCamera(base, mount_rotation(math.radians(TILT_DEG), math.radians(TOWARD_DEG)))
+    landmarks = spread_landmarks(camera, POSITION, 20, np.random.default_rng(5))
+    fit = fit_camera(
+        landmarks, POSITION, base.centre, image_size=base.image_size, annulus=(base.cutoff_radius, base.outer_radius)
+    )
+    table = create_table(
+        fit, image_size=base.image_size, cutoff_radius=base.cutoff_radius, outer_radius=base.outer_radius
+    )
+    return camera, fit, table
+
+
+def _annulus_pixels(camera: TiltedCamera, margin_px: float = 3.0) -> tuple[np.ndarray, np.ndarray]:
+    """Pixels on a 7 px grid at least ``margin_px`` inside the annulus, and their true world rays."""
+    width, height = camera.image_size
+    v, u = np.mgrid[0:height:7, 0:width:7]
+    uv = np.stack([u.ravel(), v.ravel()], axis=-1).astype(np.float64)
+    radius = np.hypot(uv[:, 0] - camera.centre[0], uv[:, 1] - camera.centre[1])
+    inside = (radius > camera.cutoff_radius + margin_px) & (radius < camera.outer_radius - margin_px)
+    _, directions = camera.trace(uv[inside])
+    seen = np.all(np.isfinite(directions), axis=1)
+    return uv[inside][seen], directions[seen]
+
+
+def test_exact_landmarks_give_the_tilt(tilted: tuple[TiltedCamera, object, object]) -> None:
+    """Exact landmarks: the tilt is fitted (chosen by cross-validation) to 1e-3 deg, toward 0.01 deg."""
+    _, fit, _ = tilted
+    mount = fit.mount  # type: ignore[attr-defined]
+    assert mount.tilt_fitted and mount.chosen == "tilt"
+    # Measured: 2.0000 and 50.000 deg to 1e-4 on both cameras.
+    assert mount.tilt_deg == pytest.approx(TILT_DEG, abs=1e-3)
+    assert mount.toward_deg == pytest.approx(TOWARD_DEG, abs=1e-2)
+    assert 0 < mount.tilt_se_deg < 0.5 and 0 < mount.toward_se_deg < 10
+    assert fit.rms_px < 0.01  # type: ignore[attr-defined]
+
+
+def test_the_tilted_table_is_in_world_angles(tilted: tuple[TiltedCamera, object, object]) -> None:
+    """Every pixel well inside the annulus: the table projects its true world ray back onto it, and unprojects
+    it to that ray's world angles. Measured worst: 0.0003 px (equidistant), 0.0022 px (hyperbolic); 2e-7 rad."""
+    camera, _, table = tilted
+    uv, directions = _annulus_pixels(camera)
+    projected = table.project(np.asarray(POSITION) + 3.0 * directions)  # type: ignore[attr-defined]
+    error = np.linalg.norm(projected - uv, axis=1)
+    assert not np.isnan(error).any()
+    assert float(np.max(error)) < 0.006
+    theta, rho = table.unproject(uv)  # type: ignore[attr-defined]
+    true_theta, true_rho = azimuth_elevation(directions)
+    angle = np.hypot(np.angle(np.exp(1j * (theta - true_theta))) * np.cos(true_rho), rho - true_rho)
+    assert float(np.max(angle)) < 1e-6
+
+
+def test_the_table_reaches_what_the_camera_sees_and_no_further(tilted: tuple[TiltedCamera, object, object]) -> None:
+    """The table's range is the camera's own widened by the tilt; entries the camera does not see are NaN,
+    and those it sees are finite."""
+    _, fit, table = tilted
+    low, high = table.camera_elevation_range  # type: ignore[attr-defined]
+    rho_s, rho_e = table.elevation_range  # type: ignore[attr-defined]
+    tilt = math.radians(TILT_DEG)
+    assert rho_s == pytest.approx(max(low - tilt, -math.pi / 2), abs=1e-4)
+    assert rho_e == pytest.approx(min(high + tilt, math.pi / 2), abs=1e-4)
+    entries = table.entries  # type: ignore[attr-defined]
+    unseen = np.isnan(entries[..., 0])
+    assert np.array_equal(unseen, np.isnan(entries[..., 1]))
+    theta, rho = np.meshgrid(table.azimuths(), table.elevations(), indexing="ij")  # type: ignore[attr-defined]
+    _, rho_camera = fit.model.camera_angles(theta, rho)  # type: ignore[attr-defined]
+    assert np.array_equal(unseen, (rho_camera < low - 1e-9) | (rho_camera > high + 1e-9))
+    assert unseen.any() and not unseen.all()
+
+
+def test_a_tilted_table_file_round_trips_and_is_checked(
+    tilted: tuple[TiltedCamera, object, object], tmp_path: Path
+) -> None:
+    """Version 3 holds the rotation and the camera's range; a version-2 file cannot hold a rotation."""
+    _, _, table = tilted
+    path = tmp_path / "t.npz"
+    table.save(path)  # type: ignore[attr-defined]
+    loaded = load_table(path)
+    assert loaded.model.rotation == table.model.rotation  # type: ignore[attr-defined]
+    assert loaded.camera_elevation_range == table.camera_elevation_range  # type: ignore[attr-defined]
+    np.testing.assert_array_equal(loaded.entries, table.entries)  # type: ignore[attr-defined]
+    with np.load(path) as archive:
+        meta = json.loads(str(archive["meta"][()]))
+        entries = archive["entries"]
+    assert meta["version"] == 3 and "rotation" in meta["model"]
+    meta["version"] = 2
+    meta["metadata_sha256"] = metadata_digest(meta)
+    older = tmp_path / "v2.npz"
+    np.savez(older, entries=entries, meta=np.array(json.dumps(meta)))
+    with pytest.raises(PanomapError, match="a version 2 table holds no camera rotation"):
+        load_table(older)
+
+
+def test_a_given_tilt_is_used_as_given() -> None:
+    """``tilt=(deg, az)``: the landmarks are fitted through that rotation, none estimated."""
+    base = standard_cameras(seed=3)["equidistant"]
+    camera = TiltedCamera(base, mount_rotation(math.radians(TILT_DEG), math.radians(TOWARD_DEG)))
+    landmarks = spread_landmarks(camera, POSITION, 12, np.random.default_rng(6))
+    fit = fit_camera(landmarks, POSITION, base.centre, tilt=(TILT_DEG, TOWARD_DEG))
+    assert fit.mount is not None and fit.mount.tilt_mode == "given" and not fit.mount.tilt_fitted
+    assert fit.mount.tilt_deg == pytest.approx(TILT_DEG, abs=1e-9)
+    assert fit.rms_px < 0.01  # exact landmarks through the true rotation
+    level = fit_camera(landmarks, POSITION, base.centre, tilt="none")
+    assert level.model.rotation is None and level.rms_px > 1.0  # the tilt is what made it fit
+
+
+@pytest.mark.parametrize("bad", ["sideways", (50.0, 0.0), (float("nan"), 0.0), (1.0,)])
+def test_a_bad_tilt_is_refused(bad: object) -> None:
+    base = standard_cameras()["equidistant"]
+    landmarks = spread_landmarks(base, POSITION, 8, np.random.default_rng(6))
+    with pytest.raises(PanomapError, match="tilt"):
+        fit_camera(landmarks, POSITION, base.centre, tilt=bad)  # type: ignore[arg-type]
+
+
+def test_noise_alone_does_not_make_a_level_camera_tilted() -> None:
+    """Level cameras, 10 noisy landmarks (1 px, 1 cm), 6 cameras x 3 seeds: the fit keeps them level and at
+    the given position (the mount is chosen only when it beats the simpler one beyond chance)."""
+    chosen = []
+    for name, camera in scenario_cameras().items():
+        for seed in range(3):
+            trial = make_landmarks(camera, 10, np.random.default_rng(1000 * seed + 7))
+            fit = fit_camera(
+                *_pairs(trial),
+                CAMERA_POSITION,
+                camera.centre,
+                image_size=IMAGE_SIZE,
+                annulus=(camera.cutoff_radius, camera.outer_radius),
+            )
+            chosen.append((name, seed, fit.mount.chosen if fit.mount else None))
+    level = [c for c in chosen if c[2] == "level, position as given"]
+    assert len(level) >= len(chosen) - 1, chosen
+
+
+def _pairs(trial: object) -> tuple[object]:
+    from panomap.calibrate.landmarks import Landmarks
+
+    return (Landmarks(*trial.landmarks),)  # type: ignore[attr-defined]
+
+
+def test_a_tape_error_is_refined_away_when_the_landmarks_show_it() -> None:
+    """A position 6 cm off with 30 exact landmarks: refined to within 2 mm of the truth, and reported."""
+    base = standard_cameras(seed=3)["equidistant"]
+    landmarks = spread_landmarks(base, POSITION, 30, np.random.default_rng(8))
+    given = (0.04, -0.03, 2.53)
+    fit = fit_camera(landmarks, given, base.centre, tilt="none", camera_sigma=0.05)
+    assert fit.mount is not None and fit.mount.position_refined
+    assert math.dist(fit.camera_position, POSITION) < 0.002
+    assert fit.mount.camera_shift == pytest.approx(math.dist(given, POSITION), abs=0.002)
+    exact = fit_camera(landmarks, given, base.centre, tilt="none", camera_sigma=0.0)
+    assert exact.camera_position == given and exact.rms_px > 1.0
+
+
+def test_fit_tilt_on_the_command_line(tmp_path: Path) -> None:
+    """``fit --tilt`` (default fit) says the tilt it found; a given one is used; bad values are usage errors."""
+    from panomap.calibrate.landmarks import landmarks_to_csv
+
+    base = standard_cameras(seed=3)["equidistant"]
+    camera = TiltedCamera(base, mount_rotation(math.radians(TILT_DEG), math.radians(TOWARD_DEG)))
+    (tmp_path / "lm.csv").write_text(landmarks_to_csv(spread_landmarks(camera, POSITION, 14, np.random.default_rng(5))))
+    common = [tmp_path / "lm.csv", "--camera", *POSITION, "--centre", *base.centre, "--size", "256x64"]
+    result = run("fit", *common, "-o", tmp_path / "t.npz")
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "tilt (fitted): the optical axis is 2.00 +- " in result.output
+    assert "leaning toward azimuth 50.0" in result.output
+    assert load_table(tmp_path / "t.npz").model.tilt[0] == pytest.approx(math.radians(TILT_DEG), abs=1e-5)
+    given = run("fit", *common, "--tilt", "2 50", "-o", tmp_path / "g.npz")
+    assert given.exit_code == 0 and "tilt (given): the optical axis is 2.00 deg off" in given.output
+    level = run("fit", *common, "--tilt", "none", "-o", tmp_path / "n.npz")
+    assert level.exit_code == 0 and "tilt" not in level.output.split("residuals")[0].lower().replace("--tilt", "")
+    for bad in ("50 0", "sideways", "1 2 3"):
+        assert_one_line_error(run("fit", *common, "--tilt", bad, "-o", tmp_path / "b.npz"), "--tilt", exit_code=2)
+    assert not (tmp_path / "b.npz").exists()
