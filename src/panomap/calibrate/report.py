@@ -184,6 +184,34 @@ class MountReport:
         """How far (world units) the fit moved the camera from the given position."""
         return math.dist(self.camera, self.camera_given)
 
+    def sentences(self) -> list[str]:
+        """The tilt and the camera position as fitted, in a line each (a level camera at its given place: none)."""
+        lines = []
+        if self.tilt_deg > 0:
+            how = {"fit": "fitted", "given": "given"}.get(self.tilt_mode, self.tilt_mode)
+            spread = ""
+            if self.tilt_se_deg is not None:
+                toward_se = "" if self.toward_se_deg is None else f" +- {self.toward_se_deg:.1f}"
+                spread = f" +- {self.tilt_se_deg:.2f}"
+                lines.append(
+                    f"tilt ({how}): the optical axis is {self.tilt_deg:.2f}{spread} deg off the vertical, leaning "
+                    f"toward azimuth {self.toward_deg:.1f}{toward_se} deg"
+                )
+            else:
+                lines.append(
+                    f"tilt ({how}): the optical axis is {self.tilt_deg:.2f} deg off the vertical, leaning toward "
+                    f"azimuth {self.toward_deg:.1f} deg"
+                )
+        elif self.tilt_mode == "fit" and self.cross_validation:
+            lines.append("tilt: none (the landmarks do not show one beyond their noise)")
+        if self.position_refined:
+            x, y, z = self.camera
+            lines.append(
+                f"camera position refined with the landmarks: ({x:.4g}, {y:.4g}, {z:.4g}), "
+                f"{self.camera_shift:.3g} from the given one (its sigma {self.camera_sigma:.3g} a coordinate)"
+            )
+        return lines
+
     def to_dict(self) -> dict[str, Any]:
         data = {f.name: getattr(self, f.name) for f in fields(self)}
         data["cross_validation"] = dict(self.cross_validation)

@@ -13,7 +13,7 @@ from ..calibrate.circles import ImageCircles, draw_overlay, find_image_circles
 from ..calibrate.diagnosis import diagnose
 from ..calibrate.landmarks import read_landmarks
 from ..calibrate.pipeline import calibrate_camera
-from ..calibrate.report import FitReport, MountReport, table_fit_report
+from ..calibrate.report import FitReport, table_fit_report
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError
 from ..files import all_or_none, check_output_paths
@@ -286,37 +286,8 @@ def _describe_fit(table: PanoMappingTable) -> str:
             f"{math.hypot(u0 - us, v0 - vs):.2f} px from the start ({us:.2f}, {vs:.2f})"
         )
     if fit is not None and fit.mount is not None:
-        lines.extend(describe_mount(fit.mount))
+        lines.extend(fit.mount.sentences())
     return "\n".join([*lines, _describe_residuals(table, fit)])
-
-
-def describe_mount(mount: MountReport) -> list[str]:
-    """The tilt and the camera position as fitted, in a line each (a level camera at its given place: none)."""
-    lines = []
-    if mount.tilt_deg > 0:
-        how = {"fit": "fitted", "given": "given"}.get(mount.tilt_mode, mount.tilt_mode)
-        spread = ""
-        if mount.tilt_se_deg is not None:
-            toward_se = "" if mount.toward_se_deg is None else f" +- {mount.toward_se_deg:.1f}"
-            spread = f" +- {mount.tilt_se_deg:.2f}"
-            lines.append(
-                f"tilt ({how}): the optical axis is {mount.tilt_deg:.2f}{spread} deg off the vertical, leaning "
-                f"toward azimuth {mount.toward_deg:.1f}{toward_se} deg"
-            )
-        else:
-            lines.append(
-                f"tilt ({how}): the optical axis is {mount.tilt_deg:.2f} deg off the vertical, leaning toward "
-                f"azimuth {mount.toward_deg:.1f} deg"
-            )
-    elif mount.tilt_mode == "fit" and mount.cross_validation:
-        lines.append("tilt: none (the landmarks do not show one beyond their noise)")
-    if mount.position_refined:
-        x, y, z = mount.camera
-        lines.append(
-            f"camera position refined with the landmarks: ({x:.4g}, {y:.4g}, {z:.4g}), "
-            f"{mount.camera_shift:.3g} from the given one (its sigma {mount.camera_sigma:.3g} a coordinate)"
-        )
-    return lines
 
 
 def _describe_residuals(table: PanoMappingTable, fit: FitReport | None) -> str:

@@ -371,6 +371,9 @@ class Session:
         if fit.settings.refine_centre and fit.centre_start is not None:
             shift = math.dist(fit.centre, fit.centre_start)
             refined = f"; centre refined to ({fit.centre[0]:.2f}, {fit.centre[1]:.2f}), {shift:.2f} px from the rim's"
+        mount = fit.mount
+        if mount is not None:
+            refined += "".join(f"; {sentence}" for sentence in mount.sentences())
         return {
             "ok": True,
             "revision": revision,
@@ -389,6 +392,11 @@ class Session:
             "phi0_deg": fit.phi0_deg,
             "axis": fit.axis,
             "outliers": list(fit.outliers),
+            "tilt_deg": 0.0 if mount is None else mount.tilt_deg,
+            "tilt_toward_deg": 0.0 if mount is None else mount.toward_deg,
+            "tilt_se_deg": None if mount is None else mount.tilt_se_deg,
+            "camera": list(table.camera_position),
+            "camera_refined": mount is not None and mount.position_refined,
             "warnings": table.info.get("warnings", []),
             "table_size": [m, n],
             "elevation_range_deg": [math.degrees(x) for x in table.elevation_range],
