@@ -156,7 +156,8 @@ def reprojection_errors(
     landmarks = Landmarks(corners.pixels[chosen], corners.world[chosen], tuple(f"corner{k}" for k in chosen))
     fit = fit_camera(landmarks, (0.0, 0.0, 0.0), centre.centre, annulus=centre.annulus, **options)
     others = np.setdiff1d(np.arange(len(corners.pixels)), chosen)
-    theta, rho = azimuth_elevation(corners.world[others])
+    # From the fit's camera position: the corners' frame puts the camera at the origin, which the fit may refine.
+    theta, rho = azimuth_elevation(corners.world[others] - np.asarray(fit.camera_position))
     error = np.linalg.norm(fit.model.pixels(theta, rho) - corners.pixels[others], axis=1)
     return error, fit
 
@@ -195,7 +196,6 @@ def evaluate(folder: Path, trials: int = 0) -> dict[str, Any]:
         }
     # What `panomap fit --image IMAGE` does with no other option, with each of the folder's images.
     landmarks = Landmarks(corners.pixels[chosen], corners.world[chosen], tuple(f"corner{k}" for k in chosen))
-    theta, rho = azimuth_elevation(corners.world[others])
     per_image = []
     for path in sorted((folder / "images").iterdir()):
         try:
@@ -203,6 +203,7 @@ def evaluate(folder: Path, trials: int = 0) -> dict[str, Any]:
         except PanomapError:
             per_image.append(math.inf)
             continue
+        theta, rho = azimuth_elevation(corners.world[others] - np.asarray(fit.camera_position))
         error = np.linalg.norm(fit.model.pixels(theta, rho) - corners.pixels[others], axis=1)
         per_image.append(float(np.sqrt(np.mean(error**2))))
     result["fit_image_rms_px"] = per_image
