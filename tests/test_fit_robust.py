@@ -55,7 +55,10 @@ def test_the_paper_model_keeps_every_landmark_and_is_unweighted() -> None:
     trial = make_landmarks(camera, 12, np.random.default_rng(3), outlier_px=50.0)
     fit = fit_camera(Landmarks(*trial.landmarks), CAMERA_POSITION, camera.centre, model="paper")
     assert fit.outliers == []
-    rho = np.concatenate([[-np.pi / 2], fit.rho])
+    # The paper's least squares written out, from the landmarks themselves (not the fit's elevations):
+    # the 4th-degree polynomial through (rho, r) and the centre (-pi/2, 0).
+    offsets = trial.landmarks.world - np.array(CAMERA_POSITION)
+    rho = np.concatenate([[-np.pi / 2], np.arctan2(offsets[:, 2], np.hypot(offsets[:, 0], offsets[:, 1]))])
     r = np.concatenate([[0.0], np.hypot(*(trial.landmarks.pixels - camera.centre).T)])
     expected, *_ = np.linalg.lstsq(np.vander(rho, 5, increasing=True), r, rcond=None)
     np.testing.assert_allclose(fit.model.radial.coefficients, expected, rtol=1e-9, atol=1e-9)
