@@ -3,10 +3,11 @@
 Issue's bar: rendered images of every simulated camera, centre at random
 sub-pixel places up to 40 px from the middle, Gaussian noise of 5 grey levels
 and JPEG at quality 75: centre error <= 0.5 px and radii <= 1 px over 20 seeded
-trials each. The same for circles cut by one or two frame edges by up to 15% of
-their radius (4:3 and 16:9 sensors), and with dark vignetting and a dim side; the
-tolerances below are a few times the worst error measured (docs/centre.md).
-Ground truth comes from panomap.simulate, which imports nothing under test.
+trials each; the tests hold the centre to 0.06 px and the radii to 0.03 and 0.15 px.
+The same for circles cut by one or two frame edges by up to 15% of their radius (4:3 and
+16:9 sensors), and with dark vignetting and a dim side; the tolerances below are a few times
+the worst error measured (docs/centre.md). Ground truth comes from panomap.simulate, which
+imports nothing under test.
 """
 
 from __future__ import annotations
@@ -64,9 +65,11 @@ def test_centre_and_radii_on_degraded_renders(name: str) -> None:
             worst["cutoff"] = max(worst["cutoff"], abs(found.cutoff.radius - camera.cutoff_radius))
         assert found.ellipse is None
     print(name, {k: round(v, 3) for k, v in worst.items()})
-    assert worst["centre"] <= 0.5
-    assert worst["outer"] <= 1.0
-    assert worst["cutoff"] <= 1.0
+    # About 3x the worst measured over the 5 cameras (docs/centre.md): centre 0.021 px, outer
+    # radius 0.010 px, cut-off radius 0.043 px (the issue's bars, 0.5 and 1 px, were 25-100x).
+    assert worst["centre"] <= 0.06
+    assert worst["outer"] <= 0.03
+    assert worst["cutoff"] <= 0.15
 
 
 def test_an_elliptical_rim_is_reported_as_one() -> None:
