@@ -33,13 +33,11 @@ def run(*args: object) -> Result:
     return CliRunner().invoke(main, [str(a) for a in args])
 
 
-def assert_one_line_error(result: Result, *fragments: str, exit_code: int | None = None) -> None:
-    """The command failed (with ``exit_code``, or any non-zero one if None) and wrote one line
-    to stderr, no traceback, holding every fragment."""
-    if exit_code is None:
-        assert result.exit_code != 0, result.output + result.stderr
-    else:
-        assert result.exit_code == exit_code, result.output + result.stderr
+def assert_one_line_error(result: Result, *fragments: str, exit_code: int = 1) -> None:
+    """The command failed with ``exit_code`` and wrote one line to stderr, no traceback, holding
+    every fragment. The README's promise: 1 for a failure (bad input, a file that cannot be read
+    or written), 2 for bad usage (an option click cannot parse, options that exclude each other)."""
+    assert result.exit_code == exit_code, f"exit code {result.exit_code}: " + result.output + result.stderr
     lines = [line for line in result.stderr.splitlines() if line.strip()]
     assert len(lines) == 1, result.stderr
     assert "Traceback" not in result.output + result.stderr
@@ -134,3 +132,94 @@ def assert_view_errors_within(errors: np.ndarray, camera_name: str) -> None:
     p95, largest = float(np.percentile(errors, 95)), float(np.max(errors))
     assert p95 < VIEW_P95_PX[camera_name], f"p95 {p95:.5f} px (bar {VIEW_P95_PX[camera_name]})"
     assert largest < VIEW_MAX_PX[camera_name], f"max {largest:.5f} px (bar {VIEW_MAX_PX[camera_name]})"
+
+
+# ------------------------------------------------------------------- what a view's pixels see, from its formulas
+# Written here from the conventions (docs/conventions.md and each view's docstring), not taken
+# from panomap.views: with a simulated camera's projection they are the ground truth of a map.
+
+
+def centres(count: int) -> NDArray[np.float64]:
+    """``(k + 0.5) / count`` for k = 0..count-1: the pixel centres' fractions across a view."""
+    return (np.arange(count) + 0.5) / count
+
+
+def column_azimuths(start_rad: float, width: int) -> NDArray[np.float64]:
+    """The panoramas' column azimuths: ``start - 2*pi*(k + 0.5)/W`` (rad), decreasing to the right."""
+    return start_rad - 2 * np.pi * centres(width)
+
+
+def panorama_directions(
+    size: tuple[int, int], start_rad: float, elevation_range: tuple[float, float]
+) -> NDArray[np.float64]:
+    """(H, W, 3) unit rays of a generic panorama: rows evenly spaced in elevation, highest on top."""
+    width, height = size
+    low, high = elevation_range
+    theta = column_azimuths(start_rad, width)[None, :]
+    rho = (high - centres(height) * (high - low))[:, None]
+    return np.stack(np.broadcast_arrays(np.cos(rho) * np.cos(theta), np.cos(rho) * np.sin(theta), np.sin(rho)), -1)
+
+
+def cylinder_points(
+    distance: float, band: tuple[float, float], size: tuple[int, int], start_rad: float = 0.0
+) -> NDArray[np.float64]:
+    """(H, W, 3) points (relative to the camera) of a cylinder panorama's pixels."""
+    width, height = size
+    theta = column_azimuths(start_rad, width)[None, :]
+    z = (band[1] - centres(height) * (band[1] - band[0]))[:, None]
+    return np.stack(np.broadcast_arrays(distance * np.cos(theta), distance * np.sin(theta), z), -1)
+
+
+def plane_points(
+    distance: float, plane_width: float, band: tuple[float, float], azimuth_rad: float, size: tuple[int, int]
+) -> NDArray[np.float64]:
+    """(H, W, 3) points of a plane view: a straight line from the left edge (azimuth + phi/2) to the
+    right (azimuth - phi/2), both at ``distance``, with phi = acos(1 - W_p^2 / (2 D^2))."""
+    width, height = size
+    half = np.arccos(1 - plane_width**2 / (2 * distance**2)) / 2
+    left = distance * np.array([np.cos(azimuth_rad + half), np.sin(azimuth_rad + half)])
+    right = distance * np.array([np.cos(azimuth_rad - half), np.sin(azimuth_rad - half)])
+    xy = left + centres(width)[:, None] * (right - left)
+    z = band[1] - centres(height) * (band[1] - band[0])
+    return np.stack(np.broadcast_arrays(xy[None, :, 0], xy[None, :, 1], z[:, None]), -1)
+
+
+def perspective_directions(
+    yaw_rad: float, pitch_rad: float, roll_rad: float, fov_rad: float, size: tuple[int, int]
+) -> NDArray[np.float64]:
+    """(H, W, 3) rays of a pinhole looking at (yaw, pitch), turned by roll (+ dips its right side)."""
+    width, height = size
+    focal = (width / 2) / np.tan(fov_rad / 2)
+    forward = np.array([np.cos(pitch_rad) * np.cos(yaw_rad), np.cos(pitch_rad) * np.sin(yaw_rad), np.sin(pitch_rad)])
+    level_right = np.array([np.sin(yaw_rad), -np.cos(yaw_rad), 0.0])
+    level_down = np.cross(forward, level_right)
+    right = np.cos(roll_rad) * level_right + np.sin(roll_rad) * level_down
+    down = np.cos(roll_rad) * level_down - np.sin(roll_rad) * level_right
+    x = (np.arange(width) + 0.5 - width / 2) / focal
+    y = (np.arange(height) + 0.5 - height / 2) / focal
+    return forward + x[None, :, None] * right + y[:, None, None] * down
+
+
+def floor_points(
+    z: float, x: tuple[float, float], y: tuple[float, float], size: tuple[int, int], position: tuple[float, ...]
+) -> NDArray[np.float64]:
+    """(H, W, 3) points (relative to the camera at ``position``) of a floor view of the world plane
+    Z = z: x grows to the right, y upwards (north up)."""
+    width, height = size
+    xs = x[0] + centres(width) * (x[1] - x[0])
+    ys = y[1] - centres(height) * (y[1] - y[0])
+    points = np.stack(np.broadcast_arrays(xs[None, :], ys[:, None], np.full((1, 1), float(z))), -1)
+    return points - np.asarray(position, dtype=np.float64)
+
+
+def assert_map_sees_like_the_camera(map_uv: np.ndarray, camera: SimulatedCamera, points: np.ndarray) -> None:
+    """A view's (H, W, 2) map agrees with the camera's true projection of ``points`` (H, W, 3),
+    within the camera's ground-truth view bars; NaN exactly where the camera does not see."""
+    truth = camera.project(points)
+    seen = np.all(np.isfinite(truth), axis=-1)
+    assert seen.mean() > 0.3, "the view must see enough of the scene for the test to mean anything"
+    mapped = np.all(np.isfinite(map_uv), axis=-1)
+    # Pixels the camera sees that the map leaves empty (or the reverse) fail, beyond a one-pixel rim.
+    assert np.count_nonzero(seen != mapped) <= 2 * sum(map_uv.shape[:2]), np.count_nonzero(seen != mapped)
+    both = seen & mapped
+    assert_view_errors_within(np.linalg.norm(map_uv[both] - truth[both], axis=-1), camera.name)

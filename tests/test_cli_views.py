@@ -12,10 +12,15 @@ import numpy as np
 import pytest
 
 from panomap.simulate import standard_cameras
-from panomap.table.file import load_table
-from panomap.views import FloorView, PerspectiveView, build_map
 
-from helpers import assert_one_line_error, run, write_cli_inputs
+from helpers import (
+    assert_map_sees_like_the_camera,
+    assert_one_line_error,
+    floor_points,
+    perspective_directions,
+    run,
+    write_cli_inputs,
+)
 
 SIZE = (640, 600)
 CAMERA = standard_cameras(SIZE, centre=(321.4, 298.2), s=1, phi0=-0.5)["parabolic"]
@@ -71,9 +76,10 @@ def test_perspective_writes_the_view_and_its_maps(work: Path) -> None:
     )
     assert result.exit_code == 0, result.stderr
     assert cv2.imread(str(work / "persp.png")).shape == (120, 160, 3)
-    view = PerspectiveView(math.radians(-30), -math.pi / 2, math.radians(15), math.radians(150), (160, 120))
-    expected = build_map(load_table(work / "cam.npz"), view)
-    np.testing.assert_array_equal(np.load(work / "persp.npy"), expected)
+    expected = np.load(work / "persp.npy")
+    # Against the simulated camera: a sign flip of the roll, or yaw and pitch swapped, fails.
+    rays = perspective_directions(math.radians(-30), -math.pi / 2, math.radians(15), math.radians(150), (160, 120))
+    assert_map_sees_like_the_camera(expected, CAMERA, rays)
     xmap = cv2.imread(str(work / "persp_x.pgm"), cv2.IMREAD_UNCHANGED)
     assert xmap.dtype == np.uint16 and xmap.shape == (120, 160)
     inside = np.all(np.isfinite(expected), axis=2)
@@ -104,12 +110,9 @@ def test_floor_writes_a_map_seen_from_above(work: Path, size_option: list[object
     assert result.exit_code == 0, result.stderr
     saved = np.load(work / "floor.npy")
     assert saved.shape == (250, 300, 2)  # 6 m x 5 m at 0.02 m per pixel, or as given
-    np.testing.assert_array_equal(
-        saved, build_map(load_table(work / "cam.npz"), FloorView(0, (0, 6), (-1, 4), (300, 250)))
-    )
-    # Pixel (224, 100) sees the floor point X = 0 + 224.5 * 0.02, Y = 4 - 100.5 * 0.02: where the table puts it.
-    point = [224.5 * 0.02, 4 - 100.5 * 0.02, 0.0]
-    np.testing.assert_allclose(saved[100, 224], load_table(work / "cam.npz").project(point), atol=1e-3)
+    # Pixel (224, 100) sees the floor point X = 0 + 224.5 * 0.02, Y = 4 - 100.5 * 0.02, and so on:
+    # where the simulated camera sees it.
+    assert_map_sees_like_the_camera(saved, CAMERA, floor_points(0, (0, 6), (-1, 4), (300, 250), POSITION))
 
 
 def read_csv(path: Path) -> list[dict[str, str]]:
@@ -150,25 +153,28 @@ PERSPECTIVE = ["--yaw-deg", 10, "--pitch-deg", -30, "--fov-deg", 90, "--size", "
 
 
 @pytest.mark.parametrize(
-    ("command", "options", "message"),
+    # The exit code: 2 for usage (an option click cannot parse, options that exclude each other), 1 otherwise.
+    ("command", "options", "message", "exit_code"),
     [
-        ("perspective", ["--fov-deg", 0], "the field of view must be more than 0 and less than 180 deg, not 0 deg"),
-        ("perspective", ["--fov-deg", -20], "not -20 deg"),
-        ("perspective", ["--fov-deg", 180], "not 180 deg"),
-        ("perspective", ["--fov-deg", 250], "not 250 deg"),
-        ("perspective", ["--pitch-deg", 95], "the pitch must be between -90 and 90 deg, not 95 deg"),
-        ("perspective", ["--fov-deg", "nan"], "'nan' is not a finite number"),
-        ("floor", ["--x", 3, 3], "the x extent 3..3 is empty"),
-        ("floor", ["--y", 4, -1], "the y extent 4..-1 is empty"),
-        ("floor", ["--z", 2.5], "the plane Z = 2.5 is at or above the camera (Z0 = 2.5)"),
-        ("floor", ["--z", 3], "a camera looking down sees only planes below it"),
-        ("floor", ["--resolution", 0.05], "--size WxH or --resolution R, one of the two"),
-        ("floor", ["--size", None], "--size WxH or --resolution R, one of the two"),
-        ("floor", ["--size", None, "--resolution", -1], "the resolution must be positive"),
-        ("floor", ["--size", None, "--resolution", 1e-5], "too large"),
+        ("perspective", ["--fov-deg", 0], "the field of view must be more than 0 and less than 180 deg, not 0 deg", 1),
+        ("perspective", ["--fov-deg", -20], "not -20 deg", 1),
+        ("perspective", ["--fov-deg", 180], "not 180 deg", 1),
+        ("perspective", ["--fov-deg", 250], "not 250 deg", 1),
+        ("perspective", ["--pitch-deg", 95], "the pitch must be between -90 and 90 deg, not 95 deg", 1),
+        ("perspective", ["--fov-deg", "nan"], "'nan' is not a finite number", 2),
+        ("floor", ["--x", 3, 3], "the x extent 3..3 is empty", 1),
+        ("floor", ["--y", 4, -1], "the y extent 4..-1 is empty", 1),
+        ("floor", ["--z", 2.5], "the plane Z = 2.5 is at or above the camera (Z0 = 2.5)", 1),
+        ("floor", ["--z", 3], "a camera looking down sees only planes below it", 1),
+        ("floor", ["--resolution", 0.05], "--size WxH or --resolution R, one of the two", 2),
+        ("floor", ["--size", None], "--size WxH or --resolution R, one of the two", 2),
+        ("floor", ["--size", None, "--resolution", -1], "the resolution must be positive", 1),
+        ("floor", ["--size", None, "--resolution", 1e-5], "too large", 1),
     ],
 )
-def test_bad_view_parameters_get_one_line(work: Path, command: str, options: list[object], message: str) -> None:
+def test_bad_view_parameters_get_one_line(
+    work: Path, command: str, options: list[object], message: str, exit_code: int
+) -> None:
     base = {
         "perspective": {"--yaw-deg": [10], "--pitch-deg": [-30], "--fov-deg": [90], "--size": ["100x80"]},
         "floor": {"--z": [0], "--x": [0, 6], "--y": [-1, 4], "--size": ["100x80"]},
@@ -183,7 +189,7 @@ def test_bad_view_parameters_get_one_line(work: Path, command: str, options: lis
             given[flag].append(item)
     args = [a for flag, values in given.items() if None not in values for a in (flag, *values)]
     result = run(command, work / "cam.npz", work / "omni.png", "-o", work / "bad.png", *args)
-    assert_one_line_error(result, message)
+    assert_one_line_error(result, message, exit_code=exit_code)
     assert not (work / "bad.png").exists()
 
 

@@ -24,8 +24,10 @@ from panomap.cli.app import main
 from panomap.errors import PanomapError
 from panomap.io.images import map_to_pgm, save_map_pgm
 from panomap.remap import Remapper
+from panomap.simulate.cameras import RadialCamera
 from panomap.table.table import PanoMappingTable, fill_entries
-from panomap.views import PerspectiveView, build_map
+
+from helpers import assert_map_sees_like_the_camera, perspective_directions
 
 IMAGE_SIZE = (320, 300)
 
@@ -126,7 +128,12 @@ def test_ffmpeg_remap_with_our_maps_gives_our_nearest_neighbour_output(tmp_path:
     differ = np.any(theirs != ours, axis=2)
     assert not np.any(differ & ~ties), f"{int(np.sum(differ & ~ties))} pixels differ"
     assert np.all(theirs[no_source] == 0)
-    # And both are the view we meant: the library's map, applied by the library.
-    view = PerspectiveView(math.radians(30), math.radians(-20), math.radians(10), math.radians(140), (200, 150))
-    np.testing.assert_array_equal(map_uv, build_map(table, view))
+    # And both are the view we meant: the map against the fisheye's own projection (r = 95 alpha),
+    # applied by the library.
+    fisheye = RadialCamera(
+        name="equidistant", law="equidistant", scale=95.0, image_size=IMAGE_SIZE, centre=(159.5, 149.5),
+        s=-1, phi0=0.4, alpha_max=math.pi / 2,
+    )  # fmt: skip
+    rays = perspective_directions(math.radians(30), math.radians(-20), math.radians(10), math.radians(140), (200, 150))
+    assert_map_sees_like_the_camera(map_uv, fisheye, rays)
     np.testing.assert_array_equal(ours, Remapper(map_uv, IMAGE_SIZE, "nearest")(frame))

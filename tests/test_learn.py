@@ -7,14 +7,17 @@ simulated camera's closed-form projection (:mod:`panomap.simulate.example`).
 
 from __future__ import annotations
 
+import http.client
 import json
 import os
+import select
 import signal
 import socket
 import subprocess
 import sys
 import threading
 import urllib.error
+import urllib.parse
 import urllib.request
 from collections.abc import Iterator
 from email.message import Message
@@ -223,6 +226,67 @@ def test_requests_that_are_not_json_or_not_here_are_refused(client: Client) -> N
         assert status == 200 and kind in body
 
 
+def raw_request(
+    client: Client, method: str, path: str, headers: dict[str, str], body: bytes = b""
+) -> tuple[int, Any, Any]:
+    """One request with exactly ``headers`` (http.client adds no Content-Length of its own here):
+    the status, the answer's headers and its JSON (or raw) body."""
+    address = urllib.parse.urlsplit(client.url)
+    connection = http.client.HTTPConnection(address.hostname, address.port, timeout=30)
+    try:
+        connection.putrequest(method, path, skip_host="Host" in headers, skip_accept_encoding=True)
+        for key, value in headers.items():
+            connection.putheader(key, value)
+        connection.endheaders(body or None)
+        response = connection.getresponse()
+        data = response.read()
+        kind = response.headers.get("Content-Type", "")
+        return response.status, response.headers, json.loads(data) if kind == "application/json" else data
+    finally:
+        connection.close()
+
+
+def test_posts_name_the_host_and_give_their_length_and_every_answer_has_its_guards(
+    client: Client, example: Example
+) -> None:
+    """The Host check holds for POSTs too (DNS rebinding would post); a POST with no Content-Length
+    is refused (the body cannot be framed); every answer, page or error, forbids caching and
+    sniffing and carries the content security policy."""
+    before = client.get("/api/state")
+    host = urllib.parse.urlsplit(client.url).netloc
+    body = json.dumps({"camera": list(example.camera_position)}).encode()
+    json_headers = {"Content-Type": "application/json", "Content-Length": str(len(body))}
+    status, _, answer = raw_request(client, "POST", "/api/state", {**json_headers, "Host": "evil.example:80"}, body)
+    assert status == 403 and "loopback" in answer["error"]
+    status, _, answer = raw_request(client, "POST", "/api/state", {"Host": host, "Content-Type": "application/json"})
+    assert status == 400 and answer["error"] == "the request has no Content-Length"
+    assert client.get("/api/state") == before
+    status, _, answer = raw_request(client, "POST", "/api/state", {**json_headers, "Host": host}, body)
+    assert status == 200 and answer["camera"] == list(example.camera_position)
+    for path in ("/", "/api/state", "/api/image", "/api/nothing"):
+        status, headers, _ = raw_request(client, "GET", path, {"Host": host})
+        assert status == (404 if path == "/api/nothing" else 200)
+        assert headers["Cache-Control"] == "no-store"
+        assert headers["X-Content-Type-Options"] == "nosniff"
+        assert headers["Content-Security-Policy"].startswith("default-src 'self'")
+
+
+def test_symbolic_links_are_never_followed(client: Client, example: Example, folder: Path) -> None:
+    """A link in the folder, to a file outside it: loading refuses it as no file; saving replaces
+    the link by a file of its own and leaves the file outside as it was."""
+    client.post("/api/state", {"camera": list(example.camera_position), "landmarks": true_landmarks(example)})
+    outside = folder.parent / "outside.csv"
+    outside.write_text("name,u,v,X,Y,Z\nfar,1,2,3,4,5\n")
+    (folder / "linked.csv").symlink_to(outside)
+    status, answer = client.post("/api/landmarks/load", {"name": "linked.csv"})
+    assert status == 404 and "there is no file 'linked.csv'" in answer["error"]
+    status, answer = client.post("/api/landmarks/save", {"name": "linked.csv"})
+    assert status == 200, answer
+    assert not (folder / "linked.csv").is_symlink()
+    assert outside.read_text() == "name,u,v,X,Y,Z\nfar,1,2,3,4,5\n"
+    assert len((folder / "linked.csv").read_text().splitlines()) == 1 + len(example.names)
+
+
 BAD_NAMES = [
     ("/api/landmarks/save", "../x.csv", "bare file name"),
     ("/api/landmarks/save", "..x.csv", "must not contain '..'"),
@@ -362,6 +426,8 @@ def test_the_command_serves_until_interrupted(tmp_path: Path, example: Example) 
     )
     try:
         assert process.stdout is not None
+        # (No line within 60 s fails the test instead of hanging it.)
+        assert select.select([process.stdout], [], [], 60)[0], "the server printed nothing"
         line = process.stdout.readline()
         assert line.startswith("panomap learn: serving omni.png at http://127.0.0.1:"), line
         url = line.split(" at ")[1].split()[0]

@@ -188,6 +188,26 @@ def test_a_full_disk_names_the_file_and_leaves_no_output(
     assert files_in(tmp_path) == []
 
 
+@pytest.mark.parametrize("fail_from", [1, 2])
+def test_a_failed_write_leaves_the_existing_outputs_as_they_were(
+    work: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fail_from: int
+) -> None:
+    """Outputs that exist already keep their bytes and their mode when the disk fills up while
+    writing the first of them or the second (all or none of a run's outputs are replaced)."""
+    old = {"p.png": (b"the previous image", 0o640), "map.npy": (b"the previous map", 0o604)}
+    for name, (content, mode) in old.items():
+        (tmp_path / name).write_bytes(content)
+        (tmp_path / name).chmod(mode)
+    full_disk_from(monkeypatch, fail_from)
+    result = panorama(work, "-o", tmp_path / "p.png", "--save-map", tmp_path / "map.npy")
+    failed = ["p.png", "map.npy"][fail_from - 1]
+    assert_one_line_error(result, f"{failed}: cannot write it (No space left on device)", exit_code=1)
+    assert files_in(tmp_path) == sorted(old)
+    for name, (content, mode) in old.items():
+        assert (tmp_path / name).read_bytes() == content
+        assert stat.S_IMODE((tmp_path / name).stat().st_mode) == mode
+
+
 def test_fit_on_a_full_disk_names_the_table_and_writes_neither_output(
     work: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -247,11 +267,13 @@ def test_a_failing_close_fails_the_video_keeps_the_old_file_and_names_it(
 
     monkeypatch.setattr(av, "open", opening)
     (tmp_path / "pano.mp4").write_bytes(b"the previous good file")
+    (tmp_path / "pano.mp4").chmod(0o640)
     result = run("video", work / "cam.npz", work / "clip.mp4", "-o", tmp_path / "pano.mp4",
                  "--view", "panorama:size=128x32", "-q")  # fmt: skip
     assert_one_line_error(result, "pano.mp4: writing failed (No space left on device)", exit_code=1)
     assert files_in(tmp_path) == ["pano.mp4"]
     assert (tmp_path / "pano.mp4").read_bytes() == b"the previous good file"
+    assert stat.S_IMODE((tmp_path / "pano.mp4").stat().st_mode) == 0o640
 
 
 def test_sighup_stops_a_video_cleanly_as_sigterm_does() -> None:

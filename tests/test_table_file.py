@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import re
 import zipfile
 from pathlib import Path
 
@@ -16,6 +17,8 @@ from panomap.camera.radial import RadialFunction
 from panomap.errors import PanomapError
 from panomap.table.file import _digest, load_table, metadata_digest
 from panomap.table.table import PanoMappingTable, fill_entries
+
+from helpers import assert_one_line_error, run
 
 
 def small_table() -> PanoMappingTable:
@@ -95,6 +98,29 @@ def test_other_version(tmp_path: Path) -> None:
         load_table(path)
 
 
+@pytest.mark.parametrize(("version", "shown"), [(None, "None"), (True, "True"), ("2", "'2'")])
+def test_a_version_missing_or_not_an_integer_is_refused_in_one_line(
+    tmp_path: Path, version: object, shown: str
+) -> None:
+    """No version, JSON true (which Python would take for 1) or "2": refused, by the
+    library and by the command line in one line naming the file."""
+    path = tmp_path / "t.npz"
+    small_table().save(path)
+    with np.load(path) as archive:
+        meta = json.loads(str(archive["meta"][()]))
+        entries = archive["entries"]
+    if version is None:
+        del meta["version"]
+    else:
+        meta["version"] = version
+    meta["metadata_sha256"] = metadata_digest(meta)
+    np.savez(path, entries=entries, meta=np.array(json.dumps(meta)))
+    message = f"table format version {shown}; this panomap reads versions 1 and 2"
+    with pytest.raises(PanomapError, match=re.escape(message)):
+        load_table(path)
+    assert_one_line_error(run("info", path), f"{path}: ", message, exit_code=1)
+
+
 def test_flipped_byte_in_entries_is_caught_by_the_checksum(tmp_path: Path) -> None:
     path = tmp_path / "t.npz"
     small_table().save(path)
@@ -135,11 +161,22 @@ def test_one_entry_off_in_any_block_of_azimuths_is_caught(tmp_path: Path, row: i
         load_table(path)
 
 
-def test_entries_of_some_azimuths_are_those_rows_of_the_whole_table() -> None:
+def test_entries_are_the_closed_form_and_some_azimuths_are_those_rows() -> None:
+    """Algorithm 2 written out for small_table's model: theta_i = 2 pi i / M, rho_j = rho_s + j
+    (rho_e - rho_s) / N, alpha = rho + pi/2 from the downward axis, r = 250 sin(alpha) / (0.8 +
+    cos(alpha)) (unified), phi = -theta + 0.3; float32 entries (1e-4 px at these radii)."""
     table = small_table()
-    np.testing.assert_array_equal(
-        fill_entries(table.model, table.size, table.elevation_range, slice(10, 37)), table.entries[10:37]
+    (m, n), (rho_s, rho_e) = table.size, table.elevation_range
+    theta = 2 * np.pi * np.arange(m) / m
+    alpha = rho_s + np.arange(n) * (rho_e - rho_s) / n + np.pi / 2
+    r = 250.0 * np.sin(alpha) / (0.8 + np.cos(alpha))
+    phi = -theta + 0.3
+    expected = np.stack(
+        [320.5 + np.cos(phi)[:, None] * r[None, :], 240.25 + np.sin(phi)[:, None] * r[None, :]], axis=-1
     )
+    np.testing.assert_allclose(table.entries, expected, rtol=0, atol=1e-4)
+    some = fill_entries(table.model, table.size, table.elevation_range, slice(10, 37))
+    np.testing.assert_allclose(some, expected[10:37], rtol=0, atol=1e-4)
 
 
 @pytest.mark.parametrize(
