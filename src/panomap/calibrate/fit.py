@@ -58,6 +58,7 @@ from .mount import (
     camera_rays,
     held_out_errors,
     joint_fit,
+    residual_parts,
     tilt_standard_errors,
 )
 from .report import FitReport, FitSettings, LandmarkResidual, MountReport
@@ -90,6 +91,8 @@ MOUNT_SCORE_CAP_SIGMAS = 5.0
 # A mount with more unknowns must beat a simpler one's held-out errors by this many standard errors of the
 # mean paired improvement (one-sided, about 2.5% false alarms where the errors are normal).
 MOUNT_SIGNIFICANCE = 2.0
+# The chi-square's 95th percentile for 2, 3 and 5 degrees of freedom: the screen of a mount's unknowns.
+CHI2_95 = {2: 5.991, 3: 7.815, 5: 11.070}
 
 
 @dataclass(frozen=True)
@@ -814,7 +817,21 @@ def _choose_mount(
     """
     fits: dict[MountOptions, tuple[FloatArray, RadialKind, dict[str, float], MountSolution]] = {options[0]: level}
     inliers, _, _, start = level
+    # A screen before the costly part: a mount whose own fit does not lower the chi-square by more than
+    # chance would (for its added unknowns) cannot win the cross-validation; it is not tried further.
+    level_chi2 = _chi2(problem, start, inliers)
+    screened = [options[0]]
     for option in options[1:]:
+        try:
+            trial = joint_fit(problem, start, inliers, option)
+        except PanomapError:
+            continue
+        added = 2 * option.tilt + 3 * option.position
+        if level_chi2 - _chi2(problem, trial, inliers, option) > CHI2_95[added]:
+            screened.append(option)
+    if len(screened) == 1:
+        return _MountChoice(level, options[0], {})
+    for option in screened[1:]:
         # A mount with the position refined starts from the same mount with the position as given: the model
         # and outliers chosen there (a position shift of a few cm barely moves the rays; a tilt turns them all).
         simpler = replace(option, position=False)
@@ -864,6 +881,19 @@ def _choose_mount(
     return _MountChoice(fits[best], best, scores)
 
 
+def _chi2(
+    problem: MountProblem, solution: MountSolution, subset: FloatArray, options: MountOptions | None = None
+) -> float:
+    """Sum of squared whitened residuals over ``subset`` (bool, n), with the position's prior terms when refined."""
+    radial_error, tangential_error, radial_sigma, tangential_sigma = residual_parts(
+        problem, solution, np.flatnonzero(subset)
+    )
+    total = float(np.sum((radial_error / radial_sigma) ** 2 + (tangential_error / tangential_sigma) ** 2))
+    if options is not None and options.position:
+        total += float(np.sum((solution.delta / problem.camera_sigma) ** 2))
+    return total if math.isfinite(total) else math.inf
+
+
 def _clearly_better(errors: FloatArray, than: FloatArray) -> bool:
     """Whether held-out squared errors ``errors`` are smaller than ``than`` (same landmarks) beyond chance:
     the mean of the paired improvements exceeds ``MOUNT_SIGNIFICANCE`` standard errors of it."""
@@ -891,8 +921,11 @@ def _mount_report(
         tilt_se, toward_se = math.degrees(tilt_se_rad), math.degrees(toward_se_rad)
         toward_se = toward_se if math.isfinite(toward_se) else None
     camera = solution.camera(problem)
+    mode = "given" if not isinstance(tilt, str) else tilt
+    if choice is None and mode == "fit":
+        mode = "none"  # not tried: a model with the paper's vertical axis, or the paper's azimuth
     return MountReport(
-        tilt_mode="given" if not isinstance(tilt, str) else tilt,
+        tilt_mode=mode,
         tilt_deg=math.degrees(tilt_rad),
         toward_deg=math.degrees(toward_rad),
         tilt_se_deg=tilt_se,

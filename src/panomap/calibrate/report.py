@@ -141,7 +141,8 @@ class MountReport:
     Attributes
     ----------
     tilt_mode : {"fit", "none", "given"}
-        What was asked: estimate the tilt, take the camera as level, or a given tilt.
+        What was done: the tilt estimated (and kept or not), the camera taken as level (asked
+        for, or a model that takes the paper's vertical axis), or a given tilt.
     tilt_deg : float
         Angle of the optical axis off the vertical, deg (0 for a level camera).
     toward_deg : float
@@ -160,7 +161,8 @@ class MountReport:
     chosen : str
         The mount chosen: ``"level, position as given"``, ``"tilt"``, ``"position"`` or ``"tilt + position"``.
     cross_validation : mapping of str to float
-        Each mount tried and its held-out RMS error in sigmas (smaller is better).
+        Each mount tried and its held-out RMS error in sigmas (smaller is better); empty when no
+        mount lowered the chi-square beyond chance, so that none needed cross-validating.
     """
 
     tilt_mode: str
@@ -202,7 +204,7 @@ class MountReport:
                     f"tilt ({how}): the optical axis is {self.tilt_deg:.2f} deg off the vertical, leaning toward "
                     f"azimuth {self.toward_deg:.1f} deg"
                 )
-        elif self.tilt_mode == "fit" and self.cross_validation:
+        elif self.tilt_mode == "fit":
             lines.append("tilt: none (the landmarks do not show one beyond their noise)")
         if self.position_refined:
             x, y, z = self.camera
