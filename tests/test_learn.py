@@ -272,15 +272,19 @@ def test_posts_name_the_host_and_give_their_length_and_every_answer_has_its_guar
 
 
 def test_symbolic_links_are_never_followed(client: Client, example: Example, folder: Path) -> None:
-    """A link in the folder, to a file outside it: loading refuses it as no file; saving replaces
-    the link by a file of its own and leaves the file outside as it was."""
+    """A link in the folder, to a file outside it: loading refuses it as no file; saving (once told to
+    overwrite) replaces the link by a file of its own and leaves the file outside as it was."""
     client.post("/api/state", {"camera": list(example.camera_position), "landmarks": true_landmarks(example)})
     outside = folder.parent / "outside.csv"
     outside.write_text("name,u,v,X,Y,Z\nfar,1,2,3,4,5\n")
     (folder / "linked.csv").symlink_to(outside)
     status, answer = client.post("/api/landmarks/load", {"name": "linked.csv"})
     assert status == 404 and "there is no file 'linked.csv'" in answer["error"]
+    # The link is a name already taken: saving asks first (409), and with overwrite replaces the link itself.
     status, answer = client.post("/api/landmarks/save", {"name": "linked.csv"})
+    assert status == 409 and answer["exists"] == "linked.csv", answer
+    assert (folder / "linked.csv").is_symlink()
+    status, answer = client.post("/api/landmarks/save", {"name": "linked.csv", "overwrite": True})
     assert status == 200, answer
     assert not (folder / "linked.csv").is_symlink()
     assert outside.read_text() == "name,u,v,X,Y,Z\nfar,1,2,3,4,5\n"
