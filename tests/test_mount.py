@@ -212,6 +212,8 @@ def test_fit_tilt_on_the_command_line(tmp_path: Path) -> None:
     assert "tilt (fitted): the optical axis is 2.00 +- " in result.output
     assert "leaning toward azimuth 50.0" in result.output
     assert load_table(tmp_path / "t.npz").model.tilt[0] == pytest.approx(math.radians(TILT_DEG), abs=1e-5)
+    info = run("info", tmp_path / "t.npz")
+    assert "camera axis: 2.000 deg off the vertical, leaning toward azimuth 50.00 deg" in info.output
     given = run("fit", *common, "--tilt", "2 50", "-o", tmp_path / "g.npz")
     assert given.exit_code == 0 and "tilt (given): the optical axis is 2.00 deg off" in given.output
     level = run("fit", *common, "--tilt", "none", "-o", tmp_path / "n.npz")

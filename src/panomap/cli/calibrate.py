@@ -351,4 +351,14 @@ def info(table: Path, as_json: bool) -> None:
         + ", ".join(f"{c:.9g}" for c in model.radial.coefficients),
         f"azimuth mapping: s = {model.s:+d}, phi0 = {math.degrees(model.phi0):.4f} deg",
     ]
-    click.echo("\n".join([*lines, _describe_residuals(loaded, table_fit_report(loaded))]))
+    tilt_rad, toward_rad = model.tilt
+    lines.append(
+        "camera axis: vertical (level)"
+        if model.rotation is None
+        else f"camera axis: {math.degrees(tilt_rad):.3f} deg off the vertical, leaning toward azimuth "
+        f"{math.degrees(toward_rad):.2f} deg (the table is in world angles)"
+    )
+    report = table_fit_report(loaded)
+    if report is not None and report.mount is not None and report.mount.position_refined:
+        lines.append(f"camera position refined from {tuple(round(c, 6) for c in report.mount.camera_given)}")
+    click.echo("\n".join([*lines, _describe_residuals(loaded, report)]))
