@@ -340,7 +340,7 @@ def test_dragging_the_circles_and_editing_landmarks(browser: Any, serve: Any, ex
     view.wait_synced()
     assert [row["name"] for row in session.state()["landmarks"]] == [n for k, n in enumerate(example.names) if k != 3]
     for left in (6, 5, 4):
-        assert session.fit_status["ok"]
+        assert session.fit_status["ok"], session.fit_status.get("message")
         page.locator("#landmark-table tbody tr").first.click()
         page.click("#lm-delete")
         view.wait_synced()

@@ -115,7 +115,7 @@ def test_a_version_missing_or_not_an_integer_is_refused_in_one_line(
         meta["version"] = version
     meta["metadata_sha256"] = metadata_digest(meta)
     np.savez(path, entries=entries, meta=np.array(json.dumps(meta)))
-    message = f"table format version {shown}; this panomap reads versions 1 and 2"
+    message = f"table format version {shown}; this panomap reads versions 1, 2 and 3"
     with pytest.raises(PanomapError, match=re.escape(message)):
         load_table(path)
     assert_one_line_error(run("info", path), f"{path}: ", message, exit_code=1)

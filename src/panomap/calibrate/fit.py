@@ -841,7 +841,8 @@ def _choose_mount(
                 solution = joint_fit(replace(problem, kind=kind.name), base, kept, option)
             except PanomapError:
                 continue
-            fits[option] = (kept, kind, selection, solution)
+            if annulus is None or not _mount_misses_annulus(problem, solution, kept, annulus):
+                fits[option] = (kept, kind, selection, solution)
             continue
         try:
             first = joint_fit(problem, start, inliers, option)
@@ -864,7 +865,11 @@ def _choose_mount(
             solution = joint_fit(replace(problem, kind=kind.name), again, kept, option)
         except PanomapError:
             continue
+        if annulus is not None and _mount_misses_annulus(problem, solution, kept, annulus):
+            continue
         fits[option] = (kept, kind, selection, solution)
+    if len(fits) == 1:
+        return _MountChoice(level, options[0], {})
     common = np.logical_and.reduce([fit[0] for fit in fits.values()])
     members = np.flatnonzero(common)
     folds = _folds(data, members)
@@ -879,6 +884,16 @@ def _choose_mount(
         if option is not best and _clearly_better(squared[option], squared[best]):
             best = option
     return _MountChoice(fits[best], best, scores)
+
+
+def _mount_misses_annulus(
+    problem: MountProblem, solution: MountSolution, subset: FloatArray, annulus: tuple[float, float]
+) -> bool:
+    """Whether f_r under this mount fails to run across the annulus from the landmarks (as a table needs)."""
+    _, rho = azimuth_elevation(camera_rays(problem, solution.w, solution.delta)[subset])
+    landmark_range = (float(np.min(rho)), float(np.max(rho)))
+    slack = rim_slack_px(problem.pixel_sigma)
+    return annulus_coverage_problem(solution.radial, landmark_range, *annulus, slack_px=slack) is not None
 
 
 def _chi2(
