@@ -25,8 +25,12 @@ transforms):
    across it on most rays in the frame; that count ranks candidates. An ellipse
    is fitted to the same inliers and reported when the rim is measurably
    elliptical (non-square pixels, a tilted mirror); its centre is then the image
-   centre. A rim darker inside than out (a mirror in a bright housing) is tried
-   only when no bright disc is found.
+   centre. Only when no bright disc is found, a rim of either polarity (a mirror
+   in a bright housing: darker inside on some arcs, a thin bright or dark line on
+   others): peaks of the gradient magnitude along the rays, located on the profile
+   itself (a line at its extreme level, a step at its steepest slope), an edge or
+   line standing out on the circle, running along it, on most rays; the outermost
+   such circle. Then a rim darker inside than out, checked by its step alone.
 4. **Cut-off disc.** The radius where the median over the rays of the radial
    gradient rises most (a dark self-reflection, textured or not, against the
    scene), then each ray's steepest rise near it, fitted the same way. A
