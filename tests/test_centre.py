@@ -25,7 +25,7 @@ from panomap.calibrate.circles import NoImageCircle, find_image_circles
 from panomap.calibrate.landmarks import landmarks_to_csv
 from panomap.cli.app import main
 from panomap.errors import PanomapError
-from panomap.simulate import load_room, noisy_jpeg, render, standard_cameras, vignette
+from panomap.simulate import housed_mirror, load_room, noisy_jpeg, render, standard_cameras, vignette
 from panomap.table.file import load_table
 
 from helpers import spread_landmarks
@@ -352,3 +352,48 @@ def test_real_sets(folder: str) -> None:
     assert found >= least_found
     assert cutoffs >= least_cutoffs
     assert worst <= bound
+
+
+@pytest.mark.slow
+def test_a_mirror_in_a_bright_blurred_housing() -> None:
+    """The mirror fills the frame inside a bright, blurred housing; the rim's contrast changes sign.
+
+    panomap.simulate.housed_mirror: darker inside on some arcs, a thin bright or dark line on
+    others, and a square dark board with a round lens as the self-reflection. The issue's bar:
+    centre <= 0.5 px, radius <= 1 px, the cut-off disc found (its radius within 1 px). Measured
+    over these 12 trials (docs/centre.md): 11 found, worst centre 0.49 px, outer radius 0.33 px,
+    cut-off radius 0.52 px; the other gives NoImageCircle, never a wrong circle.
+    """
+    rng = np.random.default_rng(11)
+    found_count = 0
+    for trial in range(6):
+        for size, radius in (((640, 600), None), ((640, 480), 260.0)):
+            name = ["parabolic", "hyperbolic", "spherical"][trial % 3]
+            centre = ((size[0] - 1) / 2 + rng.uniform(-20, 20), (size[1] - 1) / 2 + rng.uniform(-8, 8))
+            camera = standard_cameras(size, centre=centre, phi0=rng.uniform(0, 2 * math.pi), outer_radius=radius)[name]
+            image = render(ROOM, camera, supersample=2)
+            housed = housed_mirror(image, camera.centre, camera.outer_radius, camera.cutoff_radius, rng)
+            try:
+                found = find_image_circles(noisy_jpeg(housed, rng))
+            except NoImageCircle:
+                continue
+            found_count += 1
+            assert math.dist(found.centre, camera.centre) <= 0.5, (trial, size)
+            assert abs(found.outer_radius - camera.outer_radius) <= 1.0, (trial, size)
+            assert found.cutoff is not None, (trial, size)
+            assert abs(found.cutoff.radius - camera.cutoff_radius) <= 1.0, (trial, size)
+            assert found.rim_polarity in ("dark inside", "mixed")
+    assert found_count >= 11
+
+
+def test_the_simulated_housing_is_brighter_than_the_mirror() -> None:
+    """housed_mirror: the housing fills the frame around a darker mirror (no bright disc in a dark border)."""
+    rng = np.random.default_rng(4)
+    camera = standard_cameras((400, 400))["hyperbolic"]
+    housed = housed_mirror(render(ROOM, camera, supersample=1), camera.centre, camera.outer_radius, 15.0, rng)
+    grey = cv2.cvtColor(housed, cv2.COLOR_BGR2GRAY).astype(float)
+    v, u = np.mgrid[0:400, 0:400]
+    r = np.hypot(u - camera.centre[0], v - camera.centre[1])
+    assert np.median(grey[r > camera.outer_radius + 3]) > np.median(grey[r < camera.outer_radius - 3])
+    with pytest.raises(PanomapError, match="cutoff_radius"):
+        housed_mirror(render(ROOM, camera, supersample=1), camera.centre, 100.0, 50.0, rng)

@@ -25,8 +25,12 @@ transforms):
    across it on most rays in the frame; that count ranks candidates. An ellipse
    is fitted to the same inliers and reported when the rim is measurably
    elliptical (non-square pixels, a tilted mirror); its centre is then the image
-   centre. A rim darker inside than out (a mirror in a bright housing) is tried
-   only when no bright disc is found.
+   centre. Only when no bright disc is found, a rim of either polarity (a mirror
+   in a bright housing: darker inside on some arcs, a thin bright or dark line on
+   others): peaks of the gradient magnitude along the rays, located on the profile
+   itself (a line at its extreme level, a step at its steepest slope), an edge or
+   line standing out on the circle, running along it, on most rays; the outermost
+   such circle. Then a rim darker inside than out, checked by its step alone.
 4. **Cut-off disc.** The radius where the median over the rays of the radial
    gradient rises most (a dark self-reflection, textured or not, against the
    scene), then each ray's steepest rise near it, fitted the same way. A
@@ -73,6 +77,13 @@ CONVINCING_RIM_FRACTION = 0.85
 # through scene edges reach 0.53 there.
 MIN_STEPPING_FRACTION = 0.75
 MIN_STEPPING_FRACTION_DARK_INSIDE = 0.62
+# A rim of either polarity (a mirror in a bright housing) is told from scene edges by an edge
+# or line that stands out on it (FEATURE_MIN_STRENGTH grey levels per px, FEATURE_MIN_RATIO
+# times the edges beside it) on this fraction of the rays in the frame, in this many sectors.
+MIN_FEATURE_FRACTION = 0.6
+MIN_RIM_SECTORS_EITHER = 6
+FEATURE_MIN_STRENGTH = 4.0
+FEATURE_MIN_RATIO = 2.0
 # Sharp real rims fit to 0.2-0.9 px RMS, a soft (vignetted) one to 1.5 px; a false circle
 # through scene edges fits worse.
 MAX_RIM_RMS_PX = 2.0
@@ -182,7 +193,10 @@ class ImageCircles:
         Fraction of the rays (all around) on which the rim was found and agrees
         with the circle: at most ``rim_in_frame``, less where dark scene touches it.
     rim_polarity : str
-        ``'bright inside'`` (a bright disc in a dark border) or ``'dark inside'``.
+        ``'bright inside'`` (a bright disc in a dark border); for a rim found by its
+        edge of either polarity (a mirror in a bright housing), ``'dark inside'`` where
+        the level steps up across it on most of the rays that step, else ``'mixed'``
+        (darker inside on some arcs, brighter or a thin line on others).
     rim_arcs_deg : tuple of (start, end)
         The arcs of the rim the circle was fitted to, in image angle (deg, from +u
         towards +v), ``start < end``, ``end`` past 360 for an arc across 0 deg.
@@ -260,14 +274,17 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
     small, factor = _downscaled(grey)
     reasons: list[str] = []
     best: _Rim | None = None
-    # A bright disc in a dark border first (the blob, then the circle transform); a rim
-    # that is darker inside than out (a mirror in a bright housing) only when that fails.
+    # A bright disc in a dark border first (the blob, then the circle transform); a rim of
+    # either polarity (a mirror in a bright housing: darker inside than out on some arcs, a
+    # thin line on others) only when that fails; a rim darker inside than out, checked by
+    # its step alone, last.
     # Each stage: its candidates, the rim's polarity, and how far (a fraction of the radius)
     # the rim is looked for around a candidate: the blob's start may be rough (dark scene
     # touching the rim); the circle transform's is good to a few px.
     stages = (
         (lambda: _coarse_circle(small, factor), 1, (NARROW_REACH, WIDE_REACH)),
         (lambda: _voted_circles(small, factor, polarity=1), 1, (NARROW_REACH,)),
+        (lambda: _voted_circles(small, factor, polarity=0, count=6), 0, (NARROW_REACH,)),
         (lambda: _voted_circles(small, factor, polarity=-1, count=6), -1, (NARROW_REACH, WIDE_REACH)),
     )
     for stage, polarity, reaches in stages:
@@ -290,6 +307,20 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
                 best = found
             if best.convincing:
                 break
+    while best is not None and best.polarity == 0:
+        # A rim of either polarity is the outermost circle that passes: inside a mirror's rim
+        # the scene (a ceiling's edge) may draw circles too; outside it, the housing is blurred.
+        try:
+            best = _iterate_rim(
+                grey,
+                best.circle.centre,
+                best.circle.radius * (1 + WIDE_REACH),
+                0,
+                WIDE_REACH,
+                beyond=best.circle.radius + NEAR_PX,
+            )
+        except PanomapError:
+            break
     if best is None:
         reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
         raise NoImageCircle(
@@ -311,7 +342,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         cropped_by=_cropping_edges(outer.centre, outer.radius, (height, width)),
         rim_in_frame=_fraction_in_frame(outer.centre, outer.radius, (height, width)),
         rim_seen=outer.inliers / outer.rays,
-        rim_polarity="bright inside" if best.polarity > 0 else "dark inside",
+        rim_polarity={1: "bright inside", -1: "dark inside"}.get(best.polarity) or _either_polarity(grey, outer),
         rim_arcs_deg=_arcs(best.points, outer),
     )
 
@@ -337,8 +368,9 @@ class _Rim:
 
     @property
     def rank(self) -> float:
-        """Which of two rims to keep: the one with more stepping rays; of dark-inside ones, the larger."""
-        return self.stepping if self.polarity > 0 else self.circle.radius
+        """Which of two rims to keep: the one with more stepping rays (with a rim's edge or line, for
+        polarity 0); of dark-inside ones, the larger."""
+        return self.stepping if self.polarity >= 0 else self.circle.radius
 
 
 def _refine_rim(
@@ -358,17 +390,28 @@ def _refine_rim(
     raise failure
 
 
-def _iterate_rim(grey: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reach: float) -> _Rim:
-    """:func:`_refine_rim` with the first search ``reach`` times the radius wide."""
+def _iterate_rim(
+    grey: NDArray[Any],
+    centre: tuple[float, float],
+    radius: float,
+    polarity: int,
+    reach: float,
+    beyond: float = 0.0,
+) -> _Rim:
+    """:func:`_refine_rim` with the first search ``reach`` times the radius wide (polarity 0: past ``beyond``)."""
     height, width = grey.shape
     circle = None
     for iteration in range(4):
-        points = _rim_points(grey, centre, radius, polarity, reach if iteration == 0 else NARROW_REACH)
-        if len(points) < MIN_RIM_FRACTION * RAYS:
-            raise PanomapError(
-                f"no image circle found: only {len(points)} of {RAYS} rays cross a "
-                f"{'bright-to-dark' if polarity > 0 else 'dark-to-bright'} rim"
+        if polarity:
+            points = _rim_points(grey, centre, radius, polarity, reach if iteration == 0 else NARROW_REACH)
+        else:
+            first = iteration == 0
+            points = _feature_points(
+                grey, centre, radius, reach if first else NARROW_REACH, not first, beyond if first else 0.0
             )
+        if len(points) < MIN_RIM_FRACTION * RAYS:
+            kind = {1: "bright-to-dark", -1: "dark-to-bright", 0: "clear"}[polarity]
+            raise PanomapError(f"no image circle found: only {len(points)} of {RAYS} rays cross a {kind} rim")
         circle = _robust_circle(points, centre, radius, consensus=iteration == 0)
         if circle.inliers < MIN_RIM_FRACTION * RAYS:
             break  # no rim here: rejected below, without iterating
@@ -381,22 +424,31 @@ def _iterate_rim(grey: NDArray[Any], centre: tuple[float, float], radius: float,
     assert circle is not None
     in_frame = _fraction_in_frame(circle.centre, circle.radius, (height, width)) * RAYS
     sectors = _sectors_seen(points, circle)
+    least_sectors = MIN_RIM_SECTORS if polarity else MIN_RIM_SECTORS_EITHER
     if (
         circle.inliers < MIN_RIM_FRACTION * RAYS
-        or sectors < MIN_RIM_SECTORS
+        or sectors < least_sectors
         or (circle.rms_px > MAX_RIM_RMS_PX and _ellipse(points, circle) is None)
     ):
         raise PanomapError(
             f"no image circle found: the rim's edge points do not lie on a circle "
             f"({circle.inliers} of {RAYS} agree, in {sectors} of 12 sectors, RMS {circle.rms_px:.2f} px)"
         )
-    stepping = _stepping_rays(grey, circle, polarity)
-    least = MIN_STEPPING_FRACTION if polarity > 0 else MIN_STEPPING_FRACTION_DARK_INSIDE
-    if stepping < least * in_frame:
-        raise PanomapError(
-            f"no image circle found: the levels inside and outside the best circle differ on only "
-            f"{stepping} of the {in_frame:.0f} rays in the frame"
-        )
+    if polarity:
+        stepping = _stepping_rays(grey, circle, polarity)
+        least = MIN_STEPPING_FRACTION if polarity > 0 else MIN_STEPPING_FRACTION_DARK_INSIDE
+        if stepping < least * in_frame:
+            raise PanomapError(
+                f"no image circle found: the levels inside and outside the best circle differ on only "
+                f"{stepping} of the {in_frame:.0f} rays in the frame"
+            )
+    else:
+        stepping = _feature_rays(grey, circle)
+        if stepping < MIN_FEATURE_FRACTION * in_frame:
+            raise PanomapError(
+                f"no image circle found: an edge or a line stands out on the best circle on only "
+                f"{stepping} of the {in_frame:.0f} rays in the frame"
+            )
     return _Rim(circle, points, in_frame, polarity, stepping)
 
 
@@ -408,6 +460,53 @@ def _stepping_rays(grey: NDArray[Any], circle: Circle, polarity: int) -> int:
     inside, outside = _row_medians(samples[:, :half]), _row_medians(samples[:, half:])
     with np.errstate(invalid="ignore"):
         return int(np.sum(polarity * (inside - outside) > 8.0))
+
+
+def _edge_strength(samples: NDArray[Any]) -> FloatArray:
+    """Gradient magnitude along each ray (grey levels per px), smoothed along it (sigma 2 px); 0 outside the frame.
+
+    Either polarity: a step up or down gives a peak at the step, and a thin bright or dark
+    line (its two opposite slopes merged by the smoothing) a peak at its middle.
+    """
+    gradient = np.abs(np.gradient(samples, axis=1)) / STEP
+    gradient = np.where(np.isfinite(gradient), gradient, 0.0).astype(np.float32)
+    return np.asarray(cv2.GaussianBlur(gradient, (17, 1), 2.0 / STEP, borderType=cv2.BORDER_REPLICATE), np.float64)
+
+
+def _feature_rays(grey: NDArray[Any], circle: Circle) -> int:
+    """Rays on which an edge or a line, of either polarity, stands out on the circle.
+
+    On each ray the strongest edge within 1.5 px of the circle must reach FEATURE_MIN_STRENGTH
+    and FEATURE_MIN_RATIO times the median edge strength 4-12 px either side of it: a
+    rim's edge stands out from the smooth mirror and housing beside it, while a circle
+    through scene edges meets an edge only where it crosses one.
+    """
+    radii = circle.radius + np.arange(-14.0, 14.0 + STEP / 2, STEP)
+    samples, _, _ = _profiles(grey, circle.centre, radii)
+    strength = _edge_strength(samples)
+    # Across the rays (1 px along the circle either way): a rim's edge runs along the circle.
+    turn = 1.0 / circle.radius
+    ahead, _, _ = _profiles(grey, circle.centre, radii, turn_rad=turn)
+    behind, _, _ = _profiles(grey, circle.centre, radii, turn_rad=-turn)
+    across = np.abs(ahead - behind) / 2
+    across = np.where(np.isfinite(across), across, 0.0).astype(np.float32)
+    across = cv2.GaussianBlur(across, (17, 1), 2.0 / STEP, borderType=cv2.BORDER_REPLICATE)
+    offset = np.abs(radii - circle.radius)
+    near = np.flatnonzero(offset <= 1.5)
+    index = near[np.argmax(strength[:, near], axis=1)]
+    rows = np.arange(RAYS)
+    on = strength[rows, index]
+    beside = np.median(strength[:, (offset >= 4) & (offset <= 12)], axis=1)
+    in_frame = np.all(np.isfinite(samples[:, offset <= 12]), axis=1)
+    along = on >= FEATURE_MIN_RATIO * across[rows, index]
+    return int(np.sum(in_frame & along & (on >= FEATURE_MIN_STRENGTH) & (on >= FEATURE_MIN_RATIO * beside)))
+
+
+def _either_polarity(grey: NDArray[Any], circle: Circle) -> str:
+    """``'dark inside'`` when the level steps up across the circle on most of the rays that step, else ``'mixed'``."""
+    up = _stepping_rays(grey, circle, -1)
+    down = _stepping_rays(grey, circle, 1)
+    return "dark inside" if up >= CONVINCING_RIM_FRACTION * (up + down) else "mixed"
 
 
 def _sectors_seen(points: FloatArray, circle: Circle) -> int:
@@ -459,7 +558,7 @@ def _voted_circles(
     """Up to ``count`` circles of a gradient circle transform of the downscaled image.
 
     Each strong edge pixel votes for centres along its gradient, on the bright side
-    (``polarity`` +1: a disc brighter than its surround) or the dark side (-1), at
+    (``polarity`` +1: a disc brighter than its surround), the dark side (-1) or both (0), at
     every distance a rim may have; the strongest centres get the radius most of their
     edges point from. Its cost is bounded by the number of edge pixels kept, whatever
     the scene.
@@ -468,15 +567,27 @@ def _voted_circles(
     gx = cv2.Sobel(small, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(small, cv2.CV_32F, 0, 1, ksize=3)
     magnitude = np.hypot(gx, gy).ravel()
-    keep = min(VOTING_EDGES, magnitude.size // 8)
-    strongest = np.argpartition(magnitude, -keep)[-keep:]
-    strongest = strongest[magnitude[strongest] > VOTING_MIN_GRADIENT]
+    if polarity:
+        keep = min(VOTING_EDGES, magnitude.size // 8)
+        strongest = np.argpartition(magnitude, -keep)[-keep:]
+        strongest = strongest[magnitude[strongest] > VOTING_MIN_GRADIENT]
+    else:
+        # A rim of either polarity may be fainter than the scene's edges (a thin line, a
+        # soft step): edges drawn at random among all clear ones, not the strongest, vote.
+        strongest = np.flatnonzero(magnitude > VOTING_MIN_GRADIENT)
+        if len(strongest) > VOTING_EDGES // 2:  # each votes twice
+            strongest = np.sort(np.random.default_rng(0).choice(strongest, VOTING_EDGES // 2, replace=False))
     if len(strongest) < 50:
         raise PanomapError("no image circle found: the image has almost no edges")
     y, x = np.divmod(strongest, width)
     weight = magnitude[strongest]
-    dx = polarity * gx.ravel()[strongest] / weight
-    dy = polarity * gy.ravel()[strongest] / weight
+    dx = gx.ravel()[strongest] / weight
+    dy = gy.ravel()[strongest] / weight
+    if polarity:
+        dx, dy = polarity * dx, polarity * dy
+    else:  # either side: each edge votes both ways
+        x, y, weight = np.tile(x, 2), np.tile(y, 2), np.tile(weight, 2)
+        dx, dy = np.concatenate([dx, -dx]), np.concatenate([dy, -dy])
     r_min, r_max = 0.2 * min(height, width), 0.75 * max(height, width)
     # Votes every 1.5 px into cells of 2 x 2 px: the centre need only be good enough to start from.
     distances = np.arange(r_min, r_max, 1.5, dtype=np.float32)
@@ -574,10 +685,10 @@ def _fraction_in_frame(centre: tuple[float, float], radius: float, shape: tuple[
 
 
 def _profiles(
-    grey: NDArray[Any], centre: tuple[float, float], radii: FloatArray, rays: int = RAYS
+    grey: NDArray[Any], centre: tuple[float, float], radii: FloatArray, rays: int = RAYS, turn_rad: float = 0.0
 ) -> tuple[NDArray[Any], FloatArray, FloatArray]:
-    """Bilinear samples (rays, R) of ``grey`` along rays at ``radii``; NaN outside the image."""
-    angles = np.linspace(0.0, 2 * math.pi, rays, endpoint=False)
+    """Bilinear samples (rays, R) of ``grey`` along rays at ``radii``, turned by ``turn_rad``; NaN off the image."""
+    angles = np.linspace(0.0, 2 * math.pi, rays, endpoint=False) + turn_rad
     cos, sin = np.cos(angles), np.sin(angles)
     map_u = (centre[0] + cos[:, None] * radii[None, :]).astype(np.float32)
     map_v = (centre[1] + sin[:, None] * radii[None, :]).astype(np.float32)
@@ -664,6 +775,85 @@ def _rim_points(
         & (points[:, 1] < height - 1 - margin)
     )
     return points[away]
+
+
+def _feature_points(
+    grey: NDArray[Any], centre: tuple[float, float], radius: float, reach: float, nearest: bool, beyond: float = 0.0
+) -> FloatArray:
+    """Sub-pixel rim points (n, 2) of either polarity: peaks of the edge strength near ``radius``.
+
+    A rim whose contrast changes sign around the circle (a mirror in a bright housing:
+    darker inside on some arcs, a thin bright or dark line on others) has no one
+    polarity to look for. Each ray's clear peaks of the gradient magnitude within
+    ``reach`` times the radius either side of it are the candidates: all of them (a
+    rough start, for the consensus fit to choose from) or, with ``nearest``, the one
+    nearest the start circle on each ray. Only peaks whose neighbourhood lies in the
+    frame, and further than ``beyond`` (px) from ``centre``, count.
+    """
+    half = max(reach * radius, 8.0)
+    radii = np.arange(max(radius - half, 1.0, beyond - EDGE_HALF_WINDOW * STEP), radius + half, STEP)
+    samples, cos, sin = _profiles(grey, centre, radii)
+    strength = _edge_strength(samples)
+    rows = np.arange(RAYS)
+    middle = strength[:, 1:-1]
+    strongest = middle.max(axis=1)
+    peak = (middle >= strength[:, :-2]) & (middle > strength[:, 2:])
+    peak &= middle > np.maximum(FEATURE_MIN_STRENGTH, CLEAR_DROP * strongest)[:, None]
+    # The neighbourhood in the frame: EDGE_HALF_WINDOW samples either way finite.
+    finite = np.isfinite(samples).astype(np.float32)
+    window = cv2.blur(finite, (2 * EDGE_HALF_WINDOW + 1, 1), borderType=cv2.BORDER_CONSTANT)
+    peak &= (window[:, 1:-1] > 1 - 1e-6) & (radii[1:-1] > beyond)[None, :]
+    if nearest:
+        distance = np.where(peak, np.abs(radii[1:-1] - radius)[None, :], np.inf)
+        index = np.argmin(distance, axis=1)
+        ray = rows[np.isfinite(distance[rows, index])]
+        index = index[ray] + 1
+    else:
+        ray, index = np.nonzero(peak)
+        index = index + 1
+    where = radii[0] + STEP * _feature_position(samples[ray], index) if len(ray) else np.zeros(0)
+    points = np.stack([centre[0] + where * cos[ray], centre[1] + where * sin[ray]], axis=-1)
+    height, width = grey.shape
+    margin = 1.5  # px: the last rows and columns of a frame are often darker or softer
+    away = (
+        (points[:, 0] > margin)
+        & (points[:, 0] < width - 1 - margin)
+        & (points[:, 1] > margin)
+        & (points[:, 1] < height - 1 - margin)
+    )
+    return np.asarray(points[away], dtype=np.float64)
+
+
+def _feature_position(samples: NDArray[Any], index: NDArray[Any]) -> FloatArray:
+    """Sub-sample position of each row's edge or line found near ``index`` (a peak of the smoothed edge strength).
+
+    The wide smoothing that merges a thin line's two slopes into one peak also pulls that
+    peak towards any slope beside it; the position is therefore read from the profile
+    itself: a line (slopes of both signs, each at least half the other, within 2 px) at
+    its extreme level, a step at its steepest slope, each by a parabola through three samples.
+    """
+    count = samples.shape[1]
+    rows = np.arange(samples.shape[0])
+    span = np.arange(-4, 5)
+    near = np.clip(index[:, None] + span[None, :], 1, count - 2)
+    gradient = np.gradient(samples, axis=1)
+    slopes = np.where(np.isfinite(gradient[rows[:, None], near]), gradient[rows[:, None], near], 0.0)
+    rise, fall = slopes.max(axis=1), -slopes.min(axis=1)
+    line = np.minimum(rise, fall) > 0.5 * np.maximum(rise, fall)
+    level = np.where(np.isfinite(samples[rows[:, None], near]), samples[rows[:, None], near], np.nan)
+    # A bright line peaks, a dark one dips: the extreme the slopes point to (rise before fall: bright).
+    bright = np.argmax(slopes, axis=1) < np.argmin(slopes, axis=1)
+    extreme = np.where(
+        bright,
+        np.nanargmax(np.nan_to_num(level, nan=-np.inf), axis=1),
+        np.nanargmin(np.nan_to_num(level, nan=np.inf), axis=1),
+    )
+    steepest = np.argmax(np.abs(slopes), axis=1)
+    at = near[rows, np.where(line, extreme, steepest)]
+    at = np.clip(at, 1, count - 2)
+    signed = np.where(bright, 1.0, -1.0)[:, None]
+    values = np.where(line[:, None], signed * samples, np.abs(gradient))
+    return _subpixel_peak(np.where(np.isfinite(values), values, 0.0), at)
 
 
 def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius: float) -> Circle | None:

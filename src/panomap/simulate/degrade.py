@@ -1,4 +1,5 @@
-"""What a real lens and sensor do to a rendered omni-image: vignetting, a dim side, noise, JPEG.
+"""What a real lens, sensor and housing do to a rendered omni-image: vignetting, a dim side, a
+bright housing around a mirror with a camera board in it, noise, JPEG.
 
 Convention: pixel (u, v), u the column, v the row, the centre of the top-left pixel at
 (0, 0); images are (H, W[, C]) uint8.
@@ -70,3 +71,97 @@ def noisy_jpeg(
     if not ok:
         raise PanomapError("could not encode the JPEG")
     return np.asarray(cv2.imdecode(encoded, cv2.IMREAD_UNCHANGED), dtype=np.uint8)
+
+
+def housed_mirror(
+    image: NDArray[np.uint8],
+    centre: tuple[float, float],
+    outer_radius: float,
+    cutoff_radius: float,
+    rng: np.random.Generator,
+    arcs: int = 6,
+) -> NDArray[np.uint8]:
+    """A mirror camera as it is built: the mirror in a bright, blurred housing, and a camera board in the middle.
+
+    What a small catadioptric camera shows (the mirror sits in a shiny tube that fills the
+    frame, out of focus): outside ``outer_radius`` the frame is a bright housing, blurred
+    (sigma 6 px), with concentric rings. Around the rim, ``arcs`` arcs of random lengths
+    alternate between three kinds, drawn at random: a step (the housing 40-80 grey levels
+    brighter than the mirror just inside it: darker inside), and a thin bright or dark line
+    (2 px wide, 50-80 grey levels off) on a housing about as bright as the mirror just
+    inside, so that the level barely steps there. The rim contrast thus changes sign
+    around the circle. Inside ``cutoff_radius`` the camera sees itself: a square dark
+    board (half-side 1.6-2 times the cut-off radius, turned at random, with lighter
+    components on it) and in its middle a round lens of radius ``cutoff_radius``, darker
+    still. The rim stays at ``outer_radius`` and the lens's edge at ``cutoff_radius``:
+    every shape is drawn with its exact coverage of each pixel.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 ndarray
+        A render of a mirror camera (:func:`panomap.simulate.render`).
+    centre : (u, v), px
+        Centre of the image circle and of the lens.
+    outer_radius, cutoff_radius : float
+        Radii (px) of the rim and of the lens, ``0 < cutoff_radius < outer_radius / 3``.
+    rng : numpy.random.Generator
+        Draws the arcs, the levels, the board's angle and its components.
+    arcs : int
+        Arcs around the rim, >= 3.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+    """
+    if not (0 < cutoff_radius < outer_radius / 3 and arcs >= 3):
+        raise PanomapError(
+            f"need 0 < cutoff_radius < outer_radius / 3 and arcs >= 3; got {cutoff_radius}, {outer_radius}, {arcs}"
+        )
+    height, width = image.shape[:2]
+    v, u = np.mgrid[0:height, 0:width].astype(np.float64)
+    du, dv = u - centre[0], v - centre[1]
+    r = np.hypot(du, dv)
+    phi = np.arctan2(dv, du) % (2 * math.pi)
+    grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY).astype(np.float64)
+
+    # The arcs: their starts (rad), kinds (0 step, +1 bright line, -1 dark line), and levels.
+    starts = np.sort(rng.uniform(0, 2 * math.pi, arcs))
+    kinds = rng.permutation(np.resize(np.array([0, 1, -1]), arcs))
+    arc_of = (np.searchsorted(starts, phi, side="right") - 1) % arcs
+    # The mirror's level just inside the rim, per degree of image angle (smoothed along the rim).
+    ring = (r > outer_radius - 10) & (r < outer_radius - 3)
+    degree = np.floor(np.degrees(phi[ring])).astype(np.int64) % 360
+    total = np.bincount(degree, weights=grey[ring], minlength=360)
+    count = np.bincount(degree, minlength=360)
+    inside_level = np.where(count > 0, total / np.maximum(count, 1), np.nan)
+    inside_level = np.where(np.isfinite(inside_level), inside_level, np.nanmedian(inside_level))
+    inside_level = np.convolve(np.tile(inside_level, 3), np.ones(15) / 15, mode="same")[360:720]
+    offsets = np.where(kinds == 0, rng.uniform(40, 80, arcs), rng.uniform(-5, 5, arcs))
+    lines = np.where(kinds == 0, 0.0, kinds * rng.uniform(50, 80, arcs))
+    # The housing: the mirror's level plus the arc's offset, concentric rings, then blurred.
+    rings = 15.0 * np.sin(2 * math.pi * r / rng.uniform(25, 45) + rng.uniform(0, 2 * math.pi))
+    housing = inside_level[np.floor(np.degrees(phi)).astype(np.int64) % 360] + offsets[arc_of] + rings
+    housing = cv2.GaussianBlur(housing, (0, 0), 6.0)
+    outside = np.clip(r - outer_radius + 0.5, 0.0, 1.0)  # coverage of each pixel by the housing
+    result = grey * (1 - outside) + housing * outside
+    # A thin line (2 px) centred on the rim, on the line arcs: its coverage of each pixel.
+    on_line = np.clip(1.0 - np.maximum(np.abs(r - outer_radius) - 0.5, 0.0), 0.0, 1.0)
+    result += on_line * lines[arc_of]
+
+    # The camera board: a dark square with lighter components, and the lens in its middle.
+    half_side = cutoff_radius * rng.uniform(1.6, 2.0)
+    turn = rng.uniform(0, math.pi / 2)
+    x = du * math.cos(turn) + dv * math.sin(turn)
+    y = -du * math.sin(turn) + dv * math.cos(turn)
+    board = np.clip(half_side - np.maximum(np.abs(x), np.abs(y)) + 0.5, 0.0, 1.0)
+    board_level = np.full_like(grey, rng.uniform(55, 75))
+    for _ in range(6):
+        cx, cy = rng.uniform(-half_side, half_side, 2)
+        size = rng.uniform(0.1, 0.25) * half_side
+        part = (np.abs(x - cx) < size) & (np.abs(y - cy) < size) & (np.hypot(x, y) > cutoff_radius + 2)
+        board_level[part] += rng.uniform(30, 60)
+    result = result * (1 - board) + board_level * board
+    lens = np.clip(cutoff_radius - r + 0.5, 0.0, 1.0)
+    result = result * (1 - lens) + rng.uniform(15, 30) * lens
+    out = np.clip(np.rint(result), 0, 255).astype(np.uint8)
+    return cv2.cvtColor(out, cv2.COLOR_GRAY2BGR)
