@@ -55,11 +55,12 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, *((signal.SIGHUP,) if hasattr(sig
 @contextlib.contextmanager
 def stop_on_signals(stop: threading.Event) -> Iterator[None]:
     """The first SIGINT, SIGTERM or SIGHUP (the terminal closed) sets ``stop`` (a clean finish);
-    a second SIGINT aborts."""
+    a second SIGINT aborts (KeyboardInterrupt), and a third, during the abort, kills at once."""
     previous: dict[Any, Any] = {}
 
     def handler(signum: int, frame: Any) -> None:
         if stop.is_set() and signum == signal.SIGINT:
+            signal.signal(signal.SIGINT, signal.SIG_DFL)  # (the abort's clean-up is not itself interrupted)
             raise KeyboardInterrupt
         stop.set()
 
