@@ -36,7 +36,8 @@ def run(*args: object) -> Result:
 def assert_one_line_error(result: Result, *fragments: str, exit_code: int = 1) -> None:
     """The command failed with ``exit_code`` and wrote one line to stderr, no traceback, holding
     every fragment. The README's promise: 1 for a failure (bad input, a file that cannot be read
-    or written), 2 for bad usage (an option click cannot parse, options that exclude each other)."""
+    or written, a view the table's camera cannot see), 2 for bad usage (an option missing, unparsable
+    or out of range, options that do not go together)."""
     assert result.exit_code == exit_code, f"exit code {result.exit_code}: " + result.output + result.stderr
     lines = [line for line in result.stderr.splitlines() if line.strip()]
     assert len(lines) == 1, result.stderr

@@ -249,7 +249,10 @@ def test_bad_jobs_get_one_line_errors(work: Path, tmp_path: Path) -> None:
     result = run("batch", images, "--table", tmp_path / "missing.npz", "-o", tmp_path / "{stem}.png", *common)
     assert_one_line_error(result, "missing.npz", "no such table file", exit_code=1)
     result = run("batch", images, "--table", work / "cam.npz", "-o", tmp_path / "{stem}_{view}.png", *common)
-    assert_one_line_error(result, "unknown key {view}", "{camera}, {stem}, {name}, {ext}", exit_code=1)
+    # Usage errors (exit 2): the template, and inputs and --table that do not go together.
+    assert_one_line_error(result, "unknown key {view}", "{camera}, {stem}, {name}, {ext}", exit_code=2)
+    result = run("batch", images, "-o", tmp_path / "{stem}.png", *common)
+    assert_one_line_error(result, "give the table with --table TABLE", exit_code=2)
     result = run("batch", images, "--table", work / "cam.npz", "-o", tmp_path / "same.png", *common)
     assert_one_line_error(result, "two outputs would be this file", exit_code=1)
     result = run(
@@ -259,6 +262,8 @@ def test_bad_jobs_get_one_line_errors(work: Path, tmp_path: Path) -> None:
     (tmp_path / "job.csv").write_text("input,table\nimages/i0.png,\n")
     result = run("batch", tmp_path / "job.csv", "-o", tmp_path / "{stem}.png", *common)
     assert_one_line_error(result, "job.csv: row 1 needs an input and a table", exit_code=1)
+    result = run("batch", tmp_path / "job.csv", "--table", work / "cam.npz", "-o", tmp_path / "{stem}.png", *common)
+    assert_one_line_error(result, "job.csv: the manifest names each input's table: give no --table", exit_code=2)
     result = run("batch", images, "--table", work / "cam.npz", "-o", tmp_path / "{stem}.png")
     assert_one_line_error(result, "give at least one --view", exit_code=2)
     assert not (tmp_path / "rec.jsonl").exists()

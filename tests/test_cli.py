@@ -223,14 +223,24 @@ def test_bad_landmarks_get_one_line_naming_the_file(work: Path, case: str) -> No
     [
         (["missing.csv", "--camera", 0, 0, 2, "--centre", 1, 1], "missing.csv: no such file", 1),
         (["lm.csv", "--camera", 0, 0, "nan", "--centre", 1, 1], "'nan' is not a finite number", 2),
-        (["lm.csv", "--centre", 1, 1], "no camera position", 1),
-        (["lm.csv", "--camera", 0, 0, 2], "no image centre", 1),
+        (["lm.csv", "--centre", 1, 1], "lm.csv: give --camera X0 Y0 Z0", 2),
+        (["lm.csv", "--camera", 0, 0, 2], "no image centre", 2),
         (
             ["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--size", "1000000x1000000"],
-            "is more than the limit",
-            1,
+            "--size 1000000x1000000: 1,000,000,000,000 entries is more than the limit",
+            2,
         ),
-        (["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--size", "0x10"], "M >= 4 and N >= 2", 1),
+        (["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--size", "0x10"], "M >= 4 and N >= 2", 2),
+        (["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--size", "big"], "not a size like", 2),
+        (["lm.csv", "--camera", *POSITION, "--image-size", "0x100"], "'--image-size': 0x100: must be positive", 2),
+        (["lm.csv", "--camera", *POSITION, "--centre", 1, 1, "--pixel-sigma", 0], "'--pixel-sigma': 0 is not more", 2),
+        (["lm.csv", "--camera", *POSITION, "--centre", 1, 1, "--camera-sigma", -1], "-1 is not at least 0", 2),
+        (["lm.csv", "--camera", *POSITION, "--centre", 1, 1, "--cutoff-radius", -3], "-3 is not at least 0", 2),
+        (
+            ["lm.csv", "--camera", *POSITION, "--centre", 1, 1, "--model", "paper", "--refine-centre"],
+            "the paper model takes the centre as given; --refine-centre needs another model",
+            2,
+        ),
         (
             ["lm.csv", "--camera", *POSITION, "--centre", *CAMERA.centre, "--image", "nope.png"],
             "nope.png: no such image file",
@@ -241,7 +251,8 @@ def test_bad_landmarks_get_one_line_naming_the_file(work: Path, case: str) -> No
 def test_bad_fit_arguments(work: Path, args: list[object], message: str, exit_code: int) -> None:
     resolved = [work / a if isinstance(a, str) and a.endswith((".csv", ".png")) else a for a in args]
     result = run("fit", *resolved, "-o", work / "t.npz")
-    # 2 where click cannot parse an option (usage), 1 for input the command refuses.
+    # 2 for usage (an option missing, unparsable or out of range; options that do not go together),
+    # 1 for input the command refuses (a file missing or wrong).
     assert_one_line_error(result, message, exit_code=exit_code)
     assert not (work / "t.npz").exists()
 
@@ -249,15 +260,16 @@ def test_bad_fit_arguments(work: Path, args: list[object], message: str, exit_co
 @pytest.mark.parametrize(
     ("options", "message", "exit_code"),
     [
-        (["--size", "1000000x1000000"], "too large", 1),
-        (["--size", "0x100"], "must be positive", 1),
-        (["--size", "-5x100"], "must be positive", 1),
-        (["--size", "big"], "is not a size like 1024x512", 2),  # click cannot parse it: usage
-        (["--band", 1, -1], "z_bottom < z_top", 1),
-        (["--distance", -2], "distance must be positive", 1),
-        (["--plane-width", 5], "needs width < 2 D", 1),
+        # Every one a usage error (exit 2): the options' values, whatever the table.
+        (["--size", "1000000x1000000"], "too large", 2),
+        (["--size", "0x100"], "Invalid value for '--size': 0x100: width and height must be positive", 2),
+        (["--size", "-5x100"], "must be positive", 2),
+        (["--size", "big"], "is not a size like 1024x512", 2),  # click cannot parse it
+        (["--band", 1, -1], "z_bottom < z_top", 2),
+        (["--distance", -2], "distance must be positive", 2),
+        (["--plane-width", 5], "needs width < 2 D", 2),
         # Exactly 2 D: the plane passes through the camera (issue 14: it wrote a meaningless image, exit 0).
-        (["--plane-width", 4], "needs width < 2 D", 1),
+        (["--plane-width", 4], "needs width < 2 D", 2),
     ],
 )
 def test_bad_view_parameters(work: Path, options: list[object], message: str, exit_code: int) -> None:
@@ -394,7 +406,7 @@ def test_a_huge_number_is_refused_in_one_line_without_a_numpy_warning(work: Path
                 "--view",
                 "cylinder:distance=1e300,band=-1:0,size=64x32",
             ],
-            1,
+            2,  # (a --view SPEC is the command line's: usage, checked before the input)
             "distance='1e300' is too large",
         ),
     ]

@@ -98,11 +98,11 @@ def test_other_version(tmp_path: Path) -> None:
         load_table(path)
 
 
-@pytest.mark.parametrize(("version", "shown"), [(None, "None"), (True, "True"), ("2", "'2'")])
+@pytest.mark.parametrize(("version", "shown"), [(None, "None"), (True, "True"), ("2", "'2'"), (2.0, "2.0")])
 def test_a_version_missing_or_not_an_integer_is_refused_in_one_line(
     tmp_path: Path, version: object, shown: str
 ) -> None:
-    """No version, JSON true (which Python would take for 1) or "2": refused, by the
+    """No version, JSON true (which Python would take for 1), "2" or 2.0 (equal to 2 in Python): refused, by the
     library and by the command line in one line naming the file."""
     path = tmp_path / "t.npz"
     small_table().save(path)

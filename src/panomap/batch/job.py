@@ -112,15 +112,10 @@ def find_inputs(patterns: Sequence[str], table: Path | None, camera: str | None 
     Without a manifest, ``table`` is every input's table and ``camera`` (default: the table's
     stem) its camera name. Raises PanomapError naming what matched nothing.
     """
-    manifests = [p for p in patterns if Path(p).suffix.lower() in MANIFEST_SUFFIXES and Path(p).is_file()]
-    if manifests:
-        if len(patterns) > 1:
-            raise PanomapError("a manifest names every input: give it alone")
-        if table is not None:
-            raise PanomapError("the manifest names each input's table: give no --table", manifests[0])
-        return read_manifest(Path(manifests[0]))
-    if table is None:
-        raise PanomapError("give the table with --table TABLE (or a manifest mapping inputs to tables)")
+    manifest = check_inputs_and_table(patterns, table)
+    if manifest is not None:
+        return read_manifest(manifest)
+    assert table is not None
     table = table.absolute()
     found: list[Path] = []
     for pattern in patterns:
@@ -142,6 +137,21 @@ def find_inputs(patterns: Sequence[str], table: Path | None, camera: str | None 
     unique = list(dict.fromkeys(p.absolute() for p in found))
     name = camera if camera is not None else table.stem
     return [BatchInput(path, table, name) for path in unique]
+
+
+def check_inputs_and_table(patterns: Sequence[str], table: Path | None) -> Path | None:
+    """The manifest among ``patterns``, if they are one; PanomapError when they and ``table`` do not go
+    together (a manifest with other inputs or with a table; inputs without a table)."""
+    manifests = [p for p in patterns if Path(p).suffix.lower() in MANIFEST_SUFFIXES and Path(p).is_file()]
+    if manifests:
+        if len(patterns) > 1:
+            raise PanomapError("a manifest names every input: give it alone")
+        if table is not None:
+            raise PanomapError("the manifest names each input's table: give no --table", manifests[0])
+        return Path(manifests[0])
+    if table is None:
+        raise PanomapError("give the table with --table TABLE (or a manifest mapping inputs to tables)")
+    return None
 
 
 def read_manifest(path: Path) -> list[BatchInput]:

@@ -12,16 +12,15 @@ from typing import Any
 
 import click
 
-from ..batch.job import TEMPLATE_KEYS, Settings, find_inputs, make_job
+from ..batch.job import TEMPLATE_KEYS, Settings, check_inputs_and_table, check_template, find_inputs, make_job
 from ..batch.record import Record
 from ..batch.run import SCHEDULER_VARIABLE, Progress, run_job
 from ..errors import PanomapError
 from ..remap import INTERPOLATIONS
 from ..table.sampling import SAMPLINGS
-from ..video.output import EncoderSettings
-from ..views.spec import KINDS, name_views, parse_view_spec, read_views_file
-from .options import PATH
-from .video import _bitrate, stop_on_signals
+from ..views.spec import KINDS
+from .options import PATH, usage_error
+from .video import encoder_settings, stop_on_signals, views_of
 
 
 class _Bar:
@@ -155,24 +154,22 @@ def batch(
       panomap batch cams.csv -o 'out/{camera}/{stem}_{name}.mp4' \\
           --view panorama:size=2048x512 --view perspective:yaw=30,pitch=-20,fov=90,size=1280x720,name=door
     """
-    parsed = [parse_view_spec(spec) for spec in specs]
-    if views_file is not None:
-        parsed += [(item.name, item.view) for item in read_views_file(views_file)]
-    if not parsed:
-        raise click.UsageError("give at least one --view SPEC or a --views file")
-    named = name_views(parsed)
-    options = []
-    for item in encoder_options:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            raise click.BadParameter(f"{item!r} is not KEY=VALUE", param_hint="--encoder-option")
-        options.append((key, value))
-    encoder = EncoderSettings(
-        codec, pix_fmt, crf, preset, _bitrate(bitrate) if bitrate is not None else None, tuple(options)
-    )
+    named = views_of(specs, views_file)
+    encoder = encoder_settings(codec, pix_fmt, crf, preset, bitrate, encoder_options)
+    try:
+        check_template(template)
+    except PanomapError as exc:
+        raise usage_error(exc, "-o") from None
+    try:
+        check_inputs_and_table(inputs, table)
+    except PanomapError as exc:
+        raise usage_error(exc) from None
     found = find_inputs(inputs, table, camera)
     if any(item.is_video for item in found):
-        encoder.check()
+        try:
+            encoder.check()
+        except PanomapError as exc:
+            raise usage_error(exc) from None
     job = make_job(found, named, template, Settings(encoder, interp, table_sampling, not no_audio))
     record = Record(record_path)
     stop = threading.Event()

@@ -20,7 +20,7 @@ from ..files import all_or_none, check_output_paths
 from ..io.images import read_image, write_image
 from ..table.file import load_table
 from ..table.table import PanoMappingTable, check_table_size
-from .options import FINITE, PATH, SIZE, TILT
+from .options import FINITE, NON_NEGATIVE, PATH, POSITIVE, SIZE, TILT, usage_error
 
 
 @click.command()
@@ -56,11 +56,13 @@ from .options import FINITE, PATH, SIZE, TILT
     help="Table size: M azimuths x N elevations [default: about 1 entry per pixel].",
 )
 @click.option(
-    "--cutoff-radius", type=FINITE, help="Radius (px) of the self-occlusion disc [default: found in --image, else 0]."
+    "--cutoff-radius",
+    type=NON_NEGATIVE,
+    help="Radius (px) of the self-occlusion disc [default: found in --image, else 0].",
 )
 @click.option(
     "--outer-radius",
-    type=FINITE,
+    type=POSITIVE,
     help="Radius (px) of the image circle [default: found in --image, else the largest circle in the image].",
 )
 @click.option(
@@ -89,14 +91,14 @@ from .options import FINITE, PATH, SIZE, TILT
 )
 @click.option(
     "--pixel-sigma",
-    type=FINITE,
+    type=POSITIVE,
     default=1.0,
     show_default=True,
     help="Standard deviation of the landmarks' pixels (px), for weighting.",
 )
 @click.option(
     "--world-sigma",
-    type=FINITE,
+    type=NON_NEGATIVE,
     help="Standard deviation of the landmarks' world coordinates (world units) [default: 0.4% of their "
     "median distance].",
 )
@@ -113,7 +115,7 @@ from .options import FINITE, PATH, SIZE, TILT
 )
 @click.option(
     "--camera-sigma",
-    type=FINITE,
+    type=NON_NEGATIVE,
     help="Standard deviation of each coordinate of --camera (world units: a tape measurement); the fit refines "
     "the position when cross-validation says the landmarks support it; 0 keeps it exact [default: 1% of the "
     "landmarks' median distance].",
@@ -142,20 +144,24 @@ def fit(
     plot: Path | None,
 ) -> None:
     """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table."""
+    # Options missing or out of range are usage errors (exit 2); the files' problems are failures (1).
+    size = _image_size(image_size)
+    if centre is None and image is None:
+        raise click.UsageError("no image centre: give --centre U0 V0, or --image OMNI to find it")
+    if refine_centre is True and model != "auto" and radial_kind(model).centre_given:
+        raise click.UsageError(f"the {model} model takes the centre as given; --refine-centre needs another model")
+    if table_size is not None:
+        try:
+            check_table_size(table_size, what="--size")
+        except PanomapError as exc:
+            raise usage_error(exc) from None
     check_output_paths([("the landmarks", landmarks), ("the image", image)], [("the output", output), ("--plot", plot)])
     pairs = read_landmarks(landmarks)
     if camera is None and pairs.camera is None:
-        raise PanomapError('no camera position: give --camera X0 Y0 Z0 or "camera" in the JSON', landmarks)
-    size = _image_size(image_size)
-    if centre is None and image is None:
-        raise PanomapError("no image centre: give --centre U0 V0, or --image OMNI to find it", landmarks)
-    if refine_centre is True and model != "auto" and radial_kind(model).centre_given:
-        raise PanomapError(
-            f"the {model} model takes the centre as given; --refine-centre needs another model", landmarks
+        raise click.UsageError(
+            f'no camera position in {landmarks}: give --camera X0 Y0 Z0 (or "camera" in a JSON landmark file)'
         )
     try:
-        if table_size is not None:
-            check_table_size(table_size, what="--size")
         result = calibrate_camera(
             pairs,
             camera,
@@ -253,7 +259,7 @@ def _image_size(size: tuple[int, int] | None) -> tuple[int, int] | None:
     if size is not None:
         width, height = size
         if width <= 0 or height <= 0:
-            raise PanomapError(f"--image-size {width}x{height}: must be positive")
+            raise click.BadParameter(f"{width}x{height}: must be positive", param_hint="'--image-size'")
     return size
 
 

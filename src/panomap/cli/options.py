@@ -11,6 +11,7 @@ from typing import Any
 
 import click
 
+from ..errors import PanomapError
 from ..values import NotFinite, finite_number
 
 
@@ -33,15 +34,22 @@ class Size(click.ParamType):
 
 
 class Finite(click.ParamType):
-    """A finite real number (refuses nan and inf)."""
+    """A finite real number (refuses nan and inf); at least ``minimum`` (more than it, if ``open``) when given."""
 
     name = "NUMBER"
 
+    def __init__(self, minimum: float | None = None, open: bool = False) -> None:
+        self.minimum = minimum
+        self.open = open
+
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float:
         try:
-            return finite_number(value)
+            number = finite_number(value)
         except NotFinite as exc:
             self.fail(str(exc), param, ctx)
+        if self.minimum is not None and (number <= self.minimum if self.open else number < self.minimum):
+            self.fail(f"{number:g} is not {'more than' if self.open else 'at least'} {self.minimum:g}", param, ctx)
+        return number
 
 
 class Tilt(click.ParamType):
@@ -64,8 +72,18 @@ class Tilt(click.ParamType):
         return (tilt_deg, toward_deg)
 
 
+def usage_error(exc: PanomapError, option: str | None = None) -> click.UsageError:
+    """A library error about an option's value, or about options given together, as a usage error (exit 2),
+    in the library's words (under ``option``'s name when given)."""
+    if option is None:
+        return click.UsageError(str(exc))
+    return click.BadParameter(str(exc), param_hint=f"'{option}'")
+
+
 SIZE = Size()
 FINITE = Finite()
+POSITIVE = Finite(0.0, open=True)
+NON_NEGATIVE = Finite(0.0)
 TILT = Tilt()
 PATH = click.Path(path_type=Path, dir_okay=False)
 FOLDER = click.Path(path_type=Path, file_okay=False)

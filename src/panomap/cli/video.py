@@ -28,7 +28,7 @@ from ..video.report import VideoReport
 from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video
 from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
-from .options import FINITE, PATH
+from .options import FINITE, PATH, usage_error
 
 
 def _bitrate(text: str) -> int:
@@ -37,6 +37,36 @@ def _bitrate(text: str) -> int:
         raise click.BadParameter(f"{text!r} is not a bit rate like 8M or 800k")
     scale = {"": 1, "k": 10**3, "m": 10**6, "g": 10**9}[match.group(2).lower()]
     return int(float(match.group(1)) * scale)
+
+
+def views_of(specs: tuple[str, ...], views_file: Path | None) -> list[NamedView]:
+    """The views of the --view SPECs (a SPEC that does not parse is a usage error) and the --views file."""
+    parsed = []
+    for spec in specs:
+        try:
+            parsed.append(parse_view_spec(spec))
+        except PanomapError as exc:
+            raise usage_error(exc, "--view") from None
+    if views_file is not None:
+        parsed += [(item.name, item.view) for item in read_views_file(views_file)]
+    if not parsed:
+        raise click.UsageError("give at least one --view SPEC or a --views file")
+    return name_views(parsed)
+
+
+def encoder_settings(
+    codec: str, pix_fmt: str, crf: int, preset: str, bitrate: str | None, encoder_options: tuple[str, ...]
+) -> EncoderSettings:
+    """The encoder settings of the options (an option not KEY=VALUE is a usage error; checked by the caller)."""
+    options = []
+    for item in encoder_options:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise click.BadParameter(f"{item!r} is not KEY=VALUE", param_hint="--encoder-option")
+        options.append((key, value))
+    return EncoderSettings(
+        codec, pix_fmt, crf, preset, _bitrate(bitrate) if bitrate is not None else None, tuple(options)
+    )
 
 
 def output_paths(pattern: str, views: list[NamedView]) -> list[Path]:
@@ -55,11 +85,12 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, *((signal.SIGHUP,) if hasattr(sig
 @contextlib.contextmanager
 def stop_on_signals(stop: threading.Event) -> Iterator[None]:
     """The first SIGINT, SIGTERM or SIGHUP (the terminal closed) sets ``stop`` (a clean finish);
-    a second SIGINT aborts."""
+    a second SIGINT aborts (KeyboardInterrupt), and a third, during the abort, kills at once."""
     previous: dict[Any, Any] = {}
 
     def handler(signum: int, frame: Any) -> None:
         if stop.is_set() and signum == signal.SIGINT:
+            signal.signal(signal.SIGINT, signal.SIG_DFL)  # (the abort's clean-up is not itself interrupted)
             raise KeyboardInterrupt
         stop.set()
 
@@ -220,23 +251,14 @@ def video(
       panomap video cam.npz omni.mp4 -o 'out_{name}.mp4' \\
           --view panorama:size=2048x512 --view perspective:yaw=30,pitch=-20,fov=90,size=1280x720
     """
-    parsed = [parse_view_spec(spec) for spec in specs]
-    if views_file is not None:
-        parsed += [(item.name, item.view) for item in read_views_file(views_file)]
-    if not parsed:
-        raise click.UsageError("give at least one --view SPEC or a --views file")
-    named = name_views(parsed)
+    named = views_of(specs, views_file)
     paths = output_paths(pattern, named)
-    options = []
-    for item in encoder_options:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            raise click.BadParameter(f"{item!r} is not KEY=VALUE", param_hint="--encoder-option")
-        options.append((key, value))
-    encoder = EncoderSettings(
-        codec, pix_fmt, crf, preset, _bitrate(bitrate) if bitrate is not None else None, tuple(options)
-    )
-    selection = Selection(start, duration, every)
+    encoder = encoder_settings(codec, pix_fmt, crf, preset, bitrate, encoder_options)
+    try:
+        encoder.check()
+        selection = Selection(start, duration, every)
+    except PanomapError as exc:
+        raise usage_error(exc) from None
     if no_reconnect and attempts:
         raise click.UsageError("give --reconnect N or --no-reconnect, not both")
     reconnect = Reconnect(attempts=0 if no_reconnect else (5 if attempts is None else attempts), timeout_s=timeout_s)

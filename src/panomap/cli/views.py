@@ -24,7 +24,7 @@ from ..table.sampling import SAMPLINGS
 from ..views import View, build_map, view_kinds
 from ..views.base import Param, ParameterError, Value
 from ..views.spec import view_from_params
-from .options import FINITE, PATH, SIZE
+from .options import FINITE, PATH, SIZE, usage_error
 
 
 def view_options(function: Callable[..., Any]) -> Callable[..., Any]:
@@ -117,8 +117,10 @@ def _option(param: Param) -> click.Option:
 def make_view(kind: str, values: Mapping[str, Any]) -> View:
     """The view of ``kind`` from its command's parsed options (None where not given).
 
-    A missing one-of choice is a usage error (exit 2); a size out of bounds is
-    reported under its option's name.
+    A missing one-of choice, or values the view refuses (out of range, or not
+    fitting together), are usage errors (exit 2): a size out of bounds is
+    reported under its option's name, the rest in the view's words. (What
+    depends on the table, such as a floor above the camera, fails later: exit 1.)
     """
     cls = view_kinds()[kind]
     given = {key: value for key, value in values.items() if value is not None}
@@ -130,8 +132,10 @@ def make_view(kind: str, values: Mapping[str, Any]) -> View:
         return view_from_params(kind, given)
     except ParameterError as exc:
         if exc.key not in values:
-            raise
-        raise PanomapError(f"--{exc.key} {exc.problem}") from None
+            raise click.UsageError(str(exc)) from None
+        raise click.BadParameter(exc.problem, param_hint=f"'--{exc.key}'") from None
+    except PanomapError as exc:
+        raise usage_error(exc) from None
 
 
 def view_command(kind: str) -> click.Command:

@@ -191,7 +191,7 @@ class TableMetadata:
         if not isinstance(meta, dict) or meta.get("format") != TABLE_FORMAT:
             raise PanomapError("not a panomap table (wrong format tag)")
         version = meta.get("version")
-        if version not in READ_VERSIONS or isinstance(version, bool):
+        if type(version) is not int or version not in READ_VERSIONS:  # (not true, 2.0 or "2", which compare equal)
             raise PanomapError(
                 f"table format version {version!r}; this panomap reads versions "
                 + ", ".join(map(str, READ_VERSIONS[:-1]))

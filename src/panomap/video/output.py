@@ -94,11 +94,14 @@ class Writer:
     error: BaseException | None = None
     frames: int = 0
     thread: threading.Thread | None = None
+    abandoned: threading.Event = field(default_factory=threading.Event)
 
     def run(self, stop: threading.Event) -> None:
         try:
             while True:
                 item = self.inbox.get()
+                if self.abandoned.is_set():
+                    return
                 if item is END:
                     break
                 if isinstance(item, av.Packet):
@@ -116,6 +119,13 @@ class Writer:
             with contextlib.suppress(queue.Empty):
                 while True:  # unblock the producer
                     self.inbox.get_nowait()
+
+    def abandon(self) -> None:
+        """Make the thread end after the item it is on, without flushing the encoder (an abort: the file is
+        discarded); join the thread before :meth:`close`."""
+        self.abandoned.set()
+        with contextlib.suppress(queue.Full):  # (a full inbox wakes the thread anyway)
+            self.inbox.put_nowait(END)
 
     def close(self) -> None:
         """Finish the container (its index and trailer are written here: a full disk shows now).

@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import math
 import queue
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -72,6 +73,43 @@ def open_input(source: str, open_timeout: float = 10.0, read_timeout: float | No
         container.close()
         raise PanomapError("it holds no video stream", source)
     return container
+
+
+class SharedInput:
+    """An opened input and the threads that read it: closed only once no thread is inside it.
+
+    FFmpeg frees the demuxer on close, so a close while another thread waits in
+    its read (a live input that sends nothing) would crash the process. A
+    reader :meth:`hold` s the input before it starts and :meth:`release` s it
+    when it has returned; :meth:`close` closes at once when no reader holds it,
+    and otherwise leaves the close to the last reader to return (as when a run
+    is aborted while its reader waits: the reader ends at its read timeout, or
+    with the process).
+    """
+
+    def __init__(self, container: Any) -> None:
+        self.container = container
+        self._lock = threading.Lock()
+        self._readers = 0
+        self._closing = False
+
+    def hold(self) -> None:
+        with self._lock:
+            self._readers += 1
+
+    def release(self) -> None:
+        with self._lock:
+            self._readers -= 1
+            now = self._closing and self._readers == 0
+        if now:
+            self.container.close()
+
+    def close(self) -> None:
+        with self._lock:
+            self._closing = True
+            now = self._readers == 0
+        if now:
+            self.container.close()
 
 
 def drops(source: str, container: Any) -> bool:

@@ -45,7 +45,17 @@ from .handoff import END, QUEUE_FRAMES, put, reason
 from .live import Reconnect, check_segment_names, segment_path
 from .output import EncoderSettings, Writer, container_format, open_writer
 from .report import Gap, GapOutcome, VideoReport
-from .source import ReadState, Selection, copy_packet, drops, expected_frames, is_live, open_input, read_frames
+from .source import (
+    ReadState,
+    Selection,
+    SharedInput,
+    copy_packet,
+    drops,
+    expected_frames,
+    is_live,
+    open_input,
+    read_frames,
+)
 
 # ----------------------------------------------------------------------------- input
 
@@ -119,15 +129,15 @@ def unwarp_video(
             raise PanomapError("its folder does not exist", path)
         if not os.access(folder, os.W_OK | os.X_OK):
             raise PanomapError("its folder is not writable", path)
-    container = open_input(source, reconnect.timeout_s, reconnect.timeout_s)
-    can_drop = drops(source, container)
+    current = SharedInput(open_input(source, reconnect.timeout_s, reconnect.timeout_s))
+    can_drop = drops(source, current.container)
     if can_drop and reconnect.attempts > 0:
         check_segment_names(paths)
     report = VideoReport()
     started, started_at = time.perf_counter(), time.monotonic()
     try:
-        size = _check_input(container, table, source)
-        in_format = container.streams.video[0].codec_context.pix_fmt or "yuv420p"
+        size = _check_input(current.container, table, source)
+        in_format = current.container.streams.video[0].codec_context.pix_fmt or "yuv420p"
         work = work_format(in_format, encoder.pix_fmt)
         sizes = [item.view.output_size(table) for item in outputs]
         for view_size in sizes:
@@ -158,7 +168,7 @@ def unwarp_video(
 
         while True:
             written = _write_segment(
-                container,
+                current,
                 [segment_path(path, segment) for path in paths],
                 sizes,
                 work,
@@ -174,7 +184,7 @@ def unwarp_video(
                 reconnect.timeout_s if can_drop else None,
                 on_first_frame,
             )
-            container.close()
+            current.close()
             if written:
                 report.segments += 1
                 segment += 1
@@ -193,12 +203,12 @@ def unwarp_video(
                 report.interrupted = stop.is_set()
                 report.gaps.append(gap.close(time.monotonic(), outcome))
                 break
-            container = opened
+            current = SharedInput(opened)
         if report.frames_written == 0:
             why = f" ({report.gaps[-1].describe(source)})" if report.gaps else ""
             raise PanomapError(f"no frame could be decoded (nothing written){why}", source)
     finally:
-        container.close()
+        current.close()  # (on an abort while the reader still waits in a read: once it returns)
         report.seconds = time.perf_counter() - started
     return report
 
@@ -221,7 +231,7 @@ def _check_input(container: Any, table: PanoMappingTable, source: str) -> tuple[
 
 
 def _write_segment(
-    container: Any,
+    current: SharedInput,
     paths: list[Path],
     sizes: list[tuple[int, int]],
     work: str,
@@ -242,6 +252,7 @@ def _write_segment(
     The files are renamed into place together when the connection ends, or all
     removed if a writer fails (PanomapError) or no frame came (False).
     """
+    container = current.container
     stream = container.streams.video[0]
     stream.thread_type = "AUTO"
     audio_stream = container.streams.audio[0] if audio and container.streams.audio else None
@@ -261,7 +272,7 @@ def _write_segment(
                     writers.append(open_writer(path, temporary, view_size, rate, time_base, encoder, audio_stream))
                 with opencv_threads(REMAP_THREADS):
                     _run(
-                        container,
+                        current,
                         stream,
                         audio_stream,
                         work,
@@ -389,7 +400,7 @@ def _amount(size: int) -> str:
 
 
 def _run(
-    container: Any,
+    current: SharedInput,
     stream: Any,
     audio_stream: Any | None,
     work: str,
@@ -404,7 +415,13 @@ def _run(
     drop_timeout_s: float | None,
     on_first_frame: Callable[[], None],
 ) -> None:
-    """Run reader, remapping (here) and writers until the input ends, ``stop`` is set or a writer fails."""
+    """Run reader, remapping (here) and writers until the input ends, ``stop`` is set or a writer fails.
+
+    An exception here (KeyboardInterrupt: an abort) ends the writers without
+    flushing (their files are discarded) and leaves the input to its reader
+    (:class:`SharedInput`) instead of waiting for a read that may never return.
+    """
+    container = current.container
     frames: queue.Queue[Any] = queue.Queue(QUEUE_FRAMES)
     halt = threading.Event()  # stop, a writer's failure, or the end of the run
     expected = expected_frames(stream, selection, is_live(str(container.name)))
@@ -421,14 +438,33 @@ def _run(
         for writer in writers:
             put(writer.inbox, copy_packet(packet), halted)
 
-    reader = threading.Thread(
-        target=read_frames,
-        args=(container, stream, audio_stream, work, selection, frames, halted, on_audio, warn, report, state),
-        kwargs={"drop_timeout_s": drop_timeout_s},
-        name="panomap-read",
-        daemon=True,
-    )
-    reader.start()
+    def read() -> None:
+        try:
+            read_frames(
+                container,
+                stream,
+                audio_stream,
+                work,
+                selection,
+                frames,
+                halted,
+                on_audio,
+                warn,
+                report,
+                state,
+                drop_timeout_s=drop_timeout_s,
+            )
+        finally:
+            current.release()
+
+    reader = threading.Thread(target=read, name="panomap-read", daemon=True)
+    current.hold()
+    try:
+        reader.start()
+    except BaseException:
+        current.release()
+        raise
+    failure: BaseException | None = None
     try:
         remappers = build_remappers()
         first = True
@@ -447,14 +483,50 @@ def _run(
             report.frames_written += 1
             if progress is not None:
                 progress(report.frames_written, expected)
+    except BaseException as exc:
+        failure = exc
+        raise
     finally:
         report.interrupted = stop.is_set() and all(writer.error is None for writer in writers)
         halt.set()
-        while reader.is_alive():  # let the reader see the halt, even if it waits on a full queue
-            with contextlib.suppress(queue.Empty):
-                frames.get(timeout=0.1)
-        for writer in writers:
-            put(writer.inbox, END, lambda w=writer: w.error is not None)  # type: ignore[misc]
-        for writer in writers:
-            assert writer.thread is not None
+        _end_threads(reader, frames, writers, failure)
+
+
+def _end_threads(
+    reader: threading.Thread, frames: queue.Queue[Any], writers: list[Writer], failure: BaseException | None
+) -> None:
+    """Wait for the reader to see the halt, then let every writer finish its file.
+
+    After a ``failure`` the writers stop after the frame they are on, without
+    flushing (their files are discarded). After an abort (a KeyboardInterrupt,
+    also one while waiting here) the reader is not waited for either: it may
+    wait in a read that never returns, and the input is left to it
+    (:class:`SharedInput`). Either way no writer thread is left inside its container.
+    """
+    abandon = failure is not None
+    try:
+        if isinstance(failure, Exception | None):
+            while reader.is_alive():  # let the reader see the halt, even if it waits on a full queue
+                with contextlib.suppress(queue.Empty):
+                    frames.get(timeout=0.1)
+        if not abandon:
+            for writer in writers:
+                put(writer.inbox, END, lambda w=writer: w.error is not None)  # type: ignore[misc]
+    except BaseException:
+        abandon = True
+        raise
+    finally:
+        try:
+            _join_writers(writers, abandon)
+        except BaseException:  # (interrupted while a writer flushes: abandon them all)
+            _join_writers(writers, True)
+            raise
+
+
+def _join_writers(writers: list[Writer], abandon: bool) -> None:
+    for writer in writers:
+        if abandon:
+            writer.abandon()
+    for writer in writers:
+        if writer.thread is not None:
             writer.thread.join()
