@@ -385,7 +385,10 @@ def fit_camera(
         candidates = tuple(k for k in candidates if not k.centre_given)
     # A kind asked for by name that does not follow the noise model is fitted as printed: no outlier search.
     robust = reject_outliers and (requested is None or requested.weighted)
-    inliers, kind, selection = _choose(candidates, data, annulus, robust)
+    # A tilted camera can put landmarks near the rim beyond it under a level model: where a tilt may be
+    # fitted, the level fit then only starts the mount's search and cannot be the answer (level_covers).
+    may_tilt = tilt == "fit" and azimuth == "fit" and annulus is not None
+    inliers, kind, selection, level_covers = _choose_start(candidates, data, annulus, robust, may_tilt)
     radial, phi0 = _fit(kind, data, inliers)
     centre_fit = (u0, v0)
     if kind.weighted:
@@ -396,7 +399,7 @@ def fit_camera(
         # about the refined centre, and refine from there.
         r, phi = pixel_polar(landmarks.pixels, centre_fit)
         data = replace(data, r=r, phi=phi)
-        inliers, kind, selection = _choose(candidates, data, annulus, reject_outliers)
+        inliers, kind, selection, level_covers = _choose_start(candidates, data, annulus, reject_outliers, may_tilt)
         radial, phi0 = _fit(kind, data, inliers)
         radial, phi0, centre_fit = _refine(radial, phi0, centre_fit, landmarks.pixels, data, inliers, True)
     problem = MountProblem(
@@ -414,13 +417,17 @@ def fit_camera(
     solution = MountSolution(radial, phi0, centre_fit, np.zeros(2), np.zeros(3), np.empty((0, 0)))
     mount_choice = None
     options = _mount_options(tilt, float(camera_sigma), refine_centre)
-    if len(options) > 1 and kind.weighted and azimuth == "fit":
+    # (The mount is searched whatever kind the automatic choice made; a kind asked for by name that does not
+    # follow the noise model, Algorithm 1's, is fitted as printed.)
+    if len(options) > 1 and azimuth == "fit" and (requested is None or requested.weighted):
         mount_choice = _choose_mount(
-            problem, options, (inliers, kind, selection, solution), data, candidates, annulus, robust
+            problem, options, (inliers, kind, selection, solution), data, candidates, annulus, robust, level_covers
         )
         inliers, kind, selection, solution = mount_choice.chosen
         problem = replace(problem, kind=kind.name)
         radial, phi0, centre_fit = solution.radial, solution.phi0, solution.centre
+    if not level_covers and mount_choice is None:
+        _choose(candidates, data, annulus, robust)  # raises: no model covers the annulus, and no tilt was tried
     rotation = solution.rotation(problem)
     camera_fit = solution.camera(problem)
     d = camera_rays(problem, solution.w, solution.delta)
@@ -811,9 +818,13 @@ def _choose_mount(
     candidates: tuple[RadialKind, ...],
     annulus: tuple[float, float] | None,
     robust: bool,
+    level_covers: bool = True,
 ) -> _MountChoice:
     """Fit each mount (refined, then the model and outliers chosen again in its frame) and keep, in order
     of their unknowns, each that clearly beats the best so far on held-out errors (:func:`_clearly_better`).
+
+    When the level fit does not cover the annulus (``level_covers`` False) it only starts the search: the
+    simplest mount that does is the first best, and with none the fit fails (PanomapError).
     """
     fits: dict[MountOptions, tuple[FloatArray, RadialKind, dict[str, float], MountSolution]] = {options[0]: level}
     inliers, _, _, start = level
@@ -829,7 +840,9 @@ def _choose_mount(
         added = 2 * option.tilt + 3 * option.position
         if level_chi2 - _chi2(problem, trial, inliers, option) > CHI2_95[added]:
             screened.append(option)
-    if len(screened) == 1:
+    if not level_covers:
+        screened = list(options)  # no screen: the level fit is no answer
+    elif len(screened) == 1:
         return _MountChoice(level, options[0], {})
     for option in screened[1:]:
         # A mount with the position refined starts from the same mount with the position as given: the model
@@ -868,7 +881,11 @@ def _choose_mount(
         if annulus is not None and _mount_misses_annulus(problem, solution, kept, annulus):
             continue
         fits[option] = (kept, kind, selection, solution)
-    if len(fits) == 1:
+    if not level_covers:
+        del fits[options[0]]
+        if not fits:
+            raise PanomapError("no radial model covers the annulus from these landmarks, level or tilted")
+    elif len(fits) == 1:
         return _MountChoice(level, options[0], {})
     common = np.logical_and.reduce([fit[0] for fit in fits.values()])
     members = np.flatnonzero(common)
@@ -876,7 +893,7 @@ def _choose_mount(
     cap = MOUNT_SCORE_CAP_SIGMAS**2
     scores: dict[str, float] = {}
     squared: dict[MountOptions, FloatArray] = {}
-    best = options[0]
+    best = next(iter(fits))
     for option, (_, kind, _, solution) in fits.items():
         whitened, _ = held_out_errors(replace(problem, kind=kind.name), solution, common, folds, option)
         squared[option] = np.minimum(whitened**2, cap)
@@ -894,6 +911,23 @@ def _mount_misses_annulus(
     landmark_range = (float(np.min(rho)), float(np.max(rho)))
     slack = rim_slack_px(problem.pixel_sigma)
     return annulus_coverage_problem(solution.radial, landmark_range, *annulus, slack_px=slack) is not None
+
+
+def _choose_start(
+    candidates: tuple[RadialKind, ...],
+    data: _Data,
+    annulus: tuple[float, float] | None,
+    robust: bool,
+    may_tilt: bool,
+) -> tuple[FloatArray, RadialKind, dict[str, float], bool]:
+    """:func:`_choose` with the annulus, and whether its choice covers it; where no model covers it and a tilt
+    may be fitted, the choice without the annulus (a start for the tilt), flagged as not covering."""
+    try:
+        return (*_choose(candidates, data, annulus, robust), True)
+    except PanomapError:
+        if not may_tilt:
+            raise
+    return (*_choose(candidates, data, None, robust), False)
 
 
 def _chi2(
