@@ -221,3 +221,22 @@ def test_fit_tilt_on_the_command_line(tmp_path: Path) -> None:
     for bad in ("50 0", "sideways", "1 2 3"):
         assert_one_line_error(run("fit", *common, "--tilt", bad, "-o", tmp_path / "b.npz"), "--tilt", exit_code=2)
     assert not (tmp_path / "b.npz").exists()
+
+
+def test_rim_landmarks_beyond_the_circle_under_a_level_model_do_not_stop_a_tilted_fit() -> None:
+    """A fisheye tilted 2.6 deg (bench_mount's seed 8011): under a level model a rim landmark lies 10 px beyond
+    the image circle, so no level model covers the annulus (the fit used to stop there). The level fit now only
+    starts the search, and the tilted fit covers it."""
+    base = scenario_cameras()["equidistant"]
+    rng = np.random.default_rng(8011)
+    tilt = math.radians(rng.uniform(1.0, 3.0))
+    camera = TiltedCamera(base, mount_rotation(tilt, rng.uniform(0, 2 * math.pi)))
+    trial = make_landmarks(camera, 12, rng)
+    annulus = (base.cutoff_radius, base.outer_radius)
+    options = {"image_size": IMAGE_SIZE, "annulus": annulus, "model": "odd1"}
+    with pytest.raises(PanomapError, match="outside the annulus"):
+        fit_camera(*_pairs(trial), CAMERA_POSITION, base.centre, tilt="none", **options)  # type: ignore[arg-type]
+    fit = fit_camera(*_pairs(trial), CAMERA_POSITION, base.centre, **options)  # type: ignore[arg-type]
+    assert fit.mount is not None and fit.mount.tilt_fitted
+    assert fit.mount.tilt_deg == pytest.approx(math.degrees(tilt), abs=0.3)
+    create_table(fit, image_size=IMAGE_SIZE, cutoff_radius=annulus[0], outer_radius=annulus[1])
