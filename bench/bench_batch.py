@@ -123,11 +123,12 @@ def main() -> None:
                 "--view", PERSPECTIVE, "--workers", workers, "--record", folder / f"{tag}.jsonl", "-q",
             )  # fmt: skip
 
-        seconds = timed(loop_images)
-        rows.append(("images", "loop of panomap panorama + perspective", seconds, len(images), seconds))
-        for workers in (1, 2):
-            took = timed(lambda w=workers: batch(folder / "images", w, f"images{w}"))
-            rows.append(("images", f"panomap batch, {workers} worker(s)", took, len(images), seconds))
+        if images:
+            seconds = timed(loop_images)
+            rows.append(("images", "loop of panomap panorama + perspective", seconds, len(images), seconds))
+            for workers in (1, 2):
+                took = timed(lambda w=workers: batch(folder / "images", w, f"images{w}"))
+                rows.append(("images", f"panomap batch, {workers} worker(s)", took, len(images), seconds))
         if options.videos:
             clips = sorted((folder / "videos").iterdir())
             frames = len(clips) * options.frames
