@@ -112,8 +112,10 @@ def test_size_errors_speak_the_callers_words() -> None:
         GenericPanorama((0, 5))
     with pytest.raises(PanomapError, match=f"^view spec 'panorama:size=0x5': size {message}$"):
         parse_view_spec("panorama:size=0x5")
-    with pytest.raises(PanomapError, match=f"^--size {message}$"):
+    # On the command line a size out of range is a usage error (exit 2) under its option's name.
+    with pytest.raises(click.BadParameter, match=f"^{message}$") as raised:
         view_from_command("panorama", ["--size", "0x5"])
+    assert raised.value.param_hint == "'--size'"
 
 
 def test_one_of_two_parameters_is_required_in_the_callers_words() -> None:
