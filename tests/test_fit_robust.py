@@ -186,3 +186,29 @@ def test_an_up_looking_camera_is_detected_and_learned_exactly() -> None:
     error = np.linalg.norm(table.project(np.asarray(CAMERA_POSITION) + rays) - camera.project(rays), axis=1)
     # Measured 0.00037 px (float32 entries, bilinear sampling); the bar is about 5x.
     assert np.all(np.isfinite(error)) and error.max() < 0.002
+
+
+@pytest.mark.parametrize("tilt", ["none", "fit"])
+def test_a_landmark_pushed_50_px_beyond_the_rim_is_flagged_not_fatal(tilt: str) -> None:
+    """The rim landmark of a level fisheye moved 50 px outward, beyond the image circle: under it no model
+    covers the annulus, which used to stop the fit ("no radial model fits"). Found as an outlier without the
+    annulus, it is dropped and the model chosen with the annulus on the rest; the camera stays level."""
+    from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras
+
+    camera = scenario_cameras()["equisolid"]
+    trial = make_landmarks(camera, 12, np.random.default_rng(3))
+    pixels = trial.landmarks.pixels.copy()
+    radius = np.hypot(pixels[:, 0] - camera.centre[0], pixels[:, 1] - camera.centre[1])
+    rim = int(np.argmax(radius))
+    pixels[rim] += 50 * (pixels[rim] - np.asarray(camera.centre)) / radius[rim]
+    landmarks = Landmarks(pixels, trial.landmarks.world, trial.landmarks.names)
+    fit = fit_camera(
+        landmarks,
+        CAMERA_POSITION,
+        camera.centre,
+        image_size=IMAGE_SIZE,
+        annulus=(camera.cutoff_radius, camera.outer_radius),
+        tilt=tilt,
+    )
+    assert fit.outliers == [trial.landmarks.names[rim]]
+    assert fit.model.rotation is None

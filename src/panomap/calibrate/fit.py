@@ -647,17 +647,22 @@ def _select(
 
 
 def _choose(
-    candidates: tuple[RadialKind, ...], data: _Data, annulus: tuple[float, float] | None, reject_outliers: bool
+    candidates: tuple[RadialKind, ...],
+    data: _Data,
+    annulus: tuple[float, float] | None,
+    reject_outliers: bool,
+    start: FloatArray | None = None,
 ) -> tuple[FloatArray, RadialKind, dict[str, float]]:
     """Inliers, the chosen model and every candidate's leave-one-out RMS (px).
 
     With ``reject_outliers``: choose robustly, drop the worst landmark if it is
-    an outlier under that choice, repeat; then choose on the inliers.
+    an outlier under that choice, repeat; then choose on the inliers. ``start``
+    (bool, n) are the landmarks to start from (default all).
     """
     n = data.rho.size
-    inliers = np.ones(n, dtype=bool)
+    inliers = np.ones(n, dtype=bool) if start is None else start.copy()
     if reject_outliers:
-        for _ in range(n // 4):
+        for _ in range(n // 4 - int(n - inliers.sum())):
             kind, _ = _select(candidates, data, inliers, annulus, robust=True)
             fewer = _drop_worst(kind, data, inliers)
             if fewer is None:
@@ -920,14 +925,24 @@ def _choose_start(
     robust: bool,
     may_tilt: bool,
 ) -> tuple[FloatArray, RadialKind, dict[str, float], bool]:
-    """:func:`_choose` with the annulus, and whether its choice covers it; where no model covers it and a tilt
+    """:func:`_choose` with the annulus, and whether its choice covers it. Where no model covers it: the
+    outliers found without the annulus dropped and the choice made again with it; failing that, where a tilt
     may be fitted, the choice without the annulus (a start for the tilt), flagged as not covering."""
     try:
         return (*_choose(candidates, data, annulus, robust), True)
-    except PanomapError:
-        if not may_tilt:
-            raise
-    return (*_choose(candidates, data, None, robust), False)
+    except PanomapError as exc:
+        failed = exc
+    loose = _choose(candidates, data, None, robust) if robust or may_tilt else None
+    if loose is not None and robust and not loose[0].all():
+        # An outlier (a landmark far off near the rim) can itself push every model off the annulus: found
+        # without the annulus, it is dropped, and the choice made again with the annulus on the rest.
+        try:
+            return (*_choose(candidates, data, annulus, robust, start=loose[0]), True)
+        except PanomapError:
+            pass
+    if not may_tilt or loose is None:
+        raise failed
+    return (*loose, False)
 
 
 def _chi2(
