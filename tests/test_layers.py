@@ -22,7 +22,7 @@ import panomap
 PACKAGE = Path(panomap.__file__).resolve().parent
 
 LAYERS = [
-    {"errors", "geometry", "files", "values"},
+    {"errors", "geometry", "files", "values", "strips"},
     {"camera"},
     {"table", "remap"},
     {"views"},

@@ -14,6 +14,7 @@ import functools
 import gc
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -21,8 +22,7 @@ from panomap.geometry import azimuth_elevation
 from panomap.simulate import standard_cameras
 from panomap.table.table import PanoMappingTable
 from panomap.views import Band, CylinderPanorama, FloorView, GenericPanorama, PerspectiveView, View, build_map
-from panomap.views.floor import _sine_range as floor_sine_range
-from panomap.views.lookup import _LOOKUPS, direction_lookup
+from panomap.views.lookup import _LOOKUPS, LOOKUP_ERROR_PX, direction_lookup, lookup_error, make_lookup, row_sine_bounds
 
 from helpers import learn_table, spread_landmarks
 
@@ -171,9 +171,10 @@ def test_nearest_sampling_takes_the_exact_path() -> None:
 
 
 def test_a_table_reaching_far_above_the_horizon_takes_the_exact_path() -> None:
-    # 60 deg above the horizon would need a lookup of 2993 texels a side (at most 2048): none is made.
+    # 80 deg above the horizon would need a lookup of 4579 texels a side at the coarsest step (at most
+    # 2048): none is made.
     table = learn("parabolic")
-    wide = dataclasses.replace(table, elevation_range=(table.elevation_range[0], 60 * DEG))
+    wide = dataclasses.replace(table, elevation_range=(table.elevation_range[0], 80 * DEG))
     assert direction_lookup(wide) is None
     view = PERSPECTIVES["up to the range's top"]
     assert np.array_equal(build_map(wide, view), build_map(wide, view, exact=True), equal_nan=True)
@@ -190,23 +191,32 @@ def test_the_lookup_is_made_once_per_table_and_dropped_with_it() -> None:
     assert key not in _LOOKUPS
 
 
-def test_the_views_bound_their_elevations() -> None:
-    # The quick path skips the per-pixel range check when these bounds lie inside the table's range:
-    # they must hold every pixel's sine of elevation, computed here from the rays in float64.
+def test_the_views_bound_their_elevations_row_by_row() -> None:
+    # The quick path checks the elevation only on rows whose bounds reach the edge of the table's range:
+    # every row's bounds must hold its pixels' sines of elevation, computed here from the rays in float64.
     table = learn("parabolic")
-    cases: list[tuple[View, tuple[float, float], np.ndarray]] = []
+    cases: list[tuple[View, tuple[np.ndarray, np.ndarray], np.ndarray]] = []
     for view in PERSPECTIVES.values():
         rays = view.rays()
-        cases.append((view, view._sine_range(), rays[..., 2] / np.linalg.norm(rays, axis=-1)))
+        forward, right, down = view.axes()
+        x, y = view._offsets()
+        bounds = row_sine_bounds([forward[a] + y * down[a] for a in range(3)], right, x)
+        cases.append((view, bounds, rays[..., 2] / np.linalg.norm(rays, axis=-1)))
     for floor in floor_views(table).values():
         points = floor.points(table)
         rows, cols = floor._rays(table)
-        bounds = floor_sine_range(cols[0], rows[1], float(rows[2][0]))
+        bounds = row_sine_bounds(rows, np.array([1.0, 0.0, 0.0]), cols[0])
         cases.append((floor, bounds, points[..., 2] / np.linalg.norm(points, axis=-1)))
     for view, (low, high), sines in cases:
-        assert low <= sines.min() and sines.max() <= high, view
-        # Tight: within a pixel's worth of the extremes (a view seeing a pole reaches it exactly).
-        assert sines.min() - low < 0.02 and high - sines.max() < 0.02, view
+        assert np.all(low <= sines.min(axis=1) + 1e-12) and np.all(sines.max(axis=1) <= high + 1e-12), view
+        # Tight: within a pixel's worth of each row's extremes (the continuous line between pixels).
+        assert np.all(sines.min(axis=1) - low < 0.01) and np.all(high - sines.max(axis=1) < 0.01), view
+    # A row through the nadir reaches -1 exactly; its neighbours do not.
+    down = PerspectiveView(0.0, -90 * DEG, 0.0, 90 * DEG, (101, 101))
+    forward, right, below = down.axes()
+    x, y = down._offsets()
+    low, _ = row_sine_bounds([forward[a] + y * below[a] for a in range(3)], right, x)
+    assert low[50] == pytest.approx(-1.0, abs=1e-12) and low[49] > -1.0 + 1e-6
 
 
 def test_a_lone_map_takes_the_exact_way_and_the_second_reads_the_lookup() -> None:
@@ -220,3 +230,32 @@ def test_a_lone_map_takes_the_exact_way_and_the_second_reads_the_lookup() -> Non
     assert _LOOKUPS.get(id(table)) is not None
     assert not np.array_equal(second, first, equal_nan=True)  # read from the lookup: rounding differs
     assert float(np.nanmax(np.abs(second - first))) < TOLERANCE_PX
+
+
+def test_each_table_gets_the_coarsest_lookup_within_its_error_bound() -> None:
+    # The hyperbolic mirror's steep rim needs a finer lookup than the others: the choice is measured.
+    chosen = {}
+    for name, table in tables().items():
+        lookup = direction_lookup(table)
+        assert lookup is not None
+        assert lookup_error(lookup, table) <= LOOKUP_ERROR_PX, name
+        chosen[name] = lookup.scale
+    coarse = make_lookup(learn("hyperbolic"))
+    assert coarse is not None and lookup_error(coarse, learn("hyperbolic")) > LOOKUP_ERROR_PX
+    assert chosen["hyperbolic"] > chosen["parabolic"] == coarse.scale
+
+
+def test_maps_do_not_depend_on_the_number_of_threads() -> None:
+    """Strips are made at once in several threads: each pixel is computed the same way whatever the cut."""
+    table = learn("equisolid")
+    views = [*PERSPECTIVES.values(), *floor_views(table).values(), GenericPanorama((640, 160))]
+    before = cv2.getNumThreads()
+    try:
+        cv2.setNumThreads(1)
+        alone = [build_map(table, view) for view in views]
+        cv2.setNumThreads(5)
+        several = [build_map(table, view) for view in views]
+    finally:
+        cv2.setNumThreads(before)
+    for view, one, many in zip(views, alone, several, strict=True):
+        assert np.array_equal(one, many, equal_nan=True), view

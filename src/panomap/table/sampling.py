@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import PanomapError
 from ..geometry import TWO_PI, inside_image
+from ..strips import in_strips
 
 SAMPLINGS = ("bilinear", "nearest")
 # cv2.remap takes images and maps below 32767 px a side; the padded table must fit.
@@ -176,9 +177,18 @@ def sample_grid(
         np.minimum(fj, n - 1, out=fj)
     interpolation = cv2.INTER_NEAREST if sampling == "nearest" else cv2.INTER_LINEAR
     width, height = fi.size, fj.size
-    map_x = np.asarray(cv2.repeat(fi.astype(np.float32).reshape(1, width), height, 1), dtype=np.float32)
-    map_y = np.asarray(cv2.repeat(fj.astype(np.float32).reshape(height, 1), 1, width), dtype=np.float32)
-    return _read(images, image_size, map_x, map_y, interpolation)
+    columns, rows = fi.astype(np.float32), fj.astype(np.float32)
+    out = np.empty((height, width, 2), dtype=np.float32)
+
+    def strip(start: int, stop: int) -> None:
+        map_x = np.empty((stop - start, width), dtype=np.float32)
+        map_y = np.empty_like(map_x)
+        map_x[...] = columns
+        map_y[...] = rows[start:stop, None]
+        _read(images, image_size, map_x, map_y, interpolation, out=out[start:stop])
+
+    in_strips(height, strip)
+    return out
 
 
 def _to_table_indices(fi_flat: NDArray[Any], fj_flat: NDArray[Any], m: int, n: int, sampling: str) -> int:
@@ -215,12 +225,16 @@ def _read(
     map_x: NDArray[np.float32],
     map_y: NDArray[np.float32],
     interpolation: int,
+    out: NDArray[np.float32] | None = None,
 ) -> NDArray[np.float32]:
-    """The (rows, cols, 2) pixels at read positions ``map_x``, ``map_y``; NaN off the image."""
+    """The (rows, cols, 2) pixels at read positions ``map_x``, ``map_y``; NaN off the image.
+
+    Written into ``out`` (C-contiguous, float32) when given.
+    """
     u_image, v_image, all_inside = images
     u = cv2.remap(u_image, map_x, map_y, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
     v = cv2.remap(v_image, map_x, map_y, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
-    uv = cv2.merge([u, v])
+    uv = cv2.merge([u, v]) if out is None else cv2.merge([u, v], dst=out)
     if not all_inside and image_size is not None:
         width, height = image_size
         inside = cv2.inRange(uv, (-0.5, -0.5), (width - 0.5, height - 0.5))  # (inside_image, in OpenCV)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
@@ -26,7 +25,7 @@ from .base import (
     register,
 )
 from .grid import grid_angles
-from .lookup import lookup_map, lookup_when_worth_it
+from .lookup import lookup_map, lookup_when_worth_it, row_sine_bounds
 
 
 @register
@@ -156,7 +155,8 @@ class FloorView(View):
             (np.square(rows[1]) + np.square(rows[2])).astype(np.float32)[:, None],
             np.square(cols[0]).astype(np.float32)[None, :],
         )
-        return lookup_map(lookup, rows, cols, np.sqrt(lengths, out=lengths), _sine_range(cols[0], rows[1], rows[2][0]))
+        row_sines = row_sine_bounds(rows, np.array([1.0, 0.0, 0.0]), cols[0])
+        return lookup_map(lookup, rows, cols, np.sqrt(lengths, out=lengths), row_sines)
 
     def _rays(self, table: PanoMappingTable) -> tuple[list[FloatArray], list[FloatArray]]:
         """The rays to the pixels' points, relative to O_m, as row and column terms (see :func:`grid_angles`).
@@ -171,17 +171,3 @@ class FloorView(View):
         rows = [np.zeros(height), y_max - fy * (y_max - y_min) - y0, np.full(height, self.z_plane - z0)]
         cols = [x_min + fx * (x_max - x_min) - x0, np.zeros(width), np.zeros(width)]
         return rows, cols
-
-
-def _sine_range(xs: FloatArray, ys: FloatArray, z: float) -> tuple[float, float]:
-    """Bounds of ``z/|d|`` over rays ``d = (x, y, z)``, x in ``xs``, y in ``ys``: the nearest and farthest corners."""
-
-    def nearest(values: FloatArray) -> float:
-        low, high = float(values.min()), float(values.max())
-        return 0.0 if low <= 0.0 <= high else min(abs(low), abs(high))
-
-    def farthest(values: FloatArray) -> float:
-        return float(np.abs(values).max())
-
-    sines = [z / math.sqrt(a**2 + b**2 + z**2) for a, b in ((nearest(xs), nearest(ys)), (farthest(xs), farthest(ys)))]
-    return min(sines), max(sines)

@@ -16,10 +16,15 @@ views instead read their rays here, in a handful of array passes and one
   from the visible pole ``2*atan(|p|)``.
 - **A map** is then ``(X, Y) = c0 + K*(d_x, d_y)/(|d| + c*d_z)`` read from the
   lookup by ``cv2.remap``: no transcendental function per pixel.
-- **Accuracy.** Texels are ``LOOKUP_STEP`` rad apart at the visible pole and
-  closer elsewhere, so interpolating the lookup reproduces the exact map to
-  about 2e-3 px (``bench/bench_views.py`` prints the largest difference; the
-  tests bound it on several cameras).
+- **Accuracy.** Texels are ``step`` rad apart at the visible pole and closer
+  elsewhere. The step is chosen per table: the coarsest of ``LOOKUP_STEPS``
+  (a small lookup is read faster: more of it stays in the cache) whose
+  reading differs from the exact sampling by at most ``LOOKUP_ERROR_PX`` on
+  ``ERROR_RAYS`` seeded random rays over the table's range. The difference is
+  float32 rounding plus the lookup's interpolation, which grows with the image's
+  pixels per radian and the mirror's curvature (``bench/bench_views.py``
+  prints the largest difference over whole views; the tests bound it on
+  several cameras).
 - **Validity** is decided exactly, not from the lookup: a ray has a source when
   its elevation is in [rho_s, rho_e], i.e. when ``q = d_z/(|d| + c*d_z)``
   (increasing with sin(rho)) is in the range of the ends, and (for tables whose
@@ -44,13 +49,20 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..geometry import TWO_PI, FloatArray, inside_image
+from ..strips import in_strips
 from ..table.table import PanoMappingTable
 
-# Texel spacing (rad) at the visible pole; it shrinks towards the far edge. The error is mostly
-# float32 rounding: the worst measured is 0.002 px (a hyperbolic mirror, 800 px image) at 5e-3,
-# 0.001 px at 2.5e-3; halving the step quadruples the memory (9 MB at 5e-3 for a table reaching
-# 15 deg above the horizon), and a larger lookup reads more slowly (fewer cache hits).
-LOOKUP_STEP = 5e-3
+# Texel spacings (rad) at the visible pole, tried coarsest first; spacing shrinks towards the far
+# edge. Over whole views on the test cameras (800 px images), the worst difference from the exact
+# maps is 0.0035 px at 1e-2 and 0.0021 px at 5e-3 (a hyperbolic mirror); 0.0006 px at either on the
+# bench's 1920 px parabolic image. Halving the step quadruples the memory (2.2 MB at 1e-2, 9 MB at
+# 5e-3 for a table reaching 15 deg above the horizon) and reads more slowly (fewer cache hits:
+# a 1280 x 720 view reads a 1e-2 lookup in 25-40% less time than a 5e-3 one).
+LOOKUP_STEPS = (1e-2, 5e-3, 2.5e-3)
+# The largest difference from the exact sampling a step may show on the random rays (px): a third
+# of the 0.01 px the quick maps promise, as whole views reach a little further than the rays see.
+LOOKUP_ERROR_PX = 3e-3
+ERROR_RAYS = 20_000
 # Texels beyond the far edge of the range, so that pixels near it read only texels of the lookup.
 EDGE_TEXELS = 3
 # At most this many texels a side (two float32 images, 32 MB); tables reaching further past
@@ -123,12 +135,48 @@ def direction_lookup(table: PanoMappingTable) -> DirectionLookup | None:
     """The table's lookup, made on first use and kept while the table lives; None when it has none."""
     key = id(table)
     if key not in _LOOKUPS:
-        _LOOKUPS[key] = make_lookup(table)
+        _LOOKUPS[key] = fitting_lookup(table)
         weakref.finalize(table, _LOOKUPS.pop, key, None)
     return _LOOKUPS[key]
 
 
-def make_lookup(table: PanoMappingTable, step: float = LOOKUP_STEP) -> DirectionLookup | None:
+def fitting_lookup(table: PanoMappingTable) -> DirectionLookup | None:
+    """The lookup of the coarsest of ``LOOKUP_STEPS`` within ``LOOKUP_ERROR_PX`` of the exact sampling.
+
+    Else the finest that is not too large; None when even the coarsest is.
+    """
+    lookup = None
+    for step in LOOKUP_STEPS:
+        finer = make_lookup(table, step)
+        if finer is None:  # too large: keep the last one that was not
+            break
+        lookup = finer
+        if lookup_error(lookup, table) <= LOOKUP_ERROR_PX:
+            break
+    return lookup
+
+
+def lookup_error(lookup: DirectionLookup, table: PanoMappingTable, rays: int = ERROR_RAYS) -> float:
+    """Largest difference (px) between reading ``lookup`` and sampling ``table`` exactly, over seeded random rays.
+
+    The rays are uniform in azimuth and in elevation over the table's range;
+    only rays with a source both ways count.
+    """
+    rng = np.random.default_rng(0)
+    rho_s, rho_e = table.elevation_range
+    theta = rng.uniform(0.0, TWO_PI, rays)
+    rho = rng.uniform(rho_s, rho_e, rays)
+    d = np.stack([np.cos(rho) * np.cos(theta), np.cos(rho) * np.sin(theta), np.sin(rho)])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        texels = lookup.centre + lookup.scale * d[:2] / (1.0 + lookup.pole * d[2])
+    x, y = (np.ascontiguousarray(values, dtype=np.float32).reshape(1, -1) for values in texels)
+    read = np.stack([_remap(image, x, y)[0] for image in (lookup.u, lookup.v)], axis=-1)
+    exact = table.sample(theta, rho)
+    both = np.isfinite(read).all(axis=-1) & np.isfinite(exact).all(axis=-1)
+    return float(np.max(np.abs(read - exact)[both])) if both.any() else 0.0
+
+
+def make_lookup(table: PanoMappingTable, step: float = LOOKUP_STEPS[0]) -> DirectionLookup | None:
     """Sample ``table`` into a :class:`DirectionLookup` of texels ``step`` rad apart at the visible pole."""
     m, n = table.size
     rho_s, rho_e = table.elevation_range
@@ -220,14 +268,52 @@ def _unfold(
     return out
 
 
+def row_sine_bounds(
+    rows: list[FloatArray], direction: FloatArray, offsets: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Per row, bounds of the sine of elevation ``d_z/|d|`` over rays ``d = a + x*b`` (a view's row of pixels).
+
+    Parameters
+    ----------
+    rows : three (H,) arrays
+        The components of ``a``, one per row (world axes).
+    direction : (3,) array
+        ``b``, the same for every row (nonzero).
+    offsets : (W,) array
+        The pixels' x.
+
+    Returns
+    -------
+    low, high : (H,) float64 ndarrays
+        Along a line, ``d_z/|d|`` has at most one stationary point,
+        ``x* = (a_z (a.b) - b_z |a|^2) / (b_z (a.b) - a_z |b|^2)``; the
+        extremes over the segment of pixels are at its ends or there.
+    """
+    a = np.stack([np.asarray(values, dtype=np.float64) for values in rows], axis=-1)  # (H, 3)
+    b = np.asarray(direction, dtype=np.float64)
+    x_first, x_last = float(np.min(offsets)), float(np.max(offsets))
+    a_b, a_a, b_b = a @ b, np.einsum("ij,ij->i", a, a), float(b @ b)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        stationary = (a[:, 2] * a_b - b[2] * a_a) / (b[2] * a_b - a[:, 2] * b_b)
+    stationary = np.where(np.isfinite(stationary), np.clip(stationary, x_first, x_last), x_first)
+    sines = []
+    for x in (np.full(len(a), x_first), np.full(len(a), x_last), stationary):
+        d = a + x[:, None] * b
+        sines.append(d[:, 2] / np.linalg.norm(d, axis=-1))
+    return np.minimum.reduce(sines), np.maximum.reduce(sines)
+
+
 def lookup_map(
     lookup: DirectionLookup,
     rows: list[FloatArray],
     cols: list[FloatArray],
     length: NDArray[np.float32],
-    sine_range: tuple[float, float] | None = None,
+    row_sines: tuple[FloatArray, FloatArray] | None = None,
 ) -> NDArray[np.float32]:
     """The (H, W, 2) float32 map of rays ``d[l, k, a] = rows[a][l] + cols[a][k]`` (world axes), NaN without a source.
+
+    The rows are cut into strips (:func:`~panomap.strips.in_strips`), each
+    made in its own thread.
 
     Parameters
     ----------
@@ -238,11 +324,34 @@ def lookup_map(
         :func:`~panomap.views.grid.grid_angles` takes them).
     length : (H, W) float32 ndarray
         ``|d|`` of every ray.
-    sine_range : (float, float), optional
-        Bounds of ``d_z/|d|`` over the rays, when the view knows them: rays
-        well inside the table's range need no check of their elevation.
+    row_sines : two (H,) arrays, optional
+        Per row, bounds of ``d_z/|d|`` (:func:`row_sine_bounds`), when the view
+        knows them: rows well inside the table's range need no check of their
+        elevation.
     """
-    return read_lookup(lookup, *lookup_coordinates(lookup, rows, cols, length, sine_range))
+    height, width = length.shape
+    out = np.empty((height, width, 2), dtype=np.float32)
+
+    def strip(start: int, stop: int) -> None:
+        strip_rows = [values[start:stop] for values in rows]
+        strip_sines = None if row_sines is None else (row_sines[0][start:stop], row_sines[1][start:stop])
+        texels = lookup_coordinates(lookup, strip_rows, cols, length[start:stop], strip_sines)
+        read_lookup(lookup, *texels, out=out[start:stop])
+
+    in_strips(height, strip)
+    return out
+
+
+@dataclass(frozen=True)
+class RowCheck:
+    """The result of the elevation check on the rows that needed it: rows ``start..start + len(valid)``.
+
+    ``valid`` is (rows, W) uint8: 255 where the ray's elevation is in the
+    table's range, 0 elsewhere. The other rows are all in range.
+    """
+
+    start: int
+    valid: NDArray[np.uint8]
 
 
 def lookup_coordinates(
@@ -250,40 +359,58 @@ def lookup_coordinates(
     rows: list[FloatArray],
     cols: list[FloatArray],
     length: NDArray[np.float32],
-    sine_range: tuple[float, float] | None = None,
-) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.uint8] | None]:
-    """Where rays (as :func:`lookup_map` takes them) read the lookup: texel x and y, (H, W) float32, and validity.
+    row_sines: tuple[FloatArray, FloatArray] | None = None,
+) -> tuple[NDArray[np.float32], NDArray[np.float32], RowCheck | None]:
+    """Where rays (as :func:`lookup_map` takes them) read the lookup: texel x and y, (H, W) float32, and the check.
 
-    Validity is 255 where the ray's elevation is in the table's range, 0
-    elsewhere; None when ``sine_range`` shows every ray is in it. x and y are
-    this thread's scratch memory, good until its next map of the same size.
+    ``X = c0 + K d_x/w`` (and Y alike) with ``w = |d| + c d_z``: eight passes
+    over the rays. The elevation check (``K d_z/w`` within the range of the
+    table's ends) runs on the rows that ``row_sines`` does not show inside the
+    range, all of them without it; None when no row needs it. x and y are this
+    thread's scratch memory, good until its next map of the same size.
     """
+    w, x, y, _, _ = _scratch(length.shape)
 
-    # Scratch memory; the last two (read_lookup's u and v) hold K/w meanwhile.
-    d_z, x, y, inverse, _ = _scratch(length.shape)
+    def numerator(axis: int, factor: float, out: NDArray[np.float32]) -> NDArray[np.float32]:
+        row = (factor * np.asarray(rows[axis], dtype=np.float64)).astype(np.float32)
+        col = (factor * np.asarray(cols[axis], dtype=np.float64)).astype(np.float32)
+        return np.add(row[:, None], col[None, :], out=out)
 
-    def component(axis: int, out: NDArray[np.float32]) -> NDArray[np.float32]:
-        return np.add(rows[axis].astype(np.float32)[:, None], cols[axis].astype(np.float32)[None, :], out=out)
-
-    low, high = lookup.sine_range
-    unchecked = sine_range is not None and low + SINE_MARGIN < sine_range[0] and sine_range[1] < high - SINE_MARGIN
-    component(2, d_z)
-    # w = |d| + c d_z, then K/w; zero (infinite) only at the unseen pole, which is invalid.
-    if lookup.pole < 0:
-        np.subtract(length, d_z, out=inverse)
-    else:
-        np.add(length, d_z, out=inverse)
-    valid = None
+    # w = |d| + c d_z; zero (infinite texels) only at the unseen pole, which is invalid.
+    np.add(length, numerator(2, lookup.pole, w), out=w)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        np.divide(np.float32(lookup.scale), inverse, out=inverse)
-        if not unchecked:
-            q = np.multiply(d_z, inverse, out=d_z)
-            valid = np.asarray(cv2.inRange(q, *lookup.q_range), dtype=np.uint8)
+        check = _check_rows(lookup, rows, cols, w, row_sines)
         for axis, coordinate in enumerate((x, y)):
-            component(axis, coordinate)
-            coordinate *= inverse
+            numerator(axis, lookup.scale, coordinate)
+            np.divide(coordinate, w, out=coordinate)
             coordinate += np.float32(lookup.centre)
-    return x, y, valid
+    return x, y, check
+
+
+def _check_rows(
+    lookup: DirectionLookup,
+    rows: list[FloatArray],
+    cols: list[FloatArray],
+    w: NDArray[np.float32],
+    row_sines: tuple[FloatArray, FloatArray] | None,
+) -> RowCheck | None:
+    """The elevation check of :func:`lookup_coordinates` on the rows that need it (one span of rows)."""
+    low, high = lookup.sine_range
+    if row_sines is None:
+        need = np.ones(w.shape[0], dtype=bool)
+    else:
+        need = (row_sines[0] <= low + SINE_MARGIN) | (row_sines[1] >= high - SINE_MARGIN)
+    if not need.any():
+        return None
+    first = int(np.argmax(need))
+    stop = len(need) - int(np.argmax(need[::-1]))
+    span = [values[first:stop] for values in rows]
+    q = np.add(
+        (lookup.scale * np.asarray(span[2], dtype=np.float64)).astype(np.float32)[:, None],
+        (lookup.scale * np.asarray(cols[2], dtype=np.float64)).astype(np.float32)[None, :],
+    )
+    np.divide(q, w[first:stop], out=q)
+    return RowCheck(first, np.asarray(cv2.inRange(q, *lookup.q_range), dtype=np.uint8))
 
 
 _SCRATCH = threading.local()
@@ -306,25 +433,37 @@ def _scratch(shape: tuple[int, ...]) -> list[NDArray[np.float32]]:
 
 
 def read_lookup(
-    lookup: DirectionLookup, x: NDArray[np.float32], y: NDArray[np.float32], valid: NDArray[np.uint8] | None
+    lookup: DirectionLookup,
+    x: NDArray[np.float32],
+    y: NDArray[np.float32],
+    check: RowCheck | None,
+    out: NDArray[np.float32] | None = None,
 ) -> NDArray[np.float32]:
-    """The (H, W, 2) map read from the lookup at texels (x, y); NaN where not ``valid`` or off the image.
+    """The (H, W, 2) map read from the lookup at texels (x, y); NaN where ``check`` fails or off the image.
 
-    ``valid`` (255 or 0; None: all valid) is overwritten.
+    The map is written into ``out`` (a C-contiguous (H, W, 2) float32 array)
+    when given.
     """
     _, _, _, u, v = _scratch(x.shape)
-    for image, out in ((lookup.u, u), (lookup.v, v)):
-        cv2.remap(image, x, y, cv2.INTER_LINEAR, dst=out, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
+    for image, read in ((lookup.u, u), (lookup.v, v)):
+        cv2.remap(image, x, y, cv2.INTER_LINEAR, dst=read, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
+    start, valid = (0, None) if check is None else (check.start, check.valid)
     if lookup.image_size is not None:
         width, height = lookup.image_size
-        for coordinate, top in ((u, width - 0.5), (v, height - 0.5)):
-            inside = np.asarray(cv2.inRange(coordinate, -0.5, top), dtype=np.uint8)
-            valid = inside if valid is None else np.bitwise_and(valid, inside, out=valid)
+        inside = np.asarray(cv2.inRange(u, -0.5, width - 0.5), dtype=np.uint8)
+        np.bitwise_and(inside, np.asarray(cv2.inRange(v, -0.5, height - 0.5), dtype=np.uint8), out=inside)
+        if valid is not None:
+            np.bitwise_and(inside[start : start + len(valid)], valid, out=inside[start : start + len(valid)])
+        start, valid = 0, inside
     if valid is not None and cv2.countNonZero(valid) < valid.size:
         nan_where_invalid = np.asarray(cv2.LUT(valid, _NAN_UNLESS_VALID), dtype=np.float32)
-        u += nan_where_invalid
-        v += nan_where_invalid
-    return np.asarray(cv2.merge([u, v]), dtype=np.float32)
+        rows = slice(start, start + len(valid))
+        np.add(u[rows], nan_where_invalid, out=u[rows])
+        np.add(v[rows], nan_where_invalid, out=v[rows])
+    if out is None:
+        return np.asarray(cv2.merge([u, v]), dtype=np.float32)
+    cv2.merge([u, v], dst=out)
+    return out
 
 
 def _remap(image: NDArray[np.float32], x: NDArray[np.float32], y: NDArray[np.float32]) -> NDArray[np.float32]:

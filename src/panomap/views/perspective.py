@@ -16,7 +16,7 @@ from ..geometry import HALF_PI, FloatArray
 from ..table.table import PanoMappingTable
 from .base import OUTPUT_SIZE, AngleArray, Param, Value, View, check_finite, check_view_size, register
 from .grid import grid_angles
-from .lookup import lookup_map, lookup_when_worth_it
+from .lookup import lookup_map, lookup_when_worth_it, row_sine_bounds
 
 
 @register
@@ -157,30 +157,7 @@ class PerspectiveView(View):
         x, y = self._offsets()
         rows = [forward[a] + y * down[a] for a in range(3)]
         cols = [x * right[a] for a in range(3)]
-        return lookup_map(lookup, rows, cols, _ray_lengths(self.size, self.fov_rad), self._sine_range())
-
-    def _sine_range(self) -> tuple[float, float]:
-        """Bounds of the sine of the pixels' elevations (``d_z/|d|``).
-
-        Elevation has no extremum on the sphere but at the poles, so over the
-        pixels it is extreme on the border pixels or at a pole the view sees.
-        """
-        forward, right, down = self.axes()
-        x, y = self._offsets()
-        top_bottom = forward[2] + x[None, :] * right[2] + y[[0, -1], None] * down[2]
-        left_right = forward[2] + x[None, [0, -1]] * right[2] + y[:, None] * down[2]
-        sines = [top_bottom / np.sqrt(1 + x[None, :] ** 2 + y[[0, -1], None] ** 2)]
-        sines.append(left_right / np.sqrt(1 + x[None, [0, -1]] ** 2 + y[:, None] ** 2))
-        low = min(float(values.min()) for values in sines)
-        high = max(float(values.max()) for values in sines)
-        # A pole the camera faces lands at x = R_z/F_z, y = Dn_z/F_z (from d = F + x R + y Dn, d_x = d_y = 0
-        # up to scale): inside the pixels' extent, it is seen.
-        if forward[2] != 0.0:
-            pole_x, pole_y = right[2] / forward[2], down[2] / forward[2]
-            half_x, half_y = abs(x[0]) + 0.5 / self.focal, abs(y[0]) + 0.5 / self.focal
-            if abs(pole_x) <= half_x and abs(pole_y) <= half_y:
-                low, high = (-1.0, high) if forward[2] < 0 else (low, 1.0)
-        return low, high
+        return lookup_map(lookup, rows, cols, _ray_lengths(self.size, self.fov_rad), row_sine_bounds(rows, right, x))
 
 
 def _offsets(size: tuple[int, int], fov: float) -> tuple[FloatArray, FloatArray]:
