@@ -45,7 +45,7 @@ from numpy.typing import NDArray
 from ..camera.model import CameraModel
 from ..camera.orientation import tilt_rotation, to_camera
 from ..camera.radial import RadialFunction, fit_radial
-from ..camera.radial_models import AUTO_CANDIDATES, AXES, MODELS, RadialKind, radial_kind
+from ..camera.radial_models import AUTO_CANDIDATES, AXES, MIRROR_CANDIDATES, MODELS, RadialKind, radial_kind
 from ..camera.uncertainty import coefficient_covariance
 from ..camera.valid_range import is_monotonic, valid_elevation_range
 from ..errors import PanomapError
@@ -91,6 +91,8 @@ MOUNT_SCORE_CAP_SIGMAS = 5.0
 # A mount with more unknowns must beat a simpler one's held-out errors by this many standard errors of the
 # mean paired improvement (one-sided, about 2.5% false alarms where the errors are normal).
 MOUNT_SIGNIFICANCE = 2.0
+# At most this many rounds of choosing the model and outliers in a mount's frame and refining the mount.
+MOUNT_ROUNDS = 3
 # The chi-square's 95th percentile for 2, 3 and 5 degrees of freedom: the screen of a mount's unknowns.
 CHI2_95 = {2: 5.991, 3: 7.815, 5: 11.070}
 
@@ -379,7 +381,9 @@ def fit_camera(
         s=s,
         azimuth_mode=azimuth,
     )
-    candidates = tuple(map(radial_kind, AUTO_CANDIDATES)) if requested is None else (requested,)
+    # A cut-off disc (the camera's own reflection) shows a mirror camera: its law is preferred among ties.
+    preference = MIRROR_CANDIDATES if annulus is not None and annulus[0] > 0 else AUTO_CANDIDATES
+    candidates = tuple(map(radial_kind, preference)) if requested is None else (requested,)
     if refine_centre:
         # A kind that takes the centre as given (Algorithm 1) would leave the centre unrefined.
         candidates = tuple(k for k in candidates if not k.centre_given)
@@ -863,24 +867,16 @@ def _choose_mount(
                 fits[option] = (kept, kind, selection, solution)
             continue
         try:
-            first = joint_fit(problem, start, inliers, option)
-            rays = camera_rays(problem, first.w, first.delta)
-            theta, rho = azimuth_elevation(rays)
-            r, phi = pixel_polar(problem.pixels, first.centre)
-            distance = np.linalg.norm(rays, axis=1)
-            moved = replace(
+            kept, kind, selection, solution = _choose_in_frame(
+                problem,
                 data,
-                theta=theta,
-                rho=rho,
-                r=r,
-                phi=phi,
-                sigma_rho=problem.world_sigma / distance,
-                sigma_theta=problem.world_sigma / np.maximum(np.hypot(rays[:, 0], rays[:, 1]), 1e-12),
+                joint_fit(problem, start, inliers, option),
+                (inliers, None),
+                option,
+                candidates,
+                annulus,
+                robust,
             )
-            kept, kind, selection = _choose(candidates, moved, annulus, robust)
-            radial, phi0 = _fit(kind, moved, kept)
-            again = MountSolution(radial, phi0, first.centre, first.w, first.delta, first.covariance)
-            solution = joint_fit(replace(problem, kind=kind.name), again, kept, option)
         except PanomapError:
             continue
         if annulus is not None and _mount_misses_annulus(problem, solution, kept, annulus):
@@ -906,6 +902,49 @@ def _choose_mount(
         if option is not best and _clearly_better(squared[option], squared[best]):
             best = option
     return _MountChoice(fits[best], best, scores)
+
+
+def _choose_in_frame(
+    problem: MountProblem,
+    data: _Data,
+    solution: MountSolution,
+    chosen: tuple[FloatArray, RadialKind | None],
+    option: MountOptions,
+    candidates: tuple[RadialKind, ...],
+    annulus: tuple[float, float] | None,
+    robust: bool,
+) -> tuple[FloatArray, RadialKind, dict[str, float], MountSolution]:
+    """The model and outliers chosen again in the frame of a mount's ``solution``, and the mount refined with them;
+    repeated in the new frame until the choice holds (``MOUNT_ROUNDS`` at most).
+
+    The first frame comes from the level choice's model, which a tilt may have led astray (a flexible
+    polynomial absorbing part of the tilt): its tilt is then off, and so is the next choice made in it.
+    """
+    inliers, kind = chosen
+    selection: dict[str, float] = {}
+    for _ in range(MOUNT_ROUNDS):
+        rays = camera_rays(problem, solution.w, solution.delta)
+        theta, rho = azimuth_elevation(rays)
+        r, phi = pixel_polar(problem.pixels, solution.centre)
+        distance = np.linalg.norm(rays, axis=1)
+        moved = replace(
+            data,
+            theta=theta,
+            rho=rho,
+            r=r,
+            phi=phi,
+            sigma_rho=problem.world_sigma / distance,
+            sigma_theta=problem.world_sigma / np.maximum(np.hypot(rays[:, 0], rays[:, 1]), 1e-12),
+        )
+        kept, new_kind, selection = _choose(candidates, moved, annulus, robust)
+        if new_kind is kind and np.array_equal(kept, inliers):
+            break
+        inliers, kind = kept, new_kind
+        radial, phi0 = _fit(kind, moved, kept)
+        again = MountSolution(radial, phi0, solution.centre, solution.w, solution.delta, solution.covariance)
+        solution = joint_fit(replace(problem, kind=kind.name), again, kept, option)
+    assert kind is not None
+    return inliers, kind, selection, solution
 
 
 def _mount_misses_annulus(

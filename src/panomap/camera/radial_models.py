@@ -71,6 +71,10 @@ class RadialKind(ABC):
         The fit follows the noise model: weighted least squares, the joint
         refinement on whitened residuals and, when the kind is asked for by
         name, outlier rejection. False for Algorithm 1, printed unweighted.
+    mirror_law : bool (class)
+        The kind is the projection law of central mirror cameras (any conic
+        mirror): preferred first among kinds with as many parameters when the
+        image shows the camera's own reflection (:data:`MIRROR_CANDIDATES`).
     """
 
     name: str
@@ -78,6 +82,7 @@ class RadialKind(ABC):
 
     centre_given: ClassVar[bool] = False
     weighted: ClassVar[bool] = True
+    mirror_law: ClassVar[bool] = False
 
     @property
     @abstractmethod
@@ -155,6 +160,8 @@ class AxisPolynomial(RadialKind):
 class Unified(RadialKind):
     """The unified model of single-viewpoint mirror cameras, ``r = gamma sin(alpha) / (xi + cos(alpha))``."""
 
+    mirror_law: ClassVar[bool] = True
+
     @property
     def parameters(self) -> tuple[str, ...]:
         return ("gamma", "xi")
@@ -224,6 +231,19 @@ MODELS = tuple(RADIAL_KINDS)
 # The order in which automatic selection prefers models that tie: fewer parameters first.
 AUTO_CANDIDATES = tuple(
     sorted(MODELS, key=lambda name: (RADIAL_KINDS[name].parameter_count, RADIAL_KINDS[name].selection_rank))
+)
+# The same for an image that shows a cut-off disc (the camera's reflection: a mirror camera): the mirrors'
+# own law first among kinds with as many parameters. A fisheye polynomial with two terms bends as a conic
+# mirror's profile does over a few landmarks, and ties with it; beyond them it does not.
+MIRROR_CANDIDATES = tuple(
+    sorted(
+        MODELS,
+        key=lambda name: (
+            RADIAL_KINDS[name].parameter_count,
+            not RADIAL_KINDS[name].mirror_law,
+            RADIAL_KINDS[name].selection_rank,
+        ),
+    )
 )
 
 
