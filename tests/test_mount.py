@@ -19,7 +19,7 @@ from panomap.camera.orientation import tilt_angles, tilt_rotation
 from panomap.errors import PanomapError
 from panomap.geometry import azimuth_elevation
 from panomap.simulate.cameras import TiltedCamera, mount_rotation, standard_cameras
-from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras
+from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras, test_points
 from panomap.table.file import load_table, metadata_digest
 
 from helpers import assert_one_line_error, run, spread_landmarks
@@ -240,3 +240,28 @@ def test_rim_landmarks_beyond_the_circle_under_a_level_model_do_not_stop_a_tilte
     assert fit.mount is not None and fit.mount.tilt_fitted
     assert fit.mount.tilt_deg == pytest.approx(math.degrees(tilt), abs=0.3)
     create_table(fit, image_size=IMAGE_SIZE, cutoff_radius=annulus[0], outer_radius=annulus[1])
+
+
+def test_a_mirror_tilted_3_deg_is_learned_with_the_mirrors_law_and_covers_the_view() -> None:
+    """A rotated, mirrored hyperbolic mirror tilted 2.8 deg (bench_mount's trial 8, seed 8011).
+
+    Level, the model chosen was poly2; the tilt fitted with it was 2.27 deg, and the model chosen again in that
+    frame was odd3 with a good landmark dropped: 19.3 px, part of the view uncovered. Choosing again in each new
+    frame until the choice holds finds the mirrors' law and the tilt: measured 2.63 px, tilt 2.73 deg; the
+    oracle (the true family, the tilt fitted) gets the same.
+    """
+    base = scenario_cameras()["rotated-mirrored"]
+    rng = np.random.default_rng(8011)
+    tilt = math.radians(rng.uniform(1.0, 3.0))
+    camera = TiltedCamera(base, mount_rotation(tilt, rng.uniform(0, 2 * math.pi)))
+    trial = make_landmarks(camera, 12, rng)
+    annulus = (base.cutoff_radius, base.outer_radius)
+    fit = fit_camera(*_pairs(trial), CAMERA_POSITION, base.centre, image_size=IMAGE_SIZE, annulus=annulus)  # type: ignore[arg-type]
+    assert fit.model.radial.kind == "unified" and fit.outliers == []
+    assert fit.mount is not None and fit.mount.tilt_deg == pytest.approx(math.degrees(tilt), abs=0.15)
+    table = create_table(fit, image_size=IMAGE_SIZE, cutoff_radius=annulus[0], outer_radius=annulus[1])
+    world, truth = test_points(camera)
+    radius = np.hypot(*(truth - np.asarray(base.centre)).T)
+    inside = (radius >= annulus[0] + 5.0) & (radius <= annulus[1] - 5.0)
+    error = np.linalg.norm(table.project(world[inside]) - truth[inside], axis=1)
+    assert np.all(np.isfinite(error)) and float(np.max(error)) < 4.0
