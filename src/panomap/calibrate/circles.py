@@ -84,6 +84,8 @@ MIN_STEPPING_FRACTION_DARK_INSIDE = 0.62
 # or line that stands out on it (FEATURE_MIN_STRENGTH grey levels per px, FEATURE_MIN_RATIO
 # times the edges beside it) on this fraction of the rays in the frame, in this many sectors.
 MIN_FEATURE_FRACTION = 0.6
+# ... or this fraction, for a circle about the same centre past one that passed (the outermost is the rim).
+MIN_FEATURE_FRACTION_OUTSIDE = 0.4
 MIN_RIM_SECTORS_EITHER = 6
 FEATURE_MIN_STRENGTH = 4.0
 FEATURE_MIN_RATIO = 2.0
@@ -121,6 +123,9 @@ CONCENTRIC_GRIDS = ((40.0, 10.0), (10.0, 3.0), (3.0, 1.0))
 CONCENTRIC_SHARE = 0.4
 CONCENTRIC_PEAK_RATIO = 0.3
 CONCENTRIC_PROMINENCE = 3.0
+# Two start circles whose centres and radii differ by less than this fraction of the radius
+# (or 2 px) lead to the same rim: the second is not tried.
+SAME_START_FRACTION = 0.01
 FRAME_EDGES = ("left", "top", "right", "bottom")
 
 
@@ -317,6 +322,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         (voted_either, 0, (NARROW_REACH,), False),
         (lambda: _voted_circles(small, factor, polarity=-1, count=6), -1, (NARROW_REACH, WIDE_REACH), False),
     )
+    tried: list[tuple[int, tuple[float, float], float]] = []
     for stage, polarity, reaches, first in stages:
         if best is not None and (polarity != best.polarity or best.convincing or best.polarity == 0):
             break
@@ -328,6 +334,11 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         for centre, radius in candidates:
             if best is not None and math.dist(centre, best.circle.centre) < 2 and abs(radius - best.circle.radius) < 2:
                 continue  # the same circle again
+            # A start this close to one already tried at this polarity ends where that one did.
+            near = max(2.0, SAME_START_FRACTION * radius)
+            if any(p == polarity and math.dist(centre, c) < near and abs(radius - r) < near for p, c, r in tried):
+                continue
+            tried.append((polarity, centre, radius))
             try:
                 found = _refine_rim(grey, centre, radius, polarity, reaches)
             except PanomapError as exc:
@@ -340,17 +351,26 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
     while best is not None and best.polarity == 0:
         # A rim of either polarity is the outermost circle that passes: inside a mirror's rim
         # the scene (a ceiling's edge) may draw circles too; outside it, the housing is blurred.
+        # Past a circle that passed, the rim may show on fewer rays (the housing as bright as
+        # the mirror on some arcs): a circle about the same centre needs MIN_FEATURE_FRACTION_OUTSIDE.
         try:
-            best = _iterate_rim(
+            further = _iterate_rim(
                 grey,
                 best.circle.centre,
                 best.circle.radius * (1 + WIDE_REACH),
                 0,
                 WIDE_REACH,
                 beyond=best.circle.radius + NEAR_PX,
+                least_features=MIN_FEATURE_FRACTION_OUTSIDE,
             )
         except PanomapError:
             break
+        moved = math.dist(further.circle.centre, best.circle.centre)
+        if further.stepping < MIN_FEATURE_FRACTION * further.rays_in_frame and moved > max(
+            NEAR_PX, NEAR_FRACTION * best.circle.radius
+        ):
+            break
+        best = further
     if best is None:
         reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
         raise NoImageCircle(
@@ -427,8 +447,10 @@ def _iterate_rim(
     polarity: int,
     reach: float,
     beyond: float = 0.0,
+    least_features: float = MIN_FEATURE_FRACTION,
 ) -> _Rim:
-    """:func:`_refine_rim` with the first search ``reach`` times the radius wide (polarity 0: past ``beyond``)."""
+    """:func:`_refine_rim` with the first search ``reach`` times the radius wide (polarity 0: past ``beyond``,
+    with an edge or line on ``least_features`` of the rays in the frame)."""
     height, width = grey.shape
     circle = None
     for iteration in range(4):
@@ -474,7 +496,7 @@ def _iterate_rim(
             )
     else:
         stepping = _feature_rays(grey, circle)
-        if stepping < MIN_FEATURE_FRACTION * in_frame:
+        if stepping < least_features * in_frame:
             raise PanomapError(
                 f"no image circle found: an edge or a line stands out on the best circle on only "
                 f"{stepping} of the {in_frame:.0f} rays in the frame"
@@ -649,7 +671,7 @@ def _voted_circles(
 
 
 def _concentric_circles(
-    grey: NDArray[Any], seeds: list[tuple[float, float]], count: int = 2
+    grey: NDArray[Any], seeds: list[tuple[float, float]], count: int = 1
 ) -> list[tuple[tuple[float, float], float]]:
     """Circles (full-resolution px) about rough centres on which an edge of either polarity lies all round.
 
@@ -695,22 +717,24 @@ def _concentric_centre(grey: NDArray[Any], seed: tuple[float, float]) -> tuple[f
     factor = max(1, math.ceil(max(full_height, full_width) / COARSE_SIDE))
     small = cv2.resize(grey, (full_width // factor, full_height // factor), interpolation=cv2.INTER_AREA)
     height, width = small.shape
-    radii = np.arange(0.2 * min(height, width), 0.75 * max(height, width), 1.0, dtype=np.float32)
-    angles = np.linspace(0.0, 2 * math.pi, CONCENTRIC_RAYS, endpoint=False)
+    step = 1.5  # px between samples
+    rays = CONCENTRIC_RAYS * 2 // 3
+    radii = np.arange(0.2 * min(height, width), 0.75 * max(height, width), step, dtype=np.float32)
+    angles = np.linspace(0.0, 2 * math.pi, rays, endpoint=False)
     offsets_u = (np.cos(angles)[:, None] * radii[None, :]).astype(np.float32)
     offsets_v = (np.sin(angles)[:, None] * radii[None, :]).astype(np.float32)
-    share = int((1 - CONCENTRIC_SHARE) * CONCENTRIC_RAYS)
+    share = int((1 - CONCENTRIC_SHARE) * rays)
     centre = np.array([(seed[0] + 0.5) / factor - 0.5, (seed[1] + 0.5) / factor - 0.5], dtype=np.float32)
     for half_px, spacing_px in CONCENTRIC_GRIDS:
         half, spacing = half_px / factor, spacing_px / factor
         offsets = np.arange(-half, half + spacing / 2, spacing, dtype=np.float32)
         grid = np.stack(np.meshgrid(offsets, offsets), axis=-1).reshape(-1, 2) + centre
         n = len(grid)
-        map_u = (grid[:, 0, None, None] + offsets_u[None]).reshape(n * CONCENTRIC_RAYS, -1)
-        map_v = (grid[:, 1, None, None] + offsets_v[None]).reshape(n * CONCENTRIC_RAYS, -1)
+        map_u = (grid[:, 0, None, None] + offsets_u[None]).reshape(n * rays, -1)
+        map_v = (grid[:, 1, None, None] + offsets_v[None]).reshape(n * rays, -1)
         samples = cv2.remap(small, map_u, map_v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
         strength = np.nan_to_num(np.abs(samples[:, 2:] - samples[:, :-2]))
-        strength = strength.reshape(n, CONCENTRIC_RAYS, -1).transpose(0, 2, 1)
+        strength = strength.reshape(n, rays, -1).transpose(0, 2, 1)
         scores = np.partition(strength, share, axis=2)[..., share].max(axis=1)
         centre = grid[int(np.argmax(scores))]
     return _full_resolution((float(centre[0]), float(centre[1])), factor)
