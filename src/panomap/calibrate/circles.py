@@ -340,7 +340,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
                 continue
             tried.append((polarity, centre, radius))
             try:
-                found = _refine_rim(grey, centre, radius, polarity, reaches)
+                found = _refine_rim(grey, centre, radius, polarity, reaches, last_edge=first)
             except PanomapError as exc:
                 reasons.append(exc.detail)
                 continue
@@ -424,16 +424,27 @@ class _Rim:
 
 
 def _refine_rim(
-    grey: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reaches: tuple[float, ...]
+    grey: NDArray[Any],
+    centre: tuple[float, float],
+    radius: float,
+    polarity: int,
+    reaches: tuple[float, ...],
+    last_edge: bool = False,
 ) -> _Rim:
     """Rim edge points and the robust circle through them, iterated from a start circle.
 
     The rim is first looked for within ``reaches[0]`` of the start radius (a good start:
-    the scene further in is then no distraction), then within each next reach.
+    the scene further in is then no distraction), then within each next reach. With
+    ``last_edge`` (polarity 0), a circle with an edge on MIN_FEATURE_FRACTION_OUTSIDE of the
+    rays passes where the image past it is smooth (:func:`_smooth_beyond`).
     """
     failure = PanomapError("no image circle found")
     for reach in reaches:
         try:
+            if last_edge:
+                return _iterate_rim(
+                    grey, centre, radius, polarity, reach, least_features=MIN_FEATURE_FRACTION_OUTSIDE, last_edge=True
+                )
             return _iterate_rim(grey, centre, radius, polarity, reach)
         except PanomapError as exc:
             failure = exc
@@ -448,9 +459,11 @@ def _iterate_rim(
     reach: float,
     beyond: float = 0.0,
     least_features: float = MIN_FEATURE_FRACTION,
+    last_edge: bool = False,
 ) -> _Rim:
     """:func:`_refine_rim` with the first search ``reach`` times the radius wide (polarity 0: past ``beyond``,
-    with an edge or line on ``least_features`` of the rays in the frame)."""
+    with an edge or line on ``least_features`` of the rays in the frame; under MIN_FEATURE_FRACTION,
+    with ``last_edge``, only where the image past the circle is smooth)."""
     height, width = grey.shape
     circle = None
     for iteration in range(4):
@@ -496,12 +509,32 @@ def _iterate_rim(
             )
     else:
         stepping = _feature_rays(grey, circle)
-        if stepping < least_features * in_frame:
+        if stepping < least_features * in_frame or (
+            last_edge and stepping < MIN_FEATURE_FRACTION * in_frame and not _smooth_beyond(grey, circle)
+        ):
             raise PanomapError(
                 f"no image circle found: an edge or a line stands out on the best circle on only "
                 f"{stepping} of the {in_frame:.0f} rays in the frame"
             )
     return _Rim(circle, points, in_frame, polarity, stepping)
+
+
+def _smooth_beyond(grey: NDArray[Any], circle: Circle) -> bool:
+    """Whether the image past the circle (4 px to WIDE_REACH of the radius) has no clear edge on most rays.
+
+    Past a mirror's rim lies its housing, out of focus; past a circle of the scene inside
+    the mirror, the rest of the mirror. On each ray the strongest edge there (smoothed as
+    for the rim) is taken; their median over the rays seen there must stay under
+    FEATURE_MIN_STRENGTH, and half the rays must be seen there.
+    """
+    radii = np.arange(circle.radius + 4.0, circle.radius * (1 + WIDE_REACH), STEP)
+    samples, _, _ = _profiles(grey, circle.centre, radii, RAYS // 4)
+    strength = np.where(np.isfinite(samples), _edge_strength(samples), np.nan)
+    seen = np.sum(np.isfinite(samples), axis=1) >= 0.5 * len(radii)
+    if seen.sum() < 0.5 * len(seen):
+        return False
+    strongest = np.nanmax(strength[seen], axis=1)
+    return bool(np.median(strongest) < FEATURE_MIN_STRENGTH)
 
 
 def _stepping_rays(grey: NDArray[Any], circle: Circle, polarity: int) -> int:
