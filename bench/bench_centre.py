@@ -5,7 +5,8 @@ Run: ``.venv/bin/python bench/bench_centre.py``
 1. Times ``find_image_circles`` on 1920 x 1920 omni-images (noise and JPEG as in
    the tests) against decoding each JPEG, in the same run: the bundled textured
    room through a mirror camera, the same in a bright blurred housing (a rim of either
-   polarity, no dark border), a checkerboard filling the view, and a fisheye
+   polarity, no dark border), that housing as bright as the mirror on half the rim
+   (``housed_mirror(faint=0.5)``), a checkerboard filling the view, and a fisheye
    whose circle a 16:9 frame (1920 x 1080) cuts at top and bottom.
 2. Where the real data sets (not bundled) are present, prints a Markdown table of
    the centre found in every real image against the centre of the established
@@ -60,9 +61,18 @@ def scenes() -> dict[str, tuple[np.ndarray, object]]:
         mirror.cutoff_radius,
         np.random.default_rng(1),
     )
+    faint = housed_mirror(
+        render(room, mirror, supersample=1),
+        mirror.centre,
+        mirror.outer_radius,
+        mirror.cutoff_radius,
+        np.random.default_rng(2),
+        faint=0.5,
+    )
     return {
         "textured room, hyperbolic mirror, 1920 x 1920": (render(room, mirror, supersample=1), mirror),
         "the same mirror in a bright blurred housing (rim of either polarity), 1920 x 1920": (housed, mirror),
+        "the same, the rim without contrast on half of it, 1920 x 1920": (faint, mirror),
         "checkerboard filling the view, 1920 x 1920": (checker, mirror),
         "fisheye cut at top and bottom, 1920 x 1080": (render(room, fisheye, supersample=1), fisheye),
     }

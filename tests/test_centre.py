@@ -313,7 +313,7 @@ REAL_SETS = {
     "ocam_vmr_catadioptric": (5.5, 10, 10),
     "mei_paracatadioptric": (7.0, 10, 10),
     "ocam_fisheye_imgback": (14.0, 11, 0),
-    "ocam_miniomni_catadioptric": (18.0, 5, 0),
+    "ocam_miniomni_catadioptric": (21.0, 11, 3),
 }
 
 
@@ -333,7 +333,8 @@ def real_reference(folder: Path) -> tuple[float, float]:
 @pytest.mark.skipif(not REAL.is_dir(), reason=f"real data not found at {REAL} (../shared is not beside the repo)")
 @pytest.mark.parametrize("folder", list(REAL_SETS))
 def test_real_sets(folder: str) -> None:
-    """Measured (docs/centre.md): found on 17/17, 10/10, 10/10, 11/11 and 5/15 images; where not, NoImageCircle."""
+    """Measured (docs/centre.md): found on 17/17, 10/10, 10/10, 11/11 and 11/15 images (miniomni: 5/15 before the
+    concentric search, 3 with the cut-off disc); where not, NoImageCircle."""
     from panomap.io.images import read_image
 
     bound, least_found, least_cutoffs = REAL_SETS[folder]
@@ -361,8 +362,8 @@ def test_a_mirror_in_a_bright_blurred_housing() -> None:
     panomap.simulate.housed_mirror: darker inside on some arcs, a thin bright or dark line on
     others, and a square dark board with a round lens as the self-reflection. The issue's bar:
     centre <= 0.5 px, radius <= 1 px, the cut-off disc found (its radius within 1 px). Measured
-    over these 12 trials (docs/centre.md): 11 found, worst centre 0.49 px, outer radius 0.33 px,
-    cut-off radius 0.52 px; the other gives NoImageCircle, never a wrong circle.
+    over these 12 trials (docs/centre.md): 12 found (11 before the concentric search; the other
+    gave NoImageCircle), worst centre 0.48 px, outer radius 0.33 px, cut-off radius 0.52 px.
     """
     rng = np.random.default_rng(11)
     found_count = 0
@@ -383,7 +384,61 @@ def test_a_mirror_in_a_bright_blurred_housing() -> None:
             assert found.cutoff is not None, (trial, size)
             assert abs(found.cutoff.radius - camera.cutoff_radius) <= 1.0, (trial, size)
             assert found.rim_polarity in ("dark inside", "mixed")
-    assert found_count >= 11
+    assert found_count == 12
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("faint", [0.4, 0.55])
+def test_a_housed_mirror_whose_rim_shows_on_part_of_it(faint: float) -> None:
+    """The housing as bright as the mirror on ``faint`` of the rim (housed_mirror(faint=...)), as on miniomni.
+
+    The rim then shows an edge on 50-60% of the rays in the frame, under the 60% a circle
+    needs on its own, while a circle of the scene inside the mirror passes: that circle was
+    reported as the rim, 13-54 px too small. Past a circle that passed, a circle about the
+    same centre is the rim with an edge on 40% of the rays. Measured over these trials
+    (before: 5 of 12 wrong by 13-54 px): worst centre 0.37 px, radius 0.35 px.
+    """
+    rng = np.random.default_rng(31)
+    for trial in range(6):
+        size, radius = ((640, 600), None) if trial % 2 == 0 else ((640, 480), 260.0)
+        name = ["parabolic", "hyperbolic", "spherical"][trial % 3]
+        centre = ((size[0] - 1) / 2 + rng.uniform(-20, 20), (size[1] - 1) / 2 + rng.uniform(-8, 8))
+        camera = standard_cameras(size, centre=centre, phi0=rng.uniform(0, 2 * math.pi), outer_radius=radius)[name]
+        image = render(ROOM, camera, supersample=2)
+        housed = housed_mirror(image, camera.centre, camera.outer_radius, camera.cutoff_radius, rng, faint=faint)
+        found = find_image_circles(noisy_jpeg(housed, rng))
+        assert math.dist(found.centre, camera.centre) <= 0.5, trial
+        assert abs(found.outer_radius - camera.outer_radius) <= 0.7, trial
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("size", [(1920, 1920), (1920, 1440)])
+def test_a_housed_mirror_at_full_size(size: tuple[int, int]) -> None:
+    """The housed mirror at 1920 px: the rim's thin line and the housing's blur (px, not scaled with the image)
+    vanish in the downscaled circle transform, whose candidates then miss the rim by tens of px.
+
+    The concentric search (the edge strength most rays reach, peaking at one radius about the
+    right centre) finds it. 1920 x 1440 cuts the circle at top and bottom by 8% of its radius.
+    Measured worst over these trials: centre 0.21 px, outer radius 0.31 px, cut-off radius 0.52 px
+    (the spherical mirror at 1920 x 1920); about twice that for the rim, the issue's bar (1 px)
+    for the cut-off disc.
+    """
+    rng = np.random.default_rng(21 + size[1])
+    for name in ["hyperbolic", "spherical"]:
+        middle = ((size[0] - 1) / 2, (size[1] - 1) / 2)
+        centre = (middle[0] + rng.uniform(-20, 20), middle[1] + rng.uniform(-20, 20))
+        radius = None if size[0] == size[1] else 780.0
+        camera = standard_cameras(size, centre=centre, phi0=rng.uniform(0, 2 * math.pi), outer_radius=radius)[name]
+        image = render(ROOM, camera, supersample=1)
+        housed = housed_mirror(image, camera.centre, camera.outer_radius, camera.cutoff_radius, rng)
+        found = find_image_circles(noisy_jpeg(housed, rng))
+        assert math.dist(found.centre, camera.centre) <= 0.4, name
+        assert abs(found.outer_radius - camera.outer_radius) <= 0.6, name
+        assert found.cutoff is not None, name
+        assert abs(found.cutoff.radius - camera.cutoff_radius) <= 1.0, name
+        assert found.rim_polarity in ("dark inside", "mixed")
+        if radius is not None:
+            assert found.cropped_by == ("top", "bottom")
 
 
 def test_the_simulated_housing_is_brighter_than_the_mirror() -> None:
@@ -397,3 +452,26 @@ def test_the_simulated_housing_is_brighter_than_the_mirror() -> None:
     assert np.median(grey[r > camera.outer_radius + 3]) > np.median(grey[r < camera.outer_radius - 3])
     with pytest.raises(PanomapError, match="cutoff_radius"):
         housed_mirror(render(ROOM, camera, supersample=1), camera.centre, 100.0, 50.0, rng)
+    with pytest.raises(PanomapError, match="faint"):
+        housed_mirror(render(ROOM, camera, supersample=1), camera.centre, camera.outer_radius, 15.0, rng, faint=1.0)
+
+
+def test_a_faint_arc_of_the_simulated_rim_has_no_contrast() -> None:
+    """housed_mirror(faint=0.6) takes the rim's step or line away on 60% of it and leaves the rest as it was.
+
+    The same seed draws the same arcs, levels and housing; only the faint arc (drawn after
+    them) differs near the rim, where every arc had a step or a line of 40-80 grey levels.
+    """
+    camera = standard_cameras((400, 400))["hyperbolic"]
+    image = render(ROOM, camera, supersample=1)
+    v, u = np.mgrid[0:400, 0:400]
+    r = np.hypot(u - camera.centre[0], v - camera.centre[1])
+    degree = (np.degrees(np.arctan2(v - camera.centre[1], u - camera.centre[0])) % 360).astype(int)
+    plain, faint = (
+        housed_mirror(image, camera.centre, camera.outer_radius, 15.0, np.random.default_rng(4), faint=f)[..., 0]
+        for f in (0.0, 0.6)
+    )
+    near = np.abs(r - camera.outer_radius) < 3
+    change = np.abs(plain.astype(float) - faint)
+    changed = np.array([np.max(change[near & (degree == d)]) > 20 for d in range(360)])
+    assert abs(np.mean(changed) - 0.6) < 0.03

@@ -80,6 +80,7 @@ def housed_mirror(
     cutoff_radius: float,
     rng: np.random.Generator,
     arcs: int = 6,
+    faint: float = 0.0,
 ) -> NDArray[np.uint8]:
     """A mirror camera as it is built: the mirror in a bright, blurred housing, and a camera board in the middle.
 
@@ -94,7 +95,10 @@ def housed_mirror(
     board (half-side 1.6-2 times the cut-off radius, turned at random, with lighter
     components on it) and in its middle a round lens of radius ``cutoff_radius``, darker
     still. The rim stays at ``outer_radius`` and the lens's edge at ``cutoff_radius``:
-    every shape is drawn with its exact coverage of each pixel.
+    every shape is drawn with its exact coverage of each pixel. With ``faint``, one arc of
+    that fraction of the rim (at a random angle) shows neither step nor line: the housing
+    there is as bright as the mirror just inside, as on a real camera whose rim is seen
+    only where the housing's light happens to differ.
 
     Parameters
     ----------
@@ -108,14 +112,17 @@ def housed_mirror(
         Draws the arcs, the levels, the board's angle and its components.
     arcs : int
         Arcs around the rim, >= 3.
+    faint : float
+        Fraction of the rim, in ``[0, 1)``, on which the rim has no contrast (0: none).
 
     Returns
     -------
     (H, W, 3) uint8 ndarray
     """
-    if not (0 < cutoff_radius < outer_radius / 3 and arcs >= 3):
+    if not (0 < cutoff_radius < outer_radius / 3 and arcs >= 3 and 0 <= faint < 1):
         raise PanomapError(
-            f"need 0 < cutoff_radius < outer_radius / 3 and arcs >= 3; got {cutoff_radius}, {outer_radius}, {arcs}"
+            f"need 0 < cutoff_radius < outer_radius / 3, arcs >= 3 and 0 <= faint < 1; "
+            f"got {cutoff_radius}, {outer_radius}, {arcs}, {faint}"
         )
     height, width = image.shape[:2]
     v, u = np.mgrid[0:height, 0:width].astype(np.float64)
@@ -140,13 +147,18 @@ def housed_mirror(
     lines = np.where(kinds == 0, 0.0, kinds * rng.uniform(50, 80, arcs))
     # The housing: the mirror's level plus the arc's offset, concentric rings, then blurred.
     rings = 15.0 * np.sin(2 * math.pi * r / rng.uniform(25, 45) + rng.uniform(0, 2 * math.pi))
-    housing = inside_level[np.floor(np.degrees(phi)).astype(np.int64) % 360] + offsets[arc_of] + rings
+    offset, line = offsets[arc_of], lines[arc_of]
+    if faint > 0:
+        start = rng.uniform(0, 2 * math.pi)
+        on_faint = (phi - start) % (2 * math.pi) < 2 * math.pi * faint
+        offset, line = np.where(on_faint, 0.0, offset), np.where(on_faint, 0.0, line)
+    housing = inside_level[np.floor(np.degrees(phi)).astype(np.int64) % 360] + offset + rings
     housing = cv2.GaussianBlur(housing, (0, 0), 6.0)
     outside = np.clip(r - outer_radius + 0.5, 0.0, 1.0)  # coverage of each pixel by the housing
     result = grey * (1 - outside) + housing * outside
     # A thin line (2 px) centred on the rim, on the line arcs: its coverage of each pixel.
     on_line = np.clip(1.0 - np.maximum(np.abs(r - outer_radius) - 0.5, 0.0), 0.0, 1.0)
-    result += on_line * lines[arc_of]
+    result += on_line * line
 
     # The camera board: a dark square with lighter components, and the lens in its middle.
     half_side = cutoff_radius * rng.uniform(1.6, 2.0)
