@@ -2,7 +2,8 @@
 
 Without a scheduler address (argument or ``DASK_SCHEDULER_ADDRESS``), the job starts an
 in-process :class:`distributed.LocalCluster` of one single-threaded worker process per core
-and stops it at the end. With an address, the same tasks go to that cluster's workers,
+(forked from a fork server that has imported panomap, see :data:`LOCAL_WORKERS`) and stops
+it at the end. With an address, the same tasks go to that cluster's workers,
 which must see the job's paths (shared storage) and have panomap installed.
 
 The tasks (:mod:`panomap.batch.tasks`): still images in chunks, one task per video, or one
@@ -33,6 +34,20 @@ from .segments import Probe, plan_segments, probe
 from .tasks import ItemResult, PartResult, describe, join_video, unwarp_images, unwarp_segment, unwarp_whole_video
 
 SCHEDULER_VARIABLE = "DASK_SCHEDULER_ADDRESS"
+# The local cluster's workers (measured: docs/scaling.md, "Where the batch lost"):
+# - forked from a fork server that has imported Dask, NumPy, OpenCV, PyAV and panomap once (start_fork_server),
+#   not each a fresh interpreter importing them again; the cluster then stops in 0.1-0.2 s, not 1.3-1.8 s;
+# - without Dask's MALLOC_TRIM_THRESHOLD_ of 64 KiB (it turns off glibc's adaptive mmap threshold: every frame
+#   in fresh pages, three times the page faults) or its statistical profiler (every thread's stack each 10 ms),
+#   and with its event-loop tick and system monitor slowed (20 ms, 0.5 s): a video task of 100 frames
+#   (1920 x 1920, two views) takes 14.3 CPU-s, not 17.8 (14.8 in a plain process).
+LOCAL_WORKERS = {
+    "distributed.worker.multiprocessing-method": "forkserver",
+    "distributed.worker.profile.enabled": False,
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+}
 
 
 @dataclass(frozen=True)
@@ -83,6 +98,7 @@ def _has_dashboard() -> bool:
 def connect(address: str | None, workers: int | None = None, timeout_s: float = 20.0) -> Iterator[Any]:
     """A Dask client: of the scheduler at ``address``, or of a local cluster of ``workers``
     single-threaded worker processes (default: one per core), stopped on exit."""
+    import dask
     from distributed import Client, LocalCluster
 
     if address is not None:
@@ -94,17 +110,43 @@ def connect(address: str | None, workers: int | None = None, timeout_s: float = 
             yield client
         return
     count = workers or os.cpu_count() or 1
-    with (
-        LocalCluster(
-            n_workers=count,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0" if _has_dashboard() else None,
-            silence_logs=logging.CRITICAL,  # a failing task is reported here, in one line
-        ) as cluster,
-        Client(cluster) as client,
-    ):
-        yield client
+    settings = {key: value for key, value in LOCAL_WORKERS.items() if _can_fork_serve() or "multiprocessing" not in key}
+    with dask.config.set(settings):  # (for the cluster's life: a worker that dies is started the same way)
+        start_fork_server()
+        with (
+            LocalCluster(
+                n_workers=count,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0" if _has_dashboard() else None,
+                silence_logs=logging.CRITICAL,  # a failing task is reported here, in one line
+            ) as cluster,
+            Client(cluster) as client,
+        ):
+            yield client
+
+
+def start_fork_server() -> None:
+    """Start the fork server of the local cluster's workers, importing what every task needs (NumPy, OpenCV,
+    PyAV, panomap) once: each worker is forked from it, ready, instead of a fresh interpreter importing them
+    again. Started before the driver itself imports Dask, so that the two overlap.
+
+    (Where the fork server already runs, as for a second job in one process, it keeps what it preloaded.)
+    """
+    import multiprocessing
+    import multiprocessing.forkserver
+
+    if not _can_fork_serve():
+        return
+    multiprocessing.get_context("forkserver").set_forkserver_preload(["distributed", "panomap.batch.tasks"])
+    multiprocessing.forkserver.ensure_running()
+
+
+def _can_fork_serve() -> bool:
+    """The system has fork servers (not Windows): elsewhere each worker starts as a fresh interpreter."""
+    import multiprocessing
+
+    return "forkserver" in multiprocessing.get_all_start_methods()
 
 
 def chunk_size(images: int, workers: int) -> int:
@@ -142,6 +184,9 @@ def run_job(
     warn = warn or (lambda message: None)
     report = BatchReport(inputs=len(job.items))
     pending = [item for item in job.items if force or not record.complete(item)]
+    address = scheduler_address(scheduler)
+    if address is None and pending:
+        start_fork_server()  # (its imports overlap the checks below and the import of Dask)
     report.skipped = len(job.items) - len(pending)
     for item in pending:
         for output in item.outputs:
@@ -175,7 +220,7 @@ def run_job(
         if progress is not None:
             progress(Progress(state["inputs"], total, state["frames"], frames_total))
 
-    with connect(scheduler_address(scheduler), workers) as client:
+    with connect(address, workers) as client:
         from distributed import as_completed
 
         report.workers = len(client.scheduler_info().get("workers", {}))
