@@ -19,7 +19,8 @@ from panomap.camera.orientation import tilt_angles, tilt_rotation
 from panomap.errors import PanomapError
 from panomap.geometry import azimuth_elevation
 from panomap.simulate.cameras import TiltedCamera, mount_rotation, standard_cameras
-from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras, test_points
+from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras
+from panomap.simulate.scenarios import test_points as points_seen  # (a "test_" name pytest would collect)
 from panomap.table.file import load_table, metadata_digest
 
 from helpers import assert_one_line_error, run, spread_landmarks
@@ -260,7 +261,7 @@ def test_a_mirror_tilted_3_deg_is_learned_with_the_mirrors_law_and_covers_the_vi
     assert fit.model.radial.kind == "unified" and fit.outliers == []
     assert fit.mount is not None and fit.mount.tilt_deg == pytest.approx(math.degrees(tilt), abs=0.15)
     table = create_table(fit, image_size=IMAGE_SIZE, cutoff_radius=annulus[0], outer_radius=annulus[1])
-    world, truth = test_points(camera)
+    world, truth = points_seen(camera)
     radius = np.hypot(*(truth - np.asarray(base.centre)).T)
     inside = (radius >= annulus[0] + 5.0) & (radius <= annulus[1] - 5.0)
     error = np.linalg.norm(table.project(world[inside]) - truth[inside], axis=1)
