@@ -62,7 +62,8 @@ def make_inputs(folder: Path, images: int, videos: int, frames: int) -> Path:
     camera = standard_cameras(SIZE)["equidistant"]
     assert isinstance(camera, RadialCamera)
     omni = render(room, camera, supersample=1)
-    position = tuple(float(c) for c in room.camera)
+    x, y, z = (float(c) for c in room.camera)
+    position = (x, y, z)
     horizon = float(camera.radius_of_rho(0.0))
     landmarks = Landmarks(*spread_landmarks(camera, position, 40, np.random.default_rng(0)))
     below = np.hypot(*(landmarks.pixels - np.asarray(camera.centre)).T) < horizon - 1
