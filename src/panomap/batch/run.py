@@ -276,6 +276,9 @@ def run_job(
                 time.sleep(0.05)
                 continue
             for future in waiting.next_batch(block=False):
+                if stop.is_set():
+                    # Stopped while taking a batch of results: the rest are not recorded (a rerun redoes them).
+                    break
                 kind, payload = kinds[future]
                 error = future.status == "error"
                 if kind == "segment":
