@@ -847,6 +847,10 @@ def _choose_mount(
         except PanomapError:
             continue
         added = 2 * option.tilt + 3 * option.position
+        # The position refines a tilted mount only where the tilt alone passed (five unknowns on a dozen
+        # landmarks pass by chance where two do not: a level camera was given a tilt and a shift).
+        if option.tilt and option.position and replace(option, position=False) not in screened:
+            continue
         if level_chi2 - _chi2(problem, trial, inliers, option) > CHI2_95[added]:
             screened.append(option)
     if not level_covers:
