@@ -43,6 +43,7 @@ import threading
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -106,6 +107,14 @@ class DirectionLookup:
     q_range: tuple[float, float]
     sine_range: tuple[float, float]
     image_size: tuple[int, int] | None
+
+    @cached_property
+    def transposed(self) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """u and v transposed (read-only), made on first use: for views whose rows run along the lookup's columns."""
+        images = tuple(np.ascontiguousarray(image.T) for image in (self.u, self.v))
+        for image in images:
+            image.setflags(write=False)
+        return images[0], images[1]
 
 
 _LOOKUPS: dict[int, DirectionLookup | None] = {}
@@ -289,18 +298,22 @@ def row_sine_bounds(
         ``x* = (a_z (a.b) - b_z |a|^2) / (b_z (a.b) - a_z |b|^2)``; the
         extremes over the segment of pixels are at its ends or there.
     """
-    a = np.stack([np.asarray(values, dtype=np.float64) for values in rows], axis=-1)  # (H, 3)
-    b = np.asarray(direction, dtype=np.float64)
+    a_x, a_y, a_z = (np.asarray(values, dtype=np.float64) for values in rows)
+    b_x, b_y, b_z = (float(value) for value in direction)
     x_first, x_last = float(np.min(offsets)), float(np.max(offsets))
-    a_b, a_a, b_b = a @ b, np.einsum("ij,ij->i", a, a), float(b @ b)
+    a_b = a_x * b_x + a_y * b_y + a_z * b_z
+    a_a = a_x * a_x + a_y * a_y + a_z * a_z
+    b_b = b_x * b_x + b_y * b_y + b_z * b_z
     with np.errstate(divide="ignore", invalid="ignore"):
-        stationary = (a[:, 2] * a_b - b[2] * a_a) / (b[2] * a_b - a[:, 2] * b_b)
+        stationary = (a_z * a_b - b_z * a_a) / (b_z * a_b - a_z * b_b)
     stationary = np.where(np.isfinite(stationary), np.clip(stationary, x_first, x_last), x_first)
-    sines = []
-    for x in (np.full(len(a), x_first), np.full(len(a), x_last), stationary):
-        d = a + x[:, None] * b
-        sines.append(d[:, 2] / np.linalg.norm(d, axis=-1))
-    return np.minimum.reduce(sines), np.maximum.reduce(sines)
+
+    def sine(x: FloatArray | float) -> FloatArray:
+        # |a + x b|^2 = |a|^2 + 2 x (a.b) + x^2 |b|^2
+        return np.asarray((a_z + x * b_z) / np.sqrt(a_a + x * (2.0 * a_b + x * b_b)), dtype=np.float64)
+
+    ends, middle = (sine(x_first), sine(x_last)), sine(stationary)
+    return np.minimum(np.minimum(*ends), middle), np.maximum(np.maximum(*ends), middle)
 
 
 def lookup_map(
@@ -331,15 +344,30 @@ def lookup_map(
     """
     height, width = length.shape
     out = np.empty((height, width, 2), dtype=np.float32)
+    across = runs_across(lookup, [values[height // 2] for values in rows], cols, length[height // 2])
 
     def strip(start: int, stop: int) -> None:
         strip_rows = [values[start:stop] for values in rows]
         strip_sines = None if row_sines is None else (row_sines[0][start:stop], row_sines[1][start:stop])
         texels = lookup_coordinates(lookup, strip_rows, cols, length[start:stop], strip_sines)
-        read_lookup(lookup, *texels, out=out[start:stop])
+        read_lookup(lookup, *texels, out=out[start:stop], across=across)
 
     in_strips(height, strip)
     return out
+
+
+def runs_across(lookup: DirectionLookup, row: list[float], cols: list[FloatArray], length: NDArray[np.float32]) -> bool:
+    """Whether a view's row of rays ``row[a] + cols[a][k]`` runs more along the lookup's columns than its rows.
+
+    ``cv2.remap`` reads a 1-channel image faster when consecutive pixels read
+    along its rows (fewer cache lines): such views read the transposed lookup
+    (25% less time for a straight-down view on a 1920 px image).
+    """
+    d = [row[axis] + np.asarray(cols[axis], dtype=np.float64) for axis in range(3)]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = np.asarray(length, dtype=np.float64) + lookup.pole * d[2]
+        steps = [np.nansum(np.abs(np.diff(d[axis] / w))) for axis in (0, 1)]
+    return bool(steps[1] > steps[0])
 
 
 @dataclass(frozen=True)
@@ -369,7 +397,7 @@ def lookup_coordinates(
     range, all of them without it; None when no row needs it. x and y are this
     thread's scratch memory, good until its next map of the same size.
     """
-    w, x, y, _, _ = _scratch(length.shape)
+    w, x, y, _ = _scratch(length.shape)
 
     def numerator(axis: int, factor: float, out: NDArray[np.float32]) -> NDArray[np.float32]:
         row = (factor * np.asarray(rows[axis], dtype=np.float64)).astype(np.float32)
@@ -414,20 +442,22 @@ def _check_rows(
 
 
 _SCRATCH = threading.local()
-# Maps up to this many pixels keep their scratch memory (5 x 4 bytes a pixel: 80 MB at most).
+# Maps up to this many pixels keep their scratch memory (4 x 4 bytes a pixel: 64 MB at most).
 SCRATCH_PIXELS = 4_000_000
 
 
 def _scratch(shape: tuple[int, ...]) -> list[NDArray[np.float32]]:
-    """Five float32 arrays of ``shape``, this thread's, kept for its next map of that shape.
+    """Four float32 arrays of ``shape``, this thread's, kept for its next map of that shape.
 
     Fresh memory costs page faults on every write, and a moving view asks for
     map after map of one size. Only maps up to ``SCRATCH_PIXELS`` keep theirs.
+    The first holds w while the texels are worked out, then the map's u (less
+    memory to go through the caches).
     """
     kept = getattr(_SCRATCH, "arrays", [])
     if kept and kept[0].shape == shape:
         return kept
-    arrays = [np.empty(shape, dtype=np.float32) for _ in range(5)]
+    arrays = [np.empty(shape, dtype=np.float32) for _ in range(4)]
     _SCRATCH.arrays = arrays if math.prod(shape) <= SCRATCH_PIXELS else []
     return arrays
 
@@ -438,15 +468,18 @@ def read_lookup(
     y: NDArray[np.float32],
     check: RowCheck | None,
     out: NDArray[np.float32] | None = None,
+    across: bool = False,
 ) -> NDArray[np.float32]:
     """The (H, W, 2) map read from the lookup at texels (x, y); NaN where ``check`` fails or off the image.
 
     The map is written into ``out`` (a C-contiguous (H, W, 2) float32 array)
-    when given.
+    when given. ``across`` reads the transposed lookup (the same values; see
+    :func:`runs_across`).
     """
-    _, _, _, u, v = _scratch(x.shape)
-    for image, read in ((lookup.u, u), (lookup.v, v)):
-        cv2.remap(image, x, y, cv2.INTER_LINEAR, dst=read, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
+    u, _, _, v = _scratch(x.shape)
+    images, map_x, map_y = (lookup.transposed, y, x) if across else ((lookup.u, lookup.v), x, y)
+    for image, read in zip(images, (u, v), strict=True):
+        cv2.remap(image, map_x, map_y, cv2.INTER_LINEAR, dst=read, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
     start, valid = (0, None) if check is None else (check.start, check.valid)
     if lookup.image_size is not None:
         width, height = lookup.image_size

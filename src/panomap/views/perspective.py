@@ -100,9 +100,10 @@ class PerspectiveView(View):
     def axes(self) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Forward F, right R and down Dn, each (3,) unit vectors in world axes."""
         psi, tau, omega = self.yaw_rad, self.pitch_rad, self.roll_rad
-        forward = np.array([math.cos(tau) * math.cos(psi), math.cos(tau) * math.sin(psi), math.sin(tau)])
-        right0 = np.array([math.sin(psi), -math.cos(psi), 0.0])
-        down0 = np.cross(forward, right0)
+        cos_tau, sin_tau, cos_psi, sin_psi = math.cos(tau), math.sin(tau), math.cos(psi), math.sin(psi)
+        forward = np.array([cos_tau * cos_psi, cos_tau * sin_psi, sin_tau])
+        right0 = np.array([sin_psi, -cos_psi, 0.0])
+        down0 = np.array([sin_tau * cos_psi, sin_tau * sin_psi, -cos_tau])  # F x R0
         right = math.cos(omega) * right0 + math.sin(omega) * down0
         down = math.cos(omega) * down0 - math.sin(omega) * right0
         return forward, right, down
@@ -160,12 +161,15 @@ class PerspectiveView(View):
         return lookup_map(lookup, rows, cols, _ray_lengths(self.size, self.fov_rad), row_sine_bounds(rows, right, x))
 
 
+@lru_cache(maxsize=4)
 def _offsets(size: tuple[int, int], fov: float) -> tuple[FloatArray, FloatArray]:
-    """x (W,) and y (H,) of a view of ``size`` and ``fov`` (see :meth:`PerspectiveView._offsets`)."""
+    """x (W,) and y (H,) of a view of ``size`` and ``fov`` (see :meth:`PerspectiveView._offsets`), read-only."""
     width, height = size
     f = (width / 2.0) / math.tan(fov / 2.0)
     x = np.asarray((np.arange(width) + 0.5 - width / 2) / f, dtype=np.float64)
     y = np.asarray((np.arange(height) + 0.5 - height / 2) / f, dtype=np.float64)
+    for values in (x, y):
+        values.setflags(write=False)
     return x, y
 
 
