@@ -345,3 +345,31 @@ def test_a_worker_killed_mid_job_on_a_real_cluster_loses_nothing(work: Path, tmp
             except subprocess.TimeoutExpired:
                 os.killpg(process.pid, signal.SIGKILL)
                 process.wait()
+
+
+@pytest.mark.parametrize(
+    ("argv", "starts"),
+    [
+        (["batch", "in", "--table", "t.npz", "-o", "{stem}_{name}.jpg"], True),
+        (["batch", "--help"], False),
+        (["batch", "in", "--scheduler", "tcp://host:8786"], False),
+        (["batch", "in", "--scheduler=tcp://host:8786"], False),
+        (["video", "t.npz", "in.mp4"], False),
+        ([], False),
+    ],
+)
+def test_the_command_line_starts_the_fork_server_only_for_a_local_batch(
+    argv: list[str], starts: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from panomap.batch import forkserver
+
+    started: list[bool] = []
+    monkeypatch.setattr(forkserver, "start_fork_server", lambda: started.append(True))
+    monkeypatch.delenv(forkserver.SCHEDULER_VARIABLE, raising=False)
+    forkserver.start_for_command(argv)
+    assert bool(started) == starts
+    if starts:  # a scheduler in the environment: the workers are not ours
+        started.clear()
+        monkeypatch.setenv(forkserver.SCHEDULER_VARIABLE, "tcp://host:8786")
+        forkserver.start_for_command(argv)
+        assert not started

@@ -2,7 +2,7 @@
 
 Without a scheduler address (argument or ``DASK_SCHEDULER_ADDRESS``), the job starts an
 in-process :class:`distributed.LocalCluster` of one single-threaded worker process per core
-(forked from a fork server that has imported panomap, see :data:`LOCAL_WORKERS`) and stops
+(forked from a fork server that has imported panomap, see :mod:`panomap.batch.forkserver`) and stops
 it at the end. With an address, the same tasks go to that cluster's workers,
 which must see the job's paths (shared storage) and have panomap installed.
 
@@ -28,12 +28,12 @@ from typing import Any
 
 from ..errors import PanomapError
 from ..files import check_output
+from .forkserver import SCHEDULER_VARIABLE, can_fork_serve, start_fork_server
 from .job import Item, Job
 from .record import Failed, Record
 from .segments import Probe, plan_segments, probe
 from .tasks import ItemResult, PartResult, describe, join_video, unwarp_images, unwarp_segment, unwarp_whole_video
 
-SCHEDULER_VARIABLE = "DASK_SCHEDULER_ADDRESS"
 # The local cluster's workers (measured: docs/scaling.md, "Where the batch lost"):
 # - forked from a fork server that has imported Dask, NumPy, OpenCV, PyAV and panomap once (start_fork_server),
 #   not each a fresh interpreter importing them again; the cluster then stops in 0.1-0.2 s, not 1.3-1.8 s;
@@ -110,7 +110,7 @@ def connect(address: str | None, workers: int | None = None, timeout_s: float = 
             yield client
         return
     count = workers or os.cpu_count() or 1
-    settings = {key: value for key, value in LOCAL_WORKERS.items() if _can_fork_serve() or "multiprocessing" not in key}
+    settings = {key: value for key, value in LOCAL_WORKERS.items() if can_fork_serve() or "multiprocessing" not in key}
     with dask.config.set(settings):  # (for the cluster's life: a worker that dies is started the same way)
         start_fork_server()
         with (
@@ -124,29 +124,6 @@ def connect(address: str | None, workers: int | None = None, timeout_s: float = 
             Client(cluster) as client,
         ):
             yield client
-
-
-def start_fork_server() -> None:
-    """Start the fork server of the local cluster's workers, importing what every task needs (NumPy, OpenCV,
-    PyAV, panomap) once: each worker is forked from it, ready, instead of a fresh interpreter importing them
-    again. Started before the driver itself imports Dask, so that the two overlap.
-
-    (Where the fork server already runs, as for a second job in one process, it keeps what it preloaded.)
-    """
-    import multiprocessing
-    import multiprocessing.forkserver
-
-    if not _can_fork_serve():
-        return
-    multiprocessing.get_context("forkserver").set_forkserver_preload(["distributed", "panomap.batch.tasks"])
-    multiprocessing.forkserver.ensure_running()
-
-
-def _can_fork_serve() -> bool:
-    """The system has fork servers (not Windows): elsewhere each worker starts as a fresh interpreter."""
-    import multiprocessing
-
-    return "forkserver" in multiprocessing.get_all_start_methods()
 
 
 def chunk_size(images: int, workers: int) -> int:

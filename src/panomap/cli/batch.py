@@ -12,9 +12,10 @@ from typing import Any
 
 import click
 
+from ..batch.forkserver import SCHEDULER_VARIABLE
 from ..batch.job import TEMPLATE_KEYS, Settings, check_inputs_and_table, check_template, find_inputs, make_job
 from ..batch.record import Record
-from ..batch.run import SCHEDULER_VARIABLE, Progress, run_job
+from ..batch.run import Progress, run_job
 from ..errors import PanomapError
 from ..remap import INTERPOLATIONS
 from ..table.sampling import SAMPLINGS
