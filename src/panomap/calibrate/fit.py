@@ -677,7 +677,7 @@ def _choose(
     if reject_outliers:
         for _ in range(n // 4 - int(n - inliers.sum())):
             kind, _ = _select(candidates, data, inliers, annulus, robust=True)
-            fewer = _drop_worst(kind, data, inliers)
+            fewer = _drop_worst(kind, data, inliers, candidates, annulus)
             if fewer is None:
                 break
             inliers = fewer
@@ -685,11 +685,23 @@ def _choose(
     return inliers, kind, selection
 
 
-def _drop_worst(kind: RadialKind, data: _Data, inliers: FloatArray) -> FloatArray | None:
-    """``inliers`` less the worst held-out landmark if it exceeds 5 robust sigmas, else None.
+def _drop_worst(
+    kind: RadialKind,
+    data: _Data,
+    inliers: FloatArray,
+    candidates: tuple[RadialKind, ...] = (),
+    annulus: tuple[float, float] | None = None,
+) -> FloatArray | None:
+    """``inliers`` less one held-out landmark if the worst exceeds 5 robust sigmas, else None.
 
-    Above ``EXACT_LOO_MAX`` landmarks (k-fold errors, where one landmark barely moves the
-    fit of the others) every landmark beyond that bound goes at once.
+    The landmark dropped is, of those beyond that bound and the worst one's neighbours in
+    elevation, the one whose removal leaves the others' leave-one-out errors smallest under
+    the best of ``kind`` and ``candidates`` (the models that may be chosen). At an end of
+    the elevation range a wrong landmark drags the prediction of the good one beyond it,
+    whose error can then be the larger: the good one's removal leaves the wrong one
+    standing out, the wrong one's leaves none. Above ``EXACT_LOO_MAX`` landmarks (k-fold
+    errors, where one landmark barely moves the fit of the others) every landmark beyond
+    the bound goes at once.
     """
     count = int(inliers.sum())
     if count - 1 < kind.parameter_count + 3:
@@ -700,12 +712,54 @@ def _drop_worst(kind: RadialKind, data: _Data, inliers: FloatArray) -> FloatArra
     if not beyond.any():
         return None
     if count <= EXACT_LOO_MAX:
-        beyond = np.arange(whitened.size) == int(np.argmax(whitened))
+        kinds = (kind, *(other for other in candidates if other.name != kind.name))
+        dropped = _least_harmful_removal(kinds, data, inliers, whitened, beyond, annulus)
+        beyond = np.asarray(np.arange(whitened.size) == dropped)
     elif count - int(beyond.sum()) < max(kind.parameter_count + 3, count // 2):
         return None  # most of the landmarks "outliers": the model is wrong, not the landmarks
     fewer = inliers.copy()
     fewer[np.flatnonzero(inliers)[beyond]] = False
     return fewer
+
+
+def _least_harmful_removal(
+    kinds: tuple[RadialKind, ...],
+    data: _Data,
+    inliers: FloatArray,
+    whitened: FloatArray,
+    beyond: NDArray[np.bool_],
+    annulus: tuple[float, float] | None,
+) -> int:
+    """Of ``inliers`` (whitened leave-one-out errors ``whitened``), the position of the landmark to drop.
+
+    Candidates: those ``beyond`` the outlier bound and the worst one's neighbours in
+    elevation; the winner leaves the smallest RMS of the others' leave-one-out errors,
+    under the best of ``kinds`` that can serve without it.
+    """
+    members = np.flatnonzero(inliers)
+    worst = int(np.argmax(whitened))
+    by_elevation = np.argsort(data.rho[members], kind="stable")
+    rank = int(np.flatnonzero(by_elevation == worst)[0])
+    neighbours = by_elevation[max(0, rank - 1) : rank + 2]
+    candidates = sorted(set(np.flatnonzero(beyond).tolist()) | set(neighbours.tolist()))
+    if len(candidates) == 1:
+        return worst
+    scores = []
+    for position in candidates:
+        rest = inliers.copy()
+        rest[members[position]] = False
+        score = math.inf
+        for kind in kinds:
+            if rest.sum() < max(kind.needed_elevations + 2, LANDMARKS_PER_PARAMETER * kind.parameter_count):
+                continue
+            if kind is not kinds[0] and _acceptable(kind, data, rest, annulus):
+                continue
+            others, _ = _leave_one_out(kind, data, rest)
+            if np.all(np.isfinite(others)):
+                score = min(score, float(np.sqrt(np.mean(np.square(others)))))
+        scores.append(score)
+    best = int(np.argmin(scores))
+    return worst if not math.isfinite(scores[best]) else int(candidates[best])
 
 
 def _refine(
