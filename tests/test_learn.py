@@ -443,7 +443,13 @@ def test_the_command_serves_until_interrupted(tmp_path: Path, example: Example) 
         assert state["fit"]["ok"]
     finally:
         process.send_signal(signal.SIGINT)
-        out, err = process.communicate(timeout=30)
+        try:
+            out, err = process.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            # Never leave the server running (into later tests); say what it printed.
+            process.kill()
+            out, err = process.communicate()
+            pytest.fail(f"the server did not stop within 30 s of SIGINT; stdout {out!r}, stderr {err!r}")
     assert process.returncode == 0, err
     assert out.strip() == "panomap learn: stopped" and err == ""
 

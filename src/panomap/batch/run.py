@@ -244,7 +244,7 @@ def run_job(
             warn(f"failed: {error}")  # (as it happens; the report lists them all)
             advance(1, 0)
 
-        while not waiting.is_empty():
+        while not waiting.is_empty() and not report.interrupted:
             if stop.is_set():
                 report.interrupted = True
                 client.cancel(list(kinds))
@@ -254,7 +254,10 @@ def run_job(
                 continue
             for future in waiting.next_batch(block=False):
                 if stop.is_set():
-                    # Stopped while taking a batch of results: the rest are not recorded (a rerun redoes them).
+                    # Stopped while taking a batch of results: the rest are not recorded (a rerun redoes them),
+                    # and the job is interrupted even when that batch held every result left.
+                    report.interrupted = True
+                    client.cancel(list(kinds))
                     break
                 kind, payload = kinds[future]
                 error = future.status == "error"
