@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import click
@@ -65,6 +66,9 @@ def learn(
             err=True,
         )
     server = make_server(session, host, port)
+    # Ctrl-C (SIGINT) stops the server even where it was started ignoring SIGINT (a shell's background job,
+    # nohup), as Python then leaves it.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     click.echo(f"panomap learn: serving {omni.name} at {server.url} (files in {session.folder}); Ctrl-C stops it")
     try:
         server.serve_forever()
@@ -72,3 +76,4 @@ def learn(
         click.echo("panomap learn: stopped")
     finally:
         server.server_close()
+        signal.signal(signal.SIGINT, previous)
