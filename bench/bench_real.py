@@ -2,9 +2,9 @@
 
 Run: ``.venv/bin/python bench/bench_real.py [--data ../shared/data/real] [--trials 20]``
 
-For each ``ocam_*`` folder of the real data (OCamCalib calibrations of three
-mirror cameras and a fisheye, with their checkerboard corners; see each
-folder's ``SOURCE.md``):
+For each folder of the real data (OCamCalib calibrations of three mirror
+cameras and a fisheye; OpenCV omnidir's of a paracatadioptric camera, the Mei
+folder; each with its checkerboard corners; see each folder's ``SOURCE.md``):
 
 - **Landmarks.** ``corners.csv`` gives each corner's 3-D point in the
   OCamCalib camera frame (mm) and its detected pixel (0-based row, col). Our
@@ -16,13 +16,19 @@ folder's ``SOURCE.md``):
   ``atan2(y, x)`` runs from the row axis towards the column axis, i.e. our
   image angle is ``phi = pi/2 - theta`` (``s = -1``, ``phi0 = 90 deg``), which
   the fit estimates. (For the mirror cameras the OCam frame is the mirror
-  image of the physical one; that changes no ray-pixel pair.)
-- **Centre.** From the images with :func:`panomap.centre.find_image_circles`
-  (the median over the folder's images) where it finds the rim in every image
-  (kaidan, vmr); the detected image circle then gives the annulus, as
-  ``panomap fit --image`` would. Where it finds no rim (miniomni: the mirror
-  fills the frame; imgback: the fisheye's circle is cut by the frame), the
-  calibration's centre is used, and the output says so.
+  image of the physical one; that changes no ray-pixel pair.) The Mei
+  folder's corners are in OpenCV's camera frame (X along the columns, Y along
+  the rows, Z forward); ``(X, Y, Z) = (Y_cv, X_cv, -Z_cv)``, a rotation, makes
+  it the OCam frame. Only its corners with a pose are used (288).
+- **Centre.** From the images with :func:`panomap.calibrate.circles.find_image_circles`:
+  the median over the images where it finds the rim (at least half of them:
+  every image but in miniomni, 11 of 15); the median image circle then gives
+  the annulus, as ``panomap fit --image`` would. Where the rim is found in
+  fewer than half, the calibration's centre is used, and the output says so.
+- **fit --image**: :func:`panomap.calibrate.pipeline.calibrate_camera` with
+  the 10 corners and each of the folder's images in turn, no other option
+  (what ``panomap fit --image`` does): the RMS on all other corners and the
+  distance from its centre (refined) to the calibration's.
 - **Choice of the 10 corners** (deterministic): the elevations of all the
   folder's corners span ``[lo, hi]``; for each of 10 elevations evenly spaced
   from ``lo`` to ``hi`` the corner nearest in elevation (each corner once).
@@ -82,18 +88,52 @@ class Corners:
 
 
 def read_corners(folder: Path) -> Corners:
-    """``corners.csv``: 0-based (row, col) pixels become (u, v) = (col, row); OCam (x, y, z) is our (X, Y, Z)."""
+    """``corners.csv`` as landmark pairs in our frame (see the module's docstring).
+
+    OCamCalib folders: 0-based (row, col) pixels become (u, v) = (col, row); OCam (x, y, z) is our (X, Y, Z).
+    The Mei folder (OpenCV's omnidir frame: X along the columns, Y along the rows, Z forward): only the
+    corners with a pose; 0-based (u, v) as they are, and (X, Y, Z) = (Y_cv, X_cv, -Z_cv), a rotation that
+    makes it the OCam frame (rows, columns, the image centre seeing -Z).
+    """
     with (folder / "corners.csv").open(newline="") as handle:
         rows = list(csv.DictReader(handle))
-    pixels = np.array([[float(r["col_px"]), float(r["row_px"])] for r in rows])
-    world = np.array([[float(r["cam_x_mm"]), float(r["cam_y_mm"]), float(r["cam_z_mm"])] for r in rows])
+    if is_mei(folder):
+        rows = [r for r in rows if r["pose_available"] == "1"]
+        pixels = np.array([[float(r["u_col_px"]), float(r["v_row_px"])] for r in rows])
+        world = np.array([[float(r["cam_Y_mm"]), float(r["cam_X_mm"]), -float(r["cam_Z_mm"])] for r in rows])
+    else:
+        pixels = np.array([[float(r["col_px"]), float(r["row_px"])] for r in rows])
+        world = np.array([[float(r["cam_x_mm"]), float(r["cam_y_mm"]), float(r["cam_z_mm"])] for r in rows])
     error = np.array([float(r["reproj_err_px"]) for r in rows])
     return Corners(pixels, world, tuple(r["image"] for r in rows), error)
+
+
+def is_mei(folder: Path) -> bool:
+    """The folder holds OpenCV omnidir's calibration (the Mei camera), not OCamCalib's."""
+    return (folder / "omnidir_calibration.json").is_file()
 
 
 def calibration(folder: Path) -> dict[str, Any]:
     result: dict[str, Any] = json.loads((folder / "ocam_model.json").read_text())
     return result
+
+
+def calibration_centre(folder: Path) -> tuple[float, float]:
+    """The established calibration's centre (u, v): OCamCalib's, or OpenCV omnidir's primary model's."""
+    if is_mei(folder):
+        model = json.loads((folder / "omnidir_calibration.json").read_text())
+        k = model["models"][model["primary"]]["K"]
+        return (float(k[0][2]), float(k[1][2]))
+    ocam = calibration(folder)
+    return (float(ocam["yc_col_0based"]), float(ocam["xc_row_0based"]))
+
+
+def calibration_rms(folder: Path) -> float:
+    """The established calibration's own RMS over all its corners (px)."""
+    if is_mei(folder):
+        model = json.loads((folder / "omnidir_calibration.json").read_text())
+        return float(model["models"][model["primary"]]["reproj_rms_px"])
+    return float(calibration(folder)["reproj_rms_px_rootsolve"])
 
 
 @dataclass(frozen=True)
@@ -104,9 +144,9 @@ class CentreChoice:
 
 
 def find_centre(folder: Path) -> CentreChoice:
-    """The median centre found in the folder's images, or the calibration's where the rim is not found in all."""
-    model = calibration(folder)
-    reference = (float(model["yc_col_0based"]), float(model["xc_row_0based"]))
+    """The median of the centres found in the folder's images (where the rim is found in at least half of
+    them), with the median image circle as the annulus; else the calibration's centre, and the source says so."""
+    reference = calibration_centre(folder)
     paths = sorted((folder / "images").iterdir())
     found = []
     reasons = []
@@ -115,7 +155,7 @@ def find_centre(folder: Path) -> CentreChoice:
             found.append(find_image_circles(read_image(path)))
         except PanomapError as exc:
             reasons.append(exc.detail)
-    if len(found) < len(paths):
+    if 2 * len(found) < len(paths):
         reason = reasons[0].split(";")[0]
         return CentreChoice(
             reference, None, f"calibration's (no rim found in {len(reasons)} of {len(paths)} images: {reason})"
@@ -124,10 +164,13 @@ def find_centre(folder: Path) -> CentreChoice:
     centre = (float(np.median(centres[:, 0])), float(np.median(centres[:, 1])))
     outer = float(np.median([c.outer_radius for c in found]))
     cutoffs = [c.cutoff_radius for c in found if c.cutoff_radius is not None]
-    cutoff = float(np.median(cutoffs)) if len(cutoffs) == len(found) else 0.0
+    cutoff = float(np.median(cutoffs)) if 2 * len(cutoffs) > len(found) else 0.0
     offset = math.dist(centre, reference)
     return CentreChoice(
-        centre, (cutoff, outer), f"detected (median of {len(found)} images, {offset:.1f} px from the calibration's)"
+        centre,
+        (cutoff, outer),
+        f"detected (median of the {len(found)} of {len(paths)} images where the rim is found, {offset:.1f} px "
+        "from the calibration's)",
     )
 
 
@@ -175,7 +218,7 @@ def evaluate(folder: Path, trials: int = 0) -> dict[str, Any]:
         "chosen_elevation_deg": np.degrees(corners.elevation[chosen]).tolist(),
         "chosen_images": sorted(set(corners.images[k] for k in chosen)),
         "tool_rms_px": float(np.sqrt(np.mean(corners.tool_error_px[others] ** 2))),
-        "tool_rms_all_px": float(calibration(folder)["reproj_rms_px_rootsolve"]),
+        "tool_rms_all_px": calibration_rms(folder),
         "fits": {},
     }
     for name, options in FITS.items():
@@ -192,21 +235,26 @@ def evaluate(folder: Path, trials: int = 0) -> dict[str, Any]:
             "s": fit.model.s,
             "phi0_deg": math.degrees(fit.model.phi0),
             "centre": fit.model.centre,
+            "centre_offset_px": math.dist(fit.model.centre, calibration_centre(folder)),
             "outliers": fit.outliers,
         }
     # What `panomap fit --image IMAGE` does with no other option, with each of the folder's images.
     landmarks = Landmarks(corners.pixels[chosen], corners.world[chosen], tuple(f"corner{k}" for k in chosen))
     per_image = []
+    offsets = []
     for path in sorted((folder / "images").iterdir()):
         try:
             fit = calibrate_camera(landmarks, (0.0, 0.0, 0.0), omni=read_image(path)).fit
         except PanomapError:
             per_image.append(math.inf)
+            offsets.append(math.inf)
             continue
         theta, rho = azimuth_elevation(corners.world[others] - np.asarray(fit.camera_position))
         error = np.linalg.norm(fit.model.pixels(theta, rho) - corners.pixels[others], axis=1)
         per_image.append(float(np.sqrt(np.mean(error**2))))
+        offsets.append(math.dist(fit.model.centre, calibration_centre(folder)))
     result["fit_image_rms_px"] = per_image
+    result["fit_image_centre_offset_px"] = offsets
     draws = []
     rng = np.random.default_rng(2007)
     for _ in range(trials):
@@ -225,9 +273,9 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
     parser.add_argument("--trials", type=int, default=20, help="random spread choices per folder (0: none)")
     args = parser.parse_args()
-    folders = sorted(args.data.glob("ocam_*"))
+    folders = sorted(path.parent for path in args.data.glob("*/corners.csv"))
     if not folders:
-        raise SystemExit(f"no ocam_* folders in {args.data}")
+        raise SystemExit(f"no real data sets (folders with a corners.csv) in {args.data}")
     results = [evaluate(folder, args.trials) for folder in folders]
     for r in results:
         print(f"{r['folder']}: {r['corners']} corners; centre {r['centre'].source}")
@@ -239,7 +287,8 @@ def main() -> None:
                 continue
             print(
                 f"  {name}: {fit['kind']}, s {fit['s']:+d}, phi0 {fit['phi0_deg']:.2f} deg, centre "
-                f"({fit['centre'][0]:.2f}, {fit['centre'][1]:.2f}), outliers {fit['outliers'] or 'none'}"
+                f"({fit['centre'][0]:.2f}, {fit['centre'][1]:.2f}; {fit['centre_offset_px']:.2f} px from the "
+                f"calibration's), outliers {fit['outliers'] or 'none'}"
             )
     print()
     print(
@@ -247,10 +296,11 @@ def main() -> None:
         "the tool's RMS on the same corners (and on all of them, SOURCE.md)"
     )
     print(
-        "| folder | centre | other corners | fit --image, RMS over its images: median / worst | default | "
-        "refined centre | paper | tool | random spread choices |"
+        "| folder | centre | other corners | fit --image, RMS over its images: median / worst | fit --image, its "
+        "centre's distance to the calibration's (px): median / worst | default | refined centre | paper | tool | "
+        "random spread choices |"
     )
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in results:
 
         def cell(fit: dict[str, Any]) -> str:
@@ -267,6 +317,7 @@ def main() -> None:
             f"| {r['folder'].removeprefix('ocam_')} | {where} | {r['corners'] - LANDMARK_COUNT} | "
             f"{np.median(r['fit_image_rms_px']):.2f} / {np.max(r['fit_image_rms_px']):.2f} "
             f"({len(r['fit_image_rms_px'])} images) | "
+            f"{np.median(r['fit_image_centre_offset_px']):.2f} / {np.max(r['fit_image_centre_offset_px']):.2f} | "
             f"{cell(r['fits']['default'])} | {cell(r['fits']['refined centre'])} | {cell(r['fits']['paper'])} | "
             f"{r['tool_rms_px']:.2f} ({r['tool_rms_all_px']:.2f}) | {spread} |"
         )

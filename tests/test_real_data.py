@@ -28,6 +28,7 @@ OCAM_FOLDERS = [
     "ocam_miniomni_catadioptric",
     "ocam_fisheye_imgback",
 ]
+FOLDERS = [*OCAM_FOLDERS, "mei_paracatadioptric"]
 
 
 def ocam_centre(folder: str) -> tuple[float, float]:
@@ -75,11 +76,11 @@ def _evaluated(folder: str) -> dict[str, Any]:
     return result
 
 
-@pytest.mark.parametrize("folder", OCAM_FOLDERS)
+@pytest.mark.parametrize("folder", FOLDERS)
 def test_ten_corners_reproject_all_others_within_a_pixel(folder: str) -> None:
     """bench/bench_real.py: 10 corners spread in elevation in, RMS on all other corners out (goal <= 1 px).
 
-    Measured RMS with the centre refined: 0.45-0.66 px (the tool's own: 0.32-0.59 px);
+    Measured RMS with the centre refined: 0.39-0.66 px (the tools' own: 0.32-0.59 px);
     0.8 px leaves room for small platform differences in the centre detection and the
     optimiser while staying inside the goal.
     """
@@ -92,12 +93,26 @@ def test_ten_corners_reproject_all_others_within_a_pixel(folder: str) -> None:
     assert refined["s"] == -1
     expected_phi0 = 87.5 if folder == "ocam_fisheye_imgback" else 90.0
     assert abs(refined["phi0_deg"] - expected_phi0) < 0.3, refined["phi0_deg"]
-    if folder not in ("ocam_vmr_catadioptric", "ocam_fisheye_imgback"):
-        # Measured 0.52-0.66 px with the centre held where it was found (or the calibration's);
-        # vmr's and imgback's rim centres are 1.5-2.2 px off the axis, which the default holds.
+    if folder == "ocam_kaidan_catadioptric":
+        # Measured 0.64 px with the centre held where the rim puts it (0.7 px from the axis); the other
+        # rims' centres are 1.3-3.0 px off the axis, which the centre held cannot undo (0.52-1.83 px).
         assert result["fits"]["default"]["rms_px"] <= 0.8, result["fits"]["default"]
-    detected = folder in ("ocam_kaidan_catadioptric", "ocam_vmr_catadioptric", "ocam_fisheye_imgback")
-    assert result["centre"].source.startswith("detected" if detected else "calibration's")
+    # The rim is found in at least half of each folder's images (miniomni: 11 of 15), never the calibration's.
+    assert result["centre"].source.startswith("detected"), result["centre"].source
+
+
+@pytest.mark.parametrize("folder", FOLDERS)
+def test_fit_image_finds_the_calibrations_centre_from_ten_corners(folder: str) -> None:
+    """``panomap fit --image`` with no other option, once with each of the folder's images: the refined
+    centre within 1 px of the established calibration's (the issue's goal), the RMS on all other corners
+    within 0.7 px (goal).
+
+    Measured: 0.07-0.18 px from the calibration's centre, the same with every image (the rim found in it or
+    not); RMS 0.39-0.66 px.
+    """
+    result = _evaluated(folder)
+    assert max(result["fit_image_centre_offset_px"]) < 0.5, result["fit_image_centre_offset_px"]
+    assert max(result["fit_image_rms_px"]) <= 0.7, result["fit_image_rms_px"]
 
 
 def test_the_refined_centre_moves_from_the_rim_to_the_axis_on_vmr() -> None:
