@@ -12,7 +12,7 @@ one or no table can be made). Prints the median and 90th percentile over the
 trials for the default (``auto``) and the ``paper`` model, side by side, and
 for the outlier setting how often the bad landmark was flagged. Beside them an
 **oracle**: a fit that knows the camera's true model family (``odd1`` for the
-equidistant fisheye, ``odd3`` for the equisolid, ``unified`` for the mirrors) and
+equidistant fisheye, ``fisheye`` for the equisolid (k = 1/2 is its law), ``unified`` for the mirrors) and
 that it is level with its position exact (``tilt="none"``, ``camera_sigma=0``),
 with the default's outlier search: the floor a fit could reach on the same trials.
 """
@@ -43,7 +43,7 @@ from panomap.simulate.scenarios import (
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from helpers import worst_error
 
-TRUE_FAMILY = {"equidistant": "odd1", "equisolid": "odd3"}  # the mirrors: "unified"
+TRUE_FAMILY = {"equidistant": "odd1", "equisolid": "fisheye"}  # the mirrors: "unified"
 SETTINGS = {
     "spread": {"count": 10, "spread": True},
     "random": {"count": 10, "spread": False},

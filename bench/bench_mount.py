@@ -18,7 +18,7 @@ percentile and worst trial of
 
 - **default**: ``fit_camera`` with its defaults (what ``panomap fit`` does);
 - **oracle, tape trusted**: the camera's true model family (``odd1`` for the
-  equidistant fisheye, ``odd3`` for the equisolid, ``unified`` for the
+  equidistant fisheye, ``fisheye`` (k = 1/2) for the equisolid, ``unified`` for the
   mirrors), centre and handedness, the tilt estimated, the position as given;
 - **oracle, position refined**: the same, the position refined with the default prior.
 
@@ -43,7 +43,7 @@ from panomap.simulate.cameras import TiltedCamera, mount_rotation
 from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras, test_points
 
 CASES = {"tilted": 0.0, "tape-1cm": 0.01, "tape-2cm": 0.02}
-TRUE_FAMILY = {"equidistant": "odd1", "equisolid": "odd3"}  # the mirrors: "unified"
+TRUE_FAMILY = {"equidistant": "odd1", "equisolid": "fisheye"}  # the mirrors: "unified"
 # Test points this close (px) to the cut-off disc or the image circle are left out: whether a table sees them
 # depends on a fraction of a pixel of f_r at the rim, where a tilted camera's test points always fall somewhere.
 EDGE_PX = 5.0

@@ -71,7 +71,10 @@ def test_fit_writes_a_table_and_reports_residuals(work: Path, monkeypatch: pytes
     assert "azimuth mapping: s = +1, phi0 = -28.6479 deg" in out
     assert "residuals: RMS 0.000 px" in out
     meta = json.loads(run("info", table_path, "--json").output)
-    assert meta["model"]["radial"]["kind"] == "unified"
+    # A parabolic mirror's law, r = gamma tan(alpha / 2), is both the mirrors' (unified, xi = 1) and the
+    # stereographic fisheye's (fisheye, k = -1/2); with no cut-off disc given, the fisheye family comes first.
+    radial = meta["model"]["radial"]
+    assert radial["kind"] == "fisheye" and radial["coefficients"][1] == pytest.approx(-0.5, abs=1e-6)
     assert meta["image_size"] == list(SIZE)
     assert meta["info"]["sources"]["centre"] == "given"
     assert len(meta["info"]["fit"]["landmarks"]) == 12

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ from numpy.polynomial import polynomial
 from panomap.calibrate.fit import fit_camera
 from panomap.calibrate.landmarks import landmarks_to_csv
 from panomap.camera.radial import RadialFunction, fit_radial
-from panomap.camera.radial_models import AUTO_CANDIDATES, MODELS, RADIAL_KINDS
+from panomap.camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, MODELS, RADIAL_KINDS
 from panomap.cli.app import main
 from panomap.errors import PanomapError
 from panomap.simulate import standard_cameras
@@ -38,17 +39,21 @@ def example_coefficients(kind: str, axis: str) -> tuple[float, ...]:
         "poly2": (180.0, 12.0),
         "poly3": (180.0, 12.0, -4.0),
         "unified": (227.18431110340686, 0.8),
+        "fisheye": (380.0, 0.5),  # equisolid: r = 2 * 190 sin(alpha / 2)
     }
     return examples[kind]
 
 
 def test_the_registry_is_the_one_list_of_kinds() -> None:
-    assert MODELS == tuple(RADIAL_KINDS) == ("paper", "odd1", "odd3", "odd5", "poly2", "poly3", "unified")
+    assert MODELS == tuple(RADIAL_KINDS) == ("paper", "odd1", "fisheye", "odd3", "odd5", "poly2", "poly3", "unified")
     assert sorted(AUTO_CANDIDATES) == sorted(MODELS)
     # Automatic selection prefers fewer parameters first.
     counts = [RADIAL_KINDS[name].parameter_count for name in AUTO_CANDIDATES]
     assert counts == sorted(counts)
-    assert AUTO_CANDIDATES == ("odd1", "odd3", "unified", "poly2", "odd5", "poly3", "paper")
+    # Among two-parameter kinds the designed fisheye projections first, then the polynomial and the mirrors' law
+    # (an image with a cut-off disc puts the mirrors' law first: MIRROR_CANDIDATES).
+    assert AUTO_CANDIDATES == ("odd1", "fisheye", "odd3", "unified", "poly2", "odd5", "poly3", "paper")
+    assert MIRROR_CANDIDATES == ("odd1", "unified", "fisheye", "odd3", "poly2", "odd5", "poly3", "paper")
     for name, kind in RADIAL_KINDS.items():
         assert kind.name == name
         assert len(set(kind.parameters)) == kind.parameter_count
@@ -109,3 +114,25 @@ def test_the_command_line_names_its_flag_for_the_same_refusal(tmp_path: Path) ->
     result = CliRunner().invoke(main, ["fit", *map(str, arguments), "--model", "paper", "--refine-centre"])
     assert result.exit_code == 2 and not (tmp_path / "x.npz").exists()  # options that do not go together: usage
     assert "error: the paper model takes the centre as given; --refine-centre needs another model" in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("k", "law"),
+    [
+        (1.0, lambda a: np.sin(a)),  # orthographic
+        (0.5, lambda a: 2 * np.sin(a / 2)),  # equisolid
+        (0.0, lambda a: a),  # equidistant
+        (-0.5, lambda a: 2 * np.tan(a / 2)),  # stereographic
+        (-1.0, lambda a: np.tan(a)),  # perspective
+    ],
+)
+def test_the_fisheye_family_holds_the_designed_projections(k: float, law: Any) -> None:
+    """Closed form: r = f * law(alpha) for each designed projection, and the fit finds its k from exact data."""
+    alpha = np.radians(np.linspace(3.0, 85.0, 10))
+    radial = RadialFunction("fisheye", (300.0, k), "down")
+    np.testing.assert_allclose(radial(alpha - math.pi / 2), 300.0 * law(alpha), rtol=1e-12, atol=1e-9)
+    fitted = fit_radial("fisheye", alpha - math.pi / 2, 300.0 * law(alpha), "down")
+    assert fitted.coefficients == pytest.approx((300.0, k), abs=1e-6)
+    # Beyond |k| alpha = 90 deg the radius would turn back (sine) or diverge (tangent): NaN.
+    if k != 0:
+        assert np.isnan(radial(np.radians(95.0) / abs(k) - math.pi / 2))

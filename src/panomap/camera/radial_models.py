@@ -25,10 +25,16 @@ order the command line lists them; a new model is one class and one line in
 - ``unified``: ``(gamma, xi)``, ``r = gamma sin(alpha) / (xi + cos(alpha))``:
   the unified model of single-viewpoint mirror cameras (xi = 1 parabolic,
   0 < xi < 1 hyperbolic, xi = 0 a pinhole); NaN where ``xi + cos(alpha) <= 0``.
+- ``fisheye``: ``(f, k)``, ``r = f sin(k alpha) / k`` for ``k > 0``, ``f alpha``
+  for ``k = 0``, ``f tan(-k alpha) / (-k)`` for ``k < 0``: the designed fisheye
+  projections in one family (k = 1 orthographic, 1/2 equisolid, 0 equidistant,
+  -1/2 stereographic, -1 perspective), ``-1 <= k <= 1``; NaN where
+  ``|k| alpha > pi/2`` (beyond it the radius would turn back or diverge).
 """
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import ClassVar
@@ -203,6 +209,70 @@ class Unified(RadialKind):
         return profile(xi)[1], xi
 
 
+# The fisheye family's exponent k spans the designed projections, orthographic (1) to perspective (-1).
+FISHEYE_K_RANGE = (-1.0, 1.0)
+
+
+def fisheye_basis(alpha: FloatArray, k: ArrayLike) -> FloatArray:
+    """``sin(k alpha) / k`` (k > 0), ``alpha`` (k = 0) or ``tan(-k alpha) / (-k)`` (k < 0); NaN where
+    ``|k| alpha > pi/2``. ``alpha`` (n,) in rad; ``k`` a scalar, or (g, 1) for a grid of (g, n) values; the
+    result in rad (times f: px)."""
+    k = np.asarray(k, dtype=np.float64)
+    x = np.abs(k) * alpha
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sine = alpha * np.sinc(x / np.pi)  # sin(x) / x, 1 at x = 0
+        tangent = alpha * np.where(x > 0, np.tan(x) / np.where(x > 0, x, 1.0), 1.0)
+    basis = np.where(k >= 0, sine, tangent)
+    valid = np.where(k >= 0, x <= HALF_PI + 1e-12, x < HALF_PI)
+    return np.asarray(np.where(valid, basis, np.nan), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Fisheye(RadialKind):
+    """The designed fisheye projections in one family, ``r = f sin(k alpha) / k`` (k > 0), ``f alpha`` (k = 0),
+    ``f tan(-k alpha) / (-k)`` (k < 0)."""
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        return ("f", "k")
+
+    def evaluate(self, coefficients: tuple[float, ...], rho: FloatArray, axis: str) -> FloatArray:
+        f, k = coefficients
+        return np.asarray(f * fisheye_basis(alpha_of_rho(rho, axis), float(k)), dtype=np.float64)
+
+    def fit(self, rho: FloatArray, r: FloatArray, axis: str, weights: FloatArray | None) -> tuple[float, ...]:
+        """(f, k) minimising the weighted radial residual; f is solved in closed form for each k."""
+        from scipy import optimize  # here, not at the top: importing SciPy is slow
+
+        alpha = alpha_of_rho(rho, axis)
+        w = np.ones_like(r) if weights is None else np.asarray(weights, dtype=np.float64)
+        wr = w * r
+
+        def profile(k: float) -> tuple[float, float]:
+            g = w * fisheye_basis(alpha, k)
+            if not np.all(np.isfinite(g)) or g @ g <= 0:
+                return math.inf, math.nan
+            f = float(g @ wr / (g @ g))
+            return float(np.sum((f * g - wr) ** 2)), f
+
+        grid = np.linspace(*FISHEYE_K_RANGE, 201)
+        # The profile over the whole grid at once: (grid, n) arrays, no Python loop.
+        g = w * fisheye_basis(alpha, grid[:, None])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            fs = (g @ wr) / np.einsum("ij,ij->i", g, g)
+            costs = np.sum((fs[:, None] * g - wr[None, :]) ** 2, axis=1)
+        costs = np.where(np.isfinite(costs), costs, np.inf)
+        if not np.any(np.isfinite(costs)):
+            raise PanomapError("the fisheye model cannot reach these landmarks' angles")
+        best = int(np.argmin(costs))
+        lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+        result = optimize.minimize_scalar(
+            lambda k: profile(k)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}
+        )
+        k = float(result.x) if result.fun <= costs[best] else float(grid[best])
+        return profile(k)[1], k
+
+
 def with_centre_pair(rho: FloatArray, r: FloatArray, axis: str) -> tuple[FloatArray, FloatArray]:
     """The paper's (O_c, O_m) pair first, then the landmarks: ``r = 0`` at the pole the centre sees."""
     return np.concatenate([[axis_elevation(axis)], rho]), np.concatenate([[0.0], r])
@@ -221,6 +291,7 @@ def _registry(*kinds: RadialKind) -> dict[str, RadialKind]:
 RADIAL_KINDS: dict[str, RadialKind] = _registry(
     PaperPolynomial("paper"),
     AxisPolynomial("odd1", powers=(1,)),
+    Fisheye("fisheye"),
     AxisPolynomial("odd3", powers=(1, 3)),
     AxisPolynomial("odd5", powers=(1, 3, 5)),
     AxisPolynomial("poly2", selection_rank=2, powers=(1, 2)),
