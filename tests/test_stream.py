@@ -16,6 +16,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import av
 import imageio_ffmpeg
@@ -324,6 +325,37 @@ def test_when_every_attempt_fails_the_run_ends_with_one_line_and_keeps_the_segme
     frames = frame_count(tmp_path / "out.mp4")
     assert frames > 0 and f"until the input was lost, {frames} frames" in result.stdout
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.mp4"]
+
+
+@pytest.mark.timeout(60)
+def test_a_stop_right_after_the_drop_is_seen_is_a_stop(
+    work: Path, server: StreamServer, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A stop (SIGTERM in the command) that lands after the first segment's last frame, once the drop is seen and
+    before the reconnection starts, ends the run as stopped: reported interrupted, the gap "stopped".
+
+    That window is where ``test_sigterm_while_reconnecting_finishes_cleanly`` sends its signal (as soon as the
+    first segment's file appears); in CI it once landed there and the command said "unwarped" instead.
+    """
+    from panomap.video import unwarp as unwarp_module
+
+    stops: list[threading.Event] = []
+    write_segment = unwarp_module._write_segment
+
+    def write_then_stop(*args: Any, **kwargs: Any) -> bool:
+        written = write_segment(*args, **kwargs)
+        stops[0].set()  # (the segment ended on the drop: the signal lands now)
+        return written
+
+    monkeypatch.setattr(unwarp_module, "_write_segment", write_then_stop)
+    running = Run(work, server.url, tmp_path / "out.mp4", QUICK)
+    stops.append(running.stop)
+    wait_until(lambda: running.frames() >= 5, "frames of the first connection")
+    server.kill()
+    report = running.finish()
+    assert report.interrupted and report.segments == 1 and report.frames_written >= 5
+    (gap,) = report.gaps
+    assert gap.outcome == "stopped"
 
 
 @pytest.mark.timeout(60)

@@ -189,7 +189,9 @@ def unwarp_video(
                 report.segments += 1
                 segment += 1
             if state.dropped is None or stop.is_set():
-                if gap is None and state.dropped is not None:  # the drop was seen, then the stop came
+                if state.dropped is not None:  # the drop was seen, then the stop came (it ended the run, not the input)
+                    report.interrupted = True
+                if gap is None and state.dropped is not None:
                     gap = _OpenGap(state.dropped, report.frames_written, state.last_frame_at, started_at)
                 if gap is not None:  # stopped while reconnecting, or after a reconnect before its first frame
                     report.gaps.append(gap.close(time.monotonic(), "stopped"))
