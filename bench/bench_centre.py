@@ -7,7 +7,9 @@ Run: ``.venv/bin/python bench/bench_centre.py``
    room through a mirror camera, the same in a bright blurred housing (a rim of either
    polarity, no dark border), that housing as bright as the mirror on half the rim
    (``housed_mirror(faint=0.5)``), a checkerboard filling the view, and a fisheye
-   whose circle a 16:9 frame (1920 x 1080) cuts at top and bottom.
+   whose circle a 16:9 frame (1920 x 1080) cuts at top and bottom; and a full-frame
+   fisheye (its circle holds the whole 1920 x 1920 frame: no rim), the slowest case,
+   where every stage runs and none passes.
 2. Where the real data sets (not bundled) are present, prints a Markdown table of
    the centre found in every real image against the centre of the established
    calibration shipped beside it (OCamCalib's; for the Mei folder, OpenCV's
@@ -54,6 +56,7 @@ def scenes() -> dict[str, tuple[np.ndarray, object]]:
     checker = np.where((r < mirror.outer_radius) & (r > mirror.cutoff_radius), board, 0).astype(np.uint8)
     checker = cv2.cvtColor(cv2.GaussianBlur(checker, (0, 0), 0.7), cv2.COLOR_GRAY2BGR)
     fisheye = standard_cameras((1920, 1080), centre=(961.7, 538.4), outer_radius=600.0)["equidistant"]
+    full_frame = standard_cameras((1920, 1920), centre=(963.3, 957.9), outer_radius=1400.0)["equidistant"]
     housed = housed_mirror(
         render(room, mirror, supersample=1),
         mirror.centre,
@@ -75,6 +78,7 @@ def scenes() -> dict[str, tuple[np.ndarray, object]]:
         "the same, the rim without contrast on half of it, 1920 x 1920": (faint, mirror),
         "checkerboard filling the view, 1920 x 1920": (checker, mirror),
         "fisheye cut at top and bottom, 1920 x 1080": (render(room, fisheye, supersample=1), fisheye),
+        "full-frame fisheye (no rim in the frame), 1920 x 1920": (render(room, full_frame, supersample=1), None),
     }
 
 
@@ -98,8 +102,9 @@ def speed() -> None:
         print(f"{name}, noise 5, JPEG 75:")
         print(f"  decode the JPEG (baseline): {decode * 1e3:7.1f} ms")
         print(f"  find_image_circles:         {detect * 1e3:7.1f} ms  ({detect / decode:.2f}x the decode)")
-        if found is None:
-            print("  no image circle found (NoImageCircle)")
+        if found is None or camera is None:
+            verdict = "right" if (found is None) == (camera is None) else "WRONG"
+            print(f"  {'no image circle found (NoImageCircle)' if found is None else 'a circle reported'}: {verdict}")
             continue
         print(
             f"  centre error {math.dist(found.centre, camera.centre):.3f} px, outer radius error "  # type: ignore[attr-defined]

@@ -6,14 +6,19 @@ threads (``cv2.getNumThreads()``, which ``cv2.setNumThreads`` and the video
 pipeline's thread budget set) and running every pass of a strip in its own
 thread puts the NumPy passes on every core too; both release the GIL. With one
 OpenCV thread the work runs in the caller's thread, as one strip.
+
+:class:`Ahead` uses the same threads for a list of independent tries (candidate
+circles, say) that are read in order and usually all needed: the next try runs
+in a strip thread while the caller works on the current one.
 """
 
 from __future__ import annotations
 
 import os
 import threading
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Generic, TypeVar
 
 import cv2
 
@@ -21,6 +26,9 @@ import cv2
 MIN_ROWS = 32
 # At most this many strips, however many threads OpenCV has.
 MAX_STRIPS = 16
+
+Item = TypeVar("Item")
+Result = TypeVar("Result")
 
 _POOL: ThreadPoolExecutor | None = None
 _POOL_LOCK = threading.Lock()
@@ -62,6 +70,43 @@ def in_strips(height: int, work: Callable[[int, int], None]) -> None:
             error = error or caught
     if error is not None:
         raise error
+
+
+class Ahead(Generic[Item, Result]):
+    """``work(item)`` for each of ``items`` on demand, two at a time in strip threads.
+
+    ``result(k)`` returns (or raises) ``work(items[k])``. When OpenCV has more than one
+    thread, ``work(items[k])`` and ``work(items[k + 1])`` are started in strip threads
+    (unless already) and the first is waited for, so that two tries always run at once;
+    with one thread, ``work(items[k])`` runs in the caller's. An item never asked for
+    costs at most one wasted try. Use it as a context manager: on exit it waits for a try
+    still running, so that no work outlives the caller. ``work`` must be safe to run in
+    another thread (pure array work is).
+    """
+
+    def __init__(self, work: Callable[[Item], Result], items: Sequence[Item]) -> None:
+        self._work = work
+        self._items = items
+        self._started: dict[int, Future[Result]] = {}
+        self._ahead = cv2.getNumThreads() > 1
+
+    def result(self, index: int) -> Result:
+        """``work(items[index])``: its exception, if it raised one, is raised here."""
+        if self._ahead:
+            for start in (index, index + 1):
+                if start < len(self._items) and start not in self._started:
+                    self._started[start] = _pool().submit(self._work, self._items[start])
+        started = self._started.pop(index, None)
+        return started.result() if started is not None else self._work(self._items[index])
+
+    def __enter__(self) -> Ahead[Item, Result]:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for started in self._started.values():
+            if not started.cancel():
+                started.exception()  # wait; its result is not wanted
+        self._started.clear()
 
 
 def _pool() -> ThreadPoolExecutor:
