@@ -81,6 +81,12 @@ class RadialKind(ABC):
         The kind is the projection law of central mirror cameras (any conic
         mirror): preferred first among kinds with as many parameters when the
         image shows the camera's own reflection (:data:`MIRROR_CANDIDATES`).
+    lens_law : bool (class)
+        The kind is the law fisheye lenses are designed to (their projections in
+        one family), not a curve fitted to them. Automatic selection keeps the
+        lens law where the image shows no cut-off disc, and the mirror law where
+        it does, against a more flexible kind whose held-out score is better by
+        less than a wider margin than among curves.
     """
 
     name: str
@@ -89,6 +95,7 @@ class RadialKind(ABC):
     centre_given: ClassVar[bool] = False
     weighted: ClassVar[bool] = True
     mirror_law: ClassVar[bool] = False
+    lens_law: ClassVar[bool] = False
 
     @property
     @abstractmethod
@@ -167,6 +174,7 @@ class Unified(RadialKind):
     """The unified model of single-viewpoint mirror cameras, ``r = gamma sin(alpha) / (xi + cos(alpha))``."""
 
     mirror_law: ClassVar[bool] = True
+    lens_law: ClassVar[bool] = True
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -231,6 +239,8 @@ def fisheye_basis(alpha: FloatArray, k: ArrayLike) -> FloatArray:
 class Fisheye(RadialKind):
     """The designed fisheye projections in one family, ``r = f sin(k alpha) / k`` (k > 0), ``f alpha`` (k = 0),
     ``f tan(-k alpha) / (-k)`` (k < 0)."""
+
+    lens_law: ClassVar[bool] = True
 
     @property
     def parameters(self) -> tuple[str, ...]:
