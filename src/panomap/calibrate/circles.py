@@ -102,6 +102,10 @@ MIN_CUTOFF_FRACTION = 0.5
 MAX_CUTOFF_RMS_PX = 1.5
 # Median over the rays of the radial gradient (grey levels per px) at the cut-off disc's edge.
 CUTOFF_MIN_MEDIAN_RISE = 3.0
+# The cut-off disc's centre may lie this far (a fraction of the outer radius) from the rim's: on the
+# miniomni camera the disc (about the calibrated axis) is 3-5 px off the rim's centre in most images.
+CUTOFF_CENTRE_FRACTION = 0.03
+CUTOFF_ITERATIONS = 4
 # An ellipse is reported when its axes differ by more than this fraction and it fits clearly better.
 ELLIPSE_MIN_ECCENTRICITY = 0.003
 # The circle transform: the strongest edge pixels that vote, and the weakest gradient (Sobel units) that may.
@@ -1087,7 +1091,38 @@ def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius
     if score[index] < CUTOFF_MIN_MEDIAN_RISE:
         return None
     radius = float(radii[index])
-    half = max(3.0, 0.05 * radius)
+
+    def passes(circle: Circle | None, reach_px: float) -> bool:
+        return (
+            circle is not None
+            and circle.inliers >= MIN_CUTOFF_FRACTION * RAYS
+            and circle.rms_px <= MAX_CUTOFF_RMS_PX
+            and math.dist(circle.centre, centre) < reach_px
+        )
+
+    circle = _cutoff_edge(grey, centre, radius)
+    if passes(circle, max(2.0, 0.05 * radius)):
+        return circle
+    # The disc is centred on the optical axis, which can sit a few px off the rim's centre (a
+    # mirror not quite centred in its housing): its edge is searched for again, first as far
+    # either side of the radius as the centres may differ, then about each fit's own centre.
+    reach = max(2.0, CUTOFF_CENTRE_FRACTION * outer_radius)
+    circle = _cutoff_edge(grey, centre, radius, half_px=reach)
+    for _ in range(CUTOFF_ITERATIONS):
+        if circle is None:
+            return None
+        found = _cutoff_edge(grey, circle.centre, circle.radius)
+        moved = math.inf if found is None else math.dist(found.centre, circle.centre)
+        circle = found
+        if moved < 0.05:
+            break
+    return circle if passes(circle, reach) else None
+
+
+def _cutoff_edge(grey: NDArray[Any], centre: tuple[float, float], radius: float, half_px: float = 0.0) -> Circle | None:
+    """The circle through each ray's steepest dark-to-bright step within 5% (3 px, ``half_px`` at least) of
+    ``radius`` about ``centre``; None where too few rays have one."""
+    half = max(3.0, 0.05 * radius, half_px)
     margin = STEP * (EDGE_HALF_WINDOW + LEVEL_SAMPLES + 4)
     radii = np.arange(max(radius - half - margin, 1.0), radius + half + margin, STEP)
     samples, cos, sin = _profiles(grey, centre, radii)
@@ -1105,13 +1140,9 @@ def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius
     r = where[good]
     points = np.stack([centre[0] + r * cos[good], centre[1] + r * sin[good]], axis=-1)
     try:
-        circle = _robust_circle(points, centre, radius)
+        return _robust_circle(points, centre, radius)
     except PanomapError:
         return None
-    agrees = math.dist(circle.centre, centre) < max(2.0, 0.05 * circle.radius)
-    if circle.inliers < MIN_CUTOFF_FRACTION * RAYS or circle.rms_px > MAX_CUTOFF_RMS_PX or not agrees:
-        return None
-    return circle
 
 
 def _robust_circle(points: FloatArray, centre: tuple[float, float], radius: float, consensus: bool = True) -> Circle:
