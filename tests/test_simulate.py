@@ -73,6 +73,9 @@ def test_radial_round_trip(name: str) -> None:
         ("unified", 0.8, 2.2),
         ("unified", 0.0, 1.4),
         ("unified", 1.5, 2.2),
+        ("stereographic", 0.0, 3.0),
+        ("orthographic", 0.0, 1.55),
+        ("polynomial", 0.0, 1.75),
     ],
 )
 def test_alpha_of_radius_inverts_radius(law: str, xi: float, alpha_max: float) -> None:
@@ -81,6 +84,7 @@ def test_alpha_of_radius_inverts_radius(law: str, xi: float, alpha_max: float) -
         law=law,
         scale=250.0,
         xi=xi,
+        distortion=(-0.05, 0.008) if law == "polynomial" else (),
         image_size=(100, 100),
         centre=(49.5, 49.5),
         alpha_max=alpha_max,
@@ -115,6 +119,19 @@ def test_closed_form_values_pinned() -> None:
         # phi = theta = +90 deg: +v, i.e. DOWN in the image (v is the row).
         np.testing.assert_allclose(cam.project(azimuth_90), [u0, v0 + r], atol=1e-9)
         np.testing.assert_allclose(cam.radius_of_rho(-45 * DEG), r, atol=1e-9)
+        np.testing.assert_allclose(cam.rho_of_radius(r), -45 * DEG, atol=1e-12)
+    # The other designed fisheye projections and a lens's polynomial, at alpha = pi/4.
+    for law, r, extra in (
+        ("stereographic", 2 * scale * math.tan(math.pi / 8), {}),
+        ("orthographic", scale * math.sin(math.pi / 4), {}),
+        (
+            "polynomial",
+            scale * (math.pi / 4 + 0.1 * (math.pi / 4) ** 3 - 0.02 * (math.pi / 4) ** 5),
+            {"distortion": (0.1, -0.02)},
+        ),
+    ):
+        cam = RadialCamera(name=law, law=law, scale=scale, **{**common, "alpha_max": 85 * DEG}, **extra)
+        np.testing.assert_allclose(cam.project(azimuth_0), [u0 + r, v0], atol=1e-9)
         np.testing.assert_allclose(cam.rho_of_radius(r), -45 * DEG, atol=1e-12)
     # Straight down lands on the image centre (alpha = 0).
     np.testing.assert_allclose(eqd.project([0.0, 0.0, -1.0]), [u0, v0], atol=1e-12)
@@ -206,6 +223,12 @@ def test_radial_validation() -> None:
         RadialCamera(law="equisolid", xi=0.3, alpha_max=1.0, **base)
     with pytest.raises(ValueError, match="axis"):
         RadialCamera(law="equisolid", alpha_max=1.0, axis="side", **base)
+    with pytest.raises(ValueError, match="pi/2"):  # sin(alpha) turns back beyond 90 deg
+        RadialCamera(law="orthographic", alpha_max=1.6, **base)
+    with pytest.raises(ValueError, match="increasing"):  # 1 - 0.3 alpha^2 turns back before alpha = 1.5
+        RadialCamera(law="polynomial", distortion=(-0.1,), alpha_max=1.9, **base)
+    with pytest.raises(ValueError, match="distortion"):
+        RadialCamera(law="equidistant", distortion=(0.1,), alpha_max=1.0, **base)
 
 
 def test_rho_radius_functions_are_inverse_and_nan_outside() -> None:

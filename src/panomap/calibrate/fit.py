@@ -48,7 +48,7 @@ from ..camera.model import CameraModel
 from ..camera.orientation import tilt_rotation, to_camera
 from ..camera.radial import RadialFunction, fit_radial
 from ..camera.radial_models import AUTO_CANDIDATES, AXES, MIRROR_CANDIDATES, MODELS, RadialKind, radial_kind
-from ..camera.uncertainty import coefficient_covariance
+from ..camera.uncertainty import coefficient_covariance, radius_standard_error
 from ..camera.valid_range import is_monotonic, valid_elevation_range
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
@@ -83,7 +83,7 @@ ROBUST_TRIM = 0.2
 # wins by chance on a few noisy landmarks. Only that one law: on a real mirror camera (kaidan, 20 draws
 # of 10 corners) keeping the lens law too chose it in 2 draws at 0.95 px, where the curves give 0.62.
 CAMERA_LAW_STANDARD_ERRORS = 2.0
-OUTLIER_SIGMAS = 5.0
+OUTLIER_SIGMAS = 4.0
 # Median of the norm of a 2-D standard normal vector: sqrt(2 ln 2).
 MEDIAN_2D_NORM = math.sqrt(2 * math.log(2))
 WEIGHT_ITERATIONS = 3
@@ -414,7 +414,10 @@ def fit_camera(
     radial, phi0 = _fit(kind, data, inliers)
     centre_fit = (u0, v0)
     if kind.weighted:
-        radial, phi0, centre_fit = _refine(radial, phi0, (u0, v0), landmarks.pixels, data, inliers, refine_centre)
+        # (With the centre refined this is a first pass, chosen again below: the annulus is held then.)
+        radial, phi0, centre_fit = _refine(
+            radial, phi0, (u0, v0), landmarks.pixels, data, inliers, refine_centre, None if refine_centre else annulus
+        )
     if refine_centre:
         # Model and outliers were chosen about the starting centre, whose error (a few px on a real mirror,
         # where the rim's centre is not the axis) swamps the differences between models: choose again
@@ -423,7 +426,7 @@ def fit_camera(
         data = replace(data, r=r, phi=phi)
         inliers, kind, selection, level_covers = _choose_start(candidates, data, annulus, reject_outliers, may_tilt)
         radial, phi0 = _fit(kind, data, inliers)
-        radial, phi0, centre_fit = _refine(radial, phi0, centre_fit, landmarks.pixels, data, inliers, True)
+        radial, phi0, centre_fit = _refine(radial, phi0, centre_fit, landmarks.pixels, data, inliers, True, annulus)
     problem = MountProblem(
         world=landmarks.world,
         pixels=landmarks.pixels,
@@ -520,12 +523,28 @@ def _fit(kind: RadialKind, data: _Data, subset: FloatArray) -> tuple[RadialFunct
     return radial, float(np.arctan2(weights @ np.sin(delta), weights @ np.cos(delta)))
 
 
-def _whitened(radial: RadialFunction, phi0: float, data: _Data, index: Any) -> FloatArray:
-    """Whitened residual norms of the landmarks at ``index``: sqrt(z_radial^2 + z_tangential^2)."""
-    radial_error = (radial(data.rho[index]) - data.r[index]) / _radial_sigma(radial, data)[index]
+def _whitened(
+    radial: RadialFunction, phi0: float, data: _Data, index: Any, prediction_se: FloatArray | None = None
+) -> FloatArray:
+    """Whitened residual norms of the landmarks at ``index``: sqrt(z_radial^2 + z_tangential^2); the radial
+    standard deviation includes ``prediction_se`` (px, one per landmark) where given."""
+    sigma = _radial_sigma(radial, data)[index]
+    if prediction_se is not None:
+        sigma = np.sqrt(sigma**2 + prediction_se**2)
+    radial_error = (radial(data.rho[index]) - data.r[index]) / sigma
     angle = np.angle(np.exp(1j * (data.s * data.theta[index] + phi0 - data.phi[index])))
     tangential_error = data.r[index] * angle / _tangential_sigma(data, data.r)[index]
     return np.asarray(np.hypot(radial_error, tangential_error))
+
+
+def _prediction_se(radial: RadialFunction, data: _Data, fitted: FloatArray, index: Any) -> FloatArray:
+    """Standard error (px) of f_r at the landmarks at ``index``, f_r fitted to those in ``fitted`` (bool mask)
+    under the noise model (the weights are 1 / the residuals' standard deviations)."""
+    if not radial.spec.weighted:
+        return np.zeros(np.size(data.rho[index]))
+    weights = _radial_weights(radial, data)[fitted]
+    covariance = coefficient_covariance(radial, data.rho[fitted], data.r[fitted], weights, noise_known=True)
+    return np.nan_to_num(radius_standard_error(radial, covariance, data.rho[index]), nan=0.0)
 
 
 def _pixel_error(radial: RadialFunction, phi0: float, data: _Data, index: Any) -> FloatArray:
@@ -543,12 +562,17 @@ def _folds(data: _Data, members: IndexArray) -> list[IndexArray]:
     return [order[fold::CV_FOLDS] for fold in range(CV_FOLDS)]
 
 
-def _leave_one_out(kind: RadialKind, data: _Data, subset: FloatArray) -> tuple[FloatArray, FloatArray]:
+def _leave_one_out(
+    kind: RadialKind, data: _Data, subset: FloatArray, studentized: bool = False
+) -> tuple[FloatArray, FloatArray]:
     """Whitened and pixel errors of each landmark in ``subset`` under a fit made without it.
 
     Exact leave-one-out up to ``EXACT_LOO_MAX`` landmarks; above, ``CV_FOLDS``-fold
     cross-validation (each landmark's error under a fit without its fold), so
-    that the cost grows linearly with the number of landmarks.
+    that the cost grows linearly with the number of landmarks. ``studentized``:
+    the radial error is whitened by the landmark's noise and the standard error
+    of the others' prediction together (a landmark at an end of the elevations,
+    predicted by extrapolation, is then judged against what the others can tell).
     """
     members = np.flatnonzero(subset)
     whitened = np.full(members.size, np.inf)
@@ -560,7 +584,8 @@ def _leave_one_out(kind: RadialKind, data: _Data, subset: FloatArray) -> tuple[F
             radial, phi0 = _fit(kind, data, others)
         except PanomapError:
             continue
-        whitened[positions] = _whitened(radial, phi0, data, members[positions])
+        prediction_se = _prediction_se(radial, data, others, members[positions]) if studentized else None
+        whitened[positions] = _whitened(radial, phi0, data, members[positions], prediction_se)
         pixels[positions] = _pixel_error(radial, phi0, data, members[positions])
     return np.where(np.isfinite(whitened), whitened, np.inf), np.where(np.isfinite(pixels), pixels, np.inf)
 
@@ -718,7 +743,8 @@ def _drop_worst(
     candidates: tuple[RadialKind, ...] = (),
     annulus: tuple[float, float] | None = None,
 ) -> FloatArray | None:
-    """``inliers`` less one held-out landmark if the worst exceeds 5 robust sigmas, else None.
+    """``inliers`` less one held-out landmark if the worst (studentized) exceeds OUTLIER_SIGMAS robust sigmas,
+    else None.
 
     The landmark dropped is, of those beyond that bound and the worst one's neighbours in
     elevation, the one whose removal leaves the others' leave-one-out errors smallest under
@@ -732,7 +758,7 @@ def _drop_worst(
     count = int(inliers.sum())
     if count - 1 < kind.parameter_count + 3:
         return None
-    whitened, _ = _leave_one_out(kind, data, inliers)
+    whitened, _ = _leave_one_out(kind, data, inliers, studentized=True)
     scale = max(1.0, float(np.median(whitened)) / MEDIAN_2D_NORM)
     beyond = whitened > OUTLIER_SIGMAS * scale
     if not beyond.any():
@@ -796,8 +822,15 @@ def _refine(
     data: _Data,
     subset: FloatArray,
     refine_centre: bool,
+    annulus: tuple[float, float] | None = None,
 ) -> tuple[RadialFunction, float, tuple[float, float]]:
-    """Joint nonlinear least squares of f_r, phi0 and (optionally) the centre on whitened residuals."""
+    """Joint nonlinear least squares of f_r, phi0 and (optionally) the centre on whitened residuals.
+
+    The separable solution given is kept where the refined f_r folds over the landmarks, or no
+    longer runs to the ends of ``annulus`` when the given one did: near a rim where the law
+    flattens (an orthographic fisheye's), a refinement within the noise can turn the curve
+    back a few pixels short of the image circle, and the table would then refuse it.
+    """
     from scipy import optimize  # here, not at the top: importing SciPy is slow
 
     count = len(radial.coefficients)
@@ -827,6 +860,12 @@ def _refine(
     low, high = float(rho.min()), float(rho.max())
     if not is_monotonic(refined, low, high):
         return radial, phi0, centre  # keep the separable solution rather than a folded curve
+    if annulus is not None:
+        slack = rim_slack_px(data.pixel_sigma)
+        if annulus_coverage_problem(refined, (low, high), *annulus, slack_px=slack) and not annulus_coverage_problem(
+            radial, (low, high), *annulus, slack_px=slack
+        ):
+            return radial, phi0, centre
     return refined, offset, c
 
 

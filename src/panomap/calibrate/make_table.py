@@ -205,7 +205,7 @@ def _rim_notes(fit: CameraFit, cutoff_radius: float, outer_radius: float) -> lis
             worst = int(over[np.argmax(beyond[over])])
             notes.append(
                 f"{over.size} landmark(s) lie just {where} (up to {beyond[worst]:.1f} px, {names[worst]!r}): "
-                "within the pixel noise, kept; the table stops at the circle"
+                "within the pixel noise, kept; the table reaches them"
             )
     return notes
 

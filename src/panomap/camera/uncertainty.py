@@ -20,13 +20,19 @@ if TYPE_CHECKING:
 
 
 def coefficient_covariance(
-    radial: RadialFunction, rho: FloatArray, r: FloatArray, weights: FloatArray | None = None
+    radial: RadialFunction,
+    rho: FloatArray,
+    r: FloatArray,
+    weights: FloatArray | None = None,
+    *,
+    noise_known: bool = False,
 ) -> FloatArray:
     """Covariance (p, p) of the coefficients from the weighted residuals' Jacobian.
 
     ``C = (J^T J)^-1 s^2`` with J the Jacobian of the weighted radial residuals
     and ``s^2`` their sum of squares over the degrees of freedom (1 when there
-    are none). A kind fitted with the centre pair (``paper``) counts it as a
+    are none, or with ``noise_known``: the weights are then 1 / the residuals'
+    standard deviations). A kind fitted with the centre pair (``paper``) counts it as a
     residual; one that is not ``weighted`` ignores ``weights``.
     """
     spec = radial.spec
@@ -40,7 +46,7 @@ def coefficient_covariance(
     jacobian = w[:, None] * differences / steps
     residual = w * (radial(rho) - r)
     dof = rho.size - steps.size
-    scale = float(residual @ residual / dof) if dof > 0 else 1.0
+    scale = float(residual @ residual / dof) if dof > 0 and not noise_known else 1.0
     return np.asarray(np.linalg.pinv(jacobian.T @ jacobian) * scale)
 
 

@@ -42,7 +42,11 @@ def valid_elevation_range(
     ``[cutoff_radius, outer_radius]``; ends that stop at a radius are refined
     to where f_r equals that radius. A landmark end up to ``slack_px`` beyond
     the annulus (measurement noise at its rim) is allowed: the interval then
-    stops where f_r reaches the annulus.
+    ends at that landmark, whose direction the camera sees (its pixel is on the
+    rim; the fit, within the noise, puts it past). Stopping where f_r reaches
+    the circle would leave the directions between uncovered: a degree on a
+    lens whose law flattens at its rim (an orthographic fisheye's), where a
+    pixel spans a degree.
 
     Returns
     -------
@@ -68,7 +72,7 @@ def valid_elevation_range(
             f"landmarks reach radii {r_low:.1f}..{r_high:.1f} px, outside the annulus "
             f"{cutoff_radius:.1f}..{outer_radius:.1f} px given by the cut-off and outer radii"
         )
-    low, high = _within_annulus(radial, low, high, cutoff_radius, outer_radius)
+    beyond = [not cutoff_radius - 1e-9 <= float(radial(end)) <= outer_radius + 1e-9 for end in (low, high)]
     # The landmarks' ends join the grid; grid points within 1e-9 rad of them go, or a step of
     # ~1e-17 rad between near-duplicates could round to no rise and stop the growth there.
     grid = np.linspace(-HALF_PI, HALF_PI, samples)
@@ -79,14 +83,14 @@ def valid_elevation_range(
     rising = np.concatenate([sign * np.diff(r) > 0, [False]])  # step from k to k+1 keeps order
     start = int(np.searchsorted(grid, low))
     stop = int(np.searchsorted(grid, high))
-    while start > 0 and inside[start - 1] and rising[start - 1]:
+    while not beyond[0] and start > 0 and inside[start - 1] and rising[start - 1]:
         start -= 1
-    while stop < grid.size - 1 and inside[stop + 1] and rising[stop]:
+    while not beyond[1] and stop < grid.size - 1 and inside[stop + 1] and rising[stop]:
         stop += 1
     rho_s, rho_e = float(grid[start]), float(grid[stop])
-    if start > 0 and rising[start - 1] and np.isfinite(r[start - 1]):
+    if not beyond[0] and start > 0 and rising[start - 1] and np.isfinite(r[start - 1]):
         rho_s = _refine_bound(radial, grid[start - 1], grid[start], cutoff_radius, outer_radius)
-    if stop < grid.size - 1 and rising[stop] and np.isfinite(r[stop + 1]):
+    if not beyond[1] and stop < grid.size - 1 and rising[stop] and np.isfinite(r[stop + 1]):
         rho_e = _refine_bound(radial, grid[stop], grid[stop + 1], cutoff_radius, outer_radius)
     return rho_s, rho_e
 
@@ -102,27 +106,3 @@ def _refine_bound(radial: RadialFunction, a: float, b: float, cutoff_radius: flo
     # Neither crossed (cannot happen when exactly one endpoint is inside): keep the inside one.
     inside_a = cutoff_radius <= ra <= outer_radius
     return float(a if inside_a else b)
-
-
-def _within_annulus(
-    radial: RadialFunction, low: float, high: float, cutoff_radius: float, outer_radius: float
-) -> tuple[float, float]:
-    """``[low, high]`` narrowed, at an end whose radius lies beyond the annulus, to where f_r reaches it.
-
-    f_r is monotonic on ``[low, high]`` (checked by the caller), so each crossing is unique.
-    """
-    from scipy import optimize  # here, not at the top: importing SciPy is slow
-
-    ends = [low, high]
-    for bound in (cutoff_radius, outer_radius):
-        for k in (0, 1):
-            r_end = float(radial(ends[k]))
-            beyond = r_end < cutoff_radius - 1e-9 if bound == cutoff_radius else r_end > outer_radius + 1e-9
-            other = ends[1 - k]
-            if beyond and (float(radial(other)) - bound) * (r_end - bound) < 0:
-                ends[k] = float(
-                    optimize.brentq(
-                        lambda x, level=bound: float(radial(x)) - level, *sorted((ends[k], other)), xtol=1e-14
-                    )
-                )
-    return ends[0], ends[1]

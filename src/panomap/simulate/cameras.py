@@ -42,7 +42,7 @@ __all__ = [
 ]
 
 #: Radial laws understood by :class:`RadialCamera`.
-RADIAL_LAWS = ("equidistant", "equisolid", "unified")
+RADIAL_LAWS = ("equidistant", "equisolid", "stereographic", "orthographic", "polynomial", "unified")
 
 #: Names of the single-viewpoint cameras returned by :func:`standard_cameras`.
 SVP_CAMERA_NAMES = ("equidistant", "equisolid", "parabolic", "hyperbolic")
@@ -221,6 +221,11 @@ class RadialCamera:
 
     - ``'equidistant'``: ``r = scale*alpha``;
     - ``'equisolid'``: ``r = 2*scale*sin(alpha/2)``;
+    - ``'stereographic'``: ``r = 2*scale*tan(alpha/2)``;
+    - ``'orthographic'``: ``r = scale*sin(alpha)`` (``alpha_max <= pi/2``);
+    - ``'polynomial'`` (a real lens's deviation from its design, as in Kannala and Brandt's
+      model and OpenCV's fisheye module): ``r = scale*(alpha + k1*alpha**3 + k2*alpha**5 + ...)``
+      with ``distortion = (k1, k2, ...)``;
     - ``'unified'`` (Mei/Geyer model of single-viewpoint catadioptric cameras):
       ``r = scale*sin(alpha)/(xi + cos(alpha))``; ``xi = 1`` is a parabolic mirror,
       ``0 < xi < 1`` a hyperbolic one, ``xi = 0`` a pinhole.
@@ -232,12 +237,14 @@ class RadialCamera:
     ----------
     name : str
         Short name.
-    law : {'equidistant', 'equisolid', 'unified'}
+    law : {'equidistant', 'equisolid', 'stereographic', 'orthographic', 'polynomial', 'unified'}
         Radial law.
     scale : float
         Scale of the law (px), > 0.
     xi : float
         Mirror parameter of the unified law, >= 0; must be 0 for the other laws.
+    distortion : tuple of float
+        ``(k1, k2, ...)`` of the polynomial law; must be empty for the other laws.
     image_size : tuple of int
         ``(width, height)`` (px).
     centre : tuple of float
@@ -259,6 +266,7 @@ class RadialCamera:
     law: str
     scale: float
     xi: float = 0.0
+    distortion: tuple[float, ...] = ()
     image_size: tuple[int, int]
     centre: tuple[float, float]
     s: int = 1
@@ -298,6 +306,19 @@ class RadialCamera:
                 )
         elif self.xi != 0.0:
             raise PanomapError(f"xi is only used by the unified law; got xi={self.xi!r}")
+        if self.law != "polynomial" and self.distortion:
+            raise PanomapError(f"distortion is only used by the polynomial law; got {self.distortion!r}")
+        if self.law == "orthographic" and self.alpha_max > 0.5 * math.pi:
+            raise PanomapError(f"the orthographic law is increasing up to pi/2 only; got alpha_max={self.alpha_max!r}")
+        if self.law == "stereographic" and self.alpha_max >= math.pi:
+            raise PanomapError(f"the stereographic law is finite below pi only; got alpha_max={self.alpha_max!r}")
+        if self.law == "polynomial":
+            grid = np.linspace(0.0, self.alpha_max, 2049)
+            if not (all(math.isfinite(k) for k in self.distortion) and np.all(np.diff(self.radius(grid)) > 0)):
+                raise PanomapError(
+                    f"the polynomial law with distortion={self.distortion!r} is not increasing up to "
+                    f"alpha_max={self.alpha_max!r}"
+                )
 
     # -- radial law ----------------------------------------------------------------------
 
@@ -322,10 +343,17 @@ class RadialCamera:
             return self.scale * a
         if self.law == "equisolid":
             return 2.0 * self.scale * np.sin(0.5 * a)
+        if self.law == "stereographic":
+            return 2.0 * self.scale * np.tan(0.5 * a)
+        if self.law == "orthographic":
+            return self.scale * np.sin(a)
+        if self.law == "polynomial":
+            return self.scale * (a + sum(k * a ** (2 * i + 3) for i, k in enumerate(self.distortion)))
         return self.scale * np.sin(a) / (self.xi + np.cos(a))
 
     def alpha_of_radius(self, r: ArrayLike) -> NDArray[np.float64]:
-        """Closed-form inverse of :meth:`radius` on ``[0, radius(pi or its limit)]``.
+        """Inverse of :meth:`radius` on ``[0, radius(pi or its limit)]``, closed-form but for the
+        polynomial law (Newton's method from the equidistant guess, to 1e-13 rad, on ``[0, alpha_max]``).
 
         For the unified law, ``r*(xi + cos a) = scale*sin a`` with ``t = r/scale`` reads
         ``sin(a - atan t) = t*xi/sqrt(1 + t**2)``, so ``a = atan t + asin(t*xi/sqrt(1+t**2))``
@@ -348,9 +376,28 @@ class RadialCamera:
                 a = t.copy()
             elif self.law == "equisolid":
                 a = 2.0 * np.arcsin(0.5 * t)
+            elif self.law == "stereographic":
+                a = 2.0 * np.arctan(0.5 * t)
+            elif self.law == "orthographic":
+                a = np.arcsin(t)
+            elif self.law == "polynomial":
+                a = self._invert_polynomial(t)
             else:
                 a = np.arctan(t) + np.arcsin(t * self.xi / np.sqrt(1.0 + t * t))
         return np.where(rr >= 0, a, np.nan)
+
+    def _invert_polynomial(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``alpha`` with ``radius(alpha) = t*scale``, by Newton's method (NaN beyond ``alpha_max``)."""
+        beyond = t > float(self.radius(self.alpha_max)) / self.scale * (1 + 1e-12)
+        a = np.clip(np.where(np.isfinite(t), t, 0.0), 0.0, self.alpha_max)
+        for _ in range(60):
+            value = a + sum(k * a ** (2 * i + 3) for i, k in enumerate(self.distortion)) - t
+            slope = 1.0 + sum((2 * i + 3) * k * a ** (2 * i + 2) for i, k in enumerate(self.distortion))
+            step = value / slope
+            a = np.clip(a - step, 0.0, self.alpha_max)
+            if np.all(np.abs(np.where(np.isfinite(step), step, 0.0)) < 1e-13):
+                break
+        return np.where(beyond | ~np.isfinite(t), np.nan, a)
 
     @property
     def cutoff_radius(self) -> float:

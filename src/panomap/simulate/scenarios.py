@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from panomap.geometry import ray_from_angles
-from panomap.simulate.cameras import RadialCamera, SimulatedCamera, TiltedCamera
+from panomap.simulate.cameras import RadialCamera, SimulatedCamera, TiltedCamera, standard_cameras
 from panomap.simulate.sampling import LandmarkPairs
 
 ROOM_SIZE = (6.0, 5.0, 2.6)
@@ -72,6 +72,39 @@ def scenario_cameras() -> dict[str, RadialCamera]:
     }
 
 
+def more_cameras() -> dict[str, SimulatedCamera]:
+    """Cameras beyond the issue's six, on the same images, to check that the fit generalises: the other designed
+    fisheye projections (stereographic 190 deg; orthographic 176 deg, whose law flattens at the rim), two lenses
+    off their design by a polynomial (Kannala and Brandt's model: r = f (alpha + k1 alpha^3 + k2 alpha^5)),
+    a weak hyperbolic mirror (xi 0.3) and a spherical mirror (no single viewpoint)."""
+    outer = 0.47 * IMAGE_SIZE[0]
+    middle = ((IMAGE_SIZE[0] - 1) / 2, (IMAGE_SIZE[1] - 1) / 2)
+
+    def scaled(name: str, law: str, a_max_deg: float, a_min_deg: float = 0.0, **kw: object) -> RadialCamera:
+        def make(scale: float) -> RadialCamera:
+            return RadialCamera(
+                name=name,
+                law=law,
+                scale=scale,
+                image_size=IMAGE_SIZE,
+                centre=middle,
+                alpha_min=math.radians(a_min_deg),
+                alpha_max=math.radians(a_max_deg),
+                **kw,  # type: ignore[arg-type]
+            )
+
+        return make(outer / make(1.0).outer_radius)
+
+    return {
+        "stereographic": scaled("stereographic", "stereographic", 95),
+        "orthographic": scaled("orthographic", "orthographic", 88),
+        "lens-k1+": scaled("lens-k1+", "polynomial", 95, distortion=(0.04, -0.01)),
+        "lens-k1-": scaled("lens-k1-", "polynomial", 100, distortion=(-0.05, 0.008)),
+        "hyperbolic-0.3": scaled("hyperbolic-0.3", "unified", 100, 12, xi=0.3),
+        "spherical": standard_cameras(size=IMAGE_SIZE)["spherical"],
+    }
+
+
 def hit_room(directions: NDArray[np.float64]) -> NDArray[np.float64]:
     """World points (..., 3) where rays from the camera meet the room's surfaces."""
     origin = np.asarray(CAMERA_POSITION)
@@ -92,7 +125,7 @@ class Trial:
 
 
 def make_landmarks(
-    camera: RadialCamera | TiltedCamera,
+    camera: SimulatedCamera,
     count: int,
     rng: np.random.Generator,
     *,
