@@ -25,14 +25,16 @@ squares of the 4th-degree polynomial with the centre pair):
    cameras' where the image shows a cut-off disc, else the fisheye lenses') within two.
 4. **Outliers.** With the model chosen robustly (its score trimmed of the
    largest fifth of the errors), the landmark whose leave-one-out residual is
-   largest is dropped while it exceeds 5 robust standard deviations; dropped
+   largest (studentized: whitened by its noise and the others' prediction error
+   together) is dropped while it exceeds 5 robust standard deviations; dropped
    landmarks are named in the report; the model is chosen again on the rest.
 5. **Joint refinement** by nonlinear least squares of f_r, phi0 and, with
    ``refine_centre``, the centre; the Jacobian gives the coefficients'
    covariance, hence the standard error of r at every elevation. With
    ``refine_centre`` the paper's model (centre given) is not a candidate, and
    model and outliers are chosen again about the refined centre, then refined
-   once more.
+   once more. A refinement that turns f_r back short of the annulus the
+   separable fit covered is not taken.
 """
 
 from __future__ import annotations
@@ -83,7 +85,13 @@ ROBUST_TRIM = 0.2
 # wins by chance on a few noisy landmarks. Only that one law: on a real mirror camera (kaidan, 20 draws
 # of 10 corners) keeping the lens law too chose it in 2 draws at 0.95 px, where the curves give 0.62.
 CAMERA_LAW_STANDARD_ERRORS = 2.0
-OUTLIER_SIGMAS = 4.0
+# A landmark is an outlier where its held-out error exceeds this many robust sigmas, the error whitened by
+# its own noise and the standard error of the others' prediction together (studentized). Whitened by its
+# noise alone, a good landmark at an end of the elevations, predicted by extrapolation, stood out: an
+# orthographic fisheye's rim landmark went (5.1 sigmas; 2.4 studentized), and the fit then turned back
+# short of the circle. Not four: on a tilted camera the level fit's residuals run in a wave, and at four the
+# search before the mount's dropped two good landmarks of a parabolic mirror 1.3 deg off (27.7 px).
+OUTLIER_SIGMAS = 5.0
 # Median of the norm of a 2-D standard normal vector: sqrt(2 ln 2).
 MEDIAN_2D_NORM = math.sqrt(2 * math.log(2))
 WEIGHT_ITERATIONS = 3
