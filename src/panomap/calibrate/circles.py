@@ -55,6 +55,7 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from scipy.ndimage import median_filter
 
 from ..errors import PanomapError
 from ..geometry import FloatArray, pixel_polar
@@ -130,6 +131,9 @@ CONCENTRIC_SEEDS = 3
 CONCENTRIC_RAYS = 72
 # Where those centres give no rim, the grids (half-width, step; px) on which the centre is searched.
 CONCENTRIC_GRIDS = ((40.0, 10.0), (10.0, 3.0), (3.0, 1.0))
+# ... scored by its profile's highest peak, and again by how far a peak stands above the profile's
+# running median over this many px of radius either side (in the shrunk image): a rim is narrow in radius.
+CONCENTRIC_BACKGROUND_PX = 12.0
 CONCENTRIC_SHARE = 0.4
 CONCENTRIC_PEAK_RATIO = 0.3
 CONCENTRIC_PROMINENCE = 3.0
@@ -326,7 +330,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         return _concentric_circles(grey, [centre for centre, _ in voted_either()[:CONCENTRIC_SEEDS]])
 
     def concentric_searched() -> list[tuple[tuple[float, float], float]]:
-        return [] if not voted_either() else _concentric_circles(grey, [_concentric_centre(grey, voted_either()[0][0])])
+        return [] if not voted_either() else _concentric_circles(grey, _concentric_centres(grey, voted_either()[0][0]))
 
     stages = (
         (lambda: _coarse_circle(small, factor), 1, (NARROW_REACH, WIDE_REACH), False),
@@ -797,13 +801,20 @@ def _concentric_circles(
     return candidates
 
 
-def _concentric_centre(grey: NDArray[Any], seed: tuple[float, float]) -> tuple[float, float]:
-    """The centre near ``seed`` (within CONCENTRIC_GRIDS[0][0] px) about which edges line up best on circles.
+def _concentric_centres(grey: NDArray[Any], seed: tuple[float, float]) -> list[tuple[float, float]]:
+    """Centres near ``seed`` (within CONCENTRIC_GRIDS[0][0] px) about which edges line up best on circles.
 
     Where the circle transform's centre is too far off (tens of px) for the rim to give a
     peak in :func:`_concentric_circles`' profile, the centre is searched for on grids of
-    shrinking step: the one whose profile (in the image shrunk by area to at most
-    COARSE_SIDE px a side, not smoothed, so that a thin line survives) has the highest peak.
+    shrinking step, in the image shrunk by area to at most COARSE_SIDE px a side (not
+    smoothed, so that a thin line survives), by two scores of the profile, each giving one
+    centre: its highest peak, and the peak that stands highest above the profile's running
+    median (CONCENTRIC_BACKGROUND_PX either side). A rim is narrow in radius about its own
+    centre, while a scene's edges (a checkerboard, a room's corners) spread over many radii:
+    by height alone, a housed mirror's rim about a seed 10 px off lost to a checkerboard's
+    border about a centre 60 px off (OpenCV 5.1's render of the test scene). By prominence
+    alone, two real MiniOmni images lost their rim to the scene's edges, which height found.
+    Both are kept, the highest peak's first; the same centre once.
     """
     full_height, full_width = grey.shape
     factor = max(1, math.ceil(max(full_height, full_width) / COARSE_SIDE))
@@ -816,20 +827,31 @@ def _concentric_centre(grey: NDArray[Any], seed: tuple[float, float]) -> tuple[f
     offsets_u = (np.cos(angles)[:, None] * radii[None, :]).astype(np.float32)
     offsets_v = (np.sin(angles)[:, None] * radii[None, :]).astype(np.float32)
     share = int((1 - CONCENTRIC_SHARE) * rays)
-    centre = np.array([(seed[0] + 0.5) / factor - 0.5, (seed[1] + 0.5) / factor - 0.5], dtype=np.float32)
-    for half_px, spacing_px in CONCENTRIC_GRIDS:
-        half, spacing = half_px / factor, spacing_px / factor
-        offsets = np.arange(-half, half + spacing / 2, spacing, dtype=np.float32)
-        grid = np.stack(np.meshgrid(offsets, offsets), axis=-1).reshape(-1, 2) + centre
-        n = len(grid)
-        map_u = (grid[:, 0, None, None] + offsets_u[None]).reshape(n * rays, -1)
-        map_v = (grid[:, 1, None, None] + offsets_v[None]).reshape(n * rays, -1)
-        samples = cv2.remap(small, map_u, map_v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
-        strength = np.nan_to_num(np.abs(samples[:, 2:] - samples[:, :-2]))
-        strength = strength.reshape(n, rays, -1).transpose(0, 2, 1)
-        scores = np.partition(strength, share, axis=2)[..., share].max(axis=1)
-        centre = grid[int(np.argmax(scores))]
-    return _full_resolution((float(centre[0]), float(centre[1])), factor)
+    background_size = 2 * round(CONCENTRIC_BACKGROUND_PX / step) + 1
+    start = np.array([(seed[0] + 0.5) / factor - 0.5, (seed[1] + 0.5) / factor - 0.5], dtype=np.float32)
+    centres: list[tuple[float, float]] = []
+    for prominence in (False, True):
+        centre = start
+        for half_px, spacing_px in CONCENTRIC_GRIDS:
+            half, spacing = half_px / factor, spacing_px / factor
+            offsets = np.arange(-half, half + spacing / 2, spacing, dtype=np.float32)
+            grid = np.stack(np.meshgrid(offsets, offsets), axis=-1).reshape(-1, 2) + centre
+            n = len(grid)
+            map_u = (grid[:, 0, None, None] + offsets_u[None]).reshape(n * rays, -1)
+            map_v = (grid[:, 1, None, None] + offsets_v[None]).reshape(n * rays, -1)
+            samples = cv2.remap(
+                small, map_u, map_v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan
+            )
+            strength = np.nan_to_num(np.abs(samples[:, 2:] - samples[:, :-2]))
+            strength = strength.reshape(n, rays, -1).transpose(0, 2, 1)
+            profiles = np.partition(strength, share, axis=2)[..., share]
+            if prominence:
+                profiles = profiles - median_filter(profiles, size=(1, background_size), mode="nearest")
+            centre = grid[int(np.argmax(profiles.max(axis=1)))]
+        found = _full_resolution((float(centre[0]), float(centre[1])), factor)
+        if not any(math.dist(found, other) < NEAR_PX for other in centres):
+            centres.append(found)
+    return centres
 
 
 def _coarse_circle(small: NDArray[Any], factor: int) -> list[tuple[tuple[float, float], float]]:
