@@ -135,6 +135,8 @@ CONCENTRIC_GRIDS = ((40.0, 10.0), (10.0, 3.0), (3.0, 1.0))
 # running median over this many px of radius either side (in the shrunk image): a rim is narrow in radius.
 CONCENTRIC_BACKGROUND_PX = 12.0
 CONCENTRIC_SHARE = 0.4
+# ... of the rays in the frame, at radii where at least this fraction of them are.
+CONCENTRIC_LEAST_IN_FRAME = 0.2
 CONCENTRIC_PEAK_RATIO = 0.3
 CONCENTRIC_PROMINENCE = 3.0
 # Two start circles whose centres and radii differ by less than this fraction of the radius
@@ -549,7 +551,10 @@ def _iterate_rim(
     assert circle is not None
     in_frame = _fraction_in_frame(circle.centre, circle.radius, (height, width)) * RAYS
     sectors = _sectors_seen(points, circle)
-    least_sectors = MIN_RIM_SECTORS if polarity else MIN_RIM_SECTORS_EITHER
+    # Of the sectors the frame shows: a circle cut by all four edges (a round image larger than a
+    # square frame) shows four arcs about the corners, in as few as 4 of the 12 sectors.
+    shown = _sectors_in_frame(circle, (height, width))
+    least_sectors = math.ceil((MIN_RIM_SECTORS if polarity else MIN_RIM_SECTORS_EITHER) * shown / 12)
     if (
         circle.inliers < MIN_RIM_FRACTION * RAYS
         or sectors < least_sectors
@@ -775,30 +780,53 @@ def _concentric_circles(
     thin line, a soft step in a bright housing) to a few px, but its radius is that of
     the strongest circle about that centre, often one of the scene inside a mirror
     (a ceiling's edge). About each seed the edge strength (at full resolution, smoothed
-    along the rays as the rim points are) that CONCENTRIC_SHARE of all the rays reach
-    is a profile over the radius (a ray off the frame has none): it peaks where an edge
-    lies at one radius all round, while scene edges spread over many radii (Daugman's
-    integro-differential operator, with a quantile for a rim whose contrast changes
-    sign). Its clear peaks (CONCENTRIC_PEAK_RATIO of the highest, CONCENTRIC_PROMINENCE
-    times its median) are the candidate radii, outermost first, ``count`` per seed: the
-    rim is the outermost circle.
+    along the rays as the rim points are) that CONCENTRIC_SHARE of all the rays reach is a
+    profile over the radius (a ray off the frame has none): it peaks where an edge lies at
+    one radius all round, while scene edges spread over many radii (Daugman's
+    integro-differential operator, with a quantile for a rim whose contrast changes sign).
+    Its clear peaks (CONCENTRIC_PEAK_RATIO of the highest, CONCENTRIC_PROMINENCE times its
+    median) are the candidate radii, outermost first, ``count`` per seed: the rim is the
+    outermost circle. Then the same from the share of the rays in the frame
+    (:func:`_share_reached`), for a circle that the frame cuts on every side; those
+    candidates come after all the others (the real MiniOmni images lose rims found by the
+    first profile where the second one's candidates come first).
     """
     height, width = grey.shape
     radii = np.arange(0.2 * min(height, width), 0.75 * max(height, width), STEP)
     share = int((1 - CONCENTRIC_SHARE) * CONCENTRIC_RAYS)
-    candidates: list[tuple[tuple[float, float], float]] = []
+    first: list[tuple[tuple[float, float], float]] = []
+    then: list[tuple[tuple[float, float], float]] = []
     for seed in seeds:
         samples, _, _ = _profiles(grey, seed, radii, CONCENTRIC_RAYS)
-        strength = np.where(np.isfinite(samples), _edge_strength(samples), 0.0)
-        profile = np.partition(strength, share, axis=0)[share]
-        top = float(profile.max())
-        if top <= 0:
-            continue
-        peak = (profile[1:-1] >= profile[:-2]) & (profile[1:-1] > profile[2:])
-        least = max(CONCENTRIC_PEAK_RATIO * top, CONCENTRIC_PROMINENCE * float(np.median(profile)))
-        indices = np.flatnonzero(peak & (profile[1:-1] >= least)) + 1
-        candidates += [(seed, float(radii[index])) for index in indices[::-1][:count]]
-    return candidates
+        strength = np.where(np.isfinite(samples), _edge_strength(samples), np.nan)
+        for profile, found in (
+            (np.partition(np.nan_to_num(strength), share, axis=0)[share], first),
+            (_share_reached(strength, axis=0), then),
+        ):
+            top = float(profile.max())
+            if top <= 0:
+                continue
+            peak = (profile[1:-1] >= profile[:-2]) & (profile[1:-1] > profile[2:])
+            least = max(CONCENTRIC_PEAK_RATIO * top, CONCENTRIC_PROMINENCE * float(np.median(profile)))
+            indices = np.flatnonzero(peak & (profile[1:-1] >= least)) + 1
+            found += [(seed, float(radii[index])) for index in indices[::-1][:count]]
+    return first + [c for c in then if not any(c[0] == o[0] and abs(c[1] - o[1]) < NEAR_PX for o in first)]
+
+
+def _share_reached(strength: NDArray[Any], axis: int) -> FloatArray:
+    """The edge strength that CONCENTRIC_SHARE of the rays in the frame reach, over ``axis`` (the rays; NaN: off
+    the frame); 0 where fewer than CONCENTRIC_LEAST_IN_FRAME of the rays are in it.
+
+    Of the rays in the frame, not of all: a round image larger than the frame shows its rim
+    on a third of the rays or less (cut by all four edges of a square frame by 12% of its
+    radius: 37%), and a share of all the rays never reached it.
+    """
+    ordered = np.sort(strength, axis=axis)  # NaN last
+    count = np.sum(np.isfinite(strength), axis=axis)
+    index = np.minimum((1 - CONCENTRIC_SHARE) * count, np.maximum(count - 1, 0)).astype(np.int64)
+    reached = np.take_along_axis(ordered, np.expand_dims(index, axis), axis=axis).squeeze(axis)
+    enough = count >= CONCENTRIC_LEAST_IN_FRAME * strength.shape[axis]
+    return np.where(enough & np.isfinite(reached), reached, 0.0)
 
 
 def _concentric_centres(grey: NDArray[Any], seed: tuple[float, float]) -> list[tuple[float, float]]:
@@ -908,6 +936,16 @@ def _cropping_edges(centre: tuple[float, float], radius: float, shape: tuple[int
     u, v = centre
     beyond = (u - radius < -0.5, v - radius < -0.5, u + radius > width - 0.5, v + radius > height - 0.5)
     return tuple(edge for edge, cut in zip(FRAME_EDGES, beyond, strict=True) if cut)
+
+
+def _sectors_in_frame(circle: Circle, shape: tuple[int, int]) -> int:
+    """Sectors of 30 deg (of 12) of the circle in which at least a third of the rays fall in the frame."""
+    height, width = shape
+    angles = (np.arange(RAYS) + 0.5) * (2 * math.pi / RAYS)
+    u = circle.centre[0] + circle.radius * np.cos(angles)
+    v = circle.centre[1] + circle.radius * np.sin(angles)
+    inside = (u >= -0.5) & (u <= width - 0.5) & (v >= -0.5) & (v <= height - 0.5)
+    return int(np.sum(inside.reshape(12, -1).mean(axis=1) >= 1 / 3))
 
 
 def _fraction_in_frame(centre: tuple[float, float], radius: float, shape: tuple[int, int]) -> float:
