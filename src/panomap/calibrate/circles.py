@@ -332,7 +332,11 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         return _concentric_circles(grey, [centre for centre, _ in voted_either()[:CONCENTRIC_SEEDS]])
 
     def concentric_searched() -> list[tuple[tuple[float, float], float]]:
-        return [] if not voted_either() else _concentric_circles(grey, _concentric_centres(grey, voted_either()[0][0]))
+        if not voted_either():
+            return []
+        centre, radius = voted_either()[0]
+        searched = _concentric_circles(grey, _concentric_centres(grey, centre))
+        return searched + _outermost_edge_circle(grey, centre, radius)
 
     stages = (
         (lambda: _coarse_circle(small, factor), 1, (NARROW_REACH, WIDE_REACH), False),
@@ -811,6 +815,42 @@ def _concentric_circles(
             indices = np.flatnonzero(peak & (profile[1:-1] >= least)) + 1
             found += [(seed, float(radii[index])) for index in indices[::-1][:count]]
     return first + [c for c in then if not any(c[0] == o[0] and abs(c[1] - o[1]) < NEAR_PX for o in first)]
+
+
+def _outermost_edge_circle(
+    grey: NDArray[Any], seed: tuple[float, float], radius: float
+) -> list[tuple[tuple[float, float], float]]:
+    """The consensus circle (full-resolution px) through the outermost clear edge on each ray from ``seed``.
+
+    The rim is the outermost circle: past it, a housing out of focus. Where the circle
+    transform's centre is 20-30 px off a thin rim line at 1920 px (the line faint in the
+    shrunk image), no profile about that centre, or about the grid search's, shows the rim;
+    the outermost edge of either polarity (FEATURE_MIN_STRENGTH grey levels per px, a local
+    peak, 8 px or more inside the frame's edge) lies on the rim on most rays whatever the
+    centre, and a consensus circle through those points starts the rim's search. Empty
+    where fewer than MIN_RIM_FRACTION of the rays have one.
+    """
+    height, width = grey.shape
+    radii = np.arange(0.2 * min(height, width), 0.75 * max(height, width), STEP)
+    rays = RAYS // 2  # points enough for the consensus, at half the cost where there is no rim
+    samples, cos, sin = _profiles(grey, seed, radii, rays)
+    inside = np.isfinite(samples)
+    strength = np.where(inside, _edge_strength(samples), 0.0)
+    # Away from where the ray leaves the frame (the frame's own edge).
+    margin = round(8 / STEP)
+    last = radii.size - 1 - np.argmax(inside[:, ::-1], axis=1)
+    usable = np.arange(radii.size)[None, :] < (last - margin)[:, None]
+    peak = np.zeros_like(inside)
+    peak[:, 1:-1] = (strength[:, 1:-1] >= strength[:, :-2]) & (strength[:, 1:-1] > strength[:, 2:])
+    peak &= usable & inside & (strength >= FEATURE_MIN_STRENGTH)
+    has = peak.any(axis=1)
+    if has.sum() < MIN_RIM_FRACTION * rays:
+        return []
+    outermost = radii.size - 1 - np.argmax(peak[:, ::-1], axis=1)
+    reach = radii[outermost[has]]
+    points = np.stack([seed[0] + cos[has] * reach, seed[1] + sin[has] * reach], axis=1)
+    centre, found = _consensus_circle(points, seed, radius)
+    return [(centre, found)]
 
 
 def _share_reached(strength: NDArray[Any], axis: int) -> FloatArray:
