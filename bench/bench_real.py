@@ -27,8 +27,11 @@ folder; each with its checkerboard corners; see each folder's ``SOURCE.md``):
   fewer than half, the calibration's centre is used, and the output says so.
 - **fit --image**: :func:`panomap.calibrate.pipeline.calibrate_camera` with
   the 10 corners and each of the folder's images in turn, no other option
-  (what ``panomap fit --image`` does): the RMS on all other corners and the
-  distance from its centre (refined) to the calibration's.
+  (what ``panomap fit --image`` does): the RMS on all other corners; where
+  the fit puts the calibration's optical axis (our world's -Z: its centre
+  for a level fit), from the calibration's centre; and how many images were
+  given a tilt (a tilt about the rim's centre can stand for the rim's offset
+  from the axis), with the fitted centre's own distance.
 - **Choice of the 10 corners** (deterministic): the elevations of all the
   folder's corners span ``[lo, hi]``; for each of 10 elevations evenly spaced
   from ``lo`` to ``hi`` the corner nearest in elevation (each corner once).
@@ -242,19 +245,29 @@ def evaluate(folder: Path, trials: int = 0) -> dict[str, Any]:
     landmarks = Landmarks(corners.pixels[chosen], corners.world[chosen], tuple(f"corner{k}" for k in chosen))
     per_image = []
     offsets = []
+    centres = []
+    tilted = 0
     for path in sorted((folder / "images").iterdir()):
         try:
             fit = calibrate_camera(landmarks, (0.0, 0.0, 0.0), omni=read_image(path)).fit
         except PanomapError:
             per_image.append(math.inf)
             offsets.append(math.inf)
+            centres.append(math.inf)
             continue
         theta, rho = azimuth_elevation(corners.world[others] - np.asarray(fit.camera_position))
         error = np.linalg.norm(fit.model.pixels(theta, rho) - corners.pixels[others], axis=1)
         per_image.append(float(np.sqrt(np.mean(error**2))))
-        offsets.append(math.dist(fit.model.centre, calibration_centre(folder)))
+        # The calibration's centre is where its optical axis lands: our world's -Z (the world frame is the
+        # calibration's camera frame). A level fit puts it at its centre; a tilted one elsewhere.
+        axis = fit.model.pixels(np.array(0.0), np.array(-math.pi / 2))
+        offsets.append(math.dist((float(axis[0]), float(axis[1])), calibration_centre(folder)))
+        centres.append(math.dist(fit.model.centre, calibration_centre(folder)))
+        tilted += fit.mount is not None and fit.mount.tilt_deg > 0
     result["fit_image_rms_px"] = per_image
     result["fit_image_centre_offset_px"] = offsets
+    result["fit_image_centre_parameter_offset_px"] = centres
+    result["fit_image_tilted"] = tilted
     draws = []
     rng = np.random.default_rng(2007)
     for _ in range(trials):
@@ -296,11 +309,12 @@ def main() -> None:
         "the tool's RMS on the same corners (and on all of them, SOURCE.md)"
     )
     print(
-        "| folder | centre | other corners | fit --image, RMS over its images: median / worst | fit --image, its "
-        "centre's distance to the calibration's (px): median / worst | default | refined centre | paper | tool | "
-        "random spread choices |"
+        "| folder | centre | other corners | fit --image, RMS over its images: median / worst | fit --image, where "
+        "it puts the calibration's axis, from the calibration's centre (px): median / worst | fit --image: images "
+        "given a tilt, its centre from the calibration's (px): median / worst | default | refined centre | paper | "
+        "tool | random spread choices |"
     )
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in results:
 
         def cell(fit: dict[str, Any]) -> str:
@@ -318,6 +332,8 @@ def main() -> None:
             f"{np.median(r['fit_image_rms_px']):.2f} / {np.max(r['fit_image_rms_px']):.2f} "
             f"({len(r['fit_image_rms_px'])} images) | "
             f"{np.median(r['fit_image_centre_offset_px']):.2f} / {np.max(r['fit_image_centre_offset_px']):.2f} | "
+            f"{r['fit_image_tilted']}, {np.median(r['fit_image_centre_parameter_offset_px']):.2f} / "
+            f"{np.max(r['fit_image_centre_parameter_offset_px']):.2f} | "
             f"{cell(r['fits']['default'])} | {cell(r['fits']['refined centre'])} | {cell(r['fits']['paper'])} | "
             f"{r['tool_rms_px']:.2f} ({r['tool_rms_all_px']:.2f}) | {spread} |"
         )

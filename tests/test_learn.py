@@ -128,7 +128,7 @@ def test_true_landmarks_fit_with_small_residuals_and_a_panorama(client: Client, 
     assert residuals.max() < 0.05, residuals
     assert not any(row["outlier"] for row in fit["landmarks"])
     # The detected centre is refined with the landmarks, and a clean fit has nothing to diagnose.
-    assert fit["centre_refined"] is True and "centre refined to" in fit["message"]
+    assert fit["centre_refined"] is True and "centre refined with the landmarks" in fit["message"]
     assert fit["diagnosis"] == []
     curve = fit["curve"]
     assert len(curve["elevation_deg"]) == len(curve["radius_px"]) == len(curve["se_px"]) == 91

@@ -89,10 +89,12 @@ def test_ten_corners_reproject_all_others_within_a_pixel(folder: str) -> None:
     assert refined["rms_px"] <= 0.8, refined
     # Our world is the OCam frame (Z its optical axis, the camera looking down): the image angle
     # is phi = pi/2 - theta, i.e. s = -1, phi0 = 90 deg. imgback's affine terms d = -0.042,
-    # e = 0.045 add a rotation of (d - e)/2 = -2.5 deg (measured phi0 87.6 deg).
+    # e = 0.045 add a rotation of (d - e)/2 = -2.5 deg (measured phi0 87.6 deg). Where a small tilt about
+    # the rim's centre stands for the rim's offset from the axis (kaidan: 0.26 deg), phi0 moves with it
+    # (measured 89.68 deg; 89.89 level): a wrong convention would be degrees off.
     assert refined["s"] == -1
     expected_phi0 = 87.5 if folder == "ocam_fisheye_imgback" else 90.0
-    assert abs(refined["phi0_deg"] - expected_phi0) < 0.3, refined["phi0_deg"]
+    assert abs(refined["phi0_deg"] - expected_phi0) < 0.5, refined["phi0_deg"]
     if folder == "ocam_kaidan_catadioptric":
         # Measured 0.64 px with the centre held where the rim puts it (0.7 px from the axis); the other
         # rims' centres are 1.3-3.0 px off the axis, which the centre held cannot undo (0.52-1.83 px).
@@ -103,15 +105,16 @@ def test_ten_corners_reproject_all_others_within_a_pixel(folder: str) -> None:
 
 @pytest.mark.parametrize("folder", FOLDERS)
 def test_fit_image_finds_the_calibrations_centre_from_ten_corners(folder: str) -> None:
-    """``panomap fit --image`` with no other option, once with each of the folder's images: the refined
-    centre within 1 px of the established calibration's (the issue's goal), the RMS on all other corners
-    within 0.7 px (goal).
+    """``panomap fit --image`` with no other option, once with each of the folder's images: the calibration's
+    optical axis (our world's -Z) put within 1 px of the established calibration's centre (the issue's goal),
+    the RMS on all other corners within 0.7 px (goal).
 
-    Measured: 0.07-0.20 px from the calibration's centre, the same with every image (the rim found in it or
-    not); RMS 0.39-0.67 px.
+    Measured: 0.07-0.61 px (worst over each folder's images: mei 0.07, imgback 0.17, kaidan 0.61, miniomni
+    0.20, vmr 0.13; on 9 of imgback's 11 images and 13 of kaidan's 17 a tilt about the rim's centre explains
+    the landmarks better than moving the centre, and stands for the rim's offset); RMS 0.39-0.67 px.
     """
     result = _evaluated(folder)
-    assert max(result["fit_image_centre_offset_px"]) < 0.5, result["fit_image_centre_offset_px"]
+    assert max(result["fit_image_centre_offset_px"]) < 1.0, result["fit_image_centre_offset_px"]
     assert max(result["fit_image_rms_px"]) <= 0.7, result["fit_image_rms_px"]
 
 

@@ -18,6 +18,7 @@ from panomap.simulate import (
     Room,
     SimulatedCamera,
     SphericalMirrorCamera,
+    field_stop,
     load_room,
     render,
     render_rays,
@@ -414,6 +415,25 @@ def test_render_shows_floor_checkerboard() -> None:
     outside = np.hypot(u - cam.centre[0], v - cam.centre[1]) > cam.outer_radius + 1.0
     assert outside.any() and not image[outside].any()
     assert image[~outside].mean() > 50
+
+
+@pytest.mark.parametrize("centre", [(200.0, 150.0), (201.37, 148.62)])
+def test_a_field_stop_keeps_the_disc_and_its_area(centre: tuple[float, float]) -> None:
+    """field_stop: black outside the rim's circle, untouched inside, and the disc's area (pi R^2, closed form)
+    within 0.02% (each edge pixel keeps its coverage; measured 0.001-0.003%), wherever the centre falls."""
+    radius = 120.4
+    white = np.full((300, 400, 3), 255, dtype=np.uint8)
+    stopped = field_stop(white, centre, radius)
+    v, u = np.mgrid[0:300, 0:400]
+    r = np.hypot(u - centre[0], v - centre[1])
+    assert not stopped[r > radius + 0.71].any()
+    assert (stopped[r < radius - 0.71] == 255).all()
+    area = stopped[..., 0].astype(float).sum() / 255
+    assert abs(area / (math.pi * radius**2) - 1) < 2e-4
+    grey = field_stop(white[..., 0], centre, radius)
+    assert grey.shape == (300, 400) and np.array_equal(grey, stopped[..., 0])
+    with pytest.raises(PanomapError, match="radius"):
+        field_stop(white, centre, 0.0)
 
 
 def test_render_rays() -> None:

@@ -30,6 +30,7 @@ from ..camera.orientation import rotation_from_vector, to_camera
 from ..camera.radial import RadialFunction
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, pixel_polar
+from .report import CENTRE_AS_FOUND
 
 IndexArray = np.ndarray
 
@@ -59,6 +60,9 @@ class MountProblem:
         prior on ``delta``).
     rotation : (3, 3) ndarray or None
         A rotation given by the user (camera to world), applied before ``w``.
+    centre_found : (u0, v0) or None
+        The centre where the fit started (found at the rim), px, for the mounts
+        that hold it there (``MountOptions.at_rim``).
     """
 
     world: FloatArray
@@ -71,6 +75,7 @@ class MountProblem:
     world_sigma: float
     camera_sigma: float
     rotation: FloatArray | None = None
+    centre_found: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -80,11 +85,12 @@ class MountOptions:
     centre: bool = False
     tilt: bool = False
     position: bool = False
+    at_rim: bool = False  # the centre held where it was found, among mounts that refine it
 
     @property
     def name(self) -> str:
         parts = [part for part, on in (("tilt", self.tilt), ("position", self.position)) if on]
-        return " + ".join(parts) or "level, position as given"
+        return (" + ".join(parts) or "level, position as given") + (CENTRE_AS_FOUND if self.at_rim else "")
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import PanomapError
 
+CENTRE_AS_FOUND = ", centre as found"  # ends the name of a mount that held the centre where it was found
+
 if TYPE_CHECKING:
     from ..table.table import PanoMappingTable
 
@@ -159,7 +161,9 @@ class MountReport:
         The given position's standard deviation on each coordinate, world units (0: exact).
     position_refined : bool
     chosen : str
-        The mount chosen: ``"level, position as given"``, ``"tilt"``, ``"position"`` or ``"tilt + position"``.
+        The mount chosen: ``"level, position as given"``, ``"tilt"``, ``"position"`` or ``"tilt + position"``;
+        ``"tilt, centre as found"`` where the centre was to be refined but a tilt about the centre found in the
+        image predicted the held-out landmarks better than the level fit's moved centre.
     cross_validation : mapping of str to float
         Each mount tried and its held-out RMS error in sigmas (smaller is better); empty when no
         mount lowered the chi-square beyond chance, so that none needed cross-validating.
@@ -301,6 +305,22 @@ class FitReport:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "model_selection_loo_rms_px", MappingProxyType(dict(self.model_selection_loo_rms_px)))
+
+    def centre_sentence(self) -> str | None:
+        """Where the refined centre went, in a line (None when the centre was not refined)."""
+        if not self.settings.refine_centre or self.centre_start is None:
+            return None
+        u0, v0 = self.centre
+        if self.mount is not None and self.mount.chosen.endswith(CENTRE_AS_FOUND):
+            return (
+                f"centre kept where it was found: ({u0:.2f}, {v0:.2f}); a tilt of the axis predicts the landmarks "
+                "better than moving it"
+            )
+        us, vs = self.centre_start
+        return (
+            f"centre refined with the landmarks: ({u0:.2f}, {v0:.2f}), "
+            f"{math.hypot(u0 - us, v0 - vs):.2f} px from the start ({us:.2f}, {vs:.2f})"
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """The report as plain data, in the layout a table file stores (``uncertainty`` only when known)."""

@@ -285,12 +285,9 @@ def _describe_fit(table: PanoMappingTable) -> str:
         f"consistency {fit.azimuth_consistency:.3f})"
     )
     lines = [chosen, azimuth]
-    if fit.settings.refine_centre and fit.centre_start is not None:
-        (u0, v0), (us, vs) = fit.centre, fit.centre_start
-        lines.append(
-            f"centre refined with the landmarks: ({u0:.2f}, {v0:.2f}), "
-            f"{math.hypot(u0 - us, v0 - vs):.2f} px from the start ({us:.2f}, {vs:.2f})"
-        )
+    centre = fit.centre_sentence()
+    if centre is not None:
+        lines.append(centre)
     if fit is not None and fit.mount is not None:
         lines.extend(fit.mount.sentences())
     return "\n".join([*lines, _describe_residuals(table, fit)])

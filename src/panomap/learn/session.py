@@ -367,10 +367,8 @@ class Session:
                 )
         m, n = table.size
         outliers = ", ".join(fit.outliers) or "none"
-        refined = ""
-        if fit.settings.refine_centre and fit.centre_start is not None:
-            shift = math.dist(fit.centre, fit.centre_start)
-            refined = f"; centre refined to ({fit.centre[0]:.2f}, {fit.centre[1]:.2f}), {shift:.2f} px from the rim's"
+        centre = fit.centre_sentence()
+        refined = "" if centre is None else f"; {centre}"
         mount = fit.mount
         if mount is not None:
             refined += "".join(f"; {sentence}" for sentence in mount.sentences())

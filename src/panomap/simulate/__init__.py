@@ -2,7 +2,7 @@
 
 Cameras (:mod:`panomap.simulate.cameras`) project points given relative to the nominal
 camera position O_m and trace pixels back to rays; the room (:mod:`panomap.simulate.room`)
-renders omni-images through any of them. Conventions: ``shared/conventions.md``.
+renders omni-images through any of them. Conventions: ``docs/conventions.md``.
 """
 
 from panomap.simulate.cameras import (
@@ -15,7 +15,7 @@ from panomap.simulate.cameras import (
     mount_rotation,
     standard_cameras,
 )
-from panomap.simulate.degrade import housed_mirror, noisy_jpeg, vignette
+from panomap.simulate.degrade import field_stop, housed_mirror, noisy_jpeg, vignette
 from panomap.simulate.room import (
     WALL_NAMES,
     Opening,
@@ -39,6 +39,7 @@ __all__ = [
     "SphericalMirrorCamera",
     "TiltedCamera",
     "Wall",
+    "field_stop",
     "housed_mirror",
     "load_room",
     "mount_rotation",

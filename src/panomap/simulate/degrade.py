@@ -1,5 +1,5 @@
 """What a real lens, sensor and housing do to a rendered omni-image: vignetting, a dim side, a
-bright housing around a mirror with a camera board in it, noise, JPEG.
+bright housing around a mirror with a camera board in it, a rim off the optical axis, noise, JPEG.
 
 Convention: pixel (u, v), u the column, v the row, the centre of the top-left pixel at
 (0, 0); images are (H, W[, C]) uint8.
@@ -58,6 +58,38 @@ def vignette(
     if image.ndim == 3:
         gain = gain[..., None]
     return np.clip(np.rint(image * gain), 0, 255).astype(np.uint8)
+
+
+def field_stop(image: NDArray[np.uint8], centre: tuple[float, float], radius: float) -> NDArray[np.uint8]:
+    """Black outside a circle: a lens's field stop or a mirror's rim, which need not be centred on the optical axis.
+
+    On real cameras the visible rim is 0.5-3 px off the optical axis (a mirror glued a little off
+    centre, a lens's stop not quite on its axis). Render the camera with an image circle a little
+    larger than ``radius`` plus the offset, then stop it down here about the rim's own ``centre``:
+    each pixel keeps its exact coverage by the disc (pixel ``(u, v)`` covers
+    ``[u - 0.5, u + 0.5] x [v - 0.5, v + 0.5]``; to within a hundredth of a pixel's area).
+
+    Parameters
+    ----------
+    image : (H, W[, C]) uint8 ndarray
+    centre : (u, v), px
+        Centre of the rim.
+    radius : float
+        Its radius (px), > 0.
+
+    Returns
+    -------
+    (H, W[, C]) uint8 ndarray
+    """
+    if not (math.isfinite(radius) and radius > 0):
+        raise PanomapError(f"radius must be finite and > 0, got {radius}")
+    height, width = image.shape[:2]
+    v, u = np.mgrid[0:height, 0:width].astype(np.float64)
+    r = np.hypot(u - centre[0], v - centre[1])
+    coverage = np.clip(radius - r + 0.5, 0.0, 1.0)  # the disc's share of each pixel, exact for a straight edge
+    if image.ndim == 3:
+        coverage = coverage[..., None]
+    return np.clip(np.rint(image * coverage), 0, 255).astype(np.uint8)
 
 
 def noisy_jpeg(

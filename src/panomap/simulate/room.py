@@ -1,6 +1,6 @@
 """A textured box room, rendered through any simulated omni-camera.
 
-Convention (see ``shared/conventions.md``):
+Convention (see ``docs/conventions.md``):
 
 - World frame: origin at a floor corner, ``x`` in ``[0, width]`` along the south wall,
   ``y`` in ``[0, depth]`` along the west wall, ``z`` in ``[0, height]`` up (metres). The
