@@ -10,7 +10,8 @@ angle and handedness, a crop of the image circle by the frame of 0-15% of its ra
 cameras we measured, the rim's centre is 0.7-2.3 px from the calibrated axis). The camera is
 **tilted** 0-3 deg toward a random azimuth, and the position given to the fit is **off by
 0-2 cm** in a random direction (a tape measurement). The bundled room is rendered through
-it; a mirror is put in a bright, blurred housing (half the mirror trials) or the image is
+it; a mirror is put in a bright, blurred housing about its rim, with the camera's own
+reflection about the axis (half the mirror trials), or the image is
 vignetted (up to 50% at the rim, up to 30% more on one side); then noise 5 and JPEG 75.
 Twelve landmarks spread in elevation, each where the camera sees it (inside the rim and
 the frame), with 1 px and 1 cm noise.
@@ -135,7 +136,7 @@ def setup(seed: int, max_tilt_deg: float = 3.0) -> Setup:
     camera = TiltedCamera(base, mount_rotation(math.radians(tilt_deg), rng.uniform(0, 2 * math.pi)))
     image = field_stop(render(ROOM, camera, supersample=1), rim, radius)
     if name in MIRRORS and rng.uniform() < 0.5:
-        image = housed_mirror(image, rim, radius, camera.cutoff_radius, rng)
+        image = housed_mirror(image, rim, radius, camera.cutoff_radius, rng, lens_centre=axis)
         kind = "mirror in a housing"
     else:
         image = vignette(

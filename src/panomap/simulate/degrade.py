@@ -113,6 +113,7 @@ def housed_mirror(
     rng: np.random.Generator,
     arcs: int = 6,
     faint: float = 0.0,
+    lens_centre: tuple[float, float] | None = None,
 ) -> NDArray[np.uint8]:
     """A mirror camera as it is built: the mirror in a bright, blurred housing, and a camera board in the middle.
 
@@ -146,6 +147,9 @@ def housed_mirror(
         Arcs around the rim, >= 3.
     faint : float
         Fraction of the rim, in ``[0, 1)``, on which the rim has no contrast (0: none).
+    lens_centre : (u, v), px, optional
+        Centre of the camera board and lens (the optical axis, about which the camera
+        sees itself), where the rim is off it; default ``centre``.
 
     Returns
     -------
@@ -193,6 +197,9 @@ def housed_mirror(
     result += on_line * line
 
     # The camera board: a dark square with lighter components, and the lens in its middle.
+    if lens_centre is not None:
+        du, dv = u - lens_centre[0], v - lens_centre[1]
+        r = np.hypot(du, dv)
     half_side = cutoff_radius * rng.uniform(1.6, 2.0)
     turn = rng.uniform(0, math.pi / 2)
     x = du * math.cos(turn) + dv * math.sin(turn)
