@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from panomap.calibrate.diagnosis import diagnose
 from panomap.calibrate.fit import fit_camera
 from panomap.calibrate.landmarks import Landmarks
 from panomap.calibrate.make_table import create_table
@@ -341,6 +342,7 @@ def test_a_refined_centre_does_not_stand_in_for_a_tilt(name: str, seed: int) -> 
     assert worst < 6.0, (worst, fit.mount.chosen)
     assert fit.mount.tilt_fitted and fit.mount.chosen == "tilt, centre as found"
     assert fit.model.centre == rim_centre
+    assert any(note.startswith("the centre was kept where the image shows it") for note in diagnose(fit))
     assert fit.report().centre_sentence() == (
         f"centre kept where it was found: ({rim_centre[0]:.2f}, {rim_centre[1]:.2f}); a tilt of the axis predicts "
         "the landmarks better than moving it"

@@ -9,6 +9,9 @@ rho (rad); ``pixel_sigma`` is the landmarks' pixel noise (px).
 - **A trend in elevation** (a low-degree polynomial in rho): the radial model
   does not follow the camera.
 - **Dropped landmarks**: a world point or pixel measured wrong.
+- **A tilt about the centre as found** (the mount ``tilt, centre as found``): near the nadir a
+  tilt of the axis and a centre off the rim's look alike, and the fit chose the tilt; said so,
+  with what tells the two apart.
 
 A pattern is reported when it explains most of the residuals' variance and
 its size is well above the noise (``PATTERN_SIGMAS`` pixel sigmas), with at
@@ -22,6 +25,7 @@ import math
 import numpy as np
 
 from .fit import CameraFit
+from .report import CENTRE_AS_FOUND
 
 PATTERN_SIGMAS = 2.0
 EXPLAINED_FRACTION = 0.5
@@ -55,6 +59,13 @@ def diagnose(fit: CameraFit) -> list[str]:
                 f"model ({fit.model.radial.kind}) does not follow this camera; let the model be chosen "
                 "automatically, or add landmarks across the elevations"
             )
+    if fit.mount is not None and fit.mount.chosen.endswith(CENTRE_AS_FOUND):
+        notes.append(
+            f"the centre was kept where the image shows it and the camera given a tilt of "
+            f"{fit.mount.tilt_deg:.2f} deg: near the nadir a tilt and a centre off the rim's look alike, and the "
+            "landmarks favour the tilt; if the camera is known to be level, give --tilt none; landmarks near the "
+            "horizon tell the two apart"
+        )
     if fit.outliers:
         notes.append(
             f"dropped as outliers: {', '.join(fit.outliers)}: their world point or pixel is probably wrong; "
