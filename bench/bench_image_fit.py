@@ -1,6 +1,6 @@
 """The README's own path end to end: an unkind omni-image and a dozen landmarks in, a table out, its error.
 
-Run: ``.venv/bin/python bench/bench_image_fit.py [--trials 60] [--workers 2]``
+Run: ``.venv/bin/python bench/bench_image_fit.py [--trials 60] [--workers 2] [--max-tilt 3] [--landmarks 12]``
 
 What ``panomap fit --image`` does with its defaults, on cameras as they are installed.
 Each seeded trial draws a frame (1024 x 768 to 1920 x 1920; 4:3, 16:9, square), a camera
@@ -13,7 +13,7 @@ cameras we measured, the rim's centre is 0.7-2.3 px from the calibrated axis). T
 it; a mirror is put in a bright, blurred housing about its rim, with the camera's own
 reflection about the axis (half the mirror trials), or the image is
 vignetted (up to 50% at the rim, up to 30% more on one side); then noise 5 and JPEG 75.
-Twelve landmarks spread in elevation, each where the camera sees it (inside the rim and
+Twelve landmarks (``--landmarks``) spread in elevation, each where the camera sees it (inside the rim and
 the frame), with 1 px and 1 cm noise.
 
 Per trial, the worst pixel error over the test points at elevations -85..-5 deg that the
@@ -82,12 +82,12 @@ def seen(
 
 
 def landmarks(
-    camera: TiltedCamera, rim: tuple[float, float], radius: float, rng: np.random.Generator
+    camera: TiltedCamera, rim: tuple[float, float], radius: float, rng: np.random.Generator, count: int = LANDMARKS
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Twelve landmarks spread in elevation (camera axes), each at an azimuth where the camera sees it; noisy."""
+    """``count`` landmarks spread in elevation (camera axes), each at an azimuth where the camera sees it; noisy."""
     low, high = camera.elevation_range
     world, pixels = [], []
-    for rho in np.linspace(low + math.radians(2), high - math.radians(2), LANDMARKS):
+    for rho in np.linspace(low + math.radians(2), high - math.radians(2), count):
         for _ in range(200):
             direction = ray_from_angles(rng.uniform(0, 2 * math.pi), rho) @ camera.rotation.T
             point = hit_room(direction[None])[0]
@@ -114,8 +114,8 @@ class Setup:
     axis: tuple[float, float]
 
 
-def setup(seed: int, max_tilt_deg: float = 3.0) -> Setup:
-    """Draw and render one trial, the camera tilted by up to ``max_tilt_deg``."""
+def setup(seed: int, max_tilt_deg: float = 3.0, count: int = LANDMARKS) -> Setup:
+    """Draw and render one trial, the camera tilted by up to ``max_tilt_deg``, with ``count`` landmarks."""
     rng = np.random.default_rng(seed)
     size = SIZES[rng.integers(len(SIZES))]
     name = NAMES[rng.integers(len(NAMES))]
@@ -149,7 +149,7 @@ def setup(seed: int, max_tilt_deg: float = 3.0) -> Setup:
         )
         kind = "mirror, vignetted" if name in MIRRORS else "fisheye, vignetted"
     image = noisy_jpeg(image, rng)
-    pixels, world = landmarks(camera, rim, radius, rng)
+    pixels, world = landmarks(camera, rim, radius, rng, count)
     tape_cm = rng.uniform(0.0, 2.0)
     direction = rng.normal(size=3)
     given = tuple(np.asarray(CAMERA_POSITION) + tape_cm / 100 * direction / np.linalg.norm(direction))
@@ -188,8 +188,8 @@ def worst_errors(trial: Setup, options: dict[str, dict[str, object]]) -> tuple[d
     return errors, moved
 
 
-def trial(job: tuple[int, float]) -> tuple[str, str, dict[str, float], float]:
-    """One trial (seed, largest tilt in deg): (kind, description, worst error of each fit, default centre's
+def trial(job: tuple[int, float, int]) -> tuple[str, str, dict[str, float], float]:
+    """One trial (seed, largest tilt in deg, landmarks): (kind, description, worst error of each fit, default centre's
     distance to the axis)."""
     drawn = setup(*job)
     options: dict[str, dict[str, object]] = {
@@ -206,14 +206,17 @@ def main() -> None:
     parser.add_argument("--trials", type=int, default=60)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--max-tilt", type=float, default=3.0, help="largest tilt (deg); 0: level cameras")
+    parser.add_argument("--landmarks", type=int, default=LANDMARKS, help=f"landmarks per trial (default {LANDMARKS})")
     args = parser.parse_args()
     start = time.perf_counter()
     rows: dict[str, list[tuple[str, dict[str, float], float]]] = {}
     with ProcessPoolExecutor(args.workers) as pool:
-        for kind, described, errors, moved in pool.map(trial, [(seed, args.max_tilt) for seed in range(args.trials)]):
+        jobs = [(seed, args.max_tilt, args.landmarks) for seed in range(args.trials)]
+        for kind, described, errors, moved in pool.map(trial, jobs):
             rows.setdefault(kind, []).append((described, errors, moved))
     print(
-        f"{args.trials} trials, tilted 0-{args.max_tilt:g} deg, {time.perf_counter() - start:.0f} s; "
+        f"{args.trials} trials, tilted 0-{args.max_tilt:g} deg, {args.landmarks} landmarks, "
+        f"{time.perf_counter() - start:.0f} s; "
         "worst error (px): median / 90th percentile / worst"
     )
     print("| image | trials | " + " | ".join(FITS) + " | default centre to axis (px) |")

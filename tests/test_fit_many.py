@@ -60,3 +60,29 @@ def test_kfold_is_used_above_the_bound_and_chooses_as_exact_leave_one_out() -> N
     assert CV_FOLDS < landmarks.pixels.shape[0]
     # Same model, same inliers: the refined fits agree to rounding.
     np.testing.assert_allclose(kfold.predicted, exact.predicted, atol=1e-6)
+
+
+def test_a_fit_kept_with_the_data_is_the_fit_of_those_data() -> None:
+    """Each subset's fit is made once and kept with the data it was made on: the same subset of other
+    data (the centre moved: other radii) is fitted afresh, never served from the first data's fits."""
+    camera = scenario_cameras()["equisolid"]
+    trial = make_landmarks(camera, 12, np.random.default_rng(5))
+    landmarks = Landmarks(*trial.landmarks)
+    fit = fit_camera(landmarks, CAMERA_POSITION, camera.centre, image_size=IMAGE_SIZE)
+    kind = fit_module.radial_kind(fit.model.radial.kind)
+    d = landmarks.world - np.asarray(CAMERA_POSITION)
+    theta, rho = fit_module.azimuth_elevation(d)
+    data = fit_module._Data(
+        theta, rho, np.zeros(12), np.zeros(12), np.full(12, 0.01), np.full(12, 0.01), 1.0, "down", 1, "fit"
+    )
+    subset = np.ones(12, dtype=bool)
+    for shift in (0.0, 7.0):  # the same subset, two centres 7 px apart
+        r, phi = fit_module.pixel_polar(landmarks.pixels, (camera.centre[0] + shift, camera.centre[1]))
+        moved = fit_module.replace(data, r=r, phi=phi)
+        kept, _ = fit_module._fit(kind, moved, subset)
+        assert fit_module._fit(kind, moved, subset)[0] is kept  # asked again: the fit kept
+        fresh = fit_module.fit_radial(kind.name, rho, r, "down")
+        for _ in range(fit_module.WEIGHT_ITERATIONS):
+            fresh = fit_module.fit_radial(kind.name, rho, r, "down", fit_module._radial_weights(fresh, moved))
+        # Exactly the fit of these data: the radii 7 px apart give coefficients far apart.
+        np.testing.assert_allclose(kept.coefficients, fresh.coefficients, rtol=1e-12)

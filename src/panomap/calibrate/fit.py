@@ -40,7 +40,7 @@ squares of the 4th-degree polynomial with the centre pair):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -270,6 +270,12 @@ class _Data:
     axis: str
     s: int
     azimuth_mode: str
+    # The fits made on these data: (model, the subset's bytes) -> (f_r, phi0), or the error it raised. A fit
+    # is a pure function of the data and the subset, and the choice asks for many twice (the outlier search
+    # and the model choice refit the same subsets: 35% of them on 40 landmarks). Not copied by replace().
+    fitted: dict[tuple[RadialKind, bytes], tuple[RadialFunction, float] | PanomapError] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
 
 def fit_camera(
@@ -519,7 +525,20 @@ def _radial_weights(radial: RadialFunction, data: _Data) -> FloatArray:
 
 
 def _fit(kind: RadialKind, data: _Data, subset: FloatArray) -> tuple[RadialFunction, float]:
-    """f_r and phi0 from the landmarks in ``subset`` (bool mask), the centre fixed."""
+    """f_r and phi0 from the landmarks in ``subset`` (bool mask), the centre fixed; made once per subset."""
+    key = (kind, np.asarray(subset, dtype=bool).tobytes())
+    if key not in data.fitted:
+        try:
+            data.fitted[key] = _fit_once(kind, data, subset)
+        except PanomapError as exc:
+            data.fitted[key] = exc
+    made = data.fitted[key]
+    if isinstance(made, PanomapError):
+        raise made.with_traceback(None)
+    return made
+
+
+def _fit_once(kind: RadialKind, data: _Data, subset: FloatArray) -> tuple[RadialFunction, float]:
     rho, r = data.rho[subset], data.r[subset]
     radial = fit_radial(kind.name, rho, r, data.axis)
     if kind.weighted:

@@ -227,6 +227,8 @@ def fisheye_basis(alpha: FloatArray, k: ArrayLike) -> FloatArray:
     result in rad (times f: px)."""
     k = np.asarray(k, dtype=np.float64)
     x = np.abs(k) * alpha
+    if k.ndim == 0 and k >= 0:  # the profile's one k (most calls): the sine branch alone, the same values
+        return np.asarray(np.where(x <= HALF_PI + 1e-12, alpha * np.sinc(x / np.pi), np.nan), dtype=np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):
         sine = alpha * np.sinc(x / np.pi)  # sin(x) / x, 1 at x = 0
         tangent = alpha * np.where(x > 0, np.tan(x) / np.where(x > 0, x, 1.0), 1.0)
