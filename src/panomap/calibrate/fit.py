@@ -294,6 +294,7 @@ def fit_camera(
     reject_outliers: bool = True,
     tilt: str | tuple[float, float] = "fit",
     camera_sigma: float | None = None,
+    centre_is_guess: bool = False,
 ) -> CameraFit:
     """Fit the camera model to landmark pairs.
 
@@ -337,6 +338,11 @@ def fit_camera(
         ``camera_position`` (a tape measurement); the fit refines the position
         when cross-validation says the landmarks support it. 0 keeps it exact;
         default 1% of the median landmark distance.
+    centre_is_guess : bool
+        The starting ``centre`` was not measured (the frame's middle, where the
+        image shows no rim): with ``refine_centre``, no tilt is tried about it
+        (a tilt about a point the image does not show would stand in for the
+        centre's own error: 5-10 px on simulated full-frame fisheyes).
 
     Raises
     ------
@@ -452,11 +458,13 @@ def fit_camera(
         world_sigma=float(world_sigma),
         camera_sigma=float(camera_sigma),
         rotation=rotation_given,
-        centre_found=(u0, v0),
+        centre_found=None if centre_is_guess else (u0, v0),
     )
     solution = MountSolution(radial, phi0, centre_fit, np.zeros(2), np.zeros(3), np.empty((0, 0)))
     mount_choice = None
-    options = _mount_options(tilt, float(camera_sigma), refine_centre, len(landmarks) <= EXACT_LOO_MAX)
+    # (No tilt about the centre as found where it was not found but guessed.)
+    twin = len(landmarks) <= EXACT_LOO_MAX and not centre_is_guess
+    options = _mount_options(tilt, float(camera_sigma), refine_centre, twin)
     # (The mount is searched whatever kind the automatic choice made; a kind asked for by name that does not
     # follow the noise model, Algorithm 1's, is fitted as printed.)
     if len(options) > 1 and azimuth == "fit" and (requested is None or requested.weighted):

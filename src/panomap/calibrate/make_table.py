@@ -41,14 +41,24 @@ class Annulus:
 
 
 def choose_annulus(
-    fit: CameraFit, image_size: tuple[int, int] | None, cutoff_radius: float | None, outer_radius: float | None
+    fit: CameraFit,
+    image_size: tuple[int, int] | None,
+    cutoff_radius: float | None,
+    outer_radius: float | None,
+    whole_frame: bool = False,
 ) -> Annulus:
     """The given radii (:attr:`Source.GIVEN`), or their defaults.
 
     The cut-off radius defaults to 0 (none); the outer radius to the largest
     circle about the centre inside the image (or reaching the farthest
     landmark, if that is further), or the farthest landmark when there is no
-    image size.
+    image size. With ``whole_frame`` (the image was searched and shows no rim: a
+    full-frame fisheye, whose picture fills the frame), it reaches the frame's
+    farthest corner instead, so that every pixel of the frame is in the table
+    (where f_r runs that far). A landmark reaches as far as its pixel, or as far
+    as the fitted f_r puts the landmarks' highest or lowest elevation, if further
+    (the fit, within the noise, may put a landmark near a corner a few pixels past
+    its pixel).
 
     Raises
     ------
@@ -60,8 +70,13 @@ def choose_annulus(
         cutoff_radius, cutoff_source = 0.0, Source.DEFAULT_NONE
     if outer_radius is None:
         u0, v0 = fit.model.centre
-        farthest = float(pixel_polar(fit.landmarks.pixels, (u0, v0))[0].max())
-        if image_size is not None:
+        fitted = np.abs(fit.model.radial(np.asarray(fit.landmark_range)))
+        farthest = float(np.nanmax([*pixel_polar(fit.landmarks.pixels, (u0, v0))[0], *fitted]))
+        if image_size is not None and whole_frame:
+            width, height = image_size
+            corner = math.hypot(max(u0 + 0.5, width - 0.5 - u0), max(v0 + 0.5, height - 0.5 - v0))
+            outer_radius, outer_source = max(corner, farthest), Source.DEFAULT_WHOLE_FRAME
+        elif image_size is not None:
             width, height = image_size
             inscribed = min(u0 + 0.5, v0 + 0.5, width - 0.5 - u0, height - 0.5 - v0)
             outer_radius, outer_source = max(float(inscribed), farthest), Source.DEFAULT_INSIDE_IMAGE

@@ -41,6 +41,8 @@ class CircleChoice:
     circles: ImageCircles | None
     sources: Mapping[str, Origin]
     warnings: tuple[str, ...] = ()
+    # The image was searched and shows no rim (a full-frame fisheye): the whole frame is picture.
+    whole_frame: bool = False
 
     def settled(self) -> tuple[tuple[float, float], float, float]:
         """(centre, cut-off radius, outer radius); PanomapError when one is still open."""
@@ -113,14 +115,12 @@ def choose_circles(
     except NoImageCircle as exc:
         error = PanomapError(exc.detail, name)
         if centre is not None:
-            return CircleChoice(
-                centre, cutoff_radius, outer_radius, None, {}, (_radii_note(error, cutoff_radius, outer_radius),)
-            )
+            note = _radii_note(error, cutoff_radius, outer_radius)
+            return CircleChoice(centre, cutoff_radius, outer_radius, None, {}, (note,), whole_frame=True)
         u, v = exc.frame_centre
         warning = f"{error}; starting from the frame centre ({u:.1f}, {v:.1f}), which the landmarks refine"
-        return CircleChoice(
-            exc.frame_centre, cutoff_radius, outer_radius, None, {"centre": Origin(Source.FRAME_CENTRE)}, (warning,)
-        )
+        frame = {"centre": Origin(Source.FRAME_CENTRE)}
+        return CircleChoice(exc.frame_centre, cutoff_radius, outer_radius, None, frame, (warning,), whole_frame=True)
     except PanomapError as exc:
         error = PanomapError(exc.detail, name)
         if centre is None:
@@ -257,13 +257,14 @@ def calibrate_camera(
         image_size=image_size,
         annulus=None if cutoff is None or outer is None or not models_cover_annulus else (cutoff, outer),
         refine_centre=refine_centre,
+        centre_is_guess=recorded["centre"].source is Source.FRAME_CENTRE,
         pixel_sigma=pixel_sigma,
         world_sigma=world_sigma,
         reject_outliers=reject_outliers,
         tilt=tilt,
         camera_sigma=camera_sigma,
     )
-    annulus = choose_annulus(camera_fit, image_size, cutoff, outer)
+    annulus = choose_annulus(camera_fit, image_size, cutoff, outer, whole_frame=choice.whole_frame)
     recorded.setdefault("cutoff_radius", Origin(annulus.cutoff_source))
     recorded.setdefault("outer_radius", Origin(annulus.outer_source))
     table_info["sources"] = source_texts(recorded)

@@ -26,6 +26,7 @@ class Source(enum.Enum):
     DEFAULT_NONE = "default (none)"
     DEFAULT_INSIDE_IMAGE = "default (largest circle inside the image)"
     DEFAULT_FARTHEST_LANDMARK = "default (farthest landmark)"
+    DEFAULT_WHOLE_FRAME = "default (the whole frame: no image circle in it)"
 
     @property
     def is_estimate(self) -> bool:
@@ -35,7 +36,12 @@ class Source(enum.Enum):
     @property
     def is_default(self) -> bool:
         """True for a value the table chose for itself, that no one gave or detected."""
-        return self in (Source.DEFAULT_NONE, Source.DEFAULT_INSIDE_IMAGE, Source.DEFAULT_FARTHEST_LANDMARK)
+        return self in (
+            Source.DEFAULT_NONE,
+            Source.DEFAULT_INSIDE_IMAGE,
+            Source.DEFAULT_FARTHEST_LANDMARK,
+            Source.DEFAULT_WHOLE_FRAME,
+        )
 
 
 @dataclass(frozen=True)
