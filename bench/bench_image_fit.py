@@ -114,14 +114,17 @@ class Setup:
     axis: tuple[float, float]
 
 
-def setup(seed: int, max_tilt_deg: float = 3.0, count: int = LANDMARKS) -> Setup:
-    """Draw and render one trial, the camera tilted by up to ``max_tilt_deg``, with ``count`` landmarks."""
+def setup(seed: int, max_tilt_deg: float = 3.0, count: int = LANDMARKS, full_frame: bool = False) -> Setup:
+    """Draw and render one trial, the camera tilted by up to ``max_tilt_deg``, with ``count`` landmarks;
+    ``full_frame``: a fisheye whose image circle reaches past the frame's corners (no rim in the frame)."""
     rng = np.random.default_rng(seed)
     size = SIZES[rng.integers(len(SIZES))]
-    name = NAMES[rng.integers(len(NAMES))]
+    name = NAMES[rng.integers(2 if full_frame else len(NAMES))]
     short = min(size)
     crop = rng.uniform(0, 0.15)
     radius = (short / 2) / (1 - crop) if crop > 0.01 else 0.47 * short
+    if full_frame:
+        radius = math.hypot(*size) / 2 + 40
     middle = ((size[0] - 1) / 2, (size[1] - 1) / 2)
     off = 0.02 * short
     axis = (middle[0] + rng.uniform(-off, off), middle[1] + rng.uniform(-off, off))
@@ -135,7 +138,10 @@ def setup(seed: int, max_tilt_deg: float = 3.0, count: int = LANDMARKS) -> Setup
     tilt_deg = rng.uniform(0.0, max_tilt_deg)
     camera = TiltedCamera(base, mount_rotation(math.radians(tilt_deg), rng.uniform(0, 2 * math.pi)))
     image = field_stop(render(ROOM, camera, supersample=1), rim, radius)
-    if name in MIRRORS and rng.uniform() < 0.5:
+    if full_frame:
+        image = vignette(image, axis, radius, falloff=rng.uniform(0, 0.5), dim=0.0, dim_angle=0.0)
+        kind = "full-frame fisheye, vignetted"
+    elif name in MIRRORS and rng.uniform() < 0.5:
         image = housed_mirror(image, rim, radius, camera.cutoff_radius, rng, lens_centre=axis)
         kind = "mirror in a housing"
     else:
@@ -156,8 +162,9 @@ def setup(seed: int, max_tilt_deg: float = 3.0, count: int = LANDMARKS) -> Setup
     points, truth = test_points(camera)
     keep = seen(camera, truth, rim, radius, EDGE_PX)
     points, truth = points[keep], truth[keep]
+    circle = "full frame" if full_frame else f"cut by {crop:.0%}, rim {offset:.1f} px off the axis"
     described = (
-        f"seed {seed}: {name}, {size[0]} x {size[1]}, cut by {crop:.0%}, rim {offset:.1f} px off the axis, "
+        f"seed {seed}: {name}, {size[0]} x {size[1]}, {circle}, "
         f"tilt {tilt_deg:.1f} deg, tape {tape_cm:.1f} cm, {len(pixels)} landmarks"
     )
     names = tuple(f"L{k + 1}" for k in range(len(pixels)))
@@ -188,9 +195,9 @@ def worst_errors(trial: Setup, options: dict[str, dict[str, object]]) -> tuple[d
     return errors, moved
 
 
-def trial(job: tuple[int, float, int]) -> tuple[str, str, dict[str, float], float]:
-    """One trial (seed, largest tilt in deg, landmarks): (kind, description, worst error of each fit, default centre's
-    distance to the axis)."""
+def trial(job: tuple[int, float, int, bool]) -> tuple[str, str, dict[str, float], float]:
+    """One trial (seed, largest tilt in deg, landmarks, full frame): (kind, description, worst error of each
+    fit, default centre's distance to the axis)."""
     drawn = setup(*job)
     options: dict[str, dict[str, object]] = {
         "default": {},
@@ -207,11 +214,14 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--max-tilt", type=float, default=3.0, help="largest tilt (deg); 0: level cameras")
     parser.add_argument("--landmarks", type=int, default=LANDMARKS, help=f"landmarks per trial (default {LANDMARKS})")
+    parser.add_argument(
+        "--full-frame", action="store_true", help="fisheyes whose image circle reaches past the frame's corners"
+    )
     args = parser.parse_args()
     start = time.perf_counter()
     rows: dict[str, list[tuple[str, dict[str, float], float]]] = {}
     with ProcessPoolExecutor(args.workers) as pool:
-        jobs = [(seed, args.max_tilt, args.landmarks) for seed in range(args.trials)]
+        jobs = [(seed, args.max_tilt, args.landmarks, args.full_frame) for seed in range(args.trials)]
         for kind, described, errors, moved in pool.map(trial, jobs):
             rows.setdefault(kind, []).append((described, errors, moved))
     print(

@@ -4,11 +4,14 @@ warnings as data, and the small shared helpers (finite numbers, pixel polar coor
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
-from panomap.calibrate.landmarks import Landmarks
+from panomap.calibrate.diagnosis import diagnose
+from panomap.calibrate.landmarks import Landmarks, landmarks_to_csv
 from panomap.calibrate.pipeline import calibrate_camera, choose_circles
 from panomap.calibrate.sources import Origin, Source
 from panomap.errors import PanomapError
@@ -16,7 +19,7 @@ from panomap.geometry import inside_image, pixel_polar
 from panomap.simulate import standard_cameras
 from panomap.values import NotFinite, finite_number
 
-from helpers import spread_landmarks
+from helpers import run, spread_landmarks
 
 SIZE = (640, 600)
 CAMERA = standard_cameras(SIZE, centre=(321.4, 298.2), s=1, phi0=-0.5)["parabolic"]
@@ -217,3 +220,22 @@ def test_a_full_frame_fisheye_gets_a_table_of_the_whole_frame(
     error = np.linalg.norm(result.table.project(points) - truth, axis=1)
     assert np.all(np.isfinite(error)), f"{int(np.sum(~np.isfinite(error)))} of {error.size} points not covered"
     assert float(np.max(error)) < bar_px
+
+
+def test_fit_on_a_full_frame_fisheye_says_a_tilt_and_the_centre_look_alike(tmp_path: Path) -> None:
+    """``panomap fit --image`` on a full-frame fisheye: the warning that no rim was found, and the diagnosis
+    that the centre, refined from the frame's middle (here 14.1 px), cannot be told from a tilt."""
+    image, landmarks, position, _, _ = full_frame_fisheye((1920, 1080), (7.6, -11.9), 5)
+    cv2.imwrite(str(tmp_path / "omni.jpg"), image)
+    (tmp_path / "lm.csv").write_text(landmarks_to_csv(landmarks))
+    result = run(
+        "fit", tmp_path / "lm.csv", "-o", tmp_path / "cam.npz", "--camera", *position, "--image", tmp_path / "omni.jpg"
+    )
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "starting from the frame centre" in result.stderr
+    notes = [line for line in result.output.splitlines() if line.startswith("diagnosis: the centre was refined")]
+    assert len(notes) == 1 and "from the frame's middle (no rim in the image" in notes[0] and "--centre" in notes[0]
+    # Told that the centre was not a guess (as for one found at a rim), the same fit gets no such note.
+    fit = calibrate_camera(landmarks, position, omni=image).fit
+    assert fit.centre_shift_px > 10
+    assert not any(note.startswith("the centre was refined") for note in diagnose(fit))

@@ -12,6 +12,10 @@ rho (rad); ``pixel_sigma`` is the landmarks' pixel noise (px).
 - **A tilt about the centre as found** (the mount ``tilt, centre as found``): near the nadir a
   tilt of the axis and a centre off the rim's look alike, and the fit chose the tilt; said so,
   with what tells the two apart.
+- **A centre guessed, then moved** (no rim in the image: the fit started from the frame's
+  middle and moved the centre more than ``GUESS_SHIFT_PX``, level): without a rim a tilt and a
+  moved centre look alike except near the horizon; simulated full-frame fisheyes tilted 1-3 deg
+  had the centre moved 7-34 px in its stead.
 
 A pattern is reported when it explains most of the residuals' variance and
 its size is well above the noise (``PATTERN_SIGMAS`` pixel sigmas), with at
@@ -30,10 +34,12 @@ from .report import CENTRE_AS_FOUND
 PATTERN_SIGMAS = 2.0
 EXPLAINED_FRACTION = 0.5
 MIN_LANDMARKS = 8
+GUESS_SHIFT_PX = 2.0
 
 
-def diagnose(fit: CameraFit) -> list[str]:
-    """Sentences on the patterns in ``fit``'s residuals (empty when there is none)."""
+def diagnose(fit: CameraFit, centre_guessed: bool = False) -> list[str]:
+    """Sentences on the patterns in ``fit``'s residuals (empty when there is none); ``centre_guessed``: the
+    fit started from a centre the image does not show (the frame's middle, where no rim was found)."""
     notes = []
     keep = fit.inliers
     residual = fit.radial_residuals_px[keep]
@@ -65,6 +71,13 @@ def diagnose(fit: CameraFit) -> list[str]:
             f"{fit.mount.tilt_deg:.2f} deg: near the nadir a tilt and a centre off the rim's look alike, and the "
             "landmarks favour the tilt; if the camera is known to be level, give --tilt none; landmarks near the "
             "horizon tell the two apart"
+        )
+    level = fit.mount is None or fit.mount.tilt_deg == 0
+    if centre_guessed and fit.settings.refine_centre and level and fit.centre_shift_px > GUESS_SHIFT_PX:
+        notes.append(
+            f"the centre was refined {fit.centre_shift_px:.1f} px from the frame's middle (no rim in the image to "
+            "find it): without a rim a tilted axis and a moved centre look alike except near the horizon; if the "
+            "camera may be tilted, give its centre from a calibration (--centre), or add landmarks near the horizon"
         )
     if fit.outliers:
         notes.append(

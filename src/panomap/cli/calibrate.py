@@ -14,6 +14,7 @@ from ..calibrate.diagnosis import diagnose
 from ..calibrate.landmarks import read_landmarks
 from ..calibrate.pipeline import calibrate_camera
 from ..calibrate.report import FitReport, table_fit_report
+from ..calibrate.sources import Source
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError
 from ..files import all_or_none, check_output_paths
@@ -194,7 +195,7 @@ def fit(
 
             save_fit_plot(table, plot)
     click.echo(_describe_fit(table))
-    for note in diagnose(result.fit):
+    for note in diagnose(result.fit, centre_guessed=result.sources["centre"].source is Source.FRAME_CENTRE):
         click.echo(f"diagnosis: {note}")
     click.echo(f"wrote {output}" + (f" and {plot}" if plot else ""))
     for warning in table.info.get("warnings", []):

@@ -319,7 +319,11 @@ class Session:
                 status |= {"need": 0, "message": f"the fit failed: {exc.detail}"}
             else:
                 table = calibration.table
-                status = self._fit_report(table, entries, revision, pending) | {"diagnosis": diagnose(calibration.fit)}
+                status = self._fit_report(table, entries, revision, pending) | {
+                    "diagnosis": diagnose(
+                        calibration.fit, centre_guessed=calibration.sources["centre"].source is Source.FRAME_CENTRE
+                    )
+                }
         return table, status
 
     def _sources(self, circles: Circles | None = None) -> dict[str, Source]:
