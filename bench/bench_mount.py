@@ -50,8 +50,9 @@ EDGE_PX = 5.0
 FITS = ("default", "oracle, tape trusted", "oracle, position refined")
 
 
-def run(job: tuple[str, str, int]) -> tuple[str, str, dict[str, float], float, float]:
-    """One trial: the worst error of each fit, the true tilt (deg) and the default fit's tilt (deg)."""
+def run(job: tuple[str, str, int]) -> tuple[str, str, dict[str, float], float, float, bool]:
+    """One trial: the worst error of each fit, the true tilt (deg), the default fit's tilt (deg), and whether
+    the default refined the position."""
     case, name, seed = job
     rng = np.random.default_rng(seed)
     base = scenario_cameras()[name]
@@ -74,6 +75,7 @@ def run(job: tuple[str, str, int]) -> tuple[str, str, dict[str, float], float, f
     }
     errors = {}
     fitted_tilt = math.nan
+    refined = False
     for label, extra in options.items():
         try:
             fit = fit_camera(
@@ -94,7 +96,8 @@ def run(job: tuple[str, str, int]) -> tuple[str, str, dict[str, float], float, f
         errors[label] = float(np.max(np.where(np.isnan(error), np.inf, error)))
         if label == "default":
             fitted_tilt = math.degrees(fit.model.tilt[0])
-    return case, name, errors, math.degrees(tilt_rad), fitted_tilt
+            refined = fit.mount is not None and fit.mount.position_refined
+    return case, name, errors, math.degrees(tilt_rad), fitted_tilt, refined
 
 
 def main() -> None:
@@ -105,17 +108,17 @@ def main() -> None:
     parser.add_argument("--cameras", nargs="*", default=list(scenario_cameras()))
     args = parser.parse_args()
     jobs = [(c, n, 1000 * t + 11) for c in args.cases for n in args.cameras for t in range(args.trials)]
-    results: dict[tuple[str, str], list[tuple[dict[str, float], float, float]]] = {}
+    results: dict[tuple[str, str], list[tuple[dict[str, float], float, float, bool]]] = {}
     start = time.perf_counter()
     with ProcessPoolExecutor(args.workers) as pool:
-        for case, name, errors, true_tilt, fitted in pool.map(run, jobs, chunksize=2):
-            results.setdefault((case, name), []).append((errors, true_tilt, fitted))
+        for case, name, errors, true_tilt, fitted, refined in pool.map(run, jobs, chunksize=2):
+            results.setdefault((case, name), []).append((errors, true_tilt, fitted, refined))
     print(
         f"{args.trials} trials per camera and case, {time.perf_counter() - start:.0f} s; worst error (px) over the "
         "test points: median / p90 / worst trial ('fails (k)': k trials with no table or part of the view uncovered)"
     )
-    print("| case | camera | " + " | ".join(FITS) + " | tilt error p90 (deg) |")
-    print("| --- | --- | " + " | ".join("---" for _ in FITS) + " | --- |")
+    print("| case | camera | " + " | ".join(FITS) + " | tilt error p90 (deg) | position refined |")
+    print("| --- | --- | " + " | ".join("---" for _ in FITS) + " | --- | --- |")
 
     def summary(values: np.ndarray) -> str:
         failed = int(np.count_nonzero(~np.isfinite(values)))
@@ -126,9 +129,13 @@ def main() -> None:
     for case in args.cases:
         for name in args.cameras:
             rows = results[(case, name)]
-            cells = [summary(np.array([errors[label] for errors, _, _ in rows])) for label in FITS]
-            tilt_error = np.array([abs(fitted - true) for _, true, fitted in rows])
-            print(f"| {case} | {name} | " + " | ".join(cells) + f" | {np.nanpercentile(tilt_error, 90):.2f} |")
+            cells = [summary(np.array([errors[label] for errors, _, _, _ in rows])) for label in FITS]
+            tilt_error = np.array([abs(fitted - true) for _, true, fitted, _ in rows])
+            refined = sum(row[3] for row in rows)
+            print(
+                f"| {case} | {name} | " + " | ".join(cells) + f" | {np.nanpercentile(tilt_error, 90):.2f} "
+                f"| {refined} of {len(rows)} |"
+            )
     sys.stdout.flush()
 
 
