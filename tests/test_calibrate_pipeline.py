@@ -239,3 +239,30 @@ def test_fit_on_a_full_frame_fisheye_says_a_tilt_and_the_centre_look_alike(tmp_p
     fit = calibrate_camera(landmarks, position, omni=image).fit
     assert fit.centre_shift_px > 10
     assert not any(note.startswith("the centre was refined") for note in diagnose(fit))
+
+
+def test_the_table_keeps_the_view_next_to_a_cut_off_disc_off_its_centre() -> None:
+    """A housed mirror, its camera's reflection (the cut-off disc) about the optical axis, and the table's
+    centre 6 px from it (given so): every pixel the camera shows 1 px or more outside its true disc is in
+    the table's valid region (the table's cut-off radius about its centre is the disc's less 6 px, to the
+    disc's found radius and centre); before, the cut-off radius was the disc's about the table's centre,
+    and a crescent of the view up to 6 px wide was left out on the far side."""
+    from panomap.simulate import field_stop, housed_mirror, load_room, noisy_jpeg, render
+
+    rng = np.random.default_rng(17)
+    axis = (1279.5 / 2 + 7.3, 959.5 / 2 - 4.1)
+    camera = standard_cameras((1280, 960), centre=axis, outer_radius=432.0)["hyperbolic"]
+    image = field_stop(render(load_room(), camera, supersample=1), axis, 430.0)
+    image = noisy_jpeg(housed_mirror(image, axis, 430.0, camera.cutoff_radius, rng, lens_centre=axis), rng)
+    landmarks = spread_landmarks(camera, POSITION, 12, np.random.default_rng(5))
+    centre = (axis[0] + 6.0, axis[1])
+    result = calibrate_camera(landmarks, POSITION, omni=image, centre=centre, refine_centre=False, tilt="none")
+    assert result.circles is not None and result.circles.cutoff is not None
+    disc = result.circles.cutoff
+    assert result.table.cutoff_radius == pytest.approx(disc.radius - math.dist(disc.centre, centre), abs=1e-9)
+    # (The disc as found: 0.1 px from the axis, its radius 0.1 px from the camera's; measured in test_centre.py.)
+    angle = np.linspace(0, 2 * np.pi, 720, endpoint=False)
+    for beyond_px in (1.0, 3.0, 6.0):
+        ring = np.stack([np.cos(angle), np.sin(angle)], axis=1) * (camera.cutoff_radius + beyond_px) + axis
+        _, rho = result.table.unproject(ring)
+        assert np.all(np.isfinite(rho)), f"{int(np.sum(~np.isfinite(rho)))} of 720 pixels {beyond_px} px out"

@@ -10,6 +10,7 @@ landmarks, camera position, centre and radii.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,7 +21,7 @@ from numpy.typing import NDArray
 from ..camera.radial_models import radial_kind
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
-from .circles import ImageCircles, NoImageCircle, find_image_circles
+from .circles import Circle, ImageCircles, NoImageCircle, find_image_circles
 from .fit import CameraFit, fit_camera
 from .landmarks import Landmarks
 from .make_table import choose_annulus, table_for
@@ -76,6 +77,19 @@ class Calibration:
     sources: Mapping[str, Origin]
     circles: ImageCircles | None
     warnings: tuple[str, ...]
+
+
+def _cutoff_about(disc: Circle, centre: tuple[float, float]) -> float:
+    """The table's cut-off radius (px) about the fit's ``centre`` for the cut-off disc found in the image.
+
+    The disc is the camera's own reflection, centred where the image shows it; the fit's centre
+    may be a few pixels from there (a refined centre, a rim off the axis). Every pixel outside
+    the disc is at least ``radius - d`` from ``centre`` (``d`` the distance between the two
+    centres): the table takes that, so that it leaves none of the view out, at the price of up
+    to ``2 d`` px of the reflection on one side (on a simulated mirror whose fitted centre ended
+    9.5 px from the disc's, the view just outside the disc was missed on one side).
+    """
+    return max(0.0, disc.radius - math.dist(disc.centre, centre))
 
 
 def _radii_note(error: PanomapError, cutoff_radius: float | None, outer_radius: float | None) -> str:
@@ -264,6 +278,10 @@ def calibrate_camera(
         tilt=tilt,
         camera_sigma=camera_sigma,
     )
+    if choice.circles is not None and choice.circles.cutoff is not None and recorded["cutoff_radius"].source is (
+        Source.DETECTED
+    ):
+        cutoff = _cutoff_about(choice.circles.cutoff, camera_fit.model.centre)
     annulus = choose_annulus(camera_fit, image_size, cutoff, outer, whole_frame=choice.whole_frame)
     recorded.setdefault("cutoff_radius", Origin(annulus.cutoff_source))
     recorded.setdefault("outer_radius", Origin(annulus.outer_source))
