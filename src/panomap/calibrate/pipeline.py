@@ -278,8 +278,10 @@ def calibrate_camera(
         tilt=tilt,
         camera_sigma=camera_sigma,
     )
-    if choice.circles is not None and choice.circles.cutoff is not None and recorded["cutoff_radius"].source is (
-        Source.DETECTED
+    if (
+        choice.circles is not None
+        and choice.circles.cutoff is not None
+        and recorded["cutoff_radius"].source is (Source.DETECTED)
     ):
         cutoff = _cutoff_about(choice.circles.cutoff, camera_fit.model.centre)
     annulus = choose_annulus(camera_fit, image_size, cutoff, outer, whole_frame=choice.whole_frame)
