@@ -64,7 +64,8 @@ from .options import FINITE, NON_NEGATIVE, PATH, POSITIVE, SIZE, TILT, usage_err
 @click.option(
     "--outer-radius",
     type=POSITIVE,
-    help="Radius (px) of the image circle [default: found in --image, else the largest circle in the image].",
+    help="Radius (px) of the image circle [default: found in --image (the whole frame where it shows no rim), "
+    "else the largest circle in the image].",
 )
 @click.option(
     "--model",
