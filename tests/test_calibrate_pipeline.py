@@ -17,6 +17,7 @@ from panomap.calibrate.sources import Origin, Source
 from panomap.errors import PanomapError
 from panomap.geometry import inside_image, pixel_polar
 from panomap.simulate import standard_cameras
+from panomap.simulate.cameras import RadialCamera
 from panomap.values import NotFinite, finite_number
 
 from helpers import run, spread_landmarks
@@ -241,21 +242,27 @@ def test_fit_on_a_full_frame_fisheye_says_a_tilt_and_the_centre_look_alike(tmp_p
     assert not any(note.startswith("the centre was refined") for note in diagnose(fit))
 
 
+def housed_mirror_off_centre() -> tuple[RadialCamera, np.ndarray, tuple[float, float], tuple[float, float]]:
+    """A housed hyperbolic mirror (1280 x 960), its reflection about the axis; and a centre 6 px from it."""
+    from panomap.simulate import field_stop, housed_mirror, load_room, noisy_jpeg, render
+
+    rng = np.random.default_rng(17)
+    axis = (1279.5 / 2 + 7.3, 959.5 / 2 - 4.1)
+    camera = standard_cameras((1280, 960), centre=axis, outer_radius=432.0)["hyperbolic"]
+    assert isinstance(camera, RadialCamera)
+    image = field_stop(render(load_room(), camera, supersample=1), axis, 430.0)
+    image = noisy_jpeg(housed_mirror(image, axis, 430.0, camera.cutoff_radius, rng, lens_centre=axis), rng)
+    return camera, image, axis, (axis[0] + 6.0, axis[1])
+
+
 def test_the_table_keeps_the_view_next_to_a_cut_off_disc_off_its_centre() -> None:
     """A housed mirror, its camera's reflection (the cut-off disc) about the optical axis, and the table's
     centre 6 px from it (given so): every pixel the camera shows 1 px or more outside its true disc is in
     the table's valid region (the table's cut-off radius about its centre is the disc's less 6 px, to the
     disc's found radius and centre); before, the cut-off radius was the disc's about the table's centre,
     and a crescent of the view up to 6 px wide was left out on the far side."""
-    from panomap.simulate import field_stop, housed_mirror, load_room, noisy_jpeg, render
-
-    rng = np.random.default_rng(17)
-    axis = (1279.5 / 2 + 7.3, 959.5 / 2 - 4.1)
-    camera = standard_cameras((1280, 960), centre=axis, outer_radius=432.0)["hyperbolic"]
-    image = field_stop(render(load_room(), camera, supersample=1), axis, 430.0)
-    image = noisy_jpeg(housed_mirror(image, axis, 430.0, camera.cutoff_radius, rng, lens_centre=axis), rng)
+    camera, image, axis, centre = housed_mirror_off_centre()
     landmarks = spread_landmarks(camera, POSITION, 12, np.random.default_rng(5))
-    centre = (axis[0] + 6.0, axis[1])
     result = calibrate_camera(landmarks, POSITION, omni=image, centre=centre, refine_centre=False, tilt="none")
     assert result.circles is not None and result.circles.cutoff is not None
     disc = result.circles.cutoff
@@ -266,3 +273,23 @@ def test_the_table_keeps_the_view_next_to_a_cut_off_disc_off_its_centre() -> Non
         ring = np.stack([np.cos(angle), np.sin(angle)], axis=1) * (camera.cutoff_radius + beyond_px) + axis
         _, rho = result.table.unproject(ring)
         assert np.all(np.isfinite(rho)), f"{int(np.sum(~np.isfinite(rho)))} of 720 pixels {beyond_px} px out"
+
+
+def test_a_model_that_turns_back_inside_the_disc_keeps_the_discs_radius(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where f_r would not run monotonically down to the smaller cut-off radius, the table keeps the disc's
+    own radius (the table is made, as before, rather than refused)."""
+    import panomap.calibrate.pipeline as pipeline
+
+    camera, image, _, centre = housed_mirror_off_centre()
+    landmarks = spread_landmarks(camera, POSITION, 12, np.random.default_rng(5))
+    disc_radius = []
+
+    def turns_back(radial: object, landmark_range: object, cutoff: float, outer: float, slack: float) -> str | None:
+        disc_radius.append(cutoff)
+        return "turns back before the cut-off radius"
+
+    monkeypatch.setattr(pipeline, "annulus_coverage_problem", turns_back)
+    result = calibrate_camera(landmarks, POSITION, omni=image, centre=centre, refine_centre=False, tilt="none")
+    assert result.circles is not None and result.circles.cutoff is not None
+    assert disc_radius == [pytest.approx(result.circles.cutoff.radius - 6.0, abs=0.5)]
+    assert result.table.cutoff_radius == result.circles.cutoff.radius

@@ -22,7 +22,7 @@ from ..camera.radial_models import radial_kind
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
 from .circles import Circle, ImageCircles, NoImageCircle, find_image_circles
-from .fit import CameraFit, fit_camera
+from .fit import CameraFit, annulus_coverage_problem, fit_camera, rim_slack_px
 from .landmarks import Landmarks
 from .make_table import choose_annulus, table_for
 from .sources import QUANTITIES, Origin, Source, source_texts
@@ -278,12 +278,13 @@ def calibrate_camera(
         tilt=tilt,
         camera_sigma=camera_sigma,
     )
-    if (
-        choice.circles is not None
-        and choice.circles.cutoff is not None
-        and recorded["cutoff_radius"].source is (Source.DETECTED)
-    ):
-        cutoff = _cutoff_about(choice.circles.cutoff, camera_fit.model.centre)
+    disc = None if choice.circles is None else choice.circles.cutoff
+    if disc is not None and outer is not None and recorded["cutoff_radius"].source is Source.DETECTED:
+        within = _cutoff_about(disc, camera_fit.model.centre)
+        # (Only where f_r runs that far in: a model that turns back just inside the disc keeps the disc's radius.)
+        slack = rim_slack_px(camera_fit.settings.pixel_sigma_px)
+        if not annulus_coverage_problem(camera_fit.model.radial, camera_fit.landmark_range, within, outer, slack):
+            cutoff = within
     annulus = choose_annulus(camera_fit, image_size, cutoff, outer, whole_frame=choice.whole_frame)
     recorded.setdefault("cutoff_radius", Origin(annulus.cutoff_source))
     recorded.setdefault("outer_radius", Origin(annulus.outer_source))
