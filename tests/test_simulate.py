@@ -455,3 +455,18 @@ def test_render_rays() -> None:
     assert out.shape == (2, 3) and out.dtype == np.float32 and not out.any()
     with pytest.raises(ValueError, match="inside"):
         render_rays(room, [7.0, 1.0, 1.0], [1.0, 0.0, 0.0])
+
+
+def test_a_housed_mirror_whose_rim_is_outside_the_frame_keeps_the_mirror_image() -> None:
+    """A rim wholly past the frame (a mirror image that fills it): the frame is the mirror, left as it was away
+    from the camera's own board; the housing's level came from the rim's ring, absent here, and was NaN (the
+    whole image turned to garbage)."""
+    from panomap.simulate import housed_mirror
+
+    rng = np.random.default_rng(3)
+    image = rng.integers(40, 200, size=(120, 160, 3), dtype=np.uint8)
+    image[:] = image[..., :1]  # grey, so that the BGR round trip keeps it exactly
+    housed = housed_mirror(image, (79.5, 59.5), 130.0, 10.0, np.random.default_rng(4))
+    v, u = np.mgrid[0:120, 0:160]
+    away = np.hypot(u - 79.5, v - 59.5) > 35.0  # past the board (half side at most twice the disc's radius, turned)
+    assert np.array_equal(housed[away], image[away])

@@ -177,7 +177,9 @@ def housed_mirror(
     total = np.bincount(degree, weights=grey[ring], minlength=360)
     count = np.bincount(degree, minlength=360)
     inside_level = np.where(count > 0, total / np.maximum(count, 1), np.nan)
-    inside_level = np.where(np.isfinite(inside_level), inside_level, np.nanmedian(inside_level))
+    # (Where the frame shows none of the rim, the housing lies wholly outside it: any level will do.)
+    fallback = float(np.nanmedian(inside_level)) if np.isfinite(inside_level).any() else float(np.median(grey))
+    inside_level = np.where(np.isfinite(inside_level), inside_level, fallback)
     inside_level = np.convolve(np.tile(inside_level, 3), np.ones(15) / 15, mode="same")[360:720]
     offsets = np.where(kinds == 0, rng.uniform(40, 80, arcs), rng.uniform(-5, 5, arcs))
     lines = np.where(kinds == 0, 0.0, kinds * rng.uniform(50, 80, arcs))
