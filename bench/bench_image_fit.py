@@ -1,6 +1,7 @@
 """The README's own path end to end: an unkind omni-image and a dozen landmarks in, a table out, its error.
 
-Run: ``.venv/bin/python bench/bench_image_fit.py [--trials 60] [--workers 2] [--max-tilt 3] [--landmarks 12]``
+Run: ``.venv/bin/python bench/bench_image_fit.py [--trials 60] [--workers 2] [--max-tilt 3] [--landmarks 12]
+[--max-crop 0.15] [--first-seed 0] [--full-frame]``
 
 What ``panomap fit --image`` does with its defaults, on cameras as they are installed.
 Each seeded trial draws a frame (1024 x 768 to 1920 x 1920; 4:3, 16:9, square), a camera
@@ -114,14 +115,17 @@ class Setup:
     axis: tuple[float, float]
 
 
-def setup(seed: int, max_tilt_deg: float = 3.0, count: int = LANDMARKS, full_frame: bool = False) -> Setup:
-    """Draw and render one trial, the camera tilted by up to ``max_tilt_deg``, with ``count`` landmarks;
-    ``full_frame``: a fisheye whose image circle reaches past the frame's corners (no rim in the frame)."""
+def setup(
+    seed: int, max_tilt_deg: float = 3.0, count: int = LANDMARKS, full_frame: bool = False, max_crop: float = 0.15
+) -> Setup:
+    """Draw and render one trial, the camera tilted by up to ``max_tilt_deg``, with ``count`` landmarks, the
+    image circle cut by the frame by up to ``max_crop`` of its radius; ``full_frame``: a fisheye whose image
+    circle reaches past the frame's corners (no rim in the frame)."""
     rng = np.random.default_rng(seed)
     size = SIZES[rng.integers(len(SIZES))]
     name = NAMES[rng.integers(2 if full_frame else len(NAMES))]
     short = min(size)
-    crop = rng.uniform(0, 0.15)
+    crop = rng.uniform(0, max_crop)
     radius = (short / 2) / (1 - crop) if crop > 0.01 else 0.47 * short
     if full_frame:
         radius = math.hypot(*size) / 2 + 40
@@ -195,9 +199,9 @@ def worst_errors(trial: Setup, options: dict[str, dict[str, object]]) -> tuple[d
     return errors, moved
 
 
-def trial(job: tuple[int, float, int, bool]) -> tuple[str, str, dict[str, float], float]:
-    """One trial (seed, largest tilt in deg, landmarks, full frame): (kind, description, worst error of each
-    fit, default centre's distance to the axis)."""
+def trial(job: tuple[int, float, int, bool, float]) -> tuple[str, str, dict[str, float], float]:
+    """One trial (seed, largest tilt in deg, landmarks, full frame, largest crop): (kind, description, worst
+    error of each fit, default centre's distance to the axis)."""
     drawn = setup(*job)
     options: dict[str, dict[str, object]] = {
         "default": {},
@@ -217,15 +221,29 @@ def main() -> None:
     parser.add_argument(
         "--full-frame", action="store_true", help="fisheyes whose image circle reaches past the frame's corners"
     )
+    parser.add_argument(
+        "--max-crop",
+        type=float,
+        default=0.15,
+        help="largest share of the circle's radius the frame cuts off (default 0.15; a round image on a 16:9 "
+        "sensor: up to 0.44)",
+    )
+    parser.add_argument(
+        "--first-seed", type=int, default=0, help="seed of the first trial (default 0; others: trials not seen before)"
+    )
     args = parser.parse_args()
     start = time.perf_counter()
     rows: dict[str, list[tuple[str, dict[str, float], float]]] = {}
     with ProcessPoolExecutor(args.workers) as pool:
-        jobs = [(seed, args.max_tilt, args.landmarks, args.full_frame) for seed in range(args.trials)]
+        jobs = [
+            (seed, args.max_tilt, args.landmarks, args.full_frame, args.max_crop)
+            for seed in range(args.first_seed, args.first_seed + args.trials)
+        ]
         for kind, described, errors, moved in pool.map(trial, jobs):
             rows.setdefault(kind, []).append((described, errors, moved))
     print(
-        f"{args.trials} trials, tilted 0-{args.max_tilt:g} deg, {args.landmarks} landmarks, "
+        f"{args.trials} trials (seeds {args.first_seed}-{args.first_seed + args.trials - 1}), tilted "
+        f"0-{args.max_tilt:g} deg, circles cut by 0-{args.max_crop:.0%}, {args.landmarks} landmarks, "
         f"{time.perf_counter() - start:.0f} s; "
         "worst error (px): median / 90th percentile / worst"
     )

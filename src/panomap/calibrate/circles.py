@@ -74,6 +74,11 @@ INLIER_SIGMAS = 3.0
 # radius on two sides still shows 64% of its rim, but dark scene may hide much of that
 # (a real fisheye cut at top and bottom shows a quarter of its rim).
 MIN_RIM_FRACTION = 0.2
+# A round image just larger than the frame (past a square frame's sides, or a 4:3 frame's four) shows its rim only
+# about the corners, on fewer rays than that: there, this share of the rays on which the circle lies in the frame
+# will do, and no fewer than MIN_RIM_RAYS (20 deg of rim, in the sectors asked for below).
+MIN_RIM_SHARE_IN_FRAME = 0.6
+MIN_RIM_RAYS = 40
 # ... spread around the circle: in at least this many of 12 sectors of 30 deg, a third of the rays agree.
 MIN_RIM_SECTORS = 4
 # Rays (of those in the frame) stepping across a rim that needs no other candidate.
@@ -529,11 +534,11 @@ def _iterate_rim(
             points = _feature_points(
                 grey, centre, radius, reach if first else NARROW_REACH, not first, beyond if first else 0.0
             )
-        if len(points) < MIN_RIM_FRACTION * RAYS:
+        if len(points) < _least_rim_rays(centre, radius, (height, width), polarity):
             kind = {1: "bright-to-dark", -1: "dark-to-bright", 0: "clear"}[polarity]
             raise PanomapError(f"no image circle found: only {len(points)} of {RAYS} rays cross a {kind} rim")
         circle = _robust_circle(points, centre, radius, consensus=iteration == 0)
-        if circle.inliers < MIN_RIM_FRACTION * RAYS:
+        if circle.inliers < _least_rim_rays(circle.centre, circle.radius, (height, width), polarity):
             break  # no rim here: rejected below, without iterating
         if iteration == 0 and polarity:
             # The first circle already lies within a few px of a rim there is: where the levels
@@ -560,7 +565,7 @@ def _iterate_rim(
     shown = _sectors_in_frame(circle, (height, width))
     least_sectors = math.ceil((MIN_RIM_SECTORS if polarity else MIN_RIM_SECTORS_EITHER) * shown / 12)
     if (
-        circle.inliers < MIN_RIM_FRACTION * RAYS
+        circle.inliers < _least_rim_rays(circle.centre, circle.radius, (height, width), polarity)
         or sectors < least_sectors
         or (circle.rms_px > MAX_RIM_RMS_PX and _ellipse(points, circle) is None)
     ):
@@ -586,6 +591,17 @@ def _iterate_rim(
                 f"{stepping} of the {in_frame:.0f} rays in the frame"
             )
     return _Rim(circle, points, in_frame, polarity, stepping)
+
+
+def _least_rim_rays(centre: tuple[float, float], radius: float, shape: tuple[int, int], polarity: int) -> float:
+    """Rays (of RAYS) whose edge points a rim about ``centre`` of ``radius`` (px) needs: MIN_RIM_FRACTION of
+    them, or, where the frame shows less of the circle, MIN_RIM_SHARE_IN_FRAME of those it shows (at least
+    MIN_RIM_RAYS). Not for a rim of either polarity (``polarity`` 0), which no step across it confirms: a
+    mirror in a housing, whose rim the frame does not cut that much."""
+    if not polarity:
+        return MIN_RIM_FRACTION * RAYS
+    shown = _fraction_in_frame(centre, radius, shape) * RAYS
+    return max(MIN_RIM_RAYS, min(MIN_RIM_FRACTION * RAYS, MIN_RIM_SHARE_IN_FRAME * shown))
 
 
 def _smooth_beyond(grey: NDArray[Any], circle: Circle) -> bool:
@@ -944,7 +960,8 @@ def _coarse_circle(small: NDArray[Any], factor: int) -> list[tuple[tuple[float, 
     points = contour.reshape(-1, 2).astype(np.float64)
     height, width = small.shape
     on_border = (points[:, 0] <= 1) | (points[:, 1] <= 1) | (points[:, 0] >= width - 2) | (points[:, 1] >= height - 2)
-    if np.sum(~on_border) < 0.3 * len(points):
+    if np.sum(~on_border) < 0.3 * len(points) and _quadrants(points[~on_border], small.shape) < 3:
+        # (A round image just past the frame's sides still shows its rim about three or four corners.)
         raise PanomapError("no image circle found: the bright region fills the frame (no rim around it)")
     # Dark scene touching the rim dents the blob; the outline where it meets its convex hull is the rim.
     hull = cv2.convexHull(contour)
@@ -954,6 +971,13 @@ def _coarse_circle(small: NDArray[Any], factor: int) -> list[tuple[tuple[float, 
         arcs = points[~on_border]
     (cu, cv), radius = _algebraic_circle(arcs)
     return [(_full_resolution((cu, cv), factor), radius * factor)]
+
+
+def _quadrants(points: FloatArray, shape: tuple[int, int]) -> int:
+    """How many quarters of the frame (about its middle) hold at least 10 of the points (n, 2)."""
+    height, width = shape
+    quarter = 2 * (points[:, 0] > (width - 1) / 2) + (points[:, 1] > (height - 1) / 2)
+    return int(np.sum(np.bincount(quarter.astype(np.int64), minlength=4) >= 10))
 
 
 def _algebraic_circle(points: FloatArray) -> tuple[tuple[float, float], float]:
