@@ -30,7 +30,7 @@ import pytest
 import panomap
 from panomap.batch.job import Job, Settings, find_inputs, make_job
 from panomap.batch.record import Record
-from panomap.batch.run import Progress, run_job
+from panomap.batch.run import Progress, codec_threads, run_job
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.video.output import EncoderSettings
 from panomap.views.spec import name_views, parse_view_spec
@@ -373,3 +373,17 @@ def test_the_command_line_starts_the_fork_server_only_for_a_local_batch(
         monkeypatch.setenv(forkserver.SCHEDULER_VARIABLE, "tcp://host:8786")
         forkserver.start_for_command(argv)
         assert not started
+
+
+def test_video_tasks_share_the_cores_only_on_a_local_cluster_of_several_workers(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """One codec thread per worker where the local workers fill the machine; FFmpeg's choice on one worker or
+    on someone else's cluster (whose workers' cores this process cannot know)."""
+    monkeypatch.setattr(os, "cpu_count", lambda: 8)
+    assert codec_threads(None, 8) == 1
+    assert codec_threads(None, 2) == 4
+    assert codec_threads(None, 1) is None
+    assert codec_threads("tcp://127.0.0.1:8786", 8) is None
+    monkeypatch.setattr(os, "cpu_count", lambda: None)
+    assert codec_threads(None, 2) == 1

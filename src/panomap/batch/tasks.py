@@ -162,8 +162,11 @@ def video_table(item: Item) -> PanoMappingTable:
     return copy.copy(cached_table(item.input.table, item.table_sha256))
 
 
-def unwarp_whole_video(item: Item, views: Sequence[NamedView], settings: Settings) -> ItemResult:
-    """Unwarp one video into every view (one decode); raises on failure (Dask retries it)."""
+def unwarp_whole_video(
+    item: Item, views: Sequence[NamedView], settings: Settings, codec_threads: int | None = None
+) -> ItemResult:
+    """Unwarp one video into every view (one decode); raises on failure (Dask retries it). ``codec_threads``:
+    the decoder's and each encoder's threads (default FFmpeg's choice, :func:`panomap.video.unwarp_video`)."""
     table = video_table(item)
     report = unwarp_video(
         table,
@@ -173,6 +176,7 @@ def unwarp_whole_video(item: Item, views: Sequence[NamedView], settings: Setting
         audio=settings.audio,
         sampling=settings.sampling,
         interpolation=settings.interpolation,
+        codec_threads=codec_threads,
     )
     done = tuple(finished(item, out.view, out.path, report.frames_written, report.seconds) for out in item.outputs)
     return ItemResult(str(item.input.path), done)
@@ -183,9 +187,11 @@ def parts_folder(item: Item) -> Path:
     return item.outputs[0].path.parent / ".panomap-parts" / item.key[:20]
 
 
-def unwarp_segment(item: Item, views: Sequence[NamedView], settings: Settings, segment: Segment) -> PartResult:
+def unwarp_segment(
+    item: Item, views: Sequence[NamedView], settings: Settings, segment: Segment, codec_threads: int | None = None
+) -> PartResult:
     """Unwarp one time segment of a video into a part file per view (MP4, whose edit lists keep
-    the timestamps exact); raises on failure (Dask retries it)."""
+    the timestamps exact); raises on failure (Dask retries it). ``codec_threads`` as for :func:`unwarp_whole_video`."""
     table = video_table(item)
     folder = parts_folder(item)
     folder.mkdir(parents=True, exist_ok=True)
@@ -199,6 +205,7 @@ def unwarp_segment(item: Item, views: Sequence[NamedView], settings: Settings, s
         audio=settings.audio,
         sampling=settings.sampling,
         interpolation=settings.interpolation,
+        codec_threads=codec_threads,
     )
     return PartResult(segment.index, paths, segment.offset, report.frames_written)
 

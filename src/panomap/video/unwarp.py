@@ -31,7 +31,7 @@ import queue
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -84,6 +84,7 @@ def unwarp_video(
     warn: Callable[[str], None] | None = None,
     memory_limit: int | None = None,
     reconnect: Reconnect = Reconnect(),
+    codec_threads: int | None = None,
 ) -> VideoReport:
     """Unwarp ``source`` into one video per view; returns what was done.
 
@@ -111,9 +112,16 @@ def unwarp_video(
     ``report.gaps``; a run that cannot reconnect returns with its last gap's
     outcome ``"gave up"`` (:attr:`VideoReport.gave_up`), every segment written
     kept. ``stop`` also ends a reconnect wait at once.
+
+    ``codec_threads``: the threads of the decoder and of each encoder (default: FFmpeg's
+    choice, about one per core). Where several videos run at once on a machine (the local
+    workers of ``panomap batch``), one each keeps the cores as busy with less switching
+    between threads (docs/scaling.md). An encoder ``threads`` option in ``encoder`` wins.
     """
     stop = stop or threading.Event()
     warn = warn or (lambda message: None)
+    if codec_threads is not None and "threads" not in dict(encoder.options):
+        encoder = replace(encoder, options=(*encoder.options, ("threads", str(codec_threads))))
     encoder.check()
     paths = [item.path for item in outputs]
     if len(set(paths)) != len(paths):
@@ -183,6 +191,7 @@ def unwarp_video(
                 state,
                 reconnect.timeout_s if can_drop else None,
                 on_first_frame,
+                codec_threads,
             )
             current.close()
             if written:
@@ -250,6 +259,7 @@ def _write_segment(
     state: ReadState,
     drop_timeout_s: float | None,
     on_first_frame: Callable[[], None],
+    decoder_threads: int | None = None,
 ) -> bool:
     """Read one connection of the input into one file per view; True if any frame was written.
 
@@ -259,6 +269,8 @@ def _write_segment(
     container = current.container
     stream = container.streams.video[0]
     stream.thread_type = "AUTO"
+    if decoder_threads is not None:
+        stream.codec_context.thread_count = decoder_threads
     audio_stream = container.streams.audio[0] if audio and container.streams.audio else None
     report.audio = report.audio or audio_stream is not None
     rate = stream.average_rate or stream.guessed_rate
