@@ -1,11 +1,12 @@
 """Circle finding over random unkind renders: how often it fails, and its worst error.
 
-Run: ``.venv/bin/python bench/bench_centre_sweep.py [--trials 120] [--workers 2]``
+Run: ``.venv/bin/python bench/bench_centre_sweep.py [--trials 120] [--workers 2] [--crop 0 0.15] [--first-seed 0]``
 
 Each seeded trial draws a frame size (640 x 480 to 1920 x 1920, 4:3, 16:9 and
 square), a camera (equidistant and equisolid fisheyes; parabolic, hyperbolic and
 spherical mirrors), a crop of the image circle by the frame of 0-15% of its radius
-(on a square frame, on all four sides), a centre up to 2% of the frame's short side
+(``--crop LOW HIGH``; on a square frame, on all four sides; the share of the rim the frame
+shows is printed with each trial that failed), a centre up to 2% of the frame's short side
 off its middle, and an image angle; renders the bundled room through it, then either
 puts a mirror in a bright, blurred housing (half the mirror trials:
 ``panomap.simulate.housed_mirror``, a rim whose contrast changes sign) or vignettes
@@ -33,13 +34,22 @@ NAMES = ("equidistant", "equisolid", "parabolic", "hyperbolic", "spherical")
 MIRRORS = ("parabolic", "hyperbolic", "spherical")
 
 
-def trial(seed: int) -> tuple[str, str, tuple[float, float, float | None] | None]:
-    """One trial: (kind of image, description, (centre, radius, cut-off errors) or None where none was found)."""
+def rim_in_frame(centre: tuple[float, float], radius: float, size: tuple[int, int]) -> float:
+    """The share of the circle's circumference inside the frame (W, H)."""
+    angles = np.linspace(0.0, 2 * math.pi, 3600, endpoint=False)
+    u, v = centre[0] + radius * np.cos(angles), centre[1] + radius * np.sin(angles)
+    return float(np.mean((u >= -0.5) & (u <= size[0] - 0.5) & (v >= -0.5) & (v <= size[1] - 0.5)))
+
+
+def trial(job: tuple[int, float, float]) -> tuple[str, str, tuple[float, float, float | None] | None]:
+    """One trial (seed, least and largest crop): (kind of image, description, (centre, radius, cut-off errors) or
+    None where none was found)."""
+    seed, low, high = job
     rng = np.random.default_rng(seed)
     size = SIZES[rng.integers(len(SIZES))]
     name = NAMES[rng.integers(len(NAMES))]
     short = min(size)
-    crop = rng.uniform(0, 0.15)
+    crop = rng.uniform(low, high)
     radius = (short / 2) / (1 - crop) if crop > 0.01 else 0.47 * short
     middle = ((size[0] - 1) / 2, (size[1] - 1) / 2)
     off = 0.02 * short
@@ -61,7 +71,11 @@ def trial(seed: int) -> tuple[str, str, tuple[float, float, float | None] | None
         )
         kind = "mirror, vignetted" if name in MIRRORS else "fisheye, vignetted"
     image = noisy_jpeg(image, rng)
-    described = f"seed {seed}: {name}, {size[0]} x {size[1]}, cut by {crop:.0%} of the radius"
+    shown = rim_in_frame(camera.centre, camera.outer_radius, size)
+    described = (
+        f"seed {seed}: {name}, {size[0]} x {size[1]}, cut by {crop:.0%} of the radius "
+        f"({shown:.0%} of the rim in the frame)"
+    )
     try:
         found = find_image_circles(image)
     except NoImageCircle:
@@ -77,12 +91,25 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=120)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument(
+        "--crop",
+        type=float,
+        nargs=2,
+        default=(0.0, 0.15),
+        metavar=("LOW", "HIGH"),
+        help="share of the circle's radius the frame cuts off, drawn in [LOW, HIGH] (default 0 0.15)",
+    )
+    parser.add_argument("--first-seed", type=int, default=0, help="seed of the first trial (default 0)")
     args = parser.parse_args()
     rows: dict[str, list[tuple[str, tuple[float, float, float | None] | None]]] = {}
     with ProcessPoolExecutor(args.workers) as pool:
-        for kind, described, errors in pool.map(trial, range(args.trials)):
+        jobs = [(seed, *args.crop) for seed in range(args.first_seed, args.first_seed + args.trials)]
+        for kind, described, errors in pool.map(trial, jobs):
             rows.setdefault(kind, []).append((described, errors))
-    print(f"{args.trials} trials; errors in px: median / 90th percentile / worst")
+    print(
+        f"{args.trials} trials, circles cut by {args.crop[0]:.0%}-{args.crop[1]:.0%} of the radius; "
+        "errors in px: median / 90th percentile / worst"
+    )
     print("| image | found / trials | centre | outer radius | cut-off radius |")
     print("| --- | --- | --- | --- | --- |")
     missed = []
