@@ -223,6 +223,23 @@ def test_a_full_frame_fisheye_gets_a_table_of_the_whole_frame(
     assert float(np.max(error)) < bar_px
 
 
+def test_the_learn_page_gives_a_full_frame_fisheye_the_whole_frame_too(tmp_path: Path) -> None:
+    """The learn page starts a full-frame fisheye as ``fit --image`` does: the frame's middle, refined, and an outer
+    circle through the frame's corners. Measured worst 3.21 px, as the command's; before, the page's outer circle
+    was the largest inside the frame, and the fit failed ("no radial model covers the annulus from these
+    landmarks": the landmarks in the corners lie outside it)."""
+    from panomap.learn.session import Session
+
+    image, landmarks, position, points, truth = full_frame_fisheye((1280, 960), (9.0, -10.5), 6)
+    session = Session(image, "omni.jpg", tmp_path, landmarks=landmarks, camera=position)
+    assert "the outer circle takes in the whole frame" in session.state()["circles"]["note"]
+    assert session._sources()["outer_radius"] is Source.DEFAULT_WHOLE_FRAME
+    assert session.table is not None, session.fit_status
+    error = np.linalg.norm(session.table.project(points) - truth, axis=1)
+    assert np.all(np.isfinite(error)), f"{int(np.sum(~np.isfinite(error)))} of {error.size} points not covered"
+    assert float(np.max(error)) < 5.0
+
+
 def test_fit_on_a_full_frame_fisheye_says_a_tilt_and_the_centre_look_alike(tmp_path: Path) -> None:
     """``panomap fit --image`` on a full-frame fisheye: the warning that no rim was found, and the diagnosis
     that the centre, refined from the frame's middle (here 14.1 px), cannot be told from a tilt."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import http.client
 import json
+import math
 import os
 import select
 import signal
@@ -405,12 +406,13 @@ def test_an_image_without_circles_starts_from_a_guess(folder: Path) -> None:
     session = Session(np.full((200, 300), 128, np.uint8), "grey.png", folder)
     state = session.state()
     assert state["circles"]["centre"] == [149.5, 99.5]
-    assert state["circles"]["outer_radius"] == 99.5 and state["circles"]["cutoff_radius"] == 0.0
-    assert state["circles"]["detected"] is None
-    # No rim at all: the frame centre starts the fit and the landmarks refine it; the radii are a guess.
+    # No rim at all: the frame centre starts the fit and the landmarks refine it; the table takes the whole frame.
+    assert state["circles"]["outer_radius"] == pytest.approx(math.hypot(300, 200) / 2)
+    assert state["circles"]["cutoff_radius"] == 0.0 and state["circles"]["detected"] is None
     note = state["circles"]["note"]
-    assert note.startswith("no image circle found") and "the landmarks refine" in note and "drag them" in note
+    assert note.startswith("no image circle found") and "the landmarks refine" in note and "whole frame" in note
     assert session._sources()["centre"].value == "frame centre (no image circle found)"
+    assert session._sources()["outer_radius"].value == "default (the whole frame: no image circle in it)"
 
 
 def test_the_command_serves_until_interrupted(tmp_path: Path, example: Example) -> None:

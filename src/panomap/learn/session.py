@@ -150,9 +150,12 @@ class Session:
         except PanomapError as exc:
             guessed = f"could not find the image circles ({exc.detail}); starting from a guess: drag them into place"
             return guess, None, guessed
-        if found.circles is None:  # no rim at all: the frame centre, refined by the landmarks
-            note = f"{found.warnings[0]}; the radii are a guess: drag them into place" if found.warnings else None
-            return guess, None, note
+        if found.circles is None:
+            # No rim at all (a full-frame fisheye): the frame centre, refined by the landmarks, and as
+            # ``panomap fit --image`` does, a table of the whole frame (the outer circle through its corners).
+            whole = Circles(guess.centre, 0.0, math.hypot(width, height) / 2)
+            note = f"{found.warnings[0]}; the outer circle takes in the whole frame" if found.warnings else None
+            return whole, None, note
         centre, cutoff, outer = found.settled()
         none = found.sources["cutoff_radius"].source is Source.DETECTED_NONE
         note = "no cut-off disc found (a fisheye?): the cut-off radius is 0" if none else None
@@ -336,10 +339,14 @@ class Session:
             or (detected["cutoff_radius"] or 0.0) != circles.cutoff_radius
         )
         how = Source.SET_IN_LEARN if adjusted else Source.DETECTED
-        centre = how
+        centre = outer = how
         if self._guess is not None and circles.centre == self._guess.centre:
             centre = Source.FRAME_CENTRE
-        return {"centre": centre, "cutoff_radius": how, "outer_radius": how, "camera_position": Source.GIVEN}
+        if self._guess is not None and self.detected is None and circles.outer_radius == self._guess.outer_radius:
+            width, height = self.image_size
+            if circles.outer_radius == math.hypot(width, height) / 2:
+                outer = Source.DEFAULT_WHOLE_FRAME
+        return {"centre": centre, "cutoff_radius": how, "outer_radius": outer, "camera_position": Source.GIVEN}
 
     def _info(self) -> dict[str, Any]:
         info: dict[str, Any] = {"learned_with": f"panomap learn on {self.image_name}"}
