@@ -55,7 +55,6 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy.ndimage import median_filter
 
 from ..errors import PanomapError
 from ..geometry import FloatArray, pixel_polar
@@ -900,6 +899,8 @@ def _concentric_centres(grey: NDArray[Any], seed: tuple[float, float]) -> list[t
     alone, two real MiniOmni images lost their rim to the scene's edges, which height found.
     Both are kept, the highest peak's first; the same centre once.
     """
+    from scipy.ndimage import median_filter  # here, not at the top: importing SciPy is slow
+
     full_height, full_width = grey.shape
     factor = max(1, math.ceil(max(full_height, full_width) / COARSE_SIDE))
     small = cv2.resize(grey, (full_width // factor, full_height // factor), interpolation=cv2.INTER_AREA)
