@@ -103,6 +103,16 @@ FEATURE_MIN_RATIO = 2.0
 # Sharp real rims fit to 0.2-0.9 px RMS, a soft (vignetted) one to 1.5 px; a false circle
 # through scene edges fits worse.
 MAX_RIM_RMS_PX = 2.0
+# A soft rim (a fisheye's field stop out of focus, blurred over several px) scatters its edge points: each
+# ray's outermost clear drop falls anywhere on the long slope, outward on average (a stop blurred by 3-4 px:
+# 0.5-1.7 px RMS, the centre up to 0.9 px off and the radius up to 1.5 px too large; the whole image blurred
+# by 8 px: none passes). A bright- or dark-inside rim whose fit is worse than SOFT_RIM_RMS_PX is fitted again
+# on the image smoothed by each of SOFT_RIM_SIGMAS_PX (the profiles then show one slope), kept where its RMS
+# is under SOFT_RIM_GAIN of the first and it is the same edge (centre and radius each within twice the
+# first's RMS: on one real fisheye image the smoothed fit took an edge 4 px further in).
+SOFT_RIM_RMS_PX = 0.5
+SOFT_RIM_SIGMAS_PX = (2.0, 4.0)
+SOFT_RIM_GAIN = 0.7
 MIN_CUTOFF_FRACTION = 0.5
 MAX_CUTOFF_RMS_PX = 1.5
 # Median over the rays of the radial gradient (grey levels per px) at the cut-off disc's edge.
@@ -386,6 +396,10 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
             break
         best = further
     if best is None:
+        best = _soft_start(grey, small, factor, reasons)
+    elif best.polarity != 0 and best.circle.rms_px > SOFT_RIM_RMS_PX:
+        best = _soft_rim(grey, best)
+    if best is None:
         reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
         raise NoImageCircle(
             f"{reason}; no rim is visible (a full-frame fisheye, or not an omni-image): "
@@ -409,6 +423,36 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         rim_polarity={1: "bright inside", -1: "dark inside"}.get(best.polarity) or _either_polarity(grey, outer),
         rim_arcs_deg=_arcs(best.points, outer),
     )
+
+
+def _soft_rim(grey: NDArray[Any], rim: _Rim) -> _Rim:
+    """``rim`` fitted again on the image smoothed by each of SOFT_RIM_SIGMAS_PX, where that fits clearly better."""
+    best = rim
+    for sigma in SOFT_RIM_SIGMAS_PX:
+        smooth = cv2.GaussianBlur(grey, (0, 0), sigma)
+        try:
+            found = _iterate_rim(smooth, rim.circle.centre, rim.circle.radius, rim.polarity, NARROW_REACH)
+        except PanomapError:
+            continue
+        same = 2 * rim.circle.rms_px
+        if (
+            found.circle.rms_px < SOFT_RIM_GAIN * best.circle.rms_px
+            and abs(found.circle.radius - rim.circle.radius) <= same
+            and math.dist(found.circle.centre, rim.circle.centre) <= same
+        ):
+            best = found
+    return best
+
+
+def _soft_start(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[str]) -> _Rim | None:
+    """Where no rim passed: a bright disc's rim looked for again on the image smoothed by the widest of
+    SOFT_RIM_SIGMAS_PX (a rim too soft for its edge points to lie on a circle at full sharpness); None if none."""
+    try:
+        candidates = _coarse_circle(small, factor)
+    except PanomapError:
+        return None
+    smooth = cv2.GaussianBlur(grey, (0, 0), SOFT_RIM_SIGMAS_PX[-1])
+    return _best_rim(smooth, candidates, 1, (NARROW_REACH, WIDE_REACH), False, None, [], reasons)
 
 
 @dataclass(frozen=True)

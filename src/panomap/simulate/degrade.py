@@ -60,7 +60,9 @@ def vignette(
     return np.clip(np.rint(image * gain), 0, 255).astype(np.uint8)
 
 
-def field_stop(image: NDArray[np.uint8], centre: tuple[float, float], radius: float) -> NDArray[np.uint8]:
+def field_stop(
+    image: NDArray[np.uint8], centre: tuple[float, float], radius: float, softness_px: float = 0.0
+) -> NDArray[np.uint8]:
     """Black outside a circle: a lens's field stop or a mirror's rim, which need not be centred on the optical axis.
 
     On real cameras the visible rim is 0.5-3 px off the optical axis (a mirror glued a little off
@@ -76,17 +78,25 @@ def field_stop(image: NDArray[np.uint8], centre: tuple[float, float], radius: fl
         Centre of the rim.
     radius : float
         Its radius (px), > 0.
+    softness_px : float
+        A stop out of focus (a fisheye's field stop lies off the sensor's plane): the edge blurred
+        by a Gaussian of this sigma (px), its half-level still at ``radius``; 0 (default): sharp.
 
     Returns
     -------
     (H, W[, C]) uint8 ndarray
     """
-    if not (math.isfinite(radius) and radius > 0):
-        raise PanomapError(f"radius must be finite and > 0, got {radius}")
+    if not (math.isfinite(radius) and radius > 0 and math.isfinite(softness_px) and softness_px >= 0):
+        raise PanomapError(f"need a finite radius > 0 and softness >= 0, got {radius}, {softness_px}")
     height, width = image.shape[:2]
     v, u = np.mgrid[0:height, 0:width].astype(np.float64)
     r = np.hypot(u - centre[0], v - centre[1])
-    coverage = np.clip(radius - r + 0.5, 0.0, 1.0)  # the disc's share of each pixel, exact for a straight edge
+    if softness_px > 0:
+        from scipy import special  # here, not at the top: importing SciPy is slow
+
+        coverage = 0.5 * special.erfc((r - radius) / (math.sqrt(2.0) * softness_px))
+    else:
+        coverage = np.clip(radius - r + 0.5, 0.0, 1.0)  # the disc's share of each pixel, exact for a straight edge
     if image.ndim == 3:
         coverage = coverage[..., None]
     return np.clip(np.rint(image * coverage), 0, 255).astype(np.uint8)
