@@ -1,7 +1,7 @@
 """The README's own path end to end: an unkind omni-image and a dozen landmarks in, a table out, its error.
 
 Run: ``.venv/bin/python bench/bench_image_fit.py [--trials 60] [--workers 2] [--max-tilt 3] [--landmarks 12]
-[--max-crop 0.15] [--first-seed 0] [--full-frame]``
+[--max-crop 0.15] [--soft-rim 0] [--first-seed 0] [--full-frame]``
 
 What ``panomap fit --image`` does with its defaults, on cameras as they are installed.
 Each seeded trial draws a frame (1024 x 768 to 1920 x 1920; 4:3, 16:9, square), a camera
@@ -116,12 +116,19 @@ class Setup:
 
 
 def setup(
-    seed: int, max_tilt_deg: float = 3.0, count: int = LANDMARKS, full_frame: bool = False, max_crop: float = 0.15
+    seed: int,
+    max_tilt_deg: float = 3.0,
+    count: int = LANDMARKS,
+    full_frame: bool = False,
+    max_crop: float = 0.15,
+    max_soft_px: float = 0.0,
 ) -> Setup:
     """Draw and render one trial, the camera tilted by up to ``max_tilt_deg``, with ``count`` landmarks, the
-    image circle cut by the frame by up to ``max_crop`` of its radius; ``full_frame``: a fisheye whose image
-    circle reaches past the frame's corners (no rim in the frame)."""
+    image circle cut by the frame by up to ``max_crop`` of its radius, its rim out of focus by up to
+    ``max_soft_px`` (a Gaussian's sigma, drawn apart so that the other draws stay those of the seed);
+    ``full_frame``: a fisheye whose image circle reaches past the frame's corners (no rim in the frame)."""
     rng = np.random.default_rng(seed)
+    soft_px = float(np.random.default_rng([seed, 1]).uniform(0.0, max_soft_px))
     size = SIZES[rng.integers(len(SIZES))]
     name = NAMES[rng.integers(2 if full_frame else len(NAMES))]
     short = min(size)
@@ -141,7 +148,7 @@ def setup(
     ]
     tilt_deg = rng.uniform(0.0, max_tilt_deg)
     camera = TiltedCamera(base, mount_rotation(math.radians(tilt_deg), rng.uniform(0, 2 * math.pi)))
-    image = field_stop(render(ROOM, camera, supersample=1), rim, radius)
+    image = field_stop(render(ROOM, camera, supersample=1), rim, radius, softness_px=soft_px)
     if full_frame:
         image = vignette(image, axis, radius, falloff=rng.uniform(0, 0.5), dim=0.0, dim_angle=0.0)
         kind = "full-frame fisheye, vignetted"
@@ -167,6 +174,8 @@ def setup(
     keep = seen(camera, truth, rim, radius, EDGE_PX)
     points, truth = points[keep], truth[keep]
     circle = "full frame" if full_frame else f"cut by {crop:.0%}, rim {offset:.1f} px off the axis"
+    if soft_px > 0:
+        circle += f", its edge blurred by {soft_px:.1f} px"
     described = (
         f"seed {seed}: {name}, {size[0]} x {size[1]}, {circle}, "
         f"tilt {tilt_deg:.1f} deg, tape {tape_cm:.1f} cm, {len(pixels)} landmarks"
@@ -199,9 +208,9 @@ def worst_errors(trial: Setup, options: dict[str, dict[str, object]]) -> tuple[d
     return errors, moved
 
 
-def trial(job: tuple[int, float, int, bool, float]) -> tuple[str, str, dict[str, float], float]:
-    """One trial (seed, largest tilt in deg, landmarks, full frame, largest crop): (kind, description, worst
-    error of each fit, default centre's distance to the axis)."""
+def trial(job: tuple[int, float, int, bool, float, float]) -> tuple[str, str, dict[str, float], float]:
+    """One trial (seed, largest tilt in deg, landmarks, full frame, largest crop, softest rim): (kind,
+    description, worst error of each fit, default centre's distance to the axis)."""
     drawn = setup(*job)
     options: dict[str, dict[str, object]] = {
         "default": {},
@@ -229,6 +238,13 @@ def main() -> None:
         "sensor: up to 0.44)",
     )
     parser.add_argument(
+        "--soft-rim",
+        type=float,
+        default=0.0,
+        metavar="PX",
+        help="rims out of focus: each blurred by a Gaussian of 0-PX px (default 0: sharp)",
+    )
+    parser.add_argument(
         "--first-seed", type=int, default=0, help="seed of the first trial (default 0; others: trials not seen before)"
     )
     args = parser.parse_args()
@@ -236,14 +252,15 @@ def main() -> None:
     rows: dict[str, list[tuple[str, dict[str, float], float]]] = {}
     with ProcessPoolExecutor(args.workers) as pool:
         jobs = [
-            (seed, args.max_tilt, args.landmarks, args.full_frame, args.max_crop)
+            (seed, args.max_tilt, args.landmarks, args.full_frame, args.max_crop, args.soft_rim)
             for seed in range(args.first_seed, args.first_seed + args.trials)
         ]
         for kind, described, errors, moved in pool.map(trial, jobs):
             rows.setdefault(kind, []).append((described, errors, moved))
     print(
         f"{args.trials} trials (seeds {args.first_seed}-{args.first_seed + args.trials - 1}), tilted "
-        f"0-{args.max_tilt:g} deg, circles cut by 0-{args.max_crop:.0%}, {args.landmarks} landmarks, "
+        f"0-{args.max_tilt:g} deg, circles cut by 0-{args.max_crop:.0%}, rims blurred by 0-{args.soft_rim:g} px, "
+        f"{args.landmarks} landmarks, "
         f"{time.perf_counter() - start:.0f} s; "
         "worst error (px): median / 90th percentile / worst"
     )
