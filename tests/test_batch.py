@@ -14,7 +14,6 @@ import json
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -272,10 +271,19 @@ def test_bad_jobs_get_one_line_errors(work: Path, tmp_path: Path) -> None:
 # ----------------------------------------------------------------------------- a real cluster, a worker killed
 
 
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
+def scheduler_address(scheduler_file: Path, timeout_s: float = 60.0) -> str:
+    """The address a ``dask scheduler`` started with ``--port 0`` wrote to its scheduler file.
+
+    Its own free port, not one probed here first: a port free when probed could be taken
+    (by any process's outgoing connection) before the scheduler bound it.
+    """
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        try:
+            return str(json.loads(scheduler_file.read_text())["address"])
+        except (OSError, ValueError, KeyError):
+            time.sleep(0.1)
+    raise AssertionError(f"the scheduler wrote no address to {scheduler_file} in {timeout_s} s")
 
 
 def start(*args: str) -> subprocess.Popen[bytes]:
@@ -297,10 +305,15 @@ def test_a_worker_killed_mid_job_on_a_real_cluster_loses_nothing(work: Path, tmp
     inputs = find_inputs([str(work / "images"), str(work / "clip.mp4")], work / "cam.npz")
     reference = make_job(inputs, VIEWS, str(tmp_path / "ref" / "{stem}_{name}.mp4"), LOSSLESS)
     assert run_job(reference, Record(tmp_path / "ref.jsonl"), scheduler=cluster, segment_s=0.4, chunk=1).ok
-    port = free_port()
-    address = f"tcp://127.0.0.1:{port}"
-    processes = [start("distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")]
+    scheduler_file = tmp_path / "scheduler.json"
+    processes = [
+        start(
+            "distributed.cli.dask_scheduler",
+            *("--host", "127.0.0.1", "--port", "0", "--scheduler-file", str(scheduler_file), "--no-dashboard"),
+        )
+    ]
     try:
+        address = scheduler_address(scheduler_file)
         for name in ("w1", "w2"):
             processes.append(
                 start("distributed.cli.dask_worker", address, "--nthreads", "1", "--name", name, "--no-dashboard")

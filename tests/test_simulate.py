@@ -470,3 +470,26 @@ def test_a_housed_mirror_whose_rim_is_outside_the_frame_keeps_the_mirror_image()
     v, u = np.mgrid[0:120, 0:160]
     away = np.hypot(u - 79.5, v - 59.5) > 35.0  # past the board (half side at most twice the disc's radius, turned)
     assert np.array_equal(housed[away], image[away])
+
+
+def test_a_housed_mirror_shows_its_picture_up_to_the_rim() -> None:
+    """Where the housing is as bright as the mirror (a faint arc), the level runs on across the rim: no dark band.
+
+    The mirror's picture stops at the rim with an edge of its own (its pixels there half
+    covered, black beyond); composited under the housing's edge as it was, each rim pixel
+    was darkened twice: a band under a pixel wide, which real mirrors do not have and which
+    the circle search then took for the rim on its faint arcs. With the rim faint on 97% of
+    it, the 10th percentile of the rim's pixels was 92-101 for a mirror at 128 (three
+    seeds); exact, 119-128: the housing's rings (15 grey levels, blurred) are all that differ.
+    """
+    from panomap.simulate import housed_mirror
+
+    size, centre, radius, level = 240, (119.5, 119.5), 100.0, 128.0
+    v, u = np.mgrid[0:size, 0:size]
+    r = np.hypot(u - centre[0], v - centre[1])
+    mirror = level * np.clip(radius - r + 0.5, 0.0, 1.0)  # a uniform mirror with its own anti-aliased edge
+    image = np.repeat(np.rint(mirror).astype(np.uint8)[..., None], 3, axis=2)
+    on_rim = np.abs(r - radius) < 1.0
+    for seed in range(3):
+        housed = housed_mirror(image, centre, radius, 20.0, np.random.default_rng(seed), faint=0.97)
+        assert np.percentile(housed[..., 0][on_rim], 10) >= level - 12.0, seed

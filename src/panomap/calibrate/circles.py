@@ -98,6 +98,9 @@ MIN_FEATURE_FRACTION = 0.6
 # ... or this fraction, for a circle about the same centre past one that passed (the outermost is the rim).
 MIN_FEATURE_FRACTION_OUTSIDE = 0.4
 MIN_RIM_SECTORS_EITHER = 6
+# ... or this fraction, in MIN_RIM_SECTORS, for such a circle where the image past it is smooth
+# (the housing out of focus; a rim seen only where the housing's light differs from the mirror's).
+MIN_FEATURE_FRACTION_LAST = 0.3
 FEATURE_MIN_STRENGTH = 4.0
 FEATURE_MIN_RATIO = 2.0
 # Sharp real rims fit to 0.2-0.9 px RMS, a soft (vignetted) one to 1.5 px; a false circle
@@ -386,6 +389,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
                 WIDE_REACH,
                 beyond=best.circle.radius + NEAR_PX,
                 least_features=MIN_FEATURE_FRACTION_OUTSIDE,
+                least_smooth=MIN_FEATURE_FRACTION_LAST,
             )
         except PanomapError:
             break
@@ -539,15 +543,13 @@ def _refine_rim(
     The rim is first looked for within ``reaches[0]`` of the start radius (a good start:
     the scene further in is then no distraction), then within each next reach. With
     ``last_edge`` (polarity 0), a circle with an edge on MIN_FEATURE_FRACTION_OUTSIDE of the
-    rays passes where the image past it is smooth (:func:`_smooth_beyond`).
+    rays, in MIN_RIM_SECTORS sectors, passes where the image past it is smooth (:func:`_smooth_beyond`).
     """
     failure = PanomapError("no image circle found")
     for reach in reaches:
         try:
             if last_edge:
-                return _iterate_rim(
-                    grey, centre, radius, polarity, reach, least_features=MIN_FEATURE_FRACTION_OUTSIDE, last_edge=True
-                )
+                return _iterate_rim(grey, centre, radius, polarity, reach, least_smooth=MIN_FEATURE_FRACTION_OUTSIDE)
             return _iterate_rim(grey, centre, radius, polarity, reach)
         except PanomapError as exc:
             failure = exc
@@ -562,11 +564,12 @@ def _iterate_rim(
     reach: float,
     beyond: float = 0.0,
     least_features: float = MIN_FEATURE_FRACTION,
-    last_edge: bool = False,
+    least_smooth: float | None = None,
 ) -> _Rim:
     """:func:`_refine_rim` with the first search ``reach`` times the radius wide (polarity 0: past ``beyond``,
-    with an edge or line on ``least_features`` of the rays in the frame; under MIN_FEATURE_FRACTION,
-    with ``last_edge``, only where the image past the circle is smooth)."""
+    with an edge or line on ``least_features`` of the rays in the frame, in MIN_RIM_SECTORS_EITHER sectors;
+    or, given ``least_smooth``, on that fraction in MIN_RIM_SECTORS sectors where the image past the
+    circle is smooth: the last edge, a rim seen only on some arcs)."""
     height, width = grey.shape
     circle = None
     for iteration in range(4):
@@ -606,7 +609,9 @@ def _iterate_rim(
     # Of the sectors the frame shows: a circle cut by all four edges (a round image larger than a
     # square frame) shows four arcs about the corners, in as few as 4 of the 12 sectors.
     shown = _sectors_in_frame(circle, (height, width))
-    least_sectors = math.ceil((MIN_RIM_SECTORS if polarity else MIN_RIM_SECTORS_EITHER) * shown / 12)
+    least_sectors = math.ceil(
+        (MIN_RIM_SECTORS if polarity or least_smooth is not None else MIN_RIM_SECTORS_EITHER) * shown / 12
+    )
     if (
         circle.inliers < _least_rim_rays(circle.centre, circle.radius, (height, width), polarity)
         or sectors < least_sectors
@@ -626,8 +631,9 @@ def _iterate_rim(
             )
     else:
         stepping = _feature_rays(grey, circle)
-        if stepping < least_features * in_frame or (
-            last_edge and stepping < MIN_FEATURE_FRACTION * in_frame and not _smooth_beyond(grey, circle)
+        outright = stepping >= least_features * in_frame and sectors >= math.ceil(MIN_RIM_SECTORS_EITHER * shown / 12)
+        if not outright and (
+            least_smooth is None or stepping < least_smooth * in_frame or not _smooth_beyond(grey, circle)
         ):
             raise PanomapError(
                 f"no image circle found: an edge or a line stands out on the best circle on only "

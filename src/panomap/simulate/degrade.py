@@ -138,7 +138,9 @@ def housed_mirror(
     board (half-side 1.6-2 times the cut-off radius, turned at random, with lighter
     components on it) and in its middle a round lens of radius ``cutoff_radius``, darker
     still. The rim stays at ``outer_radius`` and the lens's edge at ``cutoff_radius``:
-    every shape is drawn with its exact coverage of each pixel. With ``faint``, one arc of
+    every shape is drawn with its exact coverage of each pixel, and the mirror's picture,
+    which ends at the rim with an edge of its own, is carried up to it at its level just
+    inside (else the two edges would leave a dark band under the housing's). With ``faint``, one arc of
     that fraction of the rim (at a random angle) shows neither step nor line: the housing
     there is as bright as the mirror just inside, as on a real camera whose rim is seen
     only where the housing's light happens to differ.
@@ -200,10 +202,14 @@ def housed_mirror(
         start = rng.uniform(0, 2 * math.pi)
         on_faint = (phi - start) % (2 * math.pi) < 2 * math.pi * faint
         offset, line = np.where(on_faint, 0.0, offset), np.where(on_faint, 0.0, line)
-    housing = inside_level[np.floor(np.degrees(phi)).astype(np.int64) % 360] + offset + rings
+    level_here = inside_level[np.floor(np.degrees(phi)).astype(np.int64) % 360]
+    housing = level_here + offset + rings
     housing = cv2.GaussianBlur(housing, (0, 0), 6.0)
     outside = np.clip(r - outer_radius + 0.5, 0.0, 1.0)  # coverage of each pixel by the housing
-    result = grey * (1 - outside) + housing * outside
+    # The render's own edge at the rim (black beyond it) must not show under the housing's:
+    # on the rim's pixels the mirror is carried out at its level just inside.
+    mirror = np.where(r > outer_radius - 1.5, level_here, grey)
+    result = mirror * (1 - outside) + housing * outside
     # A thin line (2 px) centred on the rim, on the line arcs: its coverage of each pixel.
     on_line = np.clip(1.0 - np.maximum(np.abs(r - outer_radius) - 0.5, 0.0), 0.0, 1.0)
     result += on_line * line
