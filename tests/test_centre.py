@@ -453,17 +453,19 @@ def test_a_mirror_in_a_bright_blurred_housing() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("faint", [0.4, 0.55])
-def test_a_housed_mirror_whose_rim_shows_on_part_of_it(faint: float) -> None:
+@pytest.mark.parametrize(("faint", "bound_px"), [(0.4, 0.5), (0.55, 0.5), (0.62, 1.0)])
+def test_a_housed_mirror_whose_rim_shows_on_part_of_it(faint: float, bound_px: float) -> None:
     """The housing as bright as the mirror on ``faint`` of the rim (housed_mirror(faint=...)), as on miniomni.
 
     The rim then shows an edge on 35-60% of the rays in the frame, under the 60% a circle
     needs on its own, while a circle of the scene inside the mirror passes: that circle was
     reported as the rim, 13-54 px too small. Past a circle that passed, a circle about the
-    same centre is the rim with an edge on 40% of the rays, or on 30% in 4 sectors where the
+    same centre is the rim with an edge on 40% of the rays, or on 20% in 4 sectors where the
     image past it is smooth (the housing out of focus). Measured over these trials: worst
-    centre 0.36 px, radius 0.30 px; with 40% alone, 3 of the 6 at f = 0.55 wrong (two scene
-    circles 38-50 px too small, one none), whose rims show on 36-45% of the rays, in 5 sectors.
+    centre 0.36 px, radius 0.30 px at f <= 0.55; with 40% alone, 3 of the 6 at f = 0.55 wrong
+    (two scene circles 38-50 px too small, one none), whose rims show on 36-45% of the rays, in
+    5 sectors. At f = 0.62 the rim shows on 22-38% of the rays: centre 0.48 px, radius 0.40 px
+    (the bar here 1 px, the scene's circles being 13-50 px off); with 30%, 2 of 6 wrong.
     """
     rng = np.random.default_rng(31)
     for trial in range(6):
@@ -474,8 +476,8 @@ def test_a_housed_mirror_whose_rim_shows_on_part_of_it(faint: float) -> None:
         image = render(ROOM, camera, supersample=2)
         housed = housed_mirror(image, camera.centre, camera.outer_radius, camera.cutoff_radius, rng, faint=faint)
         found = find_image_circles(noisy_jpeg(housed, rng))
-        assert math.dist(found.centre, camera.centre) <= 0.5, trial
-        assert abs(found.outer_radius - camera.outer_radius) <= 0.7, trial
+        assert math.dist(found.centre, camera.centre) <= bound_px, trial
+        assert abs(found.outer_radius - camera.outer_radius) <= max(0.7, bound_px), trial
 
 
 @pytest.mark.slow
