@@ -43,6 +43,7 @@ def test_source_texts_are_the_table_files() -> None:
         "default (largest circle inside the image)",
         "default (farthest landmark)",
         "default (the whole frame: no image circle in it)",
+        "the cut-off disc's centre (no rim in the frame)",
     ]
     assert [s for s in Source if s.is_default] == [
         Source.DEFAULT_NONE,
@@ -153,12 +154,17 @@ def test_a_given_radius_is_named_as_given_when_the_circles_are_not_found() -> No
 
 
 def full_frame_fisheye(
-    size: tuple[int, int], offset: tuple[float, float], seed: int, radius: float | None = None
+    size: tuple[int, int],
+    offset: tuple[float, float],
+    seed: int,
+    radius: float | None = None,
+    name: str = "equidistant",
 ) -> tuple[np.ndarray, Landmarks, tuple[float, float, float], np.ndarray, np.ndarray]:
-    """A level equidistant fisheye whose image circle reaches past every corner of the frame (no rim in
-    it; or of ``radius``), its axis ``offset`` px from the frame's middle; the room rendered through it
-    (noise, JPEG); 12 landmarks spread in elevation wherever the frame shows them, 1 px / 1 cm noise; the
-    test points the frame shows at least 5 px inside its edges and the circle, with their true pixels."""
+    """A level equidistant fisheye (or another of the standard cameras, ``name``) whose image circle reaches past
+    every corner of the frame (no rim in it; or of ``radius``), its axis ``offset`` px from the frame's middle;
+    the room rendered through it (noise, JPEG); 12 landmarks spread in elevation wherever the frame shows them,
+    1 px / 1 cm noise; the test points the frame shows at least 5 px inside its edges and the circle (and
+    outside a mirror's cut-off disc), with their true pixels."""
     from panomap.geometry import ray_from_angles
     from panomap.simulate import load_room, noisy_jpeg, render
     from panomap.simulate.scenarios import CAMERA_POSITION, hit_room, test_points
@@ -167,7 +173,7 @@ def full_frame_fisheye(
     middle = ((size[0] - 1) / 2, (size[1] - 1) / 2)
     axis = (middle[0] + offset[0], middle[1] + offset[1])
     radius = 0.5 * math.hypot(*size) + 40 if radius is None else radius
-    camera = standard_cameras(size, centre=axis, s=-1, phi0=0.7, outer_radius=radius)["equidistant"]
+    camera = standard_cameras(size, centre=axis, s=-1, phi0=0.7, outer_radius=radius)[name]
     image = noisy_jpeg(render(load_room(), camera, supersample=1), rng)
 
     def inside(pixels: np.ndarray, margin: float) -> np.ndarray:
@@ -192,7 +198,8 @@ def full_frame_fisheye(
     )
     points, truth = test_points(camera)
     keep = np.all(np.isfinite(truth), axis=1) & inside(np.nan_to_num(truth, nan=-1e9), 5.0)
-    keep &= np.hypot(*(np.nan_to_num(truth, nan=-1e9) - np.asarray(axis)).T) <= radius - 5.0
+    from_axis = np.hypot(*(np.nan_to_num(truth, nan=-1e9) - np.asarray(axis)).T)
+    keep &= (from_axis <= radius - 5.0) & (from_axis >= camera.cutoff_radius + 5.0)
     return image, landmarks, CAMERA_POSITION, points[keep], truth[keep]
 
 
@@ -244,6 +251,64 @@ def test_a_circle_seen_only_about_the_corners_is_the_tables_rim(
     assert float(np.max(error)) < bar_px
 
 
+def test_a_mirror_image_that_overfills_the_frame_starts_from_its_cut_off_disc() -> None:
+    """A mirror camera whose image is larger than the frame on every side shows no rim, only its own reflection
+    in the middle: ``fit --image`` starts the centre there and keeps the disc out of the table. Measured worst
+    4.25 px (the cut-off radius 62.44 px, the truth 62.47); before, taken for a full-frame fisheye: as accurate
+    from the frame's middle (the level fit moved the centre to the same place), but the table reaching into the
+    camera's reflection (cut-off radius 0)."""
+    image, landmarks, position, points, truth = full_frame_fisheye((1280, 960), (9.0, -10.5), 6, name="hyperbolic")
+    camera = standard_cameras((1280, 960), centre=(648.5, 469.0), outer_radius=0.5 * math.hypot(1280, 960) + 40)[
+        "hyperbolic"
+    ]
+    result = calibrate_camera(landmarks, position, omni=image)
+    assert result.sources["centre"] == Origin(Source.CUTOFF_DISC_CENTRE, refined=True)
+    assert result.sources["cutoff_radius"] == Origin(Source.DETECTED)
+    assert result.sources["outer_radius"] == Origin(Source.DEFAULT_WHOLE_FRAME)
+    assert abs(result.table.cutoff_radius - camera.cutoff_radius) < 1.0
+    error = np.linalg.norm(result.table.project(points) - truth, axis=1)
+    assert np.all(np.isfinite(error)), f"{int(np.sum(~np.isfinite(error)))} of {error.size} points not covered"
+    assert float(np.max(error)) < 5.0
+
+
+def test_a_detected_cut_off_disc_asks_f_r_to_reach_a_default_outer_radius_no_further_than_it_runs() -> None:
+    """With the cut-off radius detected and the outer radius the whole frame's default (a mirror image that
+    overfills the frame), the table runs from the disc to where f_r ends; a given outer radius f_r does not
+    reach is refused. (On three real miniomni images, whose fitted f_r ends at 277 px of the corners' 465,
+    the table was refused.)"""
+    from panomap.calibrate.make_table import Annulus, table_for
+    from panomap.camera.valid_range import valid_elevation_range
+
+    image, landmarks, position, _, _ = full_frame_fisheye((1280, 960), (9.0, -10.5), 6, name="hyperbolic")
+    fit = calibrate_camera(landmarks, position, omni=image).fit
+    _, top = valid_elevation_range(fit.model.radial, fit.landmark_range, 62.0, 1e9)
+    beyond = float(fit.model.radial(top)) + 100.0  # 100 px past where the table may take f_r
+    default = Annulus(62.0, beyond, Source.DETECTED, Source.DEFAULT_WHOLE_FRAME)
+    table = table_for(fit, default, size=(64, 32), image_size=None, info={})
+    assert table.cutoff_radius == 62.0
+    given = Annulus(62.0, beyond, Source.DETECTED, Source.GIVEN)
+    with pytest.raises(PanomapError, match="ends before the image circle"):
+        table_for(fit, given, size=(64, 32), image_size=None, info={})
+
+
+def test_a_dark_disc_that_holds_landmarks_is_not_the_cameras_reflection() -> None:
+    """A full-frame fisheye looking down on a round dark rug: the rug is a dark disc in the middle, as a mirror's
+    own reflection is, but landmarks lie on it; the fit starts from the frame's middle with no cut-off disc,
+    and says why."""
+    image, landmarks, position, _, _ = full_frame_fisheye((1280, 960), (9.0, -10.5), 6)
+    rug = (648.5 + 3.0, 469.0 - 2.0)
+    inside = np.hypot(*(landmarks.pixels - np.asarray(rug)).T) < 120.0
+    assert inside.sum() >= 1  # a landmark on the rug
+    v, u = np.mgrid[0:960, 0:1280]
+    on_rug = np.clip(120.0 - np.hypot(u - rug[0], v - rug[1]) + 0.5, 0.0, 1.0)[..., None]
+    image = np.rint(image * (1 - on_rug) + 20.0 * on_rug).astype(np.uint8)
+    result = calibrate_camera(landmarks, position, omni=image)
+    assert result.sources["centre"] == Origin(Source.FRAME_CENTRE, refined=True)
+    assert "cutoff_radius" not in result.sources or result.sources["cutoff_radius"].source is not Source.DETECTED
+    assert result.table.cutoff_radius == 0.0
+    assert any("not the camera's own reflection" in warning for warning in result.warnings), result.warnings
+
+
 def test_the_learn_page_gives_a_full_frame_fisheye_the_whole_frame_too(tmp_path: Path) -> None:
     """The learn page starts a full-frame fisheye as ``fit --image`` does: the frame's middle, refined, and an outer
     circle through the frame's corners. Measured worst 3.21 px, as the command's; before, the page's outer circle
@@ -256,6 +321,23 @@ def test_the_learn_page_gives_a_full_frame_fisheye_the_whole_frame_too(tmp_path:
     assert "the outer circle takes in the whole frame" in session.state()["circles"]["note"]
     assert session._sources()["outer_radius"] is Source.DEFAULT_WHOLE_FRAME
     assert session.table is not None, session.fit_status
+    error = np.linalg.norm(session.table.project(points) - truth, axis=1)
+    assert np.all(np.isfinite(error)), f"{int(np.sum(~np.isfinite(error)))} of {error.size} points not covered"
+    assert float(np.max(error)) < 5.0
+
+
+def test_the_learn_page_starts_a_mirror_image_that_overfills_the_frame_from_its_cut_off_disc(tmp_path: Path) -> None:
+    """As ``fit --image`` does: the disc's centre (refined by the landmarks) and radius, the whole frame. Measured
+    worst 4.25 px, as the command's."""
+    from panomap.learn.session import Session
+
+    image, landmarks, position, points, truth = full_frame_fisheye((1280, 960), (9.0, -10.5), 6, name="hyperbolic")
+    session = Session(image, "omni.jpg", tmp_path, landmarks=landmarks, camera=position)
+    sources = session._sources()
+    assert sources["centre"] is Source.CUTOFF_DISC_CENTRE and sources["cutoff_radius"] is Source.DETECTED
+    assert sources["outer_radius"] is Source.DEFAULT_WHOLE_FRAME
+    assert session.table is not None, session.fit_status
+    assert session.table.cutoff_radius > 55.0  # the camera's reflection (62.5 px) left out
     error = np.linalg.norm(session.table.project(points) - truth, axis=1)
     assert np.all(np.isfinite(error)), f"{int(np.sum(~np.isfinite(error)))} of {error.size} points not covered"
     assert float(np.max(error)) < 5.0

@@ -125,6 +125,17 @@ CUTOFF_MIN_MEDIAN_RISE = 3.0
 # miniomni camera the disc (about the calibrated axis) is 3-5 px off the rim's centre in most images.
 CUTOFF_CENTRE_FRACTION = 0.03
 CUTOFF_ITERATIONS = 4
+# A mirror image that overfills the frame shows no rim, only the camera's reflection: a dark disc
+# near the frame's middle. It is looked for about a grid of centres this far (a fraction of the
+# frame's short side, in steps of DISC_GRID_STEP) from the middle, and kept only where it is clear:
+# a dark-to-bright edge on DISC_MIN_FRACTION of the rays, its centre within DISC_MAX_OFFSET and its
+# radius within DISC_RADII of the short side (on 40 simulated full-frame fisheyes, none was found).
+DISC_GRID_HALF = 0.03
+DISC_GRID_STEP = 0.005
+DISC_MIN_FRACTION = 0.7
+DISC_MAX_OFFSET = 0.05
+DISC_RADII = (0.02, 0.35)
+DISC_CANDIDATES = 5
 # An ellipse is reported when its axes differ by more than this fraction and it fits clearly better.
 ELLIPSE_MIN_ECCENTRICITY = 0.003
 # The circle transform: the strongest edge pixels that vote, and the weakest gradient (Sobel units) that may.
@@ -164,18 +175,29 @@ FRAME_EDGES = ("left", "top", "right", "bottom")
 
 
 class NoImageCircle(PanomapError):
-    """No rim is visible: a full-frame fisheye, an ordinary photo or a blank image.
+    """No rim is visible: a full-frame fisheye, a mirror image that overfills the frame, an ordinary photo
+    or a blank image.
 
     Attributes
     ----------
     frame_centre : (u, v)
         The middle of the frame, px: a starting value for a centre that the
         landmarks then refine.
+    cutoff : Circle or None
+        The cut-off disc, where one shows without a rim (a mirror camera whose
+        image overfills the frame): its centre is the better starting value.
     """
 
-    def __init__(self, message: str, frame_centre: tuple[float, float], source: object | None = None) -> None:
+    def __init__(
+        self,
+        message: str,
+        frame_centre: tuple[float, float],
+        source: object | None = None,
+        cutoff: Circle | None = None,
+    ) -> None:
         super().__init__(message, source)
         self.frame_centre = frame_centre
+        self.cutoff = cutoff
 
 
 @dataclass(frozen=True)
@@ -406,6 +428,15 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         best = _soft_rim(grey, best)
     if best is None:
         reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
+        disc = _disc_without_rim(grey, small, factor)
+        if disc is not None:
+            raise NoImageCircle(
+                f"{reason}; no rim is visible, but a cut-off disc is (the camera's own reflection: a mirror "
+                f"image that overfills the frame), centre ({disc.centre[0]:.1f}, {disc.centre[1]:.1f}), "
+                f"radius {disc.radius:.1f} px: its centre is only a starting value",
+                frame_centre,
+                cutoff=disc,
+            )
         raise NoImageCircle(
             f"{reason}; no rim is visible (a full-frame fisheye, or not an omni-image): "
             f"the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a starting value",
@@ -1293,6 +1324,62 @@ def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius
         if moved < 0.05:
             break
     return circle if passes(circle, reach) else None
+
+
+def _disc_without_rim(grey: NDArray[Any], small: NDArray[Any], factor: int) -> Circle | None:
+    """The cut-off disc of an image with no rim (a mirror image that overfills the frame); None when none is clear.
+
+    About each centre of a grid near the frame's middle (DISC_GRID_HALF of the short side,
+    in steps of DISC_GRID_STEP), in ``small`` (``grey`` shrunk by ``factor``), the median over
+    the rays of the radial gradient peaks at the disc's radius, highest about its centre
+    (off it, the peak spreads: 5-7 px off a disc of 113-230 px, it fell under the bar that
+    :func:`_cutoff_circle` sets, which is why that search alone missed 3 of 10). A camera's
+    board about its lens peaks too (its square edge, further out): the DISC_CANDIDATES
+    highest peaks of different radii are tried in turn, each edge fitted at full resolution
+    from its centre, then about each fit's centre, as the disc of an image with a rim is;
+    the first that is clear is kept (DISC_MIN_FRACTION of the rays, within DISC_MAX_OFFSET of
+    the middle, a radius within DISC_RADII of the short side).
+    """
+    height, width = grey.shape
+    short = min(height, width)
+    middle = ((width - 1) / 2, (height - 1) / 2)
+    radii = np.arange(2.0, DISC_RADII[1] * short / factor, STEP)
+    steps = round(DISC_GRID_HALF / DISC_GRID_STEP)
+    peaks: list[tuple[float, tuple[float, float], float]] = []  # (score, centre, radius px)
+    for du in range(-steps, steps + 1):
+        for dv in range(-steps, steps + 1):
+            start = (middle[0] + du * DISC_GRID_STEP * short, middle[1] + dv * DISC_GRID_STEP * short)
+            coarse = ((start[0] + 0.5) / factor - 0.5, (start[1] + 0.5) / factor - 0.5)
+            samples, _, _ = _profiles(small, coarse, radii, RAYS // 8)
+            gradient = np.gradient(samples, axis=1) / STEP
+            score = np.convolve(np.nan_to_num(_row_medians(gradient.T)), np.ones(5) / 5, mode="same")
+            local = (score[1:-1] >= score[:-2]) & (score[1:-1] > score[2:]) & (score[1:-1] >= CUTOFF_MIN_MEDIAN_RISE)
+            peaks += [(float(score[k]), start, float(radii[k]) * factor) for k in np.flatnonzero(local) + 1]
+    tried: list[float] = []
+    for _, seed, radius in sorted(peaks, key=lambda peak: -peak[0]):
+        if len(tried) == DISC_CANDIDATES:
+            break
+        if any(abs(radius - other) < 0.1 * other for other in tried):
+            continue
+        tried.append(radius)
+        circle = _cutoff_edge(grey, seed, radius, half_px=DISC_GRID_HALF * short)
+        for _ in range(CUTOFF_ITERATIONS):
+            if circle is None:
+                break
+            found = _cutoff_edge(grey, circle.centre, circle.radius)
+            moved = math.inf if found is None else math.dist(found.centre, circle.centre)
+            circle = found
+            if moved < 0.05:
+                break
+        if (
+            circle is not None
+            and circle.inliers >= DISC_MIN_FRACTION * RAYS
+            and circle.rms_px <= MAX_CUTOFF_RMS_PX
+            and math.dist(circle.centre, middle) <= DISC_MAX_OFFSET * short
+            and DISC_RADII[0] * short < circle.radius < DISC_RADII[1] * short
+        ):
+            return circle
+    return None
 
 
 def _cutoff_edge(grey: NDArray[Any], centre: tuple[float, float], radius: float, half_px: float = 0.0) -> Circle | None:

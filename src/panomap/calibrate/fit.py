@@ -653,10 +653,13 @@ def annulus_coverage_problem(
     cutoff_radius: float,
     outer_radius: float,
     slack_px: float = 0.0,
+    to_outer: bool = True,
 ) -> str | None:
     """Why f_r does not run monotonically from the cut-off radius to the image circle (None if it does).
 
     Landmarks up to ``slack_px`` beyond the annulus are allowed (see :func:`valid_elevation_range`).
+    ``to_outer`` False asks only that it run from the cut-off radius (the outer one a default that
+    the table narrows to where f_r runs).
     """
     try:
         rho_s, rho_e = valid_elevation_range(radial, landmark_range, cutoff_radius, outer_radius, slack_px=slack_px)
@@ -667,7 +670,7 @@ def annulus_coverage_problem(
     pole = rho_s <= -math.pi / 2 + 1e-6 if radial.axis == "down" else rho_e >= math.pi / 2 - 1e-6
     if ends[0] > cutoff_radius + tolerance and not pole:
         return f"turns back before the cut-off radius ({ends[0]:.1f} px, needs {cutoff_radius:.1f} px)"
-    if ends[1] < outer_radius - tolerance:
+    if to_outer and ends[1] < outer_radius - tolerance:
         return f"turns back or ends before the image circle ({ends[1]:.1f} px, needs {outer_radius:.1f} px)"
     return None
 

@@ -141,13 +141,21 @@ def table_for(
 ) -> PanoMappingTable:
     """The table of ``fit`` over ``annulus``; ``info`` (with its ``sources``) is stored as given.
 
-    When either radius was given (not a default), f_r must run monotonically
-    from one to the other.
+    When either radius was given or detected (not a default), f_r must run monotonically
+    from one to the other (from the cut-off radius only, where the outer one is a default:
+    a mirror image that overfills the frame, whose cut-off disc alone was found).
     """
     cutoff_radius, outer_radius = annulus.cutoff_radius, annulus.outer_radius
     slack = rim_slack_px(fit.settings.pixel_sigma_px)
     if not (annulus.cutoff_source.is_default and annulus.outer_source.is_default):
-        problem = annulus_coverage_problem(fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius, slack)
+        problem = annulus_coverage_problem(
+            fit.model.radial,
+            fit.landmark_range,
+            cutoff_radius,
+            outer_radius,
+            slack,
+            to_outer=not annulus.outer_source.is_default,
+        )
         if problem:
             raise PanomapError(
                 f"the fitted radial function ({fit.model.radial.kind}) {problem}; it must run monotonically "

@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from numpy.typing import NDArray
 
 from ..camera.radial_models import radial_kind
@@ -44,6 +45,8 @@ class CircleChoice:
     warnings: tuple[str, ...] = ()
     # The image was searched and shows no rim (a full-frame fisheye): the whole frame is picture.
     whole_frame: bool = False
+    # ... but a cut-off disc (a mirror image that overfills the frame): the centre's start and the cut-off radius.
+    cutoff_disc: Circle | None = None
 
     def settled(self) -> tuple[tuple[float, float], float, float]:
         """(centre, cut-off radius, outer radius); PanomapError when one is still open."""
@@ -92,6 +95,38 @@ def _cutoff_about(disc: Circle, centre: tuple[float, float]) -> float:
     return max(0.0, disc.radius - math.dist(disc.centre, centre))
 
 
+def _disc_without_landmarks(
+    choice: CircleChoice, landmarks: Landmarks, pixel_sigma: float, omni: NDArray[Any]
+) -> CircleChoice:
+    """``choice``, or where a cut-off disc found without a rim holds landmarks, the choice without it.
+
+    A dark disc in the middle of an image with no rim is taken for the camera's reflection
+    (a mirror image that overfills the frame); landmarks inside it show it is the scene (a
+    round table under a full-frame fisheye): the frame's middle starts the centre then, and
+    the cut-off radius is left to its default, with a warning.
+    """
+    disc = choice.cutoff_disc
+    if disc is None or choice.sources.get("cutoff_radius") != Origin(Source.DETECTED):
+        return choice
+    distance = np.hypot(*(landmarks.pixels - np.asarray(disc.centre)).T)
+    inside = distance < disc.radius - rim_slack_px(pixel_sigma)
+    if not inside.any():
+        return choice
+    height, width = omni.shape[:2]
+    middle = ((width - 1) / 2, (height - 1) / 2)
+    sources = {name: origin for name, origin in choice.sources.items() if name != "cutoff_radius"}
+    centre, start = choice.centre, ""
+    if sources.get("centre") == Origin(Source.CUTOFF_DISC_CENTRE):
+        sources["centre"] = Origin(Source.FRAME_CENTRE)
+        centre, start = middle, f"starting from the frame centre ({middle[0]:.1f}, {middle[1]:.1f}) "
+    note = (
+        f"no rim is visible, and the dark disc at ({disc.centre[0]:.1f}, {disc.centre[1]:.1f}), radius "
+        f"{disc.radius:.1f} px, holds {int(inside.sum())} landmark(s): it is not the camera's own reflection; "
+        f"{start}with no cut-off disc"
+    )
+    return replace(choice, centre=centre, cutoff_radius=None, sources=sources, warnings=(note,), cutoff_disc=None)
+
+
 def _radii_note(error: PanomapError, cutoff_radius: float | None, outer_radius: float | None) -> str:
     """The warning when the circles are not found but the centre is given: which radii are defaults."""
     missing = [name for name, value in (("cut-off", cutoff_radius), ("outer", outer_radius)) if value is None]
@@ -129,8 +164,23 @@ def choose_circles(
     except NoImageCircle as exc:
         error = PanomapError(exc.detail, name)
         if centre is not None:
+            found: dict[str, Origin] = {}
+            if exc.cutoff is not None and cutoff_radius is None:
+                cutoff_radius, found["cutoff_radius"] = exc.cutoff.radius, Origin(Source.DETECTED)
             note = _radii_note(error, cutoff_radius, outer_radius)
-            return CircleChoice(centre, cutoff_radius, outer_radius, None, {}, (note,), whole_frame=True)
+            return CircleChoice(
+                centre, cutoff_radius, outer_radius, None, found, (note,), whole_frame=True, cutoff_disc=exc.cutoff
+            )
+        if exc.cutoff is not None:
+            disc = exc.cutoff
+            u, v = disc.centre
+            warning = f"{error}; starting from the cut-off disc's centre ({u:.1f}, {v:.1f}), which the landmarks refine"
+            found = {"centre": Origin(Source.CUTOFF_DISC_CENTRE)}
+            if cutoff_radius is None:
+                cutoff_radius, found["cutoff_radius"] = disc.radius, Origin(Source.DETECTED)
+            return CircleChoice(
+                disc.centre, cutoff_radius, outer_radius, None, found, (warning,), whole_frame=True, cutoff_disc=disc
+            )
         u, v = exc.frame_centre
         warning = f"{error}; starting from the frame centre ({u:.1f}, {v:.1f}), which the landmarks refine"
         frame = {"centre": Origin(Source.FRAME_CENTRE)}
@@ -250,6 +300,7 @@ def calibrate_camera(
     if omni is not None:
         image_size = (int(omni.shape[1]), int(omni.shape[0]))
         choice = choose_circles(omni, centre, cutoff_radius, outer_radius, name=omni_name)
+        choice = _disc_without_landmarks(choice, landmarks, pixel_sigma, omni)
         recorded |= choice.sources
         if choice.circles is not None:
             table_info["image_circles"] = choice.circles.to_dict()
@@ -278,7 +329,7 @@ def calibrate_camera(
         tilt=tilt,
         camera_sigma=camera_sigma,
     )
-    disc = None if choice.circles is None else choice.circles.cutoff
+    disc = choice.cutoff_disc if choice.circles is None else choice.circles.cutoff
     if disc is not None and outer is not None and recorded["cutoff_radius"].source is Source.DETECTED:
         within = _cutoff_about(disc, camera_fit.model.centre)
         # (Only where f_r runs that far in: a model that turns back just inside the disc keeps the disc's radius.)

@@ -27,11 +27,12 @@ class Source(enum.Enum):
     DEFAULT_INSIDE_IMAGE = "default (largest circle inside the image)"
     DEFAULT_FARTHEST_LANDMARK = "default (farthest landmark)"
     DEFAULT_WHOLE_FRAME = "default (the whole frame: no image circle in it)"
+    CUTOFF_DISC_CENTRE = "the cut-off disc's centre (no rim in the frame)"
 
     @property
     def is_estimate(self) -> bool:
         """True for a centre that only starts the fit: found in the image, or the frame's middle."""
-        return self in (Source.DETECTED, Source.FRAME_CENTRE)
+        return self in (Source.DETECTED, Source.FRAME_CENTRE, Source.CUTOFF_DISC_CENTRE)
 
     @property
     def is_default(self) -> bool:

@@ -117,6 +117,7 @@ class Session:
         # _lock guards the state (short holds only); _fit_lock lets one change be fitted at a time.
         self._lock = threading.Lock()
         self._fit_lock = threading.Lock()
+        self._guess_sources = {"centre": Source.FRAME_CENTRE}
         self.circles, self.detected, self.circles_note = self._start_circles()
         # The page's first circles, when no rim was found: their centre only starts the fit (refined).
         self._guess = self.circles if self.detected is None else None
@@ -153,6 +154,13 @@ class Session:
         if found.circles is None:
             # No rim at all (a full-frame fisheye): the frame centre, refined by the landmarks, and as
             # ``panomap fit --image`` does, a table of the whole frame (the outer circle through its corners).
+            # A mirror image that overfills the frame shows its cut-off disc: its centre and radius.
+            if found.cutoff_disc is not None:
+                self._guess_sources = {"centre": Source.CUTOFF_DISC_CENTRE, "cutoff_radius": Source.DETECTED}
+                disc = found.cutoff_disc
+                whole = Circles(disc.centre, disc.radius, math.hypot(width, height) / 2)
+                note = f"{found.warnings[0]}; the outer circle takes in the whole frame" if found.warnings else None
+                return whole, None, note
             whole = Circles(guess.centre, 0.0, math.hypot(width, height) / 2)
             note = f"{found.warnings[0]}; the outer circle takes in the whole frame" if found.warnings else None
             return whole, None, note
@@ -339,14 +347,16 @@ class Session:
             or (detected["cutoff_radius"] or 0.0) != circles.cutoff_radius
         )
         how = Source.SET_IN_LEARN if adjusted else Source.DETECTED
-        centre = outer = how
+        centre = outer = cutoff = how
         if self._guess is not None and circles.centre == self._guess.centre:
-            centre = Source.FRAME_CENTRE
+            centre = self._guess_sources["centre"]
+        if self._guess is not None and circles.cutoff_radius == self._guess.cutoff_radius:
+            cutoff = self._guess_sources.get("cutoff_radius", cutoff)
         if self._guess is not None and self.detected is None and circles.outer_radius == self._guess.outer_radius:
             width, height = self.image_size
             if circles.outer_radius == math.hypot(width, height) / 2:
                 outer = Source.DEFAULT_WHOLE_FRAME
-        return {"centre": centre, "cutoff_radius": how, "outer_radius": outer, "camera_position": Source.GIVEN}
+        return {"centre": centre, "cutoff_radius": cutoff, "outer_radius": outer, "camera_position": Source.GIVEN}
 
     def _info(self) -> dict[str, Any]:
         info: dict[str, Any] = {"learned_with": f"panomap learn on {self.image_name}"}
