@@ -291,6 +291,38 @@ def test_a_detected_cut_off_disc_asks_f_r_to_reach_a_default_outer_radius_no_fur
         table_for(fit, given, size=(64, 32), image_size=None, info={})
 
 
+def test_a_circle_found_with_landmarks_well_outside_it_is_not_the_image_circle(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Landmarks are points the camera sees: two or more well outside the circle found show a circle of the
+    scene (bench/bench_image_fit.py seed 2002: a spherical mirror image overfilling a 1024 x 768 frame, whose
+    checkerboard floor's edge, 67 px off the axis, passed as a rim; every fit failed, the axis given too:
+    "no radial model covers the annulus"; now 3.37 px). The circle search is made to return such a circle
+    here; the fit starts from the cut-off disc found without a rim instead, and says why."""
+    import panomap.calibrate.pipeline as pipeline
+    from panomap.calibrate.circles import Circle, ImageCircles
+
+    image, landmarks, position, points, truth = full_frame_fisheye((1280, 960), (9.0, -10.5), 6, name="hyperbolic")
+    wrong = Circle(centre=(700.0, 520.0), radius=180.0, rms_px=1.0, inliers=300, rays=720)
+    found = ImageCircles(
+        centre=wrong.centre,
+        outer=wrong,
+        cutoff=None,
+        ellipse=None,
+        cropped_by=(),
+        rim_in_frame=1.0,
+        rim_seen=0.4,
+        rim_polarity="mixed",
+        rim_arcs_deg=((0.0, 360.0),),
+    )
+    monkeypatch.setattr(pipeline, "find_image_circles", lambda omni: found)
+    result = calibrate_camera(landmarks, position, omni=image)
+    assert any("not the image circle" in warning for warning in result.warnings), result.warnings
+    assert result.sources["centre"] == Origin(Source.CUTOFF_DISC_CENTRE, refined=True)
+    assert result.sources["outer_radius"] == Origin(Source.DEFAULT_WHOLE_FRAME)
+    error = np.linalg.norm(result.table.project(points) - truth, axis=1)
+    assert np.all(np.isfinite(error)), f"{int(np.sum(~np.isfinite(error)))} of {error.size} points not covered"
+    assert float(np.max(error)) < 5.0  # the same fit as without the wrong circle: 4.25 px
+
+
 def test_a_dark_disc_that_holds_landmarks_is_not_the_cameras_reflection() -> None:
     """A full-frame fisheye looking down on a round dark rug: the rug is a dark disc in the middle, as a mirror's
     own reflection is, but landmarks lie on it; the fit starts from the frame's middle with no cut-off disc,

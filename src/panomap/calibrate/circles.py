@@ -1326,6 +1326,15 @@ def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius
     return circle if passes(circle, reach) else None
 
 
+def find_cutoff_without_rim(image: NDArray[Any]) -> Circle | None:
+    """The cut-off disc of an omni-image whose rim is not in it (a mirror image that overfills the frame), or
+    None: :func:`find_image_circles`' search where no rim passes (see :func:`_disc_without_rim`), for a caller
+    that knows the rim found is wrong (landmarks far outside it)."""
+    grey = to_grey(image)
+    small, factor = _downscaled(grey)
+    return _disc_without_rim(grey, small, factor)
+
+
 def _disc_without_rim(grey: NDArray[Any], small: NDArray[Any], factor: int) -> Circle | None:
     """The cut-off disc of an image with no rim (a mirror image that overfills the frame); None when none is clear.
 

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from ..camera.radial_models import radial_kind
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
-from .circles import Circle, ImageCircles, NoImageCircle, find_image_circles
+from .circles import Circle, ImageCircles, NoImageCircle, find_cutoff_without_rim, find_image_circles
 from .fit import CameraFit, annulus_coverage_problem, fit_camera, rim_slack_px
 from .landmarks import Landmarks
 from .make_table import choose_annulus, table_for
@@ -93,6 +93,58 @@ def _cutoff_about(disc: Circle, centre: tuple[float, float]) -> float:
     9.5 px from the disc's, the view just outside the disc was missed on one side).
     """
     return max(0.0, disc.radius - math.dist(disc.centre, centre))
+
+
+# A rim found with landmarks this far past it (a fraction of its radius, beyond the noise) is not the image circle.
+RIM_CONTRADICTED_FRACTION = 0.05
+
+
+def _rim_without_landmarks_past_it(
+    choice: CircleChoice,
+    landmarks: Landmarks,
+    pixel_sigma: float,
+    omni: NDArray[Any],
+    cutoff_radius: float | None,
+) -> CircleChoice:
+    """``choice``, or where landmarks lie well outside the rim it found, the choice of an image with no rim.
+
+    Every landmark is a point the camera sees, inside its image circle: two or more past the
+    rim found (by RIM_CONTRADICTED_FRACTION of its radius beyond the noise) show a circle of
+    the scene (a floor's edge about the nadir of a mirror image that overfills the frame, where
+    the walls past it are smooth). The centre then starts at the cut-off disc found without a
+    rim, or the frame's middle, and the table takes in the whole frame, with a warning.
+    """
+    circles = choice.circles
+    if circles is None or choice.sources.get("outer_radius") != Origin(Source.DETECTED):
+        return choice
+    outer = circles.outer
+    distance = np.hypot(*(landmarks.pixels - np.asarray(outer.centre)).T)
+    past = distance > outer.radius * (1 + RIM_CONTRADICTED_FRACTION) + rim_slack_px(pixel_sigma)
+    if past.sum() < 2:
+        return choice
+    found = (
+        f"the circle found at ({outer.centre[0]:.1f}, {outer.centre[1]:.1f}), radius {outer.radius:.1f} px, has "
+        f"{int(past.sum())} landmarks well outside it: not the image circle"
+    )
+    sources = {
+        name: origin
+        for name, origin in choice.sources.items()
+        if name not in ("centre", "outer_radius", "cutoff_radius")
+    }
+    disc = find_cutoff_without_rim(omni)
+    centre, cutoff = choice.centre, cutoff_radius
+    if disc is not None and cutoff is None:
+        cutoff, sources["cutoff_radius"] = disc.radius, Origin(Source.DETECTED)
+    if "centre" in choice.sources:  # found, not given: start again
+        height, width = omni.shape[:2]
+        if disc is not None:
+            centre, sources["centre"] = disc.centre, Origin(Source.CUTOFF_DISC_CENTRE)
+            start = f"the cut-off disc's centre ({disc.centre[0]:.1f}, {disc.centre[1]:.1f})"
+        else:
+            centre, sources["centre"] = ((width - 1) / 2, (height - 1) / 2), Origin(Source.FRAME_CENTRE)
+            start = f"the frame centre ({(width - 1) / 2:.1f}, {(height - 1) / 2:.1f})"
+        found += f"; starting from {start}, which the landmarks refine"
+    return CircleChoice(centre, cutoff, None, None, sources, (found,), whole_frame=True, cutoff_disc=disc)
 
 
 def _disc_without_landmarks(
@@ -300,6 +352,7 @@ def calibrate_camera(
     if omni is not None:
         image_size = (int(omni.shape[1]), int(omni.shape[0]))
         choice = choose_circles(omni, centre, cutoff_radius, outer_radius, name=omni_name)
+        choice = _rim_without_landmarks_past_it(choice, landmarks, pixel_sigma, omni, cutoff_radius)
         choice = _disc_without_landmarks(choice, landmarks, pixel_sigma, omni)
         recorded |= choice.sources
         if choice.circles is not None:
