@@ -684,3 +684,36 @@ def test_a_housed_mirror_whose_rim_is_off_the_axis(offset_px: float) -> None:
     assert found.cutoff is not None
     assert math.dist(found.cutoff.centre, axis) < 0.5
     assert abs(found.cutoff.radius - camera.cutoff_radius) < 1.0
+
+
+def test_cli_centre_draws_what_it_found_where_no_rim_is(tmp_path: Path) -> None:
+    """No rim: the command fails (exit 1, one line), and ``--overlay`` still shows what was found: a mirror
+    image that overfills the frame its cut-off disc (red, at the true radius about the true axis) and the
+    disc's centre (a yellow cross); a full-frame fisheye only the frame's middle (before, nothing was drawn)."""
+    size, axis = (640, 480), (326.3, 236.8)
+    mirror = standard_cameras(size, centre=axis, outer_radius=math.hypot(*size) / 2 + 40)["parabolic"]
+    fisheye = standard_cameras(size, outer_radius=420.0)["equidistant"]
+    runner = CliRunner()
+    for name, camera, start in [("mirror", mirror, axis), ("fisheye", fisheye, (319.5, 239.5))]:
+        omni = vignette(render(ROOM, camera, supersample=1), camera.centre, 440.0, falloff=0.3, dim=0.0, dim_angle=0.0)
+        cv2.imwrite(str(tmp_path / f"{name}.png"), omni)
+        drawing = tmp_path / f"{name}_overlay.png"
+        result = runner.invoke(main, ["centre", str(tmp_path / f"{name}.png"), "--overlay", str(drawing)])
+        assert result.exit_code == 1
+        assert result.stderr.count("\n") == 1 and "no rim is visible" in result.stderr
+        assert f"wrote {drawing}" in result.output
+        overlay = cv2.imread(str(drawing)).astype(int)
+        drawn = np.any(overlay != cv2.imread(str(tmp_path / f"{name}.png")).astype(int), axis=-1)
+        blue, green, red = np.moveaxis(overlay, -1, 0)
+        v, u = np.nonzero(drawn & (red > 150) & (green < 100) & (blue < 100))
+        if camera is fisheye:
+            assert len(u) == 0  # no disc
+        else:
+            distance = np.hypot(u - axis[0], v - axis[1])
+            assert len(distance) > 2 * math.pi * camera.cutoff_radius
+            assert abs(np.median(distance) - camera.cutoff_radius) < 0.5
+        # The cross: yellow pixels along a row and a column through the starting value, 12 px either side.
+        v, u = np.nonzero(drawn & (red > 150) & (green > 150) & (blue < 100))
+        assert len(u) >= 40, name
+        assert abs(np.median(u) - start[0]) < 1.0 and abs(np.median(v) - start[1]) < 1.0, name
+        assert np.ptp(u) <= 26 and np.ptp(v) <= 26, name

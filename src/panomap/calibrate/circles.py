@@ -1567,33 +1567,22 @@ def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[Any]:
     (the ellipse darker green, when there is one), the cut-off disc red, the
     centre a yellow cross; drawn with 1/16 px precision.
     """
-    grey_or_colour = image if image.dtype == np.uint8 else (image / 257).astype(np.uint8)
-    if grey_or_colour.ndim == 2 or grey_or_colour.shape[2] == 1:
-        canvas = cv2.cvtColor(grey_or_colour.reshape(image.shape[:2]), cv2.COLOR_GRAY2BGR)
-    else:
-        canvas = np.ascontiguousarray(grey_or_colour[..., :3])
-    shift = 4
-    scale = 1 << shift
-    thickness = max(1, round(min(image.shape[:2]) / 500))
-
-    def at(point: tuple[float, float]) -> tuple[int, int]:
-        return round(point[0] * scale), round(point[1] * scale)
-
+    canvas, thickness = _canvas(image)
     cv2.circle(
         canvas,
-        at(circles.outer.centre),
-        round(circles.outer.radius * scale),
+        _at(circles.outer.centre),
+        round(circles.outer.radius * _SCALE),
         (0, 220, 0),
         thickness,
         cv2.LINE_AA,
-        shift,
+        _SHIFT,
     )
     # The arcs the rim was fitted to, thicker.
-    radius = round(circles.outer.radius * scale)
+    radius = round(circles.outer.radius * _SCALE)
     for start, end in circles.rim_arcs_deg:
         cv2.ellipse(
             canvas,
-            at(circles.outer.centre),
+            _at(circles.outer.centre),
             (radius, radius),
             0,
             start,
@@ -1601,17 +1590,51 @@ def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[Any]:
             (0, 255, 0),
             3 * thickness,
             cv2.LINE_AA,
-            shift,
+            _SHIFT,
         )
     if circles.ellipse is not None:
         e = circles.ellipse
-        axes = (round(e.semi_axes[0] * scale), round(e.semi_axes[1] * scale))
-        cv2.ellipse(canvas, at(e.centre), axes, e.angle_deg, 0, 360, (0, 160, 0), thickness, cv2.LINE_AA, shift)
-    if circles.cutoff is not None:
-        c = circles.cutoff
-        cv2.circle(canvas, at(c.centre), round(c.radius * scale), (0, 0, 230), thickness, cv2.LINE_AA, shift)
-    size = 12 * thickness
-    u, v = circles.centre
-    cv2.line(canvas, at((u - size, v)), at((u + size, v)), (0, 230, 230), thickness, cv2.LINE_AA, shift)
-    cv2.line(canvas, at((u, v - size)), at((u, v + size)), (0, 230, 230), thickness, cv2.LINE_AA, shift)
+        axes = (round(e.semi_axes[0] * _SCALE), round(e.semi_axes[1] * _SCALE))
+        cv2.ellipse(canvas, _at(e.centre), axes, e.angle_deg, 0, 360, (0, 160, 0), thickness, cv2.LINE_AA, _SHIFT)
+    _draw_disc_and_cross(canvas, circles.cutoff, circles.centre, thickness)
     return canvas
+
+
+def draw_no_rim_overlay(image: NDArray[Any], missing: NoImageCircle) -> NDArray[Any]:
+    """An 8-bit BGR copy of ``image`` with what was found where no rim is: the cut-off disc in red (a
+    mirror image that overfills the frame), when there is one, and the starting value for the centre (the
+    disc's centre, else the frame's middle) a yellow cross; drawn as :func:`draw_overlay` draws them."""
+    canvas, thickness = _canvas(image)
+    start = missing.frame_centre if missing.cutoff is None else missing.cutoff.centre
+    _draw_disc_and_cross(canvas, missing.cutoff, start, thickness)
+    return canvas
+
+
+_SHIFT = 4  # fractional bits of the drawn coordinates: 1/16 px
+_SCALE = 1 << _SHIFT
+
+
+def _at(point: tuple[float, float]) -> tuple[int, int]:
+    return round(point[0] * _SCALE), round(point[1] * _SCALE)
+
+
+def _canvas(image: NDArray[Any]) -> tuple[NDArray[Any], int]:
+    """An 8-bit BGR copy of ``image`` to draw on, and the lines' thickness (px) for its size."""
+    grey_or_colour = image if image.dtype == np.uint8 else (image / 257).astype(np.uint8)
+    if grey_or_colour.ndim == 2 or grey_or_colour.shape[2] == 1:
+        canvas = cv2.cvtColor(grey_or_colour.reshape(image.shape[:2]), cv2.COLOR_GRAY2BGR)
+    else:
+        canvas = np.array(grey_or_colour[..., :3])
+    return canvas, max(1, round(min(image.shape[:2]) / 500))
+
+
+def _draw_disc_and_cross(
+    canvas: NDArray[Any], disc: Circle | None, centre: tuple[float, float], thickness: int
+) -> None:
+    """The cut-off disc (red), when given, and a yellow cross at ``centre``, drawn on ``canvas``."""
+    if disc is not None:
+        cv2.circle(canvas, _at(disc.centre), round(disc.radius * _SCALE), (0, 0, 230), thickness, cv2.LINE_AA, _SHIFT)
+    size = 12 * thickness
+    u, v = centre
+    cv2.line(canvas, _at((u - size, v)), _at((u + size, v)), (0, 230, 230), thickness, cv2.LINE_AA, _SHIFT)
+    cv2.line(canvas, _at((u, v - size)), _at((u, v + size)), (0, 230, 230), thickness, cv2.LINE_AA, _SHIFT)

@@ -9,7 +9,7 @@ from typing import Any
 
 import click
 
-from ..calibrate.circles import ImageCircles, draw_overlay, find_image_circles
+from ..calibrate.circles import ImageCircles, NoImageCircle, draw_no_rim_overlay, draw_overlay, find_image_circles
 from ..calibrate.diagnosis import diagnose
 from ..calibrate.landmarks import read_landmarks
 from ..calibrate.pipeline import calibrate_camera
@@ -214,11 +214,21 @@ def centre(image: Path, as_json: bool, overlay: Path | None) -> None:
     rim is one), fitted to the arcs of the rim that are visible when the frame cuts
     the circle; the cut-off radius is "none" for a camera that does not see itself
     (a fisheye). Fails with a reason, never a guess, when no rim is visible (a
-    full-frame fisheye: the message gives the frame centre as a starting value).
+    full-frame fisheye: the message gives the frame centre as a starting value; a
+    mirror image that overfills the frame: the cut-off disc found and its centre);
+    the overlay then shows that disc and the starting value.
     """
     check_output_paths([("the input image", image)], [("--overlay", overlay)])
     omni = read_image(image)
-    circles = find_image_circles_in(image, omni)
+    try:
+        circles = find_image_circles(omni)
+    except NoImageCircle as exc:
+        if overlay is not None:
+            write_image(overlay, draw_no_rim_overlay(omni, exc))
+            click.echo(f"wrote {overlay}")
+        raise PanomapError(exc.detail, image) from None
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, image) from None
     if overlay is not None:
         write_image(overlay, draw_overlay(omni, circles))
     if as_json:
