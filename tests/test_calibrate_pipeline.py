@@ -375,6 +375,54 @@ def test_the_learn_page_starts_a_mirror_image_that_overfills_the_frame_from_its_
     assert float(np.max(error)) < 5.0
 
 
+def test_the_learn_page_drops_a_rim_that_landmarks_lie_well_outside(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """As ``fit --image`` does: once two or more landmarks lie well outside the rim found, it is a circle of the
+    scene; the page goes on from the cut-off disc found without a rim and the whole frame, says why, and comes
+    back to the rim found when those landmarks are taken away (before, the rim stayed and the fit failed: "no
+    radial model covers the annulus"). The circle search is made to return such a circle, as in the test of
+    ``calibrate_camera`` above; the same fit, worst 4.25 px."""
+    import panomap.calibrate.pipeline as pipeline
+    from panomap.calibrate.circles import Circle, ImageCircles
+    from panomap.learn.session import Session
+
+    image, landmarks, position, points, truth = full_frame_fisheye((1280, 960), (9.0, -10.5), 6, name="hyperbolic")
+    wrong = Circle(centre=(700.0, 520.0), radius=180.0, rms_px=1.0, inliers=300, rays=720)
+    found = ImageCircles(
+        centre=wrong.centre,
+        outer=wrong,
+        cutoff=None,
+        ellipse=None,
+        cropped_by=(),
+        rim_in_frame=1.0,
+        rim_seen=0.4,
+        rim_polarity="mixed",
+        rim_arcs_deg=((0.0, 360.0),),
+    )
+    monkeypatch.setattr(pipeline, "find_image_circles", lambda omni: found)
+    near = np.hypot(*(landmarks.pixels - np.asarray(wrong.centre)).T) < 200.0
+    assert 2 <= int(np.sum(~near)) < len(near)
+    records = landmarks.to_records()
+    session = Session(image, "omni.jpg", tmp_path, camera=position)
+    assert session.state()["circles"]["outer_radius"] == 180.0  # the rim found, before any landmark
+    state = session.update({"landmarks": records})
+    assert "not the image circle" in state["circles"]["note"], state["circles"]
+    assert state["circles"]["detected"] is None
+    sources = session._sources()
+    assert sources["centre"] is Source.CUTOFF_DISC_CENTRE and sources["outer_radius"] is Source.DEFAULT_WHOLE_FRAME
+    assert session.table is not None, session.fit_status
+    error = np.linalg.norm(session.table.project(points) - truth, axis=1)
+    assert np.all(np.isfinite(error)), f"{int(np.sum(~np.isfinite(error)))} of {error.size} points not covered"
+    assert float(np.max(error)) < 5.0
+    # The landmarks outside taken away: the rim found again (and circles set on the page stay as set).
+    state = session.update({"landmarks": [r for r, keep in zip(records, near, strict=True) if keep]})
+    assert state["circles"]["outer_radius"] == 180.0 and state["circles"]["detected"] is not None
+    moved = {"centre": [690.0, 515.0], "cutoff_radius": 0.0, "outer_radius": 180.0}
+    state = session.update({"circles": moved, "landmarks": records})
+    assert state["circles"]["centre"] == [690.0, 515.0] and state["circles"]["outer_radius"] == 180.0
+
+
 def test_fit_on_a_full_frame_fisheye_says_a_tilt_and_the_centre_look_alike(tmp_path: Path) -> None:
     """``panomap fit --image`` on a full-frame fisheye: the warning that no rim was found, and the diagnosis
     that the centre, refined from the frame's middle (here 14.1 px), cannot be told from a tilt."""

@@ -99,32 +99,39 @@ def _cutoff_about(disc: Circle, centre: tuple[float, float]) -> float:
 RIM_CONTRADICTED_FRACTION = 0.05
 
 
-def _rim_without_landmarks_past_it(
+def landmarks_past_rim(rim: Circle, pixels: NDArray[np.float64], pixel_sigma: float) -> int:
+    """How many of the landmarks' ``pixels`` ((n, 2), px) lie well outside ``rim``: by RIM_CONTRADICTED_FRACTION
+    of its radius beyond the noise (:func:`panomap.calibrate.fit.rim_slack_px`)."""
+    distance = np.hypot(*(np.asarray(pixels, dtype=float).reshape(-1, 2) - np.asarray(rim.centre)).T)
+    return int(np.sum(distance > rim.radius * (1 + RIM_CONTRADICTED_FRACTION) + rim_slack_px(pixel_sigma)))
+
+
+def rim_without_landmarks_past_it(
     choice: CircleChoice,
-    landmarks: Landmarks,
+    pixels: NDArray[np.float64],
     pixel_sigma: float,
     omni: NDArray[Any],
     cutoff_radius: float | None,
 ) -> CircleChoice:
     """``choice``, or where landmarks lie well outside the rim it found, the choice of an image with no rim.
 
-    Every landmark is a point the camera sees, inside its image circle: two or more past the
-    rim found (by RIM_CONTRADICTED_FRACTION of its radius beyond the noise) show a circle of
-    the scene (a floor's edge about the nadir of a mirror image that overfills the frame, where
-    the walls past it are smooth). The centre then starts at the cut-off disc found without a
-    rim, or the frame's middle, and the table takes in the whole frame, with a warning.
+    Every landmark (``pixels``, (n, 2), px) is a point the camera sees, inside its image circle:
+    two or more past the rim found (by RIM_CONTRADICTED_FRACTION of its radius beyond the noise)
+    show a circle of the scene (a floor's edge about the nadir of a mirror image that overfills
+    the frame, where the walls past it are smooth). The centre then starts at the cut-off disc
+    found without a rim, or the frame's middle, and the table takes in the whole frame, with a
+    warning.
     """
     circles = choice.circles
     if circles is None or choice.sources.get("outer_radius") != Origin(Source.DETECTED):
         return choice
     outer = circles.outer
-    distance = np.hypot(*(landmarks.pixels - np.asarray(outer.centre)).T)
-    past = distance > outer.radius * (1 + RIM_CONTRADICTED_FRACTION) + rim_slack_px(pixel_sigma)
-    if past.sum() < 2:
+    past = landmarks_past_rim(outer, pixels, pixel_sigma)
+    if past < 2:
         return choice
     found = (
         f"the circle found at ({outer.centre[0]:.1f}, {outer.centre[1]:.1f}), radius {outer.radius:.1f} px, has "
-        f"{int(past.sum())} landmarks well outside it: not the image circle"
+        f"{past} landmarks well outside it: not the image circle"
     )
     sources = {
         name: origin
@@ -352,7 +359,7 @@ def calibrate_camera(
     if omni is not None:
         image_size = (int(omni.shape[1]), int(omni.shape[0]))
         choice = choose_circles(omni, centre, cutoff_radius, outer_radius, name=omni_name)
-        choice = _rim_without_landmarks_past_it(choice, landmarks, pixel_sigma, omni, cutoff_radius)
+        choice = rim_without_landmarks_past_it(choice, landmarks.pixels, pixel_sigma, omni, cutoff_radius)
         choice = _disc_without_landmarks(choice, landmarks, pixel_sigma, omni)
         recorded |= choice.sources
         if choice.circles is not None:

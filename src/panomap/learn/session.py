@@ -27,7 +27,13 @@ from numpy.typing import NDArray
 
 from ..calibrate.diagnosis import diagnose
 from ..calibrate.landmarks import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
-from ..calibrate.pipeline import calibrate_camera, choose_circles
+from ..calibrate.pipeline import (
+    CircleChoice,
+    calibrate_camera,
+    choose_circles,
+    landmarks_past_rim,
+    rim_without_landmarks_past_it,
+)
 from ..calibrate.report import table_fit_report
 from ..calibrate.sources import Source
 from ..camera.radial_models import MODELS
@@ -54,6 +60,8 @@ LANDMARK_SUFFIXES = (".csv", ".json")
 TABLE_SUFFIXES = (".npz",)
 PREVIEW_SIZE = (720, 180)
 FIT_MODELS = ("auto", *MODELS)
+# The landmarks' pixel noise the page assumes (calibrate_camera's default), px.
+PIXEL_SIGMA = 1.0
 
 
 @dataclass(frozen=True)
@@ -118,9 +126,13 @@ class Session:
         self._lock = threading.Lock()
         self._fit_lock = threading.Lock()
         self._guess_sources = {"centre": Source.FRAME_CENTRE}
+        self._found: CircleChoice | None = None  # the circles found, where a rim was
         self.circles, self.detected, self.circles_note = self._start_circles()
         # The page's first circles, when no rim was found: their centre only starts the fit (refined).
         self._guess = self.circles if self.detected is None else None
+        # The rim found, to go back to; and once landmarks lie well outside it, the circles of an image with no rim.
+        self._as_found = (self.circles, self.detected, self.circles_note)
+        self._without_rim: tuple[Circles, dict[str, Source], str] | None = None
         self.entries: list[Entry] = []
         self.camera = camera
         if landmarks is not None:
@@ -164,6 +176,7 @@ class Session:
             whole = Circles(guess.centre, 0.0, math.hypot(width, height) / 2)
             note = f"{found.warnings[0]}; the outer circle takes in the whole frame" if found.warnings else None
             return whole, None, note
+        self._found = found
         centre, cutoff, outer = found.settled()
         none = found.sources["cutoff_radius"].source is Source.DETECTED_NONE
         note = "no cut-off disc found (a fisheye?): the cut-off radius is 0" if none else None
@@ -223,11 +236,45 @@ class Session:
         the revision cannot change during the fit.
         """
         revision = self.revision + 1
+        circles = self._rim_checked(circles, entries)
         table, status = self._fit(camera, circles, entries, model, revision)
         with self._lock:
             self.camera, self.circles, self.entries, self.model = camera, circles, entries, model
             self.revision, self.table, self.fit_status = revision, table, status
             return self._state()
+
+    def _rim_checked(self, circles: Circles, entries: list[Entry]) -> Circles:
+        """``circles``; or where they are the rim found and two or more landmarks lie well outside it (a circle of
+        the scene, not the image circle), the circles ``panomap fit --image`` then takes: the cut-off disc found
+        without a rim or the frame's middle, refined, and the whole frame, with a note; back to the rim found when
+        the landmarks no longer contradict it. Circles set on the page are left as they are.
+
+        Called with ``_fit_lock`` held (it sets what :meth:`_sources` reads before the fit).
+        """
+        if self._found is None or self._found.circles is None:
+            return circles
+        rim_circles, detected, note = self._as_found
+        pixels = np.array([[e.u, e.v] for e in entries], dtype=float).reshape(-1, 2)
+        contradicted = landmarks_past_rim(self._found.circles.outer, pixels, PIXEL_SIGMA) >= 2
+        if contradicted and circles == rim_circles:
+            if self._without_rim is None:
+                choice = rim_without_landmarks_past_it(self._found, pixels, PIXEL_SIGMA, self.image, None)
+                if choice.centre is None or not choice.warnings:  # (not reached: the rim found gives a centre)
+                    return circles
+                width, height = self.image_size
+                whole = Circles(choice.centre, choice.cutoff_radius or 0.0, math.hypot(width, height) / 2)
+                sources = {name: origin.source for name, origin in choice.sources.items()}
+                self._without_rim = (whole, sources, f"{choice.warnings[0]}; the outer circle takes in the whole frame")
+            whole, sources, why = self._without_rim
+            with self._lock:
+                self.detected, self.circles_note, self._guess, self._guess_sources = None, why, whole, sources
+            return whole
+        if not contradicted and self._without_rim is not None and circles == self._without_rim[0]:
+            with self._lock:
+                self.detected, self.circles_note, self._guess = detected, note, None
+                self._guess_sources = {"centre": Source.FRAME_CENTRE}
+            return rim_circles
+        return circles
 
     @staticmethod
     def _camera(value: Any) -> tuple[float, float, float]:
