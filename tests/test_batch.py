@@ -19,6 +19,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import av
@@ -28,7 +29,7 @@ import pytest
 
 import panomap
 from panomap.batch.job import Job, Settings, find_inputs, make_job
-from panomap.batch.record import Record
+from panomap.batch.record import Done, Record
 from panomap.batch.run import Progress, codec_threads, run_job
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.video.output import EncoderSettings
@@ -266,6 +267,66 @@ def test_bad_jobs_get_one_line_errors(work: Path, tmp_path: Path) -> None:
     result = run("batch", images, "--table", work / "cam.npz", "-o", tmp_path / "{stem}.png")
     assert_one_line_error(result, "give at least one --view", exit_code=2)
     assert not (tmp_path / "rec.jsonl").exists()
+
+
+def test_bad_manifests_templates_and_records_get_one_line_errors(work: Path, tmp_path: Path) -> None:
+    """Found by trying broken jobs (each was a traceback, a file written outside the output folder, or a
+    manifest with the record's lines appended to it): one line, exit 1 or 2, every file as it was."""
+    shutil.copy(work / "images" / "i0.png", tmp_path / "i0.png")
+    shutil.copy(work / "cam.npz", tmp_path / "cam.npz")
+    out = ["-o", tmp_path / "out" / "{camera}" / "{stem}_{name}.png", "--view", PANORAMA, "-q"]
+    record = ["--record", tmp_path / "rec.jsonl"]
+    (tmp_path / "extra.csv").write_text("input,table\ni0.png,cam.npz,surplus\n")
+    assert_one_line_error(run("batch", tmp_path / "extra.csv", *out, *record), "row 1 has more fields", exit_code=1)
+    (tmp_path / "null.yaml").write_text("- {input: i0.png, table: cam.npz, null: x}\n")
+    assert_one_line_error(run("batch", tmp_path / "null.yaml", *out, *record), "a key that is null", exit_code=1)
+    (tmp_path / "escape.json").write_text('[{"input": "i0.png", "table": "cam.npz", "camera": "../../escape"}]')
+    result = run("batch", tmp_path / "escape.json", *out, *record)
+    assert_one_line_error(result, "the camera name '../../escape' must be a plain name", exit_code=1)
+    for template, shown in [("{stem:d}.png", "{stem:d}"), ("{stem!x}.png", "{stem!x}")]:
+        result = run("batch", tmp_path / "i0.png", "--table", tmp_path / "cam.npz", "-o", tmp_path / template,
+                     "--view", PANORAMA, *record)  # fmt: skip
+        assert_one_line_error(result, f"has {shown}: its keys take no format spec or conversion", exit_code=2)
+    # The record must be a record: a manifest, the landmarks or any other text is refused, and left as it was.
+    (tmp_path / "job.csv").write_text("input,table,camera\ni0.png,cam.npz,north\n")
+    before = (tmp_path / "job.csv").read_bytes()
+    result = run("batch", tmp_path / "job.csv", *out, "--record", tmp_path / "job.csv")
+    assert_one_line_error(result, "job.csv: not a batch record: line 1 is not one of its entries", exit_code=1)
+    assert (tmp_path / "job.csv").read_bytes() == before
+    (tmp_path / "out" / "north").mkdir(parents=True)
+    result = run("batch", tmp_path / "job.csv", *out, "--record", tmp_path / "out" / "north" / "i0_panorama.png")
+    assert_one_line_error(result, "the record would be an output of the job", exit_code=1)
+    assert not (tmp_path / "escape").exists() and not (tmp_path.parent / "escape").exists()
+    assert not (tmp_path / "rec.jsonl").exists()
+
+
+def test_segments_shorter_than_a_frame_hold_one_frame_each() -> None:
+    """A 1.2 s clip at 10 fps cut every 0.03 s planned 40 segments, most of them between two frames (the
+    batch failed: "no frame could be decoded"); each now holds a whole number of frames, one at least."""
+    from fractions import Fraction
+
+    from panomap.batch.segments import Probe, plan_segments
+
+    clip = Probe(duration_s=1.2, frames=12, start_s=0.0, time_base=Fraction(1, 10240), rate=Fraction(10))
+    segments = plan_segments(clip, 0.03)
+    assert len(segments) == 11 and segments[-1].duration_s is None
+    assert all(segment.duration_s == pytest.approx(0.1) for segment in segments[:-1])
+    assert [round(segment.start_s * 10, 9) for segment in segments] == list(range(11))
+    assert len(plan_segments(clip, 0.26)) == 4  # 0.26 s is 3 frames (0.3 s): frames 0-2, 3-5, 6-8, 9-11
+
+
+def test_a_record_cut_by_a_kill_is_read_and_appended_to_on_a_line_of_its_own(tmp_path: Path) -> None:
+    """The last line cut mid-entry (a kill while writing) is skipped when read; the next entry starts on a new
+    line, so that the record reads back whole (before, it was glued to the cut line, and lost)."""
+    done = Done("/o/a.png", "/i/a.png", "pano", "k", 1, 10, "s", 5, 0.1)
+    first = Record(tmp_path / "rec.jsonl")
+    first.add_done([done])
+    text = (tmp_path / "rec.jsonl").read_text()
+    (tmp_path / "rec.jsonl").write_text(text + text[:40])  # a second entry cut after 40 characters
+    second = Record(tmp_path / "rec.jsonl")
+    assert set(second.done) == {"/o/a.png"}
+    second.add_done([replace(done, output="/o/b.png")])
+    assert set(Record(tmp_path / "rec.jsonl").done) == {"/o/a.png", "/o/b.png"}
 
 
 # ----------------------------------------------------------------------------- a real cluster, a worker killed

@@ -411,3 +411,60 @@ def test_an_image_is_refused_from_its_header_before_it_is_decoded(
     assert_one_line_error(result, expected, exit_code=1)
     with pytest.raises(PanomapError, match="30000 x 30000: more than the 268 megapixels panomap reads"):
         read_image(tmp_path / "big.png")
+
+
+# ----------------------------------------------------------------------------- broken inputs found by trying them
+
+
+def test_broken_landmark_files_and_a_wrong_axis_get_one_line_and_no_numpy_noise(work: Path, tmp_path: Path) -> None:
+    """Each was a traceback (a RecursionError; NumPy's "SVD did not converge" after its RuntimeWarnings), or
+    accepted: JSON true as the number 1."""
+    fixed = ["--centre", *CAMERA.centre, "--image-size", f"{SIZE[0]}x{SIZE[1]}", "--cutoff-radius",
+             CAMERA.cutoff_radius, "--outer-radius", CAMERA.outer_radius]  # fmt: skip
+    (tmp_path / "deep.json").write_text("[" * 100000 + "]" * 100000)
+    result = run("fit", tmp_path / "deep.json", "-o", tmp_path / "t.npz", "--camera", *POSITION, *fixed)
+    assert_one_line_error(result, "deep.json: not valid landmarks JSON (nested too deeply)", exit_code=1)
+    point = {"name": "a", "u": 10.0, "v": 20.0, "X": 1.0, "Y": 2.0, "Z": True}
+    (tmp_path / "bool.json").write_text(json.dumps({"landmarks": [point] * 6}))
+    result = run("fit", tmp_path / "bool.json", "-o", tmp_path / "t.npz", "--camera", *POSITION, *fixed)
+    assert_one_line_error(result, "bool.json: landmark 1, Z is not a number: true", exit_code=1)
+    # The camera looks down; told that its centre sees the zenith, no model can place the landmarks.
+    for model in ("auto", "fisheye"):
+        result = run("fit", work / "lm.csv", "-o", tmp_path / "t.npz", "--camera", *POSITION, *fixed, "--axis", "up",
+                     "--model", model)  # fmt: skip
+        assert result.exit_code == 1 and "Traceback" not in result.stderr and "Warning" not in result.stderr
+        assert result.stderr.startswith("panomap: error:") and result.stderr.count("\n") == 1, result.stderr
+    assert not (tmp_path / "t.npz").exists()
+
+
+def test_video_errors_name_the_file_they_are_about(work: Path, tmp_path: Path) -> None:
+    """A frame of another size partway through a video names the video; a view the camera cannot see names
+    its output; the size suggested for a chroma-subsampled output is a size (before: "size=0x0")."""
+    half = cv2.resize(cv2.imread(str(work / "omni.png")), (SIZE[0] // 2, SIZE[1] // 2))
+    with av.open(str(tmp_path / "switch.ts"), "w") as container:  # 3 frames at the table's size, then 3 at half
+        stream = container.add_stream("mpeg2video", rate=25)
+        stream.width, stream.height, stream.pix_fmt = SIZE[0], SIZE[1], "yuv420p"
+        omni = cv2.imread(str(work / "omni.png"))
+        for index in range(3):
+            frame = av.VideoFrame.from_ndarray(omni, format="bgr24")
+            frame.pts = index
+            container.mux(stream.encode(frame))
+        container.mux(stream.encode(None))
+    with av.open(str(tmp_path / "small.ts"), "w") as container:
+        stream = container.add_stream("mpeg2video", rate=25)
+        stream.width, stream.height, stream.pix_fmt = SIZE[0] // 2, SIZE[1] // 2, "yuv420p"
+        for index in range(3):
+            frame = av.VideoFrame.from_ndarray(half, format="bgr24")
+            frame.pts = index
+            container.mux(stream.encode(frame))
+        container.mux(stream.encode(None))
+    (tmp_path / "both.ts").write_bytes((tmp_path / "switch.ts").read_bytes() + (tmp_path / "small.ts").read_bytes())
+    views = ["--view", "panorama:size=64x32"]
+    result = run("video", work / "cam.npz", tmp_path / "both.ts", "-o", tmp_path / "o_{name}.mp4", *views)
+    assert_one_line_error(result, f"{tmp_path / 'both.ts'}: the image is 160 x 150, the table is for", exit_code=1)
+    floor = ["--view", "floor:z=10,x=0:6,y=0:5,size=64x64,name=up"]
+    result = run("video", work / "cam.npz", work / "clip.mp4", "-o", tmp_path / "o_{name}.mp4", *floor)
+    assert_one_line_error(result, f"{tmp_path / 'o_up.mp4'}: the plane Z = 10 is at or above the camera", exit_code=1)
+    result = run("video", work / "cam.npz", work / "clip.mp4", "-o", tmp_path / "o.mp4", "--view", "panorama:size=1x1")
+    assert_one_line_error(result, "give the view a size such as size=2x2", exit_code=1)
+    assert not [p for p in tmp_path.iterdir() if p.suffix == ".mp4"]

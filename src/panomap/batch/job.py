@@ -136,6 +136,8 @@ def find_inputs(patterns: Sequence[str], table: Path | None, camera: str | None 
         found += matches
     unique = list(dict.fromkeys(p.absolute() for p in found))
     name = camera if camera is not None else table.stem
+    if not is_camera_name(name):
+        raise PanomapError(f"the camera name {name!r} must be a plain name (no path separators, not . or ..)")
     return [BatchInput(path, table, name) for path in unique]
 
 
@@ -177,23 +179,41 @@ def read_manifest(path: Path) -> list[BatchInput]:
     for number, row in enumerate(rows, start=1):
         if not isinstance(row, dict) or not row.get("input") or not row.get("table"):
             raise PanomapError(f"row {number} needs an input and a table", path)
-        unknown = sorted(set(row) - {"input", "table", "camera"})
+        if None in row:  # (csv.DictReader puts a row's fields past the header's under None)
+            problem = "more fields than the header's columns" if suffix == ".csv" else "a key that is null"
+            raise PanomapError(f"row {number} has {problem}", path)
+        unknown = sorted(str(key) for key in set(row) - {"input", "table", "camera"})
         if unknown:
-            raise PanomapError(f"row {number}: unknown column {', '.join(map(str, unknown))}", path)
+            raise PanomapError(f"row {number}: unknown column {', '.join(unknown)}", path)
+        if any(not isinstance(row[key], (str, int, float)) for key in row if row[key] is not None):
+            raise PanomapError(f"row {number}: input, table and camera must be text", path)
         source, table = folder / str(row["input"]), folder / str(row["table"])
         if kind_of(source) is None:
             raise PanomapError(f"row {number}: {row['input']} is not an image or video file name", path)
         camera = str(row.get("camera") or table.stem)
+        if not is_camera_name(camera):
+            raise PanomapError(
+                f"row {number}: the camera name {camera!r} must be a plain name (no path separators, not . or ..)",
+                path,
+            )
         inputs.append(BatchInput(source, table, camera))
     return inputs
 
 
+def is_camera_name(name: str) -> bool:
+    """Whether ``name`` can stand for ``{camera}`` in an output path: one plain file name, so that the
+    outputs stay under the template's folder."""
+    return bool(name) and name not in (".", "..") and not any(c in name for c in "/\\\0")
+
+
 def check_template(template: str) -> None:
-    """Refuse a template with an unknown key, or one that could not tell views apart."""
+    """Refuse a template with an unknown key, a format spec or conversion, or one that could not tell views
+    apart."""
     try:
-        keys = [key for _, key, _, _ in string.Formatter().parse(template) if key is not None]
+        fields = [(key, spec, conversion) for _, key, spec, conversion in string.Formatter().parse(template)]
     except ValueError as exc:
         raise PanomapError(f"the output template {template!r} is malformed ({exc})") from None
+    keys = [key for key, _, _ in fields if key is not None]
     unknown = sorted({key for key in keys if key not in TEMPLATE_KEYS})
     if unknown:
         raise PanomapError(
@@ -201,6 +221,12 @@ def check_template(template: str) -> None:
             + ", ".join(f"{{{key}}}" for key in TEMPLATE_KEYS)
             + ")"
         )
+    for key, spec, conversion in fields:
+        if key is not None and (spec or conversion):
+            field = "{" + key + ("!" + conversion if conversion else "") + (":" + spec if spec else "") + "}"
+            raise PanomapError(
+                f"the output template {template!r} has {field}: its keys take no format spec or conversion"
+            )
     if not Path(template).suffix:
         raise PanomapError(f"the output template {template!r} needs a file suffix (e.g. .mp4)")
 

@@ -66,6 +66,7 @@ class Record:
         self.path = Path(path).absolute()
         self.done: dict[str, Done] = {}
         self.failed: dict[str, Failed] = {}
+        self._cut = False
         folder = self.path.parent
         if not folder.is_dir():
             raise PanomapError("its folder does not exist", self.path)
@@ -74,16 +75,26 @@ class Record:
 
     def _read(self) -> None:
         try:
-            lines = self.path.read_text(encoding="utf-8").splitlines()
+            text = self.path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:
             raise PanomapError(f"cannot read the record ({exc.__class__.__name__}: {exc})", self.path) from None
-        for line in lines:
+        lines = text.splitlines()
+        self._cut = bool(text) and not text.endswith("\n")  # a last line cut by a kill: the next entry starts anew
+        for number, line in enumerate(lines, start=1):
+            if not line.strip():
+                continue
             try:
                 entry = json.loads(line)
-            except json.JSONDecodeError:
-                continue  # a line cut by a kill
-            if not isinstance(entry, dict):
-                continue
+            except (json.JSONDecodeError, RecursionError):
+                if line.lstrip().startswith("{"):
+                    continue  # a line cut by a kill
+                entry = None
+            if not isinstance(entry, dict) or entry.get("status") not in ("done", "failed"):
+                raise PanomapError(
+                    f"not a batch record: line {number} is not one of its entries (a JSON object with a status of "
+                    "done or failed); give --record a record of panomap batch, or a new file",
+                    self.path,
+                )
             status = entry.pop("status", None)
             entry.pop("time", None)
             try:
@@ -112,7 +123,8 @@ class Record:
         return True
 
     def _append(self, entries: Iterable[dict[str, Any]]) -> None:
-        text = "".join(json.dumps(entry, allow_nan=False) + "\n" for entry in entries)
+        text = "\n" * self._cut + "".join(json.dumps(entry, allow_nan=False) + "\n" for entry in entries)
+        self._cut = False
         try:
             with self.path.open("a", encoding="utf-8") as handle:
                 handle.write(text)

@@ -170,6 +170,12 @@ def run_job(
     stop = stop or threading.Event()
     warn = warn or (lambda message: None)
     report = BatchReport(inputs=len(job.items))
+    for item in job.items:
+        for path, what in [(item.input.path, "an input"), (item.input.table, "a table")] + [
+            (output.path, "an output") for output in item.outputs
+        ]:
+            if path.absolute() == record.path:
+                raise PanomapError(f"the record would be {what} of the job: give --record another file", record.path)
     pending = [item for item in job.items if force or not record.complete(item)]
     address = scheduler_address(scheduler)
     if address is None and pending:

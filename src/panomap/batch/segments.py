@@ -73,12 +73,16 @@ def plan_segments(info: Probe, segment_s: float) -> list[Segment]:
     """The segments of a video of ``info`` every ``segment_s`` seconds (one when it is shorter).
 
     The count is taken from the last frame's time (duration less one frame), so that the last
-    segment is never empty.
+    segment is never empty; at a constant frame rate a segment holds a whole number of frames,
+    one at least (a segment shorter than a frame would hold none).
     """
     if not (math.isfinite(segment_s) and segment_s > 0):
         raise PanomapError(f"the segment length must be more than 0 s, not {segment_s:g}")
     if info.duration_s is None:
         return [Segment(0, 0.0, None, Fraction(0))]
+    if info.rate:
+        frame_s = 1 / float(info.rate)
+        segment_s = max(1, round(segment_s / frame_s)) * frame_s
     last_frame = info.duration_s - (1 / float(info.rate) if info.rate else 0.0)
     count = max(1, math.ceil(last_frame / segment_s - 1e-9))
     segments = []

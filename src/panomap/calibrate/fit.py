@@ -719,7 +719,12 @@ def _select(
         whitened, pixels = _leave_one_out(kind, data, subset)
         selection[name] = float(np.sqrt(np.mean(pixels**2)))
         scores[name] = _robust_score(whitened) if robust else float(np.sqrt(np.mean(whitened**2)))
-        spreads[name] = float(np.std(whitened**2, ddof=1) / math.sqrt(whitened.size)) if whitened.size > 1 else 0.0
+        if whitened.size < 2:
+            spreads[name] = 0.0
+        elif not np.all(np.isfinite(whitened)):  # a held-out landmark the fit without it cannot place
+            spreads[name] = math.inf
+        else:
+            spreads[name] = float(np.std(whitened**2, ddof=1) / math.sqrt(whitened.size))
     usable = {k: v for k, v in scores.items() if math.isfinite(v)}
     if not usable:
         detail = "; ".join(f"{k}: {v}" for k, v in reasons.items())

@@ -115,6 +115,8 @@ def read_landmarks(path: str | Path) -> Landmarks:
 
 
 def _number(value: Any, what: str) -> float:
+    if isinstance(value, bool):  # (JSON true and false are not numbers, though Python counts them as 1 and 0)
+        raise PanomapError(f"{what} is not a number: {json.dumps(value)}")
     try:
         return finite_number(value)
     except TooLarge as exc:
@@ -154,6 +156,8 @@ def _from_json(text: str) -> Landmarks:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise PanomapError(f"not valid JSON ({exc})") from None
+    except RecursionError:
+        raise PanomapError("not valid landmarks JSON (nested too deeply)") from None
     if not isinstance(data, dict) or not isinstance(data.get("landmarks"), list):
         raise PanomapError('the JSON must be an object with a "landmarks" list')
     pixels, world, names = [], [], []

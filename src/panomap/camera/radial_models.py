@@ -210,9 +210,10 @@ class Unified(RadialKind):
         costs = np.sum((gammas[:, None] * g - wr[None, :]) ** 2, axis=1)
         best = int(np.argmin(costs))
         lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
-        result = optimize.minimize_scalar(
-            lambda x: profile(x)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}
-        )
+        with np.errstate(invalid="ignore"):  # (a side of the bracket where the law is undefined costs inf)
+            result = optimize.minimize_scalar(
+                lambda x: profile(x)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}
+            )
         xi = float(result.x) if result.fun <= costs[best] else float(grid[best])
         return profile(xi)[1], xi
 
@@ -278,9 +279,10 @@ class Fisheye(RadialKind):
             raise PanomapError("the fisheye model cannot reach these landmarks' angles")
         best = int(np.argmin(costs))
         lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
-        result = optimize.minimize_scalar(
-            lambda k: profile(k)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}
-        )
+        with np.errstate(invalid="ignore"):  # (a side of the bracket where the law is undefined costs inf)
+            result = optimize.minimize_scalar(
+                lambda k: profile(k)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}
+            )
         k = float(result.x) if result.fun <= costs[best] else float(grid[best])
         return profile(k)[1], k
 

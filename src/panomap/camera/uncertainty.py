@@ -6,6 +6,7 @@ Derivatives are forward differences with a step of 1e-6 of each coefficient
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -47,7 +48,10 @@ def coefficient_covariance(
     residual = w * (radial(rho) - r)
     dof = rho.size - steps.size
     scale = float(residual @ residual / dof) if dof > 0 and not noise_known else 1.0
-    return np.asarray(np.linalg.pinv(jacobian.T @ jacobian) * scale)
+    normal = jacobian.T @ jacobian
+    if not np.all(np.isfinite(normal)) or not math.isfinite(scale):
+        return np.full(normal.shape, np.nan)  # f_r undefined at some landmark: no uncertainty to tell
+    return np.asarray(np.linalg.pinv(normal) * scale)
 
 
 def radius_standard_error(radial: RadialFunction, covariance: FloatArray, rho: ArrayLike) -> FloatArray:

@@ -91,9 +91,9 @@ class _Bar:
 @click.option(
     "--segment",
     "segment_s",
-    type=click.FloatRange(min=0, min_open=True),
+    type=click.FloatRange(min=1),
     metavar="SECONDS",
-    help="Split videos longer than this into segments of this length, unwarped in parallel and joined.",
+    help="Split videos longer than this into segments of this length (1 s or more), unwarped in parallel and joined.",
 )
 @click.option("--chunk", type=click.IntRange(min=1), help="Still images per task (default: about 4 tasks per worker).")
 @click.option("--retries", type=click.IntRange(min=0), default=2, show_default=True, help="Retries of a failing input.")

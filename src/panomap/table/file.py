@@ -318,7 +318,7 @@ def load_table(path: str | Path) -> PanoMappingTable:
             _check_declared(_array_header(archive, "entries"), _array_header(archive, "meta"))
             try:
                 meta = TableMetadata.from_dict(json.loads(str(archive["meta"][()])))
-            except json.JSONDecodeError:
+            except (json.JSONDecodeError, RecursionError):
                 raise PanomapError("the table's metadata is not valid JSON (corrupt)") from None
             if (meta.size[0], meta.size[1], 2) != _array_header(archive, "entries")[0]:
                 shape = _array_header(archive, "entries")[0]

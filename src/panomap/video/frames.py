@@ -120,7 +120,7 @@ def check_output_size(work_format: str, size: tuple[int, int]) -> None:
     sub_x, sub_y, _ = PLANAR_FORMATS[work_format]
     width, height = size
     if width % (1 << sub_x) or height % (1 << sub_y):
-        even = (width >> sub_x << sub_x, height >> sub_y << sub_y)
+        even = (max(1 << sub_x, width >> sub_x << sub_x), max(1 << sub_y, height >> sub_y << sub_y))
         raise PanomapError(
             f"{work_format} needs an output size divisible by {1 << sub_x} x {1 << sub_y}, "
             f"not {width} x {height}: give the view a size such as size={even[0]}x{even[1]}"

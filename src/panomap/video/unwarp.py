@@ -156,7 +156,12 @@ def unwarp_video(
         def build_remappers() -> list[FrameRemapper]:
             """Made while the first frames decode (a few tenths of a second saved at start-up); once."""
             if not remappers:
-                maps = [build_map(table, item.view, sampling) for item in outputs]
+                maps = []
+                for item in outputs:
+                    try:
+                        maps.append(build_map(table, item.view, sampling))
+                    except PanomapError as exc:  # (the view's problem: named by its output)
+                        raise exc if exc.source is not None else PanomapError(exc.detail, item.path) from None
                 remappers.extend(FrameRemapper(map_uv, size, work, interpolation, fixed_point) for map_uv in maps)
             return remappers
 
@@ -175,24 +180,29 @@ def unwarp_video(
             gap = None
 
         while True:
-            written = _write_segment(
-                current,
-                [segment_path(path, segment) for path in paths],
-                sizes,
-                work,
-                build_remappers,
-                encoder,
-                selection,
-                audio,
-                stop,
-                progress,
-                warn,
-                report,
-                state,
-                reconnect.timeout_s if can_drop else None,
-                on_first_frame,
-                codec_threads,
-            )
+            try:
+                written = _write_segment(
+                    current,
+                    [segment_path(path, segment) for path in paths],
+                    sizes,
+                    work,
+                    build_remappers,
+                    encoder,
+                    selection,
+                    audio,
+                    stop,
+                    progress,
+                    warn,
+                    report,
+                    state,
+                    reconnect.timeout_s if can_drop else None,
+                    on_first_frame,
+                    codec_threads,
+                )
+            except PanomapError as exc:
+                if exc.source is not None:
+                    raise
+                raise PanomapError(exc.detail, source) from None  # (a frame of the input: name it)
             current.close()
             if written:
                 report.segments += 1
