@@ -249,6 +249,8 @@ def test_bad_landmarks_get_one_line_naming_the_file(work: Path, case: str) -> No
             "nope.png: no such image file",
             1,
         ),
+        # (Before, a PNG's bytes were written under any name.)
+        (["lm.csv", "--camera", *POSITION, "--centre", 1, 1, "--plot", "p.jpg"], "the fit plot is written as PNG", 2),
     ],
 )
 def test_bad_fit_arguments(work: Path, args: list[object], message: str, exit_code: int) -> None:
@@ -258,6 +260,14 @@ def test_bad_fit_arguments(work: Path, args: list[object], message: str, exit_co
     # 1 for input the command refuses (a file missing or wrong).
     assert_one_line_error(result, message, exit_code=exit_code)
     assert not (work / "t.npz").exists()
+
+
+def test_a_table_is_written_as_npz(work: Path) -> None:
+    """``fit -o t.png`` wrote a table (an .npz archive) under that name."""
+    for name in ("t.png", "t"):
+        result = run("fit", work / "lm.csv", "-o", work / name, "--camera", *POSITION, "--centre", *CAMERA.centre)
+        assert_one_line_error(result, "a table is written as .npz (name it so)", exit_code=2)
+        assert not (work / name).exists()
 
 
 @pytest.mark.parametrize(
