@@ -157,11 +157,11 @@ def fit(
             check_table_size(table_size, what="--size")
         except PanomapError as exc:
             raise usage_error(exc) from None
+    check_output_paths([("the landmarks", landmarks), ("the image", image)], [("the output", output), ("--plot", plot)])
     if output.suffix.lower() != ".npz":
         raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
     if plot is not None and plot.suffix.lower() != ".png":
         raise click.BadParameter(f"{plot}: the fit plot is written as PNG (name it .png)", param_hint="'--plot'")
-    check_output_paths([("the landmarks", landmarks), ("the image", image)], [("the output", output), ("--plot", plot)])
     pairs = read_landmarks(landmarks)
     if camera is None and pairs.camera is None:
         raise click.UsageError(
