@@ -468,3 +468,17 @@ def test_video_errors_name_the_file_they_are_about(work: Path, tmp_path: Path) -
     result = run("video", work / "cam.npz", work / "clip.mp4", "-o", tmp_path / "o.mp4", "--view", "panorama:size=1x1")
     assert_one_line_error(result, "give the view a size such as size=2x2", exit_code=1)
     assert not [p for p in tmp_path.iterdir() if p.suffix == ".mp4"]
+
+
+def test_a_fifo_is_not_read_and_an_image_size_that_is_not_the_images_is_refused(work: Path, tmp_path: Path) -> None:
+    """A landmark file or a table that is a FIFO with no writer blocked the command for ever (an image was
+    refused as "not a file"); --image-size beside an --image of another size was ignored."""
+    os.mkfifo(tmp_path / "lm.fifo")
+    result = run("fit", tmp_path / "lm.fifo", "-o", tmp_path / "t.npz", "--camera", *POSITION, "--centre", 1, 1)
+    assert_one_line_error(result, "lm.fifo: not a file", exit_code=1)
+    result = run("panorama", tmp_path / "lm.fifo", work / "omni.png", "-o", tmp_path / "p.png")
+    assert_one_line_error(result, "lm.fifo: not a file", exit_code=1)
+    result = run("fit", work / "lm.csv", "-o", tmp_path / "t.npz", "--camera", *POSITION, "--image", work / "omni.png",
+                 "--image-size", "10x10")  # fmt: skip
+    assert_one_line_error(result, f"10x10, but {work / 'omni.png'} is {SIZE[0]} x {SIZE[1]}", exit_code=2)
+    assert not (tmp_path / "t.npz").exists() and not (tmp_path / "p.png").exists()

@@ -234,7 +234,10 @@ def check_output_paths(
 
 
 def read_text(path: str | Path, encoding: str = "utf-8-sig") -> str:
-    """The text of ``path`` (a leading BOM dropped); PanomapError naming it if missing or unreadable."""
+    """The text of ``path`` (a leading BOM dropped); PanomapError naming it if missing, not a regular file (a
+    FIFO or a device would block or never end), or unreadable."""
+    if Path(path).exists() and not Path(path).is_file():
+        raise PanomapError("not a file", path)
     try:
         return Path(path).read_text(encoding=encoding)
     except FileNotFoundError:

@@ -167,6 +167,12 @@ def fit(
         raise click.UsageError(
             f'no camera position in {landmarks}: give --camera X0 Y0 Z0 (or "camera" in a JSON landmark file)'
         )
+    omni = None if image is None else read_image(image)
+    if omni is not None and size is not None and size != (omni.shape[1], omni.shape[0]):
+        raise click.BadParameter(
+            f"{size[0]}x{size[1]}, but {image} is {omni.shape[1]} x {omni.shape[0]} (give one of them)",
+            param_hint="'--image-size'",
+        )
     try:
         result = calibrate_camera(
             pairs,
@@ -174,7 +180,7 @@ def fit(
             centre=centre,
             cutoff_radius=cutoff_radius,
             outer_radius=outer_radius,
-            omni=None if image is None else read_image(image),
+            omni=omni,
             omni_name=image,
             image_size=size,
             table_size=table_size,

@@ -305,6 +305,8 @@ def load_table(path: str | Path) -> PanoMappingTable:
         its checksum or its model.
     """
     path = Path(path)
+    if path.exists() and not path.is_file():  # (a FIFO would block the read)
+        raise PanomapError("not a file", path)
     try:
         file = path.open("rb")
     except FileNotFoundError:
