@@ -323,6 +323,43 @@ def test_a_circle_found_with_landmarks_well_outside_it_is_not_the_image_circle(m
     assert float(np.max(error)) < 5.0  # the same fit as without the wrong circle: 4.25 px
 
 
+@pytest.mark.parametrize("first_disc", [False, True])
+def test_the_cut_off_disc_is_looked_for_again_about_the_fitted_centre(
+    monkeypatch: pytest.MonkeyPatch, first_disc: bool
+) -> None:
+    """A rim found 8 px off the optical axis (as on three real MiniOmni images, 7-11 px off) had its cut-off
+    disc looked for about that centre: none found, or one off the axis, whose table cut-off (its radius less
+    its distance to the fit's centre) let a ring of the camera's reflection into the view (MiniOmni: 13.9 and
+    16.1 px against 26.6-28.6 on the other images, and none). About the fit's centre the disc is found again:
+    the table's cut-off radius within 0.5 px of the camera's (measured 0.11 px below it, both ways)."""
+    import panomap.calibrate.pipeline as pipeline
+    from panomap.calibrate.circles import Circle, ImageCircles
+    from panomap.simulate import load_room, noisy_jpeg, render
+
+    camera = standard_cameras((640, 600), centre=(321.4, 298.2), s=1, phi0=-0.5)["parabolic"]
+    image = noisy_jpeg(render(load_room(), camera, supersample=1), np.random.default_rng(3))
+    landmarks = spread_landmarks(camera, (3.0, 2.0, 2.5), 12, np.random.default_rng(4))
+    off = (camera.centre[0] + 6.4, camera.centre[1] - 4.8)  # 8 px off the axis
+    rim = Circle(centre=off, radius=camera.outer_radius, rms_px=0.5, inliers=700, rays=720)
+    wrong = Circle(centre=off, radius=camera.cutoff_radius - 2.0, rms_px=1.0, inliers=400, rays=720)
+    found = ImageCircles(
+        centre=off,
+        outer=rim,
+        cutoff=wrong if first_disc else None,
+        ellipse=None,
+        cropped_by=(),
+        rim_in_frame=1.0,
+        rim_seen=1.0,
+        rim_polarity="bright inside",
+        rim_arcs_deg=((0.0, 360.0),),
+    )
+    monkeypatch.setattr(pipeline, "find_image_circles", lambda omni: found)
+    result = calibrate_camera(landmarks, (3.0, 2.0, 2.5), omni=image)
+    assert math.dist(result.fit.model.centre, camera.centre) < 1.0  # refined from the rim's centre
+    assert result.sources["cutoff_radius"] == Origin(Source.DETECTED)
+    assert abs(result.table.cutoff_radius - camera.cutoff_radius) < 0.5
+
+
 def test_a_dark_disc_that_holds_landmarks_is_not_the_cameras_reflection() -> None:
     """A full-frame fisheye looking down on a round dark rug: the rug is a dark disc in the middle, as a mirror's
     own reflection is, but landmarks lie on it; the fit starts from the frame's middle with no cut-off disc,

@@ -127,3 +127,25 @@ def test_the_refined_centre_moves_from_the_rim_to_the_axis_on_vmr() -> None:
     assert result["fits"]["default"]["rms_px"] > 1.5
     assert result["fits"]["paper"]["rms_px"] > 1.5  # the paper's model takes the centre as given
     assert math.dist(result["fits"]["refined centre"]["centre"], ocam_centre("ocam_vmr_catadioptric")) < 0.5
+
+
+def test_miniomni_tables_keep_the_cameras_reflection_out_where_the_rim_is_found_off_the_axis() -> None:
+    """On three MiniOmni images the rim is found 7-11 px off the calibrated axis, and the cut-off disc, looked
+    for about it, was missed (none) or found off the axis: their tables cut off at 0, 13.9 and 16.1 px, where
+    the other images' cut off at 26.6-28.6 px, letting a ring of the camera into the view. Looked for again
+    about the fitted centre: 24.4-28.6 px on every image with a rim (measured)."""
+    from panomap.calibrate.landmarks import Landmarks
+    from panomap.calibrate.pipeline import calibrate_camera
+
+    bench = _bench_real()
+    folder = REAL / "ocam_miniomni_catadioptric"
+    corners = bench.read_corners(folder)
+    chosen = bench.spread_choice(corners.elevation)
+    landmarks = Landmarks(corners.pixels[chosen], corners.world[chosen], tuple(f"corner{k}" for k in chosen))
+    cutoffs = {}
+    for path in sorted((folder / "images").iterdir()):
+        result = calibrate_camera(landmarks, (0.0, 0.0, 0.0), omni=read_image(path))
+        if result.circles is not None:  # (a rim found: on 12 of the 15 images)
+            cutoffs[path.name] = round(result.table.cutoff_radius, 1)
+    assert len(cutoffs) >= 11, cutoffs
+    assert min(cutoffs.values()) >= 23.0, cutoffs

@@ -1326,6 +1326,13 @@ def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius
     return circle if passes(circle, reach) else None
 
 
+def find_cutoff_about(image: NDArray[Any], centre: tuple[float, float], outer_radius: float) -> Circle | None:
+    """The cut-off disc of an omni-image looked for about ``centre`` (u, v), px, in an image circle of
+    ``outer_radius`` px, or None: :func:`find_image_circles`' search about the rim's centre, for a caller
+    that knows the optical axis better (a centre refined with landmarks, where the rim's was off)."""
+    return _cutoff_circle(to_grey(image), centre, outer_radius)
+
+
 def find_cutoff_without_rim(image: NDArray[Any]) -> Circle | None:
     """The cut-off disc of an omni-image whose rim is not in it (a mirror image that overfills the frame), or
     None: :func:`find_image_circles`' search where no rim passes (see :func:`_disc_without_rim`), for a caller

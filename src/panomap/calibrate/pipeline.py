@@ -22,7 +22,14 @@ from numpy.typing import NDArray
 from ..camera.radial_models import radial_kind
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
-from .circles import Circle, ImageCircles, NoImageCircle, find_cutoff_without_rim, find_image_circles
+from .circles import (
+    Circle,
+    ImageCircles,
+    NoImageCircle,
+    find_cutoff_about,
+    find_cutoff_without_rim,
+    find_image_circles,
+)
 from .fit import CameraFit, annulus_coverage_problem, fit_camera, rim_slack_px
 from .landmarks import Landmarks
 from .make_table import choose_annulus, table_for
@@ -80,6 +87,41 @@ class Calibration:
     sources: Mapping[str, Origin]
     circles: ImageCircles | None
     warnings: tuple[str, ...]
+
+
+# Where the fit's centre ends this far (px) from the centre the cut-off disc was looked for about, it is
+# looked for again about the fit's.
+CUTOFF_AGAIN_PX = 2.0
+
+
+def _cutoff_about_the_fit(
+    omni: NDArray[Any],
+    circles: ImageCircles,
+    disc: Circle | None,
+    fitted: tuple[float, float],
+    recorded: Mapping[str, Origin],
+) -> tuple[Circle | None, bool]:
+    """The cut-off disc, looked for again about the fit's centre where that ended CUTOFF_AGAIN_PX or more
+    from where it was looked for (the rim's centre, off the axis where the rim was found wrong; or the disc
+    found, off it); and whether it was found only now (none was found about the rim's centre).
+
+    The disc found again is kept where it keeps more of the camera's reflection out of the table (its
+    radius less its distance to the fit's centre, :func:`_cutoff_about`, the larger): the reflection is
+    everything inside its outermost edge about the axis; a lens ring inside it is a detail of it. On the
+    real MiniOmni camera, the rim found 7-11 px off the calibrated axis on three images gave tables cut off
+    at 13.9 and 16.1 px and none; about the fit's centre, 26.1-28.1 px, as on the other images (26.6-28.6).
+    Only a detected cut-off radius, or one detected as none, is looked for again.
+    """
+    source = recorded.get("cutoff_radius")
+    if source is None or source.source not in (Source.DETECTED, Source.DETECTED_NONE):
+        return disc, False
+    searched_at = circles.centre if disc is None else disc.centre
+    if math.dist(searched_at, fitted) < CUTOFF_AGAIN_PX:
+        return disc, False
+    again = find_cutoff_about(omni, fitted, circles.outer_radius)
+    if again is None or (disc is not None and _cutoff_about(again, fitted) <= _cutoff_about(disc, fitted)):
+        return disc, False
+    return again, disc is None
 
 
 def _cutoff_about(disc: Circle, centre: tuple[float, float]) -> float:
@@ -390,6 +432,10 @@ def calibrate_camera(
         camera_sigma=camera_sigma,
     )
     disc = choice.cutoff_disc if choice.circles is None else choice.circles.cutoff
+    if omni is not None and choice.circles is not None and outer is not None:
+        disc, found_now = _cutoff_about_the_fit(omni, choice.circles, disc, camera_fit.model.centre, recorded)
+        if found_now and disc is not None:
+            recorded["cutoff_radius"], cutoff = Origin(Source.DETECTED), disc.radius
     if disc is not None and outer is not None and recorded["cutoff_radius"].source is Source.DETECTED:
         within = _cutoff_about(disc, camera_fit.model.centre)
         # (Only where f_r runs that far in: a model that turns back just inside the disc keeps the disc's radius.)
