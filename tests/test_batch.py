@@ -243,6 +243,22 @@ def test_a_failing_input_is_retried_recorded_and_the_rest_goes_on(work: Path, tm
     assert not (tmp_path / "out" / "i2_panorama.png").exists()
 
 
+def test_a_folder_made_for_outputs_that_never_came_is_removed(work: Path, tmp_path: Path, cluster: str) -> None:
+    """Two cameras, one whose only input is broken: its {camera} folder was left behind, empty."""
+    from panomap.batch.job import BatchInput
+
+    (tmp_path / "broken.png").write_bytes(b"not a png")
+    inputs = [
+        BatchInput(work / "images" / "i0.png", work / "cam.npz", "north"),
+        BatchInput(tmp_path / "broken.png", work / "cam.npz", "south"),
+    ]
+    job = make_job(inputs, VIEWS, str(tmp_path / "out" / "{camera}" / "deep" / "{stem}_{name}.png"))
+    report = run_job(job, Record(tmp_path / "rec.jsonl"), scheduler=cluster, retries=0)
+    assert report.done == 1 and len(report.failed) == 1
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["north"]
+    assert len(list((tmp_path / "out" / "north" / "deep").iterdir())) == len(VIEWS)
+
+
 def test_bad_jobs_get_one_line_errors(work: Path, tmp_path: Path) -> None:
     images = work / "images"
     common = ["--view", PANORAMA, "--record", tmp_path / "rec.jsonl"]

@@ -24,6 +24,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from ..errors import PanomapError
@@ -159,13 +160,54 @@ def run_job(
     """Run ``job``, skipping the inputs ``record`` holds as complete (all of them with ``force``).
 
     Every output is checked before any work (its folder made; an output that cannot be
-    replaced is refused). ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``) names an existing
+    replaced is refused; a folder made that holds nothing at the end, as for an input that
+    failed, is removed). ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``) names an existing
     cluster; otherwise a local one of ``workers`` processes runs the job. Videos longer than
     ``segment_s`` seconds are split into segments of that length. A failing input is tried
     ``retries`` more times, then recorded as failed, and the job goes on. Setting ``stop``
     cancels what has not finished (what has is recorded). ``progress`` is called as results
     come in; ``on_dashboard`` gets the Dask dashboard's address when there is one.
     """
+    made: list[Path] = []
+    try:
+        return _run_job(
+            job,
+            record,
+            scheduler=scheduler,
+            workers=workers,
+            force=force,
+            retries=retries,
+            segment_s=segment_s,
+            chunk=chunk,
+            progress=progress,
+            stop=stop,
+            warn=warn,
+            on_dashboard=on_dashboard,
+            made=made,
+        )
+    finally:
+        for folder in reversed(made):  # (the deepest first)
+            with contextlib.suppress(OSError):
+                folder.rmdir()  # only where empty
+
+
+def _run_job(
+    job: Job,
+    record: Record,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    force: bool = False,
+    retries: int = 2,
+    segment_s: float | None = None,
+    chunk: int | None = None,
+    progress: Callable[[Progress], None] | None = None,
+    stop: threading.Event | None = None,
+    warn: Callable[[str], None] | None = None,
+    on_dashboard: Callable[[str], None] | None = None,
+    made: list[Path] | None = None,
+) -> BatchReport:
+    """:func:`run_job`; the folders it makes for the outputs are appended to ``made``."""
     started = time.perf_counter()
     stop = stop or threading.Event()
     warn = warn or (lambda message: None)
@@ -181,10 +223,13 @@ def run_job(
     if address is None and pending:
         start_fork_server()  # (its imports overlap the checks below and the import of Dask)
     report.skipped = len(job.items) - len(pending)
+    made = [] if made is None else made
     for item in pending:
         for output in item.outputs:
+            missing = [folder for folder in (output.path.parent, *output.path.parent.parents) if not folder.exists()]
             try:
                 output.path.parent.mkdir(parents=True, exist_ok=True)
+                made.extend(reversed(missing))  # (outermost first)
             except OSError as exc:
                 raise PanomapError(f"cannot make its folder ({exc.strerror or exc})", output.path) from None
             check_output(output.path)
