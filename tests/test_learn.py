@@ -324,7 +324,8 @@ def test_file_names_stay_in_the_folder(client: Client, example: Example, folder:
 
 
 def test_saved_files_are_what_panomap_fit_makes(client: Client, example: Example, folder: Path) -> None:
-    """The saved table equals ``panomap fit`` on the saved landmarks with the same camera, centre and radii."""
+    """The saved table equals ``panomap fit --image`` on the saved landmarks, the same image and camera: the page
+    fits with the circles it found as the command does (the centre refined, the cut-off disc about it)."""
     root = folder.parent
     before = all_files(root)
     status, answer = client.post(
@@ -349,6 +350,7 @@ def test_saved_files_are_what_panomap_fit_makes(client: Client, example: Example
     assert json_landmarks.camera == example.camera_position
     assert client.get("/api/files") == {"landmarks": ["lm.csv", "lm.json"], "tables": ["web.npz"]}
 
+    assert cv2.imwrite(str(folder / "omni.png"), example.image)  # (lossless: the page's pixels)
     result = CliRunner().invoke(
         main,
         [
@@ -358,22 +360,17 @@ def test_saved_files_are_what_panomap_fit_makes(client: Client, example: Example
             str(folder / "cli.npz"),
             "--camera",
             *(repr(c) for c in example.camera_position),
-            "--centre",
-            *(repr(c) for c in circles["centre"]),
-            "--cutoff-radius",
-            repr(circles["cutoff_radius"]),
-            "--outer-radius",
-            repr(circles["outer_radius"]),
-            "--image-size",
-            f"{SIZE[0]}x{SIZE[1]}",
-            # The page refines the centre it detected, as fit --image does; a given centre is kept unless asked.
-            "--refine-centre",
+            "--image",
+            str(folder / "omni.png"),
         ],
     )
     assert result.exit_code == 0, result.output
     web, cli = load_table(folder / "web.npz"), load_table(folder / "cli.npz")
     assert web.size == cli.size and web.elevation_range == cli.elevation_range
     assert web.model.to_dict() == cli.model.to_dict()
+    assert web.cutoff_radius == cli.cutoff_radius and web.outer_radius == cli.outer_radius
+    assert web.info["sources"] == cli.info["sources"]
+    assert tuple(web.model.centre) != tuple(circles["centre"])  # refined from the rim's centre
     # Same inputs to the same code path: the float32 entries agree to rounding (1e-4 px allows
     # for a last-digit difference in a threaded BLAS reduction; they are in fact equal here).
     assert np.allclose(web.entries, cli.entries, rtol=0, atol=1e-4)

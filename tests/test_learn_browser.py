@@ -17,6 +17,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -233,7 +234,8 @@ def test_learning_a_camera_in_the_browser(browser: Any, serve: Any, example: Exa
     assert saved.names == example.names
     assert np.array_equal(saved.pixels, example.pixels)  # typed with repr(): exact
     assert np.array_equal(saved.world, example.world)
-    circles = session.state()["circles"]
+    # The page fits with the circles it found as `panomap fit --image` does with the same image.
+    assert cv2.imwrite(str(tmp_path / "omni.png"), example.image)  # (lossless: the page's pixels)
     result = CliRunner().invoke(
         main,
         [
@@ -243,21 +245,14 @@ def test_learning_a_camera_in_the_browser(browser: Any, serve: Any, example: Exa
             str(tmp_path / "cli.npz"),
             "--camera",
             *(repr(c) for c in example.camera_position),
-            "--centre",
-            *(repr(c) for c in circles["centre"]),
-            "--cutoff-radius",
-            repr(circles["cutoff_radius"]),
-            "--outer-radius",
-            repr(circles["outer_radius"]),
-            "--image-size",
-            f"{SIZE[0]}x{SIZE[1]}",
-            # The page refines the centre it detected, as fit --image does; a given centre is kept unless asked.
-            "--refine-centre",
+            "--image",
+            str(tmp_path / "omni.png"),
         ],
     )
     assert result.exit_code == 0, result.output
     web, cli = load_table(folder / "cam.npz"), load_table(tmp_path / "cli.npz")
     assert web.size == cli.size and web.model.to_dict() == cli.model.to_dict()
+    assert web.cutoff_radius == cli.cutoff_radius and web.info["sources"] == cli.info["sources"]
     # Same inputs through the same code path (panomap.calibrate_camera): the float32 entries
     # agree to rounding; 1e-4 px allows a last-digit difference in a threaded BLAS reduction.
     assert np.allclose(web.entries, cli.entries, rtol=0, atol=1e-4)

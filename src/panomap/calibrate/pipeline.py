@@ -327,6 +327,7 @@ def calibrate_camera(
     models_cover_annulus: bool = True,
     tilt: str | tuple[float, float] = "fit",
     camera_sigma: float | None = None,
+    found: CircleChoice | None = None,
 ) -> Calibration:
     """Landmarks (and an omni-image) to a fitted camera and its pano-mapping table.
 
@@ -372,6 +373,11 @@ def calibrate_camera(
         only takes models that run monotonically across the annulus (its
         ``annulus``); False leaves the choice to the landmarks alone (the
         table still checks the given radii).
+    found : CircleChoice, optional
+        What :func:`choose_circles` found in ``omni`` (given with nothing of the
+        centre and radii) beforehand, taken instead of looking again: the learn
+        page finds the circles once, when it opens, and fits as this function
+        does with them.
 
     Raises
     ------
@@ -400,7 +406,9 @@ def calibrate_camera(
     choice = CircleChoice(centre, cutoff_radius, outer_radius, None, {})
     if omni is not None:
         image_size = (int(omni.shape[1]), int(omni.shape[0]))
-        choice = choose_circles(omni, centre, cutoff_radius, outer_radius, name=omni_name)
+        if found is not None and (centre, cutoff_radius, outer_radius) != (None, None, None):
+            raise PanomapError("the circles found beforehand come without a centre or radii given beside them")
+        choice = found or choose_circles(omni, centre, cutoff_radius, outer_radius, name=omni_name)
         choice = rim_without_landmarks_past_it(choice, landmarks.pixels, pixel_sigma, omni, cutoff_radius)
         choice = _disc_without_landmarks(choice, landmarks, pixel_sigma, omni)
         recorded |= choice.sources

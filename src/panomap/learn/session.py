@@ -127,6 +127,7 @@ class Session:
         self._fit_lock = threading.Lock()
         self._guess_sources = {"centre": Source.FRAME_CENTRE}
         self._found: CircleChoice | None = None  # the circles found, where a rim was
+        self._opened_with: CircleChoice | None = None  # what was found when the page opened, rim or not
         self.circles, self.detected, self.circles_note = self._start_circles()
         # The page's first circles, when no rim was found: their centre only starts the fit (refined).
         self._guess = self.circles if self.detected is None else None
@@ -163,6 +164,7 @@ class Session:
         except PanomapError as exc:
             guessed = f"could not find the image circles ({exc.detail}); starting from a guess: drag them into place"
             return guess, None, guessed
+        self._opened_with = found
         if found.circles is None:
             # No rim at all (a full-frame fisheye): the frame centre, refined by the landmarks, and as
             # ``panomap fit --image`` does, a table of the whole frame (the outer circle through its corners).
@@ -362,17 +364,31 @@ class Session:
             status |= {"need": 0, "message": "give the camera position X0, Y0, Z0 to fit"}
         else:
             try:
-                calibration = calibrate_camera(
-                    landmarks,
-                    camera,
-                    centre=circles.centre,
-                    cutoff_radius=circles.cutoff_radius,
-                    outer_radius=circles.outer_radius,
-                    image_size=self.image_size,
-                    model=model,
-                    sources=self._sources(circles),
-                    info=self._info(),
-                )
+                if self._opened_with is not None and circles == self._as_found[0]:
+                    # The circles found, unchanged: fitted as `panomap fit --image` fits with them (the cut-off
+                    # disc then looked for again about a fitted centre that ends away from the rim's, say).
+                    calibration = calibrate_camera(
+                        landmarks,
+                        camera,
+                        omni=self.image,
+                        omni_name=self.image_name,
+                        found=self._opened_with,
+                        model=model,
+                        sources={"camera_position": Source.GIVEN},
+                        info=self._info(),
+                    )
+                else:
+                    calibration = calibrate_camera(
+                        landmarks,
+                        camera,
+                        centre=circles.centre,
+                        cutoff_radius=circles.cutoff_radius,
+                        outer_radius=circles.outer_radius,
+                        image_size=self.image_size,
+                        model=model,
+                        sources=self._sources(circles),
+                        info=self._info(),
+                    )
             except PanomapError as exc:
                 status |= {"need": 0, "message": f"the fit failed: {exc.detail}"}
             else:
