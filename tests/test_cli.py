@@ -193,6 +193,15 @@ BAD_LANDMARKS = {
         "u,v,X,Y,Z\n" + "".join(f"{100 * k},{50 * k},{3 + k},2,{k / 3}\n" for k in range(1, 8)),
         "outside the 640 x 600 image",
     ),
+    # Two of one name: the report's outliers would name either (the learn page refuses them too).
+    "same_name": (
+        "name,u,v,X,Y,Z\n" + "".join(f"{n},{300 + k},300,{3 + k},2,0\n" for k, n in enumerate("ABCADE")),
+        "rows 2 and 5 are both named 'A': give each landmark a name of its own",
+    ),
+    "unnamed_clash": (
+        "name,u,v,X,Y,Z\n" + "".join(f"{n},{300 + k},300,{3 + k},2,0\n" for k, n in enumerate(["", "L1", "B"])),
+        "rows 2 and 3 are both named 'L1' (row 2 has no name: that is the one it was given)",
+    ),
 }
 
 

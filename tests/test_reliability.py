@@ -428,6 +428,11 @@ def test_broken_landmark_files_and_a_wrong_axis_get_one_line_and_no_numpy_noise(
     (tmp_path / "bool.json").write_text(json.dumps({"landmarks": [point] * 6}))
     result = run("fit", tmp_path / "bool.json", "-o", tmp_path / "t.npz", "--camera", *POSITION, *fixed)
     assert_one_line_error(result, "bool.json: landmark 1, Z is not a number: true", exit_code=1)
+    named = [{"name": n, "u": 10.0 + k, "v": 20.0, "X": 1.0 + k, "Y": 2.0, "Z": 0.0} for k, n in enumerate("abcdb")]
+    (tmp_path / "twice.json").write_text(json.dumps({"landmarks": named}))
+    result = run("fit", tmp_path / "twice.json", "-o", tmp_path / "t.npz", "--camera", *POSITION, *fixed)
+    expected = "twice.json: landmarks 2 and 5 are both named 'b': give each landmark a name of its own"
+    assert_one_line_error(result, expected, exit_code=1)
     # The camera looks down; told that its centre sees the zenith, no model can place the landmarks.
     for model in ("auto", "fisheye"):
         result = run("fit", work / "lm.csv", "-o", tmp_path / "t.npz", "--camera", *POSITION, *fixed, "--axis", "up",

@@ -140,6 +140,7 @@ def _from_csv(text: str) -> Landmarks:
     index = {c: lowered.index(c.lower()) for c in COLUMNS}
     name_index = lowered.index("name") if "name" in lowered else None
     pixels, world, names = [], [], []
+    unnamed: list[bool] = []
     for line, row in enumerate(rows[1:], start=2):
         if len(row) < len(header):
             raise PanomapError(f"row {line} has {len(row)} fields, the header {len(header)}")
@@ -148,7 +149,24 @@ def _from_csv(text: str) -> Landmarks:
         world.append(values[2:])
         name = unescape_csv_name(row[name_index].strip()) if name_index is not None else ""
         names.append(name or f"L{line - 1}")
+        unnamed.append(not name)
+        _check_named_once(names, unnamed, "row", 2)
     return Landmarks(np.array(pixels).reshape(-1, 2), np.array(world).reshape(-1, 3), tuple(names))
+
+
+def _check_named_once(names: list[str], unnamed: list[bool], what: str, first: int) -> None:
+    """Refuse the last of ``names`` where an earlier one is the same (the report names landmarks: two of one
+    name make it ambiguous). ``unnamed``: which were named for want of a name in the file; ``what`` and
+    ``first``: how the file counts them (row 2, landmark 1, ...)."""
+    name = names[-1]
+    if name in names[:-1]:
+        earlier = names.index(name)
+        given = [k + first for k in (earlier, len(names) - 1) if unnamed[k]]
+        why = f" ({what} {given[0]} has no name: that is the one it was given)" if given else ""
+        raise PanomapError(
+            f"{what}s {earlier + first} and {len(names) - 1 + first} are both named {name!r}{why}: "
+            "give each landmark a name of its own"
+        )
 
 
 def _from_json(text: str) -> Landmarks:
@@ -161,6 +179,7 @@ def _from_json(text: str) -> Landmarks:
     if not isinstance(data, dict) or not isinstance(data.get("landmarks"), list):
         raise PanomapError('the JSON must be an object with a "landmarks" list')
     pixels, world, names = [], [], []
+    unnamed: list[bool] = []
     for k, item in enumerate(data["landmarks"], start=1):
         if not isinstance(item, dict):
             raise PanomapError(f"landmark {k} is not an object")
@@ -171,6 +190,8 @@ def _from_json(text: str) -> Landmarks:
         pixels.append(values[:2])
         world.append(values[2:])
         names.append(str(item.get("name") or f"L{k}"))
+        unnamed.append(not item.get("name"))
+        _check_named_once(names, unnamed, "landmark", 1)
     camera = data.get("camera")
     position = None
     if camera is not None:
