@@ -173,6 +173,18 @@ def test_project_writes_pixels_and_leaves_invisible_points_empty(work: Path) -> 
     got = np.array([[float(x) for x in line.split(",")[4:]] for line in lines[1:3]])
     # Exact landmarks and an exact model family: only the table's float32 and bilinear error remain.
     np.testing.assert_allclose(got, truth, atol=0.01)
+    # '-': the same CSV on standard output (to pipe it), the summary on standard error, no file named '-'.
+    piped = run("project", table_path, work / "pts.csv", "-o", "-")
+    assert piped.exit_code == 0, piped.stderr
+    assert piped.stdout == (work / "px.csv").read_text()
+    assert piped.stderr == "wrote standard output (2 of 3 points visible)\n"
+    (work / "seen.csv").write_text("\n".join(lines[:3]) + "\n")
+    rays = run("unproject", table_path, work / "seen.csv", "-o", "-")
+    assert rays.exit_code == 0, rays.stderr
+    assert rays.stdout.splitlines()[0] == "name,X,Y,Z,u,v,azimuth_deg,elevation_deg"
+    assert len(rays.stdout.splitlines()) == 3
+    assert rays.stderr == "wrote standard output (2 of 2 pixels in the valid region)\n"
+    assert not Path("-").exists() and not (work / "-").exists()
 
 
 BAD_LANDMARKS = {

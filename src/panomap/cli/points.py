@@ -17,15 +17,19 @@ from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
 from .options import FINITE, PATH
 
+STDOUT = "-"  # an output of this name is standard output, as for ffmpeg and most Unix tools
+
 
 @click.command()
 @click.argument("table", type=PATH)
 @click.argument("points", type=PATH)
-@click.option("-o", "--output", type=PATH, required=True, help="CSV to write: the input columns plus u,v.")
+@click.option(
+    "-o", "--output", type=PATH, required=True, help="CSV to write: the input columns plus u,v ('-': standard output)."
+)
 @click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True)
 def project(table: Path, points: Path, output: Path, table_sampling: str) -> None:
     """World points (CSV with X,Y,Z) to pixels through the table; u,v empty where not visible."""
-    check_output_paths([("the table", table), ("the points", points)], [("the output", output)])
+    check_output_paths([("the table", table), ("the points", points)], _outputs(output))
     loaded = load_table(table)
     header, rows, xyz = read_points(points)
     uv = loaded.project(xyz, table_sampling)
@@ -36,9 +40,24 @@ def project(table: Path, points: Path, output: Path, table_sampling: str) -> Non
     for row, (u, v) in zip(rows, uv.tolist(), strict=True):
         pixel = ["", ""] if not (math.isfinite(u) and math.isfinite(v)) else [f"{u:.4f}", f"{v:.4f}"]
         writer.writerow([row[i] for i in keep] + pixel)
-    write_text_atomic(output, buffer.getvalue())
     visible = int(np.count_nonzero(np.all(np.isfinite(uv), axis=1)))
-    click.echo(f"wrote {output} ({visible} of {len(rows)} points visible)")
+    _write(output, buffer.getvalue(), f"({visible} of {len(rows)} points visible)")
+
+
+def _outputs(output: Path) -> list[tuple[str, Path]]:
+    """The output file to check before any work: none for '-' (standard output)."""
+    return [] if str(output) == STDOUT else [("the output", output)]
+
+
+def _write(output: Path, text: str, summary: str) -> None:
+    """``text`` to the file ``output`` (atomically), then "wrote OUTPUT SUMMARY"; for '-', ``text`` to standard
+    output and the summary to standard error (so that the CSV can be piped)."""
+    if str(output) == STDOUT:
+        click.echo(text, nl=False)
+        click.echo(f"wrote standard output {summary}", err=True)
+        return
+    write_text_atomic(output, text)
+    click.echo(f"wrote {output} {summary}")
 
 
 # ----------------------------------------------------------------------------- unproject
@@ -48,14 +67,18 @@ def project(table: Path, points: Path, output: Path, table_sampling: str) -> Non
 @click.argument("table", type=PATH)
 @click.argument("pixels", type=PATH)
 @click.option(
-    "-o", "--output", type=PATH, required=True, help="CSV to write: the input columns plus azimuth_deg,elevation_deg."
+    "-o",
+    "--output",
+    type=PATH,
+    required=True,
+    help="CSV to write: the input columns plus azimuth_deg,elevation_deg ('-': standard output).",
 )
 @click.option(
     "--z", "z_plane", type=FINITE, help="Also give X,Y,Z where each pixel's ray meets the horizontal plane Z (world)."
 )
 def unproject(table: Path, pixels: Path, output: Path, z_plane: float | None) -> None:
     """Pixels (CSV with u,v) to rays: azimuth and elevation, empty outside the valid region."""
-    check_output_paths([("the table", table), ("the pixels", pixels)], [("the output", output)])
+    check_output_paths([("the table", table), ("the pixels", pixels)], _outputs(output))
     loaded = load_table(table)
     header, rows, uv = read_points(pixels, ("u", "v"))
     theta, rho = loaded.unproject(uv)
@@ -75,10 +98,9 @@ def unproject(table: Path, pixels: Path, output: Path, z_plane: float | None) ->
         ray = [f"{math.degrees(azimuth):.6f}", f"{math.degrees(elevation):.6f}"] if seen else ["", ""]
         where = ["" if not math.isfinite(c) else f"{c:.6f}" for c in point]
         writer.writerow([row[i] for i in keep] + ray + where)
-    write_text_atomic(output, buffer.getvalue())
     valid = int(np.count_nonzero(np.isfinite(rho)))
-    message = f"wrote {output} ({valid} of {len(rows)} pixels in the valid region"
+    message = f"({valid} of {len(rows)} pixels in the valid region"
     if z_plane is not None:
         reached = int(np.count_nonzero(np.all(np.isfinite(world), axis=1)))
         message += f"; {reached} {'ray reaches' if reached == 1 else 'rays reach'} the plane Z = {z_plane:g}"
-    click.echo(message + ")")
+    _write(output, buffer.getvalue(), message + ")")
