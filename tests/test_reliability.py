@@ -413,6 +413,23 @@ def test_an_image_is_refused_from_its_header_before_it_is_decoded(
         read_image(tmp_path / "big.png")
 
 
+@pytest.mark.parametrize(("suffix", "kind"), [(".hdr", "a Radiance HDR image"), (".pfm", "a PFM image")])
+def test_a_float_image_pillow_cannot_read_is_refused_before_it_is_decoded(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, suffix: str, kind: str
+) -> None:
+    """Radiance HDR and PFM (OpenCV reads them, Pillow does not tell their size) are 32-bit float: refused from
+    their first bytes. Before, each was decoded first (a 16400 x 16400 HDR took 6.4 GB), then refused."""
+    path = tmp_path / f"float{suffix}"
+    assert cv2.imwrite(str(path), np.random.default_rng(0).random((48, 64, 3)).astype(np.float32))
+
+    def no_decoding(*args: Any) -> None:
+        raise AssertionError("decoded")
+
+    monkeypatch.setattr(cv2, "imdecode", no_decoding)
+    with pytest.raises(PanomapError, match=f"images must be 8- or 16-bit, this one is {kind} \\(32-bit float\\)"):
+        read_image(path)
+
+
 # ----------------------------------------------------------------------------- broken inputs found by trying them
 
 

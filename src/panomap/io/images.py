@@ -58,6 +58,11 @@ def read_image(
     declared = header_size(path)
     if declared is not None:
         _check_size(path, declared, expected_size, expected_by)
+    else:
+        with path.open("rb") as handle:
+            kind = float_format(handle.read(16))
+        if kind is not None:  # (refused before decoding: a large one would take its memory first)
+            raise PanomapError(f"images must be 8- or 16-bit, this one is {kind} (32-bit float)", path)
     data = np.fromfile(path, dtype=np.uint8)
     if data[: len(PNG_SIGNATURE)].tobytes() == PNG_SIGNATURE:
         problem = png_problem(path)
@@ -70,6 +75,21 @@ def read_image(
         raise PanomapError(f"images must be 8- or 16-bit, this one is {image.dtype}", path)
     _check_size(path, (int(image.shape[1]), int(image.shape[0])), expected_size, expected_by)
     return image
+
+
+# The float image formats OpenCV reads and Pillow does not, by their files' first bytes.
+FLOAT_SIGNATURES = {
+    b"#?RADIANCE": "a Radiance HDR image",
+    b"#?RGBE": "a Radiance HDR image",
+    b"\x76\x2f\x31\x01": "an OpenEXR image",
+    b"PF\n": "a PFM image",
+    b"Pf\n": "a PFM image",
+}
+
+
+def float_format(head: bytes) -> str | None:
+    """Which float image format a file's first bytes ``head`` (16 are enough) begin, or None."""
+    return next((kind for signature, kind in FLOAT_SIGNATURES.items() if head.startswith(signature)), None)
 
 
 def _decode(data: NDArray[np.uint8]) -> NDArray[Any] | None:
