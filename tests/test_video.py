@@ -693,6 +693,13 @@ def test_progress_bar_on_a_terminal_only(work: Path, tmp_path: Path) -> None:
     assert piped.stderr == "" and "unwarped 40 frames" in piped.stdout
     quiet = subprocess.run([*command, "-q"], capture_output=True, text=True, check=True)
     assert quiet.stdout == quiet.stderr == ""
+    # x265 prints its settings and statistics straight to the stderr descriptor unless told not to (it was
+    # a dozen "x265 [info]: ..." lines per output, -q or not).
+    x265 = subprocess.run([*command, "--codec", "libx265", "-q"], capture_output=True, text=True, check=True)
+    assert x265.stdout == x265.stderr == ""
+    with av.open(str(tmp_path / "p.mp4")) as container:
+        assert container.streams.video[0].codec_context.name == "hevc"
+        assert sum(1 for _ in container.decode(video=0)) == FRAMES
 
 
 MEMORY_RUN = """

@@ -54,6 +54,11 @@ class EncoderSettings:
             options["preset"] = self.preset
         if takes_crf_preset and self.crf is not None and self.bitrate is None:
             options["crf"] = str(self.crf)
+        if self.codec == "libx265":
+            # x265 prints its settings, statistics and the settings it changed ("Source height < 720p;
+            # disabling lookahead-slices") straight to stderr, a dozen lines per output, unless told not to;
+            # its errors still show. Given x265-params win (log-level=info brings them back).
+            options["x265-params"] = "log-level=error"
         return options | dict(self.options)
 
     def check(self) -> None:
