@@ -53,15 +53,18 @@ PERSPECTIVE = "perspective:yaw=30,pitch=-35,fov=90,size=160x120"
 LOSSLESS_BGR = ["--codec", "ffv1", "--pix-fmt", "bgr0"]
 
 
-def write_clip(path: Path, frames: int, audio: bool = True, container_format: str | None = None) -> None:
-    """``frames`` frames of the turning room (yuv420p H.264), and a tone as AAC audio if ``audio``."""
+def write_clip(
+    path: Path, frames: int, audio: bool = True, container_format: str | None = None, audio_codec: str = "aac"
+) -> None:
+    """``frames`` frames of the turning room (yuv420p H.264), and a tone (``audio_codec``: aac or pcm_s16le)
+    if ``audio``."""
     omni = OMNI
     with av.open(str(path), "w", format=container_format) as container:
         video = container.add_stream("libx264", rate=RATE)
         video.width, video.height = SIZE
         video.pix_fmt = "yuv420p"
         video.options = {"preset": "ultrafast", "crf": "16"}
-        tone = container.add_stream("aac", rate=48000) if audio else None
+        tone = container.add_stream(audio_codec, rate=48000) if audio else None
         for index in range(frames):
             turn = cv2.getRotationMatrix2D(CAMERA.centre, 3.0 * index, 1.0)
             frame = av.VideoFrame.from_ndarray(cv2.warpAffine(omni, turn, SIZE), format="bgr24")
@@ -74,7 +77,11 @@ def write_clip(path: Path, frames: int, audio: bool = True, container_format: st
             samples = 48000 * frames // RATE
             for start in range(0, samples, 1024):
                 wave = 0.2 * np.sin(2 * np.pi * 440 * np.arange(start, start + 1024) / 48000)
-                chunk = av.AudioFrame.from_ndarray(wave.astype(np.float32)[None], format="fltp", layout="mono")
+                if audio_codec == "pcm_s16le":
+                    samples_s16 = np.rint(wave * 32767).astype(np.int16)[None]
+                    chunk = av.AudioFrame.from_ndarray(samples_s16, format="s16", layout="mono")
+                else:
+                    chunk = av.AudioFrame.from_ndarray(wave.astype(np.float32)[None], format="fltp", layout="mono")
                 chunk.sample_rate, chunk.pts = 48000, start
                 for packet in tone.encode(chunk):
                     container.mux(packet)
@@ -182,6 +189,28 @@ def test_without_audio_when_asked_or_when_the_input_has_none(work: Path, tmp_pat
     result = run("video", work / "cam.npz", tmp_path / "silent.mp4", "-o", tmp_path / "b.mp4", "--view", PANORAMA)
     assert result.exit_code == 0, result.stderr
     assert len(decoded(tmp_path / "b.mp4")) == 5 and audio_packets(tmp_path / "b.mp4") == []
+
+
+def test_audio_mpeg_ts_cannot_carry_is_refused_before_any_work(work: Path, tmp_path: Path) -> None:
+    """PCM audio into .ts was written as a private data stream that no player plays, silently."""
+    write_clip(tmp_path / "pcm.mkv", 5, audio_codec="pcm_s16le")
+    result = run("video", work / "cam.npz", tmp_path / "pcm.mkv", "-o", tmp_path / "out.ts", "--view", PANORAMA)
+    assert_one_line_error(result, "out.ts: MPEG-TS cannot carry the input's pcm_s16le audio", "--no-audio")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pcm.mkv"]  # nothing written
+    result = run("video", work / "cam.npz", tmp_path / "pcm.mkv", "-o", tmp_path / "out.mkv", "--view", PANORAMA)
+    assert result.exit_code == 0, result.stderr
+    with av.open(str(tmp_path / "out.mkv")) as container:
+        assert container.streams.audio[0].codec_context.name == "pcm_s16le"
+    result = run(
+        "video", work / "cam.npz", tmp_path / "pcm.mkv", "-o", tmp_path / "quiet.ts", "--view", PANORAMA, "--no-audio"
+    )
+    assert result.exit_code == 0, result.stderr
+    assert len(decoded(tmp_path / "quiet.ts")) == 5 and audio_packets(tmp_path / "quiet.ts") == []
+    # AAC goes into .ts as ever.
+    result = run("video", work / "cam.npz", work / "clip.mp4", "-o", tmp_path / "aac.ts", "--view", PANORAMA)
+    assert result.exit_code == 0, result.stderr
+    with av.open(str(tmp_path / "aac.ts")) as container:
+        assert container.streams.audio[0].codec_context.name == "aac"
 
 
 def test_output_frames_equal_the_still_image_view_of_the_same_decoded_frame(work: Path, tmp_path: Path) -> None:

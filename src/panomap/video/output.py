@@ -178,6 +178,15 @@ def open_writer(
         raise PanomapError(
             f"the video encoder {encoder.codec} refused its options ({encoder.described()}): {reason(exc)}", path
         ) from None
+    if audio_template is not None and container.format.name == "mpegts":
+        codec = audio_template.codec_context.name
+        if codec not in MPEGTS_AUDIO:
+            container.close()
+            raise PanomapError(
+                f"MPEG-TS cannot carry the input's {codec} audio (FFmpeg would write it as a data stream no player "
+                "plays): write .mkv, .mov or .nut, or leave the audio out (--no-audio)",
+                path,
+            )
     try:
         audio: Any = container.add_stream_from_template(audio_template) if audio_template is not None else None
         container.start_encoding()
@@ -189,6 +198,10 @@ def open_writer(
             f"cannot encode {encoder.codec} {encoder.pix_fmt} {what}into it: {reason(exc)}{hint}", path
         ) from None
     return Writer(path, temporary, container, video, audio)
+
+
+# The audio codecs FFmpeg's MPEG-TS muxer gives a stream type (any other it writes as private data, silently).
+MPEGTS_AUDIO = frozenset({"mp2", "mp3", "aac", "aac_latm", "ac3", "eac3", "dts", "truehd", "opus", "s302m"})
 
 
 def container_format(path: Path) -> str | None:
