@@ -160,6 +160,30 @@ def test_views_write_images_and_the_maps_they_used(work: Path) -> None:
         np.testing.assert_allclose(image[..., :2][away], pattern[away], atol=0.6)
 
 
+def test_an_image_a_viewer_would_turn_is_taken_as_stored_with_a_warning(work: Path) -> None:
+    """EXIF orientation 6 (a phone held upright): viewers show the image turned 90 deg, panomap takes the pixels
+    as stored (the table belongs to the sensor's grid) and says so once; the view is that of the same pixels
+    without the tag."""
+    from PIL import Image
+
+    table_path = fit_table(work)
+    exif = Image.Exif()
+    exif[0x0112] = 6
+    with Image.open(work / "omni.png") as image:
+        image.save(work / "turned.png", exif=exif)
+    plain = run("panorama", table_path, work / "omni.png", "-o", work / "plain.png", "--size", "256x64")
+    turned = run("panorama", table_path, work / "turned.png", "-o", work / "turned_view.png", "--size", "256x64")
+    assert plain.exit_code == turned.exit_code == 0, plain.stderr + turned.stderr
+    assert plain.stderr == ""
+    assert turned.stderr.splitlines() == [
+        f"panomap: warning: {work / 'turned.png'}: its EXIF orientation (6) asks viewers to show it turned 90 deg "
+        "clockwise: panomap takes the pixels as stored, so measure landmarks in the image as stored, not as a "
+        "viewer shows it"
+    ]
+    np.testing.assert_array_equal(cv2.imread(str(work / "turned_view.png")), cv2.imread(str(work / "plain.png")))
+    assert "EXIF orientation (6)" in run("centre", work / "turned.png").stderr
+
+
 def test_project_writes_pixels_and_leaves_invisible_points_empty(work: Path) -> None:
     table_path = fit_table(work)
     points = np.array([[4.0, 2.5, 0.0], [1.0, 1.0, 1.0], [3.0, 2.0, 9.0]])

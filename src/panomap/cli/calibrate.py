@@ -21,7 +21,7 @@ from ..files import all_or_none, check_output_paths
 from ..io.images import read_image, write_image
 from ..table.file import load_table
 from ..table.table import PanoMappingTable, check_table_size
-from .options import FINITE, NON_NEGATIVE, PATH, POSITIVE, SIZE, TILT, usage_error
+from .options import FINITE, NON_NEGATIVE, PATH, POSITIVE, SIZE, TILT, usage_error, warn_orientation
 
 
 @click.command()
@@ -168,6 +168,8 @@ def fit(
             f'no camera position in {landmarks}: give --camera X0 Y0 Z0 (or "camera" in a JSON landmark file)'
         )
     omni = None if image is None else read_image(image)
+    if image is not None:
+        warn_orientation(image)
     if omni is not None and size is not None and size != (omni.shape[1], omni.shape[0]):
         raise click.BadParameter(
             f"{size[0]}x{size[1]}, but {image} is {omni.shape[1]} x {omni.shape[0]} (give one of them)",
@@ -230,6 +232,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None) -> None:
     """
     check_output_paths([("the input image", image)], [("--overlay", overlay)])
     omni = read_image(image)
+    warn_orientation(image)
     try:
         circles = find_image_circles(omni)
     except NoImageCircle as exc:

@@ -87,3 +87,12 @@ NON_NEGATIVE = Finite(0.0)
 TILT = Tilt()
 PATH = click.Path(path_type=Path, dir_okay=False)
 FOLDER = click.Path(path_type=Path, file_okay=False)
+
+
+def warn_orientation(path: Path) -> None:
+    """Print a warning line where the image at ``path`` asks viewers to turn or mirror it (its EXIF orientation)."""
+    from ..io.images import orientation_note
+
+    note = orientation_note(path)
+    if note is not None:
+        click.echo(f"panomap: warning: {path}: {note}", err=True)

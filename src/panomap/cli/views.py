@@ -24,7 +24,7 @@ from ..table.sampling import SAMPLINGS
 from ..views import View, build_map, view_kinds
 from ..views.base import Param, ParameterError, Value
 from ..views.spec import view_from_params
-from .options import FINITE, PATH, SIZE, usage_error
+from .options import FINITE, PATH, SIZE, usage_error, warn_orientation
 
 
 def view_options(function: Callable[..., Any]) -> Callable[..., Any]:
@@ -85,6 +85,7 @@ def _render(
         check_output(path)
     table = load_table(table_path)
     image = read_image(image_path, table.image_size, f"the table {table_path}")
+    warn_orientation(image_path)
     map_uv = build_map(table, view, sampling)
     remapper = Remapper(map_uv, (image.shape[1], image.shape[0]), interp)
     with all_or_none():

@@ -150,6 +150,44 @@ def header_size(path: str | Path) -> tuple[int, int] | None:
     return int(width), int(height)
 
 
+# What an EXIF orientation other than 1 asks a viewer to do before showing the image.
+EXIF_ORIENTATIONS = {
+    2: "mirrored left to right",
+    3: "turned 180 deg",
+    4: "mirrored top to bottom",
+    5: "mirrored and turned",
+    6: "turned 90 deg clockwise",
+    7: "mirrored and turned",
+    8: "turned 90 deg counter-clockwise",
+}
+
+
+def orientation_note(path: str | Path) -> str | None:
+    """A warning where the image file's EXIF orientation asks viewers to turn or mirror it; None otherwise.
+
+    panomap takes the pixels as stored (a table belongs to the sensor's pixel grid, whatever a
+    viewer shows); landmarks measured in a viewer that turned the image would not match them.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    with _PILLOW_LOCK, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
+        try:
+            with Image.open(path) as image:
+                orientation = image.getexif().get(0x0112)
+        except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
+            return None
+        finally:
+            Image.MAX_IMAGE_PIXELS = limit
+    if orientation not in EXIF_ORIENTATIONS:
+        return None
+    return (
+        f"its EXIF orientation ({orientation}) asks viewers to show it {EXIF_ORIENTATIONS[orientation]}: "
+        "panomap takes the pixels as stored, so measure landmarks in the image as stored, not as a viewer shows it"
+    )
+
+
 def image_size(path: str | Path) -> tuple[int, int]:
     """(width, height) of an image file, from its header where Pillow reads it."""
     size = header_size(path)
