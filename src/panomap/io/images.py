@@ -55,14 +55,13 @@ def read_image(
         raise PanomapError("no such image file", path)
     if not path.is_file():
         raise PanomapError("not a file", path)
+    with path.open("rb") as handle:
+        kind = float_format(handle.read(16))
+    if kind is not None:  # (refused before decoding: a large one would take its memory first)
+        raise PanomapError(f"images must be 8- or 16-bit, this one is {kind} (32-bit float)", path)
     declared = header_size(path)
     if declared is not None:
         _check_size(path, declared, expected_size, expected_by)
-    else:
-        with path.open("rb") as handle:
-            kind = float_format(handle.read(16))
-        if kind is not None:  # (refused before decoding: a large one would take its memory first)
-            raise PanomapError(f"images must be 8- or 16-bit, this one is {kind} (32-bit float)", path)
     data = np.fromfile(path, dtype=np.uint8)
     if data[: len(PNG_SIGNATURE)].tobytes() == PNG_SIGNATURE:
         problem = png_problem(path)
