@@ -202,6 +202,11 @@ def test_project_writes_pixels_and_leaves_invisible_points_empty(work: Path) -> 
     assert piped.exit_code == 0, piped.stderr
     assert piped.stdout == (work / "px.csv").read_text()
     assert piped.stderr == "wrote standard output (2 of 3 points visible)\n"
+    # A semicolon file with decimal commas gets its pixels back in its own separators and decimal mark.
+    (work / "pts_de.csv").write_text((work / "pts.csv").read_text().replace(",", ";").replace(".", ","))
+    german = run("project", table_path, work / "pts_de.csv", "-o", "-")
+    assert german.exit_code == 0, german.stderr
+    assert german.stdout == piped.stdout.replace(",", ";").replace(".", ",")
     (work / "seen.csv").write_text("\n".join(lines[:3]) + "\n")
     rays = run("unproject", table_path, work / "seen.csv", "-o", "-")
     assert rays.exit_code == 0, rays.stderr
@@ -211,12 +216,24 @@ def test_project_writes_pixels_and_leaves_invisible_points_empty(work: Path) -> 
     assert not Path("-").exists() and not (work / "-").exists()
 
 
+def test_semicolon_and_tab_files_with_decimal_commas_fit_as_the_comma_file_does(work: Path) -> None:
+    # A spreadsheet where the decimal mark is a comma writes "name;u;v;X;Y;Z" rows of "door;412,5;...".
+    first = json.loads(run("info", fit_table(work), "--json").output)["model"]
+    comma = (work / "lm.csv").read_text()
+    for separator in (";", "\t"):
+        (work / "lm.csv").write_text(comma.replace(",", separator).replace(".", ","))
+        again = json.loads(run("info", fit_table(work), "--json").output)["model"]
+        assert again == first, separator
+
+
 BAD_LANDMARKS = {
     "no_columns": ("a,b,c\n1,2,3\n", "lacks the column(s) u,v,X,Y,Z"),
     "too_few": ("u,v,X,Y,Z\n" + "1,2,3,4,0\n" * 4, "only 4 landmark(s); at least 5"),
     "nan": ("u,v,X,Y,Z\n" + "1,2,3,4,0\n" * 5 + "nan,2,3,4,0\n", "row 7, u is not finite"),
     "inf": ("u,v,X,Y,Z\n" + "1,2,3,4,inf\n" * 6, "row 2, Z is not finite"),
     "text": ("u,v,X,Y,Z\n" + "1,2,3,four,0\n" * 6, "row 2, Y is not a number"),
+    # Rows are the file's lines, blank ones included (the line an editor shows).
+    "blank_lines": ("u,v,X,Y,Z\n\n" + "1,2,3,4,0\n" * 3 + "\n1,2,3,x,0\n", "row 7, Y is not a number"),
     "one_elevation": (
         "u,v,X,Y,Z\n"
         + "".join(

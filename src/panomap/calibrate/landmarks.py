@@ -5,6 +5,10 @@ Files:
 - CSV: a header with at least ``u,v,X,Y,Z`` (any order, any case, an
   optional ``name`` column), one landmark per row; world coordinates in world
   units, pixels in the conventions' (u, v) (centre of the top-left pixel at 0, 0).
+  Fields are separated by commas or, where the header holds no comma, by
+  semicolons or tabs (what spreadsheets write where the decimal mark is a
+  comma; such files may then write ``1,5`` for 1.5). Rows are counted as the
+  file's lines, blank lines included.
   A name that a spreadsheet would take for a formula (one starting with ``=``,
   ``+``, ``-``, ``@``, a tab or a carriage return) is written with a ``'`` before
   it, as OWASP advises against CSV injection, and so is one that starts with
@@ -34,6 +38,8 @@ COLUMNS = ("u", "v", "X", "Y", "Z")
 MIN_LANDMARKS = 5
 # First characters of a CSV cell that spreadsheets run as a formula, and the escape itself.
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r", "'")
+# Field separators a CSV may use, in the order they are looked for in its header.
+DELIMITERS = (",", ";", "\t")
 
 
 def escape_csv_name(name: str) -> str:
@@ -125,11 +131,29 @@ def _number(value: Any, what: str) -> float:
         raise PanomapError(f"{what} is not {'finite' if exc.number else 'a number'}: {value!r}") from None
 
 
+def _csv_rows(text: str) -> tuple[list[tuple[int, list[str]]], str]:
+    """The CSV's non-blank rows, each with its line number in the file (the header's is the first), and the
+    separator of its fields: a comma, or where the header holds none a semicolon or a tab."""
+    lines = [(number, line) for number, line in enumerate(text.splitlines(), start=1) if line.strip()]
+    header = lines[0][1] if lines else ""
+    delimiter = next((d for d in DELIMITERS if d in header), ",")
+    rows = csv.reader((line for _, line in lines), delimiter=delimiter)
+    return [(number, row) for (number, _), row in zip(lines, rows, strict=True)], delimiter
+
+
+def _cell_number(cell: str, delimiter: str, what: str) -> float:
+    """A CSV cell's number; where the fields are not comma-separated, a decimal comma (``1,5``) is read too."""
+    cell = cell.strip()
+    if delimiter != "," and "," in cell and "." not in cell:
+        cell = cell.replace(",", ".", 1)
+    return _number(cell, what)
+
+
 def _from_csv(text: str) -> Landmarks:
-    rows = list(csv.reader(line for line in text.splitlines() if line.strip()))
+    rows, delimiter = _csv_rows(text)
     if not rows:
         raise PanomapError("the landmark CSV is empty")
-    header = [h.strip() for h in rows[0]]
+    header = [h.strip() for h in rows[0][1]]
     lowered = [h.lower() for h in header]
     missing = [c for c in COLUMNS if c.lower() not in lowered]
     if missing:
@@ -141,30 +165,32 @@ def _from_csv(text: str) -> Landmarks:
     name_index = lowered.index("name") if "name" in lowered else None
     pixels, world, names = [], [], []
     unnamed: list[bool] = []
-    for line, row in enumerate(rows[1:], start=2):
+    lines: list[int] = []
+    for place, (line, row) in enumerate(rows[1:], start=1):
         if len(row) < len(header):
             raise PanomapError(f"row {line} has {len(row)} fields, the header {len(header)}")
-        values = [_number(row[index[c]].strip(), f"row {line}, {c}") for c in COLUMNS]
+        values = [_cell_number(row[index[c]], delimiter, f"row {line}, {c}") for c in COLUMNS]
         pixels.append(values[:2])
         world.append(values[2:])
         name = unescape_csv_name(row[name_index].strip()) if name_index is not None else ""
-        names.append(name or f"L{line - 1}")
+        names.append(name or f"L{place}")
         unnamed.append(not name)
-        _check_named_once(names, unnamed, "row", 2)
+        lines.append(line)
+        _check_named_once(names, unnamed, "row", lines)
     return Landmarks(np.array(pixels).reshape(-1, 2), np.array(world).reshape(-1, 3), tuple(names))
 
 
-def _check_named_once(names: list[str], unnamed: list[bool], what: str, first: int) -> None:
+def _check_named_once(names: list[str], unnamed: list[bool], what: str, places: list[int]) -> None:
     """Refuse the last of ``names`` where an earlier one is the same (the report names landmarks: two of one
     name make it ambiguous). ``unnamed``: which were named for want of a name in the file; ``what`` and
-    ``first``: how the file counts them (row 2, landmark 1, ...)."""
+    ``places``: how the file counts them (row 2, landmark 1, ...), one per name."""
     name = names[-1]
     if name in names[:-1]:
         earlier = names.index(name)
-        given = [k + first for k in (earlier, len(names) - 1) if unnamed[k]]
+        given = [places[k] for k in (earlier, len(names) - 1) if unnamed[k]]
         why = f" ({what} {given[0]} has no name: that is the one it was given)" if given else ""
         raise PanomapError(
-            f"{what}s {earlier + first} and {len(names) - 1 + first} are both named {name!r}{why}: "
+            f"{what}s {places[earlier]} and {places[-1]} are both named {name!r}{why}: "
             "give each landmark a name of its own"
         )
 
@@ -191,7 +217,7 @@ def _from_json(text: str) -> Landmarks:
         world.append(values[2:])
         names.append(str(item.get("name") or f"L{k}"))
         unnamed.append(not item.get("name"))
-        _check_named_once(names, unnamed, "landmark", 1)
+        _check_named_once(names, unnamed, "landmark", list(range(1, k + 1)))
     camera = data.get("camera")
     position = None
     if camera is not None:
@@ -217,27 +243,41 @@ def landmarks_to_csv(landmarks: Landmarks) -> str:
     return text.getvalue()
 
 
-def read_points(
-    path: str | Path, columns: tuple[str, ...] = ("X", "Y", "Z")
-) -> tuple[list[str], list[list[str]], FloatArray]:
+@dataclass(frozen=True)
+class PointRows:
+    """A points CSV as read: its header and every row's fields (to pass through), the wanted columns' values,
+    and how the file writes its fields, so that an output made from it can write them alike."""
+
+    header: list[str]
+    rows: list[list[str]]
+    values: FloatArray
+    """(n, len(columns)): world units for X, Y, Z; px for u, v."""
+    delimiter: str = ","
+    decimal_comma: bool = False
+    """Whether its numbers use a decimal comma (``1,5``: only in a file not separated by commas)."""
+
+    def number(self, value: float, decimals: int) -> str:
+        """``value`` written with ``decimals`` decimals and the file's decimal mark."""
+        text = f"{value:.{decimals}f}"
+        return text.replace(".", ",") if self.decimal_comma else text
+
+
+def read_points(path: str | Path, columns: tuple[str, ...] = ("X", "Y", "Z")) -> PointRows:
     """Read numeric columns (by default world points ``X,Y,Z``) from a CSV, keeping every row.
 
     Parameters
     ----------
     path : str or path-like
-        A CSV with a header holding at least ``columns`` (any case, any order);
-        other columns are kept for passing through.
+        A CSV with a header holding at least ``columns`` (any case, any order;
+        its fields separated as :func:`read_landmarks` reads them); other
+        columns are kept for passing through.
     columns : tuple of str
         The columns to read as numbers, e.g. ``("u", "v")`` for pixels.
 
     Returns
     -------
-    header : list of str
-        The file's header, as written.
-    rows : list of list of str
-        Every row's fields, to pass through.
-    values : (n, len(columns)) ndarray
-        The columns' values per row (world units for X, Y, Z; px for u, v).
+    PointRows
+        The header, the rows, the values (n, len(columns)) and the file's separator and decimal mark.
 
     Raises
     ------
@@ -247,25 +287,28 @@ def read_points(
     """
     path = Path(path)
     text = read_text(path)
-    rows = list(csv.reader(line for line in text.splitlines() if line.strip()))
+    numbered, delimiter = _csv_rows(text)
     wanted = ",".join(columns)
-    if not rows:
+    if not numbered:
         raise PanomapError(f"the CSV is empty; it needs a header with {wanted}", path)
-    header = [h.strip() for h in rows[0]]
+    header = [h.strip() for h in numbered[0][1]]
     lowered = [h.lower() for h in header]
     missing = [c for c in columns if c.lower() not in lowered]
     if missing:
         raise PanomapError(f"the CSV lacks the column(s) {','.join(missing)}; it holds {','.join(header)}", path)
     index = [lowered.index(c.lower()) for c in columns]
     values = []
-    for line, row in enumerate(rows[1:], start=2):
+    for line, row in numbered[1:]:
         if len(row) < len(header):
             raise PanomapError(f"row {line} has {len(row)} fields, the header {len(header)}", path)
         try:
-            values.append([_number(row[i].strip(), f"row {line}, {header[i]}") for i in index])
+            values.append([_cell_number(row[i], delimiter, f"row {line}, {header[i]}") for i in index])
         except PanomapError as exc:
             raise PanomapError(exc.detail, path) from None
-    return header, rows[1:], np.array(values, dtype=np.float64).reshape(-1, len(columns))
+    rows = [row for _, row in numbered[1:]]
+    decimal_comma = delimiter != "," and any("," in row[i] for row in rows for i in index)
+    array = np.array(values, dtype=np.float64).reshape(-1, len(columns))
+    return PointRows(header, rows, array, delimiter, decimal_comma)
 
 
 def landmarks_to_json(landmarks: Landmarks) -> str:

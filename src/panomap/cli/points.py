@@ -31,14 +31,16 @@ def project(table: Path, points: Path, output: Path, table_sampling: str) -> Non
     """World points (CSV with X,Y,Z) to pixels through the table; u,v empty where not visible."""
     check_output_paths([("the table", table), ("the points", points)], _outputs(output))
     loaded = load_table(table)
-    header, rows, xyz = read_points(points)
-    uv = loaded.project(xyz, table_sampling)
+    read = read_points(points)
+    header, rows = read.header, read.rows
+    uv = loaded.project(read.values, table_sampling)
     keep = [i for i, name in enumerate(header) if name.lower() not in ("u", "v")]
     buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
+    writer = csv.writer(buffer, delimiter=read.delimiter, lineterminator="\n")
     writer.writerow([header[i] for i in keep] + ["u", "v"])
     for row, (u, v) in zip(rows, uv.tolist(), strict=True):
-        pixel = ["", ""] if not (math.isfinite(u) and math.isfinite(v)) else [f"{u:.4f}", f"{v:.4f}"]
+        seen = math.isfinite(u) and math.isfinite(v)
+        pixel = [read.number(u, 4), read.number(v, 4)] if seen else ["", ""]
         writer.writerow([row[i] for i in keep] + pixel)
     visible = int(np.count_nonzero(np.all(np.isfinite(uv), axis=1)))
     _write(output, buffer.getvalue(), f"({visible} of {len(rows)} points visible)")
@@ -80,8 +82,9 @@ def unproject(table: Path, pixels: Path, output: Path, z_plane: float | None) ->
     """Pixels (CSV with u,v) to rays: azimuth and elevation, empty outside the valid region."""
     check_output_paths([("the table", table), ("the pixels", pixels)], _outputs(output))
     loaded = load_table(table)
-    header, rows, uv = read_points(pixels, ("u", "v"))
-    theta, rho = loaded.unproject(uv)
+    read = read_points(pixels, ("u", "v"))
+    header, rows = read.header, read.rows
+    theta, rho = loaded.unproject(read.values)
     added = ["azimuth_deg", "elevation_deg"] + (["X", "Y", "Z"] if z_plane is not None else [])
     replaced = {name.lower() for name in added}
     keep = [i for i, name in enumerate(header) if name.lower() not in replaced]
@@ -91,12 +94,12 @@ def unproject(table: Path, pixels: Path, output: Path, z_plane: float | None) ->
         else np.full((len(rows), 0), np.nan)
     )
     buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
+    writer = csv.writer(buffer, delimiter=read.delimiter, lineterminator="\n")
     writer.writerow([header[i] for i in keep] + added)
     for row, azimuth, elevation, point in zip(rows, theta.tolist(), rho.tolist(), world.tolist(), strict=True):
         seen = math.isfinite(elevation)
-        ray = [f"{math.degrees(azimuth):.6f}", f"{math.degrees(elevation):.6f}"] if seen else ["", ""]
-        where = ["" if not math.isfinite(c) else f"{c:.6f}" for c in point]
+        ray = [read.number(math.degrees(azimuth), 6), read.number(math.degrees(elevation), 6)] if seen else ["", ""]
+        where = ["" if not math.isfinite(c) else read.number(c, 6) for c in point]
         writer.writerow([row[i] for i in keep] + ray + where)
     valid = int(np.count_nonzero(np.isfinite(rho)))
     message = f"({valid} of {len(rows)} pixels in the valid region"
