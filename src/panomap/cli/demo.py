@@ -113,7 +113,12 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
 
 @click.command()
 @click.option(
-    "--out", type=FOLDER, default=Path("demo-out"), show_default=True, help="Folder for everything the demo writes."
+    "-o",
+    "--out",
+    type=FOLDER,
+    default=Path("demo-out"),
+    show_default=True,
+    help="Folder for everything the demo writes.",
 )
 @click.option(
     "--camera",
