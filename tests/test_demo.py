@@ -17,7 +17,16 @@ from panomap.views import Band, CylinderPanorama
 def test_demo_writes_views_that_match_a_direct_render_of_the_room(tmp_path: Path) -> None:
     result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path)])
     assert result.exit_code == 0, result.output + result.stderr
-    for name in ("omni.png", "landmarks.csv", "table.npz", "fit.png", "panorama.png", "cylinder.png", "plane.png"):
+    for name in (
+        "omni.png",
+        "landmarks.csv",
+        "table.npz",
+        "fit.png",
+        "fit-overlay.png",
+        "panorama.png",
+        "cylinder.png",
+        "plane.png",
+    ):
         assert (tmp_path / name).stat().st_size > 0, name
     assert "against the true camera" in result.output
 

@@ -1574,22 +1574,22 @@ def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[Any]:
     (the ellipse darker green, when there is one), the cut-off disc red, the
     centre a yellow cross; drawn with 1/16 px precision.
     """
-    canvas, thickness = _canvas(image)
+    canvas, thickness = overlay_canvas(image)
     cv2.circle(
         canvas,
-        _at(circles.outer.centre),
-        round(circles.outer.radius * _SCALE),
+        at_subpixel(circles.outer.centre),
+        round(circles.outer.radius * SUBPIXEL),
         (0, 220, 0),
         thickness,
         cv2.LINE_AA,
-        _SHIFT,
+        SHIFT,
     )
     # The arcs the rim was fitted to, thicker.
-    radius = round(circles.outer.radius * _SCALE)
+    radius = round(circles.outer.radius * SUBPIXEL)
     for start, end in circles.rim_arcs_deg:
         cv2.ellipse(
             canvas,
-            _at(circles.outer.centre),
+            at_subpixel(circles.outer.centre),
             (radius, radius),
             0,
             start,
@@ -1597,12 +1597,14 @@ def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[Any]:
             (0, 255, 0),
             3 * thickness,
             cv2.LINE_AA,
-            _SHIFT,
+            SHIFT,
         )
     if circles.ellipse is not None:
         e = circles.ellipse
-        axes = (round(e.semi_axes[0] * _SCALE), round(e.semi_axes[1] * _SCALE))
-        cv2.ellipse(canvas, _at(e.centre), axes, e.angle_deg, 0, 360, (0, 160, 0), thickness, cv2.LINE_AA, _SHIFT)
+        axes = (round(e.semi_axes[0] * SUBPIXEL), round(e.semi_axes[1] * SUBPIXEL))
+        cv2.ellipse(
+            canvas, at_subpixel(e.centre), axes, e.angle_deg, 0, 360, (0, 160, 0), thickness, cv2.LINE_AA, SHIFT
+        )
     _draw_disc_and_cross(canvas, circles.cutoff, circles.centre, thickness)
     return canvas
 
@@ -1611,21 +1613,22 @@ def draw_no_rim_overlay(image: NDArray[Any], missing: NoImageCircle) -> NDArray[
     """An 8-bit BGR copy of ``image`` with what was found where no rim is: the cut-off disc in red (a
     mirror image that overfills the frame), when there is one, and the starting value for the centre (the
     disc's centre, else the frame's middle) a yellow cross; drawn as :func:`draw_overlay` draws them."""
-    canvas, thickness = _canvas(image)
+    canvas, thickness = overlay_canvas(image)
     start = missing.frame_centre if missing.cutoff is None else missing.cutoff.centre
     _draw_disc_and_cross(canvas, missing.cutoff, start, thickness)
     return canvas
 
 
-_SHIFT = 4  # fractional bits of the drawn coordinates: 1/16 px
-_SCALE = 1 << _SHIFT
+SHIFT = 4  # fractional bits of the drawn coordinates: 1/16 px
+SUBPIXEL = 1 << SHIFT
 
 
-def _at(point: tuple[float, float]) -> tuple[int, int]:
-    return round(point[0] * _SCALE), round(point[1] * _SCALE)
+def at_subpixel(point: tuple[float, float]) -> tuple[int, int]:
+    """A point (px) in the fixed-point coordinates OpenCV draws with at ``shift=SHIFT``."""
+    return round(point[0] * SUBPIXEL), round(point[1] * SUBPIXEL)
 
 
-def _canvas(image: NDArray[Any]) -> tuple[NDArray[Any], int]:
+def overlay_canvas(image: NDArray[Any]) -> tuple[NDArray[Any], int]:
     """An 8-bit BGR copy of ``image`` to draw on, and the lines' thickness (px) for its size."""
     grey_or_colour = image if image.dtype == np.uint8 else (image / 257).astype(np.uint8)
     if grey_or_colour.ndim == 2 or grey_or_colour.shape[2] == 1:
@@ -1640,8 +1643,14 @@ def _draw_disc_and_cross(
 ) -> None:
     """The cut-off disc (red), when given, and a yellow cross at ``centre``, drawn on ``canvas``."""
     if disc is not None:
-        cv2.circle(canvas, _at(disc.centre), round(disc.radius * _SCALE), (0, 0, 230), thickness, cv2.LINE_AA, _SHIFT)
+        cv2.circle(
+            canvas, at_subpixel(disc.centre), round(disc.radius * SUBPIXEL), (0, 0, 230), thickness, cv2.LINE_AA, SHIFT
+        )
     size = 12 * thickness
     u, v = centre
-    cv2.line(canvas, _at((u - size, v)), _at((u + size, v)), (0, 230, 230), thickness, cv2.LINE_AA, _SHIFT)
-    cv2.line(canvas, _at((u, v - size)), _at((u, v + size)), (0, 230, 230), thickness, cv2.LINE_AA, _SHIFT)
+    cv2.line(
+        canvas, at_subpixel((u - size, v)), at_subpixel((u + size, v)), (0, 230, 230), thickness, cv2.LINE_AA, SHIFT
+    )
+    cv2.line(
+        canvas, at_subpixel((u, v - size)), at_subpixel((u, v + size)), (0, 230, 230), thickness, cv2.LINE_AA, SHIFT
+    )

@@ -124,6 +124,12 @@ from .options import FINITE, NON_NEGATIVE, PATH, POSITIVE, SIZE, TILT, usage_err
 )
 @click.option("--keep-outliers", is_flag=True, help="Keep landmarks that disagree with the rest (default: drop them).")
 @click.option("--plot", type=PATH, help="Also write the fit plot (PNG): the curve, landmarks and residuals.")
+@click.option(
+    "--overlay",
+    type=PATH,
+    help="Also write --image with the fit drawn on it (PNG): the annulus and centre, circles of equal world "
+    "elevation (the horizon cyan), azimuth 0, and each landmark's residual (outliers red).",
+)
 def fit(
     landmarks: Path,
     output: Path,
@@ -144,6 +150,7 @@ def fit(
     camera_sigma: float | None,
     keep_outliers: bool,
     plot: Path | None,
+    overlay: Path | None,
 ) -> None:
     """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table."""
     # Options missing or out of range are usage errors (exit 2); the files' problems are failures (1).
@@ -157,11 +164,17 @@ def fit(
             check_table_size(table_size, what="--size")
         except PanomapError as exc:
             raise usage_error(exc) from None
-    check_output_paths([("the landmarks", landmarks), ("the image", image)], [("the output", output), ("--plot", plot)])
+    if overlay is not None and image is None:
+        raise click.UsageError("--overlay draws the fit on --image: give --image OMNI too")
+    check_output_paths(
+        [("the landmarks", landmarks), ("the image", image)],
+        [("the output", output), ("--plot", plot), ("--overlay", overlay)],
+    )
     if output.suffix.lower() != ".npz":
         raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
-    if plot is not None and plot.suffix.lower() != ".png":
-        raise click.BadParameter(f"{plot}: the fit plot is written as PNG (name it .png)", param_hint="'--plot'")
+    for picture, option, what in ((plot, "--plot", "the fit plot"), (overlay, "--overlay", "the overlay")):
+        if picture is not None and picture.suffix.lower() != ".png":
+            raise click.BadParameter(f"{picture}: {what} is written as PNG (name it .png)", param_hint=f"'{option}'")
     pairs = read_landmarks(landmarks)
     if camera is None and pairs.camera is None:
         raise click.UsageError(
@@ -207,10 +220,15 @@ def fit(
             from ..io.plot import save_fit_plot
 
             save_fit_plot(table, plot)
+        if overlay is not None and omni is not None:
+            from ..io.overlay import draw_fit_overlay
+
+            write_image(overlay, draw_fit_overlay(omni, table))
     click.echo(_describe_fit(table))
     for note in diagnose(result.fit, centre_guessed=result.sources["centre"].source is Source.FRAME_CENTRE):
         click.echo(f"diagnosis: {note}")
-    click.echo(f"wrote {output}" + (f" and {plot}" if plot else ""))
+    written = [str(path) for path in (output, plot, overlay) if path is not None]
+    click.echo("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
     for warning in table.info.get("warnings", []):
         click.echo(f"panomap: warning: {warning}", err=True)
 

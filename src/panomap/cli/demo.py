@@ -20,6 +20,7 @@ from ..calibrate.pipeline import calibrate_camera, choose_circles
 from ..calibrate.sources import Source
 from ..files import write_text_atomic
 from ..io.images import save_map, write_image
+from ..io.overlay import draw_fit_overlay
 from ..io.plot import save_fit_plot
 from ..remap import Remapper
 from ..simulate import load_room, render, standard_cameras
@@ -81,11 +82,13 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
     fit, table = result.fit, result.table
     table.save(out / "table.npz")
     save_fit_plot(table, out / "fit.png")
+    write_image(out / "fit-overlay.png", draw_fit_overlay(omni, table))
     m, n = table.size
     yield (
         f"fitted model {table.model.radial.kind} (s = {table.model.s:+d}, "
         f"phi0 = {math.degrees(table.model.phi0):.2f} deg), "
-        f"landmark RMS {fit.rms_px:.3f} px; table {m} x {n}: {out / 'table.npz'}, plot {out / 'fit.png'}"
+        f"landmark RMS {fit.rms_px:.3f} px; table {m} x {n}: {out / 'table.npz'}, plot {out / 'fit.png'}, "
+        f"the fit drawn on the image {out / 'fit-overlay.png'}"
     )
 
     floor, ceiling = -room.camera[2], room.height - room.camera[2]
