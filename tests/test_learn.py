@@ -707,3 +707,12 @@ def test_a_tilted_camera_is_fitted_and_said_on_the_page(client: Client, example:
     assert fit["tilt_toward_deg"] == pytest.approx(120.0, abs=0.5)
     assert "tilt (fitted): the optical axis is 2.00" in fit["message"]
     assert max(row["residual_px"] for row in fit["landmarks"]) < 0.05
+    # The horizon the page draws is where the tilted camera sees it (up to 5 px off the level camera's here).
+    theta = np.linspace(0.0, 2 * math.pi, len(fit["horizon"]), endpoint=False)
+    truth = tilted.project(np.stack([np.cos(theta), np.sin(theta), np.zeros_like(theta)], axis=-1))
+    level = example.camera.project(np.stack([np.cos(theta), np.sin(theta), np.zeros_like(theta)], axis=-1))
+    drawn = np.array([point if point is not None else [np.nan, np.nan] for point in fit["horizon"]])
+    both = np.all(np.isfinite(drawn), axis=1) & np.all(np.isfinite(truth), axis=1)
+    assert both.mean() > 0.9
+    assert np.max(np.linalg.norm(drawn[both] - truth[both], axis=1)) < 0.5
+    assert np.max(np.linalg.norm(level[both] - truth[both], axis=1)) > 3

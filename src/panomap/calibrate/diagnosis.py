@@ -33,12 +33,14 @@ import math
 import numpy as np
 
 from .fit import CameraFit
-from .report import CENTRE_AS_FOUND
+from .report import CENTRE_AS_FOUND, MountReport
 
 PATTERN_SIGMAS = 2.0
 EXPLAINED_FRACTION = 0.5
 MIN_LANDMARKS = 8
 GUESS_SHIFT_PX = 2.0
+# A tilt kept about the centre as found is worth a note only where it is this many standard errors or more.
+TILT_SHOWS_SE = 2.0
 # RMS residual against the RMS the noise model expects. Measured: 288 fits of 10-12 noisy landmarks (the 12
 # cameras of bench_fit, spread, random and with an outlier, 8 seeds each) 0.78 median, 1.67 at most; 40 trials of
 # bench_image_fit (tilted, the tape off, circles cut, full frames) 0.83 median, 1.31 at most.
@@ -73,10 +75,11 @@ def diagnose(fit: CameraFit, centre_guessed: bool = False) -> list[str]:
                 f"model ({fit.model.radial.kind}) does not follow this camera; let the model be chosen "
                 "automatically, or add landmarks across the elevations"
             )
-    if fit.mount is not None and fit.mount.chosen.endswith(CENTRE_AS_FOUND):
+    mount = fit.mount
+    if mount is not None and mount.chosen.endswith(CENTRE_AS_FOUND) and _tilt_shows(mount):
         notes.append(
             f"the centre was kept where the image shows it and the camera given a tilt of "
-            f"{fit.mount.tilt_deg:.2f} deg: near the nadir a tilt and a centre off the rim's look alike, and the "
+            f"{mount.tilt_deg:.2f} deg: near the nadir a tilt and a centre off the rim's look alike, and the "
             "landmarks favour the tilt; if the camera is known to be level, give --tilt none; landmarks near the "
             "horizon tell the two apart"
         )
@@ -149,3 +152,9 @@ def _expected_rms_px(fit: CameraFit) -> float:
     variance = 2 * fit.settings.pixel_sigma_px**2 + radial**2 + tangential**2
     finite = np.isfinite(variance)
     return float(np.sqrt(np.mean(variance[finite]))) if np.any(finite) else 0.0
+
+
+def _tilt_shows(mount: MountReport) -> bool:
+    """Whether a fitted tilt is told from level: at least TILT_SHOWS_SE of its standard errors (a tilt of
+    0.05 +- 0.16 deg about the rim's centre is the level camera with the centre where the rim puts it)."""
+    return mount.tilt_se_deg is None or mount.tilt_deg >= TILT_SHOWS_SE * mount.tilt_se_deg

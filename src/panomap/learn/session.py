@@ -59,6 +59,7 @@ from .validate import (
 LANDMARK_SUFFIXES = (".csv", ".json")
 TABLE_SUFFIXES = (".npz",)
 PREVIEW_SIZE = (720, 180)
+HORIZON_POINTS = 360  # azimuths at which the fit's horizon is sent to the page
 FIT_MODELS = ("auto", *MODELS)
 # The landmarks' pixel noise the page assumes (calibrate_camera's default), px.
 PIXEL_SIGMA = 1.0
@@ -484,6 +485,7 @@ class Session:
             "elevation_range_deg": [math.degrees(x) for x in table.elevation_range],
             "landmarks": rows,
             "curve": curve,
+            "horizon": _horizon(table),
         }
 
     # ------------------------------------------------------------------ previews and files
@@ -582,3 +584,15 @@ class Session:
             "landmarks": [n for n in names if n.lower().endswith(LANDMARK_SUFFIXES)],
             "tables": [n for n in names if n.lower().endswith(TABLE_SUFFIXES)],
         }
+
+
+def _horizon(table: PanoMappingTable) -> list[list[float] | None] | None:
+    """Where the table puts the world's horizon (elevation 0): a pixel [u, v] (px) at each of HORIZON_POINTS
+    azimuths from 0 (a null where the camera does not see it), for the page to draw; None when the table's
+    elevations do not reach it. Off-centre on a tilted camera, it shows the tilt."""
+    low, high = table.elevation_range
+    if not low <= 0.0 <= high:
+        return None
+    theta = np.linspace(0.0, 2 * math.pi, HORIZON_POINTS, endpoint=False)
+    pixels = np.asarray(table.sample(theta, np.zeros_like(theta)), dtype=np.float64)
+    return [[float(u), float(v)] if math.isfinite(u) and math.isfinite(v) else None for u, v in pixels.tolist()]

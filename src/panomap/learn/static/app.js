@@ -106,6 +106,7 @@
       ctx.drawImage(image, view.ox, view.oy, state.width * view.scale, state.height * view.scale);
     }
     if (state.circles) drawCircles();
+    if (state.fit && state.fit.ok && state.fit.horizon) drawHorizon(state.fit.horizon);
     state.landmarks.forEach((lm, k) => drawLandmark(lm, k === state.selected));
   }
 
@@ -129,6 +130,27 @@
     ctx.moveTo(p.x, p.y - 10);
     ctx.lineTo(p.x, p.y + 10);
     ctx.stroke();
+  }
+
+  // The fit's horizon (world elevation 0): round the fitted centre on a level camera, off it on a tilted one.
+  function drawHorizon(points) {
+    ctx.strokeStyle = "#bf5af2";
+    ctx.lineWidth = 1.5;
+    ctx.setLineDash([2, 3]);
+    ctx.beginPath();
+    let drawing = false;
+    for (const point of [...points, points[0]]) {
+      if (point === null) {
+        drawing = false;
+        continue;
+      }
+      const p = imageToCanvas(point[0], point[1]);
+      if (drawing) ctx.lineTo(p.x, p.y);
+      else ctx.moveTo(p.x, p.y);
+      drawing = true;
+    }
+    ctx.stroke();
+    ctx.setLineDash([]);
   }
 
   function drawLandmark(lm, selected) {
