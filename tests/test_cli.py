@@ -216,6 +216,26 @@ def test_project_writes_pixels_and_leaves_invisible_points_empty(work: Path) -> 
     assert not Path("-").exists() and not (work / "-").exists()
 
 
+def test_a_json_files_camera_is_used_and_a_different_camera_option_replaces_it_with_a_warning(work: Path) -> None:
+    from panomap.calibrate.landmarks import landmarks_to_json, read_landmarks
+
+    pairs = read_landmarks(work / "lm.csv")
+    (work / "lm.json").write_text(
+        landmarks_to_json(type(pairs)(pairs.pixels, pairs.world, pairs.names, (3.1, 2.0, 2.5)))
+    )
+    common = ["--image", work / "omni.png", "--centre", *CAMERA.centre, "--tilt", "none", "--camera-sigma", 0]
+    from_file = run("fit", work / "lm.json", "-o", work / "a.npz", *common)
+    assert from_file.exit_code == 0, from_file.stderr
+    assert "--camera" not in from_file.stderr
+    assert load_table(work / "a.npz").camera_position == (3.1, 2.0, 2.5)
+    replaced = run("fit", work / "lm.json", "-o", work / "b.npz", "--camera", *POSITION, *common)
+    assert replaced.exit_code == 0, replaced.stderr
+    assert f"panomap: warning: --camera (3, 2, 2.5) is used, not the camera in {work / 'lm.json'} (3.1, 2, 2.5)" in (
+        replaced.stderr
+    )
+    assert load_table(work / "b.npz").camera_position == POSITION
+
+
 def test_semicolon_and_tab_files_with_decimal_commas_fit_as_the_comma_file_does(work: Path) -> None:
     # A spreadsheet where the decimal mark is a comma writes "name;u;v;X;Y;Z" rows of "door;412,5;...".
     first = json.loads(run("info", fit_table(work), "--json").output)["model"]

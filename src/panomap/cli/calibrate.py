@@ -180,6 +180,9 @@ def fit(
         raise click.UsageError(
             f'no camera position in {landmarks}: give --camera X0 Y0 Z0 (or "camera" in a JSON landmark file)'
         )
+    if camera is not None and pairs.camera is not None and tuple(camera) != tuple(pairs.camera):
+        given, filed = (", ".join(f"{c:g}" for c in p) for p in (camera, pairs.camera))
+        click.echo(f"panomap: warning: --camera ({given}) is used, not the camera in {landmarks} ({filed})", err=True)
     omni = None if image is None else read_image(image)
     if image is not None:
         warn_orientation(image)
