@@ -106,7 +106,7 @@
       ctx.drawImage(image, view.ox, view.oy, state.width * view.scale, state.height * view.scale);
     }
     if (state.circles) drawCircles();
-    if (state.fit && state.fit.ok && state.fit.horizon) drawHorizon(state.fit.horizon);
+    if (state.fit && state.fit.ok) drawFitted(state.fit);
     state.landmarks.forEach((lm, k) => drawLandmark(lm, k === state.selected));
   }
 
@@ -132,10 +132,20 @@
     ctx.stroke();
   }
 
-  // The fit's horizon (world elevation 0): round the fitted centre on a level camera, off it on a tilted one.
-  function drawHorizon(points) {
+  // The fit's centre (a diagonal cross: where it put the optical axis, refined from the circles' centre) and
+  // its horizon (world elevation 0): round the centre on a level camera, off it toward one side on a tilted one.
+  function drawFitted(fit) {
     ctx.strokeStyle = "#bf5af2";
     ctx.lineWidth = 1.5;
+    const c = imageToCanvas(fit.centre[0], fit.centre[1]);
+    ctx.beginPath();
+    ctx.moveTo(c.x - 7, c.y - 7);
+    ctx.lineTo(c.x + 7, c.y + 7);
+    ctx.moveTo(c.x - 7, c.y + 7);
+    ctx.lineTo(c.x + 7, c.y - 7);
+    ctx.stroke();
+    if (!fit.horizon) return;
+    const points = fit.horizon;
     ctx.setLineDash([2, 3]);
     ctx.beginPath();
     let drawing = false;
