@@ -197,8 +197,17 @@ def _font_scale(thickness: int) -> float:
 def _text(
     canvas: NDArray[np.uint8], text: str, where: tuple[float, float], colour: tuple[int, int, int], thickness: int
 ) -> None:
-    """``text`` with its baseline's left end at ``where`` (px), outlined in black so that it reads on any image."""
-    origin = (round(where[0]), round(where[1]))
+    """``text`` with its baseline's left end at ``where`` (px), outlined in black so that it reads on any image.
+
+    The outline is the text drawn in black at the offsets around it, with the same thickness: OpenCV
+    spaces the letters by their thickness, so a thicker black copy would drift from the text along a line.
+    """
+    u, v = round(where[0]), round(where[1])
     scale = _font_scale(thickness)
-    cv2.putText(canvas, text, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 3 * thickness, cv2.LINE_AA)
-    cv2.putText(canvas, text, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, thickness, cv2.LINE_AA)
+    for du in (-thickness, 0, thickness):
+        for dv in (-thickness, 0, thickness):
+            if du or dv:
+                cv2.putText(
+                    canvas, text, (u + du, v + dv), cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), thickness, cv2.LINE_AA
+                )
+    cv2.putText(canvas, text, (u, v), cv2.FONT_HERSHEY_SIMPLEX, scale, colour, thickness, cv2.LINE_AA)
