@@ -266,6 +266,11 @@ BAD_LANDMARKS = {
         "u,v,X,Y,Z\n" + "".join(f"{100 * k},{50 * k},{3 + k},2,{k / 3}\n" for k in range(1, 8)),
         "outside the 640 x 600 image",
     ),
+    # (row, column) pixels: one landmark past the bottom of the 640 x 600 frame, all inside when swapped.
+    "row_column": (
+        "u,v,X,Y,Z\n" + "".join(f"{300 + k},{300 + 64 * k},{3 + k},2,{k / 3}\n" for k in range(6)),
+        "at pixel (305, 620) is outside the 640 x 600 image (read as (row, column) every landmark is inside it",
+    ),
     # Two of one name: the report's outliers would name either (the learn page refuses them too).
     "same_name": (
         "name,u,v,X,Y,Z\n" + "".join(f"{n},{300 + k},300,{3 + k},2,0\n" for k, n in enumerate("ABCADE")),

@@ -108,3 +108,20 @@ def test_a_tilt_within_its_uncertainty_about_the_rim_is_not_said_to_be_one() -> 
     notes = diagnose(result.fit)
     assert not any("given a tilt" in note for note in notes), notes
     assert any(note.startswith("dropped as outliers: E_window_bottom_right") for note in notes), notes
+
+
+def test_landmarks_given_as_row_and_column_are_said_to_be_so() -> None:
+    """The example camera on an 800 x 760 frame (its centre (397.7, 381.7), 23 px from its transpose) with
+    every landmark's u and v swapped (all still inside the frame): a transposed camera fits them as well,
+    the refinement takes the centre to the rim's centre transposed, and the diagnosis says what happened."""
+    example = make_example((800, 760), count=12, supersample=1)
+    swapped = Landmarks(example.pixels[:, ::-1].copy(), example.world, tuple(example.names))
+    result = calibrate_camera(swapped, tuple(example.camera_position), omni=example.image)
+    notes = diagnose(result.fit)
+    assert any("look like (row, column)" in note for note in notes), notes
+    plain = calibrate_camera(
+        Landmarks(example.pixels, example.world, tuple(example.names)),
+        tuple(example.camera_position),
+        omni=example.image,
+    )
+    assert not any("row, column" in note for note in diagnose(plain.fit))

@@ -39,6 +39,8 @@ PATTERN_SIGMAS = 2.0
 EXPLAINED_FRACTION = 0.5
 MIN_LANDMARKS = 8
 GUESS_SHIFT_PX = 2.0
+# A centre refined to its start's transpose says (row, column) pixels only where the two are this far apart (px).
+TRANSPOSED_APART_PX = 8.0
 # A tilt kept about the centre as found is worth a note only where it is this many standard errors or more.
 TILT_SHOWS_SE = 2.0
 # RMS residual against the RMS the noise model expects. Measured: 288 fits of 10-12 noisy landmarks (the 12
@@ -89,6 +91,14 @@ def diagnose(fit: CameraFit, centre_guessed: bool = False) -> list[str]:
             f"the centre was refined {fit.centre_shift_px:.1f} px from the frame's middle (no rim in the image to "
             "find it): without a rim a tilted axis and a moved centre look alike except near the horizon; if the "
             "camera may be tilted, give its centre from a calibration (--centre), or add landmarks near the horizon"
+        )
+    if not centre_guessed and _centre_transposed(fit):
+        start = fit.centre_start or fit.model.centre
+        notes.append(
+            f"the centre moved from ({start[0]:.1f}, {start[1]:.1f}), where the image shows it, to "
+            f"({fit.model.centre[0]:.1f}, {fit.model.centre[1]:.1f}): that point with u and v swapped. The "
+            "landmarks' pixels look like (row, column): give u as the column and v as the row, or every view will "
+            "show the image transposed"
         )
     expected = _expected_rms_px(fit)
     rms = float(np.sqrt(np.mean(fit.residuals_px[keep] ** 2))) if np.any(keep) else 0.0
@@ -158,3 +168,15 @@ def _tilt_shows(mount: MountReport) -> bool:
     """Whether a fitted tilt is told from level: at least TILT_SHOWS_SE of its standard errors (a tilt of
     0.05 +- 0.16 deg about the rim's centre is the level camera with the centre where the rim puts it)."""
     return mount.tilt_se_deg is None or mount.tilt_deg >= TILT_SHOWS_SE * mount.tilt_se_deg
+
+
+def _centre_transposed(fit: CameraFit) -> bool:
+    """Whether the refinement took the centre from where it started (the rim's) to near that point's transpose
+    (v0, u0): what landmarks measured as (row, column) do, as a transposed image fits them as well. Only where
+    the two are TRANSPOSED_APART_PX or more apart, and the centre ended within a quarter of that of the
+    transpose."""
+    if fit.centre_start is None:
+        return False
+    (u0, v0), (u, v) = fit.centre_start, fit.model.centre
+    apart = math.dist((u0, v0), (v0, u0))
+    return apart >= TRANSPOSED_APART_PX and math.dist((u, v), (v0, u0)) <= apart / 4

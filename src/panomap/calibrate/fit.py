@@ -919,8 +919,11 @@ def _check_inside(landmarks: Landmarks, image_size: tuple[int, int]) -> None:
     outside = np.flatnonzero(~inside_image(u, v, image_size))  # (landmarks are finite)
     if outside.size:
         k = outside[0]
+        transposed = bool(np.all(inside_image(v, u, image_size)))
+        hint = " (read as (row, column) every landmark is inside it: u is the column, v the row)" if transposed else ""
         raise PanomapError(
             f"landmark {landmarks.names[k]!r} at pixel ({u[k]:g}, {v[k]:g}) is outside the {width} x {height} image"
+            + hint
         )
 
 
