@@ -6,12 +6,13 @@ import math
 
 import numpy as np
 
-from panomap.calibrate.diagnosis import diagnose
+from panomap.calibrate.diagnosis import diagnose, noise_ratio
 from panomap.calibrate.fit import fit_camera
 from panomap.calibrate.landmarks import Landmarks
 from panomap.calibrate.pipeline import calibrate_camera
 from panomap.calibrate.report import CENTRE_AS_FOUND
-from panomap.simulate import standard_cameras
+from panomap.cli.demo import pick_landmarks
+from panomap.simulate import load_room, render, standard_cameras
 from panomap.simulate.example import make_example
 
 from helpers import spread_landmarks
@@ -125,3 +126,21 @@ def test_landmarks_given_as_row_and_column_are_said_to_be_so() -> None:
         omni=example.image,
     )
     assert not any("row, column" in note for note in diagnose(plain.fit))
+
+
+def test_landmarks_in_millimetres_with_the_camera_in_metres_are_said_to_be_wrong() -> None:
+    """The demo's camera and landmarks, the world points typed in mm and the camera position in m: a table
+    is made (RMS about 200 px), and the diagnosis must say that no camera explains them. One landmark, the
+    room's corner at the world's origin, lies 4.6 "mm" from the camera, where 1.9 cm of world noise is a
+    huge angle: averaged over the landmarks, its expected error (hundreds of px) hid every other's misfit."""
+    room = load_room()
+    camera = standard_cameras((1024, 1024), centre=(517.3, 503.8), s=-1, phi0=0.6)["hyperbolic"]
+    position = np.asarray(room.camera)
+    names, points = room.landmarks()
+    landmarks = pick_landmarks(names, points, camera.project(points - position), position, 12)
+    assert "corner_SW_floor" in landmarks.names
+    in_mm = Landmarks(landmarks.pixels, landmarks.world * 1000, landmarks.names)
+    result = calibrate_camera(in_mm, room.camera, omni=render(room, camera, supersample=1))
+    assert result.fit.rms_px > 50
+    assert noise_ratio(result.fit) > 20  # measured: 56
+    assert any("times what the landmarks' noise explains" in note and "units" in note for note in diagnose(result.fit))

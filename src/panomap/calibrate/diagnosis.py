@@ -9,9 +9,9 @@ rho (rad); ``pixel_sigma`` is the landmarks' pixel noise (px).
 - **A trend in elevation** (a low-degree polynomial in rho): the radial model
   does not follow the camera.
 - **Dropped landmarks**: a world point or pixel measured wrong.
-- **Residuals far above the noise** (their RMS over ``FAR_ABOVE_NOISE`` times what the noise
-  model expects of them: the pixel noise, and the world noise as the camera sees it, radially
-  through f_r' and tangentially through r): no camera at this position sees these world
+- **Residuals far above the noise** (over ``FAR_ABOVE_NOISE`` times what the noise model
+  expects, landmark by landmark (:func:`noise_ratio`): the pixel noise, and the world noise as
+  the camera sees it, radially through f_r' and tangentially through r): no camera at this position sees these world
   points at these pixels; many landmarks are wrong together (units, axes, a height).
 - **A tilt about the centre as found** (the mount ``tilt, centre as found``): near the nadir a
   tilt of the axis and a centre off the rim's look alike, and the fit chose the tilt; said so,
@@ -100,14 +100,14 @@ def diagnose(fit: CameraFit, centre_guessed: bool = False) -> list[str]:
             "landmarks' pixels look like (row, column): give u as the column and v as the row, or every view will "
             "show the image transposed"
         )
-    expected = _expected_rms_px(fit)
+    ratio = noise_ratio(fit)
     rms = float(np.sqrt(np.mean(fit.residuals_px[keep] ** 2))) if np.any(keep) else 0.0
-    if expected > 0 and rms > FAR_ABOVE_NOISE * expected:
+    if ratio > FAR_ABOVE_NOISE:
         notes.append(
-            f"the residuals (RMS {rms:.1f} px) are {rms / expected:.0f} times what the landmarks' noise explains "
-            f"(about {expected:.1f} px): no camera at this position puts these world points at these pixels; check "
-            "the world points' units and axes (Z up, the same origin as the camera position), the camera position, "
-            "and that each pixel is its world point's"
+            f"the residuals (RMS {rms:.1f} px) are {ratio:.0f} times what the landmarks' noise explains, landmark "
+            "by landmark: no camera at this position puts these world points at these pixels; check the world "
+            "points' units and axes (Z up, the same units and origin as the camera position), the camera "
+            "position, and that each pixel is its world point's"
         )
     if fit.outliers:
         notes.append(
@@ -146,22 +146,24 @@ def _trend(rho: np.ndarray, residual: np.ndarray) -> float | None:
     return float(np.ptp(values))
 
 
-def _expected_rms_px(fit: CameraFit) -> float:
-    """The RMS pixel residual (px) the fit's noise model expects of its inlier landmarks: each the pixel
-    noise and the world noise seen from the camera (radially through f_r', tangentially through r)."""
+def noise_ratio(fit: CameraFit) -> float:
+    """How many times the inlier landmarks' residuals exceed what the fit's noise model expects of each: the
+    RMS over them of residual / expected (1 where the model holds). Each landmark's expected error is its
+    pixel noise and its world noise seen from the camera (radially through f_r', tangentially through r).
+    Landmark by landmark, not the ratio of two RMS: one landmark next to the camera, whose world noise is a
+    large angle, would otherwise hide every other landmark's misfit."""
     keep = np.asarray(fit.inliers, dtype=bool)
-    if not np.any(keep):
-        return 0.0
     rho = (fit.rho_camera if fit.rho_camera is not None else fit.rho)[keep]
     offset = fit.landmarks.world[keep] - np.asarray(fit.camera_position)
-    distance = np.linalg.norm(offset, axis=1)
+    distance = np.maximum(np.linalg.norm(offset, axis=1), 1e-12)
     horizontal = np.maximum(np.hypot(offset[:, 0], offset[:, 1]), 1e-12)
     world = fit.settings.world_sigma
-    radial = np.abs(fit.model.radial.slope(rho)) * world / np.maximum(distance, 1e-12)
+    radial = np.abs(fit.model.radial.slope(rho)) * world / distance
     tangential = np.abs(fit.model.radial(rho)) * world / horizontal
     variance = 2 * fit.settings.pixel_sigma_px**2 + radial**2 + tangential**2
-    finite = np.isfinite(variance)
-    return float(np.sqrt(np.mean(variance[finite]))) if np.any(finite) else 0.0
+    whitened = fit.residuals_px[keep] ** 2 / variance
+    finite = np.isfinite(whitened)
+    return float(np.sqrt(np.mean(whitened[finite]))) if np.any(finite) else 0.0
 
 
 def _tilt_shows(mount: MountReport) -> bool:
