@@ -936,7 +936,9 @@ def _detect_axis(rho: FloatArray, r: FloatArray) -> str:
         raise PanomapError(
             "cannot tell from the landmarks whether the camera looks down or up (image radius "
             f"and elevation are not monotonically related, Spearman {correlation:.2f}); "
-            "check the centre and camera position, or force the axis"
+            "check that world Z is up (a Y-up frame, as CAD tools and game engines use, needs Y and Z swapped), "
+            "that the world points and the camera position share units and origin, the centre, "
+            "or force the axis (--axis)"
         )
     return "down" if correlation > 0 else "up"
 
