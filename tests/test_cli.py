@@ -236,6 +236,44 @@ def test_a_json_files_camera_is_used_and_a_different_camera_option_replaces_it_w
     assert load_table(work / "b.npz").camera_position == POSITION
 
 
+def _lossless_video(path: Path, image: np.ndarray, frames: int = 3) -> None:
+    """A lossless video (FFV1 in Matroska) whose every frame is ``image`` (H, W, 3) BGR."""
+    import av
+
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream("ffv1", rate=25)
+        stream.width, stream.height, stream.pix_fmt = image.shape[1], image.shape[0], "bgr0"
+        for _ in range(frames):
+            for packet in stream.encode(av.VideoFrame.from_ndarray(image, format="bgr24")):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+
+
+def test_a_video_serves_where_one_omni_image_is_taken_and_views_point_to_panomap_video(work: Path) -> None:
+    from panomap.simulate import load_room, render
+
+    omni = render(load_room(), CAMERA, supersample=1)
+    cv2.imwrite(str(work / "room.png"), omni)
+    _lossless_video(work / "room.mkv", omni)
+    # centre: the same circles as on the frame itself, and a note that the first frame was used.
+    from_image = run("centre", work / "room.png", "--json")
+    from_video = run("centre", work / "room.mkv", "--json")
+    assert from_video.exit_code == 0, from_video.stderr
+    assert json.loads(from_video.stdout) == json.loads(from_image.stdout)
+    assert f"panomap: note: {work / 'room.mkv'} is a video: its first frame is used" in from_video.stderr
+    # fit --image: the same table.
+    common = ["--camera", *POSITION, "--tilt", "none", "--camera-sigma", 0]
+    assert run("fit", work / "lm.csv", "-o", work / "a.npz", "--image", work / "room.png", *common).exit_code == 0
+    video_fit = run("fit", work / "lm.csv", "-o", work / "b.npz", "--image", work / "room.mkv", *common)
+    assert video_fit.exit_code == 0, video_fit.stderr
+    np.testing.assert_array_equal(load_table(work / "a.npz").entries, load_table(work / "b.npz").entries)
+    # A view of a video: one line pointing to panomap video, and no output.
+    view = run("panorama", work / "a.npz", work / "room.mkv", "-o", work / "p.png")
+    assert_one_line_error(view, "room.mkv: it is a video: unwarp it with panomap video")
+    assert not (work / "p.png").exists()
+
+
 def test_semicolon_and_tab_files_with_decimal_commas_fit_as_the_comma_file_does(work: Path) -> None:
     # A spreadsheet where the decimal mark is a comma writes "name;u;v;X;Y;Z" rows of "door;412,5;...".
     first = json.loads(run("info", fit_table(work), "--json").output)["model"]

@@ -18,10 +18,10 @@ from ..calibrate.sources import Source
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError
 from ..files import all_or_none, check_output_paths
-from ..io.images import read_image, write_image
+from ..io.images import write_image
 from ..table.file import load_table
 from ..table.table import PanoMappingTable, check_table_size
-from .options import FINITE, NON_NEGATIVE, PATH, POSITIVE, SIZE, TILT, usage_error, warn_orientation
+from .options import FINITE, NON_NEGATIVE, PATH, POSITIVE, SIZE, TILT, read_omni, usage_error, warn_orientation
 
 
 @click.command()
@@ -183,7 +183,7 @@ def fit(
     if camera is not None and pairs.camera is not None and tuple(camera) != tuple(pairs.camera):
         given, filed = (", ".join(f"{c:g}" for c in p) for p in (camera, pairs.camera))
         click.echo(f"panomap: warning: --camera ({given}) is used, not the camera in {landmarks} ({filed})", err=True)
-    omni = None if image is None else read_image(image)
+    omni = None if image is None else read_omni(image)
     if image is not None:
         warn_orientation(image)
     if omni is not None and size is not None and size != (omni.shape[1], omni.shape[0]):
@@ -252,7 +252,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None) -> None:
     the overlay then shows that disc and the starting value.
     """
     check_output_paths([("the input image", image)], [("--overlay", overlay)])
-    omni = read_image(image)
+    omni = read_omni(image)
     warn_orientation(image)
     try:
         circles = find_image_circles(omni)

@@ -9,8 +9,7 @@ import click
 
 from ..calibrate.landmarks import read_landmarks
 from ..errors import PanomapError
-from ..io.images import read_image
-from .options import FINITE, FOLDER, PATH, warn_orientation
+from .options import FINITE, FOLDER, PATH, read_omni, warn_orientation
 
 
 @click.command("learn")
@@ -54,7 +53,7 @@ def learn(
 
     if not folder.is_dir():
         raise PanomapError("the folder does not exist", folder)
-    image = read_image(omni)
+    image = read_omni(omni)
     warn_orientation(omni)
     preload = read_landmarks(landmarks) if landmarks is not None else None
     session = Session(image, omni.name, folder, preload, camera)

@@ -10,6 +10,8 @@ from pathlib import Path
 from typing import Any
 
 import click
+import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import PanomapError
 from ..values import NotFinite, finite_number
@@ -87,6 +89,30 @@ NON_NEGATIVE = Finite(0.0)
 TILT = Tilt()
 PATH = click.Path(path_type=Path, dir_okay=False)
 FOLDER = click.Path(path_type=Path, file_okay=False)
+
+
+def read_omni(path: Path) -> NDArray[Any]:
+    """The omni-image at ``path`` (as :func:`panomap.io.images.read_image` reads it) or, where the file is a
+    video, its first frame, with a note saying so on stderr (the centre, the circles and the landmarks are
+    the same in every frame of a fixed camera)."""
+    from ..io.images import MAX_IMAGE_PIXELS, read_image
+
+    try:
+        return read_image(path)
+    except PanomapError as exc:
+        if not exc.detail.startswith("cannot read it as an image"):
+            raise
+        from ..video.source import first_frame
+
+        frame = first_frame(path, MAX_IMAGE_PIXELS)
+        if frame is None:
+            raise
+    click.echo(
+        f"panomap: note: {path} is a video: its first frame is used (another: ffmpeg -ss SECONDS -i {path} "
+        "-frames:v 1 frame.png)",
+        err=True,
+    )
+    return np.asarray(frame)
 
 
 def warn_orientation(path: Path) -> None:

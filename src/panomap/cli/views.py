@@ -84,7 +84,15 @@ def _render(
     for path in [output, *extra]:
         check_output(path)
     table = load_table(table_path)
-    image = read_image(image_path, table.image_size, f"the table {table_path}")
+    try:
+        image = read_image(image_path, table.image_size, f"the table {table_path}")
+    except PanomapError as exc:
+        if exc.detail.startswith("cannot read it as an image") and _is_video(image_path):
+            raise PanomapError(
+                f"it is a video: unwarp it with panomap video {table_path} {image_path} -o OUT.mp4 --view SPEC",
+                image_path,
+            ) from None
+        raise
     warn_orientation(image_path)
     map_uv = build_map(table, view, sampling)
     remapper = Remapper(map_uv, (image.shape[1], image.shape[0]), interp)
@@ -166,3 +174,14 @@ def view_command(kind: str) -> click.Command:
 
 # Every view command, in the registry's order.
 VIEW_COMMANDS = tuple(view_command(kind) for kind in view_kinds())
+
+
+def _is_video(path: Path) -> bool:
+    """Whether the file is a video PyAV decodes (for the hint that ``panomap video`` unwarps it)."""
+    from ..io.images import MAX_IMAGE_PIXELS
+    from ..video.source import first_frame
+
+    try:
+        return first_frame(path, MAX_IMAGE_PIXELS) is not None
+    except PanomapError:
+        return True  # (frames too large to read: a video all the same)

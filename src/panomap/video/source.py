@@ -75,6 +75,30 @@ def open_input(source: str, open_timeout: float = 10.0, read_timeout: float | No
     return container
 
 
+def first_frame(path: str | Path, max_pixels: int) -> Any:
+    """The first frame of a video file as an 8-bit BGR image (H, W, 3), or None where the file is not a video
+    PyAV decodes (for the commands that take one omni-image: any frame of the camera serves them).
+
+    Raises
+    ------
+    PanomapError
+        Naming the file, when its frames are larger than ``max_pixels`` (refused before decoding one).
+    """
+    try:
+        with av.open(str(path)) as container:
+            if not container.streams.video:
+                return None
+            stream = container.streams.video[0]
+            width, height = stream.codec_context.width, stream.codec_context.height
+            if width * height > max_pixels:
+                raise PanomapError(f"its frames are {width} x {height}: larger than panomap reads", path)
+            for frame in container.decode(stream):
+                return frame.to_ndarray(format="bgr24")
+    except (av.error.FFmpegError, OSError, ValueError):
+        return None
+    return None
+
+
 class SharedInput:
     """An opened input and the threads that read it: closed only once no thread is inside it.
 
