@@ -12,6 +12,7 @@ import cv2
 import numpy as np
 import pytest
 
+from panomap.calibrate.landmarks import Landmarks, landmarks_to_csv
 from panomap.simulate import standard_cameras
 from panomap.table.file import load_table
 
@@ -272,6 +273,44 @@ def test_a_video_serves_where_one_omni_image_is_taken_and_views_point_to_panomap
     view = run("panorama", work / "a.npz", work / "room.mkv", "-o", work / "p.png")
     assert_one_line_error(view, "room.mkv: it is a video: unwarp it with panomap video")
     assert not (work / "p.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("mistake", "hint"),
+    [
+        ("y_up", "with Y as up they would be: a Y-up world frame needs its points (and the camera) as (x, -z, y)"),
+        ("half_size", "times 2 they would be: were they measured on a copy of the image smaller by 2 times?"),
+    ],
+)
+def test_landmarks_given_in_another_frame_or_scale_get_a_hint(work: Path, mistake: str, hint: str) -> None:
+    from panomap.calibrate.landmarks import read_landmarks
+
+    pairs = read_landmarks(work / "lm.csv")
+    pixels, world, camera = pairs.pixels, pairs.world, POSITION
+    if mistake == "y_up":  # (x, y, z) = (X, Z, -Y): Y up
+        world = np.stack([world[:, 0], world[:, 2], -world[:, 1]], axis=-1)
+        camera = (POSITION[0], POSITION[2], -POSITION[1])
+    else:
+        pixels = pixels / 2
+    (work / "wrong.csv").write_text(landmarks_to_csv(Landmarks(pixels, world, pairs.names)))
+    result = run(
+        "fit",
+        work / "wrong.csv",
+        "-o",
+        work / "t.npz",
+        "--camera",
+        *camera,
+        "--image",
+        work / "omni.png",
+        "--centre",
+        *CAMERA.centre,
+        "--cutoff-radius",
+        CAMERA.cutoff_radius,
+        "--outer-radius",
+        CAMERA.outer_radius,
+    )
+    assert_one_line_error(result, "cannot tell from the landmarks whether the camera looks down or up", hint)
+    assert not (work / "t.npz").exists()
 
 
 def test_semicolon_and_tab_files_with_decimal_commas_fit_as_the_comma_file_does(work: Path) -> None:

@@ -395,7 +395,10 @@ def fit_camera(
     r, phi = pixel_polar(landmarks.pixels, (u0, v0))
     axis_source = "given"
     if axis is None:
-        axis, axis_source = _detect_axis(rho, r), "detected"
+        try:
+            axis, axis_source = _detect_axis(rho, r), "detected"
+        except PanomapError as exc:
+            raise PanomapError(exc.detail + _pixels_hint(rho, landmarks.pixels, (u0, v0), d)) from None
     if world_sigma is None:
         world_sigma = DEFAULT_WORLD_SIGMA_FRACTION * float(np.median(distance))
     if camera_sigma is None:
@@ -941,6 +944,37 @@ def _detect_axis(rho: FloatArray, r: FloatArray) -> str:
             "or force the axis (--axis)"
         )
     return "down" if correlation > 0 else "up"
+
+
+# Ways landmarks' pixels are given wrong that leave them monotonic in elevation once undone: (row, column)
+# for (u, v), and an image scaled by these factors (a preview, a thumbnail).
+PIXEL_SCALES = (2.0, 0.5, 4.0, 0.25)
+# How monotonic (Spearman) the pixels must be once undone for the hint.
+UNDONE_MONOTONIC = 0.9
+
+
+def _pixels_hint(rho: FloatArray, pixels: FloatArray, centre: tuple[float, float], d: FloatArray) -> str:
+    """Where the landmarks' image radii do not follow their elevations about ``centre``, but would with the
+    world's Y up (rays ``d`` (n, 3) from the camera), or if their pixels were (row, column) or of an image
+    scaled by one of PIXEL_SCALES: a sentence saying so ("" else)."""
+    from scipy import stats  # here, not at the top: importing SciPy is slow
+
+    def monotonic(uv: FloatArray, elevation: FloatArray = rho) -> bool:
+        r, _ = pixel_polar(uv, centre)
+        correlation = stats.spearmanr(elevation, r).statistic
+        return bool(np.isfinite(correlation) and abs(correlation) >= UNDONE_MONOTONIC)
+
+    if monotonic(pixels, np.arctan2(d[:, 1], np.hypot(d[:, 0], d[:, 2]))):
+        return "; with Y as up they would be: a Y-up world frame needs its points (and the camera) as (x, -z, y)"
+    if monotonic(pixels[:, ::-1]):
+        return "; read as (row, column) they would be: give u as the column and v as the row"
+    for scale in PIXEL_SCALES:
+        if monotonic(pixels * scale):
+            return (
+                f"; times {scale:g} they would be: were they measured on a copy of the image "
+                f"{'smaller' if scale > 1 else 'larger'} by {max(scale, 1 / scale):g} times? Give this image's pixels"
+            )
+    return ""
 
 
 def _consistency(delta: FloatArray, weights: FloatArray) -> float:
