@@ -144,3 +144,20 @@ def test_landmarks_in_millimetres_with_the_camera_in_metres_are_said_to_be_wrong
     assert result.fit.rms_px > 50
     assert noise_ratio(result.fit) > 20  # measured: 56
     assert any("times what the landmarks' noise explains" in note and "units" in note for note in diagnose(result.fit))
+
+
+def test_landmarks_of_a_cropped_copy_of_the_image_are_said_to_be_so() -> None:
+    """The example's landmarks measured on a copy of the image cropped by 30 px at the left and 20 at the top:
+    the refinement takes the centre 36 px from the rim's, which no real rim is off its axis (0.7-2.3 px)."""
+    example = make_example((800, 760), count=12, supersample=1)
+    cropped = Landmarks(example.pixels - (30.0, 20.0), example.world, tuple(example.names))
+    result = calibrate_camera(cropped, tuple(example.camera_position), omni=example.image)
+    assert result.fit.centre_shift_px > 30
+    notes = diagnose(result.fit)
+    assert any("further than a rim lies off its camera's axis" in note for note in notes), notes
+    plain = calibrate_camera(
+        Landmarks(example.pixels, example.world, tuple(example.names)),
+        tuple(example.camera_position),
+        omni=example.image,
+    )
+    assert not any("further than a rim" in note for note in diagnose(plain.fit))

@@ -32,6 +32,7 @@ import math
 
 import numpy as np
 
+from ..geometry import pixel_polar
 from .fit import CameraFit
 from .report import CENTRE_AS_FOUND, MountReport
 
@@ -39,6 +40,10 @@ PATTERN_SIGMAS = 2.0
 EXPLAINED_FRACTION = 0.5
 MIN_LANDMARKS = 8
 GUESS_SHIFT_PX = 2.0
+# A centre refined further from the rim's than this (px, and this share of the landmarks' largest radius) says
+# the pixels are not of the image: the five real cameras' rims are 0.7-2.3 px (0.25-1% of the radius) off axis.
+FAR_FROM_RIM_PX = 10.0
+FAR_FROM_RIM_SHARE = 0.025
 # A centre refined to its start's transpose says (row, column) pixels only where the two are this far apart (px).
 TRANSPOSED_APART_PX = 8.0
 # A tilt kept about the centre as found is worth a note only where it is this many standard errors or more.
@@ -99,6 +104,15 @@ def diagnose(fit: CameraFit, centre_guessed: bool = False) -> list[str]:
             f"({fit.model.centre[0]:.1f}, {fit.model.centre[1]:.1f}): that point with u and v swapped. The "
             "landmarks' pixels look like (row, column): give u as the column and v as the row, or every view will "
             "show the image transposed"
+        )
+    elif not centre_guessed and fit.settings.refine_centre and _centre_moved_far(fit):
+        start = fit.centre_start or fit.model.centre
+        notes.append(
+            f"the centre moved {fit.centre_shift_px:.1f} px from ({start[0]:.1f}, {start[1]:.1f}), where the "
+            "circles found in the image put it: further than a rim lies off its camera's axis (a percent of its "
+            "radius at most): either the circle found is not the rim (look at panomap centre --overlay), or the "
+            "landmarks' pixels are not of this image (its size, not a crop or a scaled copy); --centre gives a "
+            "centre from a calibration"
         )
     ratio = noise_ratio(fit)
     rms = float(np.sqrt(np.mean(fit.residuals_px[keep] ** 2))) if np.any(keep) else 0.0
@@ -182,3 +196,12 @@ def _centre_transposed(fit: CameraFit) -> bool:
     (u0, v0), (u, v) = fit.centre_start, fit.model.centre
     apart = math.dist((u0, v0), (v0, u0))
     return apart >= TRANSPOSED_APART_PX and math.dist((u, v), (v0, u0)) <= apart / 4
+
+
+def _centre_moved_far(fit: CameraFit) -> bool:
+    """Whether the refinement took the centre further from where it started (the rim's centre) than
+    FAR_FROM_RIM_PX and FAR_FROM_RIM_SHARE of the largest landmark radius."""
+    if fit.centre_start is None:
+        return False
+    radius, _ = pixel_polar(fit.landmarks.pixels, fit.model.centre)
+    return fit.centre_shift_px > max(FAR_FROM_RIM_PX, FAR_FROM_RIM_SHARE * float(np.max(radius)))
