@@ -108,6 +108,8 @@ def test_a_tilt_within_its_uncertainty_about_the_rim_is_not_said_to_be_one() -> 
     assert mount.tilt_deg < mount.tilt_se_deg  # measured: 0.05 +- 0.16 deg
     notes = diagnose(result.fit)
     assert not any("given a tilt" in note for note in notes), notes
+    sentence = result.fit.report().centre_sentence()
+    assert sentence is not None and sentence.endswith("the landmarks do not ask to move it"), sentence
     assert any(note.startswith("dropped as outliers: E_window_bottom_right") for note in notes), notes
 
 

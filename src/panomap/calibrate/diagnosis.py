@@ -34,7 +34,7 @@ import numpy as np
 
 from ..geometry import pixel_polar
 from .fit import CameraFit
-from .report import CENTRE_AS_FOUND, MountReport
+from .report import CENTRE_AS_FOUND
 
 PATTERN_SIGMAS = 2.0
 EXPLAINED_FRACTION = 0.5
@@ -46,8 +46,6 @@ FAR_FROM_RIM_PX = 10.0
 FAR_FROM_RIM_SHARE = 0.025
 # A centre refined to its start's transpose says (row, column) pixels only where the two are this far apart (px).
 TRANSPOSED_APART_PX = 8.0
-# A tilt kept about the centre as found is worth a note only where it is this many standard errors or more.
-TILT_SHOWS_SE = 2.0
 # RMS residual against the RMS the noise model expects. Measured: 288 fits of 10-12 noisy landmarks (the 12
 # cameras of bench_fit, spread, random and with an outlier, 8 seeds each) 0.78 median, 1.67 at most; 40 trials of
 # bench_image_fit (tilted, the tape off, circles cut, full frames) 0.83 median, 1.31 at most.
@@ -83,7 +81,7 @@ def diagnose(fit: CameraFit, centre_guessed: bool = False) -> list[str]:
                 "automatically, or add landmarks across the elevations"
             )
     mount = fit.mount
-    if mount is not None and mount.chosen.endswith(CENTRE_AS_FOUND) and _tilt_shows(mount):
+    if mount is not None and mount.chosen.endswith(CENTRE_AS_FOUND) and mount.tilt_shows:
         notes.append(
             f"the centre was kept where the image shows it and the camera given a tilt of "
             f"{mount.tilt_deg:.2f} deg: near the nadir a tilt and a centre off the rim's look alike, and the "
@@ -178,12 +176,6 @@ def noise_ratio(fit: CameraFit) -> float:
     whitened = fit.residuals_px[keep] ** 2 / variance
     finite = np.isfinite(whitened)
     return float(np.sqrt(np.mean(whitened[finite]))) if np.any(finite) else 0.0
-
-
-def _tilt_shows(mount: MountReport) -> bool:
-    """Whether a fitted tilt is told from level: at least TILT_SHOWS_SE of its standard errors (a tilt of
-    0.05 +- 0.16 deg about the rim's centre is the level camera with the centre where the rim puts it)."""
-    return mount.tilt_se_deg is None or mount.tilt_deg >= TILT_SHOWS_SE * mount.tilt_se_deg
 
 
 def _centre_transposed(fit: CameraFit) -> bool:

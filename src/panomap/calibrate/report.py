@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING, Any
 from ..errors import PanomapError
 
 CENTRE_AS_FOUND = ", centre as found"  # ends the name of a mount that held the centre where it was found
+# A fitted tilt is told from level where it is this many of its standard errors or more.
+TILT_SHOWS_SE = 2.0
 
 if TYPE_CHECKING:
     from ..table.table import PanoMappingTable
@@ -190,6 +192,12 @@ class MountReport:
         """How far (world units) the fit moved the camera from the given position."""
         return math.dist(self.camera, self.camera_given)
 
+    @property
+    def tilt_shows(self) -> bool:
+        """Whether the fitted tilt is told from level: TILT_SHOWS_SE of its standard errors or more (a tilt of
+        0.05 +- 0.16 deg about the rim's centre is a level camera, its centre where the rim puts it)."""
+        return self.tilt_se_deg is None or self.tilt_deg >= TILT_SHOWS_SE * self.tilt_se_deg
+
     def sentences(self) -> list[str]:
         """The tilt and the camera position as fitted, in a line each (a level camera at its given place: none)."""
         lines = []
@@ -312,6 +320,8 @@ class FitReport:
             return None
         u0, v0 = self.centre
         if self.mount is not None and self.mount.chosen.endswith(CENTRE_AS_FOUND):
+            if not self.mount.tilt_shows:
+                return f"centre kept where it was found: ({u0:.2f}, {v0:.2f}); the landmarks do not ask to move it"
             return (
                 f"centre kept where it was found: ({u0:.2f}, {v0:.2f}); a tilt of the axis predicts the landmarks "
                 "better than moving it"
