@@ -237,15 +237,17 @@ def test_a_json_files_camera_is_used_and_a_different_camera_option_replaces_it_w
     assert load_table(work / "b.npz").camera_position == POSITION
 
 
-def _lossless_video(path: Path, image: np.ndarray, frames: int = 3) -> None:
-    """A lossless video (FFV1 in Matroska) whose every frame is ``image`` (H, W, 3) BGR."""
+def _lossless_video(path: Path, image: np.ndarray, frames: int = 3, step_px: int = 0) -> None:
+    """A lossless video (FFV1 in Matroska, 25 fps) whose frame k is ``image`` (H, W, 3) BGR moved right by
+    ``k * step_px`` px."""
     import av
 
     with av.open(str(path), "w") as container:
         stream = container.add_stream("ffv1", rate=25)
         stream.width, stream.height, stream.pix_fmt = image.shape[1], image.shape[0], "bgr0"
-        for _ in range(frames):
-            for packet in stream.encode(av.VideoFrame.from_ndarray(image, format="bgr24")):
+        for k in range(frames):
+            moved = np.roll(image, k * step_px, axis=1)
+            for packet in stream.encode(av.VideoFrame.from_ndarray(moved, format="bgr24")):
                 container.mux(packet)
         for packet in stream.encode():
             container.mux(packet)
@@ -269,6 +271,15 @@ def test_a_video_serves_where_one_omni_image_is_taken_and_views_point_to_panomap
     video_fit = run("fit", work / "lm.csv", "-o", work / "b.npz", "--image", work / "room.mkv", *common)
     assert video_fit.exit_code == 0, video_fit.stderr
     np.testing.assert_array_equal(load_table(work / "a.npz").entries, load_table(work / "b.npz").entries)
+    # --frame-time: the frame at that time (frame 3 of 25 fps, the image moved 6 px right each frame).
+    _lossless_video(work / "moving.mkv", omni, frames=6, step_px=6)
+    later = run("centre", work / "moving.mkv", "--json", "--frame-time", 0.12)
+    assert later.exit_code == 0, later.stderr
+    assert "its frame at 0.12 s is used" in later.stderr
+    shift = np.subtract(json.loads(later.stdout)["centre"], json.loads(from_image.stdout)["centre"])
+    np.testing.assert_allclose(shift, [18.0, 0.0], atol=0.05)
+    past = run("centre", work / "moving.mkv", "--frame-time", 9)
+    assert_one_line_error(past, "moving.mkv: it has no frame at or after 9 s")
     # A view of a video: one line pointing to panomap video, and no output.
     view = run("panorama", work / "a.npz", work / "room.mkv", "-o", work / "p.png")
     assert_one_line_error(view, "room.mkv: it is a video: unwarp it with panomap video")

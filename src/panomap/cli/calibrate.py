@@ -21,7 +21,18 @@ from ..files import all_or_none, check_output_paths
 from ..io.images import write_image
 from ..table.file import load_table
 from ..table.table import PanoMappingTable, check_table_size
-from .options import FINITE, NON_NEGATIVE, PATH, POSITIVE, SIZE, TILT, read_omni, usage_error, warn_orientation
+from .options import (
+    FINITE,
+    NON_NEGATIVE,
+    PATH,
+    POSITIVE,
+    SIZE,
+    TILT,
+    frame_time_option,
+    read_omni,
+    usage_error,
+    warn_orientation,
+)
 
 
 @click.command()
@@ -130,6 +141,7 @@ from .options import FINITE, NON_NEGATIVE, PATH, POSITIVE, SIZE, TILT, read_omni
     help="Also write --image with the fit drawn on it (PNG): the annulus and centre, circles of equal world "
     "elevation (the horizon cyan), azimuth 0, and each landmark's residual (outliers red).",
 )
+@frame_time_option
 def fit(
     landmarks: Path,
     output: Path,
@@ -151,6 +163,7 @@ def fit(
     keep_outliers: bool,
     plot: Path | None,
     overlay: Path | None,
+    frame_time: float | None,
 ) -> None:
     """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table."""
     # Options missing or out of range are usage errors (exit 2); the files' problems are failures (1).
@@ -183,7 +196,9 @@ def fit(
     if camera is not None and pairs.camera is not None and tuple(camera) != tuple(pairs.camera):
         given, filed = (", ".join(f"{c:g}" for c in p) for p in (camera, pairs.camera))
         click.echo(f"panomap: warning: --camera ({given}) is used, not the camera in {landmarks} ({filed})", err=True)
-    omni = None if image is None else read_omni(image)
+    if frame_time is not None and image is None:
+        raise click.UsageError("--frame-time picks a frame of --image: give --image VIDEO too")
+    omni = None if image is None else read_omni(image, frame_time)
     if image is not None:
         warn_orientation(image)
     if omni is not None and size is not None and size != (omni.shape[1], omni.shape[0]):
@@ -240,7 +255,8 @@ def fit(
 @click.argument("image", type=PATH)
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @click.option("--overlay", type=PATH, help="Also write the image with the circles drawn on it (PNG).")
-def centre(image: Path, as_json: bool, overlay: Path | None) -> None:
+@frame_time_option
+def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float | None) -> None:
     """Find the image centre, the cut-off radius and the image circle of an omni-image.
 
     The centre is the rim's centre to a fraction of a pixel (the ellipse's, when the
@@ -252,7 +268,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None) -> None:
     the overlay then shows that disc and the starting value.
     """
     check_output_paths([("the input image", image)], [("--overlay", overlay)])
-    omni = read_omni(image)
+    omni = read_omni(image, frame_time)
     warn_orientation(image)
     try:
         circles = find_image_circles(omni)

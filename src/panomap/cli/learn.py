@@ -9,7 +9,7 @@ import click
 
 from ..calibrate.landmarks import read_landmarks
 from ..errors import PanomapError
-from .options import FINITE, FOLDER, PATH, read_omni, warn_orientation
+from .options import FINITE, FOLDER, PATH, frame_time_option, read_omni, warn_orientation
 
 
 @click.command("learn")
@@ -35,6 +35,7 @@ from .options import FINITE, FOLDER, PATH, read_omni, warn_orientation
     show_default=True,
     help="Address to listen on. Anything but loopback lets other machines use the page (and save files).",
 )
+@frame_time_option
 def learn(
     omni: Path,
     landmarks: Path | None,
@@ -42,6 +43,7 @@ def learn(
     folder: Path,
     port: int,
     host: str,
+    frame_time: float | None,
 ) -> None:
     """Learn a camera in the browser: click landmarks on OMNI, type their world points, save the table.
 
@@ -53,7 +55,7 @@ def learn(
 
     if not folder.is_dir():
         raise PanomapError("the folder does not exist", folder)
-    image = read_omni(omni)
+    image = read_omni(omni, frame_time)
     warn_orientation(omni)
     preload = read_landmarks(landmarks) if landmarks is not None else None
     session = Session(image, omni.name, folder, preload, camera)

@@ -91,28 +91,38 @@ PATH = click.Path(path_type=Path, dir_okay=False)
 FOLDER = click.Path(path_type=Path, file_okay=False)
 
 
-def read_omni(path: Path) -> NDArray[Any]:
+def read_omni(path: Path, frame_time: float | None = None) -> NDArray[Any]:
     """The omni-image at ``path`` (as :func:`panomap.io.images.read_image` reads it) or, where the file is a
-    video, its first frame, with a note saying so on stderr (the centre, the circles and the landmarks are
-    the same in every frame of a fixed camera)."""
+    video, its frame at ``frame_time`` seconds (default: its first), with a note saying so on stderr (the
+    centre, the circles and the landmarks are the same in every frame of a fixed camera)."""
     from ..io.images import MAX_IMAGE_PIXELS, read_image
 
     try:
-        return read_image(path)
+        image = read_image(path)
     except PanomapError as exc:
         if not exc.detail.startswith("cannot read it as an image"):
             raise
         from ..video.source import first_frame
 
-        frame = first_frame(path, MAX_IMAGE_PIXELS)
+        frame = first_frame(path, MAX_IMAGE_PIXELS, frame_time)
         if frame is None:
             raise
-    click.echo(
-        f"panomap: note: {path} is a video: its first frame is used (another: ffmpeg -ss SECONDS -i {path} "
-        "-frames:v 1 frame.png)",
-        err=True,
-    )
-    return np.asarray(frame)
+        which = "its first frame" if not frame_time else f"its frame at {frame_time:g} s"
+        click.echo(f"panomap: note: {path} is a video: {which} is used (--frame-time SECONDS for another)", err=True)
+        return np.asarray(frame)
+    if frame_time is not None:
+        click.echo(f"panomap: warning: {path} is an image, not a video: --frame-time is ignored", err=True)
+    return image
+
+
+def frame_time_option(command: Any) -> Any:
+    """``--frame-time SECONDS``, for the commands that take one omni-image and may be given a video."""
+    return click.option(
+        "--frame-time",
+        type=NON_NEGATIVE,
+        metavar="SECONDS",
+        help="Where the omni-image is a video: use its frame at this time (s) [default: its first frame].",
+    )(command)
 
 
 def warn_orientation(path: Path) -> None:

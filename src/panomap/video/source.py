@@ -75,14 +75,16 @@ def open_input(source: str, open_timeout: float = 10.0, read_timeout: float | No
     return container
 
 
-def first_frame(path: str | Path, max_pixels: int) -> Any:
-    """The first frame of a video file as an 8-bit BGR image (H, W, 3), or None where the file is not a video
-    PyAV decodes (for the commands that take one omni-image: any frame of the camera serves them).
+def first_frame(path: str | Path, max_pixels: int, at_s: float | None = None) -> Any:
+    """The first frame of a video file (at or after ``at_s`` seconds from its start, where given) as an 8-bit
+    BGR image (H, W, 3), or None where the file is not a video PyAV decodes (for the commands that take one
+    omni-image: any frame of the camera serves them).
 
     Raises
     ------
     PanomapError
-        Naming the file, when its frames are larger than ``max_pixels`` (refused before decoding one).
+        Naming the file, when its frames are larger than ``max_pixels`` (refused before decoding one), or
+        when it has no frame at or after ``at_s``.
     """
     try:
         with av.open(str(path)) as container:
@@ -92,10 +94,21 @@ def first_frame(path: str | Path, max_pixels: int) -> Any:
             width, height = stream.codec_context.width, stream.codec_context.height
             if width * height > max_pixels:
                 raise PanomapError(f"its frames are {width} x {height}: larger than panomap reads", path)
+            start = _stream_start(stream)
+            time_base = stream.time_base or Fraction(1, 90000)
+            if at_s:
+                container.seek(int((start + at_s) / time_base), stream=stream)
+            half_frame = 0.5 / float(stream.average_rate or 25)
+            decoded = False
             for frame in container.decode(stream):
+                decoded = True
+                if at_s and frame.pts is not None and float(frame.pts * time_base) - start < at_s - half_frame:
+                    continue
                 return frame.to_ndarray(format="bgr24")
     except (av.error.FFmpegError, OSError, ValueError):
         return None
+    if at_s and decoded:
+        raise PanomapError(f"it has no frame at or after {at_s:g} s", path)
     return None
 
 
