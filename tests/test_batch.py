@@ -217,6 +217,30 @@ def test_an_interrupted_job_rerun_redoes_only_what_is_unfinished(work: Path, tmp
     assert third.done == IMAGES and third.skipped == 0
 
 
+def test_images_a_viewer_would_turn_are_warned_of_once_a_camera(work: Path, tmp_path: Path, cluster: str) -> None:
+    from PIL import Image
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    exif = Image.Exif()
+    exif[0x0112] = 6
+    for path in sorted((work / "images").glob("*.png"))[:3]:
+        with Image.open(path) as image:
+            image.save(folder / path.name, exif=exif)
+    os.environ["DASK_SCHEDULER_ADDRESS"] = cluster
+    try:
+        result = run(
+            "batch", folder, "--table", work / "cam.npz", "-o", tmp_path / "out/{stem}_{name}.png",
+            "--view", PANORAMA, "-q",
+        )  # fmt: skip
+    finally:
+        del os.environ["DASK_SCHEDULER_ADDRESS"]
+    assert result.exit_code == 0, result.output + result.stderr
+    warnings = [line for line in result.stderr.splitlines() if "EXIF orientation (6)" in line]
+    assert len(warnings) == 1 and warnings[0].startswith("panomap: warning: "), result.stderr
+    assert len(list((tmp_path / "out").glob("*.png"))) == 3
+
+
 def test_a_failing_input_is_retried_recorded_and_the_rest_goes_on(work: Path, tmp_path: Path, cluster: str) -> None:
     folder = tmp_path / "in"
     shutil.copytree(work / "images", folder)

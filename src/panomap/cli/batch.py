@@ -20,7 +20,7 @@ from ..errors import PanomapError
 from ..remap import INTERPOLATIONS
 from ..table.sampling import SAMPLINGS
 from ..views.spec import KINDS
-from .options import PATH, usage_error
+from .options import PATH, usage_error, warn_orientation
 from .video import encoder_settings, stop_on_signals, views_of
 
 
@@ -166,6 +166,10 @@ def batch(
     except PanomapError as exc:
         raise usage_error(exc) from None
     found = find_inputs(inputs, table, camera)
+    # Each camera's first still image, as the views do: an EXIF orientation asks viewers to turn it (its views
+    # are of the pixels as stored, as the table is); once a camera, not once an image.
+    for first in {item.camera: item for item in reversed(found) if not item.is_video}.values():
+        warn_orientation(first.path)
     if any(item.is_video for item in found):
         try:
             encoder.check()
