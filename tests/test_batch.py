@@ -231,7 +231,7 @@ def test_images_a_viewer_would_turn_are_warned_of_once_a_camera(work: Path, tmp_
     try:
         result = run(
             "batch", folder, "--table", work / "cam.npz", "-o", tmp_path / "out/{stem}_{name}.png",
-            "--view", PANORAMA, "-q",
+            "--view", PANORAMA, "--record", tmp_path / "rec.jsonl", "-q",
         )  # fmt: skip
     finally:
         del os.environ["DASK_SCHEDULER_ADDRESS"]
