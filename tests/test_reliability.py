@@ -105,6 +105,23 @@ def test_video_output_that_is_its_input_or_its_table_is_refused(work: Path, tmp_
     assert_one_line_error(result, "is the table", exit_code=1)
 
 
+@pytest.mark.parametrize("spelling", ["file://{abs}", "file:{abs}", "file://localhost{abs}", "file:{rel}"])
+def test_a_video_input_given_as_a_file_url_is_never_overwritten(
+    work: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, spelling: str
+) -> None:
+    # FFmpeg opens a file: URL as the file it names; the guard compared the URL's text with the output's
+    # path, and `video T file:///abs/in.mp4 -o in.mp4` replaced its input (exit 0).
+    clip = tmp_path / "in.mp4"
+    clip.write_bytes((work / "clip.mp4").read_bytes())
+    before = clip.read_bytes()
+    monkeypatch.chdir(tmp_path)
+    source = spelling.format(abs=clip.as_posix(), rel="in.mp4")
+    result = run("video", work / "cam.npz", source, "-o", "in.mp4", "--view", "panorama:size=128x32", "-q")
+    assert_one_line_error(result, "in.mp4", "is the input", exit_code=1)
+    assert clip.read_bytes() == before
+    assert files_in(tmp_path) == ["in.mp4"]
+
+
 @pytest.mark.parametrize(
     ("command", "inputs", "output"),
     [("fit", ["lm.csv"], "lm.csv"), ("project", ["cam.npz", "lm.csv"], "lm.csv"), ("centre", ["omni.png"], None)],

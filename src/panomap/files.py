@@ -22,6 +22,8 @@ from __future__ import annotations
 import os
 import stat
 import tempfile
+import urllib.parse
+import urllib.request
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -201,6 +203,29 @@ def _identity(path: Path) -> tuple[object, ...]:
     except OSError:
         return ("path", os.path.normcase(os.path.realpath(path)))
     return ("file", info.st_dev, info.st_ino)
+
+
+def local_file(source: str | Path) -> Path | None:
+    """The local file an input names, in any spelling FFmpeg or a shell would accept, or None.
+
+    ``file:`` URLs (``file:///abs/in.mp4``, ``file:in.mp4``; FFmpeg opens what follows ``file:``
+    as a path, and a percent-encoded or ``localhost`` spelling is tried too) and a leading ``~``
+    are resolved; a spelling that names no existing regular file (a stream URL, a capture device,
+    a missing file) gives None. Links are left to :func:`check_output_paths`, which compares files
+    by device and inode.
+    """
+    text = os.fspath(source)
+    candidates = [text]
+    if text.lower().startswith("file:"):
+        parsed = urllib.parse.urlsplit(text)
+        candidates = [text[5:]]
+        if parsed.netloc in ("", "localhost"):
+            candidates.append(urllib.request.url2pathname(parsed.path))
+    for candidate in candidates:
+        path = Path(os.path.expanduser(candidate)) if candidate else None
+        if path is not None and path.is_file():
+            return path
+    return None
 
 
 def check_output_paths(

@@ -18,7 +18,7 @@ from typing import Any
 import click
 
 from ..errors import PanomapError
-from ..files import check_output_paths
+from ..files import check_output_paths, local_file
 from ..remap import INTERPOLATIONS
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
@@ -263,7 +263,7 @@ def video(
         raise click.UsageError("give --reconnect N or --no-reconnect, not both")
     reconnect = Reconnect(attempts=0 if no_reconnect else (5 if attempts is None else attempts), timeout_s=timeout_s)
     check_output_paths(
-        [("the table", table), ("the input", source if Path(source).is_file() else None)],
+        [("the table", table), ("the input", local_file(source))],
         [(f"the output of view {item.name}", path) for item, path in zip(named, paths, strict=True)],
     )
     loaded = load_table(table)

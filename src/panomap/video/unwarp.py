@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import PanomapError
-from ..files import all_or_none, atomic_path, check_output_paths
+from ..files import all_or_none, atomic_path, check_output_paths, local_file
 from ..table.table import PanoMappingTable
 from ..views import View, build_map
 from .frames import REMAP_THREADS, FrameRemapper, check_output_size, opencv_threads, work_format
@@ -127,7 +127,7 @@ def unwarp_video(
     if len(set(paths)) != len(paths):
         raise PanomapError("two views would write the same file: put {name} in the output pattern")
     check_output_paths(
-        [("the input", source if os.path.isfile(source) else None)],
+        [("the input", local_file(source))],
         [(f"the output of view {k + 1}", path) for k, path in enumerate(paths)],
     )
     for path in paths:
