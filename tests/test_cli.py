@@ -635,3 +635,28 @@ def test_a_broken_image_gets_our_one_line_and_nothing_from_libpng_or_opencv(tmp_
         lines = result.stderr.splitlines()
         assert len(lines) == 1, result.stderr
         assert lines[0].startswith(f"panomap: error: {tmp_path / name}: ") and message in lines[0], lines
+
+
+def test_a_truncated_jpeg_is_said_so_and_never_taken_for_a_video(work: Path, tmp_path: Path) -> None:
+    """A JPEG cut short decoded half grey (or PyAV read it as a one-frame video): `panorama` advised
+    `panomap video`, and `centre` / `fit --image` went on with the half image, exit 0."""
+    image = cv2.imread(str(work / "omni.png"))
+    ok, encoded = cv2.imencode(".jpg", image)
+    assert ok
+    data = encoded.tobytes()
+    (tmp_path / "whole.jpg").write_bytes(data)
+    (tmp_path / "half.jpg").write_bytes(data[: len(data) // 2])
+    (tmp_path / "head.jpg").write_bytes(data[:300])  # the headers only, no image data
+    table = fit_table(work)
+    for name in ("half.jpg", "head.jpg"):
+        for args in (["centre", tmp_path / name], ["panorama", table, tmp_path / name, "-o", tmp_path / "p.png"]):
+            result = subprocess.run(
+                [sys.executable, "-m", "panomap", *(str(a) for a in args)], capture_output=True, text=True, check=False
+            )
+            assert result.returncode == 1, result.stderr
+            lines = result.stderr.splitlines()
+            assert len(lines) == 1 and lines[0].startswith(f"panomap: error: {tmp_path / name}: "), result.stderr
+            assert "a truncated or corrupt JPEG" in lines[0] and "video" not in lines[0], lines
+    assert not (tmp_path / "p.png").exists()
+    whole = run("panorama", table, tmp_path / "whole.jpg", "-o", tmp_path / "p.png")
+    assert whole.exit_code == 0, whole.output + whole.stderr

@@ -95,12 +95,12 @@ def read_omni(path: Path, frame_time: float | None = None) -> NDArray[Any]:
     """The omni-image at ``path`` (as :func:`panomap.io.images.read_image` reads it) or, where the file is a
     video, its frame at ``frame_time`` seconds (default: its first), with a note saying so on stderr (the
     centre, the circles and the landmarks are the same in every frame of a fixed camera)."""
-    from ..io.images import MAX_IMAGE_PIXELS, read_image
+    from ..io.images import MAX_IMAGE_PIXELS, UNKNOWN_FORMAT, read_image
 
     try:
         image = read_image(path)
     except PanomapError as exc:
-        if not exc.detail.startswith("cannot read it as an image"):
+        if exc.detail != UNKNOWN_FORMAT:
             raise
         from ..video.source import first_frame
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import PanomapError
 from ..files import all_or_none, check_output, check_output_paths
-from ..io.images import pgm_map_paths, read_image, save_map, save_map_pgm, write_image
+from ..io.images import UNKNOWN_FORMAT, pgm_map_paths, read_image, save_map, save_map_pgm, write_image
 from ..remap import INTERPOLATIONS, Remapper
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
@@ -87,7 +87,7 @@ def _render(
     try:
         image = read_image(image_path, table.image_size, f"the table {table_path}")
     except PanomapError as exc:
-        if exc.detail.startswith("cannot read it as an image") and _is_video(image_path):
+        if exc.detail == UNKNOWN_FORMAT and _is_video(image_path):
             raise PanomapError(
                 f"it is a video: unwarp it with panomap video {table_path} {image_path} -o OUT.mp4 --view SPEC",
                 image_path,

@@ -32,6 +32,9 @@ MAX_IMAGE_PIXELS = 16384 * 16384
 _PILLOW_LOCK = threading.Lock()  # header_size changes Pillow's process-wide limit for a moment
 _OPENCV_LOG_LOCK = threading.Lock()  # OpenCV's log level is process-wide
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+JPEG_SIGNATURE = b"\xff\xd8\xff"
+# The problem of a file no decoder here recognises: the one a caller may try as a video instead.
+UNKNOWN_FORMAT = "cannot read it as an image (unknown format or corrupt)"
 
 
 def read_image(
@@ -67,9 +70,13 @@ def read_image(
         problem = png_problem(path)
         if problem is not None:
             raise PanomapError(f"cannot read it as an image (a truncated or corrupt PNG: {problem})", path)
+    if data[: len(JPEG_SIGNATURE)].tobytes() == JPEG_SIGNATURE:
+        problem = jpeg_problem(data.tobytes())
+        if problem is not None:
+            raise PanomapError(f"cannot read it as an image (a truncated or corrupt JPEG: {problem})", path)
     image = _decode(data) if data.size else None
     if image is None:
-        raise PanomapError("cannot read it as an image (unknown format or corrupt)", path)
+        raise PanomapError(UNKNOWN_FORMAT, path)
     if image.dtype not in (np.uint8, np.uint16):
         raise PanomapError(f"images must be 8- or 16-bit, this one is {image.dtype}", path)
     _check_size(path, (int(image.shape[1]), int(image.shape[0])), expected_size, expected_by)
@@ -122,6 +129,22 @@ def png_problem(path: str | Path) -> str | None:
             return " ".join(str(exc).split()) or exc.__class__.__name__
         finally:
             Image.MAX_IMAGE_PIXELS = limit
+    return None
+
+
+def jpeg_problem(data: bytes) -> str | None:
+    """What is wrong with a JPEG file's structure (``data``: its bytes), or None if it looks whole.
+
+    A decoder fills what a truncated file lacks with grey (OpenCV 5.0 and libjpeg warn and go on),
+    so the structure is checked first: the last scan (after the last start-of-scan marker FF DA)
+    must be closed by the end-of-image marker FF D9. Inside a scan's data an FF byte is always
+    followed by 00 or a restart marker, so neither marker appears there by chance.
+    """
+    scan = data.rfind(b"\xff\xda")
+    if scan < 0:
+        return "no image data: the file ends before its first scan"
+    if data.find(b"\xff\xd9", scan + 2) < 0:
+        return "the file ends inside its image data, before the end-of-image marker"
     return None
 
 
