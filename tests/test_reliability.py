@@ -364,6 +364,26 @@ def test_tampered_metadata_is_refused_with_one_line(
         assert_one_line_error(run(*command), "t.npz: the table's metadata is malformed", message, exit_code=1)
 
 
+def test_info_escapes_control_characters_from_a_table_and_names_it_when_its_report_is_malformed(
+    work: Path, tmp_path: Path
+) -> None:
+    # A table from someone else: a landmark named with terminal escapes (retitle the window, clear the
+    # screen) and a bidirectional override; info printed them raw.
+    meta = json.loads(str(np.load(work / "cam.npz")["meta"]))
+    rows = meta["info"]["fit"]["landmarks"]
+    rows[0]["name"] = "a\x1b]0;owned\x07b\x1b[2Jc\u202ed\x9be"
+    edit_table(work / "cam.npz", tmp_path / "t.npz", {"info.fit": meta["info"]["fit"]})
+    result = run("info", tmp_path / "t.npz")
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "a\\x1b]0;owned\\x07b\\x1b[2Jc\\u202ed\\x9be" in result.output
+    assert not any(ch in result.output for ch in "\x1b\x07\u202e\x9b")
+    rows[0]["name"] = 7  # a malformed report: the error names the table's file
+    edit_table(work / "cam.npz", tmp_path / "m.npz", {"info.fit": meta["info"]["fit"]})
+    assert_one_line_error(run("info", tmp_path / "m.npz"), "m.npz: the fit report is malformed", exit_code=1)
+    # An error that quotes a name from a file is escaped too.
+    assert "\x1b" not in run("info", tmp_path / "no\x1b[2Jsuch.npz").stderr
+
+
 def test_an_edit_behind_the_checksum_is_caught_and_version_1_files_still_load(work: Path, tmp_path: Path) -> None:
     # image_size null would apply the table to images of any size; a radius a pixel further is
     # well-formed: only the metadata's checksum tells either from what fit wrote.

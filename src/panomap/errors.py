@@ -22,3 +22,22 @@ class PanomapError(ValueError):
         self.source = None if source is None else str(source)
         self.detail = message
         super().__init__(message if source is None else f"{source}: {message}")
+
+
+def printable(text: str, keep: str = "") -> str:
+    """``text`` with every control and format character escaped (``\\x1b``, ``\\u202e``), for a terminal.
+
+    A name read from a file (a landmark's, a path's) can hold escape sequences that retitle or
+    rewrite the user's terminal, or bidirectional overrides that show it reversed: everything
+    printed that came from a file goes through here. Characters in ``keep`` (``"\\n"`` for a
+    multi-line listing) pass unchanged.
+    """
+    import unicodedata
+
+    def escaped(char: str) -> str:
+        if char in keep or unicodedata.category(char) not in ("Cc", "Cf", "Zl", "Zp"):
+            return char
+        code = ord(char)
+        return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+    return "".join(escaped(char) for char in text)

@@ -405,16 +405,21 @@ class FitReport:
         )
 
 
-def table_fit_report(table: PanoMappingTable) -> FitReport | None:
+def table_fit_report(table: PanoMappingTable, source: object | None = None) -> FitReport | None:
     """The fit report a table holds (None for a table made without a fit).
 
     Raises
     ------
     PanomapError
-        If the table's report is malformed.
+        If the table's report is malformed, naming ``source`` (the table's file) where given.
     """
     data = table.info.get("fit")
-    return None if data is None else FitReport.from_dict(data)
+    try:
+        return None if data is None else FitReport.from_dict(data)
+    except PanomapError as exc:
+        if source is None or exc.source is not None:
+            raise
+        raise PanomapError(exc.detail, source) from None
 
 
 def _is_number(value: Any) -> bool:

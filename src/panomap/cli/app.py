@@ -15,7 +15,7 @@ from typing import Any, NoReturn
 import click
 
 from .. import __version__
-from ..errors import PanomapError
+from ..errors import PanomapError, printable
 from .batch import batch
 from .calibrate import centre, fit, info
 from .demo import demo
@@ -35,7 +35,7 @@ _NO_ARGS_IS_HELP: type[click.UsageError] = getattr(
 
 
 def _fail(message: str, code: int = 1) -> NoReturn:
-    click.echo(f"panomap: error: {message}", err=True)
+    click.echo(f"panomap: error: {printable(message)}", err=True)
     sys.exit(code)
 
 
@@ -51,7 +51,7 @@ class PanomapGroup(click.Group):
             sys.exit(0)
         except click.UsageError as exc:
             where = exc.ctx.command_path if exc.ctx is not None else "panomap"
-            message = " ".join(exc.format_message().split())
+            message = printable(" ".join(exc.format_message().split()))
             click.echo(f"{where}: error: {message} (see '{where} --help')", err=True)
             sys.exit(exc.exit_code)
         except click.ClickException as exc:

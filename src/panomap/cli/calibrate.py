@@ -16,7 +16,7 @@ from ..calibrate.pipeline import calibrate_camera
 from ..calibrate.report import FitReport, table_fit_report
 from ..calibrate.sources import Source
 from ..camera.radial_models import MODELS, radial_kind
-from ..errors import PanomapError
+from ..errors import PanomapError, printable
 from ..files import all_or_none, check_output_paths
 from ..io.images import write_image
 from ..table.file import load_table
@@ -242,9 +242,9 @@ def fit(
             from ..io.overlay import draw_fit_overlay
 
             write_image(overlay, draw_fit_overlay(omni, table))
-    click.echo(_describe_fit(table))
+    click.echo(printable(_describe_fit(table), keep="\n"))
     for note in diagnose(result.fit, centre_guessed=result.sources["centre"].source is Source.FRAME_CENTRE):
-        click.echo(f"diagnosis: {note}")
+        click.echo(printable(f"diagnosis: {note}"))
     written = [str(path) for path in (output, plot, overlay) if path is not None]
     click.echo("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
     for warning in table.info.get("warnings", []):
@@ -423,7 +423,7 @@ def info(table: Path, as_json: bool) -> None:
         else f"camera axis: {math.degrees(tilt_rad):.3f} deg off the vertical, leaning toward azimuth "
         f"{math.degrees(toward_rad):.2f} deg (the table is in world angles)"
     )
-    report = table_fit_report(loaded)
+    report = table_fit_report(loaded, table)
     if report is not None and report.mount is not None and report.mount.position_refined:
         lines.append(f"camera position refined from {tuple(round(c, 6) for c in report.mount.camera_given)}")
-    click.echo("\n".join([*lines, _describe_residuals(loaded, report)]))
+    click.echo(printable("\n".join([*lines, _describe_residuals(loaded, report)]), keep="\n"))
