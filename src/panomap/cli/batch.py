@@ -8,7 +8,6 @@ from __future__ import annotations
 import sys
 import threading
 from pathlib import Path
-from typing import Any
 
 import click
 
@@ -21,35 +20,16 @@ from ..remap import INTERPOLATIONS
 from ..table.sampling import SAMPLINGS
 from ..views.spec import KINDS
 from .options import PATH, usage_error, warn_orientation
+from .progress import ProgressBar
 from .video import encoder_settings, stop_on_signals, views_of
 
 
-class _Bar:
-    """One tqdm bar for the whole job on a terminal (frames, fps, ETA; inputs as its postfix)."""
-
-    def __init__(self, enabled: bool) -> None:
-        self.enabled = enabled
-        self.bar: Any = None
+class _Bar(ProgressBar):
+    """The job's bar: frames, fps, ETA, and the inputs done as its postfix."""
 
     def __call__(self, progress: Progress) -> None:
-        if not self.enabled:
-            return
-        if self.bar is None:
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=progress.frames_total, unit="frame", dynamic_ncols=True, file=sys.stderr)
-        self.bar.set_postfix_str(f"{progress.inputs_done}/{progress.inputs_total} inputs", refresh=False)
-        self.bar.update(progress.frames_done - self.bar.n)
-
-    def write(self, message: str) -> None:
-        if self.bar is not None:
-            self.bar.write(message, file=sys.stderr)
-        else:
-            click.echo(message, err=True)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
+        inputs = f"{progress.inputs_done}/{progress.inputs_total} inputs"
+        self.update(progress.frames_done, progress.frames_total, inputs)
 
 
 @click.command()

@@ -29,6 +29,7 @@ from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video
 from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
 from .options import FINITE, PATH, usage_error
+from .progress import ProgressBar
 
 
 def _bitrate(text: str) -> int:
@@ -103,31 +104,11 @@ def stop_on_signals(stop: threading.Event) -> Iterator[None]:
             signal.signal(signum, old)
 
 
-class _Progress:
-    """A tqdm bar on a terminal (frames, fps, ETA when the length is known); nothing otherwise."""
-
-    def __init__(self, enabled: bool) -> None:
-        self.enabled = enabled
-        self.bar: Any = None
+class _Progress(ProgressBar):
+    """The run's bar: frames, fps, ETA when the length is known."""
 
     def __call__(self, done: int, expected: int | None) -> None:
-        if not self.enabled:
-            return
-        if self.bar is None:
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=expected, unit="frame", dynamic_ncols=True, file=sys.stderr, leave=True)
-        self.bar.update(done - self.bar.n)
-
-    def write(self, message: str) -> None:
-        if self.bar is not None:
-            self.bar.write(message, file=sys.stderr)
-        else:
-            click.echo(message, err=True)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
+        self.update(done, expected)
 
 
 @click.command()

@@ -1,0 +1,48 @@
+"""The progress bar of the long commands, on a real pseudo-terminal."""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import pty
+import struct
+import termios
+
+from panomap.cli.progress import FALLBACK_COLUMNS, ProgressBar, terminal_columns
+
+
+def _terminal(columns: int) -> tuple[int, int]:
+    leader, follower = pty.openpty()
+    fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
+    return leader, follower
+
+
+def _drawn(columns: int) -> str:
+    leader, follower = _terminal(columns)
+    with os.fdopen(follower, "w", encoding="utf-8", closefd=True) as stream:
+        assert terminal_columns(stream) == (columns or None)
+        bar = ProgressBar(True, stream)
+        bar.update(30, 120)
+        bar.write("note: \x1b[2J a name")
+        bar.update(60, 120)
+        bar.close()
+        stream.flush()
+        text = os.read(leader, 65536).decode("utf-8", "replace")
+    os.close(leader)
+    return text
+
+
+def test_a_terminal_reporting_0_columns_gets_a_bar_of_fixed_width() -> None:
+    # tqdm sized its bar by the terminal's width: 0 columns drew an empty line.
+    text = _drawn(0)
+    lines = [line for line in text.replace("\r", "\n").split("\n") if "60/120" in line]
+    assert lines, text
+    assert 0.9 * FALLBACK_COLUMNS <= len(lines[-1]) <= FALLBACK_COLUMNS
+    assert "50%" in lines[-1]
+
+
+def test_a_terminal_of_known_width_gets_a_bar_that_fills_it_and_messages_are_escaped() -> None:
+    text = _drawn(132)
+    lines = [line for line in text.replace("\r", "\n").split("\n") if "60/120" in line]
+    assert lines and 0.9 * 132 <= len(lines[-1]) <= 132, text
+    assert "note: \\x1b[2J a name" in text and "\x1b[2J" not in text
