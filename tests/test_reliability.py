@@ -147,6 +147,23 @@ def test_save_map_needs_npy_and_outputs_of_a_run_may_not_collide(work: Path, tmp
     assert files_in(tmp_path) == []
 
 
+def test_save_map_pgm_into_a_folder_quiet_still_views_and_unknown_placeholders(work: Path, tmp_path: Path) -> None:
+    # `--save-map-pgm a/` wrote ./a_x.pgm beside the working folder; now the folder's map_x.pgm, map_y.pgm.
+    (tmp_path / "maps").mkdir()
+    result = panorama(work, "-o", tmp_path / "p.png", "--save-map-pgm", f"{tmp_path / 'maps'}/", "-q")
+    assert result.exit_code == 0, result.output + result.stderr
+    assert result.output == ""  # -q: nothing but errors and warnings
+    assert files_in(tmp_path / "maps") == ["map_x.pgm", "map_y.pgm"]
+    assert not any(tmp_path.glob("maps_*.pgm")) and not any(Path.cwd().glob("*_x.pgm"))
+    loud = panorama(work, "-o", tmp_path / "p.png")
+    assert loud.output.startswith(f"wrote {tmp_path / 'p.png'} (")
+    # An unknown {placeholder} in video's -o was taken literally: one file 'out_{view}.mp4' for every view.
+    result = run("video", work / "cam.npz", work / "clip.mp4", "-o", tmp_path / "out_{view}.mp4", "--view",
+                 "panorama:size=128x32", "-q")  # fmt: skip
+    assert_one_line_error(result, "unknown placeholder {view}", "the only one is {name}", exit_code=2)
+    assert not any(tmp_path.glob("out_*"))
+
+
 # ----------------------------------------------------------------------------- all outputs or none
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import re
 import signal
+import string
 import sys
 import threading
 from collections.abc import Iterator
@@ -71,12 +72,26 @@ def encoder_settings(
 
 
 def output_paths(pattern: str, views: list[NamedView]) -> list[Path]:
-    """Each view's output file: ``{name}`` in ``pattern`` becomes the view's name."""
-    if "{name}" not in pattern:
+    """Each view's output file: ``{name}`` in ``pattern`` becomes the view's name (``{{`` and ``}}`` are
+    literal braces). Any other ``{key}`` is refused: taken literally, a mistyped ``{view}`` wrote one file
+    named ``out_{view}.mp4`` for every view."""
+    try:
+        fields = [(key, spec, conversion) for _, key, spec, conversion in string.Formatter().parse(pattern)]
+    except ValueError as exc:
+        raise click.BadParameter(f"{pattern!r} is malformed ({exc}; write a literal brace as {{{{ or }}}})",
+                                 param_hint="'-o'") from None  # fmt: skip
+    for key, spec, conversion in fields:
+        if key is not None and (key != "name" or spec or conversion):
+            field = "{" + key + (f"!{conversion}" if conversion else "") + (f":{spec}" if spec else "") + "}"
+            raise click.BadParameter(
+                f"{pattern!r} has an unknown placeholder {field}: the only one is {{name}}, the view's name "
+                "(write a literal brace as {{ or }})",
+                param_hint="'-o'",
+            )
+    if not any(key == "name" for key, _, _ in fields):
         if len(views) > 1:
             raise click.UsageError("with several views the output pattern needs {name}, e.g. -o 'out_{name}.mp4'")
-        return [Path(pattern)]
-    return [Path(pattern.replace("{name}", item.name)) for item in views]
+    return [Path(pattern.format(name=item.name)) for item in views]
 
 
 # The signals that finish every output cleanly (SIGHUP where the system has it).

@@ -36,11 +36,13 @@ def view_options(function: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--save-map", type=PATH, help="Also write the (H, W, 2) float32 (u, v) map as .npy."),
         click.option(
             "--save-map-pgm",
-            type=click.Path(path_type=Path),
+            type=click.Path(path_type=str),
             metavar="PREFIX",
             help="Also write the map for ffmpeg's remap filter: PREFIX_x.pgm and PREFIX_y.pgm "
-            "(16-bit, nearest pixel, 65535 where there is no source).",
+            "(16-bit, nearest pixel, 65535 where there is no source); a PREFIX that is a folder "
+            "(ending in /) gets FOLDER/map_x.pgm and FOLDER/map_y.pgm.",
         ),
+        click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors and warnings."),
         click.option(
             "--interp",
             type=click.Choice(list(INTERPOLATIONS)),
@@ -65,10 +67,11 @@ def _render(
     table_path: Path,
     image_path: Path,
     output: Path,
-    maps: tuple[Path | None, Path | None],
+    maps: tuple[Path | None, str | None],
     interp: str,
     sampling: str,
     make_view: Callable[[], View],
+    quiet: bool = False,
 ) -> None:
     save_map_path, pgm_prefix = maps
     view = make_view()
@@ -102,6 +105,8 @@ def _render(
             save_map(save_map_path, map_uv)
         if pgm_prefix is not None:
             save_map_pgm(pgm_prefix, map_uv)
+    if quiet:
+        return
     valid = float(np.mean(np.all(np.isfinite(map_uv), axis=2)))
     click.echo(
         f"wrote {output} ({map_uv.shape[1]} x {map_uv.shape[0]}, {valid:.0%} of pixels with a source)"
@@ -156,12 +161,14 @@ def view_command(kind: str) -> click.Command:
         image: Path,
         output: Path,
         save_map: Path | None,
-        save_map_pgm: Path | None,
+        save_map_pgm: str | None,
+        quiet: bool,
         interp: str,
         table_sampling: str,
         **values: Any,
     ) -> None:
-        _render(table, image, output, (save_map, save_map_pgm), interp, table_sampling, lambda: make_view(kind, values))
+        maps = (save_map, save_map_pgm)
+        _render(table, image, output, maps, interp, table_sampling, lambda: make_view(kind, values), quiet)
 
     command = click.command(kind, help=cls.summary)(view_options(run))
     shared = {param.name for param in command.params}

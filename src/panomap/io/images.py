@@ -12,6 +12,7 @@ since libpng writes its complaint about a truncated file straight to stderr.
 
 from __future__ import annotations
 
+import os
 import threading
 import warnings
 from pathlib import Path
@@ -292,9 +293,16 @@ def map_to_pgm(map_uv: NDArray[np.float32]) -> tuple[NDArray[np.uint16], NDArray
 
 
 def pgm_map_paths(prefix: str | Path) -> tuple[Path, Path]:
-    """``PREFIX_x.pgm`` and ``PREFIX_y.pgm``: where :func:`save_map_pgm` writes."""
-    prefix = Path(prefix)
-    return prefix.with_name(f"{prefix.name}_x.pgm"), prefix.with_name(f"{prefix.name}_y.pgm")
+    """``PREFIX_x.pgm`` and ``PREFIX_y.pgm``: where :func:`save_map_pgm` writes.
+
+    A ``prefix`` that names a folder (it ends with a path separator, or is an existing folder)
+    gives ``FOLDER/map_x.pgm`` and ``FOLDER/map_y.pgm`` (``a/`` wrote ``./a_x.pgm``).
+    """
+    text = os.fspath(prefix)
+    if text.endswith(("/", os.sep)) or Path(text).is_dir():
+        return Path(text) / "map_x.pgm", Path(text) / "map_y.pgm"
+    path = Path(text)
+    return path.with_name(f"{path.name}_x.pgm"), path.with_name(f"{path.name}_y.pgm")
 
 
 def save_map_pgm(prefix: str | Path, map_uv: NDArray[np.float32]) -> tuple[Path, Path]:
