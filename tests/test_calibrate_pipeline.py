@@ -508,7 +508,7 @@ def test_fit_on_a_full_frame_fisheye_says_a_tilt_and_the_centre_look_alike(tmp_p
     )
     assert result.exit_code == 0, result.output + result.stderr
     assert "starting from the frame centre" in result.stderr
-    notes = [line for line in result.output.splitlines() if line.startswith("diagnosis: the centre was refined")]
+    notes = [line for line in result.stderr.splitlines() if line.startswith("diagnosis: the centre was refined")]
     assert len(notes) == 1 and "from the frame's middle (no rim in the image" in notes[0] and "--centre" in notes[0]
     # Told that the centre was not a guess (as for one found at a rim), the same fit gets no such note.
     fit = calibrate_camera(landmarks, position, omni=image).fit

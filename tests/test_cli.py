@@ -660,3 +660,24 @@ def test_a_truncated_jpeg_is_said_so_and_never_taken_for_a_video(work: Path, tmp
     assert not (tmp_path / "p.png").exists()
     whole = run("panorama", table, tmp_path / "whole.jpg", "-o", tmp_path / "p.png")
     assert whole.exit_code == 0, whole.output + whole.stderr
+
+
+@pytest.mark.parametrize("spread", ["one pixel", "one radius"])
+def test_landmarks_that_cannot_be_fitted_get_one_line_and_no_scipy_warning(work: Path, spread: str) -> None:
+    """SciPy's ConstantInputWarning (two lines naming our source file) was printed before the error."""
+    lines = (work / "lm.csv").read_text().splitlines()
+    rows = [line.split(",") for line in lines[1:]]
+    for k, row in enumerate(rows):  # every pixel at (300, 250), or all on one circle about the centre
+        angle = 2 * math.pi * k / len(rows)
+        row[1:3] = ("300", "250") if spread == "one pixel" else (f"{321.4 + 50 * math.cos(angle):.3f}",
+                                                                  f"{298.2 + 50 * math.sin(angle):.3f}")  # fmt: skip
+    (work / "bad.csv").write_text("\n".join([lines[0], *(",".join(row) for row in rows)]) + "\n")
+    args = ["fit", work / "bad.csv", "-o", work / "bad.npz", "--camera", *POSITION, "--centre", *CAMERA.centre]
+    result = subprocess.run(
+        [sys.executable, "-m", "panomap", *(str(a) for a in args)], capture_output=True, text=True, check=False
+    )
+    assert result.returncode == 1, result.stderr
+    assert len(result.stderr.splitlines()) == 1, result.stderr
+    expected = "all 12 landmarks are at one pixel (300, 250)" if spread == "one pixel" else "looks down or up"
+    assert expected in result.stderr and "Warning" not in result.stderr
+    assert not (work / "bad.npz").exists()

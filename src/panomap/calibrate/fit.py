@@ -379,6 +379,12 @@ def fit_camera(
         raise PanomapError(f"only {n} landmark(s); at least {MIN_LANDMARKS} are needed")
     if image_size is not None:
         _check_inside(landmarks, image_size)
+    if float(np.max(np.ptp(landmarks.pixels, axis=0))) == 0.0:
+        u, v = landmarks.pixels[0]
+        raise PanomapError(
+            f"all {n} landmarks are at one pixel ({u:g}, {v:g}); each needs the pixel where its own world point "
+            "appears in the image"
+        )
 
     d = landmarks.world - np.asarray(camera)
     distance = np.linalg.norm(d, axis=1)
@@ -930,11 +936,19 @@ def _check_inside(landmarks: Landmarks, image_size: tuple[int, int]) -> None:
         )
 
 
-def _detect_axis(rho: FloatArray, r: FloatArray) -> str:
-    """``"down"`` when the image radius grows with elevation, else ``"up"``."""
+def rank_correlation(a: FloatArray, b: FloatArray) -> float:
+    """Spearman's rank correlation of ``a`` and ``b`` (n,); NaN where either is constant (where SciPy
+    would warn, and a warning would be printed before the error that explains it)."""
+    if float(np.ptp(a)) == 0.0 or float(np.ptp(b)) == 0.0:
+        return math.nan
     from scipy import stats  # here, not at the top: importing SciPy is slow
 
-    correlation = stats.spearmanr(rho, r).statistic
+    return float(stats.spearmanr(a, b).statistic)
+
+
+def _detect_axis(rho: FloatArray, r: FloatArray) -> str:
+    """``"down"`` when the image radius grows with elevation, else ``"up"``."""
+    correlation = rank_correlation(rho, r)
     if not np.isfinite(correlation) or abs(correlation) < 0.5:
         raise PanomapError(
             "cannot tell from the landmarks whether the camera looks down or up (image radius "
@@ -957,11 +971,10 @@ def _pixels_hint(rho: FloatArray, pixels: FloatArray, centre: tuple[float, float
     """Where the landmarks' image radii do not follow their elevations about ``centre``, but would with the
     world's Y up (rays ``d`` (n, 3) from the camera), or if their pixels were (row, column) or of an image
     scaled by one of PIXEL_SCALES: a sentence saying so ("" else)."""
-    from scipy import stats  # here, not at the top: importing SciPy is slow
 
     def monotonic(uv: FloatArray, elevation: FloatArray = rho) -> bool:
         r, _ = pixel_polar(uv, centre)
-        correlation = stats.spearmanr(elevation, r).statistic
+        correlation = rank_correlation(elevation, r)
         return bool(np.isfinite(correlation) and abs(correlation) >= UNDONE_MONOTONIC)
 
     if monotonic(pixels, np.arctan2(d[:, 1], np.hypot(d[:, 0], d[:, 2]))):

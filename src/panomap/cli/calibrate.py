@@ -244,7 +244,7 @@ def fit(
             write_image(overlay, draw_fit_overlay(omni, table))
     click.echo(printable(_describe_fit(table), keep="\n"))
     for note in diagnose(result.fit, centre_guessed=result.sources["centre"].source is Source.FRAME_CENTRE):
-        click.echo(printable(f"diagnosis: {note}"))
+        click.echo(printable(f"diagnosis: {note}"), err=True)
     written = [str(path) for path in (output, plot, overlay) if path is not None]
     click.echo("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
     for warning in table.info.get("warnings", []):
