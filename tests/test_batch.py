@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 
 import panomap
-from panomap.batch.job import Job, Settings, find_inputs, make_job
+from panomap.batch.job import Job, Settings, excluded, find_inputs, make_job, output_pattern, without_outputs
 from panomap.batch.record import Done, Record
 from panomap.batch.run import Progress, codec_threads, run_job
 from panomap.simulate import load_room, render, standard_cameras
@@ -281,6 +281,40 @@ def test_a_folder_made_for_outputs_that_never_came_is_removed(work: Path, tmp_pa
     assert report.done == 1 and len(report.failed) == 1
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["north"]
     assert len(list((tmp_path / "out" / "north" / "deep").iterdir())) == len(VIEWS)
+
+
+def test_a_rerun_never_takes_the_jobs_own_outputs_as_inputs_and_exclude_leaves_out_what_it_matches(
+    work: Path, tmp_path: Path, cluster: str
+) -> None:
+    # The outputs' folder inside the inputs' folder: the rerun found the 6 outputs of the first run as
+    # inputs ("6 of 9 failed"). Now they are left out (with a note), and the rerun finds all complete.
+    cams = tmp_path / "cams"
+    cams.mkdir()
+    for k in range(3):
+        shutil.copy(work / "images" / f"i{k}.png", cams / f"i{k}.png")
+    shutil.copy(work / "images" / "i3.png", cams / "skip_me.png")
+    args = ["batch", cams, "--table", work / "cam.npz", "-o", cams / "out/{camera}/{stem}_{name}.png",
+            "--view", PANORAMA, "--view", DOOR, "--record", cams / "rec.jsonl", "--scheduler", cluster,
+            "--exclude", "skip_*"]  # fmt: skip
+    first = run(*args)
+    assert first.exit_code == 0, first.output + first.stderr
+    assert "unwarped 3 of 3 inputs (6 outputs" in first.output
+    assert len(list((cams / "out").rglob("*.png"))) == 6 and not any((cams / "out").rglob("skip_me*"))
+    again = run(*args)
+    assert again.exit_code == 0, again.output + again.stderr
+    assert "6 of the files found are outputs of this job" in again.stderr
+    assert "unwarped 0 of 3 inputs" in again.output and "3 already complete" in again.output
+    assert len(list((cams / "out").rglob("*.png"))) == 6
+    # Outputs of an input since removed are still outputs of the job; another stem is an input.
+    kept, dropped = without_outputs(find_inputs([str(cams)], work / "cam.npz", None, ["skip_*"]), VIEWS,
+                                    str(cams / "out/{camera}/{stem}_{name}.png"))  # fmt: skip
+    assert sorted(item.path.name for item in kept) == ["i0.png", "i1.png", "i2.png"] and len(dropped) == 6
+    pattern = output_pattern(str(cams / "out/{camera}/{stem}_{name}.mp4"), ["cam"], ["panorama", "door"])
+    assert pattern.fullmatch((cams / "out/cam/gone_door.jpg").as_posix())
+    assert not pattern.fullmatch((cams / "out/cam/gone_hall.jpg").as_posix())  # not a view of this job
+    assert not pattern.fullmatch((cams / "out/other/gone_door.jpg").as_posix())  # not a camera of this job
+    assert excluded(Path("a/old/x.mp4"), ["*/old/*"]) and excluded(Path("/v/x.avi"), ["*.avi"])
+    assert not excluded(Path("a/new/x.mp4"), ["*/old/*", "*.avi"])
 
 
 def test_bad_jobs_get_one_line_errors(work: Path, tmp_path: Path) -> None:

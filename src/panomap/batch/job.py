@@ -24,10 +24,12 @@ Every path in a job is absolute: on a cluster, every machine must see the same p
 from __future__ import annotations
 
 import csv
+import fnmatch
 import glob
 import hashlib
 import io
 import json
+import re
 import string
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -105,16 +107,23 @@ def kind_of(path: Path) -> str | None:
     return "image" if suffix in IMAGE_SUFFIXES else "video" if suffix in VIDEO_SUFFIXES else None
 
 
-def find_inputs(patterns: Sequence[str], table: Path | None, camera: str | None = None) -> list[BatchInput]:
+def find_inputs(
+    patterns: Sequence[str], table: Path | None, camera: str | None = None, exclude: Sequence[str] = ()
+) -> list[BatchInput]:
     """The inputs named by ``patterns``: files, folders (every image and video inside, recursively)
-    and globs (``cams/*.jpg``, ``**`` too), or one manifest file (``.csv``, ``.json``, ``.yaml``).
+    and globs (``cams/*.jpg``, ``**`` too), or one manifest file (``.csv``, ``.json``, ``.yaml``),
+    less those matching an ``exclude`` glob (:func:`excluded`).
 
     Without a manifest, ``table`` is every input's table and ``camera`` (default: the table's
     stem) its camera name. Raises PanomapError naming what matched nothing.
     """
     manifest = check_inputs_and_table(patterns, table)
     if manifest is not None:
-        return read_manifest(manifest)
+        listed = read_manifest(manifest)
+        kept = [item for item in listed if not excluded(item.path, exclude)]
+        if not kept:
+            raise PanomapError("--exclude leaves no input of the manifest", manifest)
+        return kept
     assert table is not None
     table = table.absolute()
     found: list[Path] = []
@@ -133,7 +142,10 @@ def find_inputs(patterns: Sequence[str], table: Path | None, camera: str | None 
             if not matches:
                 problem = "matches no image or video" if glob.has_magic(pattern) else "no such file"
                 raise PanomapError(problem, pattern)
-        found += matches
+        kept = [p for p in matches if not excluded(p, exclude)]
+        if not kept:
+            raise PanomapError(f"every image and video it names is excluded ({', '.join(exclude)})", pattern)
+        found += kept
     unique = list(dict.fromkeys(p.absolute() for p in found))
     name = camera if camera is not None else table.stem
     if not is_camera_name(name):
@@ -237,6 +249,50 @@ def output_path(template: str, item: BatchInput, view: str) -> Path:
     if not item.is_video:
         path = path.with_suffix(item.path.suffix)
     return path.absolute()
+
+
+def output_pattern(template: str, cameras: Iterable[str], views: Iterable[str]) -> re.Pattern[str]:
+    """A pattern that every output of ``template`` matches (absolute paths, as :func:`output_path` makes
+    them), for these cameras and views, whatever the input's stem and suffix: what an earlier run of the
+    same job wrote, even of an input since removed."""
+    base = Path(template).absolute().as_posix()
+    stem_less = base[: len(base) - len(Path(base).suffix)]
+
+    def choice(names: Iterable[str]) -> str:
+        return "(?:" + "|".join(re.escape(name) for name in sorted(set(names), key=len, reverse=True)) + ")"
+
+    fields = {"camera": choice(cameras), "name": choice(views), "stem": r"[^/]+", "ext": r"[^/]*"}
+    parts = [
+        re.escape(literal) + (fields[key] if key is not None else "")
+        for literal, key, _, _ in string.Formatter().parse(stem_less)
+    ]
+    return re.compile("".join(parts) + r"\.[^/.]+")
+
+
+def without_outputs(
+    inputs: Sequence[BatchInput], views: Sequence[NamedView], template: str
+) -> tuple[list[BatchInput], list[BatchInput]]:
+    """``(kept, dropped)``: the inputs that are outputs of this job (of these views and cameras under
+    ``template``) dropped. A folder or glob that holds the job's own output folder found the outputs of
+    the last run as inputs on the next (and failed on them)."""
+    pattern = output_pattern(template, [item.camera for item in inputs], [view.name for view in views])
+    kept: list[BatchInput] = []
+    dropped: list[BatchInput] = []
+    for item in inputs:
+        (dropped if pattern.fullmatch(item.path.absolute().as_posix()) else kept).append(item)
+    return kept, dropped
+
+
+def excluded(path: Path, patterns: Sequence[str]) -> bool:
+    """Whether ``path`` matches one of the ``--exclude`` globs: by its name, its path relative to the
+    working folder, or its absolute path (``*`` crosses folders, as in ``fnmatch``)."""
+    absolute = path.absolute()
+    try:
+        relative = absolute.relative_to(Path.cwd().absolute()).as_posix()
+    except ValueError:
+        relative = absolute.as_posix()
+    names = (absolute.name, relative, absolute.as_posix())
+    return any(fnmatch.fnmatchcase(name, pattern) for pattern in patterns for name in names)
 
 
 def file_digest(path: Path, chunk: int = 1 << 20) -> str:

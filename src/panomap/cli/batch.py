@@ -12,7 +12,15 @@ from pathlib import Path
 import click
 
 from ..batch.forkserver import SCHEDULER_VARIABLE
-from ..batch.job import TEMPLATE_KEYS, Settings, check_inputs_and_table, check_template, find_inputs, make_job
+from ..batch.job import (
+    TEMPLATE_KEYS,
+    Settings,
+    check_inputs_and_table,
+    check_template,
+    find_inputs,
+    make_job,
+    without_outputs,
+)
 from ..batch.record import Record
 from ..batch.run import Progress, run_job
 from ..errors import PanomapError
@@ -44,6 +52,14 @@ class _Bar(ProgressBar):
     "(e.g. '{camera}/{stem}_{name}.mp4'); still images keep their own format.",
 )
 @click.option("--table", type=PATH, help="The table of every input (without a manifest).")
+@click.option(
+    "--exclude",
+    "excludes",
+    multiple=True,
+    metavar="GLOB",
+    help="Leave out the inputs that match GLOB by name or path ('*' crosses folders), e.g. "
+    "--exclude '*/old/*' --exclude '*.avi'; repeatable. The job's own outputs are always left out.",
+)
 @click.option("--camera", help="The camera's name for {camera} (without a manifest; default: the table's stem).")
 @click.option(
     "--view",
@@ -93,6 +109,7 @@ def batch(
     inputs: tuple[str, ...],
     template: str,
     table: Path | None,
+    excludes: tuple[str, ...],
     camera: str | None,
     specs: tuple[str, ...],
     views_file: Path | None,
@@ -145,7 +162,15 @@ def batch(
         check_inputs_and_table(inputs, table)
     except PanomapError as exc:
         raise usage_error(exc) from None
-    found = find_inputs(inputs, table, camera)
+    found, outputs = without_outputs(find_inputs(inputs, table, camera, excludes), named, template)
+    if outputs and not quiet:
+        click.echo(
+            f"panomap batch: note: {len(outputs)} of the files found are outputs of this job (under {template}): "
+            "left out",
+            err=True,
+        )
+    if not found:
+        raise PanomapError("every input found is an output of this job: name the inputs, not the outputs' folder")
     # Each camera's first still image, as the views do: an EXIF orientation asks viewers to turn it (its views
     # are of the pixels as stored, as the table is); once a camera, not once an image.
     for first in {item.camera: item for item in reversed(found) if not item.is_video}.values():
