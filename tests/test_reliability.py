@@ -15,6 +15,7 @@ import stat
 import struct
 import subprocess
 import sys
+import threading
 import tracemalloc
 import zipfile
 import zlib
@@ -27,6 +28,7 @@ import numpy as np
 import pytest
 
 import panomap.files
+from panomap.cli.video import summary
 from panomap.errors import PanomapError
 from panomap.io.images import read_image
 from panomap.simulate import standard_cameras
@@ -162,6 +164,51 @@ def test_save_map_pgm_into_a_folder_quiet_still_views_and_unknown_placeholders(w
                  "panorama:size=128x32", "-q")  # fmt: skip
     assert_one_line_error(result, "unknown placeholder {view}", "the only one is {name}", exit_code=2)
     assert not any(tmp_path.glob("out_*"))
+
+
+def _long_clip(work: Path, path: Path, frames: int, options: dict[str, str] | None = None) -> None:
+    omni = cv2.imread(str(work / "omni.png"))
+    with av.open(str(path), "w", options=options or {}) as container:
+        stream = container.add_stream("libx264", rate=25)
+        stream.width, stream.height, stream.pix_fmt = SIZE[0], SIZE[1], "yuv420p"
+        stream.options = {"preset": "ultrafast"}
+        for index in range(frames):
+            frame = av.VideoFrame.from_ndarray(np.roll(omni, 3 * index, axis=1), format="bgr24")
+            frame.pts = index
+            container.mux(stream.encode(frame))
+        container.mux(stream.encode(None))
+
+
+@pytest.mark.parametrize(("name", "options"), [("cut.mkv", None), ("cut.mp4", {"movflags": "faststart"})])
+def test_a_video_cut_short_says_so_in_one_line(work: Path, tmp_path: Path, name: str, options: Any) -> None:
+    # A truncated file gave "unwarped N frames", exit 0, with no word that the input ended early.
+    whole = tmp_path / f"whole{Path(name).suffix}"
+    _long_clip(work, whole, 100, options)  # 4 s at 25 fps
+    data = whole.read_bytes()
+    (tmp_path / name).write_bytes(data[: int(len(data) * 0.6)])
+    view = ("--view", "panorama:size=128x32")
+    result = run("video", work / "cam.npz", tmp_path / name, "-o", tmp_path / "out.mp4", *view)
+    assert result.exit_code == 0, result.output + result.stderr
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and "the input ended early" in lines[0] and "its header says 4.00 s" in lines[0], lines
+    assert name in lines[0]
+    complete = run("video", work / "cam.npz", whole, "-o", tmp_path / "out.mp4", *view)
+    assert complete.exit_code == 0 and complete.stderr == "", complete.stderr
+    assert "unwarped 100 frames" in complete.output
+
+
+def test_a_start_past_the_end_and_a_stop_before_the_first_frame_say_what_happened(work: Path, tmp_path: Path) -> None:
+    # Both said "no frame could be decoded", blaming a good input.
+    result = run("video", work / "cam.npz", work / "clip.mp4", "-o", tmp_path / "o.mp4", "--view",
+                 "panorama:size=128x32", "--start", 10)  # fmt: skip
+    assert_one_line_error(result, "--start 10 s is past the end of the input: the clip lasts 0.24 s", exit_code=1)
+    stop = threading.Event()
+    stop.set()  # (as the first SIGINT or SIGTERM sets it, here before a frame is read)
+    report = unwarp_video(load_table(work / "cam.npz"), str(work / "clip.mp4"),
+                          [ViewOutput(GenericPanorama(size=(128, 32)), tmp_path / "o.mp4")], stop=stop)  # fmt: skip
+    assert report.interrupted and report.frames_written == 0 and report.outputs == []
+    assert files_in(tmp_path) == []
+    assert summary(report).startswith("stopped by a signal before the first frame")
 
 
 # ----------------------------------------------------------------------------- all outputs or none

@@ -295,6 +295,8 @@ def video(
 
 def summary(report: VideoReport) -> str:
     """The run in one line: frames, speed, audio, gaps and the files written."""
+    if report.interrupted and report.frames_written == 0:
+        return f"stopped by a signal before the first frame, after {report.seconds:.1f} s: nothing written"
     fps = report.frames_written / report.seconds if report.seconds > 0 else 0.0
     how = "stopped by a signal after" if report.interrupted else "unwarped"
     extra = f", {report.frames_skipped} skipped" if report.frames_skipped else ""

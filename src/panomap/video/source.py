@@ -171,10 +171,45 @@ class ReadState:
     last_frame_at: float | None = None  # when the last frame came (any connection)
     dropped: str | None = None  # why this connection dropped; None if it ended otherwise
     ended: bool = False  # the selection's end was reached: nothing more to read
+    last_input_s: float | None = None  # input time of the last video frame decoded, from the stream's start
+    at_end: bool = False  # the input was read to its end (not stopped, not cut by the selection)
 
     def next_connection(self) -> None:
         self.first_frame_at = None
         self.dropped = None
+
+
+def declared_duration_s(container: Any) -> float | None:
+    """How long a file's header says its video lasts (s, from the stream's start), or None where it does not
+    say: the video stream's duration (MP4) or else the container's (Matroska)."""
+    stream = container.streams.video[0]
+    if stream.duration and stream.time_base:
+        return float(stream.duration * stream.time_base)
+    if container.duration:
+        return float(container.duration) / 1e6
+    return None
+
+
+def frame_rate(container: Any) -> float:
+    """The video stream's frame rate (frames/s; 25 where the file does not say)."""
+    stream = container.streams.video[0]
+    return float(stream.average_rate or stream.guessed_rate or 25)
+
+
+def ended_early(declared_end: float | None, rate: float, state: ReadState) -> str | None:
+    """A sentence saying that a file's frames stopped well before the end ``declared_end`` (s from the
+    stream's start, :func:`declared_duration_s`) that its header declares (a file cut short: a copy or a
+    recording that did not finish), or None. "Well": by more than three frames (``rate`` frames/s) and a
+    quarter of a second (audio may run a little past the video)."""
+    if declared_end is None or state.last_input_s is None:
+        return None
+    missing = declared_end - (state.last_input_s + 1 / rate)
+    if missing <= max(3 / rate, 0.25):
+        return None
+    return (
+        f"the input ended early: its last frame is at {state.last_input_s:.2f} s, its header says "
+        f"{declared_end:.2f} s (a truncated or damaged file?)"
+    )
 
 
 def expected_frames(stream: Any, selection: Selection, live: bool) -> int | None:
@@ -271,6 +306,7 @@ def read_frames(
                 seconds = float(frame.pts * time_base)
                 if origin is None:
                     origin = seconds - state.received_s
+                state.last_input_s = seconds - origin
                 if live:
                     state.received_s = max(state.received_s, seconds - origin)
                 place = window(seconds)
@@ -295,6 +331,7 @@ def read_frames(
                     return
         if can_drop and not halted():
             state.dropped = "the stream ended"
+        state.at_end = not halted()
     except Exception as exc:  # reading ends; what was read is kept
         if can_drop:
             state.dropped = f"no data for {drop_timeout_s:g} s" if isinstance(exc, av.error.ExitError) else reason(exc)

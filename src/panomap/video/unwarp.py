@@ -50,8 +50,11 @@ from .source import (
     Selection,
     SharedInput,
     copy_packet,
+    declared_duration_s,
     drops,
+    ended_early,
     expected_frames,
+    frame_rate,
     is_live,
     open_input,
     read_frames,
@@ -143,6 +146,9 @@ def unwarp_video(
         check_segment_names(paths)
     report = VideoReport()
     started, started_at = time.perf_counter(), time.monotonic()
+    live = is_live(source)
+    declared_end = None if live else declared_duration_s(current.container)
+    rate = frame_rate(current.container) if current.container.streams.video else 25.0
     try:
         size = _check_input(current.container, table, source)
         in_format = current.container.streams.video[0].codec_context.pix_fmt or "yuv420p"
@@ -228,8 +234,15 @@ def unwarp_video(
                 break
             current = SharedInput(opened)
         if report.frames_written == 0:
-            why = f" ({report.gaps[-1].describe(source)})" if report.gaps else ""
-            raise PanomapError(f"no frame could be decoded (nothing written){why}", source)
+            if stop.is_set():  # stopped before the first frame: nothing written, and nothing wrong with the input
+                report.interrupted = True
+                return report
+            raise PanomapError(_nothing_written(report, source, selection, declared_end), source)
+        if not live and state.at_end and not stop.is_set() and not report.problems:
+            note = ended_early(declared_end, rate, state)
+            if note is not None:
+                report.problems.append(f"{source}: {note}")
+                warn(report.problems[-1])
     finally:
         current.close()  # (on an abort while the reader still waits in a read: once it returns)
         report.seconds = time.perf_counter() - started
@@ -238,6 +251,15 @@ def unwarp_video(
 
 class _NothingWritten(Exception):
     """A segment got no frame: its files are removed (all_or_none)."""
+
+
+def _nothing_written(report: VideoReport, source: str, selection: Selection, declared_end: float | None) -> str:
+    """Why a run wrote no frame, in words: a start past the clip's end, a drop, or frames that do not decode."""
+    if selection.start > 0 and declared_end is not None and selection.start >= declared_end:
+        clip = f"the clip lasts {declared_end:.2f} s"
+        return f"--start {selection.start:g} s is past the end of the input: {clip} (nothing written)"
+    why = f" ({report.gaps[-1].describe(source)})" if report.gaps else ""
+    return f"no frame could be decoded (nothing written){why}"
 
 
 def _check_input(container: Any, table: PanoMappingTable, source: str) -> tuple[int, int]:
