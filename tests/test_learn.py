@@ -17,6 +17,7 @@ import socket
 import subprocess
 import sys
 import threading
+import time
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -511,6 +512,53 @@ def test_a_silent_connection_is_closed_after_the_idle_timeout(served: Any) -> No
         conn.sendall(b"GET /api/state HTTP/1.1\r\n")  # ... and never the rest: a stalled client
         # The server closes it (EOF) after half a second; without a timeout this recv waits 30 s and fails.
         assert conn.recv(1024) == b""
+
+
+def test_a_client_sending_a_byte_every_half_second_is_cut_off_at_the_request_deadline(served: Any) -> None:
+    # The timeout was per read: a byte every few seconds kept the connection (and its thread) for ever.
+    server = served(idle_timeout_s=5.0, request_deadline_s=1.0, port=0)
+    request = b"GET /api/state HTTP/1.1\r\nHost: x\r\nX-Slow: " + b"a" * 200
+    with socket.create_connection(server.server_address[:2], timeout=30) as conn:
+        started = time.monotonic()
+        closed_after = None
+        for byte in request:
+            try:
+                conn.sendall(bytes([byte]))
+            except (BrokenPipeError, ConnectionResetError):
+                closed_after = time.monotonic() - started
+                break
+            readable, _, _ = select.select([conn], [], [], 0.5)
+            if readable and conn.recv(1024) == b"":
+                closed_after = time.monotonic() - started
+                break
+        # Cut off at the 1 s deadline (a read waits at most what is left of it), far before the 100 s the
+        # 200 bytes would take, and before the 5 s idle timeout could have mattered.
+        assert closed_after is not None and closed_after < 3.0, closed_after
+
+
+def test_three_hundred_idle_connections_hold_no_thread_and_the_page_is_still_answered(served: Any) -> None:
+    # Every connection had a thread until it closed: 304 threads for 300 idle connections.
+    server = served(idle_timeout_s=30.0, port=0)
+    before = threading.active_count()
+    connections = [socket.create_connection(server.server_address[:2], timeout=10) for _ in range(150)]
+    try:
+        for conn in connections[:75]:
+            conn.sendall(b"GET /api/fi")  # half a request line: parked, waiting for the rest
+        deadline = time.monotonic() + 10
+        while server.open_connections < 150 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert server.open_connections == 150
+        assert threading.active_count() - before <= 10  # the pool (8) and a little, never one a connection
+        host = f"{server.server_address[0]}:{server.server_address[1]}"
+        with socket.create_connection(server.server_address[:2], timeout=10) as conn:
+            conn.sendall(f"GET /api/files HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n".encode())
+            answer = b""
+            while chunk := conn.recv(65536):
+                answer += chunk
+        assert answer.startswith(b"HTTP/1.1 200 "), answer[:200]
+    finally:
+        for conn in connections:
+            conn.close()
 
 
 def test_thirty_concurrent_connections_are_all_answered(served: Any) -> None:

@@ -142,10 +142,10 @@ def find_inputs(
             if not matches:
                 problem = "matches no image or video" if glob.has_magic(pattern) else "no such file"
                 raise PanomapError(problem, pattern)
-        kept = [p for p in matches if not excluded(p, exclude)]
-        if not kept:
+        wanted = [p for p in matches if not excluded(p, exclude)]
+        if not wanted:
             raise PanomapError(f"every image and video it names is excluded ({', '.join(exclude)})", pattern)
-        found += kept
+        found += wanted
     unique = list(dict.fromkeys(p.absolute() for p in found))
     name = camera if camera is not None else table.stem
     if not is_camera_name(name):

@@ -1,7 +1,8 @@
 """The learning page's web server: static files and a small JSON API over a :class:`Session`.
 
-Standard library only (``http.server.ThreadingHTTPServer``), bound to the
-loopback address by default. The handler parses requests and calls the
+Standard library only (:mod:`panomap.io.http_server`: idle connections hold no thread, a bounded
+pool serves requests, a whole request must arrive within a deadline), bound to the loopback
+address by default. The handler parses requests and calls the
 session; it holds no geometry.
 
 API (bodies and answers are JSON unless said otherwise; errors are
@@ -27,7 +28,8 @@ to replace an existing file (409, with ``"exists": name``) unless the body says
 ``"overwrite": true``.
 
 Connections idle for ``IDLE_TIMEOUT_S`` (a half-open one, a client that stops
-sending) are closed; the listen queue holds ``LISTEN_BACKLOG`` connections.
+sending) are closed, and so is one whose request has not arrived whole within
+``REQUEST_DEADLINE_S`` of its first byte (a client sending a byte every few seconds).
 """
 
 from __future__ import annotations
@@ -35,23 +37,17 @@ from __future__ import annotations
 import ipaddress
 import json
 import math
-import socket
-import sys
 import threading
 from http import HTTPStatus
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from typing import Any
 from urllib.parse import urlsplit
 
 from ..errors import PanomapError
+from ..io.http_server import IDLE_TIMEOUT_S, REQUEST_DEADLINE_S, BoundedHTTPServer, WholeRequestHandler
 from .session import Session
 from .validate import MAX_BODY_BYTES, RequestError, only_keys, parse_body
 
-# Seconds a connection may stay silent (before its request, or between requests) before it is closed.
-IDLE_TIMEOUT_S = 20.0
-# Connections waiting to be accepted (socketserver's default of 5 resets a burst of page requests).
-LISTEN_BACKLOG = 128
 CONTENT_SECURITY_POLICY = "default-src 'self'; img-src 'self' blob: data:; frame-ancestors 'none'"
 
 STATIC_FILES = {
@@ -92,29 +88,20 @@ def _host_text(host: str | bytes | bytearray) -> str:
     return host if isinstance(host, str) else bytes(host).decode("ascii")
 
 
-class LearnServer(ThreadingHTTPServer):
-    """A threading HTTP server holding the session it serves.
+class LearnServer(BoundedHTTPServer):
+    """An HTTP server holding the session it serves (:class:`~panomap.io.http_server.BoundedHTTPServer`:
+    idle and slow connections hold no thread, a bounded pool answers whole requests, a request must
+    arrive whole within ``request_deadline_s`` and a silent connection closes after ``idle_timeout_s``)."""
 
-    One daemon thread per connection; a connection silent for ``idle_timeout_s``
-    seconds is closed, so idle or half-open connections do not hold threads. An
-    IPv6 host (one with a ``:``, as ``::1``) gets an IPv6 socket.
-    """
-
-    daemon_threads = True
-    request_queue_size = LISTEN_BACKLOG
-
-    def __init__(self, address: tuple[str, int], session: Session, idle_timeout_s: float = IDLE_TIMEOUT_S) -> None:
-        if ":" in address[0]:
-            self.address_family = socket.AF_INET6
+    def __init__(
+        self,
+        address: tuple[str, int],
+        session: Session,
+        idle_timeout_s: float = IDLE_TIMEOUT_S,
+        request_deadline_s: float = REQUEST_DEADLINE_S,
+    ) -> None:
         self.session = session
-        self.idle_timeout_s = idle_timeout_s
-        super().__init__(address, LearnHandler)
-
-    def handle_error(self, request: Any, client_address: Any) -> None:
-        """A client that went away or fell silent ends its connection quietly; anything else is a bug: shown."""
-        if isinstance(sys.exc_info()[1], ConnectionError | TimeoutError):
-            return
-        super().handle_error(request, client_address)
+        super().__init__(address, LearnHandler, idle_timeout_s, request_deadline_s, max_body_bytes=MAX_BODY_BYTES)
 
     @property
     def url(self) -> str:
@@ -131,17 +118,11 @@ class LearnServer(ThreadingHTTPServer):
         return {f"{name}:{port}" for name in names}
 
 
-class LearnHandler(BaseHTTPRequestHandler):
+class LearnHandler(WholeRequestHandler):
     """Routes the page's requests to the session."""
 
     server: LearnServer
     server_version = "panomap-learn"
-    protocol_version = "HTTP/1.1"
-
-    def setup(self) -> None:
-        super().setup()
-        # A read that waits longer ends the connection (handle_one_request closes it on the timeout).
-        self.connection.settimeout(self.server.idle_timeout_s)
 
     def log_message(self, format: str, *args: Any) -> None:
         """Quiet: the terminal shows the address and errors, not every request."""
@@ -276,12 +257,17 @@ class LearnHandler(BaseHTTPRequestHandler):
 
 
 def make_server(
-    session: Session, host: str = "127.0.0.1", port: int = 0, idle_timeout_s: float = IDLE_TIMEOUT_S
+    session: Session,
+    host: str = "127.0.0.1",
+    port: int = 0,
+    idle_timeout_s: float = IDLE_TIMEOUT_S,
+    request_deadline_s: float = REQUEST_DEADLINE_S,
 ) -> LearnServer:
     """A server for ``session`` bound to ``host:port`` (port 0: a free one), not yet serving.
 
     ``host`` is a name or an IPv4 or IPv6 address (``::1``); connections silent for
-    ``idle_timeout_s`` seconds are closed.
+    ``idle_timeout_s`` seconds are closed, and so are those whose request has not arrived whole
+    ``request_deadline_s`` seconds after its first byte.
 
     Raises
     ------
@@ -291,7 +277,7 @@ def make_server(
     if host.startswith("[") and host.endswith("]"):  # an IPv6 address as written in a URL
         host = host[1:-1]
     try:
-        return LearnServer((host, port), session, idle_timeout_s)
+        return LearnServer((host, port), session, idle_timeout_s, request_deadline_s)
     except OSError as exc:
         shown = f"[{host}]" if ":" in host else host
         raise PanomapError(
