@@ -29,8 +29,10 @@ import pytest
 
 import panomap
 from panomap.batch.job import Job, Settings, excluded, find_inputs, make_job, output_pattern, without_outputs
+from panomap.batch.leftovers import tidy
 from panomap.batch.record import Done, Record
 from panomap.batch.run import Progress, codec_threads, run_job
+from panomap.batch.tasks import parts_folder
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.video.output import EncoderSettings
 from panomap.views.spec import name_views, parse_view_spec
@@ -215,6 +217,41 @@ def test_an_interrupted_job_rerun_redoes_only_what_is_unfinished(work: Path, tmp
     assert all(record.complete(item) for item in job.items)
     third = run_job(job, Record(tmp_path / "rec.jsonl"), scheduler=cluster, force=True)
     assert third.done == IMAGES and third.skipped == 0
+
+
+def test_a_rerun_removes_what_killed_runs_left_and_never_a_live_runs_temporaries(
+    work: Path, tmp_path: Path, cluster: str
+) -> None:
+    # A SIGKILLed batch left .part files beside outputs that its workers (outliving it) then finished: the
+    # rerun found them complete, skipped them, and the temporaries stayed; a failed segmented video left an
+    # empty .panomap-parts/<id>/.
+    inputs = find_inputs([str(work / "images" / "i0.png"), str(work / "clip.mp4")], work / "cam.npz")
+    job = make_job(inputs, VIEWS, str(tmp_path / "out" / "{stem}_{name}.mp4"))
+    assert run_job(job, Record(tmp_path / "rec.jsonl"), scheduler=cluster).ok
+    gone = subprocess.Popen(["true"])
+    gone.wait()  # (its process id is now free: the temporary's owner is dead)
+    alive = subprocess.Popen(["sleep", "120"])
+    try:
+        image_output, video_output = job.items[0].outputs[0].path, job.items[1].outputs[1].path
+        dead = [image_output.parent / f".{image_output.name}.{gone.pid}-abc123.part.png",
+                video_output.parent / f".{video_output.name}.{gone.pid}-def456.part.mp4"]  # fmt: skip
+        live = image_output.parent / f".{image_output.name}.{alive.pid}-ghi789.part.png"
+        parts = parts_folder(job.items[1])
+        parts.mkdir(parents=True)
+        (parts / "000000_panorama.mp4").write_bytes(b"a part of a killed run")
+        (parts / f".000001_door.mp4.{gone.pid}-jkl012.part.mp4").write_bytes(b"half a part")
+        for path in [*dead, live]:
+            path.write_bytes(b"half an output")
+        again = run_job(job, Record(tmp_path / "rec.jsonl"), scheduler=cluster)
+        assert again.ok and again.skipped == 2 and again.done == 0
+        assert not any(path.exists() for path in dead) and not parts.parent.exists()
+        assert live.exists()  # (another run, alive, writes it: never touched)
+        # An empty parts folder of an input that is not complete (a failed segmented run's) goes too.
+        parts.mkdir(parents=True)
+        assert tidy(job, lambda item: False) == [parts] and not parts.parent.exists()
+    finally:
+        alive.kill()
+        alive.wait()
 
 
 def test_images_a_viewer_would_turn_are_warned_of_once_a_camera(work: Path, tmp_path: Path, cluster: str) -> None:

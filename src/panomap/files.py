@@ -162,6 +162,28 @@ def remove_stale_temporaries(path: str | Path) -> list[Path]:
     return removed
 
 
+def temporaries_alive(folder: str | Path) -> bool:
+    """Whether ``folder`` holds a temporary (of any output) whose process is still running."""
+    try:
+        names = [entry.name for entry in os.scandir(folder)]
+    except OSError:
+        return False
+    for name in names:
+        if not name.startswith("."):
+            continue
+        pid = _temporary_owner(name, Path(folder) / _temporary_target(name))
+        if pid is not None and (pid == os.getpid() or _alive(pid)):
+            return True
+    return False
+
+
+def _temporary_target(name: str) -> str:
+    """The output name a temporary's name is for (``.a.mp4.123-xy.part.mp4`` -> ``a.mp4``), or ``""``."""
+    head, _, _ = name[1:].rpartition(".part")
+    stem, _, _ = head.rpartition(".")
+    return stem
+
+
 def check_replaceable(path: str | Path) -> int:
     """The mode ``path`` will get: its own if it exists, else an ordinary new file's.
 

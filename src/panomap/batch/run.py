@@ -31,6 +31,7 @@ from ..errors import PanomapError
 from ..files import check_output
 from .forkserver import SCHEDULER_VARIABLE, can_fork_serve, start_fork_server
 from .job import Item, Job
+from .leftovers import tidy
 from .record import Failed, Record
 from .segments import Probe, plan_segments, probe
 from .tasks import ItemResult, PartResult, describe, join_video, unwarp_images, unwarp_segment, unwarp_whole_video
@@ -169,6 +170,7 @@ def run_job(
     come in; ``on_dashboard`` gets the Dask dashboard's address when there is one.
     """
     made: list[Path] = []
+    tidy(job, record.complete)  # (what killed runs left: before any work, so a full disk is not made worse)
     try:
         return _run_job(
             job,
@@ -186,6 +188,7 @@ def run_job(
             made=made,
         )
     finally:
+        tidy(job, record.complete)  # (and what their workers, outliving them, left while this run ran)
         for folder in reversed(made):  # (the deepest first)
             with contextlib.suppress(OSError):
                 folder.rmdir()  # only where empty
