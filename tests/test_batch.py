@@ -378,6 +378,16 @@ def test_bad_jobs_get_one_line_errors(work: Path, tmp_path: Path) -> None:
     result = run("batch", images, "--table", work / "cam.npz", "-o", tmp_path / "{stem}.png")
     assert_one_line_error(result, "give at least one --view", exit_code=2)
     assert not (tmp_path / "rec.jsonl").exists()
+    # An output that is an input through a link to its folder (paths were compared as text).
+    (tmp_path / "in").mkdir()
+    for name in ("x.png", "x_panorama.png"):
+        shutil.copy(images / "i0.png", tmp_path / "in" / name)
+    (tmp_path / "link").symlink_to(tmp_path / "in")
+    before = (tmp_path / "in" / "x_panorama.png").read_bytes()
+    result = run("batch", tmp_path / "in", "--table", work / "cam.npz", "-o", tmp_path / "link/{stem}_{name}.png",
+                 "--view", PANORAMA, "--record", tmp_path / "rec.jsonl")  # fmt: skip
+    assert_one_line_error(result, "x_panorama.png", "is an input: refusing to overwrite it", exit_code=1)
+    assert (tmp_path / "in" / "x_panorama.png").read_bytes() == before
 
 
 def test_bad_manifests_templates_and_records_get_one_line_errors(work: Path, tmp_path: Path) -> None:

@@ -218,7 +218,7 @@ def check_output(path: str | Path) -> None:
     check_replaceable(path)
 
 
-def _identity(path: Path) -> tuple[object, ...]:
+def file_identity(path: Path) -> tuple[object, ...]:
     """What makes two paths the same file: device and inode if it exists, else its resolved path."""
     try:
         info = os.stat(path)
@@ -267,11 +267,11 @@ def check_output_paths(
     seen: dict[tuple[object, ...], tuple[str, str, bool]] = {}
     for what, path in inputs:
         if path is not None:
-            seen.setdefault(_identity(Path(path)), (what, str(path), True))
+            seen.setdefault(file_identity(Path(path)), (what, str(path), True))
     for what, path in outputs:
         if path is None:
             continue
-        key = _identity(Path(path))
+        key = file_identity(Path(path))
         if key in seen:
             other, other_path, is_input = seen[key]
             if is_input:

@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import PanomapError
-from ..files import read_text
+from ..files import file_identity, read_text
 from ..video.output import EncoderSettings
 from ..views.spec import NamedView
 
@@ -323,7 +323,7 @@ def make_job(
         raise PanomapError("with several views the output template needs {name}, e.g. '{stem}_{name}.mp4'")
     tables: dict[Path, str] = {}
     seen: dict[Path, str] = {}
-    sources = {item.path for item in inputs}
+    sources = {file_identity(item.path) for item in inputs}  # (as files: through links and other spellings)
     described = json.dumps([repr(view) for view in views]) + repr(settings)
     items = []
     for item in inputs:
@@ -336,7 +336,7 @@ def make_job(
         outputs = []
         for name in names:
             path = output_path(template, item, name)
-            if path in sources:
+            if file_identity(path) in sources:
                 raise PanomapError(f"the output of {item.path} is an input: refusing to overwrite it", path)
             if path in seen:
                 raise PanomapError(
