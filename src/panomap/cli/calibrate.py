@@ -9,7 +9,7 @@ from typing import Any
 
 import click
 
-from ..calibrate.circles import ImageCircles, NoImageCircle, draw_no_rim_overlay, draw_overlay, find_image_circles
+from ..calibrate.circles import ImageCircles, NoImageCircle, find_image_circles
 from ..calibrate.diagnosis import diagnose
 from ..calibrate.landmarks import read_landmarks
 from ..calibrate.pipeline import calibrate_camera
@@ -19,6 +19,7 @@ from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_output_paths
 from ..io.images import write_image
+from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table
 from ..table.table import PanoMappingTable, check_table_size
 from .options import (

@@ -1,6 +1,9 @@
-"""The fit drawn on the omni-image (``panomap fit --overlay``): what a table says the camera sees, where.
+"""What was found, drawn on the omni-image: the circles (``panomap centre --overlay``) and the fit
+(``panomap fit --overlay``): what a table says the camera sees, where.
 
-Drawn on an 8-bit BGR copy of the image, with 1/16 px precision:
+:func:`draw_overlay` draws the circles found (:func:`panomap.calibrate.circles.find_image_circles`),
+:func:`draw_no_rim_overlay` what was found where no rim is, and :func:`draw_fit_overlay` the fit, on
+an 8-bit BGR copy of the image, with 1/16 px precision:
 
 - the annulus the table covers, about the fitted centre: the image circle green, the
   cut-off disc red; the fitted centre a yellow cross, and where the fit started
@@ -24,10 +27,12 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from ..calibrate.circles import SHIFT, SUBPIXEL, at_subpixel, overlay_canvas
+from ..calibrate.circles import Circle, ImageCircles, NoImageCircle
 from ..calibrate.report import FitReport, table_fit_report
 from ..table.table import PanoMappingTable
 
+SHIFT = 4  # fractional bits of the drawn coordinates: 1/16 px
+SUBPIXEL = 1 << SHIFT
 HORIZON = (230, 230, 0)  # BGR: cyan
 ELEVATION_CIRCLE = (200, 160, 0)
 AZIMUTH_ZERO = (230, 0, 230)  # magenta
@@ -43,6 +48,91 @@ CIRCLE_POINTS = 1440
 # RESIDUAL_SHARE of the image's short side: a residual of a pixel is invisible on a 2000 px image.
 MAGNIFICATIONS = (1, 2, 5, 10, 20, 50, 100)
 RESIDUAL_SHARE = 0.04
+
+
+def draw_overlay(image: NDArray[Any], circles: ImageCircles) -> NDArray[Any]:
+    """An 8-bit BGR copy of ``image`` with the found circles and centre drawn on it.
+
+    The image circle is green, thicker on the arcs of the rim it was fitted to
+    (the ellipse darker green, when there is one), the cut-off disc red, the
+    centre a yellow cross; drawn with 1/16 px precision.
+    """
+    canvas, thickness = overlay_canvas(image)
+    cv2.circle(
+        canvas,
+        at_subpixel(circles.outer.centre),
+        round(circles.outer.radius * SUBPIXEL),
+        (0, 220, 0),
+        thickness,
+        cv2.LINE_AA,
+        SHIFT,
+    )
+    # The arcs the rim was fitted to, thicker.
+    radius = round(circles.outer.radius * SUBPIXEL)
+    for start, end in circles.rim_arcs_deg:
+        cv2.ellipse(
+            canvas,
+            at_subpixel(circles.outer.centre),
+            (radius, radius),
+            0,
+            start,
+            end,
+            (0, 255, 0),
+            3 * thickness,
+            cv2.LINE_AA,
+            SHIFT,
+        )
+    if circles.ellipse is not None:
+        e = circles.ellipse
+        axes = (round(e.semi_axes[0] * SUBPIXEL), round(e.semi_axes[1] * SUBPIXEL))
+        cv2.ellipse(
+            canvas, at_subpixel(e.centre), axes, e.angle_deg, 0, 360, (0, 160, 0), thickness, cv2.LINE_AA, SHIFT
+        )
+    _draw_disc_and_cross(canvas, circles.cutoff, circles.centre, thickness)
+    return canvas
+
+
+def draw_no_rim_overlay(image: NDArray[Any], missing: NoImageCircle) -> NDArray[Any]:
+    """An 8-bit BGR copy of ``image`` with what was found where no rim is: the cut-off disc in red (a
+    mirror image that overfills the frame), when there is one, and the starting value for the centre (the
+    disc's centre, else the frame's middle) a yellow cross; drawn as :func:`draw_overlay` draws them."""
+    canvas, thickness = overlay_canvas(image)
+    start = missing.frame_centre if missing.cutoff is None else missing.cutoff.centre
+    _draw_disc_and_cross(canvas, missing.cutoff, start, thickness)
+    return canvas
+
+
+def at_subpixel(point: tuple[float, float]) -> tuple[int, int]:
+    """A point (px) in the fixed-point coordinates OpenCV draws with at ``shift=SHIFT``."""
+    return round(point[0] * SUBPIXEL), round(point[1] * SUBPIXEL)
+
+
+def overlay_canvas(image: NDArray[Any]) -> tuple[NDArray[Any], int]:
+    """An 8-bit BGR copy of ``image`` to draw on, and the lines' thickness (px) for its size."""
+    grey_or_colour = image if image.dtype == np.uint8 else (image / 257).astype(np.uint8)
+    if grey_or_colour.ndim == 2 or grey_or_colour.shape[2] == 1:
+        canvas = cv2.cvtColor(grey_or_colour.reshape(image.shape[:2]), cv2.COLOR_GRAY2BGR)
+    else:
+        canvas = np.array(grey_or_colour[..., :3])
+    return canvas, max(1, round(min(image.shape[:2]) / 500))
+
+
+def _draw_disc_and_cross(
+    canvas: NDArray[Any], disc: Circle | None, centre: tuple[float, float], thickness: int
+) -> None:
+    """The cut-off disc (red), when given, and a yellow cross at ``centre``, drawn on ``canvas``."""
+    if disc is not None:
+        cv2.circle(
+            canvas, at_subpixel(disc.centre), round(disc.radius * SUBPIXEL), (0, 0, 230), thickness, cv2.LINE_AA, SHIFT
+        )
+    size = 12 * thickness
+    u, v = centre
+    cv2.line(
+        canvas, at_subpixel((u - size, v)), at_subpixel((u + size, v)), (0, 230, 230), thickness, cv2.LINE_AA, SHIFT
+    )
+    cv2.line(
+        canvas, at_subpixel((u, v - size)), at_subpixel((u, v + size)), (0, 230, 230), thickness, cv2.LINE_AA, SHIFT
+    )
 
 
 def draw_fit_overlay(image: NDArray[Any], table: PanoMappingTable) -> NDArray[np.uint8]:

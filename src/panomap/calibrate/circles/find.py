@@ -1,0 +1,195 @@
+"""The orchestration: :func:`find_image_circles` (starts, rim, cut-off disc, ellipse) and its no-rim
+diagnosis.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from typing import Any
+
+from numpy.typing import NDArray
+
+from ...errors import PanomapError
+from ...strips import Ahead
+from .cutoff import _cutoff_circle, _disc_without_rim
+from .evidence import _either_polarity
+from .fitting import _ellipse
+from .frame import _arcs, _cropping_edges, _fraction_in_frame
+from .rim import _best_rim, _iterate_rim, _soft_rim, _soft_start
+from .sampling import _downscaled, to_grey
+from .starts import _coarse_circle, _concentric_centres, _concentric_circles, _outermost_edge_circle, _voted_circles
+from .thresholds import (
+    CONCENTRIC_SEEDS,
+    MIN_FEATURE_FRACTION,
+    MIN_FEATURE_FRACTION_LAST,
+    MIN_FEATURE_FRACTION_OUTSIDE,
+    NARROW_REACH,
+    NEAR_FRACTION,
+    NEAR_PX,
+    SOFT_RIM_RMS_PX,
+    WIDE_REACH,
+)
+from .types import ImageCircles, NoImageCircle, _Rim
+
+
+def find_image_circles(image: NDArray[Any]) -> ImageCircles:
+    """Find the image centre, the image circle and the cut-off disc of an omni-image.
+
+    The image circle may be cut by any of the frame's edges (a 4:3 or 16:9 sensor
+    under a round image): it is fitted to the arcs of its rim that are visible.
+
+    Parameters
+    ----------
+    image : (H, W[, C]) ndarray
+        8- or 16-bit omni-image, any channel count.
+
+    Raises
+    ------
+    NoImageCircle
+        When no rim is visible (a full-frame fisheye, an ordinary photo, a blank
+        image); it carries the frame centre as a starting value.
+    """
+    grey = to_grey(image)
+    height, width = grey.shape
+    frame_centre = ((width - 1) / 2, (height - 1) / 2)
+    if min(height, width) < 32:
+        raise NoImageCircle(
+            f"no image circle found: the image is too small ({width} x {height}) to find an image circle in",
+            frame_centre,
+        )
+    small, factor = _downscaled(grey)
+    reasons: list[str] = []
+    best = _search_stages(grey, small, factor, reasons)
+    if best is not None and best.polarity == 0:
+        best = _outermost_either(grey, best)
+    if best is None:
+        best = _soft_start(grey, small, factor, reasons)
+    elif best.polarity != 0 and best.circle.rms_px > SOFT_RIM_RMS_PX:
+        best = _soft_rim(grey, best)
+    if best is None:
+        raise _no_rim(grey, small, factor, reasons, frame_centre)
+    outer = best.circle
+    centre = outer.centre
+    ellipse = _ellipse(best.points, outer)
+    if ellipse is not None:
+        centre = ellipse.centre
+    cutoff = _cutoff_circle(grey, centre, outer.radius)
+    return ImageCircles(
+        centre=centre,
+        outer=outer,
+        cutoff=cutoff,
+        ellipse=ellipse,
+        cropped_by=_cropping_edges(outer.centre, outer.radius, (height, width)),
+        rim_in_frame=_fraction_in_frame(outer.centre, outer.radius, (height, width)),
+        rim_seen=outer.inliers / outer.rays,
+        rim_polarity={1: "bright inside", -1: "dark inside"}.get(best.polarity) or _either_polarity(grey, outer),
+        rim_arcs_deg=_arcs(best.points, outer),
+    )
+
+
+def _search_stages(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[str]) -> _Rim | None:
+    """The best rim of the stages, in order (each stage's failures appended to ``reasons``); None if none
+    passes."""
+    best: _Rim | None = None
+    # A bright disc in a dark border first (the blob, then the circle transform); a rim of
+    # either polarity (a mirror in a bright housing: darker inside than out on some arcs, a
+    # thin line on others) only when that fails; a rim darker inside than out, checked by
+    # its step alone, last.
+    # Each stage: its candidates, the rim's polarity, and how far (a fraction of the radius)
+    # the rim is looked for around a candidate: the blob's start may be rough (dark scene
+    # touching the rim); the circle transform's is good to a few px.
+    # A rim of either polarity: the circle transform's centres seed the concentric search,
+    # whose circles, outermost first, are tried; the first that passes ends that search. (The
+    # circle transform's own radii, tried after it, found nothing more in the tests and on the
+    # real sets, and cost a third of the time where no rim passes.)
+    either: list[list[tuple[tuple[float, float], float]]] = []
+    either_lock = threading.Lock()  # the two stages that use it may run at once
+
+    def voted_either() -> list[tuple[tuple[float, float], float]]:
+        with either_lock:
+            if not either:
+                either.append(_voted_circles(small, factor, polarity=0, count=6))
+            return either[0]
+
+    def concentric() -> list[tuple[tuple[float, float], float]]:
+        return _concentric_circles(grey, [centre for centre, _ in voted_either()[:CONCENTRIC_SEEDS]])
+
+    def concentric_searched() -> list[tuple[tuple[float, float], float]]:
+        if not voted_either():
+            return []
+        centre, radius = voted_either()[0]
+        searched = _concentric_circles(grey, _concentric_centres(grey, centre))
+        return searched + _outermost_edge_circle(grey, centre, radius)
+
+    stages = (
+        (lambda: _coarse_circle(small, factor), 1, (NARROW_REACH, WIDE_REACH), False),
+        (lambda: _voted_circles(small, factor, polarity=1), 1, (NARROW_REACH,), False),
+        (concentric, 0, (NARROW_REACH,), True),
+        (concentric_searched, 0, (NARROW_REACH,), True),
+        (lambda: _voted_circles(small, factor, polarity=-1, count=6), -1, (NARROW_REACH, WIDE_REACH), False),
+    )
+    tried: list[tuple[int, tuple[float, float], float]] = []
+    # Where no rim passes, every stage runs and every candidate is tried: the next stage's
+    # candidates are found, and the next candidate tried, on another core meanwhile.
+    with Ahead(lambda stage: stage[0](), stages) as generated:
+        for number, (_, polarity, reaches, first) in enumerate(stages):
+            if best is not None and (polarity != best.polarity or best.convincing or best.polarity == 0):
+                break
+            try:
+                candidates = generated.result(number)
+            except PanomapError as exc:
+                reasons.append(exc.detail)
+                continue
+            best = _best_rim(grey, candidates, polarity, reaches, first, best, tried, reasons)
+    return best
+
+
+def _outermost_either(grey: NDArray[Any], best: _Rim) -> _Rim:
+    """The outermost circle of either polarity that passes, from ``best`` outward."""
+    while True:
+        # A rim of either polarity is the outermost circle that passes: inside a mirror's rim
+        # the scene (a ceiling's edge) may draw circles too; outside it, the housing is blurred.
+        # Past a circle that passed, the rim may show on fewer rays (the housing as bright as
+        # the mirror on some arcs): a circle about the same centre needs MIN_FEATURE_FRACTION_OUTSIDE.
+        try:
+            further = _iterate_rim(
+                grey,
+                best.circle.centre,
+                best.circle.radius * (1 + WIDE_REACH),
+                0,
+                WIDE_REACH,
+                beyond=best.circle.radius + NEAR_PX,
+                least_features=MIN_FEATURE_FRACTION_OUTSIDE,
+                least_smooth=MIN_FEATURE_FRACTION_LAST,
+            )
+        except PanomapError:
+            break
+        moved = math.dist(further.circle.centre, best.circle.centre)
+        if further.stepping < MIN_FEATURE_FRACTION * further.rays_in_frame and moved > max(
+            NEAR_PX, NEAR_FRACTION * best.circle.radius
+        ):
+            break
+        best = further
+    return best
+
+
+def _no_rim(
+    grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[str], frame_centre: tuple[float, float]
+) -> NoImageCircle:
+    """The error where no rim passes: the first reason, and the cut-off disc where one shows."""
+    reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
+    disc = _disc_without_rim(grey, small, factor)
+    if disc is not None:
+        return NoImageCircle(
+            f"{reason}; no rim is visible, but a cut-off disc is (the camera's own reflection: a mirror "
+            f"image that overfills the frame), centre ({disc.centre[0]:.1f}, {disc.centre[1]:.1f}), "
+            f"radius {disc.radius:.1f} px: its centre is only a starting value",
+            frame_centre,
+            cutoff=disc,
+        )
+    return NoImageCircle(
+        f"{reason}; no rim is visible (a full-frame fisheye, or not an omni-image): "
+        f"the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a starting value",
+        frame_centre,
+    )

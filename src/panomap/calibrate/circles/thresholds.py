@@ -1,0 +1,118 @@
+"""The circle finder's settings: its rays and profile sampling, and the thresholds every step applies,
+each with the measurement that set it.
+"""
+
+from __future__ import annotations
+
+RAYS = 720
+COARSE_SIDE = 400
+STEP = 0.5  # px between profile samples
+PROFILE_SIGMA_PX = 1.0  # smoothing of the profiles along their rays
+# Samples either side of an edge (4 px) that must lie in the frame, and those whose levels are compared.
+EDGE_HALF_WINDOW = 8
+LEVEL_SAMPLES = 16
+# Edge points further than this from the fitted circle (in robust sigmas) are outliers.
+INLIER_SIGMAS = 3.0
+# Rays (of RAYS) whose rim points must agree: a circle cut by the frame by 15% of its
+# radius on two sides still shows 64% of its rim, but dark scene may hide much of that
+# (a real fisheye cut at top and bottom shows a quarter of its rim).
+MIN_RIM_FRACTION = 0.2
+# A round image just larger than the frame (past a square frame's sides, or a 4:3 frame's four) shows its rim only
+# about the corners, on fewer rays than that: there, this share of the rays on which the circle lies in the frame
+# will do, and no fewer than MIN_RIM_RAYS (20 deg of rim, in the sectors asked for below).
+MIN_RIM_SHARE_IN_FRAME = 0.6
+MIN_RIM_RAYS = 40
+# ... spread around the circle: in at least this many of 12 sectors of 30 deg, a third of the rays agree.
+MIN_RIM_SECTORS = 4
+# Rays (of those in the frame) stepping across a rim that needs no other candidate.
+CONVINCING_RIM_FRACTION = 0.85
+# Rays (of those in the frame) along which the level steps across the circle: 0.8-0.97 on
+# real rims, 0.4-0.7 on circles through scene edges. A mirror's rim in a bright housing
+# (darker inside than out) steps less clearly (0.5-0.8 on the real one), and circles
+# through scene edges reach 0.53 there.
+MIN_STEPPING_FRACTION = 0.75
+MIN_STEPPING_FRACTION_DARK_INSIDE = 0.62
+# A search stops after its first circle where the levels step across it on fewer than this
+# share of the rays the final test asks for (a wrong start costs one search, not four).
+EARLY_STEPPING_SHARE = 0.5
+# A rim of either polarity (a mirror in a bright housing) is told from scene edges by an edge
+# or line that stands out on it (FEATURE_MIN_STRENGTH grey levels per px, FEATURE_MIN_RATIO
+# times the edges beside it) on this fraction of the rays in the frame, in this many sectors.
+MIN_FEATURE_FRACTION = 0.6
+# ... or this fraction, for a circle about the same centre past one that passed (the outermost is the rim).
+MIN_FEATURE_FRACTION_OUTSIDE = 0.4
+MIN_RIM_SECTORS_EITHER = 6
+# ... or this fraction, in MIN_RIM_SECTORS, for such a circle where the image past it is smooth
+# (the housing out of focus; a rim seen only where the housing's light differs from the mirror's:
+# on 22-38% of the rays where it is as bright as the mirror on 62% of the rim).
+MIN_FEATURE_FRACTION_LAST = 0.2
+FEATURE_MIN_STRENGTH = 4.0
+FEATURE_MIN_RATIO = 2.0
+# Sharp real rims fit to 0.2-0.9 px RMS, a soft (vignetted) one to 1.5 px; a false circle
+# through scene edges fits worse.
+MAX_RIM_RMS_PX = 2.0
+# A soft rim (a fisheye's field stop out of focus, blurred over several px) scatters its edge points: each
+# ray's outermost clear drop falls anywhere on the long slope, outward on average (a stop blurred by 3-4 px:
+# 0.5-1.7 px RMS, the centre up to 0.9 px off and the radius up to 1.5 px too large; the whole image blurred
+# by 8 px: none passes). A bright- or dark-inside rim whose fit is worse than SOFT_RIM_RMS_PX is fitted again
+# on the image smoothed by each of SOFT_RIM_SIGMAS_PX (the profiles then show one slope), kept where its RMS
+# is under SOFT_RIM_GAIN of the first and it is the same edge (centre and radius each within twice the
+# first's RMS: on one real fisheye image the smoothed fit took an edge 4 px further in).
+SOFT_RIM_RMS_PX = 0.5
+SOFT_RIM_SIGMAS_PX = (2.0, 4.0)
+SOFT_RIM_GAIN = 0.7
+MIN_CUTOFF_FRACTION = 0.5
+MAX_CUTOFF_RMS_PX = 1.5
+# Median over the rays of the radial gradient (grey levels per px) at the cut-off disc's edge.
+CUTOFF_MIN_MEDIAN_RISE = 3.0
+# The cut-off disc's centre may lie this far (a fraction of the outer radius) from the rim's: on the
+# miniomni camera the disc (about the calibrated axis) is 3-5 px off the rim's centre in most images.
+CUTOFF_CENTRE_FRACTION = 0.03
+CUTOFF_ITERATIONS = 4
+# A mirror image that overfills the frame shows no rim, only the camera's reflection: a dark disc
+# near the frame's middle. It is looked for about a grid of centres this far (a fraction of the
+# frame's short side, in steps of DISC_GRID_STEP) from the middle, and kept only where it is clear:
+# a dark-to-bright edge on DISC_MIN_FRACTION of the rays, its centre within DISC_MAX_OFFSET and its
+# radius within DISC_RADII of the short side (on 40 simulated full-frame fisheyes, none was found).
+DISC_GRID_HALF = 0.03
+DISC_GRID_STEP = 0.005
+DISC_MIN_FRACTION = 0.7
+DISC_MAX_OFFSET = 0.05
+DISC_RADII = (0.02, 0.35)
+DISC_CANDIDATES = 5
+# An ellipse is reported when its axes differ by more than this fraction and it fits clearly better.
+ELLIPSE_MIN_ECCENTRICITY = 0.003
+# The circle transform: the strongest edge pixels that vote, and the weakest gradient (Sobel units) that may.
+VOTING_EDGES = 6000
+VOTING_MIN_GRADIENT = 20.0
+# How far (a fraction of the radius) the rim is looked for from a start circle: a good one, a rough one.
+NARROW_REACH = 0.06
+WIDE_REACH = 0.15
+# A drop of at least this fraction of the steepest on its ray is a clear one.
+CLEAR_DROP = 0.3
+# Circles through three edge points tried by the consensus fit.
+CONSENSUS_SAMPLES = 200
+GAUSS_NEWTON_ITERATIONS = 50
+# Edge points this close to a circle (px) measure its spread.
+NEAR_PX = 3.0
+# ... or this fraction of the radius, when more: a rim that is an ellipse strays that far from a circle.
+NEAR_FRACTION = 0.015
+# The concentric search for a faint rim of either polarity: the circle transform's centres it
+# starts from, its rays, the fraction of them whose edge strength it takes at each radius, and
+# what makes a peak of that profile clear (a fraction of the highest, a multiple of its median).
+CONCENTRIC_SEEDS = 3
+CONCENTRIC_RAYS = 72
+# Where those centres give no rim, the grids (half-width, step; px) on which the centre is searched.
+CONCENTRIC_GRIDS = ((40.0, 10.0), (10.0, 3.0), (3.0, 1.0))
+# ... scored by its profile's highest peak, and again by how far a peak stands above the profile's
+# running median over this many px of radius either side (in the shrunk image): a rim is narrow in radius.
+CONCENTRIC_BACKGROUND_PX = 12.0
+CONCENTRIC_SHARE = 0.4
+# ... of the rays in the frame, at radii where at least this fraction of them are.
+CONCENTRIC_LEAST_IN_FRAME = 0.2
+CONCENTRIC_PEAK_RATIO = 0.3
+CONCENTRIC_PROMINENCE = 3.0
+# Two start circles whose centres and radii differ by less than this fraction of the radius
+# (or 2 px) lead to the same rim: the second is not tried.
+SAME_START_FRACTION = 0.01
+FRAME_EDGES = ("left", "top", "right", "bottom")
