@@ -45,6 +45,7 @@ from panomap.calibrate.make_table import create_table
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.simulate.cameras import RadialCamera
 from panomap.simulate.sampling import spread_landmarks
+from panomap.table.file import save_table
 
 SIZE = (1920, 1920)
 RATE = 25
@@ -71,7 +72,7 @@ def make_inputs(folder: Path, images: int, videos: int, frames: int) -> Path:
     landmarks = Landmarks(landmarks.pixels[below], landmarks.world[below], names, landmarks.camera)
     fit = fit_camera(landmarks, position, camera.centre, image_size=SIZE)
     table = create_table(fit, image_size=SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=horizon)
-    table.save(folder / "fisheye.npz")
+    save_table(table, folder / "fisheye.npz")
     rng = np.random.default_rng(1)
     noise = rng.normal(0, 4, size=(4, SIZE[1], SIZE[0], 3)).astype(np.int16)
 

@@ -63,6 +63,7 @@ from panomap.calibrate.make_table import create_table
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.simulate.cameras import RadialCamera
 from panomap.simulate.sampling import spread_landmarks
+from panomap.table.file import save_table
 
 SIZE = (1920, 1920)
 RATE = 25
@@ -99,7 +100,7 @@ def make_clip(folder: Path, frames: int) -> tuple[Path, Path, float]:
     fit = fit_camera(landmarks, position, camera.centre, image_size=SIZE)
     table = create_table(fit, image_size=SIZE, cutoff_radius=camera.cutoff_radius, outer_radius=horizon)
     table_path = folder / "fisheye.npz"
-    table.save(table_path)
+    save_table(table, table_path)
 
     clip = folder / "clip.mp4"
     rng = np.random.default_rng(1)

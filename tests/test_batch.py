@@ -34,6 +34,7 @@ from panomap.batch.record import Done, Record
 from panomap.batch.run import Progress, codec_threads, run_job
 from panomap.batch.tasks import parts_folder
 from panomap.simulate import load_room, render, standard_cameras
+from panomap.table.file import save_table
 from panomap.video.output import EncoderSettings
 from panomap.views.spec import name_views, parse_view_spec
 
@@ -98,7 +99,7 @@ def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("batch")
     landmarks = spread_landmarks(CAMERA, tuple(room.camera), 20, np.random.default_rng(3))
     table, _ = learn_table(CAMERA, tuple(room.camera), landmarks, SIZE)
-    table.save(folder / "cam.npz")
+    save_table(table, folder / "cam.npz")
     (folder / "images").mkdir()
     for index in range(IMAGES):
         cv2.imwrite(str(folder / "images" / f"i{index}.png"), turned(5.0 * index))

@@ -25,6 +25,7 @@ from panomap.errors import PanomapError
 from panomap.io.images import map_to_pgm, save_map_pgm
 from panomap.remap import Remapper
 from panomap.simulate.cameras import RadialCamera
+from panomap.table.file import save_table
 from panomap.table.table import PanoMappingTable, fill_entries
 
 from helpers import assert_map_sees_like_the_camera, perspective_directions
@@ -69,7 +70,7 @@ def fisheye_table() -> PanoMappingTable:
 
 def test_ffmpeg_remap_with_our_maps_gives_our_nearest_neighbour_output(tmp_path: Path) -> None:
     table = fisheye_table()
-    table.save(tmp_path / "cam.npz")
+    save_table(table, tmp_path / "cam.npz")
     frame = np.random.default_rng(7).integers(0, 256, (IMAGE_SIZE[1], IMAGE_SIZE[0], 3), dtype=np.uint8)
     cv2.imwrite(str(tmp_path / "frame.png"), frame)
     # Wide and steep: part of the view has no source (beyond the horizon), so the fill is checked too.

@@ -15,7 +15,7 @@ from panomap.calibrate.make_table import create_table
 from panomap.calibrate.report import FitReport, LandmarkResidual, RadiusUncertainty, table_fit_report
 from panomap.errors import PanomapError
 from panomap.simulate import standard_cameras
-from panomap.table.file import load_table
+from panomap.table.file import load_table, save_table
 from panomap.table.table import PanoMappingTable
 
 from helpers import spread_landmarks
@@ -31,7 +31,7 @@ def saved(tmp_path_factory: pytest.TempPathFactory) -> tuple[FitReport, PanoMapp
     fit = fit_camera(landmarks, POSITION, camera.centre, image_size=SIZE)
     table = create_table(fit, image_size=SIZE, size=(64, 16), info={"sources": {"centre": "given"}})
     path = tmp_path_factory.mktemp("report") / "table.npz"
-    table.save(path)
+    save_table(table, path)
     return fit.report(), table, path
 
 

@@ -23,7 +23,7 @@ from panomap.geometry import azimuth_elevation
 from panomap.simulate.cameras import TiltedCamera, mount_rotation, standard_cameras
 from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras
 from panomap.simulate.scenarios import test_points as points_seen  # (a "test_" name pytest would collect)
-from panomap.table.file import load_table, metadata_digest
+from panomap.table.file import load_table, metadata_digest, save_table
 
 from helpers import assert_one_line_error, run, spread_landmarks, worst_error
 
@@ -126,7 +126,7 @@ def test_a_tilted_table_file_round_trips_and_is_checked(
     """Version 3 holds the rotation and the camera's range; a version-2 file cannot hold a rotation."""
     _, _, table = tilted
     path = tmp_path / "t.npz"
-    table.save(path)  # type: ignore[attr-defined]
+    save_table(table, path)
     loaded = load_table(path)
     assert loaded.model.rotation == table.model.rotation  # type: ignore[attr-defined]
     assert loaded.camera_elevation_range == table.camera_elevation_range  # type: ignore[attr-defined]

@@ -26,7 +26,7 @@ import pytest
 from panomap.cli.video import summary
 from panomap.errors import PanomapError
 from panomap.simulate import load_room, render, standard_cameras
-from panomap.table.file import load_table
+from panomap.table.file import load_table, save_table
 from panomap.video.live import Reconnect, check_segment_names, segment_path
 from panomap.video.report import Gap, VideoReport
 from panomap.video.unwarp import ViewOutput, unwarp_video
@@ -116,7 +116,7 @@ def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     room = load_room()
     position = tuple(room.camera)
     table, _ = learn_table(CAMERA, position, spread_landmarks(CAMERA, position, 16, np.random.default_rng(4)), SIZE)
-    table.save(folder / "cam.npz")
+    save_table(table, folder / "cam.npz")
     omni = render(room, CAMERA, supersample=1)
     with av.open(str(folder / "clip.ts"), "w", format="mpegts") as container:
         video = container.add_stream("libx264", rate=RATE)

@@ -35,7 +35,7 @@ import pytest
 from panomap.io.images import read_image
 from panomap.remap import Remapper
 from panomap.simulate import load_room, render, standard_cameras
-from panomap.table.file import load_table
+from panomap.table.file import load_table, save_table
 from panomap.video.frames import REMAP_THREADS, FrameRemapper, _chroma_map
 from panomap.video.output import EncoderSettings
 from panomap.video.source import Selection
@@ -122,7 +122,7 @@ def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("video")
     landmarks = spread_landmarks(CAMERA, POSITION, 20, np.random.default_rng(3))
     table, _ = learn_table(CAMERA, POSITION, landmarks, SIZE)
-    table.save(folder / "cam.npz")
+    save_table(table, folder / "cam.npz")
     write_clip(folder / "clip.mp4", FRAMES)
     return folder
 

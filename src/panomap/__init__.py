@@ -57,6 +57,7 @@ _EXPORTS = {
     "PanoMappingTable": "table.table",
     "create_table": "calibrate.make_table",
     "load_table": "table.file",
+    "save_table": "table.file",
     # views and their maps
     "Band": "views.base",
     "GenericPanorama": "views.panorama",

@@ -20,7 +20,7 @@ from ..errors import PanomapError, printable
 from ..files import all_or_none, check_output_paths
 from ..io.images import write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
-from ..table.file import load_table
+from ..table.file import load_table, save_table
 from ..table.table import PanoMappingTable, check_table_size
 from .options import (
     FINITE,
@@ -234,7 +234,7 @@ def fit(
         click.echo(f"panomap: warning: {warning}", err=True)
     table = result.table
     with all_or_none():
-        table.save(output)
+        save_table(table, output)
         if plot is not None:
             from ..io.plot import save_fit_plot
 

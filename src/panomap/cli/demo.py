@@ -24,6 +24,7 @@ from ..io.overlay import draw_fit_overlay
 from ..io.plot import save_fit_plot
 from ..remap import Remapper
 from ..simulate import load_room, render, standard_cameras
+from ..table.file import save_table
 from ..views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
 from .options import FOLDER
 
@@ -80,7 +81,7 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
         models_cover_annulus=False,
     )
     fit, table = result.fit, result.table
-    table.save(out / "table.npz")
+    save_table(table, out / "table.npz")
     save_fit_plot(table, out / "fit.png")
     write_image(out / "fit-overlay.png", draw_fit_overlay(omni, table))
     m, n = table.size

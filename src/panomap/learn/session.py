@@ -43,6 +43,7 @@ from ..geometry import inside_image
 from ..io.images import encode_png
 from ..io.plot import fit_curve
 from ..remap import Remapper
+from ..table.file import save_table
 from ..table.table import PanoMappingTable
 from ..views import GenericPanorama, build_map
 from .validate import (
@@ -574,7 +575,8 @@ class Session:
             if self.table is None:
                 raise RequestError(f"no table to save: {self.fit_status.get('message', 'no fit')}", 409)
             self._replaceable(path, overwrite, "save table")
-            self._write(path, self.table.save)
+            table = self.table
+            self._write(path, lambda target: save_table(table, target))
             return path.name
 
     def files(self) -> dict[str, list[str]]:

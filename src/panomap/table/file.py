@@ -35,10 +35,8 @@ from ..camera.model import CameraModel
 from ..errors import PanomapError
 from ..files import write_with
 from .sampling import MAX_TABLE_SIDE
-from .table import MAX_TABLE_ENTRIES, PanoMappingTable, fill_entries
+from .table import MAX_TABLE_ENTRIES, TABLE_FORMAT, PanoMappingTable, fill_entries
 
-TABLE_FORMAT = "panomap-table"
-TABLE_VERSION = 3
 READ_VERSIONS = (1, 2, 3)
 # Version 3 added the camera's rotation (a tilted camera) to the model; older files hold level cameras.
 ROTATION_VERSION = 3
@@ -66,30 +64,9 @@ _FIELDS = {
 }
 
 
-def table_metadata(table: PanoMappingTable) -> dict[str, Any]:
-    """Everything but the entries, as JSON-ready data (angles in rad)."""
-    m, n = table.size
-    return {
-        "format": TABLE_FORMAT,
-        "version": TABLE_VERSION,
-        "size": [m, n],
-        "elevation_range_rad": list(table.elevation_range),
-        "model": table.model.to_dict(),
-        "camera_position": list(table.camera_position),
-        "image_size": None if table.image_size is None else list(table.image_size),
-        "cutoff_radius_px": table.cutoff_radius,
-        "outer_radius_px": table.outer_radius,
-        "info": table.info,
-    } | (
-        {}
-        if table.camera_elevation_range is None
-        else {"camera_elevation_range_rad": list(table.camera_elevation_range)}
-    )
-
-
 def save_table(table: PanoMappingTable, path: str | Path) -> None:
     """Write the table to ``path`` (an ``.npz``), through a temporary file."""
-    meta = table_metadata(table) | {"entries_sha256": _digest(table.entries)}
+    meta = table.metadata() | {"entries_sha256": _digest(table.entries)}
     meta["metadata_sha256"] = metadata_digest(meta)
     text = json.dumps(meta, indent=1, allow_nan=False)
 

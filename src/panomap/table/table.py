@@ -9,7 +9,8 @@ elevation, holds the pixel (u_ij, v_ij) of the ray with
 - :meth:`PanoMappingTable.sample` reads the table at any rays
   (:mod:`panomap.table.sampling`: bilinear or nearest, through ``cv2.remap``);
   :meth:`PanoMappingTable.unproject` inverts it.
-- The file: :mod:`panomap.table.file` (``table.save``, :func:`panomap.load_table`).
+- The file: :mod:`panomap.table.file` (:func:`panomap.save_table`, :func:`panomap.load_table`), which
+  builds on the table (the table never imports it).
 
 Tables are made from a fitted camera by :func:`panomap.create_table`
 (:mod:`panomap.calibrate.make_table`).
@@ -20,7 +21,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -32,6 +32,9 @@ from ..geometry import TWO_PI, FloatArray, azimuth_elevation, inside_image, pixe
 from .sampling import MAX_TABLE_SIDE, RemapImages, remap_images, sample_entries, sample_grid
 
 MAX_TABLE_ENTRIES = 50_000_000
+# The file format's name and version (:mod:`panomap.table.file` reads versions 1 to 3).
+TABLE_FORMAT = "panomap-table"
+TABLE_VERSION = 3
 # Pixels this close outside the annulus or the radial profile's ends (px) still unproject:
 # the ends are solved to rounding, and a pixel's radius is computed to rounding.
 PROFILE_SLACK_PX = 1e-6
@@ -249,16 +252,25 @@ class PanoMappingTable:
         return rho_nodes, increasing, sign
 
     def metadata(self) -> dict[str, Any]:
-        """Everything but the entries, as JSON-ready data (angles in rad): :func:`.file.table_metadata`."""
-        from .file import table_metadata  # (the file format builds on the table)
-
-        return table_metadata(self)
-
-    def save(self, path: str | Path) -> None:
-        """Write the table to ``path`` (an ``.npz``) through a temporary file: :func:`.file.save_table`."""
-        from .file import save_table  # (the file format builds on the table)
-
-        save_table(self, path)
+        """Everything but the entries, as JSON-ready data (angles in rad): what a table file stores beside
+        them (:mod:`panomap.table.file`)."""
+        m, n = self.size
+        return {
+            "format": TABLE_FORMAT,
+            "version": TABLE_VERSION,
+            "size": [m, n],
+            "elevation_range_rad": list(self.elevation_range),
+            "model": self.model.to_dict(),
+            "camera_position": list(self.camera_position),
+            "image_size": None if self.image_size is None else list(self.image_size),
+            "cutoff_radius_px": self.cutoff_radius,
+            "outer_radius_px": self.outer_radius,
+            "info": self.info,
+        } | (
+            {}
+            if self.camera_elevation_range is None
+            else {"camera_elevation_range_rad": list(self.camera_elevation_range)}
+        )
 
 
 def fill_entries(
