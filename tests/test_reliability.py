@@ -316,8 +316,12 @@ def test_temporaries_of_a_killed_run_are_removed_by_the_next(work: Path, tmp_pat
     stale = tmp_path / f".p.png.{gone.pid}-k2j4h6g8.part.png"
     running = tmp_path / f".p.png.{os.getppid()}-a1b2c3d4.part.png"  # a live process's: left alone
     other = tmp_path / f".q.png.{gone.pid}-k2j4h6g8.part.png"  # another output's: left alone
-    for path in (stale, running, other):
+    # Its PID now a process's that started after the file was last written (a reboot, PIDs that wrapped):
+    # not the process that wrote it, which is gone. (It stayed for good.)
+    reused = tmp_path / f".p.png.{os.getppid()}-r3u5s7e9.part.png"
+    for path in (stale, running, other, reused):
         path.write_bytes(b"half")
+    os.utime(reused, (946684800, 946684800))  # written in 2000
     assert panorama(work, "-o", tmp_path / "p.png").exit_code == 0
     assert files_in(tmp_path) == sorted([running.name, other.name, "p.png"])
 

@@ -6,7 +6,8 @@ A failed or interrupted write never leaves a half-written output behind:
   folder and renamed over ``NAME`` only when complete; any error removes it
   and leaves an existing ``NAME`` as it was. A temporary whose process (PID)
   is gone, left by a run that was killed, is removed by the next write of
-  the same output;
+  the same output (a process of that PID that started after the file was
+  last written is another one: the PID was reused);
 - within :func:`all_or_none`, the renames wait for the end of the block: a
   run writes all of its outputs or none;
 - an existing output that is read-only is refused (as ``cp`` refuses it), and
@@ -142,8 +143,54 @@ def _alive(pid: int) -> bool:
     return True
 
 
+def process_start_ticks(pid: int) -> int | None:
+    """When process ``pid`` started, in clock ticks since boot (``/proc/PID/stat``); None where unknown (gone,
+    or no ``/proc``). With the PID it names one process: a PID is reused, its start time is not."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as handle:
+            stat_line = handle.read()
+        return int(stat_line[stat_line.rindex(b")") + 2 :].split()[19])  # (field 22; the name may hold spaces)
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def process_started_at(pid: int) -> float | None:
+    """When process ``pid`` started (s since the epoch, to about a second); None where unknown."""
+    ticks = process_start_ticks(pid)
+    if ticks is None:
+        return None
+    try:
+        with open("/proc/stat", "rb") as handle:
+            boot = next(int(line.split()[1]) for line in handle if line.startswith(b"btime "))
+        return boot + ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, StopIteration):
+        return None
+
+
+# Slack (s) on comparing a process's start with a file's time: the boot time is given to the second, and
+# moves with clock adjustments.
+_CLOCK_SLACK_S = 2.0
+
+
+def _owner_alive(pid: int, temporary: Path) -> bool:
+    """Whether the process that wrote ``temporary`` (PID ``pid`` in its name) still runs: a process of that PID
+    that started after the file was last written is another one (the PID reused, as after a reboot or when
+    PIDs wrap: a killed run's temporary would be kept for good)."""
+    if not _alive(pid):
+        return False
+    started = process_started_at(pid)
+    if started is None:
+        return True
+    try:
+        written = os.stat(temporary).st_mtime
+    except OSError:
+        return True
+    return started <= written + _CLOCK_SLACK_S
+
+
 def remove_stale_temporaries(path: str | Path) -> list[Path]:
-    """Remove the temporaries of ``path`` that a killed run left (their process is gone); returns them."""
+    """Remove the temporaries of ``path`` that a killed run left (their process is gone, or its PID is
+    another process's now); returns them."""
     path = Path(path)
     directory = path.parent if str(path.parent) else Path(".")
     removed = []
@@ -153,7 +200,7 @@ def remove_stale_temporaries(path: str | Path) -> list[Path]:
         return []
     for name in names:
         pid = _temporary_owner(name, path)
-        if pid is not None and pid != os.getpid() and not _alive(pid):
+        if pid is not None and pid != os.getpid() and not _owner_alive(pid, directory / name):
             try:
                 (directory / name).unlink()
             except OSError:
@@ -172,7 +219,7 @@ def temporaries_alive(folder: str | Path) -> bool:
         if not name.startswith("."):
             continue
         pid = _temporary_owner(name, Path(folder) / _temporary_target(name))
-        if pid is not None and (pid == os.getpid() or _alive(pid)):
+        if pid is not None and (pid == os.getpid() or _owner_alive(pid, Path(folder) / name)):
             return True
     return False
 

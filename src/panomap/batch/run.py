@@ -23,7 +23,7 @@ import os
 import threading
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -143,141 +143,150 @@ def chunk_size(images: int, workers: int) -> int:
     return max(1, min(16, math.ceil(images / (4 * max(1, workers)))))
 
 
+@dataclass(frozen=True)
+class RunSettings:
+    """How a job is run: ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``) names an existing cluster, else a local one
+    of ``workers`` processes (default: one per core) runs it; ``force`` redoes complete inputs; a failing input
+    is tried ``retries`` more times; videos longer than ``segment_s`` seconds are split into segments of that
+    length; ``chunk`` still images go in a task (default :func:`chunk_size`)."""
+
+    scheduler: str | None = None
+    workers: int | None = None
+    force: bool = False
+    retries: int = 2
+    segment_s: float | None = None
+    chunk: int | None = None
+
+
+@dataclass(frozen=True)
+class RunHooks:
+    """What a run tells its caller, and how it is stopped: ``progress`` as results come in, ``warn`` for each
+    failure as it happens, ``on_dashboard`` the Dask dashboard's address when there is one; setting ``stop``
+    cancels what has not finished."""
+
+    progress: Callable[[Progress], None] | None = None
+    stop: threading.Event = field(default_factory=threading.Event)
+    warn: Callable[[str], None] = lambda message: None
+    on_dashboard: Callable[[str], None] | None = None
+
+
 def run_job(
     job: Job,
     record: Record,
+    settings: RunSettings | None = None,
     *,
-    scheduler: str | None = None,
-    workers: int | None = None,
-    force: bool = False,
-    retries: int = 2,
-    segment_s: float | None = None,
-    chunk: int | None = None,
     progress: Callable[[Progress], None] | None = None,
     stop: threading.Event | None = None,
     warn: Callable[[str], None] | None = None,
     on_dashboard: Callable[[str], None] | None = None,
+    **options: Any,
 ) -> BatchReport:
-    """Run ``job``, skipping the inputs ``record`` holds as complete (all of them with ``force``).
+    """Run ``job`` as ``settings`` say (:class:`RunSettings`; its fields may also be given as keywords,
+    ``scheduler=...``), skipping the inputs ``record`` holds as complete (all of them with ``force``).
 
     Every output is checked before any work (its folder made; an output that cannot be
     replaced is refused; a folder made that holds nothing at the end, as for an input that
-    failed, is removed). ``scheduler`` (or ``DASK_SCHEDULER_ADDRESS``) names an existing
-    cluster; otherwise a local one of ``workers`` processes runs the job. Videos longer than
-    ``segment_s`` seconds are split into segments of that length. A failing input is tried
-    ``retries`` more times, then recorded as failed, and the job goes on. Setting ``stop``
-    cancels what has not finished (what has is recorded). ``progress`` is called as results
-    come in; ``on_dashboard`` gets the Dask dashboard's address when there is one.
+    failed, is removed). What killed runs left beside the job's outputs is removed when the run
+    starts and when it ends (:func:`panomap.batch.leftovers.tidy`). A failing input is tried
+    ``retries`` more times, then recorded as failed, and the job goes on. ``progress``, ``stop``,
+    ``warn`` and ``on_dashboard``: :class:`RunHooks`.
     """
-    made: list[Path] = []
+    settings = replace(settings or RunSettings(), **options)
+    hooks = RunHooks(progress, stop or threading.Event(), warn or (lambda message: None), on_dashboard)
+    run = _Run(job, record, settings, hooks)
     tidy(job, record.complete)  # (what killed runs left: before any work, so a full disk is not made worse)
     try:
-        return _run_job(
-            job,
-            record,
-            scheduler=scheduler,
-            workers=workers,
-            force=force,
-            retries=retries,
-            segment_s=segment_s,
-            chunk=chunk,
-            progress=progress,
-            stop=stop,
-            warn=warn,
-            on_dashboard=on_dashboard,
-            made=made,
-        )
+        return run.run()
     finally:
         tidy(job, record.complete)  # (and what their workers, outliving them, left while this run ran)
-        for folder in reversed(made):  # (the deepest first)
-            with contextlib.suppress(OSError):
-                folder.rmdir()  # only where empty
+        run.clean_up()
 
 
-def _run_job(
-    job: Job,
-    record: Record,
-    *,
-    scheduler: str | None = None,
-    workers: int | None = None,
-    force: bool = False,
-    retries: int = 2,
-    segment_s: float | None = None,
-    chunk: int | None = None,
-    progress: Callable[[Progress], None] | None = None,
-    stop: threading.Event | None = None,
-    warn: Callable[[str], None] | None = None,
-    on_dashboard: Callable[[str], None] | None = None,
-    made: list[Path] | None = None,
-) -> BatchReport:
-    """:func:`run_job`; the folders it makes for the outputs are appended to ``made``."""
-    started = time.perf_counter()
-    stop = stop or threading.Event()
-    warn = warn or (lambda message: None)
-    report = BatchReport(inputs=len(job.items))
-    for item in job.items:
-        for path, what in [(item.input.path, "an input"), (item.input.table, "a table")] + [
-            (output.path, "an output") for output in item.outputs
-        ]:
-            if path.absolute() == record.path:
-                raise PanomapError(f"the record would be {what} of the job: give --record another file", record.path)
-    pending = [item for item in job.items if force or not record.complete(item)]
-    address = scheduler_address(scheduler)
-    if address is None and pending:
-        start_fork_server()  # (its imports overlap the checks below and the import of Dask)
-    report.skipped = len(job.items) - len(pending)
-    made = [] if made is None else made
-    for item in pending:
-        for output in item.outputs:
-            missing = [folder for folder in (output.path.parent, *output.path.parent.parents) if not folder.exists()]
-            try:
-                output.path.parent.mkdir(parents=True, exist_ok=True)
-                made.extend(reversed(missing))  # (outermost first)
-            except OSError as exc:
-                raise PanomapError(f"cannot make its folder ({exc.strerror or exc})", output.path) from None
-            check_output(output.path)
-    images = [item for item in pending if not item.input.is_video]
-    probes: dict[Item, Probe] = {}
-    for item in pending:
-        if item.input.is_video:
-            try:
-                probes[item] = probe(item.input.path)
-            except PanomapError as exc:
-                failure = Failed(str(item.input.path), item.key, describe(exc))
-                record.add_failed(failure)
-                report.failed.append(failure)
-                warn(f"failed: {failure.error}")
-    if not images and not probes:
-        report.seconds = time.perf_counter() - started
-        return report
-    known = [info.frames for info in probes.values()]
-    frames_total = None if None in known else len(images) + sum(frame or 0 for frame in known)
-    total = len(images) + len(probes)
-    state = {"inputs": 0, "frames": 0}
+class _Run:
+    """One run of a job: prepared (checks, folders, probes), submitted to Dask, its results collected (a chunk
+    that failed retried image by image), then cleaned up after."""
 
-    def advance(inputs: int, frames: int) -> None:
-        state["inputs"] += inputs
-        state["frames"] += frames
-        if progress is not None:
-            progress(Progress(state["inputs"], total, state["frames"], frames_total))
+    def __init__(self, job: Job, record: Record, settings: RunSettings, hooks: RunHooks) -> None:
+        self.job, self.record, self.settings, self.hooks = job, record, settings, hooks
+        self.address = scheduler_address(settings.scheduler)
+        self.report = BatchReport(inputs=len(job.items))
+        self.made: list[Path] = []  # the folders made for the outputs (outermost first)
+        self.kinds: dict[Any, tuple[str, Any]] = {}  # each future: its kind and what it carries
+        self.done = {"inputs": 0, "frames": 0}
+        self.total = 0
+        self.frames_total: int | None = None
+        self.started = time.perf_counter()
 
-    with connect(address, workers) as client:
-        from distributed import as_completed
+    def run(self) -> BatchReport:
+        pending = self.prepare()
+        images = [item for item in pending if not item.input.is_video]
+        probes = self.probe_videos(pending)
+        if images or probes:
+            known = [info.frames for info in probes.values()]
+            self.frames_total = None if None in known else len(images) + sum(frame or 0 for frame in known)
+            self.total = len(images) + len(probes)
+            with connect(self.address, self.settings.workers) as client:
+                self.submit(client, images, probes)
+                self.collect(client)
+        self.report.seconds = time.perf_counter() - self.started
+        return self.report
 
-        report.workers = len(client.scheduler_info().get("workers", {}))
+    def prepare(self) -> list[Item]:
+        """The record checked against the job's files, the inputs still to do, their outputs' folders made and
+        the outputs checked."""
+        for item in self.job.items:
+            for path, what in [(item.input.path, "an input"), (item.input.table, "a table")] + [
+                (output.path, "an output") for output in item.outputs
+            ]:
+                if path.absolute() == self.record.path:
+                    raise PanomapError(
+                        f"the record would be {what} of the job: give --record another file", self.record.path
+                    )
+        pending = [item for item in self.job.items if self.settings.force or not self.record.complete(item)]
+        if self.address is None and pending:
+            start_fork_server()  # (its imports overlap the checks below and the import of Dask)
+        self.report.skipped = len(self.job.items) - len(pending)
+        for item in pending:
+            for output in item.outputs:
+                missing = [f for f in (output.path.parent, *output.path.parent.parents) if not f.exists()]
+                try:
+                    output.path.parent.mkdir(parents=True, exist_ok=True)
+                    self.made.extend(reversed(missing))  # (outermost first)
+                except OSError as exc:
+                    raise PanomapError(f"cannot make its folder ({exc.strerror or exc})", output.path) from None
+                check_output(output.path)
+        return pending
+
+    def probe_videos(self, pending: list[Item]) -> dict[Item, Probe]:
+        """Each pending video's length and frames; one that cannot be probed is recorded as failed."""
+        probes: dict[Item, Probe] = {}
+        for item in pending:
+            if item.input.is_video:
+                try:
+                    probes[item] = probe(item.input.path)
+                except PanomapError as exc:
+                    failure = Failed(str(item.input.path), item.key, describe(exc))
+                    self.record.add_failed(failure)
+                    self.report.failed.append(failure)
+                    self.hooks.warn(f"failed: {failure.error}")
+        return probes
+
+    def submit(self, client: Any, images: list[Item], probes: dict[Item, Probe]) -> None:
+        """Every task: images in chunks, each video whole or in segments and a join."""
+        job, retries = self.job, self.settings.retries
+        self.report.workers = len(client.scheduler_info().get("workers", {}))
         link = getattr(client, "dashboard_link", None) if _has_dashboard() else None
-        if link and on_dashboard is not None:
-            report.dashboard = link
-            on_dashboard(link)
-        kinds: dict[Any, tuple[str, Any]] = {}
-        size = chunk or chunk_size(len(images), report.workers)
-        threads = codec_threads(address, report.workers)
+        if link and self.hooks.on_dashboard is not None:
+            self.report.dashboard = link
+            self.hooks.on_dashboard(link)
+        size = self.settings.chunk or chunk_size(len(images), self.report.workers)
+        threads = codec_threads(self.address, self.report.workers)
         for first in range(0, len(images), size):
             group = images[first : first + size]
             future = client.submit(unwarp_images, group, job.views, job.settings, retries=retries, pure=False)
-            kinds[future] = ("images", group)
+            self.kinds[future] = ("images", group)
         for item, info in probes.items():
-            segments = plan_segments(info, segment_s) if segment_s is not None else []
+            segments = plan_segments(info, self.settings.segment_s) if self.settings.segment_s is not None else []
             if len(segments) > 1:
                 parts = [
                     client.submit(
@@ -286,79 +295,96 @@ def _run_job(
                     for s in segments
                 ]
                 for part_future in parts:
-                    kinds[part_future] = ("segment", item)
-                join = client.submit(join_video, item, parts, retries=retries, pure=False)
-                kinds[join] = ("video", item)
+                    self.kinds[part_future] = ("segment", item)
+                self.kinds[client.submit(join_video, item, parts, retries=retries, pure=False)] = ("video", item)
             else:
                 future = client.submit(
                     unwarp_whole_video, item, job.views, job.settings, threads, retries=retries, pure=False
                 )
-                kinds[future] = ("video", item)
-        waiting = as_completed(list(kinds))
+                self.kinds[future] = ("video", item)
 
-        def finish(result: ItemResult, item: Item) -> None:
-            record.add_done(result.done)
-            report.done += 1
-            report.outputs += len(result.done)
-            frames = result.done[0].frames if result.done else 0
-            report.frames += frames
-            advance(1, 0 if item.input.is_video else frames)
+    def collect(self, client: Any) -> None:
+        """Take the results as they come, until every task has ended or ``stop`` is set (the rest cancelled)."""
+        from distributed import as_completed
 
-        def fail(item: Item, error: str) -> None:
-            if str(item.input.path) not in error:
-                error = f"{item.input.path}: {error}"
-            failure = Failed(str(item.input.path), item.key, error)
-            record.add_failed(failure)
-            report.failed.append(failure)
-            warn(f"failed: {error}")  # (as it happens; the report lists them all)
-            advance(1, 0)
-
-        while not waiting.is_empty() and not report.interrupted:
-            if stop.is_set():
-                report.interrupted = True
-                client.cancel(list(kinds))
+        waiting = as_completed(list(self.kinds))
+        while not waiting.is_empty() and not self.report.interrupted:
+            if self.hooks.stop.is_set():
+                self.interrupt(client)
                 break
             if not waiting.has_ready():
                 time.sleep(0.05)
                 continue
             for future in waiting.next_batch(block=False):
-                if stop.is_set():
+                if self.hooks.stop.is_set():
                     # Stopped while taking a batch of results: the rest are not recorded (a rerun redoes them),
                     # and the job is interrupted even when that batch held every result left.
-                    report.interrupted = True
-                    client.cancel(list(kinds))
+                    self.interrupt(client)
                     break
-                kind, payload = kinds[future]
-                error = future.status == "error"
-                if kind == "segment":
-                    if not error:
-                        part: PartResult = future.result()
-                        advance(0, part.frames)
-                    continue
-                if kind == "video":
-                    if error:
-                        fail(payload, describe(future.exception()))
-                    else:
-                        finish(future.result(), payload)
-                    continue
-                if kind == "single":
-                    if error:
-                        fail(payload, describe(future.exception()))
-                    else:
-                        finish(future.result()[0], payload)
-                    continue
-                if error:  # a whole chunk failed (after its retries): each image alone
-                    results = [ItemResult(str(item.input.path), error="retry") for item in payload]
-                else:
-                    results = future.result()
-                for item, outcome in zip(payload, results, strict=True):
-                    if outcome.error is None:
-                        finish(outcome, item)
-                        continue
-                    again = client.submit(
-                        unwarp_images, [item], job.views, job.settings, True, retries=retries, pure=False
-                    )
-                    kinds[again] = ("single", item)
+                for again in self.take(client, future):
                     waiting.add(again)
-    report.seconds = time.perf_counter() - started
-    return report
+
+    def interrupt(self, client: Any) -> None:
+        self.report.interrupted = True
+        client.cancel(list(self.kinds))
+
+    def take(self, client: Any, future: Any) -> list[Any]:
+        """One finished task's result recorded; returns the tasks submitted again (a failed chunk's images)."""
+        kind, payload = self.kinds[future]
+        error = future.status == "error"
+        if kind == "segment":
+            if not error:
+                part: PartResult = future.result()
+                self.advance(0, part.frames)
+            return []
+        if kind in ("video", "single"):
+            if error:
+                self.fail(payload, describe(future.exception()))
+            else:
+                self.finish(future.result() if kind == "video" else future.result()[0], payload)
+            return []
+        if error:  # a whole chunk failed (after its retries): each image alone
+            results = [ItemResult(str(item.input.path), error="retry") for item in payload]
+        else:
+            results = future.result()
+        again = []
+        for item, outcome in zip(payload, results, strict=True):
+            if outcome.error is None:
+                self.finish(outcome, item)
+                continue
+            job = self.job
+            retry = client.submit(
+                unwarp_images, [item], job.views, job.settings, True, retries=self.settings.retries, pure=False
+            )
+            self.kinds[retry] = ("single", item)
+            again.append(retry)
+        return again
+
+    def advance(self, inputs: int, frames: int) -> None:
+        self.done["inputs"] += inputs
+        self.done["frames"] += frames
+        if self.hooks.progress is not None:
+            self.hooks.progress(Progress(self.done["inputs"], self.total, self.done["frames"], self.frames_total))
+
+    def finish(self, result: ItemResult, item: Item) -> None:
+        self.record.add_done(result.done)
+        self.report.done += 1
+        self.report.outputs += len(result.done)
+        frames = result.done[0].frames if result.done else 0
+        self.report.frames += frames
+        self.advance(1, 0 if item.input.is_video else frames)
+
+    def fail(self, item: Item, error: str) -> None:
+        if str(item.input.path) not in error:
+            error = f"{item.input.path}: {error}"
+        failure = Failed(str(item.input.path), item.key, error)
+        self.record.add_failed(failure)
+        self.report.failed.append(failure)
+        self.hooks.warn(f"failed: {error}")  # (as it happens; the report lists them all)
+        self.advance(1, 0)
+
+    def clean_up(self) -> None:
+        """The folders made for outputs that never came (where empty) removed."""
+        for folder in reversed(self.made):  # (the deepest first)
+            with contextlib.suppress(OSError):
+                folder.rmdir()  # only where empty

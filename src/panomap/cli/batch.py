@@ -22,7 +22,7 @@ from ..batch.job import (
     without_outputs,
 )
 from ..batch.record import Record
-from ..batch.run import Progress, run_job
+from ..batch.run import Progress, RunSettings, run_job
 from ..errors import PanomapError
 from ..remap import INTERPOLATIONS
 from ..table.sampling import SAMPLINGS
@@ -189,12 +189,7 @@ def batch(
             report = run_job(
                 job,
                 record,
-                scheduler=scheduler,
-                workers=workers,
-                force=force,
-                retries=retries,
-                segment_s=segment_s,
-                chunk=chunk,
+                RunSettings(scheduler, workers, force, retries, segment_s, chunk),
                 progress=bar,
                 stop=stop,
                 warn=lambda message: bar.write(f"panomap batch: {message}"),

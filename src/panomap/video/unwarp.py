@@ -126,7 +126,93 @@ def unwarp_video(
     if codec_threads is not None and "threads" not in dict(encoder.options):
         encoder = replace(encoder, options=(*encoder.options, ("threads", str(codec_threads))))
     encoder.check()
-    paths = [item.path for item in outputs]
+    paths = _check_outputs(source, [item.path for item in outputs])
+    current = SharedInput(open_input(source, reconnect.timeout_s, reconnect.timeout_s))
+    can_drop = drops(source, current.container)
+    if can_drop and reconnect.attempts > 0:
+        check_segment_names(paths)
+    report = VideoReport()
+    started = time.perf_counter()
+    live = is_live(source)
+    declared_end = None if live else declared_duration_s(current.container)
+    rate = frame_rate(current.container) if current.container.streams.video else 25.0
+    try:
+        size = _check_input(current.container, table, source)
+        in_format = current.container.streams.video[0].codec_context.pix_fmt or "yuv420p"
+        work = work_format(in_format, encoder.pix_fmt)
+        sizes = [item.view.output_size(table) for item in outputs]
+        for view_size in sizes:
+            check_output_size(work, view_size)
+        check_memory(sizes, memory_limit)
+        remappers = _LazyRemappers(table, outputs, size, work, sampling, interpolation, fixed_point)
+        state = ReadState()
+        segments = _Segments(report, source, warn, state, time.monotonic())
+        while True:
+            try:
+                written = _write_segment(
+                    current,
+                    [segment_path(path, segments.number) for path in paths],
+                    sizes,
+                    work,
+                    remappers,
+                    encoder,
+                    selection,
+                    audio,
+                    stop,
+                    progress,
+                    warn,
+                    report,
+                    state,
+                    reconnect.timeout_s if can_drop else None,
+                    segments.on_first_frame,
+                    codec_threads,
+                )
+            except PanomapError as exc:
+                if exc.source is not None:
+                    raise
+                raise PanomapError(exc.detail, source) from None  # (a frame of the input: name it)
+            current.close()
+            if not segments.ended(written, stop.is_set(), reconnect.attempts > 0):
+                break
+            opened = _reopen(source, table, size, reconnect, segments.gap, stop)
+            if opened is None:
+                segments.gave_up(stop.is_set())
+                break
+            current = SharedInput(opened)
+        _say_what_came(report, source, selection, state, stop.is_set(), declared_end, rate, warn)
+    finally:
+        current.close()  # (on an abort while the reader still waits in a read: once it returns)
+        report.seconds = time.perf_counter() - started
+    return report
+
+
+def _say_what_came(
+    report: VideoReport,
+    source: str,
+    selection: Selection,
+    state: ReadState,
+    stopped: bool,
+    declared_end: float | None,
+    rate: float,
+    warn: Callable[[str], None],
+) -> None:
+    """Where a run wrote nothing: an interrupted run if a stop came first (nothing wrong with the input), else
+    an error saying why. Where a file's frames stopped well before the end its header declares (``declared_end``,
+    None for a live input): one line through ``warn``, kept in ``report.problems``."""
+    if report.frames_written == 0:
+        if stopped:
+            report.interrupted = True
+            return
+        raise PanomapError(_nothing_written(report, source, selection, declared_end), source)
+    if state.at_end and not stopped and not report.problems:
+        note = ended_early(declared_end, rate, state)
+        if note is not None:
+            report.problems.append(f"{source}: {note}")
+            warn(report.problems[-1])
+
+
+def _check_outputs(source: str, paths: list[Path]) -> list[Path]:
+    """``paths``, refused before any work where two are one file, one is the input, or one cannot be made."""
     if len(set(paths)) != len(paths):
         raise PanomapError("two views would write the same file: put {name} in the output pattern")
     check_output_paths(
@@ -140,113 +226,94 @@ def unwarp_video(
             raise PanomapError("its folder does not exist", path)
         if not os.access(folder, os.W_OK | os.X_OK):
             raise PanomapError("its folder is not writable", path)
-    current = SharedInput(open_input(source, reconnect.timeout_s, reconnect.timeout_s))
-    can_drop = drops(source, current.container)
-    if can_drop and reconnect.attempts > 0:
-        check_segment_names(paths)
-    report = VideoReport()
-    started, started_at = time.perf_counter(), time.monotonic()
-    live = is_live(source)
-    declared_end = None if live else declared_duration_s(current.container)
-    rate = frame_rate(current.container) if current.container.streams.video else 25.0
-    try:
-        size = _check_input(current.container, table, source)
-        in_format = current.container.streams.video[0].codec_context.pix_fmt or "yuv420p"
-        work = work_format(in_format, encoder.pix_fmt)
-        sizes = [item.view.output_size(table) for item in outputs]
-        for view_size in sizes:
-            check_output_size(work, view_size)
-        check_memory(sizes, memory_limit)
-        remappers: list[FrameRemapper] = []
+    return paths
 
-        def build_remappers() -> list[FrameRemapper]:
-            """Made while the first frames decode (a few tenths of a second saved at start-up); once."""
-            if not remappers:
-                maps = []
-                for item in outputs:
-                    try:
-                        maps.append(build_map(table, item.view, sampling))
-                    except PanomapError as exc:  # (the view's problem: named by its output)
-                        raise exc if exc.source is not None else PanomapError(exc.detail, item.path) from None
-                remappers.extend(FrameRemapper(map_uv, size, work, interpolation, fixed_point) for map_uv in maps)
-            return remappers
 
-        state = ReadState()
-        gap: _OpenGap | None = None  # the drop being reconnected, until a frame comes
-        segment = 0
+class _LazyRemappers:
+    """Every view's remapper, made on the first call (while the first frames decode: a few tenths of a
+    second saved at start-up) and kept."""
 
-        def on_first_frame() -> None:
-            nonlocal gap
-            if gap is None:
-                return
-            assert state.first_frame_at is not None and state.last_frame_at is not None
-            closed = gap.close(state.first_frame_at, "resumed", segment)
-            report.gaps.append(closed)
-            warn(closed.describe(source))
-            gap = None
+    def __init__(
+        self,
+        table: PanoMappingTable,
+        outputs: Sequence[ViewOutput],
+        size: tuple[int, int],
+        work: str,
+        sampling: str,
+        interpolation: str,
+        fixed_point: bool,
+    ) -> None:
+        self.table, self.outputs, self.size, self.work = table, outputs, size, work
+        self.sampling, self.interpolation, self.fixed_point = sampling, interpolation, fixed_point
+        self.remappers: list[FrameRemapper] = []
 
-        while True:
-            try:
-                written = _write_segment(
-                    current,
-                    [segment_path(path, segment) for path in paths],
-                    sizes,
-                    work,
-                    build_remappers,
-                    encoder,
-                    selection,
-                    audio,
-                    stop,
-                    progress,
-                    warn,
-                    report,
-                    state,
-                    reconnect.timeout_s if can_drop else None,
-                    on_first_frame,
-                    codec_threads,
-                )
-            except PanomapError as exc:
-                if exc.source is not None:
-                    raise
-                raise PanomapError(exc.detail, source) from None  # (a frame of the input: name it)
-            current.close()
-            if written:
-                report.segments += 1
-                segment += 1
-            if state.dropped is None or stop.is_set():
-                if state.dropped is not None:  # the drop was seen, then the stop came (it ended the run, not the input)
-                    report.interrupted = True
-                if gap is None and state.dropped is not None:
-                    gap = _OpenGap(state.dropped, report.frames_written, state.last_frame_at, started_at)
-                if gap is not None:  # stopped while reconnecting, or after a reconnect before its first frame
-                    report.gaps.append(gap.close(time.monotonic(), "stopped"))
-                break
-            if gap is None:
-                gap = _OpenGap(state.dropped, report.frames_written, state.last_frame_at, started_at)
-            if reconnect.attempts == 0:
-                report.gaps.append(gap.close(time.monotonic(), "not reconnecting"))
-                break
-            opened = _reopen(source, table, size, reconnect, gap, stop)
-            if opened is None:
-                outcome: GapOutcome = "stopped" if stop.is_set() else "gave up"
-                report.interrupted = stop.is_set()
-                report.gaps.append(gap.close(time.monotonic(), outcome))
-                break
-            current = SharedInput(opened)
-        if report.frames_written == 0:
-            if stop.is_set():  # stopped before the first frame: nothing written, and nothing wrong with the input
-                report.interrupted = True
-                return report
-            raise PanomapError(_nothing_written(report, source, selection, declared_end), source)
-        if not live and state.at_end and not stop.is_set() and not report.problems:
-            note = ended_early(declared_end, rate, state)
-            if note is not None:
-                report.problems.append(f"{source}: {note}")
-                warn(report.problems[-1])
-    finally:
-        current.close()  # (on an abort while the reader still waits in a read: once it returns)
-        report.seconds = time.perf_counter() - started
-    return report
+    def __call__(self) -> list[FrameRemapper]:
+        if not self.remappers:
+            maps = []
+            for item in self.outputs:
+                try:
+                    maps.append(build_map(self.table, item.view, self.sampling))
+                except PanomapError as exc:  # (the view's problem: named by its output)
+                    raise exc if exc.source is not None else PanomapError(exc.detail, item.path) from None
+            self.remappers.extend(
+                FrameRemapper(map_uv, self.size, self.work, self.interpolation, self.fixed_point) for map_uv in maps
+            )
+        return self.remappers
+
+
+@dataclass
+class _Segments:
+    """The segments of a run and the gaps between them: which segment comes next, and the drop being
+    reconnected (until a frame comes)."""
+
+    report: VideoReport
+    source: str
+    warn: Callable[[str], None]
+    state: ReadState
+    started_at: float  # time.monotonic() when the run started
+    number: int = 0
+    gap: _OpenGap | None = None
+
+    def on_first_frame(self) -> None:
+        """The first frame of a connection: the gap before it (if any) ends, resumed."""
+        if self.gap is None:
+            return
+        assert self.state.first_frame_at is not None and self.state.last_frame_at is not None
+        closed = self.gap.close(self.state.first_frame_at, "resumed", self.number)
+        self.report.gaps.append(closed)
+        self.warn(closed.describe(self.source))
+        self.gap = None
+
+    def ended(self, written: bool, stopped: bool, reconnecting: bool) -> bool:
+        """A connection ended (``written``: its segment got frames); True where the run goes on (a drop, to
+        reconnect), False where it ends (the input's end, a stop, or a drop with reconnecting off)."""
+        if written:
+            self.report.segments += 1
+            self.number += 1
+        dropped = self.state.dropped
+        if dropped is None or stopped:
+            if dropped is not None:  # the drop was seen, then the stop came (it ended the run, not the input)
+                self.report.interrupted = True
+            if self.gap is None and dropped is not None:
+                self.gap = self._open(dropped)
+            if self.gap is not None:  # stopped while reconnecting, or after a reconnect before its first frame
+                self.report.gaps.append(self.gap.close(time.monotonic(), "stopped"))
+            return False
+        if self.gap is None:
+            self.gap = self._open(dropped)
+        if not reconnecting:
+            self.report.gaps.append(self.gap.close(time.monotonic(), "not reconnecting"))
+            return False
+        return True
+
+    def gave_up(self, stopped: bool) -> None:
+        """Reconnecting ended without a connection: every attempt failed, or a stop came."""
+        assert self.gap is not None
+        self.report.interrupted = stopped
+        self.report.gaps.append(self.gap.close(time.monotonic(), "stopped" if stopped else "gave up"))
+
+    def _open(self, reason: str) -> _OpenGap:
+        return _OpenGap(reason, self.report.frames_written, self.state.last_frame_at, self.started_at)
 
 
 class _NothingWritten(Exception):
@@ -384,13 +451,14 @@ def _reopen(
     table: PanoMappingTable,
     size: tuple[int, int],
     reconnect: Reconnect,
-    gap: _OpenGap,
+    gap: _OpenGap | None,
     stop: threading.Event,
 ) -> Any | None:
     """Open ``source`` again, waiting before each attempt (backoff); None when attempts run out or on ``stop``.
 
     A stream that comes back with frames of another size ends the run (PanomapError).
     """
+    assert gap is not None
     while gap.attempts < reconnect.attempts:
         if stop.wait(reconnect.wait_s(gap.attempts + 1)):
             return None
