@@ -134,6 +134,8 @@ def radial_approximation(profile: RadiusProfile, alphas: tuple[float, float], ax
         except PanomapError:
             continue
         r = radial(rho)
+        if alphas[0] == 0 and abs(float(r[0])) > 1e-6:
+            continue  # it must put the axis on the principal point (the paper's polynomial need not)
         increasing = np.all(np.diff(r if axis == "down" else r[::-1]) > 0)
         error = float(np.nanmax(np.abs(r - target))) if np.all(np.isfinite(r)) else math.inf
         if increasing and (best is None or error < best[0]):
