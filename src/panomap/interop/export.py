@@ -223,7 +223,16 @@ def export_calibration(table: PanoMappingTable, path: str | Path, format: str) -
     model = fit(table, samples)
     check = table_samples(table, (2 * FIT_GRID[0], 2 * FIT_GRID[1]))
     miss = np.hypot(*(model.project(check.rays) - check.uv).T)
-    max_error = float(np.max(np.where(np.isfinite(miss), miss, np.inf)))
+    if not np.all(np.isfinite(miss)):
+        unseen = np.degrees(np.arctan2(np.hypot(check.rays[:, 0], check.rays[:, 1]), check.rays[:, 2]))[
+            ~np.isfinite(miss)
+        ]
+        raise PanomapError(
+            f"{format} cannot hold this camera: the best {model.name} model does not see its rays from "
+            f"{unseen.min():.1f} deg from the axis on (the table reaches {math.degrees(check.max_angle_rad):.1f} "
+            "deg); make the table's range smaller (import --outer-radius) or choose another format"
+        )
+    max_error = float(np.max(miss))
     notes: list[str] = []
     if format == "kalibr-equidistant" and check.max_angle_rad >= math.pi / 2:
         notes.append(

@@ -49,4 +49,12 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     (xc, yc), (c, d, e), (height, width) = values[2], values[3], values[4]
     width_px, height_px = image_size_of(width, height, FIELDS[4], path)
     model = built(OCam, path, polynomials[0], polynomials[1], xc, yc, c, d, e, height_px, width_px)
+    assert isinstance(model, OCam)
+    inscribed = min(xc + 0.5, yc + 0.5, height_px - 0.5 - xc, width_px - 0.5 - yc)
+    if model.turn_radius_px < inscribed:
+        raise PanomapError(
+            f"{FIELDS[0]} turns back at a radius of {model.turn_radius_px:.1f} px, inside the image "
+            f"({inscribed:.1f} px from the centre to its nearest edge)",
+            path,
+        )
     return Imported(model, "ocam", (width_px, height_px))
