@@ -187,8 +187,10 @@ def _refuse_opencv_fisheye(samples: Samples) -> str | None:
     return None
 
 
-# Every export format: (fit, text, refusal).
-FORMATS: dict[str, tuple[Callable[[PanoMappingTable, Samples], ExternalCamera], str, Callable[[Samples], str | None]]] = {
+Fitter = Callable[[PanoMappingTable, Samples], ExternalCamera]
+Refusal = Callable[[Samples], "str | None"]
+# Every export format: (fit, file kind, refusal).
+FORMATS: dict[str, tuple[Fitter, str, Refusal]] = {
     "ocam": (_fit_ocam, "ocam", lambda s: None),
     "opencv-fisheye": (_fit_kannala_brandt, "opencv", _refuse_opencv_fisheye),
     "opencv-omnidir": (lambda t, s: _fit_mei(t, s, skew=True), "opencv", lambda s: None),

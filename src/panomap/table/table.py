@@ -262,8 +262,8 @@ class PanoMappingTable:
 
         for _ in range(REFINE_STEPS):
             t = table_pixel(q)
-            du = (table_pixel(q + [h, 0.0]) - t) / h
-            dv = (table_pixel(q + [0.0, h]) - t) / h
+            du = (table_pixel(q + np.array([h, 0.0])) - t) / h
+            dv = (table_pixel(q + np.array([0.0, h])) - t) / h
             f = t - uv
             det = du[..., 0] * dv[..., 1] - dv[..., 0] * du[..., 1]
             with np.errstate(invalid="ignore", divide="ignore"):

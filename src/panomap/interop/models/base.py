@@ -47,6 +47,7 @@ class ExternalCamera(ABC):
                     raise PanomapError(f"{self.name}: parameter {f.name} is {x!r}, not a finite number")
         self.check()
 
+    @abstractmethod
     def check(self) -> None:
         """Raise :class:`PanomapError` naming the parameter that is out of range (the model's own rules)."""
 
@@ -101,8 +102,8 @@ def solve_rays(
     step = 1e-7
     for _ in range(iterations):
         f = project(ray_of_equidistant(ab)) - target
-        fa = (project(ray_of_equidistant(ab + [step, 0.0])) - target - f) / step
-        fb = (project(ray_of_equidistant(ab + [0.0, step])) - target - f) / step
+        fa = (project(ray_of_equidistant(ab + np.array([step, 0.0]))) - target - f) / step
+        fb = (project(ray_of_equidistant(ab + np.array([0.0, step]))) - target - f) / step
         det = fa[..., 0] * fb[..., 1] - fb[..., 0] * fa[..., 1]
         with np.errstate(invalid="ignore", divide="ignore"):
             da = (fb[..., 1] * f[..., 0] - fb[..., 0] * f[..., 1]) / det
