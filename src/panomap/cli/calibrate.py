@@ -441,4 +441,6 @@ def info(table: Path, as_json: bool) -> None:
     report = table_fit_report(loaded, table)
     if report is not None and report.mount is not None and report.mount.position_refined:
         lines.append(f"camera position refined from {tuple(round(c, 6) for c in report.mount.camera_given)}")
-    click.echo(printable("\n".join([*lines, _describe_residuals(loaded, report)]), keep="\n"))
+    # An imported table has no landmarks: its table line instead of their residuals.
+    last = _describe_table(loaded) if "import" in loaded.info else _describe_residuals(loaded, report)
+    click.echo(printable("\n".join([*lines, last]), keep="\n"))

@@ -7,11 +7,12 @@ from pathlib import Path
 
 import click
 
+from ..calibrate.circles import ImageCircles
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_output
-from ..interop.api import import_calibration
+from ..interop.api import check_image_size, import_calibration
 from ..interop.export import FORMATS, export_calibration
-from ..interop.readers import READERS
+from ..interop.readers import READERS, read_calibration
 from ..table.file import load_table, save_table
 from .calibrate import find_image_circles_in
 from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni
@@ -38,11 +39,14 @@ from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni
     default="none",
     show_default=True,
     metavar="none|'DEG AZ_DEG'",
-    help="The mount: the optical axis DEG off the vertical, leaning toward world azimuth AZ_DEG (one quoted "
-    "argument).",
+    help="The mount: the optical axis DEG off the vertical, leaning toward world azimuth AZ_DEG (one quoted argument).",
 )
 @click.option(
-    "--camera", nargs=3, type=FINITE, default=(0.0, 0.0, 0.0), metavar="X0 Y0 Z0",
+    "--camera",
+    nargs=3,
+    type=FINITE,
+    default=(0.0, 0.0, 0.0),
+    metavar="X0 Y0 Z0",
     help="Camera (lens centre) position in world units [default: 0 0 0].",
 )
 @click.option(
@@ -71,8 +75,9 @@ def import_(
     """Make a table from a calibration: OCamCalib calib_results.txt, a Kalibr camchain, an OpenCV
     cv::fisheye or cv::omnidir FileStorage file, or COLMAP cameras.txt."""
     if tilt == "fit":
-        raise click.BadParameter("an imported camera's tilt is given, not fitted: 'none' or 'DEG AZ_DEG'",
-                                 param_hint="'--tilt'")
+        raise click.BadParameter(
+            "an imported camera's tilt is given, not fitted: 'none' or 'DEG AZ_DEG'", param_hint="'--tilt'"
+        )
     if camera_name is not None and camera_id is not None:
         raise click.UsageError("give --camera-name (Kalibr) or --camera-id (COLMAP), not both")
     check_output(output)
@@ -81,10 +86,16 @@ def import_(
     if image is not None:
         omni = read_omni(image)
         image_size = (int(omni.shape[1]), int(omni.shape[0]))
-        circles = find_image_circles_in(image, omni)
-        cutoff_radius, outer_radius = _circle_radii(
-            calibration, format_, camera_name or camera_id, circles, cutoff_radius, outer_radius, sources, image
-        )
+        imported = read_calibration(calibration, format_, camera_name or camera_id)
+        check_image_size(imported, image_size, calibration)
+        try:
+            circles = find_image_circles_in(image, omni)
+        except PanomapError as exc:  # no rim (a full-frame fisheye): the model's valid range in the image
+            click.echo(f"panomap: note: {printable(str(exc))}; the table covers the model's valid range", err=True)
+        else:
+            cutoff_radius, outer_radius = _circle_radii(
+                imported.model.principal_point, circles, cutoff_radius, outer_radius, sources, image
+            )
     table = import_calibration(
         calibration,
         format=format_,
@@ -103,20 +114,20 @@ def import_(
     record = table.info["import"]
     m, n = table.size
     rho_s, rho_e = (math.degrees(x) for x in table.elevation_range)
-    click.echo(printable(
-        f"{calibration}: {record['format']} calibration, model {record['model']}"
-        + (f" (camera {record['camera']})" if "camera" in record else "")
-        + f"; table {m} x {n}, elevation {rho_s:.2f}..{rho_e:.2f} deg, radii {table.cutoff_radius:.1f}.."
-        f"{table.outer_radius:.1f} px"
-    ))
+    click.echo(
+        printable(
+            f"{calibration}: {record['format']} calibration, model {record['model']}"
+            + (f" (camera {record['camera']})" if "camera" in record else "")
+            + f"; table {m} x {n}, elevation {rho_s:.2f}..{rho_e:.2f} deg, radii {table.cutoff_radius:.1f}.."
+            f"{table.outer_radius:.1f} px"
+        )
+    )
     click.echo(f"wrote {output}")
 
 
 def _circle_radii(
-    calibration: Path,
-    format_: str | None,
-    camera: str | None,
-    circles: object,
+    principal_point: tuple[float, float],
+    circles: ImageCircles,
     cutoff_radius: float | None,
     outer_radius: float | None,
     sources: dict[str, str],
@@ -124,15 +135,13 @@ def _circle_radii(
 ) -> tuple[float | None, float | None]:
     """The annulus from the image's circles, about the calibration's principal point (the largest circle
     about it inside the rim, the smallest outside the cut-off disc), unless the radii are given."""
-    from ..interop.readers import read_calibration
-
-    u0, v0 = read_calibration(calibration, format_, camera).model.principal_point
-    offset = math.hypot(circles.centre[0] - u0, circles.centre[1] - v0)  # type: ignore[attr-defined]
-    if outer_radius is None and circles.rim_seen > 0.25:  # type: ignore[attr-defined]
-        outer_radius = circles.outer.radius - offset  # type: ignore[attr-defined]
+    u0, v0 = principal_point
+    offset = math.hypot(circles.centre[0] - u0, circles.centre[1] - v0)
+    if outer_radius is None and circles.rim_seen > 0.25:
+        outer_radius = circles.outer.radius - offset
         sources["outer_radius"] = f"image circle found in {image.name}"
-    if cutoff_radius is None and circles.cutoff is not None:  # type: ignore[attr-defined]
-        cutoff_radius = circles.cutoff.radius + offset  # type: ignore[attr-defined]
+    if cutoff_radius is None and circles.cutoff is not None:
+        cutoff_radius = circles.cutoff.radius + offset
         sources["cutoff_radius"] = f"cut-off disc found in {image.name}"
     return cutoff_radius, outer_radius
 

@@ -9,8 +9,18 @@ from typing import Any
 
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
-from .readers import read_calibration
+from .readers import Imported, read_calibration
 from .table_of_camera import table_of_camera
+
+
+def check_image_size(imported: Imported, image_size: tuple[int, int] | None, path: str | Path) -> None:
+    """Raise unless the images' size (width, height) agrees with the calibration's, where both are known."""
+    if image_size is not None and imported.image_size is not None and tuple(image_size) != imported.image_size:
+        raise PanomapError(
+            f"the calibration is for {imported.image_size[0]} x {imported.image_size[1]} images, "
+            f"the image is {image_size[0]} x {image_size[1]}",
+            path,
+        )
 
 
 def import_calibration(
@@ -56,12 +66,7 @@ def import_calibration(
         Where quantities came from (stored in ``info["sources"]``).
     """
     imported = read_calibration(path, format, camera)
-    if image_size is not None and imported.image_size is not None and tuple(image_size) != imported.image_size:
-        raise PanomapError(
-            f"the calibration is for {imported.image_size[0]} x {imported.image_size[1]} images, "
-            f"the image is {image_size[0]} x {image_size[1]}",
-            path,
-        )
+    check_image_size(imported, image_size, path)
     size_used = imported.image_size if image_size is None else tuple(image_size)
     record: dict[str, Any] = {
         "file": Path(path).name,

@@ -20,7 +20,7 @@ from scipy.optimize import least_squares
 
 from ..errors import PanomapError
 from ..files import write_text_atomic
-from ..geometry import TWO_PI, FloatArray, ray_from_angles
+from ..geometry import TWO_PI, FloatArray
 from ..table.table import PanoMappingTable
 from .frame import camera_rays
 from .models.base import ExternalCamera
@@ -65,22 +65,18 @@ def table_samples(table: PanoMappingTable, grid: tuple[int, int]) -> Samples:
     m, n = grid
     theta = TWO_PI * np.arange(m) / m
     low, high = table.elevation_range
-    rho = np.linspace(low, high, n + 2)[1:-1] if table.camera_elevation_range is None else np.linspace(
-        low, high, n
-    )
+    rho = np.linspace(low, high, n + 2)[1:-1] if table.camera_elevation_range is None else np.linspace(low, high, n)
     theta, rho = np.meshgrid(theta, rho, indexing="ij")
     uv = table.sample(theta, rho).astype(np.float64)
     theta_c, rho_c = table.model.camera_angles(theta, rho)
-    rays = camera_rays(ray_from_angles(theta_c, rho_c), table.model.axis)
+    rays = camera_rays(theta_c, rho_c, table.model.axis, table.model.s, table.model.phi0)
     good = np.all(np.isfinite(uv), axis=-1)
     if np.count_nonzero(good) < 20:
         raise PanomapError("the table has too few valid entries to fit a camera model to")
     return Samples(rays[good], uv[good])
 
 
-def _fit(
-    build: Callable[[FloatArray], ExternalCamera], start: list[float], samples: Samples
-) -> ExternalCamera:
+def _fit(build: Callable[[FloatArray], ExternalCamera], start: list[float], samples: Samples) -> ExternalCamera:
     """Least-squares parameters of ``build`` (a parameter vector to a model) to the samples."""
 
     def residuals(p: FloatArray) -> FloatArray:

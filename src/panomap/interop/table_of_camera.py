@@ -16,13 +16,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..camera.model import CameraModel
 from ..camera.orientation import tilt_rotation
 from ..camera.radial import RadialFunction, fit_radial
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError
-from ..geometry import TWO_PI, FloatArray, ray_from_angles
+from ..geometry import TWO_PI, FloatArray
 from ..table.table import PanoMappingTable, check_table_size
 from .frame import HANDEDNESS, camera_rays
 from .models.base import ExternalCamera
@@ -151,7 +152,7 @@ def project_grid(
     size: tuple[int, int],
     elevation_range: tuple[float, float],
     camera_range: tuple[float, float] | None,
-) -> FloatArray:
+) -> NDArray[np.float32]:
     """Entries (M, N, 2) float32: each grid ray through the mount and the frame change into ``camera``;
     NaN where a tilted camera's ray falls outside ``camera_range`` (rad, its own elevations)."""
     m, n = size
@@ -162,7 +163,7 @@ def project_grid(
         theta = TWO_PI * np.arange(start, min(start + BLOCK_ROWS, m)) / m
         theta_c, rho_c = model.camera_angles(theta[:, None], rho[None, :])
         theta_c, rho_c = np.broadcast_arrays(theta_c, rho_c)
-        uv = camera.project(camera_rays(ray_from_angles(theta_c, rho_c), model.axis))
+        uv = camera.project(camera_rays(theta_c, rho_c, model.axis, model.s, model.phi0))
         if camera_range is not None:
             seen = (rho_c >= camera_range[0] - 1e-9) & (rho_c <= camera_range[1] + 1e-9)
             uv = np.where(seen[..., None], uv, np.nan)
@@ -210,7 +211,10 @@ def table_of_camera(
     camera_range = elevations_of_angles(alphas, axis)
     radial = radial_approximation(profile, alphas, axis)
     tilt, toward = tilt_rad
-    rotation = None if tilt == 0 else tilt_rotation(tilt, toward, axis)
+    rotation = None
+    if tilt != 0:
+        matrix = tilt_rotation(tilt, toward, axis)
+        rotation = tuple((float(row[0]), float(row[1]), float(row[2])) for row in matrix)
     model = CameraModel(camera.principal_point, radial, HANDEDNESS[axis], 0.0, rotation)
     tilted = model.rotation is not None
     world_range = (
@@ -248,7 +252,7 @@ def table_of_camera(
 
 
 def _approximation_error(
-    entries: FloatArray,
+    entries: NDArray[np.float32],
     model: CameraModel,
     size: tuple[int, int],
     elevation_range: tuple[float, float],

@@ -45,15 +45,23 @@ def ocam_text(model: OCam) -> str:
 
 def kalibr_text(model: ExternalCamera, image_size: tuple[int, int]) -> str:
     if isinstance(model, Mei):
-        camera = ("omni", [model.xi, model.fx, model.fy, model.cx, model.cy], "radtan",
-                  [model.k1, model.k2, model.p1, model.p2])
+        camera = (
+            "omni",
+            [model.xi, model.fx, model.fy, model.cx, model.cy],
+            "radtan",
+            [model.k1, model.k2, model.p1, model.p2],
+        )
     elif isinstance(model, DoubleSphere):
         camera = ("ds", [model.xi, model.alpha, model.fx, model.fy, model.cx, model.cy], "none", [])
     elif isinstance(model, EUCM):
         camera = ("eucm", [model.alpha, model.beta, model.fx, model.fy, model.cx, model.cy], "none", [])
     elif isinstance(model, KannalaBrandt):
-        camera = ("pinhole", [model.fx, model.fy, model.cx, model.cy], "equidistant",
-                  [model.k1, model.k2, model.k3, model.k4])
+        camera = (
+            "pinhole",
+            [model.fx, model.fy, model.cx, model.cy],
+            "equidistant",
+            [model.k1, model.k2, model.k3, model.k4],
+        )
     else:
         raise TypeError(f"no Kalibr form for {model.name}")
     kind, intrinsics, distortion, coefficients = camera

@@ -217,7 +217,7 @@ class PanoMappingTable:
                 valid &= np.hypot(miss[..., 0], miss[..., 1]) <= REFINE_TOLERANCE_PX
         return np.where(valid, theta, np.nan), np.where(valid, rho, np.nan)
 
-    def _radial_angles(self, points: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def _radial_angles(self, points: FloatArray) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
         """theta, rho (rad) of pixels (..., 2) through the model's radial profile, and where they are valid."""
         r, phi = pixel_polar(points, self.model.centre)
         theta = np.where(r == 0, 0.0, wrap_azimuth(self.model.s * (phi - self.model.phi0)))

@@ -48,7 +48,7 @@ def external_model(name: str, parameters: dict[str, object]) -> ExternalCamera:
         raise PanomapError(f"unknown external camera model {name!r} (known: {', '.join(EXTERNAL_MODELS)})")
     values = {k: tuple(v) if isinstance(v, list) else v for k, v in parameters.items()}
     try:
-        return cls(**values)  # type: ignore[arg-type]
+        return cls(**values)
     except TypeError as exc:
         raise PanomapError(f"{name}: malformed parameters ({exc})") from None
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass, fields
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ...errors import PanomapError
 from ...geometry import FloatArray
@@ -127,7 +127,7 @@ def as_rays(rays: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
     return r[..., 0], r[..., 1], r[..., 2]
 
 
-def pixels(u: FloatArray, v: FloatArray, seen: FloatArray | None = None) -> FloatArray:
+def pixels(u: FloatArray, v: FloatArray, seen: NDArray[np.bool_] | None = None) -> FloatArray:
     """Stack (u, v) into (..., 2), NaN where ``seen`` is False."""
     uv = np.stack([u, v], axis=-1)
     return uv if seen is None else np.where(seen[..., None], uv, np.nan)

@@ -98,8 +98,11 @@ class ColmapFOV(_Normalised):
             return a, b
         small = r < 1e-12
         safe = np.where(small, 1.0, r)
-        factor = np.where(small, 2 * math.tan(self.omega / 2) / self.omega,
-                          np.arctan(2 * safe * math.tan(self.omega / 2)) / (self.omega * safe))
+        factor = np.where(
+            small,
+            2 * math.tan(self.omega / 2) / self.omega,
+            np.arctan(2 * safe * math.tan(self.omega / 2)) / (self.omega * safe),
+        )
         return a * factor, b * factor
 
 

@@ -28,9 +28,7 @@ def read_calibration(path: str | Path, format: str | None = None, camera: str | 
     if format is None:
         found = [name for name, (looks_like, _) in READERS.items() if looks_like(text)]
         if not found:
-            raise PanomapError(
-                f"not a calibration this reads ({', '.join(READERS)}); give --format to force one", path
-            )
+            raise PanomapError(f"not a calibration this reads ({', '.join(READERS)}); give --format to force one", path)
         format = found[0]
     if format not in READERS:
         raise PanomapError(f"unknown calibration format {format!r} (known: {', '.join(READERS)})")

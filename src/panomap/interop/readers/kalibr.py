@@ -44,7 +44,7 @@ def parse(text: str, path: str | Path) -> Any:
 
 
 def looks_like(text: str) -> bool:
-    if "camera_model" not in text or "intrinsics" not in text or text.lstrip().startswith("%YAML:1."):
+    if "camera_model" not in text or "opencv-matrix" in text:
         return False
     try:
         data = yaml.safe_load(text)
@@ -72,9 +72,7 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
         raise PanomapError(f"{name}.camera_model {kind!r} is not one of {', '.join(INTRINSIC_COUNTS)}", path)
     distortion = str(camera["distortion_model"])
     if distortion not in DISTORTION_COUNTS:
-        raise PanomapError(
-            f"{name}.distortion_model {distortion!r} is not one of {', '.join(DISTORTION_COUNTS)}", path
-        )
+        raise PanomapError(f"{name}.distortion_model {distortion!r} is not one of {', '.join(DISTORTION_COUNTS)}", path)
     intrinsics = numbers(camera["intrinsics"], f"{name}.intrinsics", path, INTRINSIC_COUNTS[kind])
     coefficients = numbers(
         camera.get("distortion_coeffs", []), f"{name}.distortion_coeffs", path, DISTORTION_COUNTS[distortion]

@@ -19,8 +19,13 @@ from ...errors import PanomapError
 from ..models.ocam import OCam
 from .base import Imported, built, image_size_of
 
-FIELDS = ("pol (the direct polynomial)", "invpol (the inverse polynomial)", "centre (xc yc)", "affine (c d e)",
-          "image size (height width)")
+FIELDS = (
+    "pol (the direct polynomial)",
+    "invpol (the inverse polynomial)",
+    "centre (xc yc)",
+    "affine (c d e)",
+    "image size (height width)",
+)
 
 
 def looks_like(text: str) -> bool:
