@@ -162,9 +162,8 @@ def project_grid(
     for start in range(0, m, BLOCK_ROWS):
         theta = TWO_PI * np.arange(start, min(start + BLOCK_ROWS, m)) / m
         theta_c, rho_c = model.camera_angles(theta[:, None], rho[None, :])
-        theta_c, rho_c = np.broadcast_arrays(theta_c, rho_c)
         uv = camera.project(camera_rays(theta_c, rho_c, model.axis, model.s, model.phi0))
-        if camera_range is not None:
+        if camera_range is not None:  # a tilted camera's angles are (rows, N) arrays
             seen = (rho_c >= camera_range[0] - 1e-9) & (rho_c <= camera_range[1] + 1e-9)
             uv = np.where(seen[..., None], uv, np.nan)
         entries[start : start + theta.size] = uv
