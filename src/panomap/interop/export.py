@@ -220,7 +220,9 @@ def export_calibration(table: PanoMappingTable, path: str | Path, format: str) -
         raise PanomapError(f"the table has no image size: a {format} file needs the image's width and height")
     model = fit(table, samples)
     check = table_samples(table, (2 * FIT_GRID[0], 2 * FIT_GRID[1]))
-    miss = np.hypot(*(model.project(check.rays) - check.uv).T)
+    # What the file's own equations give: OCamCalib's world2cam goes through invpol.
+    projected = model.world2cam(check.rays) if isinstance(model, OCam) else model.project(check.rays)
+    miss = np.hypot(*(projected - check.uv).T)
     if not np.all(np.isfinite(miss)):
         unseen = np.degrees(np.arctan2(np.hypot(check.rays[:, 0], check.rays[:, 1]), check.rays[:, 2]))[
             ~np.isfinite(miss)

@@ -124,6 +124,17 @@ class OCam(ExternalCamera):
         col = self.e * xp + yp + self.yc
         return pixels(col, row, np.isfinite(r))
 
+    def world2cam(self, rays: ArrayLike) -> FloatArray:
+        """OCamCalib's own world2cam, through ``invpol``: pixels (u, v) (..., 2) of rays in the OpenCV frame.
+        What a user of the file gets; :meth:`project` inverts ``pol`` exactly instead."""
+        x_cv, y_cv, z_cv = as_rays(rays)
+        x, y, z = y_cv, x_cv, -z_cv
+        norm = np.hypot(x, y)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rho = np.polynomial.polynomial.polyval(np.arctan(z / norm), self.invpol)
+            xp, yp = x / norm * rho, y / norm * rho
+        return pixels(self.e * xp + yp + self.yc, self.c * xp + self.d * yp + self.xc)
+
     def cam2world(self, uv: ArrayLike) -> FloatArray:
         """OCamCalib's own cam2world: unit rays (..., 3) in the OpenCV frame of pixels (u, v) (..., 2)."""
         p = np.asarray(uv, dtype=np.float64)
