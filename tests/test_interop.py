@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import re
 from pathlib import Path
 
@@ -451,3 +452,19 @@ def test_an_image_of_another_size_is_refused(tmp_path: Path) -> None:
     result = run("import", path, "-o", out, "--image", image)
     assert_one_line_error(result, str(path), "748 x 480 images, the image is 600 x 400")
     assert not out.exists()
+
+
+def test_a_tilted_mount_turns_world_rays_into_the_calibration(tmp_path: Path) -> None:
+    tilt, toward = math.radians(8.0), math.radians(30.0)
+    table = import_calibration(write_kb_camchain(tmp_path / "camchain.yaml"), tilt_rad=(tilt, toward))
+    # R (camera to world), looking down: a turn by the tilt about (sin a, -cos a, 0) (Rodrigues).
+    k = np.array([math.sin(toward), -math.cos(toward), 0.0])
+    cross = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    rotation = np.eye(3) + math.sin(tilt) * cross + (1 - math.cos(tilt)) * cross @ cross
+    theta, rho = np.meshgrid(np.linspace(0, 2 * np.pi, 72, endpoint=False), np.radians(np.linspace(-85, -10, 40)))
+    world = np.stack([np.cos(rho) * np.cos(theta), np.cos(rho) * np.sin(theta), np.sin(rho)], -1).reshape(-1, 3)
+    level = world @ rotation  # R^T d, row by row
+    kb = KB_190
+    expected = kb_project(world_of_opencv(level), kb["fx"], kb["fy"], kb["cx"], kb["cy"], *kb["k"])
+    got = table.sample(theta.ravel(), rho.ravel()).astype(np.float64)
+    assert np.max(np.hypot(*(got - expected).T)) < TOLERANCE_PX

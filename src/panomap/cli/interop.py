@@ -101,7 +101,7 @@ def import_(
         format=format_,
         camera=camera_name or camera_id,
         axis=axis,
-        tilt_deg=(0.0, 0.0) if tilt == "none" else tilt,  # type: ignore[arg-type]
+        tilt_rad=(0.0, 0.0) if isinstance(tilt, str) else (math.radians(tilt[0]), math.radians(tilt[1])),
         camera_position=camera,
         image_size=image_size,
         cutoff_radius=cutoff_radius,

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import hashlib
-import math
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +28,7 @@ def import_calibration(
     format: str | None = None,
     camera: str | None = None,
     axis: str = "down",
-    tilt_deg: tuple[float, float] = (0.0, 0.0),
+    tilt_rad: tuple[float, float] = (0.0, 0.0),
     camera_position: tuple[float, float, float] = (0.0, 0.0, 0.0),
     image_size: tuple[int, int] | None = None,
     cutoff_radius: float | None = None,
@@ -51,8 +50,8 @@ def import_calibration(
     axis : {"down", "up"}
         The optical axis becomes the table's vertical, looking down (default) or up; azimuth 0 lies
         along the calibration's x axis (the image's columns).
-    tilt_deg : (tilt, toward)
-        The mount: the optical axis ``tilt`` deg off the vertical, toward world azimuth ``toward`` deg.
+    tilt_rad : (tilt, toward)
+        The mount: the optical axis ``tilt`` rad off the vertical, toward world azimuth ``toward`` rad.
     camera_position : (X0, Y0, Z0)
         World units.
     image_size : (width, height), optional
@@ -85,7 +84,7 @@ def import_calibration(
         return table_of_camera(
             imported.model,
             axis=axis,
-            tilt_rad=(math.radians(tilt_deg[0]), math.radians(tilt_deg[1])),
+            tilt_rad=tilt_rad,
             camera_position=camera_position,
             image_size=size_used,  # type: ignore[arg-type]
             cutoff_radius=cutoff_radius,
