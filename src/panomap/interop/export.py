@@ -174,7 +174,7 @@ def _max_ocam_elevation(samples: Samples) -> float:
 
 def _refuse_opencv_fisheye(samples: Samples) -> str | None:
     widest = math.degrees(samples.max_angle_rad)
-    if widest >= 89.9:
+    if widest >= 90.0:
         return (
             f"the camera sees rays {widest:.1f} deg from its axis; cv2.fisheye computes theta = atan(|(x/z, y/z)|), "
             "so it holds rays below 90 deg only (a field of view under 180 deg): try kalibr-equidistant, "

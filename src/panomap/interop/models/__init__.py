@@ -12,7 +12,7 @@ from .base import ExternalCamera
 from .colmap_fisheye import ColmapFOV, ColmapRadialFisheye, ColmapThinPrismFisheye
 from .double_sphere import DoubleSphere
 from .eucm import EUCM
-from .kannala_brandt import KannalaBrandt
+from .kannala_brandt import KannalaBrandt, OpenCVFisheye
 from .mei import Mei
 from .ocam import OCam
 from .pinhole_radtan import PinholeRadtan
@@ -31,6 +31,7 @@ def _registry(*models: type[ExternalCamera]) -> dict[str, type[ExternalCamera]]:
 EXTERNAL_MODELS: dict[str, type[ExternalCamera]] = _registry(
     OCam,
     KannalaBrandt,
+    OpenCVFisheye,
     Mei,
     DoubleSphere,
     EUCM,

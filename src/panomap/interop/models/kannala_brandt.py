@@ -11,7 +11,8 @@ Frame and pixels as in :mod:`.base` (OpenCV's and Kalibr's own; COLMAP's readers
 ``cv2.fisheye`` cannot hold a ray at or past 90 deg from the axis (its ``undistortPoints`` returns
 x/z, y/z). cv::fisheye's skew ``alpha`` is not read (0).
 
-The valid range is from the axis to where theta_d stops increasing (or pi).
+The valid range is from the axis to where theta_d stops increasing (or pi; below 90 deg for
+:class:`OpenCVFisheye`, as OpenCV and COLMAP compute it).
 """
 
 from __future__ import annotations
@@ -62,8 +63,8 @@ class KannalaBrandt(ExternalCamera):
 
     @property
     def max_angle_rad(self) -> float:
-        """Widest angle from the axis (rad) before theta_d turns back (pi at most)."""
-        return first_turn(np.array([1.0, self.k1, self.k2, self.k3, self.k4]), math.pi)
+        """Widest angle from the axis (rad) before theta_d turns back (``max_angle_limit_rad`` at most)."""
+        return first_turn(np.array([1.0, self.k1, self.k2, self.k3, self.k4]), self.max_angle_limit_rad)
 
     def project(self, rays: ArrayLike) -> FloatArray:
         x, y, z = as_rays(rays)
@@ -74,3 +75,12 @@ class KannalaBrandt(ExternalCamera):
         with np.errstate(invalid="ignore", divide="ignore"):
             scale = np.where(r > 0, theta_d / np.where(r > 0, r, 1.0), 1.0)
         return pixels(self.fx * x * scale + self.cx, self.fy * y * scale + self.cy, theta <= self.max_angle_rad)
+
+
+@dataclass(frozen=True)
+class OpenCVFisheye(KannalaBrandt):
+    """Kannala-Brandt as ``cv2.fisheye`` and COLMAP's ``OPENCV_FISHEYE`` compute it: theta = atan(r) of
+    (x/z, y/z), so only rays below 90 deg from the axis exist (the same equations, a narrower range)."""
+
+    name: ClassVar[str] = "opencv-fisheye"
+    max_angle_limit_rad: ClassVar[float] = math.pi / 2 - 1e-6

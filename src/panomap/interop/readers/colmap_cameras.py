@@ -5,7 +5,7 @@ Read, with their parameters in COLMAP's order:
 
 | MODEL | PARAMS | panomap model |
 | --- | --- | --- |
-| ``OPENCV_FISHEYE`` | fx fy cx cy k1 k2 k3 k4 | kannala-brandt |
+| ``OPENCV_FISHEYE`` | fx fy cx cy k1 k2 k3 k4 | opencv-fisheye |
 | ``FOV`` | fx fy cx cy omega | colmap-fov |
 | ``SIMPLE_RADIAL_FISHEYE`` | f cx cy k | colmap-radial-fisheye |
 | ``RADIAL_FISHEYE`` | f cx cy k1 k2 | colmap-radial-fisheye |
@@ -25,7 +25,7 @@ from ...errors import PanomapError
 from ..models.base import ExternalCamera
 from ..models.colmap_fisheye import ColmapFOV, ColmapRadialFisheye, ColmapThinPrismFisheye
 from ..models.eucm import EUCM
-from ..models.kannala_brandt import KannalaBrandt
+from ..models.kannala_brandt import OpenCVFisheye
 from ..models.pinhole_radtan import PinholeRadtan
 from .base import Imported, built, image_size_of
 
@@ -93,7 +93,7 @@ def _model(model: str, p: list[float], path: str | Path) -> ExternalCamera:
     fx, fy, cx, cy, *rest = p
     cx, cy = cx + s, cy + s
     if model == "OPENCV_FISHEYE":
-        return built(KannalaBrandt, path, fx, fy, cx, cy, *rest)
+        return built(OpenCVFisheye, path, fx, fy, cx, cy, *rest)
     if model == "FOV":
         return built(ColmapFOV, path, fx, fy, cx, cy, *rest)
     if model == "THIN_PRISM_FISHEYE":

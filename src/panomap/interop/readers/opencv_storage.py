@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from ...errors import PanomapError
-from ..models.kannala_brandt import KannalaBrandt
+from ..models.kannala_brandt import OpenCVFisheye
 from ..models.mei import Mei
 from ..models.pinhole_radtan import PinholeRadtan
 from .base import Imported, built, image_size_of
@@ -93,7 +93,7 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     if fisheye:
         if d.size != 4:
             raise PanomapError(f"{d_key} has {d.size} values, expected 4 (k1 k2 k3 k4) for cv::fisheye", path)
-        return Imported(built(KannalaBrandt, path, fx, fy, cx, cy, *d), "opencv-fisheye", size)
+        return Imported(built(OpenCVFisheye, path, fx, fy, cx, cy, *d), "opencv-fisheye", size)
     if d.size not in (4, 5) or (d.size == 5 and d[4] != 0):
         raise PanomapError(
             f"{d_key} has {d.size} values: a plain OpenCV camera is read with k1 k2 p1 p2 (and k3 = 0) only", path
