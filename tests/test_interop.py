@@ -149,18 +149,19 @@ def test_real_ocam_calibrations_are_reproduced_at_every_pixel_of_their_corner_ra
 
 
 @needs_real
-def test_real_mei_calibration_as_a_kalibr_omni_camchain(tmp_path: Path) -> None:
+@pytest.mark.parametrize("variant", ["unified_no_distortion", "unified_full_k1k2p1p2"])
+def test_real_mei_calibration_as_a_kalibr_omni_camchain(tmp_path: Path, variant: str) -> None:
     calib = json.loads((REAL / "mei_paracatadioptric" / "omnidir_calibration.json").read_text())
-    model = calib["models"][calib["primary"]]
+    model = calib["models"][variant]
     (fx, _, cx), (_, fy, cy), _ = model["K"]
-    xi = model["xi"]
+    xi, distortion = model["xi"], model["D_k1_k2_p1_p2"]
     width, height = calib["image_size_wh"]
     camchain = {
         "cam0": {
             "camera_model": "omni",
             "intrinsics": [xi, fx, fy, cx, cy],
-            "distortion_model": "none",
-            "distortion_coeffs": [],
+            "distortion_model": "radtan" if any(distortion) else "none",
+            "distortion_coeffs": distortion if any(distortion) else [],
             "resolution": [width, height],
         }
     }
@@ -170,10 +171,35 @@ def test_real_mei_calibration_as_a_kalibr_omni_camchain(tmp_path: Path) -> None:
     with open(REAL / "mei_paracatadioptric" / "corners.csv") as f:
         rows = [r for r in csv.DictReader(f) if r["pose_available"] == "1"]
     ray = np.array([[float(r["cam_X_mm"]), float(r["cam_Y_mm"]), float(r["cam_Z_mm"])] for r in rows])
-    # Every pixel over the corners' angles from the axis (not only the corners).
+    # Every direction over the corners' angles from the axis (not only the corners).
     angle = np.degrees(np.arccos(ray[:, 2] / np.linalg.norm(ray, axis=1)))
     rays = fan(angle.max(), angle.min(), azimuths=360, angles=200)
-    assert table_error(table, rays, mei_project(rays, xi, fx, fy, cx, cy)) < TOLERANCE_PX
+    assert table_error(table, rays, mei_project(rays, xi, fx, fy, cx, cy, *distortion)) < TOLERANCE_PX
+
+
+def test_kalibr_double_sphere(tmp_path: Path) -> None:
+    xi, alpha, fx, fy, cx, cy = -0.21, 0.58, 200.0, 199.0, 640.3, 511.8
+    path = tmp_path / "camchain.yaml"
+    path.write_text(
+        yaml.safe_dump(
+            {
+                "cam0": {
+                    "camera_model": "ds",
+                    "intrinsics": [xi, alpha, fx, fy, cx, cy],
+                    "distortion_model": "none",
+                    "distortion_coeffs": [],
+                    "resolution": [1280, 1024],
+                }
+            }
+        )
+    )
+    table = import_calibration(path)
+    rays = fan(95.0)
+    d1 = np.linalg.norm(rays, axis=1)
+    d2 = np.sqrt(rays[:, 0] ** 2 + rays[:, 1] ** 2 + (xi * d1 + rays[:, 2]) ** 2)
+    m = alpha * d2 + (1 - alpha) * (xi * d1 + rays[:, 2])
+    expected = np.stack([fx * rays[:, 0] / m + cx, fy * rays[:, 1] / m + cy], -1)
+    assert table_error(table, rays, expected) < TOLERANCE_PX
 
 
 # ----------------------------------------------------------------------------- import: synthetic calibrations
