@@ -129,7 +129,7 @@ def test_real_ocam_calibrations_are_reproduced_at_every_pixel_of_their_corner_ra
     with open(REAL / name / "corners.csv") as f:
         corners = np.array([[float(r["row_px"]), float(r["col_px"])] for r in csv.DictReader(f)])
     radius = np.hypot(corners[:, 0] - o["xc"], corners[:, 1] - o["yc"])
-    rows, cols = np.mgrid[0 : o["height"] : 2, 0 : o["width"] : 2].astype(np.float64)
+    rows, cols = np.mgrid[0 : o["height"], 0 : o["width"]].astype(np.float64)
     r = np.hypot(rows - o["xc"], cols - o["yc"])
     inside = (r >= radius.min()) & (r <= radius.max())
     row, col = rows[inside], cols[inside]
@@ -337,6 +337,18 @@ def test_colmap_pixel_centres_and_eucm_order(tmp_path: Path) -> None:
     bd = b * (1 + radial) + 2 * p2 * a * b + p1 * (s2 + 2 * b * b) + sy1 * s2
     prism = import_calibration(path, camera="3")
     assert table_error(prism, rays, np.stack([fx * ad + cx, fy * bd + cy], -1)) < TOLERANCE_PX
+    # FOV and RADIAL_FISHEYE (COLMAP's models.h), written out here.
+    path.write_text("7 FOV 1200 1200 400 401 600.5 600.5 0.9\n8 RADIAL_FISHEYE 1200 1200 320 600.5 600.5 0.02 -0.003\n")
+    rays = fan(70.0)
+    a, b = rays[:, 0] / rays[:, 2], rays[:, 1] / rays[:, 2]
+    r = np.hypot(a, b)
+    factor = np.arctan(2 * r * np.tan(0.9 / 2)) / (0.9 * r)
+    fov = import_calibration(path, camera="7")
+    assert table_error(fov, rays, np.stack([400 * a * factor + 600, 401 * b * factor + 600], -1)) < TOLERANCE_PX
+    theta = np.arctan(r)
+    factor = theta * (1 + 0.02 * theta**2 - 0.003 * theta**4) / r
+    radial = import_calibration(path, camera="8")
+    assert table_error(radial, rays, np.stack([320 * a * factor + 600, 320 * b * factor + 600], -1)) < TOLERANCE_PX
 
 
 # ----------------------------------------------------------------------------- export
