@@ -537,3 +537,30 @@ def test_round_trip_through_cv2_fisheye_remap(tmp_path: Path) -> None:
     assert both.mean() > 0.95
     difference = np.hypot(uv[..., 0] - map_x, uv[..., 1] - map_y)[both]
     assert difference.max() < max(2 * exported.max_error_px, TOLERANCE_PX)  # measured 3e-4 px
+
+
+def test_opencv_plain_pinhole_matches_cv2_project_points(tmp_path: Path) -> None:
+    k = np.array([[500.0, 0, 320.2], [0, 498.0, 240.6], [0, 0, 1.0]])
+    d = np.array([[-0.2, 0.05, 0.001, -0.0008]])
+    path = tmp_path / "pinhole.json"
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    for key, value in (("image_width", 640), ("image_height", 480), ("fisheye_model", 0), ("K", k), ("D", d)):
+        storage.write(key, value)
+    storage.release()
+    table = import_calibration(path)
+    rays = fan(24.0)  # inside the 640 x 480 frame
+    expected, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), k, d)
+    assert table_error(table, rays, expected[:, 0]) < TOLERANCE_PX
+
+
+def test_colmap_camera_id_on_the_command_line_and_numeric_models(tmp_path: Path) -> None:
+    path = tmp_path / "cameras.txt"
+    path.write_text("1 PINHOLE 640 480 500 500 320.5 240.5\n2 EUCM 1200 1200 300 300 600.5 600.5 0.6 1.1\n")
+    out = tmp_path / "cam.npz"
+    result = run("import", path, "-o", out, "--camera-id", "2")
+    assert result.exit_code == 0, result.stderr
+    assert "colmap calibration, model eucm (camera 2)" in result.output
+    assert load_table(out).info["import"]["pixel_shift_px"] == -0.5
+    path.write_text("1 5 640 480 300 300 320 240 0 0 0 0\n")
+    result = run("import", path, "-o", tmp_path / "other.npz", "--format", "colmap")
+    assert_one_line_error(result, str(path), "numeric id")
