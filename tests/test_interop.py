@@ -506,6 +506,10 @@ def test_a_tilted_mount_turns_world_rays_into_the_calibration(tmp_path: Path) ->
     expected = kb_project(world_of_opencv(level), kb["fx"], kb["fy"], kb["cx"], kb["cy"], *kb["k"])
     got = table.sample(theta.ravel(), rho.ravel()).astype(np.float64)
     assert np.max(np.hypot(*(got - expected).T)) < TOLERANCE_PX
+    # and back: unproject gives the world rays (measured 3e-7 rad)
+    theta_back, rho_back = table.unproject(expected)
+    assert np.max(np.abs(rho_back - rho.ravel())) < 1e-5
+    assert np.max(np.abs(np.angle(np.exp(1j * (theta_back - theta.ravel()))))) < 1e-4
 
 
 def test_round_trip_through_cv2_fisheye_remap(tmp_path: Path) -> None:
