@@ -16,6 +16,8 @@ The pieces, in the paper's order:
   :func:`build_map`, and ``view.remapper(table)`` (a :class:`Remapper`) to apply
   them to any number of frames.
 - Pixels back to rays: ``table.unproject(uv)``.
+- Other tools' calibrations (OCamCalib, OpenCV, Kalibr, COLMAP): :func:`import_calibration` makes
+  a table of one, :func:`export_calibration` fits one to a table (:mod:`panomap.interop`).
 - Video: :func:`unwarp_video`; many inputs at once, on Dask, resumably:
   :func:`find_inputs`, :func:`make_job`, :class:`Record`, :func:`run_job` ->
   :class:`BatchReport` (:mod:`panomap.batch`).
@@ -78,6 +80,9 @@ _EXPORTS = {
     "Record": "batch.record",
     "run_job": "batch.run",
     "BatchReport": "batch.run",
+    # other tools' calibrations in and out (issue 36)
+    "import_calibration": "interop.api",
+    "export_calibration": "interop.export",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -19,6 +19,7 @@ from ..errors import PanomapError, printable
 from .batch import batch
 from .calibrate import centre, fit, info
 from .demo import demo
+from .interop import export, import_
 from .learn import learn
 from .points import project, unproject
 from .video import video
@@ -26,6 +27,8 @@ from .views import VIEW_COMMANDS
 
 # Every command, registered here and nowhere else.
 COMMANDS = (fit, centre, info, *VIEW_COMMANDS, project, unproject, video, batch, learn, demo)
+# Calibrations of other tools in and out (issue 36).
+COMMANDS += (import_, export)
 
 
 # Click 8.2 raises this for a group called without a command (8.1 printed the help itself).

@@ -396,6 +396,19 @@ def _describe_table(table: PanoMappingTable) -> str:
 # ----------------------------------------------------------------------------- info
 
 
+def _describe_import(record: object) -> list[str]:
+    """Where an imported table came from (``panomap import``): none for a table fitted here."""
+    if not isinstance(record, dict):
+        return []
+    camera = f", camera {record['camera']}" if record.get("camera") is not None else ""
+    return [
+        f"imported from {record.get('file', '?')} ({record.get('format', '?')} calibration{camera}, sha256 "
+        f"{str(record.get('sha256', '?'))[:12]}...): model {record.get('model', '?')}, optical axis "
+        f"{record.get('axis', '?')}; the radial model below approximates it within "
+        f"{float(record.get('radial_approximation_max_px', float('nan'))):.2f} px (the entries are exact)"
+    ]
+
+
 @click.command()
 @click.argument("table", type=PATH)
 @click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")
@@ -418,6 +431,7 @@ def info(table: Path, as_json: bool) -> None:
         f"azimuth mapping: s = {model.s:+d}, phi0 = {math.degrees(model.phi0):.4f} deg",
     ]
     tilt_rad, toward_rad = model.tilt
+    lines.extend(_describe_import(loaded.info.get("import")))
     lines.append(
         "camera axis: vertical (level)"
         if model.rotation is None
@@ -427,4 +441,6 @@ def info(table: Path, as_json: bool) -> None:
     report = table_fit_report(loaded, table)
     if report is not None and report.mount is not None and report.mount.position_refined:
         lines.append(f"camera position refined from {tuple(round(c, 6) for c in report.mount.camera_given)}")
-    click.echo(printable("\n".join([*lines, _describe_residuals(loaded, report)]), keep="\n"))
+    # An imported table has no landmarks: its table line instead of their residuals.
+    last = _describe_table(loaded) if "import" in loaded.info else _describe_residuals(loaded, report)
+    click.echo(printable("\n".join([*lines, last]), keep="\n"))

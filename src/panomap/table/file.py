@@ -331,7 +331,11 @@ def _table_from(meta: TableMetadata, entries: NDArray[Any]) -> PanoMappingTable:
         info=meta.info,
         camera_elevation_range=meta.camera_elevation_range,
     )
-    if not _entries_match_model(entries, table.model, table.elevation_range, table.camera_elevation_range):
+    # An imported table's entries come from its calibration's model (info["import"]), not from its radial
+    # approximation: the checksum alone guards them.
+    if table.entries_from_model and not _entries_match_model(
+        entries, table.model, table.elevation_range, table.camera_elevation_range
+    ):
         raise PanomapError("the entries disagree with the table's own model (corrupt)")
     return table
 

@@ -40,6 +40,11 @@ TABLE_VERSION = 3
 PROFILE_SLACK_PX = 1e-6
 # A tilted camera's table entry is kept this close (rad) outside the camera's elevation range: rounding.
 CAMERA_RANGE_SLACK_RAD = 1e-9
+# Newton steps of an imported table's unproject (:meth:`PanoMappingTable._refine`).
+REFINE_STEPS = 6
+REFINE_STEP_PX = 0.05
+# ... and how close (px) its answer must sample back to the pixel (float32 entries, bilinear).
+REFINE_TOLERANCE_PX = 0.01
 
 
 @dataclass(frozen=True)
@@ -203,6 +208,17 @@ class PanoMappingTable:
         points = np.asarray(uv, dtype=np.float64)
         if points.ndim == 0 or points.shape[-1] != 2:
             raise PanomapError(f"pixels must have shape (..., 2), not {points.shape}")
+        theta, rho, valid = self._radial_angles(points)
+        if not self.entries_from_model:
+            theta, rho = self._refine(points, theta, rho)
+            # A pixel the table does not reach (its ray beyond the table's range) stays unsolved: invalid.
+            miss = sample_entries(self._remap_images, self.elevation_range, None, theta, rho) - points
+            with np.errstate(invalid="ignore"):
+                valid &= np.hypot(miss[..., 0], miss[..., 1]) <= REFINE_TOLERANCE_PX
+        return np.where(valid, theta, np.nan), np.where(valid, rho, np.nan)
+
+    def _radial_angles(self, points: FloatArray) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+        """theta, rho (rad) of pixels (..., 2) through the model's radial profile, and where they are valid."""
         r, phi = pixel_polar(points, self.model.centre)
         theta = np.where(r == 0, 0.0, wrap_azimuth(self.model.s * (phi - self.model.phi0)))
         rho_nodes, increasing, sign = self._radial_profile
@@ -216,14 +232,49 @@ class PanoMappingTable:
             target = sign * r
             # The annulus' own edges sit on the profile's ends to rounding (they were solved for).
             valid &= (target >= low - slack) & (target <= high + slack)
-        rho = np.interp(np.where(valid, target, low), increasing, rho_nodes)
+        rho = np.interp(np.where(np.isfinite(target), target, low), increasing, rho_nodes)
         if tilted:
             # Those are the camera's angles: into the world's, and within the table's (world) range.
             theta, rho = self.model.world_angles(theta, rho)
             theta = np.where(np.isfinite(theta), theta, 0.0)
             with np.errstate(invalid="ignore"):
                 valid &= (rho >= self.elevation_range[0] - 1e-12) & (rho <= self.elevation_range[1] + 1e-12)
-        return np.where(valid, theta, np.nan), np.where(valid, rho, np.nan)
+        return theta, rho, valid
+
+    @property
+    def entries_from_model(self) -> bool:
+        """False for a table imported from another tool's calibration (``info["import"]``): its entries
+        come from that calibration's own model, and ``model`` is a radial approximation of them (its
+        principal point and mean radius), which :meth:`unproject` refines against the entries."""
+        return "import" not in self.info
+
+    def _refine(self, uv: FloatArray, theta: FloatArray, rho: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Newton steps from the radial model's answer, so that :meth:`sample` of the result gives ``uv``
+        back: the unknown is the model's pixel q (Cartesian, so the optical axis is no singularity), the
+        table's pixel of q's ray is T(q), its Jacobian by differences of REFINE_STEP_PX."""
+        q = self.model.pixels(theta, rho)
+        h = REFINE_STEP_PX
+
+        def table_pixel(q: FloatArray) -> FloatArray:
+            # Read without the image's bounds: a step may cross them near the frame's edge.
+            theta, rho, _ = self._radial_angles(q)
+            return sample_entries(self._remap_images, self.elevation_range, None, theta, rho).astype(np.float64)
+
+        for _ in range(REFINE_STEPS):
+            t = table_pixel(q)
+            du = (table_pixel(q + np.array([h, 0.0])) - t) / h
+            dv = (table_pixel(q + np.array([0.0, h])) - t) / h
+            f = t - uv
+            det = du[..., 0] * dv[..., 1] - dv[..., 0] * du[..., 1]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                step = np.stack(
+                    [(dv[..., 1] * f[..., 0] - dv[..., 0] * f[..., 1]) / det,
+                     (-du[..., 1] * f[..., 0] + du[..., 0] * f[..., 1]) / det],
+                    axis=-1,
+                )
+            q = np.where(np.isfinite(step), q - np.clip(step, -20.0, 20.0), q)
+        theta, rho, _ = self._radial_angles(q)
+        return theta, rho
 
     @cached_property
     def _radial_profile(self) -> tuple[FloatArray, FloatArray, float]:

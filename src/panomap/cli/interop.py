@@ -1,0 +1,170 @@
+"""``panomap import`` and ``panomap export``: other tools' calibrations in and out."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import click
+
+from ..calibrate.circles import ImageCircles
+from ..errors import PanomapError, printable
+from ..files import all_or_none, check_output
+from ..interop.api import check_image_size, import_calibration
+from ..interop.export import FORMATS, export_calibration
+from ..interop.readers import READERS, read_calibration
+from ..table.file import load_table, save_table
+from .calibrate import find_image_circles_in
+from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni
+
+
+@click.command("import")
+@click.argument("calibration", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="Table file to write (.npz).")
+@click.option(
+    "--format", "format_", type=click.Choice(list(READERS)), help="The file's format [default: from its content]."
+)
+@click.option("--camera-name", help="The camera of a Kalibr camchain [default: cam0].")
+@click.option("--camera-id", help="The camera of a COLMAP cameras.txt [default: the first].")
+@click.option(
+    "--axis",
+    type=click.Choice(["down", "up"]),
+    default="down",
+    show_default=True,
+    help="Where the optical axis points: it becomes the table's vertical (azimuth 0 along the image's columns).",
+)
+@click.option(
+    "--tilt",
+    type=TILT,
+    default="none",
+    show_default=True,
+    metavar="none|'DEG AZ_DEG'",
+    help="The mount: the optical axis DEG off the vertical, leaning toward world azimuth AZ_DEG (one quoted argument).",
+)
+@click.option(
+    "--camera",
+    nargs=3,
+    type=FINITE,
+    default=(0.0, 0.0, 0.0),
+    metavar="X0 Y0 Z0",
+    help="Camera (lens centre) position in world units [default: 0 0 0].",
+)
+@click.option(
+    "--image",
+    type=PATH,
+    help="An image of the camera: its size is checked against the calibration's, and its image circle and "
+    "cut-off disc (when found) bound the table [default: the model's valid range in the image].",
+)
+@click.option("--cutoff-radius", type=NON_NEGATIVE, help="Radius (px) of the cut-off disc about the principal point.")
+@click.option("--outer-radius", type=NON_NEGATIVE, help="Radius (px) of the image circle about the principal point.")
+@click.option("--table-size", type=SIZE, metavar="MxN", help="Table size [default: about one entry per pixel].")
+def import_(
+    calibration: Path,
+    output: Path,
+    format_: str | None,
+    camera_name: str | None,
+    camera_id: str | None,
+    axis: str,
+    tilt: str | tuple[float, float],
+    camera: tuple[float, float, float],
+    image: Path | None,
+    cutoff_radius: float | None,
+    outer_radius: float | None,
+    table_size: tuple[int, int] | None,
+) -> None:
+    """Make a table from a calibration: OCamCalib calib_results.txt, a Kalibr camchain, an OpenCV
+    cv::fisheye or cv::omnidir FileStorage file, or COLMAP cameras.txt."""
+    if tilt == "fit":
+        raise click.BadParameter(
+            "an imported camera's tilt is given, not fitted: 'none' or 'DEG AZ_DEG'", param_hint="'--tilt'"
+        )
+    if camera_name is not None and camera_id is not None:
+        raise click.UsageError("give --camera-name (Kalibr) or --camera-id (COLMAP), not both")
+    check_output(output)
+    image_size = None
+    sources: dict[str, str] = {}
+    if image is not None:
+        omni = read_omni(image)
+        image_size = (int(omni.shape[1]), int(omni.shape[0]))
+        imported = read_calibration(calibration, format_, camera_name or camera_id)
+        check_image_size(imported, image_size, calibration)
+        try:
+            circles = find_image_circles_in(image, omni)
+        except PanomapError as exc:  # no rim (a full-frame fisheye): the model's valid range in the image
+            click.echo(f"panomap: note: {printable(str(exc))}; the table covers the model's valid range", err=True)
+        else:
+            cutoff_radius, outer_radius = _circle_radii(
+                imported.model.principal_point, circles, cutoff_radius, outer_radius, sources, image
+            )
+    table = import_calibration(
+        calibration,
+        format=format_,
+        camera=camera_name or camera_id,
+        axis=axis,
+        tilt_rad=(0.0, 0.0) if isinstance(tilt, str) else (math.radians(tilt[0]), math.radians(tilt[1])),
+        camera_position=camera,
+        image_size=image_size,
+        cutoff_radius=cutoff_radius,
+        outer_radius=outer_radius,
+        size=table_size,
+        sources=sources,
+    )
+    with all_or_none():
+        save_table(table, output)
+    record = table.info["import"]
+    m, n = table.size
+    rho_s, rho_e = (math.degrees(x) for x in table.elevation_range)
+    click.echo(
+        printable(
+            f"{calibration}: {record['format']} calibration, model {record['model']}"
+            + (f" (camera {record['camera']})" if "camera" in record else "")
+            + f"; table {m} x {n}, elevation {rho_s:.2f}..{rho_e:.2f} deg, radii {table.cutoff_radius:.1f}.."
+            f"{table.outer_radius:.1f} px"
+        )
+    )
+    click.echo(f"wrote {output}")
+
+
+def _circle_radii(
+    principal_point: tuple[float, float],
+    circles: ImageCircles,
+    cutoff_radius: float | None,
+    outer_radius: float | None,
+    sources: dict[str, str],
+    image: Path,
+) -> tuple[float | None, float | None]:
+    """The annulus from the image's circles, about the calibration's principal point (the largest circle
+    about it inside the rim, the smallest outside the cut-off disc), unless the radii are given."""
+    u0, v0 = principal_point
+    offset = math.hypot(circles.centre[0] - u0, circles.centre[1] - v0)
+    if outer_radius is None and circles.rim_seen > 0.25:
+        outer_radius = circles.outer.radius - offset
+        sources["outer_radius"] = f"image circle found in {image.name}"
+    if cutoff_radius is None and circles.cutoff is not None:
+        cutoff_radius = circles.cutoff.radius + offset
+        sources["cutoff_radius"] = f"cut-off disc found in {image.name}"
+    return cutoff_radius, outer_radius
+
+
+@click.command("export")
+@click.argument("table", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="Calibration file to write.")
+@click.option("--format", "format_", type=click.Choice(list(FORMATS)), required=True, help="The tool's model.")
+def export(table: Path, output: Path, format_: str) -> None:
+    """Write a table's camera in another tool's model, fitted to the table over its valid range; print the
+    largest difference (px) between the two over that range."""
+    check_output(output)
+    loaded = load_table(table)
+    try:
+        result = export_calibration(loaded, output, format_)
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, exc.source or table) from None
+    for note in result.notes:
+        click.echo(f"panomap: note: {note}", err=True)
+    parameters = ", ".join(
+        f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = [{', '.join(f'{x:.6g}' for x in v)}]"
+        for k, v in result.model.parameters().items()
+    )
+    click.echo(f"{format_} ({result.model.name}): {parameters}")
+    click.echo(f"largest difference from the table over its valid range: {result.max_error_px:.4f} px")
+    click.echo(f"wrote {output}")

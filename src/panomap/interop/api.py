@@ -1,0 +1,96 @@
+"""``import_calibration``: a calibration file to a pano-mapping table, with where it came from."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Any
+
+from ..errors import PanomapError
+from ..table.table import PanoMappingTable
+from .readers import Imported, read_calibration
+from .table_of_camera import table_of_camera
+
+
+def check_image_size(imported: Imported, image_size: tuple[int, int] | None, path: str | Path) -> None:
+    """Raise unless the images' size (width, height) agrees with the calibration's, where both are known."""
+    if image_size is not None and imported.image_size is not None and tuple(image_size) != imported.image_size:
+        raise PanomapError(
+            f"the calibration is for {imported.image_size[0]} x {imported.image_size[1]} images, "
+            f"the image is {image_size[0]} x {image_size[1]}",
+            path,
+        )
+
+
+def import_calibration(
+    path: str | Path,
+    *,
+    format: str | None = None,
+    camera: str | None = None,
+    axis: str = "down",
+    tilt_rad: tuple[float, float] = (0.0, 0.0),
+    camera_position: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    image_size: tuple[int, int] | None = None,
+    cutoff_radius: float | None = None,
+    outer_radius: float | None = None,
+    size: tuple[int, int] | None = None,
+    sources: dict[str, str] | None = None,
+) -> PanoMappingTable:
+    """The pano-mapping table of the calibration in ``path``.
+
+    Parameters
+    ----------
+    path : path
+        OCamCalib ``calib_results.txt``, a Kalibr camchain, an OpenCV FileStorage file of cv::fisheye or
+        cv::omnidir, or COLMAP ``cameras.txt`` (see ``docs/calibration-formats.md``).
+    format : {"ocam", "kalibr", "opencv", "colmap"}, optional
+        Default: recognised from the content.
+    camera : str, optional
+        A Kalibr camera name (default ``cam0``) or a COLMAP camera id (default the first).
+    axis : {"down", "up"}
+        The optical axis becomes the table's vertical, looking down (default) or up; azimuth 0 lies
+        along the calibration's x axis (the image's columns).
+    tilt_rad : (tilt, toward)
+        The mount: the optical axis ``tilt`` rad off the vertical, toward world azimuth ``toward`` rad.
+    camera_position : (X0, Y0, Z0)
+        World units.
+    image_size : (width, height), optional
+        The images' size; must agree with the calibration's when both are known.
+    cutoff_radius, outer_radius : float, optional
+        The annulus (px about the principal point); default 0 and the model's valid range within the
+        image.
+    size : (M, N), optional
+        Table size; default about one entry per pixel.
+    sources : dict, optional
+        Where quantities came from (stored in ``info["sources"]``).
+    """
+    imported = read_calibration(path, format, camera)
+    check_image_size(imported, image_size, path)
+    size_used = imported.image_size if image_size is None else tuple(image_size)
+    record: dict[str, Any] = {
+        "file": Path(path).name,
+        "sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest(),
+        "format": imported.format,
+        "pixel_shift_px": imported.pixel_shift_px,
+    }
+    if imported.camera is not None:
+        record["camera"] = imported.camera
+    info_sources = {"centre": f"imported from {Path(path).name}"} | dict(sources or {})
+    info_sources.setdefault("cutoff_radius", "given" if cutoff_radius is not None else "default: none")
+    info_sources.setdefault(
+        "outer_radius", "given" if outer_radius is not None else "default: the model's valid range in the image"
+    )
+    try:
+        return table_of_camera(
+            imported.model,
+            axis=axis,
+            tilt_rad=tilt_rad,
+            camera_position=camera_position,
+            image_size=size_used,  # type: ignore[arg-type]
+            cutoff_radius=cutoff_radius,
+            outer_radius=outer_radius,
+            size=size,
+            info={"import": record, "sources": info_sources, "warnings": []},
+        )
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, path) from None

@@ -1,0 +1,83 @@
+"""Mei's unified model (Mei & Rives 2007): OpenCV's ``cv::omnidir``, Kalibr's ``omni`` (+ ``radtan`` or ``none``).
+
+Parameters, in this order: ``xi``, ``fx, fy, cx, cy`` (px), ``k1, k2, p1, p2`` (radtan; 0 for none),
+``skew`` (cv::omnidir's K[0, 1]; Kalibr has none).
+
+    (xs, ys, zs) = P / |P|;   x = xs / (zs + xi),   y = ys / (zs + xi),   r2 = x^2 + y^2
+    xd = x (1 + k1 r2 + k2 r2^2) + 2 p1 x y + p2 (r2 + 2 x^2)
+    yd = y (1 + k1 r2 + k2 r2^2) + p1 (r2 + 2 y^2) + 2 p2 x y
+    u = fx xd + skew yd + cx,   v = fy yd + cy
+
+Frame and pixels as in :mod:`.base`. A ray is seen where zs > -1/xi (xi > 1) or zs > -xi (xi <= 1), as
+Kalibr's ``OmniProjection`` and OpenCV decide.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ...errors import PanomapError
+from ...geometry import FloatArray
+from .base import ExternalCamera, as_rays, pixels, positive
+
+
+def radtan(x: FloatArray, y: FloatArray, k1: float, k2: float, p1: float, p2: float) -> tuple[FloatArray, FloatArray]:
+    """OpenCV's radial-tangential distortion of normalised coordinates (k3 = 0)."""
+    r2 = x * x + y * y
+    radial = 1 + r2 * (k1 + r2 * k2)
+    return (
+        x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+        y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y,
+    )
+
+
+@dataclass(frozen=True)
+class Mei(ExternalCamera):
+    name: ClassVar[str] = "mei"
+
+    xi: float
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    k1: float = 0.0
+    k2: float = 0.0
+    p1: float = 0.0
+    p2: float = 0.0
+    skew: float = 0.0
+
+    def check(self) -> None:
+        positive(self.name, "fx", self.fx)
+        positive(self.name, "fy", self.fy)
+        if self.xi < 0:
+            raise PanomapError(f"{self.name}: xi must be >= 0, not {self.xi:g}")
+
+    @property
+    def principal_point(self) -> tuple[float, float]:
+        return (self.cx, self.cy)
+
+    @property
+    def focal_px(self) -> float:
+        return self.fx / (1 + self.xi)
+
+    @property
+    def max_angle_rad(self) -> float:
+        """Widest angle from the axis (rad) the model sees."""
+        bound = -1 / self.xi if self.xi > 1 else -self.xi
+        return math.acos(bound)
+
+    def project(self, rays: ArrayLike) -> FloatArray:
+        x, y, z = as_rays(rays)
+        norm = np.sqrt(x * x + y * y + z * z)
+        zs = z / norm
+        bound = -1 / self.xi if self.xi > 1 else -self.xi
+        with np.errstate(invalid="ignore", divide="ignore"):
+            seen = zs > bound + 1e-12
+            denominator = np.where(seen, zs + self.xi, 1.0)
+            xd, yd = radtan(x / norm / denominator, y / norm / denominator, self.k1, self.k2, self.p1, self.p2)
+        return pixels(self.fx * xd + self.skew * yd + self.cx, self.fy * yd + self.cy, seen)

@@ -1,0 +1,64 @@
+"""What a calibration reader gives back, and the checks every reader shares.
+
+A reader is a function ``read(text, path, choice) -> Imported``: ``choice`` is the camera to take
+(a Kalibr camchain's name, a COLMAP camera id; None for the first). Problems raise
+:class:`panomap.errors.PanomapError` naming the file and the field.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ...errors import PanomapError
+from ..models.base import ExternalCamera
+
+
+@dataclass(frozen=True)
+class Imported:
+    """A calibration as read: the model, the format it came in, and what else the file says.
+
+    ``image_size`` is (width, height) px when the file gives it; ``camera`` names the camera picked
+    in a file of several (None otherwise); ``pixel_shift_px`` is what was added to the file's pixel
+    coordinates to reach panomap's (-0.5 for COLMAP).
+    """
+
+    model: ExternalCamera
+    format: str
+    image_size: tuple[int, int] | None
+    camera: str | None = None
+    pixel_shift_px: float = 0.0
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+def numbers(value: Any, where: str, path: str | Path, count: int | tuple[int, ...] | None = None) -> list[float]:
+    """``value`` as a list of finite numbers, ``count`` long (or one of the counts) when given."""
+    if not isinstance(value, (list, tuple)) or not all(
+        isinstance(x, (int, float)) and not isinstance(x, bool) for x in value
+    ):
+        raise PanomapError(f"{where} is {str(value)[:60]!r}, not a list of numbers", path)
+    values = [float(x) for x in value]
+    if not all(math.isfinite(x) for x in values):
+        raise PanomapError(f"{where} has a non-finite value", path)
+    counts = (count,) if isinstance(count, int) else count
+    if counts is not None and len(values) not in counts:
+        wanted = " or ".join(str(c) for c in counts)
+        raise PanomapError(f"{where} has {len(values)} values, expected {wanted}", path)
+    return values
+
+
+def image_size_of(width: float, height: float, where: str, path: str | Path) -> tuple[int, int]:
+    """(width, height) as positive whole numbers."""
+    if not (width == int(width) and height == int(height) and width > 0 and height > 0):
+        raise PanomapError(f"{where} is {width:g} x {height:g}, not a positive whole size", path)
+    return int(width), int(height)
+
+
+def built(cls: type[ExternalCamera], path: str | Path, *args: Any) -> ExternalCamera:
+    """``cls(*args)``, its parameter checks' errors naming the file."""
+    try:
+        return cls(*args)
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, path) from None
