@@ -5,6 +5,7 @@ from __future__ import annotations
 import fcntl
 import os
 import pty
+import select
 import struct
 import termios
 
@@ -27,9 +28,17 @@ def _drawn(columns: int) -> str:
         bar.update(60, 120)
         bar.close()
         stream.flush()
-        text = os.read(leader, 65536).decode("utf-8", "replace")
+    chunks = []
+    while select.select([leader], [], [], 0.5)[0]:  # (a pty hands its buffer over in pieces)
+        try:
+            chunk = os.read(leader, 65536)
+        except OSError:  # (EIO: the other side closed and all was read)
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
     os.close(leader)
-    return text
+    return b"".join(chunks).decode("utf-8", "replace")
 
 
 def test_a_terminal_reporting_0_columns_gets_a_bar_of_fixed_width() -> None:
