@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera.radial_models import radial_kind
+from ..camera.valid_range import annulus_coverage_problem
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
 from .circles import (
@@ -30,9 +31,10 @@ from .circles import (
     find_cutoff_without_rim,
     find_image_circles,
 )
-from .fit import CameraFit, annulus_coverage_problem, fit_camera, rim_slack_px
+from .fit import CameraFit, fit_camera
 from .landmarks import Landmarks
 from .make_table import choose_annulus, table_for
+from .noise import rim_slack_px
 from .sources import QUANTITIES, Origin, Source, source_texts
 
 
