@@ -29,7 +29,9 @@ squares of the 4th-degree polynomial with the centre pair), in the order
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
+from typing import TypeVar
 
 import numpy as np
 
@@ -49,6 +51,8 @@ from .outliers import choose, choose_start
 from .refine import MountOptions, MountProblem, MountSolution, camera_rays, refine
 from .report import FitReport, FitSettings, LandmarkResidual, MountReport
 from .start import consistency, detect_axis, handedness, pixels_hint, separable_fit
+
+_T = TypeVar("_T")
 
 MIN_ELEVATION_SPREAD = math.radians(1.0)
 
@@ -203,9 +207,10 @@ def fit_camera(
     pixel_sigma: float = 1.0,
     world_sigma: float | None = None,
     reject_outliers: bool = True,
-    tilt: str | tuple[float, float] = "fit",
+    tilt_deg: str | tuple[float, float] = "fit",
     camera_sigma: float | None = None,
     centre_is_guess: bool = False,
+    tilt: str | tuple[float, float] | None = None,
 ) -> CameraFit:
     """Fit the camera model to landmark pairs.
 
@@ -238,7 +243,7 @@ def fit_camera(
         default 0.4% of the median landmark distance.
     reject_outliers : bool
         Drop landmarks that disagree with the rest (named in the report).
-    tilt : "fit", "none" or (tilt_deg, toward_deg)
+    tilt_deg : "fit", "none" or (tilt_deg, toward_deg)
         ``"fit"``: estimate the tilt of the camera's axis off the vertical and
         keep it when cross-validation says the landmarks support it;
         ``"none"``: the camera is level (the paper's assumption); a pair fixes
@@ -254,6 +259,8 @@ def fit_camera(
         image shows no rim): with ``refine_centre``, no tilt is tried about it
         (a tilt about a point the image does not show would stand in for the
         centre's own error: 5-10 px on simulated full-frame fisheyes).
+    tilt : optional
+        The old spelling of ``tilt_deg``: still taken, with a DeprecationWarning.
 
     Raises
     ------
@@ -261,6 +268,7 @@ def fit_camera(
         Too few landmarks, a landmark at the camera or outside the image, all
         landmarks at one elevation, or no model that fits monotonically.
     """
+    tilt = renamed_keyword("fit_camera", "tilt", tilt, "tilt_deg", tilt_deg)
     requested, camera, start_centre, tilt_given = _checked(
         landmarks, camera_position, centre, model, azimuth, axis, image_size, refine_centre, pixel_sigma,
         world_sigma, camera_sigma, tilt,
@@ -298,6 +306,15 @@ def fit_camera(
         landmarks, problem, data, chosen, mount_choice, tilt, start_centre, setup.axis_source, model, refine_centre,
         reject_outliers,
     )  # fmt: skip
+
+
+def renamed_keyword(function: str, old: str, old_value: _T | None, new: str, new_value: _T) -> _T:
+    """``new_value``, or ``old_value`` where the old spelling ``old`` of keyword ``new`` was given (with a
+    DeprecationWarning naming ``function``)."""
+    if old_value is None:
+        return new_value
+    warnings.warn(f"{function}({old}=...) is deprecated: the keyword is {new}", DeprecationWarning, stacklevel=3)
+    return old_value
 
 
 @dataclass(frozen=True)
