@@ -46,7 +46,7 @@ from ..geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
 from . import selection as selection_module
 from .landmarks import MIN_LANDMARKS, Landmarks
 from .mount import DEFAULT_CAMERA_SIGMA_FRACTION, MountChoice, choose_mount, given_tilt, mount_options, mount_report
-from .noise import DEFAULT_WORLD_SIGMA_FRACTION, Observations, radial_weights, rim_slack_px
+from .noise import DEFAULT_WORLD_SIGMA_FRACTION, Observations, radial_weights, rim_slack_px, world_sigmas
 from .outliers import choose, choose_start
 from .refine import MountOptions, MountProblem, MountSolution, camera_rays, refine
 from .report import FitReport, FitSettings, LandmarkResidual, MountReport
@@ -423,15 +423,15 @@ def _observe(
         rotation_given = tilt_rotation(math.radians(tilt_given[0]), math.radians(tilt_given[1]), axis)
     d = to_camera(d, rotation_given)
     theta, rho = azimuth_elevation(d)
-    horizontal = np.hypot(d[:, 0], d[:, 1])
+    sigma_rho, sigma_theta = world_sigmas(d, world_sigma)
     s = 1 if azimuth == "paper" else handedness(theta, phi, r)
     data = Observations(
         theta=theta,
         rho=rho,
         r=r,
         phi=phi,
-        sigma_rho=world_sigma / distance,
-        sigma_theta=world_sigma / np.maximum(horizontal, 1e-12),
+        sigma_rho=sigma_rho,
+        sigma_theta=sigma_theta,
         pixel_sigma=float(pixel_sigma),
         axis=axis,
         s=s,

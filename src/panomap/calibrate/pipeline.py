@@ -369,8 +369,8 @@ def calibrate_camera(
         given (found in the image, or the frame's middle where no image circle
         is found) and the model does not take the centre as given (``paper``).
     model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers, tilt_deg, camera_sigma
-        As :func:`panomap.fit_camera` (by default the tilt and the camera
-        position are refined where cross-validation says the landmarks support it).
+        As :func:`panomap.fit_camera` (by default the tilt and the camera position are refined where
+        cross-validation says the landmarks support it; ``tilt``, deprecated, is ``tilt_deg``'s old spelling).
     models_cover_annulus : bool
         When both radii are known before the fit, automatic model choice
         only takes models that run monotonically across the annulus (its
@@ -381,8 +381,6 @@ def calibrate_camera(
         centre and radii) beforehand, taken instead of looking again: the learn
         page finds the circles once, when it opens, and fits as this function
         does with them.
-    tilt : optional
-        The old spelling of ``tilt_deg``: still taken, with a DeprecationWarning.
 
     Raises
     ------
@@ -395,12 +393,7 @@ def calibrate_camera(
     if position is None:
         raise PanomapError("no camera position: give one, or landmarks that hold it")
     # 1. Sources: where each given value came from.
-    given = {
-        "camera_position": position,
-        "centre": centre,
-        "cutoff_radius": cutoff_radius,
-        "outer_radius": outer_radius,
-    }
+    given = dict(camera_position=position, centre=centre, cutoff_radius=cutoff_radius, outer_radius=outer_radius)
     recorded = _given_sources(given, sources, position_from_landmarks=camera_position is None)
     # 2. Circles: the centre and radii found in the omni-image where not given.
     choice = CircleChoice(centre, cutoff_radius, outer_radius, None, {})
@@ -411,29 +404,17 @@ def calibrate_camera(
     if choice.centre is None:
         raise PanomapError("no image centre: give one, or an omni-image to find it in")
     # 3. Fit: the camera model from the landmarks (the centre refined where it was not given).
-    if refine_centre is None:
-        estimate = recorded["centre"].source.is_estimate
-        refine_centre = estimate and (model == "auto" or not radial_kind(model).centre_given)
+    refine_centre = _refines_centre(refine_centre, recorded["centre"], model)
     if refine_centre:
         recorded["centre"] = Origin(recorded["centre"].source, refined=True)
     cutoff, outer = choice.cutoff_radius, choice.outer_radius
     camera_fit = fit_camera(
-        landmarks,
-        position,
-        choice.centre,
-        model=model,
-        azimuth=azimuth,
-        axis=axis,
-        image_size=image_size,
+        landmarks, position, choice.centre, model=model, azimuth=azimuth, axis=axis, image_size=image_size,
         annulus=None if cutoff is None or outer is None or not models_cover_annulus else (cutoff, outer),
-        refine_centre=refine_centre,
-        centre_is_guess=recorded["centre"].source is Source.FRAME_CENTRE,
-        pixel_sigma=pixel_sigma,
-        world_sigma=world_sigma,
-        reject_outliers=reject_outliers,
-        tilt_deg=tilt_deg,
+        refine_centre=refine_centre, centre_is_guess=recorded["centre"].source is Source.FRAME_CENTRE,
+        pixel_sigma=pixel_sigma, world_sigma=world_sigma, reject_outliers=reject_outliers, tilt_deg=tilt_deg,
         camera_sigma=camera_sigma,
-    )
+    )  # fmt: skip
     # 4. The cut-off settled against the fit: the disc measured again about the fitted centre.
     cutoff = _cutoff_settled(omni, choice, camera_fit, cutoff, recorded)
     # 5. Annulus: the radii the table spans, each with where it came from.
@@ -445,6 +426,14 @@ def calibrate_camera(
     table_info["sources"] = source_texts(recorded)
     table = table_for(camera_fit, annulus, size=table_size, image_size=image_size, info=table_info | dict(info or {}))
     return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings)
+
+
+def _refines_centre(refine_centre: bool | None, centre: Origin, model: str) -> bool:
+    """``refine_centre``, or by default: when the centre is an estimate (found in the image, or the frame's
+    middle) and ``model`` does not take the centre as given."""
+    if refine_centre is not None:
+        return refine_centre
+    return centre.source.is_estimate and (model == "auto" or not radial_kind(model).centre_given)
 
 
 def _given_sources(
