@@ -13,7 +13,7 @@ trials for the default (``auto``) and the ``paper`` model, side by side, and
 for the outlier setting how often the bad landmark was flagged. Beside them an
 **oracle**: a fit that knows the camera's true model family (``odd1`` for the
 equidistant fisheye, ``fisheye`` for the equisolid (k = 1/2 is its law), ``unified`` for the mirrors) and
-that it is level with its position exact (``tilt="none"``, ``camera_sigma=0``),
+that it is level with its position exact (``tilt_deg="none"``, ``camera_sigma=0``),
 with the default's outlier search: the floor a fit could reach on the same trials.
 
 ``--cameras more`` runs the same trials on cameras beyond the issue's six
@@ -113,7 +113,7 @@ def run(job: tuple[str, str, int, str, float]) -> tuple[str, str, dict[str, floa
             model=TRUE_FAMILY.get(name, "unified"),
             image_size=IMAGE_SIZE,
             annulus=(camera.cutoff_radius, camera.outer_radius),
-            tilt="none",
+            tilt_deg="none",
             camera_sigma=0.0,
         )
         table = create_table(

@@ -537,7 +537,7 @@ def test_the_table_keeps_the_view_next_to_a_cut_off_disc_off_its_centre() -> Non
     and a crescent of the view up to 6 px wide was left out on the far side."""
     camera, image, axis, centre = housed_mirror_off_centre()
     landmarks = spread_landmarks(camera, POSITION, 12, np.random.default_rng(5))
-    result = calibrate_camera(landmarks, POSITION, omni=image, centre=centre, refine_centre=False, tilt="none")
+    result = calibrate_camera(landmarks, POSITION, omni=image, centre=centre, refine_centre=False, tilt_deg="none")
     assert result.circles is not None and result.circles.cutoff is not None
     disc = result.circles.cutoff
     assert result.table.cutoff_radius == pytest.approx(disc.radius - math.dist(disc.centre, centre), abs=1e-9)
@@ -563,7 +563,7 @@ def test_a_model_that_turns_back_inside_the_disc_keeps_the_discs_radius(monkeypa
         return "turns back before the cut-off radius"
 
     monkeypatch.setattr(pipeline, "annulus_coverage_problem", turns_back)
-    result = calibrate_camera(landmarks, POSITION, omni=image, centre=centre, refine_centre=False, tilt="none")
+    result = calibrate_camera(landmarks, POSITION, omni=image, centre=centre, refine_centre=False, tilt_deg="none")
     assert result.circles is not None and result.circles.cutoff is not None
     assert disc_radius == [pytest.approx(result.circles.cutoff.radius - 6.0, abs=0.5)]
     assert result.table.cutoff_radius == result.circles.cutoff.radius

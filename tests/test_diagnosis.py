@@ -41,7 +41,7 @@ def test_a_centre_6_px_off_shows_as_a_swing_in_azimuth_towards_the_offset() -> N
     # Level and at the given position: by default a small tilt or a shift of the camera, which move the image
     # much as a centre error does, take up part of the offset, and the pattern left is weaker.
     fit = fit_camera(
-        noisy("equidistant"), POSITION, tuple(np.asarray(camera.centre) + offset), tilt="none", camera_sigma=0
+        noisy("equidistant"), POSITION, tuple(np.asarray(camera.centre) + offset), tilt_deg="none", camera_sigma=0
     )
     notes = diagnose(fit)
     assert len(notes) == 1 and "swing with azimuth" in notes[0] and "refine the centre" in notes[0]
@@ -54,7 +54,9 @@ def test_a_centre_6_px_off_shows_as_a_swing_in_azimuth_towards_the_offset() -> N
     assert abs(math.remainder(towards - (0.8 - 0.3), 2 * math.pi)) < math.radians(10)
     # Refining the centre removes it.
     assert (
-        diagnose(fit_camera(fit.landmarks, POSITION, fit.model.centre, refine_centre=True, tilt="none", camera_sigma=0))
+        diagnose(
+            fit_camera(fit.landmarks, POSITION, fit.model.centre, refine_centre=True, tilt_deg="none", camera_sigma=0)
+        )
         == []
     )
 

@@ -6,12 +6,18 @@ cost is measured by bench/bench_fit_count.py, not here.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from panomap.calibrate import fit as fit_module
-from panomap.calibrate.fit import CV_FOLDS, EXACT_LOO_MAX, fit_camera
+from panomap.calibrate import noise, selection, start
+from panomap.calibrate.fit import fit_camera
 from panomap.calibrate.landmarks import Landmarks
+from panomap.calibrate.selection import CV_FOLDS, EXACT_LOO_MAX
+from panomap.camera.radial import fit_radial
+from panomap.camera.radial_models import radial_kind
+from panomap.geometry import azimuth_elevation, pixel_polar
 from panomap.simulate import scenarios
 from panomap.simulate.sampling import LandmarkPairs
 from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, Trial, make_landmarks, scenario_cameras
@@ -49,12 +55,12 @@ def test_kfold_is_used_above_the_bound_and_chooses_as_exact_leave_one_out() -> N
     trial = make_landmarks(camera, EXACT_LOO_MAX + 20, np.random.default_rng(3))
     landmarks = Landmarks(*trial.landmarks)
     kfold = fit_camera(landmarks, CAMERA_POSITION, camera.centre, image_size=IMAGE_SIZE)
-    saved = fit_module.EXACT_LOO_MAX
-    fit_module.EXACT_LOO_MAX = 10**9
+    saved = selection.EXACT_LOO_MAX
+    selection.EXACT_LOO_MAX = 10**9
     try:
         exact = fit_camera(landmarks, CAMERA_POSITION, camera.centre, image_size=IMAGE_SIZE)
     finally:
-        fit_module.EXACT_LOO_MAX = saved
+        selection.EXACT_LOO_MAX = saved
     # (The parabolic law is the unified model's xi = 1 and the fisheye family's k = -1/2: either may win.)
     assert kfold.model.radial.kind == exact.model.radial.kind in ("unified", "fisheye")
     assert CV_FOLDS < landmarks.pixels.shape[0]
@@ -69,20 +75,20 @@ def test_a_fit_kept_with_the_data_is_the_fit_of_those_data() -> None:
     trial = make_landmarks(camera, 12, np.random.default_rng(5))
     landmarks = Landmarks(*trial.landmarks)
     fit = fit_camera(landmarks, CAMERA_POSITION, camera.centre, image_size=IMAGE_SIZE)
-    kind = fit_module.radial_kind(fit.model.radial.kind)
+    kind = radial_kind(fit.model.radial.kind)
     d = landmarks.world - np.asarray(CAMERA_POSITION)
-    theta, rho = fit_module.azimuth_elevation(d)
-    data = fit_module._Data(
+    theta, rho = azimuth_elevation(d)
+    data = noise.Observations(
         theta, rho, np.zeros(12), np.zeros(12), np.full(12, 0.01), np.full(12, 0.01), 1.0, "down", 1, "fit"
     )
     subset = np.ones(12, dtype=bool)
     for shift in (0.0, 7.0):  # the same subset, two centres 7 px apart
-        r, phi = fit_module.pixel_polar(landmarks.pixels, (camera.centre[0] + shift, camera.centre[1]))
-        moved = fit_module.replace(data, r=r, phi=phi)
-        kept, _ = fit_module._fit(kind, moved, subset)
-        assert fit_module._fit(kind, moved, subset)[0] is kept  # asked again: the fit kept
-        fresh = fit_module.fit_radial(kind.name, rho, r, "down")
-        for _ in range(fit_module.WEIGHT_ITERATIONS):
-            fresh = fit_module.fit_radial(kind.name, rho, r, "down", fit_module._radial_weights(fresh, moved))
+        r, phi = pixel_polar(landmarks.pixels, (camera.centre[0] + shift, camera.centre[1]))
+        moved = replace(data, r=r, phi=phi)
+        kept, _ = start.separable_fit(kind, moved, subset)
+        assert start.separable_fit(kind, moved, subset)[0] is kept  # asked again: the fit kept
+        fresh = fit_radial(kind.name, rho, r, "down")
+        for _ in range(start.WEIGHT_ITERATIONS):
+            fresh = fit_radial(kind.name, rho, r, "down", noise.radial_weights(fresh, moved))
         # Exactly the fit of these data: the radii 7 px apart give coefficients far apart.
         np.testing.assert_allclose(kept.coefficients, fresh.coefficients, rtol=1e-12)

@@ -246,7 +246,7 @@ def test_a_landmark_pushed_50_px_beyond_the_rim_is_flagged_not_fatal(tilt: str) 
         camera.centre,
         image_size=IMAGE_SIZE,
         annulus=(camera.cutoff_radius, camera.outer_radius),
-        tilt=tilt,
+        tilt_deg=tilt,
     )
     assert fit.outliers == [trial.landmarks.names[rim]]
     assert fit.model.rotation is None

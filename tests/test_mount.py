@@ -17,6 +17,7 @@ from panomap.calibrate.diagnosis import diagnose
 from panomap.calibrate.fit import fit_camera
 from panomap.calibrate.landmarks import Landmarks
 from panomap.calibrate.make_table import create_table
+from panomap.calibrate.pipeline import calibrate_camera
 from panomap.camera.orientation import tilt_angles, tilt_rotation
 from panomap.errors import PanomapError
 from panomap.geometry import azimuth_elevation
@@ -144,16 +145,40 @@ def test_a_tilted_table_file_round_trips_and_is_checked(
 
 
 def test_a_given_tilt_is_used_as_given() -> None:
-    """``tilt=(deg, az)``: the landmarks are fitted through that rotation, none estimated."""
+    """``tilt_deg=(deg, az)``: the landmarks are fitted through that rotation, none estimated."""
     base = standard_cameras(seed=3)["equidistant"]
     camera = TiltedCamera(base, mount_rotation(math.radians(TILT_DEG), math.radians(TOWARD_DEG)))
     landmarks = spread_landmarks(camera, POSITION, 12, np.random.default_rng(6))
-    fit = fit_camera(landmarks, POSITION, base.centre, tilt=(TILT_DEG, TOWARD_DEG))
+    fit = fit_camera(landmarks, POSITION, base.centre, tilt_deg=(TILT_DEG, TOWARD_DEG))
     assert fit.mount is not None and fit.mount.tilt_mode == "given" and not fit.mount.tilt_fitted
     assert fit.mount.tilt_deg == pytest.approx(TILT_DEG, abs=1e-9)
     assert fit.rms_px < 0.01  # exact landmarks through the true rotation
-    level = fit_camera(landmarks, POSITION, base.centre, tilt="none")
+    level = fit_camera(landmarks, POSITION, base.centre, tilt_deg="none")
     assert level.model.rotation is None and level.rms_px > 1.0  # the tilt is what made it fit
+
+
+def test_the_old_spelling_tilt_still_works_and_warns() -> None:
+    """``tilt=`` (degrees under a bare name) is the old spelling of ``tilt_deg=``: the same fit, and a
+    DeprecationWarning naming the new keyword, from fit_camera and calibrate_camera alike."""
+    base = standard_cameras(seed=3)["equidistant"]
+    camera = TiltedCamera(base, mount_rotation(math.radians(TILT_DEG), math.radians(TOWARD_DEG)))
+    landmarks = spread_landmarks(camera, POSITION, 12, np.random.default_rng(6))
+    new = fit_camera(landmarks, POSITION, base.centre, tilt_deg=(TILT_DEG, TOWARD_DEG))
+    with pytest.warns(DeprecationWarning, match="tilt_deg"):
+        old = fit_camera(landmarks, POSITION, base.centre, tilt=(TILT_DEG, TOWARD_DEG))
+    np.testing.assert_array_equal(old.predicted, new.predicted)
+    assert old.mount is not None and old.mount.tilt_mode == "given"
+    with pytest.warns(DeprecationWarning, match="calibrate_camera.*tilt_deg"):
+        calibration = calibrate_camera(
+            landmarks,
+            POSITION,
+            centre=base.centre,
+            image_size=IMAGE_SIZE,
+            refine_centre=False,
+            tilt=(TILT_DEG, TOWARD_DEG),
+        )
+    assert calibration.fit.mount is not None and calibration.fit.mount.tilt_mode == "given"
+    np.testing.assert_array_equal(calibration.fit.predicted, new.predicted)
 
 
 @pytest.mark.parametrize("bad", ["sideways", (50.0, 0.0), (float("nan"), 0.0), (1.0,)])
@@ -161,7 +186,7 @@ def test_a_bad_tilt_is_refused(bad: object) -> None:
     base = standard_cameras()["equidistant"]
     landmarks = spread_landmarks(base, POSITION, 8, np.random.default_rng(6))
     with pytest.raises(PanomapError, match="tilt"):
-        fit_camera(landmarks, POSITION, base.centre, tilt=bad)  # type: ignore[arg-type]
+        fit_camera(landmarks, POSITION, base.centre, tilt_deg=bad)  # type: ignore[arg-type]
 
 
 def test_noise_alone_does_not_make_a_level_camera_tilted() -> None:
@@ -194,11 +219,11 @@ def test_a_tape_error_is_refined_away_when_the_landmarks_show_it() -> None:
     base = standard_cameras(seed=3)["equidistant"]
     landmarks = spread_landmarks(base, POSITION, 30, np.random.default_rng(8))
     given = (0.04, -0.03, 2.53)
-    fit = fit_camera(landmarks, given, base.centre, tilt="none", camera_sigma=0.05)
+    fit = fit_camera(landmarks, given, base.centre, tilt_deg="none", camera_sigma=0.05)
     assert fit.mount is not None and fit.mount.position_refined
     assert math.dist(fit.camera_position, POSITION) < 0.002
     assert fit.mount.camera_shift == pytest.approx(math.dist(given, POSITION), abs=0.002)
-    exact = fit_camera(landmarks, given, base.centre, tilt="none", camera_sigma=0.0)
+    exact = fit_camera(landmarks, given, base.centre, tilt_deg="none", camera_sigma=0.0)
     assert exact.camera_position == given and exact.rms_px > 1.0
 
 
@@ -238,7 +263,7 @@ def test_rim_landmarks_beyond_the_circle_under_a_level_model_do_not_stop_a_tilte
     annulus = (base.cutoff_radius, base.outer_radius)
     options = {"image_size": IMAGE_SIZE, "annulus": annulus, "model": "odd1"}
     with pytest.raises(PanomapError, match="outside the annulus"):
-        fit_camera(*_pairs(trial), CAMERA_POSITION, base.centre, tilt="none", **options)  # type: ignore[arg-type]
+        fit_camera(*_pairs(trial), CAMERA_POSITION, base.centre, tilt_deg="none", **options)  # type: ignore[arg-type]
     fit = fit_camera(*_pairs(trial), CAMERA_POSITION, base.centre, **options)  # type: ignore[arg-type]
     assert fit.mount is not None and fit.mount.tilt_fitted
     assert fit.mount.tilt_deg == pytest.approx(math.degrees(tilt), abs=0.3)

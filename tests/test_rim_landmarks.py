@@ -10,8 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from panomap.calibrate.fit import RIM_SLACK_SIGMAS, fit_camera
+from panomap.calibrate.fit import fit_camera
 from panomap.calibrate.landmarks import Landmarks
+from panomap.calibrate.noise import RIM_SLACK_SIGMAS
 from panomap.calibrate.pipeline import calibrate_camera
 from panomap.camera.radial import RadialFunction
 from panomap.camera.valid_range import valid_elevation_range

@@ -23,7 +23,7 @@ import termios
 import threading
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 
@@ -858,10 +858,20 @@ def test_the_help_points_at_what_it_prints(work: Path) -> None:
     assert text.index("A --views file") < text.index("see the --views file above")
 
 
+def test_selection_start_is_the_old_spelling_of_start_s() -> None:
+    """``Selection(start=...)`` and ``.start`` still work, each with a DeprecationWarning naming ``start_s``."""
+    with pytest.warns(DeprecationWarning, match="start_s"):
+        old = Selection(start=2.5, duration=1.0)
+    assert old == Selection(2.5, 1.0) == Selection(start_s=2.5, duration=1.0)
+    with pytest.warns(DeprecationWarning, match="start_s"):
+        assert old.start == 2.5
+    assert replace(old, every=2) == Selection(2.5, 1.0, 2)
+
+
 def test_selection_and_encoder_settings_refuse_nonsense() -> None:
     from panomap.errors import PanomapError
 
-    for kwargs in ({"start": -1.0}, {"duration": 0.0}, {"every": 0}, {"start": math.inf}):
+    for kwargs in ({"start_s": -1.0}, {"duration": 0.0}, {"every": 0}, {"start_s": math.inf}):
         with pytest.raises(PanomapError):
             Selection(**kwargs)  # type: ignore[arg-type]
     assert EncoderSettings().codec_options() == {"preset": "veryfast", "crf": "20"}

@@ -6,10 +6,11 @@ The pieces, in the paper's order:
 - :func:`fit_camera` -> :class:`CameraFit` (Algorithm 1), with its
   :class:`CameraModel` and :class:`RadialFunction`.
 - :func:`create_table` -> :class:`PanoMappingTable` (Algorithm 2);
-  :func:`load_table`, ``table.save``.
+  :func:`load_table`, :func:`save_table`.
 - :func:`calibrate_camera` -> :class:`Calibration`: the whole step, from landmarks
   and an omni-image (its circles found when the centre or radii are not
-  given, each one's :class:`Source` recorded) to the fit and its table.
+  given (:func:`choose_circles` -> :class:`CircleChoice`; :class:`NoImageCircle` where no rim
+  shows), each one's :class:`Source` recorded) to the fit and its table.
 - Views (2.3): :class:`GenericPanorama`, :class:`CylinderPanorama`,
   :class:`PlaneView`, and beyond the paper :class:`PerspectiveView` (a virtual
   pan-tilt-zoom camera) and :class:`FloorView` (a bird's-eye map);
@@ -18,8 +19,9 @@ The pieces, in the paper's order:
 - Pixels back to rays: ``table.unproject(uv)``.
 - Other tools' calibrations (OCamCalib, OpenCV, Kalibr, COLMAP): :func:`import_calibration` makes
   a table of one, :func:`export_calibration` fits one to a table (:mod:`panomap.interop`).
-- Video: :func:`unwarp_video`; many inputs at once, on Dask, resumably:
-  :func:`find_inputs`, :func:`make_job`, :class:`Record`, :func:`run_job` ->
+- Video: :func:`unwarp_video` (which frames: :class:`Selection`; each view's file:
+  :class:`ViewOutput`, :class:`EncoderSettings`); many inputs at once, on Dask, resumably:
+  :func:`find_inputs`, :func:`make_job` (its :class:`Settings`), :class:`Record`, :func:`run_job` ->
   :class:`BatchReport` (:mod:`panomap.batch`).
 
 Conventions are in :mod:`panomap.geometry` and ``docs/conventions.md``.
@@ -42,7 +44,9 @@ _EXPORTS = {
     "read_image": "io.images",
     "write_image": "io.images",
     # calibrate: circles, landmarks, the fit, the table made from them
+    "Circle": "calibrate.circles",
     "ImageCircles": "calibrate.circles",
+    "NoImageCircle": "calibrate.circles",
     "find_image_circles": "calibrate.circles",
     "Landmarks": "calibrate.landmarks",
     "read_landmarks": "calibrate.landmarks",
@@ -50,6 +54,8 @@ _EXPORTS = {
     "FitReport": "calibrate.report",
     "fit_camera": "calibrate.fit",
     "Source": "calibrate.sources",
+    "CircleChoice": "calibrate.pipeline",
+    "choose_circles": "calibrate.pipeline",
     "Calibration": "calibrate.pipeline",
     "calibrate_camera": "calibrate.pipeline",
     # the camera model
@@ -68,15 +74,20 @@ _EXPORTS = {
     "PerspectiveView": "views.perspective",
     "FloorView": "views.floor",
     "build_map": "views.base",
+    "NamedView": "views.spec",
     "parse_view_spec": "views.spec",
     "Remapper": "remap",
     # video
+    "Selection": "video.source",
+    "EncoderSettings": "video.output",
+    "ViewOutput": "video.unwarp",
     "Reconnect": "video.live",
     "Gap": "video.report",
     "unwarp_video": "video.unwarp",
     # batches, on Dask
     "find_inputs": "batch.job",
     "make_job": "batch.job",
+    "Settings": "batch.job",
     "Record": "batch.record",
     "run_job": "batch.run",
     "BatchReport": "batch.run",

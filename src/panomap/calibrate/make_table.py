@@ -16,11 +16,12 @@ from typing import Any
 import numpy as np
 
 from ..camera.uncertainty import radius_standard_error
-from ..camera.valid_range import valid_elevation_range
+from ..camera.valid_range import annulus_coverage_problem, valid_elevation_range
 from ..errors import PanomapError
 from ..geometry import TWO_PI, pixel_polar
 from ..table.table import PanoMappingTable, check_table_size, fill_entries
-from .fit import CameraFit, annulus_coverage_problem, rim_slack_px
+from .fit import CameraFit
+from .noise import rim_slack_px
 from .report import RadiusUncertainty
 from .sources import Source
 

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera.radial_models import radial_kind
+from ..camera.valid_range import annulus_coverage_problem
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
 from .circles import (
@@ -30,9 +31,10 @@ from .circles import (
     find_cutoff_without_rim,
     find_image_circles,
 )
-from .fit import CameraFit, annulus_coverage_problem, fit_camera, rim_slack_px
+from .fit import CameraFit, fit_camera, renamed_keyword
 from .landmarks import Landmarks
 from .make_table import choose_annulus, table_for
+from .noise import rim_slack_px
 from .sources import QUANTITIES, Origin, Source, source_texts
 
 
@@ -325,9 +327,10 @@ def calibrate_camera(
     world_sigma: float | None = None,
     reject_outliers: bool = True,
     models_cover_annulus: bool = True,
-    tilt: str | tuple[float, float] = "fit",
+    tilt_deg: str | tuple[float, float] = "fit",
     camera_sigma: float | None = None,
     found: CircleChoice | None = None,
+    tilt: str | tuple[float, float] | None = None,
 ) -> Calibration:
     """Landmarks (and an omni-image) to a fitted camera and its pano-mapping table.
 
@@ -365,9 +368,9 @@ def calibrate_camera(
         Refine the centre with the landmarks. Default: when the centre was not
         given (found in the image, or the frame's middle where no image circle
         is found) and the model does not take the centre as given (``paper``).
-    model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers, tilt, camera_sigma
-        As :func:`panomap.fit_camera` (by default the tilt and the camera
-        position are refined where cross-validation says the landmarks support it).
+    model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers, tilt_deg, camera_sigma
+        As :func:`panomap.fit_camera` (by default the tilt and the camera position are refined where
+        cross-validation says the landmarks support it; ``tilt``, deprecated, is ``tilt_deg``'s old spelling).
     models_cover_annulus : bool
         When both radii are known before the fit, automatic model choice
         only takes models that run monotonically across the annulus (its
@@ -385,60 +388,97 @@ def calibrate_camera(
         With no camera position or no centre at all, or from the circles, the
         fit or the table, saying why.
     """
+    tilt_deg = renamed_keyword("calibrate_camera", "tilt", tilt, "tilt_deg", tilt_deg)
     position = camera_position if camera_position is not None else landmarks.camera
     if position is None:
         raise PanomapError("no camera position: give one, or landmarks that hold it")
-    given = {
-        "camera_position": position,
-        "centre": centre,
-        "cutoff_radius": cutoff_radius,
-        "outer_radius": outer_radius,
-    }
+    # 1. Sources: where each given value came from.
+    given = dict(camera_position=position, centre=centre, cutoff_radius=cutoff_radius, outer_radius=outer_radius)
+    recorded = _given_sources(given, sources, position_from_landmarks=camera_position is None)
+    # 2. Circles: the centre and radii found in the omni-image where not given.
+    choice = CircleChoice(centre, cutoff_radius, outer_radius, None, {})
+    if omni is not None:
+        image_size = (int(omni.shape[1]), int(omni.shape[0]))
+        choice = _circles(omni, omni_name, choice, found, landmarks, pixel_sigma)
+        recorded |= choice.sources
+    if choice.centre is None:
+        raise PanomapError("no image centre: give one, or an omni-image to find it in")
+    # 3. Fit: the camera model from the landmarks (the centre refined where it was not given).
+    refine_centre = _refines_centre(refine_centre, recorded["centre"], model)
+    if refine_centre:
+        recorded["centre"] = Origin(recorded["centre"].source, refined=True)
+    cutoff, outer = choice.cutoff_radius, choice.outer_radius
+    camera_fit = fit_camera(
+        landmarks, position, choice.centre, model=model, azimuth=azimuth, axis=axis, image_size=image_size,
+        annulus=None if cutoff is None or outer is None or not models_cover_annulus else (cutoff, outer),
+        refine_centre=refine_centre, centre_is_guess=recorded["centre"].source is Source.FRAME_CENTRE,
+        pixel_sigma=pixel_sigma, world_sigma=world_sigma, reject_outliers=reject_outliers, tilt_deg=tilt_deg,
+        camera_sigma=camera_sigma,
+    )  # fmt: skip
+    # 4. The cut-off settled against the fit: the disc measured again about the fitted centre.
+    cutoff = _cutoff_settled(omni, choice, camera_fit, cutoff, recorded)
+    # 5. Annulus: the radii the table spans, each with where it came from.
+    annulus = choose_annulus(camera_fit, image_size, cutoff, outer, whole_frame=choice.whole_frame)
+    recorded.setdefault("cutoff_radius", Origin(annulus.cutoff_source))
+    recorded.setdefault("outer_radius", Origin(annulus.outer_source))
+    # 6. Table.
+    table_info: dict[str, Any] = {} if choice.circles is None else {"image_circles": choice.circles.to_dict()}
+    table_info["sources"] = source_texts(recorded)
+    table = table_for(camera_fit, annulus, size=table_size, image_size=image_size, info=table_info | dict(info or {}))
+    return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings)
+
+
+def _refines_centre(refine_centre: bool | None, centre: Origin, model: str) -> bool:
+    """``refine_centre``, or by default: when the centre is an estimate (found in the image, or the frame's
+    middle) and ``model`` does not take the centre as given."""
+    if refine_centre is not None:
+        return refine_centre
+    return centre.source.is_estimate and (model == "auto" or not radial_kind(model).centre_given)
+
+
+def _given_sources(
+    given: Mapping[str, object], sources: Mapping[str, Source] | None, position_from_landmarks: bool
+) -> dict[str, Origin]:
+    """Where each value ``given`` (not None) came from: as ``sources`` says, in its order, else given (the
+    camera position from the landmark file where ``position_from_landmarks``)."""
     unknown = sorted(set(sources or {}) - set(QUANTITIES))
     if unknown:
         raise PanomapError(f"sources: unknown quantity {', '.join(unknown)}; they are {', '.join(QUANTITIES)}")
     recorded = {name: Origin(source) for name, source in (sources or {}).items() if given[name] is not None}
     for name in QUANTITIES:
         if given[name] is not None and name not in recorded:
-            from_landmarks = name == "camera_position" and camera_position is None
+            from_landmarks = name == "camera_position" and position_from_landmarks
             recorded[name] = Origin(Source.LANDMARK_FILE if from_landmarks else Source.GIVEN)
-    table_info: dict[str, Any] = {}
-    choice = CircleChoice(centre, cutoff_radius, outer_radius, None, {})
-    if omni is not None:
-        image_size = (int(omni.shape[1]), int(omni.shape[0]))
-        if found is not None and (centre, cutoff_radius, outer_radius) != (None, None, None):
-            raise PanomapError("the circles found beforehand come without a centre or radii given beside them")
-        choice = found or choose_circles(omni, centre, cutoff_radius, outer_radius, name=omni_name)
-        choice = rim_without_landmarks_past_it(choice, landmarks.pixels, pixel_sigma, omni, cutoff_radius)
-        choice = _disc_without_landmarks(choice, landmarks, pixel_sigma, omni)
-        recorded |= choice.sources
-        if choice.circles is not None:
-            table_info["image_circles"] = choice.circles.to_dict()
-    if choice.centre is None:
-        raise PanomapError("no image centre: give one, or an omni-image to find it in")
-    if refine_centre is None:
-        estimate = recorded["centre"].source.is_estimate
-        refine_centre = estimate and (model == "auto" or not radial_kind(model).centre_given)
-    if refine_centre:
-        recorded["centre"] = Origin(recorded["centre"].source, refined=True)
-    cutoff, outer = choice.cutoff_radius, choice.outer_radius
-    camera_fit = fit_camera(
-        landmarks,
-        position,
-        choice.centre,
-        model=model,
-        azimuth=azimuth,
-        axis=axis,
-        image_size=image_size,
-        annulus=None if cutoff is None or outer is None or not models_cover_annulus else (cutoff, outer),
-        refine_centre=refine_centre,
-        centre_is_guess=recorded["centre"].source is Source.FRAME_CENTRE,
-        pixel_sigma=pixel_sigma,
-        world_sigma=world_sigma,
-        reject_outliers=reject_outliers,
-        tilt=tilt,
-        camera_sigma=camera_sigma,
-    )
+    return recorded
+
+
+def _circles(
+    omni: NDArray[Any],
+    omni_name: str | Path | None,
+    given: CircleChoice,
+    found: CircleChoice | None,
+    landmarks: Landmarks,
+    pixel_sigma: float,
+) -> CircleChoice:
+    """The centre and radii ``given``, with what :func:`choose_circles` finds in ``omni`` (or ``found``
+    beforehand) where they are missing, checked against the landmarks (no rim or disc with landmarks past it)."""
+    if found is not None and (given.centre, given.cutoff_radius, given.outer_radius) != (None, None, None):
+        raise PanomapError("the circles found beforehand come without a centre or radii given beside them")
+    choice = found or choose_circles(omni, given.centre, given.cutoff_radius, given.outer_radius, name=omni_name)
+    choice = rim_without_landmarks_past_it(choice, landmarks.pixels, pixel_sigma, omni, given.cutoff_radius)
+    return _disc_without_landmarks(choice, landmarks, pixel_sigma, omni)
+
+
+def _cutoff_settled(
+    omni: NDArray[Any] | None,
+    choice: CircleChoice,
+    camera_fit: CameraFit,
+    cutoff: float | None,
+    recorded: dict[str, Origin],
+) -> float | None:
+    """The cut-off radius (px) once the fit has settled the centre: a disc found in the image measured again
+    about the fitted centre (``recorded`` updated where it is found only now), kept where f_r runs that far in."""
+    outer = choice.outer_radius
     disc = choice.cutoff_disc if choice.circles is None else choice.circles.cutoff
     if omni is not None and choice.circles is not None and outer is not None:
         disc, found_now = _cutoff_about_the_fit(omni, choice.circles, disc, camera_fit.model.centre, recorded)
@@ -450,9 +490,4 @@ def calibrate_camera(
         slack = rim_slack_px(camera_fit.settings.pixel_sigma_px)
         if not annulus_coverage_problem(camera_fit.model.radial, camera_fit.landmark_range, within, outer, slack):
             cutoff = within
-    annulus = choose_annulus(camera_fit, image_size, cutoff, outer, whole_frame=choice.whole_frame)
-    recorded.setdefault("cutoff_radius", Origin(annulus.cutoff_source))
-    recorded.setdefault("outer_radius", Origin(annulus.outer_source))
-    table_info["sources"] = source_texts(recorded)
-    table = table_for(camera_fit, annulus, size=table_size, image_size=image_size, info=table_info | dict(info or {}))
-    return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings)
+    return cutoff

@@ -14,7 +14,10 @@ from dataclasses import asdict, dataclass, fields
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from ..errors import PanomapError
+from ..geometry import FloatArray
 
 CENTRE_AS_FOUND = ", centre as found"  # ends the name of a mount that held the centre where it was found
 # A fitted tilt is told from level where it is this many of its standard errors or more.
@@ -136,6 +139,22 @@ class RadiusUncertainty:
         if len(se) != len(elevation):
             raise _malformed(f"the radius uncertainty has {len(elevation)} elevations and {len(se)} standard errors")
         return cls(elevation_deg=elevation, radius_se_px=se, **uncertainty.scalars())
+
+
+def tilt_standard_errors(w: FloatArray, covariance: FloatArray) -> tuple[float, float]:
+    """Standard errors (rad) of the tilt |w| and of the azimuth it leans toward, from w's covariance (2, 2).
+
+    The azimuth's is infinite for a level camera (it has no direction).
+    """
+    norm = float(np.hypot(w[0], w[1]))
+    if norm < 1e-12:
+        return math.sqrt(max(float(np.trace(covariance)) / 2, 0.0)), math.inf
+    along = np.array([w[0], w[1]]) / norm
+    across = np.array([-w[1], w[0]]) / norm**2
+    return (
+        math.sqrt(max(float(along @ covariance @ along), 0.0)),
+        math.sqrt(max(float(across @ covariance @ across), 0.0)),
+    )
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,7 @@ axis's sense" means r grows with rho looking down and falls looking up.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -106,3 +107,31 @@ def _refine_bound(radial: RadialFunction, a: float, b: float, cutoff_radius: flo
     # Neither crossed (cannot happen when exactly one endpoint is inside): keep the inside one.
     inside_a = cutoff_radius <= ra <= outer_radius
     return float(a if inside_a else b)
+
+
+def annulus_coverage_problem(
+    radial: RadialFunction,
+    landmark_range: tuple[float, float],
+    cutoff_radius: float,
+    outer_radius: float,
+    slack_px: float = 0.0,
+    to_outer: bool = True,
+) -> str | None:
+    """Why f_r does not run monotonically from the cut-off radius to the image circle (None if it does).
+
+    Landmarks up to ``slack_px`` beyond the annulus are allowed (see :func:`valid_elevation_range`).
+    ``to_outer`` False asks only that it run from the cut-off radius (the outer one a default that
+    the table narrows to where f_r runs).
+    """
+    try:
+        rho_s, rho_e = valid_elevation_range(radial, landmark_range, cutoff_radius, outer_radius, slack_px=slack_px)
+    except PanomapError as exc:
+        return exc.detail
+    ends = sorted((float(radial(rho_s)), float(radial(rho_e))))
+    tolerance = 1.0  # px
+    pole = rho_s <= -math.pi / 2 + 1e-6 if radial.axis == "down" else rho_e >= math.pi / 2 - 1e-6
+    if ends[0] > cutoff_radius + tolerance and not pole:
+        return f"turns back before the cut-off radius ({ends[0]:.1f} px, needs {cutoff_radius:.1f} px)"
+    if to_outer and ends[1] < outer_radius - tolerance:
+        return f"turns back or ends before the image circle ({ends[1]:.1f} px, needs {outer_radius:.1f} px)"
+    return None

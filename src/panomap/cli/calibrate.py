@@ -225,7 +225,7 @@ def fit(
             pixel_sigma=pixel_sigma,
             world_sigma=world_sigma,
             reject_outliers=not keep_outliers,
-            tilt=tilt,
+            tilt_deg=tilt,
             camera_sigma=camera_sigma,
         )
     except PanomapError as exc:

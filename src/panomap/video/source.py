@@ -13,6 +13,7 @@ import math
 import queue
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from fractions import Fraction
@@ -26,17 +27,37 @@ from .handoff import END, put, reason
 from .report import VideoReport
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Selection:
-    """Which frames to read: from ``start`` (s) for ``duration`` (s), every ``every``-th."""
+    """Which frames to read: from ``start_s`` (s) for ``duration`` (s), every ``every``-th.
 
-    start: float = 0.0
+    ``start`` is the old spelling of ``start_s``: still taken and read, with a DeprecationWarning.
+    """
+
+    start_s: float = 0.0
     duration: float | None = None
     every: int = 1
 
+    def __init__(
+        self, start_s: float = 0.0, duration: float | None = None, every: int = 1, *, start: float | None = None
+    ) -> None:
+        if start is not None:
+            warnings.warn("Selection(start=...) is deprecated: the field is start_s", DeprecationWarning, stacklevel=2)
+            start_s = start
+        object.__setattr__(self, "start_s", start_s)
+        object.__setattr__(self, "duration", duration)
+        object.__setattr__(self, "every", every)
+        self.__post_init__()
+
+    @property
+    def start(self) -> float:
+        """The old spelling of ``start_s`` (s), with a DeprecationWarning."""
+        warnings.warn("Selection.start is deprecated: the field is start_s", DeprecationWarning, stacklevel=2)
+        return self.start_s
+
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.start) and self.start >= 0):
-            raise PanomapError(f"the start must be a time of at least 0 s, not {self.start:g}")
+        if not (math.isfinite(self.start_s) and self.start_s >= 0):
+            raise PanomapError(f"the start must be a time of at least 0 s, not {self.start_s:g}")
         if self.duration is not None and not (math.isfinite(self.duration) and self.duration > 0):
             raise PanomapError(f"the duration must be more than 0 s, not {self.duration:g}")
         if self.every < 1:
@@ -221,7 +242,7 @@ def expected_frames(stream: Any, selection: Selection, live: bool) -> int | None
         total = round(float(stream.duration * stream.time_base * rate))
     if not total or not rate:
         return None
-    first = min(total, round(selection.start * float(rate)))
+    first = min(total, round(selection.start_s * float(rate)))
     last = total if selection.duration is None else min(total, first + round(selection.duration * float(rate)))
     return max(0, -(-(last - first) // selection.every))
 
@@ -264,20 +285,20 @@ def read_frames(
     # Input time of the selection's zero: the stream's start (files), the first frame less
     # what earlier connections gave (live inputs).
     origin: float | None = None if live else _stream_start(stream)
-    if selection.start > 0 and not live:
+    if selection.start_s > 0 and not live:
         with contextlib.suppress(av.error.FFmpegError):
-            container.seek(int((selection.start + _stream_start(stream)) / time_base), stream=stream, backward=True)
+            container.seek(int((selection.start_s + _stream_start(stream)) / time_base), stream=stream, backward=True)
     # Seconds subtracted from every timestamp: the start (from the first frame, on a live input).
-    shift = 0.0 if selection.start == 0 else (None if origin is None else origin + selection.start)
+    shift = 0.0 if selection.start_s == 0 else (None if origin is None else origin + selection.start_s)
     streams = [stream] + ([audio_stream] if audio_stream is not None else [])
     can_drop = drop_timeout_s is not None
 
     def window(seconds: float) -> int:
         """-1 before the selection, 0 inside, 1 after it."""
         assert origin is not None
-        if selection.start > 0 and seconds < origin + selection.start - 1e-9:
+        if selection.start_s > 0 and seconds < origin + selection.start_s - 1e-9:
             return -1  # (from the very start, everything counts: audio priming has negative times)
-        if selection.duration is not None and seconds >= origin + selection.start + selection.duration - 1e-9:
+        if selection.duration is not None and seconds >= origin + selection.start_s + selection.duration - 1e-9:
             return 1
         return 0
 
@@ -317,7 +338,7 @@ def read_frames(
                     return
                 report.frames_read += 1
                 if shift is None:
-                    shift = origin + selection.start
+                    shift = origin + selection.start_s
                 state.index += 1
                 if (state.index - 1) % selection.every:
                     continue

@@ -322,9 +322,9 @@ class _NothingWritten(Exception):
 
 def _nothing_written(report: VideoReport, source: str, selection: Selection, declared_end: float | None) -> str:
     """Why a run wrote no frame, in words: a start past the clip's end, a drop, or frames that do not decode."""
-    if selection.start > 0 and declared_end is not None and selection.start >= declared_end:
+    if selection.start_s > 0 and declared_end is not None and selection.start_s >= declared_end:
         clip = f"the clip lasts {declared_end:.2f} s"
-        return f"--start {selection.start:g} s is past the end of the input: {clip} (nothing written)"
+        return f"--start {selection.start_s:g} s is past the end of the input: {clip} (nothing written)"
     why = f" ({report.gaps[-1].describe(source)})" if report.gaps else ""
     return f"no frame could be decoded (nothing written){why}"
 
