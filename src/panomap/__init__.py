@@ -90,6 +90,7 @@ _EXPORTS = {
     "Settings": "batch.job",
     "Record": "batch.record",
     "run_job": "batch.run",
+    "RunSettings": "batch.run",
     "BatchReport": "batch.run",
     # other tools' calibrations in and out (issue 36)
     "import_calibration": "interop.api",
