@@ -37,12 +37,13 @@ them from the lines' first fit, and returns one whitened residual per edge point
 from the line's curve as the camera images that plane, over its pixel sigma).
 
 The result (:class:`Refinement`) holds the refined camera, each block's own unknowns, and the
-covariance of all unknowns, from the Jacobian at the solution, scaled by the reduced chi-square
-where it exceeds 1.
+covariance of all unknowns (``Refinement.covariance``), from the Jacobian at the solution, scaled by
+the reduced chi-square where it exceeds 1.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -206,28 +207,33 @@ class LandmarkBlock:
     """The landmarks at ``index``: a whitened radial and tangential residual each (2m); no unknowns.
 
     The radial sigmas are those of ``start`` (held fixed while the refinement runs, as in the
-    effective-variance method); the tangential ones follow the rays.
+    effective-variance method); the tangential ones follow the rays. Where the rays do not move
+    (``rays_move`` False: neither tilt nor position refined) their angles are found once.
     """
 
     unknowns = 0
 
-    def __init__(self, problem: MountProblem, start: MountSolution, index: IndexArray) -> None:
+    def __init__(self, problem: MountProblem, start: MountSolution, index: IndexArray, rays_move: bool) -> None:
         self.problem = problem
         self.world = problem.world[index]
         self.pixels = problem.pixels[index]
         d0 = camera_rays(problem, start.w, start.delta)[index]
-        _, rho0 = azimuth_elevation(d0)
-        sigma_rho, _ = world_sigmas(d0, problem.world_sigma)
+        theta0, rho0 = azimuth_elevation(d0)
+        sigma_rho, sigma_theta0 = world_sigmas(d0, problem.world_sigma)
         self.radial_sigma = radial_sigma(start.radial, rho0, sigma_rho, problem.pixel_sigma)
+        self.fixed = None if rays_move else (theta0, rho0, sigma_theta0)
 
     def start(self) -> FloatArray:
         return np.empty(0)
 
     def residuals(self, camera: MountSolution, own: FloatArray) -> FloatArray:
-        d = rays_of(self.problem, self.world, camera.w, camera.delta)
-        theta, rho = azimuth_elevation(d)
+        if self.fixed is None:
+            d = rays_of(self.problem, self.world, camera.w, camera.delta)
+            theta, rho = azimuth_elevation(d)
+            _, sigma_theta = world_sigmas(d, self.problem.world_sigma)
+        else:
+            theta, rho, sigma_theta = self.fixed
         r_obs, phi_obs = pixel_polar(self.pixels, camera.centre)
-        _, sigma_theta = world_sigmas(d, self.problem.world_sigma)
         parts = landmark_residuals(
             camera.radial,
             camera.phi0,
@@ -270,13 +276,22 @@ class Refinement:
         :class:`MountSolution` documents.
     own : tuple of ndarray
         Each added block's own unknowns at the solution, in the order the blocks were given.
-    covariance : (k, k) ndarray
-        The covariance of all k unknowns, laid out as the module's docstring says.
+    jacobian : (m, k) ndarray
+        The whitened residuals' Jacobian at the solution, over all k unknowns.
+    residuals : (m,) ndarray
+        The whitened residuals at the solution.
     """
 
     solution: MountSolution
     own: tuple[FloatArray, ...]
-    covariance: FloatArray
+    jacobian: FloatArray
+    residuals: FloatArray
+
+    @functools.cached_property
+    def covariance(self) -> FloatArray:
+        """(k, k): the covariance of all k unknowns, laid out as the module's docstring says: the inverse of
+        J^T J, scaled by the reduced chi-square where it exceeds 1."""
+        return _covariance(self.jacobian, self.residuals)
 
 
 def refine(
@@ -297,7 +312,9 @@ def refine(
     from scipy import optimize  # here, not at the top: importing SciPy is slow
 
     count = len(start.radial.coefficients)
-    every: list[ResidualBlock] = [LandmarkBlock(problem, start, np.flatnonzero(subset))]
+    every: list[ResidualBlock] = [
+        LandmarkBlock(problem, start, np.flatnonzero(subset), rays_move=options.tilt or options.position)
+    ]
     if options.position:
         every.append(PositionPrior(problem.camera_sigma))
     every += blocks
@@ -338,9 +355,6 @@ def refine(
         raise PanomapError(f"{what} did not converge ({result.message})")
     camera, own = unpack(result.x)
     jacobian = np.asarray(result.jac)
-    dof = max(jacobian.shape[0] - jacobian.shape[1], 1)
-    scale = max(float(result.fun @ result.fun) / dof, 1.0)
-    covariance = np.linalg.pinv(jacobian.T @ jacobian) * scale
     mount = count + 1 + 2 * options.centre
     solution = MountSolution(
         camera.radial,
@@ -348,9 +362,19 @@ def refine(
         camera.centre,
         np.array(camera.w, dtype=np.float64),
         np.array(camera.delta, dtype=np.float64),
-        covariance[mount:own_at, mount:own_at] if options.tilt or options.position else np.empty((0, 0)),
+        _covariance(jacobian, result.fun)[mount:own_at, mount:own_at]
+        if options.tilt or options.position
+        else np.empty((0, 0)),
     )
-    return Refinement(solution, tuple(np.array(values) for values in own[len(every) - len(blocks) :]), covariance)
+    added = tuple(np.array(values) for values in own[len(every) - len(blocks) :])
+    return Refinement(solution, added, jacobian, np.asarray(result.fun))
+
+
+def _covariance(jacobian: FloatArray, residuals: FloatArray) -> FloatArray:
+    """The unknowns' covariance (k, k) from the whitened residuals' Jacobian (m, k) and residuals (m,)."""
+    dof = max(jacobian.shape[0] - jacobian.shape[1], 1)
+    scale = max(float(residuals @ residuals) / dof, 1.0)
+    return np.asarray(np.linalg.pinv(jacobian.T @ jacobian) * scale)
 
 
 def joint_fit(problem: MountProblem, start: MountSolution, subset: FloatArray, options: MountOptions) -> MountSolution:
