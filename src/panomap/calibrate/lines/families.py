@@ -72,7 +72,23 @@ def find_families(normals: FloatArray, image_index: NDArray[np.intp]) -> list[Fa
             chosen = free[members]
             families.append(Family(chosen, int(image), common_direction(normals[chosen])))
             free = np.setdiff1d(free, chosen)
-    return families
+    return _exclusive(families, normals)
+
+
+def _exclusive(families: list[Family], normals: FloatArray) -> list[Family]:
+    """The families without the lines whose plane holds another family's direction too (which is theirs is
+    not known: a vertical edge straight ahead of a horizontal family), and with too few lines left dropped.
+    """
+    out = []
+    for k, family in enumerate(families):
+        others = [f.direction for j, f in enumerate(families) if j != k and f.image_index == family.image_index]
+        members = family.members
+        if others:
+            near = np.abs(normals[members] @ np.array(others).T) < np.sin(2 * FAMILY_TOLERANCE_RAD)
+            members = members[~near.any(axis=1)]
+        if members.size >= FAMILY_MIN_LINES:
+            out.append(Family(members, family.image_index, common_direction(normals[members])))
+    return out
 
 
 def _largest_family(normals: FloatArray) -> NDArray[np.intp]:

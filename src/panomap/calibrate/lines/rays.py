@@ -58,7 +58,8 @@ class InverseRadial:
         rho = alpha - HALF_PI if radial.axis == "down" else HALF_PI - alpha
         r = np.abs(radial(rho))
         finite = np.isfinite(r)
-        rising = np.concatenate([[True], np.diff(np.where(finite, r, -np.inf)) > 0]) & finite
+        steps = np.diff(np.where(finite, r, 0.0))
+        rising = np.concatenate([[True], steps > 0]) & finite & np.concatenate([[True], finite[:-1]])
         stop = int(np.argmin(rising)) if not rising.all() else r.size
         if stop < 2 or r[stop - 1] < r_max:
             raise PanomapError(f"the radial function does not rise monotonically to {r_max:.0f} px")
