@@ -431,7 +431,7 @@ def _result(
         )
     )
     covariance = _covariance(kind, axis, params, data, families, outer, sigma)
-    s = options.s if options.s is not None else (1 if circles.cutoff is not None or axis == "up" else -1)
+    s = options.s if options.s is not None else default_handedness(circles.cutoff is not None, axis)
     vertical = _vertical(families, trial.normals)
     rotation = None if vertical is None else level_rotation(vertical[0], axis, s)
     model = CameraModel(
@@ -522,3 +522,13 @@ def _annulus_deg(radial: RadialFunction, circles: ImageCircles, r_max: float) ->
 
 def _camera_elevations_of_alpha(alpha: FloatArray, axis: str) -> FloatArray:
     return np.asarray(alpha - HALF_PI if axis == "down" else HALF_PI - alpha, dtype=np.float64)
+
+
+def default_handedness(mirror: bool, axis: str) -> int:
+    """The handedness s an image has when nothing says otherwise, from the kind of camera.
+
+    A lens looking down sees east at +u and north at -v (a map seen from above): s = -1; looking up,
+    s = +1. A mirror camera (its camera looking at the mirror, the mirror's azimuth theta showing the
+    world's theta) flips that: +1 when its image centre sees down (the paper's case), -1 up.
+    """
+    return 1 if mirror != (axis == "up") else -1
