@@ -445,6 +445,9 @@ def _describe_fit(table: PanoMappingTable) -> str:
 
 def _describe_residuals(table: PanoMappingTable, fit: FitReport | None) -> str:
     """Every landmark's residual, their RMS and the radius's standard error (when there is a fit), and the table."""
+    if fit is not None and fit.lines is not None:
+        lines = [*fit.lines.sentences(), _describe_table(table)]
+        return "\n".join(lines)
     rows = () if fit is None else fit.landmarks
     width = max([12, *(len(row.name) for row in rows)])  # whole names: a cut one can name two landmarks
     lines = [f"{'landmark':<{width}} {'u':>9} {'v':>9} {'elev deg':>9} {'azim deg':>9} {'resid px':>9}"]

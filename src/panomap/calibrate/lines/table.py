@@ -60,6 +60,17 @@ def create_line_table(
     )
     entries = fill_entries(model, size, (rho_s, rho_e), camera_range=camera_range if tilted else None)
     table_info = dict(info or {})
+    table_info.setdefault(
+        "sources",
+        {
+            "camera_position": "given (--camera-height)"
+            if camera_height is not None
+            else "unknown (lines know no distance)",
+            "centre": "fitted to the lines",
+            "cutoff_radius": "detected",
+            "outer_radius": "detected",
+        },
+    )
     table_info["fit"] = line_fit_report(fit, (rho_s, rho_e)).to_dict()
     table_info["camera_height_known"] = camera_height is not None
     table_info.setdefault("warnings", [])
