@@ -42,6 +42,9 @@ from .report import FittedLine, LineFitReport, RejectedArc, empty_bands
 MIN_LINES = 8
 # Points per arc used in the fit (evenly along it): enough for its curvature, few for speed.
 POINTS_PER_ARC = 100
+# With many arcs (images pooled), fewer points per arc, down to this many, keep about MAX_POINTS in all.
+MIN_POINTS_PER_ARC = 16
+MAX_POINTS = 12000
 # An arc is straight under a camera when its RMS distance from its plane is within this many
 # times the typical line's (and this floor, px); looser in the first rounds.
 STRAIGHT_FACTOR = 3.0
@@ -63,6 +66,9 @@ LOSS_SCALE_PX = 0.5
 CV_FOLDS = 5
 # A kind with more parameters must beat a simpler one by this fraction of its held-out score.
 CV_MARGIN = 0.02
+# A family whose direction is within this angle of the optical axis is the world's vertical (it gives the
+# tilt); a checkerboard's rows held at an angle are not.
+VERTICAL_WITHIN_DEG = 12.0
 # Scales tried at the start: the angle (deg) from the axis at the image circle.
 START_ANGLES_DEG = (60.0, 75.0, 90.0, 100.0, 110.0, 125.0)
 
@@ -149,7 +155,8 @@ def fit_lines(
     say = progress or (lambda _step: None)
     axis = options.axis
     outer = circles.outer_radius
-    state = _State([_thin(arc.pixels) for arc in arcs], [arc.image_index for arc in arcs])
+    per_arc = int(np.clip(MAX_POINTS // max(len(arcs), 1), MIN_POINTS_PER_ARC, POINTS_PER_ARC))
+    state = _State([_thin(arc.pixels, per_arc) for arc in arcs], [arc.image_index for arc in arcs])
     state.groups = [[k] for k in range(len(arcs))]
     if len(state.groups) < MIN_LINES:
         raise _too_few(len(state.groups), "edge arcs")
@@ -176,12 +183,12 @@ def fit_lines(
     return _result(chosen, axis, final, state, families, r_max, outer, scores, options, circles)
 
 
-def _thin(pixels: FloatArray) -> FloatArray:
-    """At most ``POINTS_PER_ARC`` points evenly along an arc."""
+def _thin(pixels: FloatArray, count: int) -> FloatArray:
+    """At most ``count`` points evenly along an arc."""
     pixels = np.asarray(pixels, dtype=np.float64)
-    if len(pixels) <= POINTS_PER_ARC:
+    if len(pixels) <= count:
         return pixels
-    return pixels[np.round(np.linspace(0, len(pixels) - 1, POINTS_PER_ARC)).astype(int)]
+    return pixels[np.round(np.linspace(0, len(pixels) - 1, count)).astype(int)]
 
 
 def _r_max(state: _State, circles: ImageCircles) -> float:
@@ -290,17 +297,22 @@ def _regroup(
 
 
 def _merge(kept: list[int], normals: FloatArray, images: list[int], rms: FloatArray, limit: float) -> list[list[int]]:
-    """Groups of arcs of one image whose planes coincide (pieces of one line); each arc in one group."""
+    """Groups of arcs of one image whose planes coincide (pieces of one line); each arc in one group.
+
+    The straightest arcs lead; each other arc joins the first leader of its image within
+    ``MERGE_WITHIN_RAD``, or leads a group of its own.
+    """
     groups: list[list[int]] = []
-    leaders: list[int] = []
+    leader_normals = np.zeros((0, 3))
+    leader_images = np.zeros(0, dtype=np.intp)
     for k in sorted(kept, key=lambda j: rms[j]):
-        for g, leader in enumerate(leaders):
-            if images[leader] == images[k] and abs(float(normals[leader] @ normals[k])) > math.cos(MERGE_WITHIN_RAD):
-                groups[g].append(k)
-                break
+        close = (np.abs(leader_normals @ normals[k]) > math.cos(MERGE_WITHIN_RAD)) & (leader_images == images[k])
+        if close.any():
+            groups[int(np.argmax(close))].append(k)
         else:
             groups.append([k])
-            leaders.append(k)
+            leader_normals = np.vstack([leader_normals, normals[k]])
+            leader_images = np.append(leader_images, images[k])
     return groups
 
 
@@ -495,13 +507,15 @@ def _covariance(
 
 
 def _vertical(families: list[Family], normals: FloatArray) -> tuple[FloatArray, int] | None:
-    """The direction of the most-populated family within 30 deg of the axis, and its line count."""
+    """The direction of the most-populated family within ``VERTICAL_WITHIN_DEG`` of the axis, and its line count."""
     from .families import common_direction
 
     best: tuple[FloatArray, int] | None = None
     for family in families:
         direction = common_direction(normals[family.members])
-        if abs(direction[2]) > math.cos(math.radians(30.0)) and (best is None or family.members.size > best[1]):
+        if abs(direction[2]) > math.cos(math.radians(VERTICAL_WITHIN_DEG)) and (
+            best is None or family.members.size > best[1]
+        ):
             best = (direction, int(family.members.size))
     return best
 

@@ -153,9 +153,12 @@ def best_planes(rays: PixelRays, line_index: NDArray[np.intp], count: int) -> Fl
     """
     scale = 1.0 / np.maximum(np.hypot(rays.alpha_per_px, rays.phi_per_px), 1e-12)
     weighted = rays.d * scale[:, None]
-    outer = weighted[:, :, None] * weighted[:, None, :]
-    scatter = np.zeros((count, 3, 3))
-    np.add.at(scatter, line_index, outer)
+    scatter = np.empty((count, 3, 3))
+    for i in range(3):
+        for j in range(i, 3):
+            scatter[:, i, j] = scatter[:, j, i] = np.bincount(
+                line_index, weighted[:, i] * weighted[:, j], minlength=count
+            )
     _, vectors = np.linalg.eigh(scatter)
     normals = vectors[:, :, 0]
     return np.asarray(np.where(normals[:, 2:3] < 0, -normals, normals), dtype=np.float64)
