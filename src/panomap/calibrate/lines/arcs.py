@@ -50,6 +50,11 @@ JOIN_ANGLE_DEG = 6.0
 JOIN_OFFSET_PX = 1.5
 #: Points (at the ends) over which a piece's end tangent is measured.
 END_POINTS = 10
+#: Points left out at both ends of every chain (where it bends into a junction it was cut from).
+END_TRIM_POINTS = 3
+#: Fewest points of a piece between junctions and corners that takes part in the joins (a checkerboard's
+#: square side between two crossings).
+MIN_PIECE_POINTS = 6
 #: The strong edge threshold: this many times the median gradient magnitude of the annulus, and
 #: at least MIN_EDGE_GRADIENT grey levels / px; the weak one is half of it.
 EDGE_THRESHOLD_MEDIANS = 4.0
@@ -360,11 +365,13 @@ def find_arcs(
     count = cv2.filter2D(edges, cv2.CV_16S, np.ones((3, 3), np.float32), borderType=cv2.BORDER_CONSTANT) - edges
     edges[(edges > 0) & (count >= 3)] = 0
     pieces: list[NDArray[np.float64]] = []
-    short = max(2 * CORNER_SPAN_PX + 1, 8)
+    short = MIN_PIECE_POINTS
     for chain in _walk_chains(edges):
-        if len(chain) < short:
+        if len(chain) < short + 2 * END_TRIM_POINTS:
             continue
         pts = _subpixel(chain[:, 0], chain[:, 1], gx, gy, mag)
+        # an edge bends into a junction or a corner's rounding over its last pixels: leave them out
+        pts = pts[END_TRIM_POINTS : len(pts) - END_TRIM_POINTS]
         cuts = _corner_cuts(pts, CORNER_SPAN_PX, CORNER_DEG)
         bounds = [0, *cuts, len(pts)]
         for a, b in itertools.pairwise(bounds):
