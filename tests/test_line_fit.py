@@ -209,8 +209,17 @@ def test_cli_learns_the_camera_of_a_rendered_room(rendered_fisheye, tmp_path) ->
 
     camera, image = rendered_fisheye
     table_path = tmp_path / "cam.npz"
-    result = CliRunner().invoke(main, ["fit", "-o", str(table_path), "--image", str(image), "--camera-height", "1.3"])
+    overlay = tmp_path / "seen.png"
+    result = CliRunner().invoke(
+        main,
+        ["fit", "-o", str(table_path), "--image", str(image), "--camera-height", "1.3", "--overlay", str(overlay)],
+    )
     assert result.exit_code == 0, result.output
+    import cv2
+
+    drawn = cv2.imread(str(overlay))
+    green = (drawn[..., 1] > 200) & (drawn[..., 0] < 90) & (drawn[..., 2] < 90)
+    assert green.sum() > 2000, "the lines used are not drawn"
     assert "straight lines" in result.output
     table = load_table(table_path)
     errors = pixel_errors(table.model, camera, step=4)
