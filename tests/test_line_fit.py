@@ -218,6 +218,7 @@ def test_cli_learns_the_camera_of_a_rendered_room(rendered_fisheye, tmp_path) ->
     import cv2
 
     drawn = cv2.imread(str(overlay))
+    assert drawn is not None, "no overlay written"
     green = (drawn[..., 1] > 200) & (drawn[..., 0] < 90) & (drawn[..., 2] < 90)
     assert green.sum() > 2000, "the lines used are not drawn"
     assert "straight lines" in result.output
