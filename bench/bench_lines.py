@@ -281,6 +281,19 @@ def simulated(quick: bool) -> None:
 # -- 2. real cameras -------------------------------------------------------------------------------
 
 
+def reference_as_model(reference: Rays, centre: tuple[float, float], r_max: float, kind: str) -> CameraModel:
+    """The reference's own radial law (along +u from its centre) fitted by the radial ``kind``, as a
+    rotationally symmetric CameraModel: the check of the measure on a real set, and the floor of that kind
+    (what remains is the kind's misfit and the reference's affine part)."""
+    from panomap.camera.radial import fit_radial
+
+    r = np.linspace(2.0, r_max, 300)
+    rays = reference(np.stack([centre[0] + r, np.full_like(r, centre[1])], axis=1))
+    axis_ray = reference(np.array([[centre[0], centre[1]]]))[0]
+    rho = np.arccos(np.clip(rays @ axis_ray, -1.0, 1.0)) - math.pi / 2
+    return CameraModel(centre, fit_radial(kind, rho, r, "down"), 1, 0.0)
+
+
 def corner_radii(folder: Path, centre: tuple[float, float]) -> tuple[float, float, list[str]]:
     """The radii (px, from the calibration's centre) the calibration's corners span; the images with corners."""
     with (folder / "corners.csv").open() as handle:
@@ -314,10 +327,15 @@ def real(data: Path) -> None:
         h, w = images[0].shape[:2]
         grid = ring_grid(centre, r_min, r_max, (w, h))
         print(f"  {folder.name}: {len(images)} images {w} x {h}, corners at r {r_min:.0f}-{r_max:.0f} px")
+        for kind in ("poly3", "odd5", "unified"):
+            check = ray_agreement(reference, grid, reference_as_model(reference, centre, r_max + 20.0, kind))
+            print(f"      floor: the calibration's own law fitted by {kind:7s} {check.line()}")
         arcs: list[EdgeArc] = []
         first_circles: ImageCircles | None = None
         t_arcs = 0.0
         one_arcs: list[EdgeArc] = []
+        one_name = ""
+        one_circles: ImageCircles | None = None
         for index, (path, image) in enumerate(zip(paths, images, strict=True)):
             start = time.perf_counter()
             try:
@@ -329,16 +347,16 @@ def real(data: Path) -> None:
             t_arcs += time.perf_counter() - start
             first_circles = first_circles or circles
             arcs += found
-            if path.name == with_corners[0]:
+            if path.name in with_corners and one_circles is None:
                 one_arcs = [EdgeArc(a.pixels, 0, a.contrast) for a in found]
-                one_circles = circles
+                one_circles, one_name = circles, path.name
         if first_circles is None:
             continue
         print(f"      circles + arcs: {t_arcs / len(images):.2f} s per image, {len(arcs)} arcs in all")
-        for label, these, circ in (
-            ("all images", arcs, first_circles),
-            (f"one image ({with_corners[0]})", one_arcs, one_circles),
-        ):
+        runs = [("all images", arcs, first_circles)]
+        if one_circles is not None:
+            runs.append((f"one image ({one_name})", one_arcs, one_circles))
+        for label, these, circ in runs:
             start = time.perf_counter()
             try:
                 verdict = ray_agreement(reference, grid, line_fit(these, circ)).line()
