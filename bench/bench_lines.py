@@ -51,6 +51,8 @@ from panomap.simulate.line_scenes import line_camera, render_line_scene
 GRID_PX = 6.0
 GOAL_P90_PX = 1.0
 GOAL_MAX_PX = 2.0
+#: The error (px) counted for a reference pixel whose ray the learned camera cannot reach.
+UNREACHED_PX = 1e6
 
 FloatArray = NDArray[np.float64]
 Rays = Callable[[FloatArray], FloatArray]
@@ -126,7 +128,7 @@ def ray_agreement(reference: Rays, pixels: FloatArray, model: CameraModel) -> Ag
     q = best_orthogonal(ref[ok], mine[ok])
     back = camera_frame_pixels(model, ref @ q.T)
     error = np.hypot(*(back - pixels).T)
-    error = np.where(np.isfinite(error), error, np.inf)  # a reference pixel the model cannot reach
+    error = np.where(np.isfinite(error), error, UNREACHED_PX)  # a reference pixel the model cannot reach
     return Agreement(
         float(np.percentile(error, 50)),
         float(np.percentile(error, 90)),
