@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import PanomapError
 from ..geometry import FloatArray
+from .lines.report import LineFitReport
 
 CENTRE_AS_FOUND = ", centre as found"  # ends the name of a mount that held the centre where it was found
 # A fitted tilt is told from level where it is this many of its standard errors or more.
@@ -308,6 +309,9 @@ class FitReport:
     mount : MountReport or None
         The camera's tilt and position as fitted (None in tables made before
         they were fitted, and for the paper's model).
+    lines : LineFitReport or None
+        The straight lines a camera learned from lines was fitted to (None for
+        a landmark fit); its ``azimuth_mode`` is then ``"lines"``.
     """
 
     model: str
@@ -329,6 +333,7 @@ class FitReport:
     uncertainty: RadiusUncertainty | None = None
     centre_start: tuple[float, float] | None = None
     mount: MountReport | None = None
+    lines: LineFitReport | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "model_selection_loo_rms_px", MappingProxyType(dict(self.model_selection_loo_rms_px)))
@@ -377,6 +382,8 @@ class FitReport:
             data["mount"] = self.mount.to_dict()
         if self.uncertainty is not None:
             data["uncertainty"] = self.uncertainty.to_dict()
+        if self.lines is not None:
+            data["lines"] = self.lines.to_dict()
         return data
 
     @classmethod
@@ -388,7 +395,7 @@ class FitReport:
         PanomapError
             If an entry is missing, unexpected or of the wrong type.
         """
-        report = _Reader(data, "the fit report", cls, optional=("uncertainty", "centre_start", "mount"))
+        report = _Reader(data, "the fit report", cls, optional=("uncertainty", "centre_start", "mount", "lines"))
         selection = report.mapping("model_selection_loo_rms_px")
         for name, value in selection.items():
             if value is not None and not _is_number(value):
@@ -420,6 +427,7 @@ class FitReport:
             landmarks=tuple(LandmarkResidual.from_dict(row) for row in report.items("landmarks")),
             uncertainty=None if uncertainty is None else RadiusUncertainty.from_dict(uncertainty),
             mount=None if data.get("mount") is None else MountReport.from_dict(data["mount"]),
+            lines=None if data.get("lines") is None else LineFitReport.from_dict(data["lines"]),
             **scalars,
         )
 

@@ -37,7 +37,7 @@ from .options import (
 
 
 @click.command()
-@click.argument("landmarks", type=PATH)
+@click.argument("landmarks", type=PATH, required=False)
 @click.option("-o", "--output", type=PATH, required=True, help="Table file to write (.npz).")
 @click.option(
     "--camera",
@@ -57,8 +57,12 @@ from .options import (
 )
 @click.option(
     "--image",
+    "images",
     type=PATH,
-    help="An omni-image of this camera: gives the image size, and the centre and radii when they are not given.",
+    multiple=True,
+    help="An omni-image (or video) of this camera: gives the image size, and the centre and radii when they are "
+    "not given. Without LANDMARKS the camera is learned from the straight lines in it (repeat --image to pool "
+    "several images of the same camera).",
 )
 @click.option("--image-size", type=SIZE, help="Image size WxH when no --image is given.")
 @click.option(
@@ -142,13 +146,34 @@ from .options import (
     help="Also write --image with the fit drawn on it (PNG): the annulus and centre, circles of equal world "
     "elevation (the horizon cyan), azimuth 0, and each landmark's residual (outliers red).",
 )
+@click.option(
+    "--azimuth-zero",
+    nargs=2,
+    type=FINITE,
+    metavar="U V",
+    help="Learning from lines: the pixel whose world azimuth is 0 [default: image angle 0, the +u direction].",
+)
+@click.option(
+    "--handedness",
+    type=click.Choice(["auto", "+1", "-1"]),
+    default="auto",
+    show_default=True,
+    help="Learning from lines: s of the camera model (-1: the image is mirrored); 'auto': +1 for a mirror camera "
+    "(a cut-off disc shows), -1 for a lens, looking down (the opposite looking up).",
+)
+@click.option(
+    "--camera-height",
+    type=POSITIVE,
+    help="Learning from lines: the camera's height above the floor (world units); floor, cylinder and plane "
+    "views need it, lines know no distance.",
+)
 @frame_time_option
 def fit(
-    landmarks: Path,
+    landmarks: Path | None,
     output: Path,
     camera: tuple[float, float, float] | None,
     centre: tuple[float, float] | None,
-    image: Path | None,
+    images: tuple[Path, ...],
     image_size: tuple[int, int] | None,
     table_size: tuple[int, int] | None,
     cutoff_radius: float | None,
@@ -164,10 +189,28 @@ def fit(
     keep_outliers: bool,
     plot: Path | None,
     overlay: Path | None,
+    azimuth_zero: tuple[float, float] | None,
+    handedness: str,
+    camera_height: float | None,
     frame_time: float | None,
 ) -> None:
-    """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table."""
+    """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table.
+
+    Without LANDMARKS, learn the camera from the straight lines in --image (walls, door and window frames,
+    shelves, floor tiles, a checkerboard): no measurement needed. Lines know neither the azimuth origin
+    (--azimuth-zero), the handedness (--handedness) nor any distance (--camera-height).
+    """
     # Options missing or out of range are usage errors (exit 2); the files' problems are failures (1).
+    if landmarks is None:
+        _fit_lines(output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time)
+        return
+    line_options = {"--azimuth-zero": azimuth_zero, "--camera-height": camera_height}
+    for name, value in (*line_options.items(), ("--handedness", None if handedness == "auto" else handedness)):
+        if value is not None:
+            raise click.UsageError(f"{name} is for learning from lines (no LANDMARKS); a landmark fit learns it")
+    if len(images) > 1:
+        raise click.UsageError("a landmark fit takes one --image (several pool their lines only without LANDMARKS)")
+    image = images[0] if images else None
     size = _image_size(image_size)
     if centre is None and image is None:
         raise click.UsageError("no image centre: give --centre U0 V0, or --image OMNI to find it")
@@ -250,6 +293,50 @@ def fit(
     click.echo("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
     for warning in table.info.get("warnings", []):
         click.echo(f"panomap: warning: {warning}", err=True)
+
+
+def _fit_lines(
+    output: Path,
+    images: tuple[Path, ...],
+    overlay: Path | None,
+    plot: Path | None,
+    model: str,
+    axis: str | None,
+    azimuth_zero: tuple[float, float] | None,
+    handedness: str,
+    camera_height: float | None,
+    frame_time: float | None,
+) -> None:
+    """``fit`` without landmarks: the camera learned from the lines of ``images``."""
+    from ..calibrate.lines.fit import LineFitOptions
+    from .lines import fit_from_lines
+
+    if not images:
+        raise click.UsageError("give LANDMARKS, or --image OMNI to learn the camera from its straight lines")
+    if plot is not None:
+        raise click.UsageError("--plot draws landmarks; learning from lines draws with --overlay")
+    if model == "paper":
+        raise click.UsageError("the paper model takes the centre as given; learning from lines needs another model")
+    check_output_paths([("the image", path) for path in images], [("the output", output), ("--overlay", overlay)])
+    if output.suffix.lower() != ".npz":
+        raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
+    if overlay is not None and overlay.suffix.lower() != ".png":
+        raise click.BadParameter(f"{overlay}: the overlay is written as PNG (name it .png)", param_hint="'--overlay'")
+    options = LineFitOptions(
+        axis=axis or "down",
+        s=None if handedness == "auto" else int(handedness),
+        azimuth_zero=azimuth_zero,
+        model=model,
+    )
+    fit_from_lines(
+        images,
+        output,
+        frame_time=frame_time,
+        options=options,
+        camera_height=camera_height,
+        overlay=overlay,
+        find_circles=find_image_circles_in,
+    )
 
 
 @click.command()
@@ -358,6 +445,9 @@ def _describe_fit(table: PanoMappingTable) -> str:
 
 def _describe_residuals(table: PanoMappingTable, fit: FitReport | None) -> str:
     """Every landmark's residual, their RMS and the radius's standard error (when there is a fit), and the table."""
+    if fit is not None and fit.lines is not None:
+        lines = [*fit.lines.sentences(), _describe_table(table)]
+        return "\n".join(lines)
     rows = () if fit is None else fit.landmarks
     width = max([12, *(len(row.name) for row in rows)])  # whole names: a cut one can name two landmarks
     lines = [f"{'landmark':<{width}} {'u':>9} {'v':>9} {'elev deg':>9} {'azim deg':>9} {'resid px':>9}"]

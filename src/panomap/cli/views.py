@@ -15,7 +15,7 @@ from typing import Any
 import click
 import numpy as np
 
-from ..errors import PanomapError
+from ..errors import PanomapError, printable
 from ..files import all_or_none, check_output, check_output_paths
 from ..io.images import UNKNOWN_FORMAT, pgm_map_paths, read_image, save_map, save_map_pgm, write_image
 from ..remap import INTERPOLATIONS, Remapper
@@ -87,6 +87,13 @@ def _render(
     for path in [output, *extra]:
         check_output(path)
     table = load_table(table_path)
+    if view.needs_camera_height and table.info.get("camera_height_known") is False:
+        click.echo(
+            f"panomap: note: {printable(str(table_path))} was learned from lines, which know no distance: its camera "
+            "is at the origin, so heights and distances here are relative to the camera and their unit is yours "
+            "(fit with --camera-height H for heights above the floor)",
+            err=True,
+        )
     try:
         image = read_image(image_path, table.image_size, f"the table {table_path}")
     except PanomapError as exc:

@@ -199,6 +199,9 @@ class View(ABC):
     params: ClassVar[tuple[Param, ...]]
     one_of: ClassVar[OneOf | None] = None
     example: ClassVar[str]
+    # The view places world points at distances and heights (floor, cylinder, plane): a table learned from
+    # lines knows no distance (its camera is at the origin unless its height was given).
+    needs_camera_height: ClassVar[bool] = False
 
     @classmethod
     @abstractmethod

@@ -34,6 +34,7 @@ class CylinderPanorama(View):
     """
 
     kind: ClassVar[str] = "cylinder"
+    needs_camera_height: ClassVar[bool] = True
     summary: ClassVar[str] = "Panorama of a cylinder at distance D with a height band (paper 2.3.2)."
     params: ClassVar[tuple[Param, ...]] = (
         Param("distance", Value.NUMBER, "Horizontal distance D of the cylinder."),

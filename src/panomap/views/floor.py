@@ -50,6 +50,7 @@ class FloorView(View):
     """
 
     kind: ClassVar[str] = "floor"
+    needs_camera_height: ClassVar[bool] = True
     summary: ClassVar[str] = "Bird's-eye map of the horizontal plane Z (world): +X to the right, +Y up."
     params: ClassVar[tuple[Param, ...]] = (
         Param("z", Value.NUMBER, "Height Z of the plane (world)."),

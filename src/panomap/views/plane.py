@@ -36,6 +36,7 @@ class PlaneView(View):
     """
 
     kind: ClassVar[str] = "plane"
+    needs_camera_height: ClassVar[bool] = True
     summary: ClassVar[str] = "Perspective view of a vertical W_p x band plane at distance D (paper 2.3.3)."
     params: ClassVar[tuple[Param, ...]] = (
         Param("distance", Value.NUMBER, "Horizontal distance D of both vertical edges."),

@@ -1,0 +1,604 @@
+"""The fit of a camera from the straight lines in its images.
+
+Convention: pixels (u, v) px; rays in the camera's axes as in :mod:`.rays`; the camera model as in
+:class:`panomap.camera.model.CameraModel`.
+
+The method: the paper's landmark learning with the landmarks replaced by lines. Each candidate
+arc's pixels must map to rays in one plane through the viewpoint. Starting from an equidistant
+camera about the circle's centre at the scale the orthogonal families like best, the fit
+alternates between the model and the grouping: arcs whose rays leave their plane by more than the
+noise allows under the current camera are set aside (curved objects, arcs across a corner), pieces
+of one line (planes that coincide) are merged, families of parallel lines are found, and the
+centre and a flexible radial model are refitted to the lines kept, with the orthogonality of each
+image's families. The radial kind is then chosen by cross-validation over lines (each line scored
+by a fit without its fold) and refitted on all of them. The tilt follows from the vertical family.
+
+What lines cannot know: the azimuth origin, the handedness and every distance; they are set by
+the caller (:class:`LineFitOptions`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...camera.model import CameraModel
+from ...camera.radial import RadialFunction, fit_radial
+from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_kind
+from ...errors import PanomapError
+from ...geometry import HALF_PI, FloatArray
+from ..circles import ImageCircles
+from .arcs import EdgeArc
+from .families import Family, find_families, orthogonal_pairs
+from .objective import LineData, evaluate, residuals
+from .orientation import level_rotation, zero_azimuth
+from .rays import InverseRadial
+from .report import FittedLine, LineFitReport, RejectedArc, empty_bands
+
+# Fewest lines a fit needs, and fewest of them with a family orthogonal to another (the scale).
+MIN_LINES = 8
+# Points per arc used in the fit (evenly along it): enough for its curvature, few for speed.
+POINTS_PER_ARC = 100
+# With many arcs (images pooled), fewer points per arc, down to this many, keep about MAX_POINTS in all.
+MIN_POINTS_PER_ARC = 16
+MAX_POINTS = 12000
+# An arc is straight under a camera when its RMS distance from its plane is within this many
+# times the typical line's (and this floor, px); looser in the first rounds.
+STRAIGHT_FACTOR = 3.0
+STRAIGHT_FLOOR_PX = 0.6
+FIRST_ROUND_PX = 6.0
+# Two arcs of one image are pieces of one line when their planes are within this angle.
+MERGE_WITHIN_RAD = float(np.radians(0.4))
+# Arcs shorter than this angle of their plane test nothing and are set aside.
+MIN_SPAN_RAD = float(np.radians(4.0))
+# Rounds of alternation between model and grouping.
+ROUNDS = 4
+# The flexible model used while grouping.
+GROUPING_KIND = "odd5"
+# The loss of the point distances (px): soft_l1 at 0.5 px gained 0.13 px (p90) on a rendered mirror
+# room and took twice the time.
+LOSS = "linear"
+LOSS_SCALE_PX = 0.5
+# Folds of the cross-validation over lines.
+CV_FOLDS = 5
+# A kind with more parameters must beat a simpler one by this fraction of its held-out score.
+CV_MARGIN = 0.02
+# A family whose direction is within this angle of the optical axis is the world's vertical (it gives the
+# tilt); a checkerboard's rows held at an angle are not.
+VERTICAL_WITHIN_DEG = 12.0
+# The camera's own law (the mirrors' for an image with a cut-off disc, the lenses' else) wins within this
+# fraction of the best held-out score: a flexible polynomial follows the scale that lines leave loose and
+# wins held-out straightness by a few percent (the Mei set's first image: odd5 by 6% over the unified
+# law, p90 13.6 px against 4.4 px from the established calibration).
+CAMERA_LAW_MARGIN = 0.10
+# Kinds whose RMS over all lines is within this fraction of the best are cross-validated.
+CONTENDER_MARGIN = 0.25
+# The best starts grouped to the end; the one that leaves the arcs straightest is kept (on the real
+# fisheye's first image, the best start by its own score ended at p90 28 px, two others at 3.7 px).
+STARTS_KEPT = 3
+# Scales tried at the start: the angle (deg) from the axis at the image circle.
+START_ANGLES_DEG = (60.0, 75.0, 90.0, 100.0, 110.0, 125.0)
+
+
+@dataclass(frozen=True)
+class LineFitOptions:
+    """What lines cannot know, and the choices of the fit.
+
+    Attributes
+    ----------
+    axis : {"down", "up"}
+        The pole the image centre sees (a ceiling camera looks down).
+    s : {+1, -1} or None
+        Handedness; None: from the kind of camera the circle shows (a cut-off disc, the camera's
+        reflection: a mirror, +1; none: a lens, -1 looking down, +1 looking up).
+    azimuth_zero : (u, v) or None
+        A pixel whose world azimuth is 0; None: the image angle 0 (+u) is azimuth 0.
+    model : str
+        ``"auto"`` (cross-validation over lines) or a radial kind's name.
+    """
+
+    axis: str = "down"
+    s: int | None = None
+    azimuth_zero: tuple[float, float] | None = None
+    model: str = "auto"
+
+
+@dataclass(frozen=True)
+class LineFit:
+    """The camera learned from lines, and what the fit saw.
+
+    Attributes
+    ----------
+    model : CameraModel
+    covariance : (p, p) float64
+        Covariance of the radial coefficients.
+    report : LineFitReport
+    """
+
+    model: CameraModel
+    covariance: FloatArray
+    report: LineFitReport
+
+
+@dataclass
+class _State:
+    """The grouping in progress: which arcs form which line."""
+
+    arcs: list[FloatArray]
+    images: list[int]
+    groups: list[list[int]] = field(default_factory=list)
+    rejected: dict[int, tuple[str, float]] = field(default_factory=dict)
+
+    def line_pixels(self) -> list[FloatArray]:
+        return [np.concatenate([self.arcs[k] for k in group]) for group in self.groups]
+
+    def line_images(self) -> np.ndarray:
+        return np.array([self.images[group[0]] for group in self.groups], dtype=np.intp)
+
+
+def fit_lines(
+    arcs: Sequence[EdgeArc],
+    circles: ImageCircles,
+    options: LineFitOptions = LineFitOptions(),
+    progress: Callable[[str], None] | None = None,
+) -> LineFit:
+    """Learn the camera from the edge arcs of one or more images of it.
+
+    Parameters
+    ----------
+    arcs : sequence of EdgeArc
+        Candidate arcs of every image (their ``image_index`` says which).
+    circles : ImageCircles
+        The image circles (of the first image): the centre to start from and the annulus.
+    options : LineFitOptions
+    progress : callable, optional
+        Called with a short description of each step.
+
+    Raises
+    ------
+    PanomapError
+        With fewer than ``MIN_LINES`` straight lines, or no two orthogonal families to fix the scale.
+    """
+    say = progress or (lambda _step: None)
+    axis = options.axis
+    outer = circles.outer_radius
+    per_arc = int(np.clip(MAX_POINTS // max(len(arcs), 1), MIN_POINTS_PER_ARC, POINTS_PER_ARC))
+    state = _State([_thin(arc.pixels, per_arc) for arc in arcs], [arc.image_index for arc in arcs])
+    state.groups = [[k] for k in range(len(arcs))]
+    if len(state.groups) < MIN_LINES:
+        raise _too_few(len(state.groups), "edge arcs")
+    say("starting scale")
+    r_max = _r_max(state, circles)
+    tried = []
+    for k, start in enumerate(_starts(state, circles, axis, r_max)[:STARTS_KEPT]):
+        say(f"grouping from start {k + 1} of {STARTS_KEPT}")
+        trial_state = _State(state.arcs, state.images, [list(g) for g in state.groups])
+        params, families = _group(trial_state, axis, start, r_max, outer)
+        tried.append((_arc_score(trial_state, axis, params, r_max), k, params, families, trial_state))
+    _, _, params, families, state = min(tried, key=lambda t: (t[0], t[1]))
+    if len(state.groups) < MIN_LINES:
+        raise _too_few(len(state.groups), "straight lines")
+    if not orthogonal_pairs(families):
+        raise PanomapError(
+            f"{len(state.groups)} straight lines were found, but no two families of parallel lines at right "
+            "angles (a room's vertical and horizontal edges, a checkerboard's rows and columns): they fix the "
+            "scale of the elevations, which straightness alone leaves free"
+        )
+    say("choosing the radial model")
+    chosen, scores, final = _choose(state, families, axis, params, r_max, outer, options, circles)
+    return _result(chosen, axis, final, state, families, r_max, outer, scores, options, circles)
+
+
+def _thin(pixels: FloatArray, count: int) -> FloatArray:
+    """At most ``count`` points evenly along an arc."""
+    pixels = np.asarray(pixels, dtype=np.float64)
+    if len(pixels) <= count:
+        return pixels
+    return pixels[np.round(np.linspace(0, len(pixels) - 1, count)).astype(int)]
+
+
+def _r_max(state: _State, circles: ImageCircles) -> float:
+    pixels = np.concatenate(state.arcs)
+    reach = float(np.max(np.hypot(pixels[:, 0] - circles.centre[0], pixels[:, 1] - circles.centre[1])))
+    return max(reach, 1.0) * 1.02 + 2.0
+
+
+def _px_per_rad(params: FloatArray, outer: float) -> float:
+    """Pixels per radian about the middle of the image circle (the orthogonality residuals' unit)."""
+    return outer / (0.5 * math.pi)
+
+
+def _too_few(found: int, what: str) -> PanomapError:
+    return PanomapError(
+        f"only {found} {what} found (at least {MIN_LINES} are needed): the image needs long straight edges "
+        "across the annulus (walls, door and window frames, shelves, floor tiles, a checkerboard), some "
+        "vertical and some horizontal, in light"
+    )
+
+
+def _starts(state: _State, circles: ImageCircles, axis: str, r_max: float) -> list[FloatArray]:
+    """Equidistant cameras about the circle's centre, best first by how well their scale fits straightness and
+    families (as parameters of the grouping's kind)."""
+    u0, v0 = circles.centre
+    data = LineData.of(state.line_pixels(), r_max)
+    ranked: list[tuple[float, FloatArray]] = []
+    for angle_deg in START_ANGLES_DEG:
+        params = np.array([u0, v0, circles.outer_radius / math.radians(angle_deg)])
+        trial = evaluate("odd1", axis, params, data)
+        if trial is None:
+            continue
+        spans = _spans(trial.rays.d, data)
+        keep = spans > MIN_SPAN_RAD
+        rms = _line_rms(trial.distances_px, data)
+        straight = keep & (rms < FIRST_ROUND_PX)
+        families = find_families(trial.normals[straight], state.line_images()[straight])
+        pairs = orthogonal_pairs(families)
+        angles = [abs(float(families[a].direction @ families[b].direction)) for a, b in pairs]
+        score = float(np.median(rms[straight])) if straight.any() else np.inf
+        score += 100.0 * (float(np.mean(angles)) if angles else 1.0)
+        ranked.append((score, params))
+    if not ranked:
+        raise PanomapError("no starting camera maps the arcs to rays")
+    return [_convert("odd1", GROUPING_KIND, axis, params, r_max) for _, params in sorted(ranked, key=lambda t: t[0])]
+
+
+def _group(state: _State, axis: str, params: FloatArray, r_max: float, outer: float) -> tuple[FloatArray, list[Family]]:
+    """The alternation between the grouping and the flexible model, from ``params``; ``state`` is regrouped."""
+    families: list[Family] = []
+    for round_ in range(ROUNDS):
+        params, families = _regroup(state, GROUPING_KIND, axis, params, r_max, first=round_ == 0)
+        params = _refit(GROUPING_KIND, axis, params, state, families, r_max, outer)
+    return params, families
+
+
+def _arc_score(state: _State, axis: str, params: FloatArray, r_max: float) -> float:
+    """Median RMS distance (px) of every arc from its own plane: how straight the camera makes the arcs, the
+    curved ones included (a start that sets more arcs aside gains nothing by it)."""
+    data = LineData.of(state.arcs, r_max)
+    trial = evaluate(GROUPING_KIND, axis, params, data)
+    return math.inf if trial is None else float(np.median(_line_rms(trial.distances_px, data)))
+
+
+def _convert(kind: str, to_kind: str, axis: str, params: FloatArray, r_max: float) -> FloatArray:
+    """Parameters of ``to_kind`` that follow ``kind``'s f_r over the radii up to ``r_max``."""
+    radial = RadialFunction(kind, tuple(params[2:]), axis)
+    rho = _rho_grid(radial, r_max)
+    converted = fit_radial(to_kind, rho, np.abs(radial(rho)), axis)
+    return np.concatenate([params[:2], converted.coefficients])
+
+
+def _rho_grid(radial: RadialFunction, r_max: float) -> FloatArray:
+    alpha = np.linspace(0.02, math.radians(150.0), 400)
+    rho = alpha - HALF_PI if radial.axis == "down" else HALF_PI - alpha
+    r = np.abs(radial(rho))
+    inside = np.isfinite(r) & (r <= r_max)
+    return rho[inside] if inside.sum() >= 8 else rho[:8]
+
+
+def _spans(rays: FloatArray, data: LineData) -> FloatArray:
+    """The angle (rad) between the first and last ray of each line."""
+    starts = np.searchsorted(data.line_index, np.arange(data.count))
+    ends = np.searchsorted(data.line_index, np.arange(data.count), side="right") - 1
+    cosine = np.einsum("ij,ij->i", rays[starts], rays[ends])
+    return np.asarray(np.arccos(np.clip(cosine, -1.0, 1.0)), dtype=np.float64)
+
+
+def _line_rms(distances_px: FloatArray, data: LineData) -> FloatArray:
+    sums = np.bincount(data.line_index, distances_px**2, minlength=data.count)
+    counts = np.bincount(data.line_index, minlength=data.count)
+    return np.asarray(np.sqrt(sums / np.maximum(counts, 1)), dtype=np.float64)
+
+
+def _regroup(
+    state: _State, kind: str, axis: str, params: FloatArray, r_max: float, *, first: bool
+) -> tuple[FloatArray, list[Family]]:
+    """Test every arc's straightness under the current camera, merge pieces, find families."""
+    single = LineData.of(state.arcs, r_max)
+    trial = evaluate(kind, axis, params, single)
+    if trial is None:
+        raise PanomapError("the radial function stopped rising inside the lines' radii")
+    rms = _line_rms(trial.distances_px, single)
+    spans = _spans(trial.rays.d, single)
+    long_enough = spans > MIN_SPAN_RAD
+    typical = float(np.median(rms[long_enough])) if long_enough.any() else STRAIGHT_FLOOR_PX
+    limit = FIRST_ROUND_PX if first else max(STRAIGHT_FACTOR * typical, STRAIGHT_FLOOR_PX)
+    state.rejected = {}
+    kept = []
+    for k in range(len(state.arcs)):
+        if not long_enough[k]:
+            state.rejected[k] = (f"too short to test (spans {math.degrees(spans[k]):.1f} deg)", float(rms[k]))
+        elif rms[k] > limit:
+            state.rejected[k] = (f"not straight under the fitted camera (RMS {rms[k]:.2f} px)", float(rms[k]))
+        else:
+            kept.append(k)
+    state.groups = _merge(kept, trial.normals, state.images, rms, limit)
+    data = LineData.of(state.line_pixels(), r_max)
+    merged = evaluate(kind, axis, params, data)
+    assert merged is not None
+    families = find_families(merged.normals, state.line_images())
+    return params, families
+
+
+def _merge(kept: list[int], normals: FloatArray, images: list[int], rms: FloatArray, limit: float) -> list[list[int]]:
+    """Groups of arcs of one image whose planes coincide (pieces of one line); each arc in one group.
+
+    The straightest arcs lead; each other arc joins the first leader of its image within
+    ``MERGE_WITHIN_RAD``, or leads a group of its own.
+    """
+    groups: list[list[int]] = []
+    leader_normals = np.zeros((0, 3))
+    leader_images = np.zeros(0, dtype=np.intp)
+    for k in sorted(kept, key=lambda j: rms[j]):
+        close = (np.abs(leader_normals @ normals[k]) > math.cos(MERGE_WITHIN_RAD)) & (leader_images == images[k])
+        if close.any():
+            groups[int(np.argmax(close))].append(k)
+        else:
+            groups.append([k])
+            leader_normals = np.vstack([leader_normals, normals[k]])
+            leader_images = np.append(leader_images, images[k])
+    return groups
+
+
+def _refit(
+    kind: str,
+    axis: str,
+    params: FloatArray,
+    state: _State,
+    families: list[Family],
+    r_max: float,
+    outer: float,
+    groups: list[int] | None = None,
+) -> FloatArray:
+    """Least-squares centre and coefficients of ``kind`` on the lines (``groups``: a subset of them)."""
+    from scipy import optimize  # here, not at the top: importing SciPy is slow
+
+    lines = state.line_pixels()
+    if groups is not None:
+        lines = [lines[g] for g in groups]
+        families = _restrict(families, groups)
+    data = LineData.of(lines, r_max)
+    pairs = orthogonal_pairs(families)
+    scale = _px_per_rad(params, outer)
+
+    def fun(x: FloatArray) -> FloatArray:
+        return residuals(kind, axis, x, data, families, pairs, scale)
+
+    if LOSS == "linear":
+        solution = optimize.least_squares(fun, params, method="lm", x_scale="jac", max_nfev=400)
+    else:
+        solution = optimize.least_squares(
+            fun, params, method="trf", loss=LOSS, f_scale=LOSS_SCALE_PX, x_scale="jac", max_nfev=400
+        )
+    return np.asarray(solution.x, dtype=np.float64)
+
+
+def _restrict(families: list[Family], groups: list[int]) -> list[Family]:
+    """The families renumbered for the lines ``groups`` (those with too few left dropped)."""
+    where = {g: k for k, g in enumerate(groups)}
+    out = []
+    for family in families:
+        members = np.array([where[m] for m in family.members if m in where], dtype=np.intp)
+        if members.size >= 3:
+            out.append(Family(members, family.image_index, family.direction))
+    return out
+
+
+def _held_out_rms(
+    kind: str, axis: str, params: FloatArray, state: _State, families: list[Family], r_max: float, outer: float
+) -> float:
+    """RMS distance (px) of every line's points from its plane under a fit without the line's fold."""
+    count = len(state.groups)
+    folds = np.arange(count) % CV_FOLDS
+    lines = state.line_pixels()
+    total, points = 0.0, 0
+    for fold in range(CV_FOLDS):
+        train = [g for g in range(count) if folds[g] != fold]
+        test = [g for g in range(count) if folds[g] == fold]
+        if not test:
+            continue
+        fitted = _refit(kind, axis, params, state, families, r_max, outer, groups=train)
+        trial = evaluate(kind, axis, fitted, LineData.of([lines[g] for g in test], r_max))
+        if trial is None:
+            return math.inf
+        total += float(np.sum(trial.distances_px**2))
+        points += trial.distances_px.size
+    return math.sqrt(total / max(points, 1))
+
+
+def _choose(
+    state: _State,
+    families: list[Family],
+    axis: str,
+    params: FloatArray,
+    r_max: float,
+    outer: float,
+    options: LineFitOptions,
+    circles: ImageCircles,
+) -> tuple[str, dict[str, float | None], FloatArray]:
+    """The radial kind with the best held-out score (fewer parameters win ties), every kind's score, and the
+    chosen kind's parameters fitted to all lines.
+
+    Every kind is fitted to all lines first; only those whose RMS there is within ``CONTENDER_MARGIN`` of
+    the best are cross-validated (the others score None): they cannot win, and skipping them halves the time.
+    """
+    kinds = (
+        [options.model]
+        if options.model != "auto"
+        else [
+            k
+            for k in (MIRROR_CANDIDATES if circles.cutoff is not None else AUTO_CANDIDATES)
+            if not radial_kind(k).centre_given
+        ]
+    )
+    fitted: dict[str, tuple[FloatArray, float]] = {}
+    data = LineData.of(state.line_pixels(), r_max)
+    for kind in kinds:
+        try:
+            solution = _refit(
+                kind, axis, _convert(GROUPING_KIND, kind, axis, params, r_max), state, families, r_max, outer
+            )
+        except (PanomapError, np.linalg.LinAlgError, ValueError):
+            continue
+        trial = evaluate(kind, axis, solution, data)
+        if trial is not None:
+            fitted[kind] = (solution, float(np.sqrt(np.mean(trial.distances_px**2))))
+    if not fitted:
+        raise PanomapError("no radial model fits the lines")
+    if options.model != "auto":
+        return options.model, {}, fitted[options.model][0]
+    best_in = min(rms for _, rms in fitted.values())
+    scores: dict[str, float | None] = {}
+    for kind in kinds:
+        if kind in fitted and fitted[kind][1] <= best_in * (1.0 + CONTENDER_MARGIN):
+            scores[kind] = _held_out_rms(kind, axis, fitted[kind][0], state, families, r_max, outer)
+        else:
+            scores[kind] = None
+    valid = {k: v for k, v in scores.items() if v is not None and math.isfinite(v)}
+    if not valid:
+        raise PanomapError("no radial model fits the lines")
+    best = min(valid.values())
+    mirror = circles.cutoff is not None
+
+    def wins(kind: str) -> bool:
+        law = radial_kind(kind).mirror_law if mirror else radial_kind(kind).lens_law
+        return valid[kind] <= best * (1.0 + (CAMERA_LAW_MARGIN if law else CV_MARGIN))
+
+    chosen = next(k for k in valid if wins(k))
+    return chosen, scores, fitted[chosen][0]
+
+
+def _result(
+    kind: str,
+    axis: str,
+    params: FloatArray,
+    state: _State,
+    families: list[Family],
+    r_max: float,
+    outer: float,
+    scores: dict[str, float | None],
+    options: LineFitOptions,
+    circles: ImageCircles,
+) -> LineFit:
+    """The camera model, its covariance and the report of the final fit."""
+    lines = state.line_pixels()
+    data = LineData.of(lines, r_max)
+    trial = evaluate(kind, axis, params, data)
+    assert trial is not None
+    radial = RadialFunction(kind, tuple(float(c) for c in params[2:]), axis)
+    rms = _line_rms(trial.distances_px, data)
+    worst = np.zeros(data.count)
+    np.maximum.at(worst, data.line_index, np.abs(trial.distances_px))
+    sigma = float(
+        np.sqrt(
+            np.mean(trial.distances_px**2)
+            * data.pixels.shape[0]
+            / max(data.pixels.shape[0] - 2 * data.count - params.size, 1)
+        )
+    )
+    covariance = _covariance(kind, axis, params, data, families, outer, sigma)
+    s = options.s if options.s is not None else default_handedness(circles.cutoff is not None, axis)
+    vertical = _vertical(families, trial.normals)
+    rotation = None if vertical is None else level_rotation(vertical[0], axis, s)
+    model = CameraModel(
+        (float(params[0]), float(params[1])), radial, s, 0.0, None if rotation is None else tuple(map(tuple, rotation))
+    )
+    if options.azimuth_zero is not None:
+        model = zero_azimuth(model, options.azimuth_zero)
+    family_of = {int(m): f for f, family in enumerate(families) for m in family.members}
+    rho = _camera_elevations(trial.rays.d, axis)
+    fitted = tuple(
+        FittedLine(
+            arcs=tuple(state.groups[g]),
+            image_index=int(state.images[state.groups[g][0]]),
+            points=int(np.sum(data.line_index == g)),
+            rms_px=float(rms[g]),
+            max_px=float(worst[g]),
+            family=family_of.get(g),
+            elevation_deg=(
+                float(np.degrees(rho[data.line_index == g].min())),
+                float(np.degrees(rho[data.line_index == g].max())),
+            ),
+        )
+        for g in range(data.count)
+    )
+    rejected = tuple(
+        RejectedArc(arc=k, image_index=int(state.images[k]), reason=reason, rms_px=value)
+        for k, (reason, value) in sorted(state.rejected.items())
+    )
+    low, high = float(np.degrees(rho.min())), float(np.degrees(rho.max()))
+    report = LineFitReport(
+        model=kind,
+        sigma_px=sigma,
+        lines=fitted,
+        rejected=rejected,
+        families=len(families),
+        vertical_lines=0 if vertical is None else int(vertical[1]),
+        model_selection_cv_rms_px=scores,
+        elevation_range_deg=(low, high),
+        empty_bands_deg=empty_bands(np.degrees(rho), _annulus_deg(radial, circles, r_max)),
+        azimuth_source="given" if options.azimuth_zero is not None else "image angle 0",
+        handedness_source="given" if options.s is not None else ("mirror" if circles.cutoff is not None else "lens"),
+    )
+    return LineFit(model, covariance, report)
+
+
+def _covariance(
+    kind: str, axis: str, params: FloatArray, data: LineData, families: list[Family], outer: float, sigma: float
+) -> FloatArray:
+    """Covariance of the radial coefficients from the Jacobian at the solution."""
+    pairs = orthogonal_pairs(families)
+    scale = _px_per_rad(params, outer)
+    base = residuals(kind, axis, params, data, families, pairs, scale)
+    jacobian = np.empty((base.size, params.size))
+    for j in range(params.size):
+        step = 1e-6 * max(abs(float(params[j])), 1.0)
+        shifted = params.copy()
+        shifted[j] += step
+        jacobian[:, j] = (residuals(kind, axis, shifted, data, families, pairs, scale) - base) / step
+    full = np.linalg.pinv(jacobian.T @ jacobian) * sigma**2
+    return np.asarray(full[2:, 2:], dtype=np.float64)
+
+
+def _vertical(families: list[Family], normals: FloatArray) -> tuple[FloatArray, int] | None:
+    """The direction of the most-populated family within ``VERTICAL_WITHIN_DEG`` of the axis, and its line count."""
+    from .families import common_direction
+
+    best: tuple[FloatArray, int] | None = None
+    for family in families:
+        direction = common_direction(normals[family.members])
+        if abs(direction[2]) > math.cos(math.radians(VERTICAL_WITHIN_DEG)) and (
+            best is None or family.members.size > best[1]
+        ):
+            best = (direction, int(family.members.size))
+    return best
+
+
+def _camera_elevations(rays: FloatArray, axis: str) -> FloatArray:
+    """Elevation (rad) in the camera's axes of rays in this package's axes (alpha from the axis)."""
+    return _camera_elevations_of_alpha(np.arccos(np.clip(rays[:, 2], -1.0, 1.0)), axis)
+
+
+def _annulus_deg(radial: RadialFunction, circles: ImageCircles, r_max: float) -> tuple[float, float]:
+    """Camera elevations (deg, low to high) from the cut-off disc (or the axis) to the farthest line radius."""
+    inverse = InverseRadial.of(radial, r_max)
+    radii = np.array([circles.cutoff_radius or 0.0, min(circles.outer_radius, r_max)])
+    alpha, _ = inverse(radii)
+    rho = np.degrees(_camera_elevations_of_alpha(alpha, radial.axis))
+    return float(rho.min()), float(rho.max())
+
+
+def _camera_elevations_of_alpha(alpha: FloatArray, axis: str) -> FloatArray:
+    return np.asarray(alpha - HALF_PI if axis == "down" else HALF_PI - alpha, dtype=np.float64)
+
+
+def default_handedness(mirror: bool, axis: str) -> int:
+    """The handedness s an image has when nothing says otherwise, from the kind of camera.
+
+    A lens looking down sees east at +u and north at -v (a map seen from above): s = -1; looking up,
+    s = +1. A mirror camera (its camera looking at the mirror, the mirror's azimuth theta showing the
+    world's theta) flips that: +1 when its image centre sees down (the paper's case), -1 up.
+    """
+    return 1 if mirror != (axis == "up") else -1

@@ -1,0 +1,128 @@
+"""The pano-mapping table of a camera learned from lines: as :func:`panomap.calibrate.make_table.create_table`
+makes it for landmarks, with the line fit's report in place of the landmarks'.
+
+Convention: radii px, elevations rad (deg in the report); the table spans the annulus from the cut-off
+disc (or the axis) to the image circle, where f_r rises monotonically.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ...camera.uncertainty import radius_standard_error
+from ...camera.valid_range import valid_elevation_range
+from ...errors import PanomapError
+from ...geometry import TWO_PI
+from ...table.table import PanoMappingTable, check_table_size, fill_entries
+from ..make_table import DEFAULT_MAX_SIZE, world_range
+from ..report import FitReport, FitSettings, RadiusUncertainty
+from .fit import LineFit
+
+# The camera position of a table learned from lines: lines know no distance; --camera-height sets Z0.
+ORIGIN = (0.0, 0.0, 0.0)
+
+
+def create_line_table(
+    fit: LineFit,
+    *,
+    cutoff_radius: float,
+    outer_radius: float,
+    image_size: tuple[int, int] | None,
+    camera_height: float | None = None,
+    info: dict[str, Any] | None = None,
+) -> PanoMappingTable:
+    """The table of ``fit`` over the annulus ``[cutoff_radius, outer_radius]`` (px).
+
+    ``camera_height`` (world units above the floor, Z = 0) sets the camera position (0, 0, H); without it
+    the position is the origin and ``info["camera_height_known"]`` is False (views at a distance say so).
+
+    Raises
+    ------
+    PanomapError
+        If f_r does not run monotonically across the lines' elevations.
+    """
+    model = fit.model
+    low_deg, high_deg = fit.report.elevation_range_deg
+    lines_range = (math.radians(low_deg), math.radians(high_deg))
+    camera_range = valid_elevation_range(model.radial, lines_range, cutoff_radius, outer_radius, slack_px=1.0)
+    rho_s, rho_e = world_range(camera_range, model.tilt[0])
+    tilted = model.rotation is not None
+    reach = max(float(np.nanmax(np.abs(model.radial(np.array(camera_range))))), 1.0)
+    r_span = abs(float(model.radial(camera_range[1]) - model.radial(camera_range[0])))
+    size = check_table_size(
+        (
+            max(min(8 * math.ceil(TWO_PI * reach / 8), DEFAULT_MAX_SIZE[0]), 16),
+            min(max(math.ceil(r_span), 16), DEFAULT_MAX_SIZE[1]),
+        )
+    )
+    entries = fill_entries(model, size, (rho_s, rho_e), camera_range=camera_range if tilted else None)
+    table_info = dict(info or {})
+    table_info.setdefault(
+        "sources",
+        {
+            "camera_position": "given (--camera-height)"
+            if camera_height is not None
+            else "unknown (lines know no distance)",
+            "centre": "fitted to the lines",
+            "cutoff_radius": "detected",
+            "outer_radius": "detected",
+        },
+    )
+    table_info["fit"] = line_fit_report(fit, (rho_s, rho_e)).to_dict()
+    table_info["camera_height_known"] = camera_height is not None
+    table_info.setdefault("warnings", [])
+    table_info["warnings"] = list(table_info["warnings"]) + [
+        sentence for sentence in fit.report.sentences() if sentence.startswith("no line between")
+    ]
+    position = ORIGIN if camera_height is None else (0.0, 0.0, float(camera_height))
+    if camera_height is not None and not (math.isfinite(camera_height) and camera_height > 0):
+        raise PanomapError(f"the camera height must be a positive number, not {camera_height!r}")
+    return PanoMappingTable(
+        entries=entries,
+        elevation_range=(rho_s, rho_e),
+        model=model,
+        camera_position=position,
+        image_size=image_size,
+        cutoff_radius=cutoff_radius,
+        outer_radius=outer_radius,
+        info=table_info,
+        camera_elevation_range=camera_range if tilted else None,
+    )
+
+
+def line_fit_report(fit: LineFit, elevation_range: tuple[float, float]) -> FitReport:
+    """The fit report a table stores: the landmark report's fields, no landmarks, the lines' report."""
+    model = fit.model
+    report = fit.report
+    rho = np.linspace(*elevation_range, 91)
+    se = radius_standard_error(model.radial, fit.covariance, rho)
+    low, high = report.elevation_range_deg
+    inside = (np.degrees(rho) >= low) & (np.degrees(rho) <= high)
+    return FitReport(
+        model=model.radial.kind,
+        axis=model.axis,
+        axis_source="given",
+        azimuth_mode="lines",
+        s=model.s,
+        phi0_deg=math.degrees(model.phi0),
+        centre=model.centre,
+        azimuth_consistency=1.0,
+        rms_px=report.rms_px,
+        max_px=report.max_px,
+        outliers=(),
+        landmark_elevation_range_deg=report.elevation_range_deg,
+        model_selection_loo_rms_px=report.model_selection_cv_rms_px,
+        covariance=tuple(tuple(float(x) for x in row) for row in fit.covariance),
+        settings=FitSettings(report.sigma_px, 0.0, True, False, report.model),
+        landmarks=(),
+        uncertainty=RadiusUncertainty(
+            elevation_deg=tuple(np.degrees(rho).tolist()),
+            radius_se_px=tuple(se.tolist()),
+            max_se_in_landmark_range_px=float(se[inside].max()) if inside.any() else None,
+            max_se_px=float(se.max()),
+        ),
+        lines=report,
+    )

@@ -1,0 +1,119 @@
+"""``panomap fit --image IMG [--image IMG ...]`` without landmarks: the camera learned from straight lines."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from ..calibrate.circles import ImageCircles
+from ..calibrate.lines.arcs import EdgeArc, find_arcs
+from ..calibrate.lines.fit import LineFitOptions, fit_lines
+from ..calibrate.lines.table import create_line_table
+from ..errors import PanomapError, printable
+from ..files import all_or_none
+from ..io.images import write_image
+from ..table.file import save_table
+from ..table.table import PanoMappingTable
+from .options import read_omni, warn_orientation
+from .progress import ProgressBar
+
+
+def fit_from_lines(
+    images: tuple[Path, ...],
+    output: Path,
+    *,
+    frame_time: float | None,
+    options: LineFitOptions,
+    camera_height: float | None,
+    overlay: Path | None,
+    find_circles: Any,
+) -> None:
+    """Learn the camera from the lines of ``images``, write its table (and ``overlay``), say what the fit saw.
+
+    ``find_circles(path, image)`` finds the image circles, naming the file in its errors.
+    """
+    started = time.monotonic()
+    bar = ProgressBar(enabled=sys.stderr.isatty())
+    try:
+        omnis = _read_all(images, frame_time)
+        circles = find_circles(images[0], omnis[0])
+        arcs: list[EdgeArc] = []
+        for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
+            bar.update(k, len(images) + 1, f"edges of {path.name}")
+            arcs += find_arcs(omni, circles, image_index=k)
+        bar.update(len(images), len(images) + 1, "fitting the camera to the lines")
+        try:
+            fit = fit_lines(
+                arcs, circles, options, progress=lambda step: bar.update(len(images), len(images) + 1, step)
+            )
+        except PanomapError as exc:
+            raise PanomapError(exc.detail, images[0] if len(images) == 1 else None) from None
+        table = create_line_table(
+            fit,
+            cutoff_radius=circles.cutoff_radius or 0.0,
+            outer_radius=circles.outer_radius,
+            image_size=(omnis[0].shape[1], omnis[0].shape[0]),
+            camera_height=camera_height,
+            info={"source": "lines", "images": [str(path) for path in images]},
+        )
+    finally:
+        bar.close()
+    with all_or_none():
+        save_table(table, output)
+        if overlay is not None:
+            from ..io.line_overlay import draw_line_overlay
+
+            write_image(overlay, draw_line_overlay(omnis[0], table, arcs))
+    click.echo(printable(describe_line_fit(table, circles, time.monotonic() - started), keep="\n"))
+    written = [str(path) for path in (output, overlay) if path is not None]
+    click.echo("wrote " + " and ".join(written))
+    for warning in table.info.get("warnings", []):
+        click.echo(f"panomap: warning: {warning}", err=True)
+
+
+def _read_all(images: tuple[Path, ...], frame_time: float | None) -> list[np.ndarray]:
+    """Every image (a video's frame at ``frame_time``), all of the first one's size."""
+    omnis: list[np.ndarray] = []
+    for path in images:
+        omni = read_omni(path, frame_time)
+        warn_orientation(path)
+        if omnis and omni.shape[:2] != omnis[0].shape[:2]:
+            raise PanomapError(
+                f"is {omni.shape[1]} x {omni.shape[0]}, but {images[0]} is {omnis[0].shape[1]} x "
+                f"{omnis[0].shape[0]}: the images of one camera have one size",
+                path,
+            )
+        omnis.append(omni)
+    return omnis
+
+
+def describe_line_fit(table: PanoMappingTable, circles: ImageCircles, seconds: float) -> str:
+    """What the fit learned and saw, in a few lines."""
+    from ..calibrate.report import table_fit_report
+
+    report = table_fit_report(table)
+    assert report is not None and report.lines is not None
+    model = table.model
+    tilt_deg, toward_deg = (float(np.degrees(a)) for a in model.tilt)
+    out = [
+        f"camera learned from lines in {seconds:.1f} s: radial model {report.model} "
+        f"{tuple(round(c, 6) for c in model.radial.coefficients)}, centre ({model.centre[0]:.2f}, "
+        f"{model.centre[1]:.2f}) ({circles.centre[0]:.2f}, {circles.centre[1]:.2f} from the rim)",
+        f"tilt {tilt_deg:.2f} deg toward azimuth {toward_deg:.1f} deg"
+        if report.lines.vertical_lines
+        else "no vertical lines: the camera is taken as level",
+        *(x for x in report.lines.sentences() if not x.startswith("no line between")),
+        "azimuth 0 is "
+        + ("the pixel given" if report.lines.azimuth_source == "given" else "image angle 0 (+u): --azimuth-zero U V")
+        + f"; handedness s = {model.s:+d} ({report.lines.handedness_source}; --handedness to change)",
+    ]
+    if report.uncertainty is not None:
+        out.append(f"standard error of the radius: at most {report.uncertainty.max_se_px:.2f} px")
+    if not table.info.get("camera_height_known", True):
+        out.append("distances unknown (lines know none): floor, cylinder and plane views need --camera-height H")
+    return "\n".join(out)
