@@ -204,34 +204,11 @@ def fit(
     if landmarks is None:
         _fit_lines(output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time)
         return
-    line_options = {"--azimuth-zero": azimuth_zero, "--camera-height": camera_height}
-    for name, value in (*line_options.items(), ("--handedness", None if handedness == "auto" else handedness)):
-        if value is not None:
-            raise click.UsageError(f"{name} is for learning from lines (no LANDMARKS); a landmark fit learns it")
-    if len(images) > 1:
-        raise click.UsageError("a landmark fit takes one --image (several pool their lines only without LANDMARKS)")
-    image = images[0] if images else None
     size = _image_size(image_size)
-    if centre is None and image is None:
-        raise click.UsageError("no image centre: give --centre U0 V0, or --image OMNI to find it")
-    if refine_centre is True and model != "auto" and radial_kind(model).centre_given:
-        raise click.UsageError(f"the {model} model takes the centre as given; --refine-centre needs another model")
-    if table_size is not None:
-        try:
-            check_table_size(table_size, what="--size")
-        except PanomapError as exc:
-            raise usage_error(exc) from None
-    if overlay is not None and image is None:
-        raise click.UsageError("--overlay draws the fit on --image: give --image OMNI too")
-    check_output_paths(
-        [("the landmarks", landmarks), ("the image", image)],
-        [("the output", output), ("--plot", plot), ("--overlay", overlay)],
-    )
-    if output.suffix.lower() != ".npz":
-        raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
-    for picture, option, what in ((plot, "--plot", "the fit plot"), (overlay, "--overlay", "the overlay")):
-        if picture is not None and picture.suffix.lower() != ".png":
-            raise click.BadParameter(f"{picture}: {what} is written as PNG (name it .png)", param_hint=f"'{option}'")
+    image = _check_landmark_fit_options(
+        landmarks, output, images, centre, table_size, model, refine_centre, plot, overlay,
+        azimuth_zero, handedness, camera_height,
+    )  # fmt: skip
     pairs = read_landmarks(landmarks)
     if camera is None and pairs.camera is None:
         raise click.UsageError(
@@ -276,6 +253,61 @@ def fit(
     for warning in result.warnings:
         click.echo(f"panomap: warning: {warning}", err=True)
     table = result.table
+    _write_fit(table, result, output, plot, overlay, omni)
+    for warning in table.info.get("warnings", []):
+        click.echo(f"panomap: warning: {warning}", err=True)
+
+
+def _check_landmark_fit_options(
+    landmarks: Path,
+    output: Path,
+    images: tuple[Path, ...],
+    centre: tuple[float, float] | None,
+    table_size: tuple[int, int] | None,
+    model: str,
+    refine_centre: bool | None,
+    plot: Path | None,
+    overlay: Path | None,
+    azimuth_zero: tuple[float, float] | None,
+    handedness: str,
+    camera_height: float | None,
+) -> Path | None:
+    """The checks of a landmark fit's options before any work (usage errors, exit 2; outputs that are
+    inputs, 1); returns its --image, if any."""
+    line_options = {"--azimuth-zero": azimuth_zero, "--camera-height": camera_height}
+    for name, value in (*line_options.items(), ("--handedness", None if handedness == "auto" else handedness)):
+        if value is not None:
+            raise click.UsageError(f"{name} is for learning from lines (no LANDMARKS); a landmark fit learns it")
+    if len(images) > 1:
+        raise click.UsageError("a landmark fit takes one --image (several pool their lines only without LANDMARKS)")
+    image = images[0] if images else None
+    if centre is None and image is None:
+        raise click.UsageError("no image centre: give --centre U0 V0, or --image OMNI to find it")
+    if refine_centre is True and model != "auto" and radial_kind(model).centre_given:
+        raise click.UsageError(f"the {model} model takes the centre as given; --refine-centre needs another model")
+    if table_size is not None:
+        try:
+            check_table_size(table_size, what="--size")
+        except PanomapError as exc:
+            raise usage_error(exc) from None
+    if overlay is not None and image is None:
+        raise click.UsageError("--overlay draws the fit on --image: give --image OMNI too")
+    check_output_paths(
+        [("the landmarks", landmarks), ("the image", image)],
+        [("the output", output), ("--plot", plot), ("--overlay", overlay)],
+    )
+    if output.suffix.lower() != ".npz":
+        raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
+    for picture, option, what in ((plot, "--plot", "the fit plot"), (overlay, "--overlay", "the overlay")):
+        if picture is not None and picture.suffix.lower() != ".png":
+            raise click.BadParameter(f"{picture}: {what} is written as PNG (name it .png)", param_hint=f"'{option}'")
+    return image
+
+
+def _write_fit(
+    table: PanoMappingTable, result: Any, output: Path, plot: Path | None, overlay: Path | None, omni: Any
+) -> None:
+    """Write the table and its pictures (all or none), then say what the fit found and what was written."""
     with all_or_none():
         save_table(table, output)
         if plot is not None:
@@ -291,8 +323,6 @@ def fit(
         click.echo(printable(f"diagnosis: {note}"), err=True)
     written = [str(path) for path in (output, plot, overlay) if path is not None]
     click.echo("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
-    for warning in table.info.get("warnings", []):
-        click.echo(f"panomap: warning: {warning}", err=True)
 
 
 def _fit_lines(
