@@ -11,6 +11,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import pty
 import stat
 import struct
 import subprocess
@@ -450,6 +451,30 @@ def test_info_escapes_control_characters_from_a_table_and_names_it_when_its_repo
     assert_one_line_error(run("info", tmp_path / "m.npz"), "m.npz: the fit report is malformed", exit_code=1)
     # An error that quotes a name from a file is escaped too.
     assert "\x1b" not in run("info", tmp_path / "no\x1b[2Jsuch.npz").stderr
+
+
+def test_project_to_a_terminal_escapes_names_and_to_a_pipe_passes_them_through(work: Path, tmp_path: Path) -> None:
+    # project -o - printed a points file's names raw to the terminal, escape sequences and all.
+    (tmp_path / "pts.csv").write_text("name,X,Y,Z\nx\x1b]0;owned\x07y,3.5,2.0,0.0\n")
+    command = [sys.executable, "-m", "panomap", "project", str(work / "cam.npz"), str(tmp_path / "pts.csv"), "-o", "-"]
+    leader, follower = pty.openpty()
+    process = subprocess.Popen(command, stdout=follower, stderr=subprocess.PIPE)
+    os.close(follower)
+    shown = b""
+    while True:
+        try:
+            chunk = os.read(leader, 65536)
+        except OSError:  # (EIO: the process ended and all was read)
+            break
+        if not chunk:
+            break
+        shown += chunk
+    os.close(leader)
+    assert process.wait(60) == 0
+    process.stderr.close()  # type: ignore[union-attr]
+    assert b"x\\x1b]0;owned\\x07y" in shown and b"\x1b" not in shown
+    piped = subprocess.run(command, capture_output=True, check=True)
+    assert b"x\x1b]0;owned\x07y" in piped.stdout  # (a pipe gets the CSV as it is)
 
 
 def test_an_edit_behind_the_checksum_is_caught_and_version_1_files_still_load(work: Path, tmp_path: Path) -> None:

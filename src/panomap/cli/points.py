@@ -5,12 +5,14 @@ from __future__ import annotations
 import csv
 import io
 import math
+import sys
 from pathlib import Path
 
 import click
 import numpy as np
 
 from ..calibrate.landmarks import read_points
+from ..errors import printable
 from ..files import check_output_paths, write_text_atomic
 from ..geometry import ray_plane_points
 from ..table.file import load_table
@@ -53,9 +55,10 @@ def _outputs(output: Path) -> list[tuple[str, Path]]:
 
 def _write(output: Path, text: str, summary: str) -> None:
     """``text`` to the file ``output`` (atomically), then "wrote OUTPUT SUMMARY"; for '-', ``text`` to standard
-    output and the summary to standard error (so that the CSV can be piped)."""
+    output and the summary to standard error (so that the CSV can be piped). On a terminal, control characters
+    from the points' names are escaped (a pipe or a file gets the CSV byte for byte)."""
     if str(output) == STDOUT:
-        click.echo(text, nl=False)
+        click.echo(printable(text, keep="\n\r\t") if sys.stdout.isatty() else text, nl=False)
         click.echo(f"wrote standard output {summary}", err=True)
         return
     write_text_atomic(output, text)
