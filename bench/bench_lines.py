@@ -283,13 +283,15 @@ def simulated(quick: bool) -> None:
 # -- 2. real cameras -------------------------------------------------------------------------------
 
 
-def reference_as_model(reference: Rays, centre: tuple[float, float], r_max: float, kind: str) -> CameraModel:
+def reference_as_model(
+    reference: Rays, centre: tuple[float, float], r_min: float, r_max: float, kind: str
+) -> CameraModel:
     """The reference's own radial law (along +u from its centre) fitted by the radial ``kind``, as a
     rotationally symmetric CameraModel: the check of the measure on a real set, and the floor of that kind
     (what remains is the kind's misfit and the reference's affine part)."""
     from panomap.camera.radial import fit_radial
 
-    r = np.linspace(2.0, r_max, 300)
+    r = np.linspace(r_min, r_max, 300)  # over the evaluation region only
     rays = reference(np.stack([centre[0] + r, np.full_like(r, centre[1])], axis=1))
     axis_ray = reference(np.array([[centre[0], centre[1]]]))[0]
     rho = np.arccos(np.clip(rays @ axis_ray, -1.0, 1.0)) - math.pi / 2
@@ -330,7 +332,7 @@ def real(data: Path) -> None:
         grid = ring_grid(centre, r_min, r_max, (w, h))
         print(f"  {folder.name}: {len(images)} images {w} x {h}, corners at r {r_min:.0f}-{r_max:.0f} px")
         for kind in ("poly3", "odd5", "unified"):
-            check = ray_agreement(reference, grid, reference_as_model(reference, centre, r_max + 20.0, kind))
+            check = ray_agreement(reference, grid, reference_as_model(reference, centre, r_min, r_max, kind))
             print(f"      floor: the calibration's own law fitted by {kind:7s} {check.line()}")
         arcs: list[EdgeArc] = []
         first_circles: ImageCircles | None = None
