@@ -78,6 +78,24 @@ class ExternalCamera(ABC):
         return solve_rays(self.project, uv, self.principal_point, self.focal_px, self.max_angle_limit_rad)
 
 
+class PinholeIntrinsics(ExternalCamera):
+    """A model whose parameters include a pinhole's intrinsics: ``fx``, ``fy`` (px, checked > 0) and the
+    principal point ``cx``, ``cy`` (px). The subclass declares them as dataclass fields, in its own order."""
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+
+    def check(self) -> None:
+        positive(self.name, "fx", self.fx)
+        positive(self.name, "fy", self.fy)
+
+    @property
+    def principal_point(self) -> tuple[float, float]:
+        return (self.cx, self.cy)
+
+
 def ray_of_equidistant(ab: FloatArray) -> FloatArray:
     """Unit rays (..., 3) of equidistant coordinates (..., 2): angle t = |ab| from +z, toward ab."""
     t = np.hypot(ab[..., 0], ab[..., 1])

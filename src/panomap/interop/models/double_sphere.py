@@ -21,11 +21,11 @@ from numpy.typing import ArrayLike
 
 from ...errors import PanomapError
 from ...geometry import FloatArray
-from .base import ExternalCamera, as_rays, pixels, positive
+from .base import PinholeIntrinsics, as_rays, pixels
 
 
 @dataclass(frozen=True)
-class DoubleSphere(ExternalCamera):
+class DoubleSphere(PinholeIntrinsics):
     name: ClassVar[str] = "double-sphere"
 
     xi: float
@@ -36,16 +36,11 @@ class DoubleSphere(ExternalCamera):
     cy: float
 
     def check(self) -> None:
-        positive(self.name, "fx", self.fx)
-        positive(self.name, "fy", self.fy)
+        super().check()
         if not 0 <= self.alpha < 1:
             raise PanomapError(f"{self.name}: alpha must be in [0, 1), not {self.alpha:g}")
         if not -1 < self.xi < 1:
             raise PanomapError(f"{self.name}: xi must be in (-1, 1), not {self.xi:g}")
-
-    @property
-    def principal_point(self) -> tuple[float, float]:
-        return (self.cx, self.cy)
 
     @property
     def focal_px(self) -> float:

@@ -21,11 +21,11 @@ from numpy.typing import ArrayLike
 
 from ...errors import PanomapError
 from ...geometry import FloatArray
-from .base import ExternalCamera, as_rays, pixels, positive
+from .base import PinholeIntrinsics, as_rays, pixels, positive
 
 
 @dataclass(frozen=True)
-class EUCM(ExternalCamera):
+class EUCM(PinholeIntrinsics):
     name: ClassVar[str] = "eucm"
 
     alpha: float
@@ -36,15 +36,10 @@ class EUCM(ExternalCamera):
     cy: float
 
     def check(self) -> None:
-        positive(self.name, "fx", self.fx)
-        positive(self.name, "fy", self.fy)
+        super().check()
         positive(self.name, "beta", self.beta)
         if not 0 <= self.alpha <= 1:
             raise PanomapError(f"{self.name}: alpha must be in [0, 1], not {self.alpha:g}")
-
-    @property
-    def principal_point(self) -> tuple[float, float]:
-        return (self.cx, self.cy)
 
     @property
     def focal_px(self) -> float:

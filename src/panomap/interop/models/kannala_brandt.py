@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ...geometry import FloatArray
-from .base import ExternalCamera, as_rays, pixels, positive
+from .base import PinholeIntrinsics, as_rays, pixels
 
 
 def first_turn(poly: FloatArray, limit: float) -> float:
@@ -37,7 +37,7 @@ def first_turn(poly: FloatArray, limit: float) -> float:
 
 
 @dataclass(frozen=True)
-class KannalaBrandt(ExternalCamera):
+class KannalaBrandt(PinholeIntrinsics):
     name: ClassVar[str] = "kannala-brandt"
 
     fx: float
@@ -48,14 +48,6 @@ class KannalaBrandt(ExternalCamera):
     k2: float = 0.0
     k3: float = 0.0
     k4: float = 0.0
-
-    def check(self) -> None:
-        positive(self.name, "fx", self.fx)
-        positive(self.name, "fy", self.fy)
-
-    @property
-    def principal_point(self) -> tuple[float, float]:
-        return (self.cx, self.cy)
 
     @property
     def focal_px(self) -> float:

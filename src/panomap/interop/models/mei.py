@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike
 
 from ...errors import PanomapError
 from ...geometry import FloatArray
-from .base import ExternalCamera, as_rays, pixels, positive
+from .base import PinholeIntrinsics, as_rays, pixels
 
 
 def radtan(x: FloatArray, y: FloatArray, k1: float, k2: float, p1: float, p2: float) -> tuple[FloatArray, FloatArray]:
@@ -37,7 +37,7 @@ def radtan(x: FloatArray, y: FloatArray, k1: float, k2: float, p1: float, p2: fl
 
 
 @dataclass(frozen=True)
-class Mei(ExternalCamera):
+class Mei(PinholeIntrinsics):
     name: ClassVar[str] = "mei"
 
     xi: float
@@ -52,14 +52,9 @@ class Mei(ExternalCamera):
     skew: float = 0.0
 
     def check(self) -> None:
-        positive(self.name, "fx", self.fx)
-        positive(self.name, "fy", self.fy)
+        super().check()
         if self.xi < 0:
             raise PanomapError(f"{self.name}: xi must be >= 0, not {self.xi:g}")
-
-    @property
-    def principal_point(self) -> tuple[float, float]:
-        return (self.cx, self.cy)
 
     @property
     def focal_px(self) -> float:

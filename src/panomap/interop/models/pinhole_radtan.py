@@ -18,12 +18,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ...geometry import FloatArray
-from .base import ExternalCamera, as_rays, pixels, positive
+from .base import PinholeIntrinsics, as_rays, pixels
 from .mei import radtan
 
 
 @dataclass(frozen=True)
-class PinholeRadtan(ExternalCamera):
+class PinholeRadtan(PinholeIntrinsics):
     name: ClassVar[str] = "pinhole-radtan"
     max_angle_limit_rad: ClassVar[float] = math.pi / 2
 
@@ -35,14 +35,6 @@ class PinholeRadtan(ExternalCamera):
     k2: float = 0.0
     p1: float = 0.0
     p2: float = 0.0
-
-    def check(self) -> None:
-        positive(self.name, "fx", self.fx)
-        positive(self.name, "fy", self.fy)
-
-    @property
-    def principal_point(self) -> tuple[float, float]:
-        return (self.cx, self.cy)
 
     @property
     def focal_px(self) -> float:
