@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 import stat
+import string
 import tempfile
 import urllib.parse
 import urllib.request
@@ -295,6 +296,19 @@ def local_file(source: str | Path) -> Path | None:
         if path is not None and path.is_file():
             return path
     return None
+
+
+def placeholders(pattern: str) -> list[tuple[str, str, str]]:
+    """The ``{key!conversion:spec}`` fields of an output name pattern, as ``(key, spec, conversion)`` (``""``
+    where absent); ``{{`` and ``}}`` are literal braces. Raises ValueError where the pattern is malformed."""
+    return [
+        (key, spec or "", conv or "") for _, key, spec, conv in string.Formatter().parse(pattern) if key is not None
+    ]
+
+
+def placeholder_text(key: str, spec: str, conversion: str) -> str:
+    """A field as written in a pattern: ``{key!conversion:spec}``."""
+    return "{" + key + (f"!{conversion}" if conversion else "") + (f":{spec}" if spec else "") + "}"
 
 
 def check_output_paths(

@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import PanomapError
-from ..files import file_identity, read_text
+from ..files import file_identity, placeholder_text, placeholders, read_text
 from ..video.output import EncoderSettings
 from ..views.spec import NamedView
 
@@ -222,11 +222,10 @@ def check_template(template: str) -> None:
     """Refuse a template with an unknown key, a format spec or conversion, or one that could not tell views
     apart."""
     try:
-        fields = [(key, spec, conversion) for _, key, spec, conversion in string.Formatter().parse(template)]
+        fields = placeholders(template)
     except ValueError as exc:
         raise PanomapError(f"the output template {template!r} is malformed ({exc})") from None
-    keys = [key for key, _, _ in fields if key is not None]
-    unknown = sorted({key for key in keys if key not in TEMPLATE_KEYS})
+    unknown = sorted({key for key, _, _ in fields if key not in TEMPLATE_KEYS})
     if unknown:
         raise PanomapError(
             f"the output template {template!r} has an unknown key {{{unknown[0]}}} (keys: "
@@ -234,10 +233,10 @@ def check_template(template: str) -> None:
             + ")"
         )
     for key, spec, conversion in fields:
-        if key is not None and (spec or conversion):
-            field = "{" + key + ("!" + conversion if conversion else "") + (":" + spec if spec else "") + "}"
+        if spec or conversion:
             raise PanomapError(
-                f"the output template {template!r} has {field}: its keys take no format spec or conversion"
+                f"the output template {template!r} has {placeholder_text(key, spec, conversion)}: its keys take "
+                "no format spec or conversion"
             )
     if not Path(template).suffix:
         raise PanomapError(f"the output template {template!r} needs a file suffix (e.g. .mp4)")

@@ -9,7 +9,6 @@ from __future__ import annotations
 import contextlib
 import re
 import signal
-import string
 import sys
 import threading
 from collections.abc import Iterator
@@ -19,7 +18,7 @@ from typing import Any
 import click
 
 from ..errors import PanomapError
-from ..files import check_output_paths, local_file
+from ..files import check_output_paths, local_file, placeholder_text, placeholders
 from ..remap import INTERPOLATIONS
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
@@ -76,21 +75,19 @@ def output_paths(pattern: str, views: list[NamedView]) -> list[Path]:
     literal braces). Any other ``{key}`` is refused: taken literally, a mistyped ``{view}`` wrote one file
     named ``out_{view}.mp4`` for every view."""
     try:
-        fields = [(key, spec, conversion) for _, key, spec, conversion in string.Formatter().parse(pattern)]
+        fields = placeholders(pattern)
     except ValueError as exc:
         raise click.BadParameter(f"{pattern!r} is malformed ({exc}; write a literal brace as {{{{ or }}}})",
                                  param_hint="'-o'") from None  # fmt: skip
     for key, spec, conversion in fields:
-        if key is not None and (key != "name" or spec or conversion):
-            field = "{" + key + (f"!{conversion}" if conversion else "") + (f":{spec}" if spec else "") + "}"
+        if key != "name" or spec or conversion:
             raise click.BadParameter(
-                f"{pattern!r} has an unknown placeholder {field}: the only one is {{name}}, the view's name "
-                "(write a literal brace as {{ or }})",
+                f"{pattern!r} has an unknown placeholder {placeholder_text(key, spec, conversion)}: the only one is "
+                "{name}, the view's name (write a literal brace as {{ or }})",
                 param_hint="'-o'",
             )
-    if not any(key == "name" for key, _, _ in fields):
-        if len(views) > 1:
-            raise click.UsageError("with several views the output pattern needs {name}, e.g. -o 'out_{name}.mp4'")
+    if not fields and len(views) > 1:
+        raise click.UsageError("with several views the output pattern needs {name}, e.g. -o 'out_{name}.mp4'")
     return [Path(pattern.format(name=item.name)) for item in views]
 
 

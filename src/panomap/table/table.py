@@ -268,8 +268,10 @@ class PanoMappingTable:
             det = du[..., 0] * dv[..., 1] - dv[..., 0] * du[..., 1]
             with np.errstate(invalid="ignore", divide="ignore"):
                 step = np.stack(
-                    [(dv[..., 1] * f[..., 0] - dv[..., 0] * f[..., 1]) / det,
-                     (-du[..., 1] * f[..., 0] + du[..., 0] * f[..., 1]) / det],
+                    [
+                        (dv[..., 1] * f[..., 0] - dv[..., 0] * f[..., 1]) / det,
+                        (-du[..., 1] * f[..., 0] + du[..., 0] * f[..., 1]) / det,
+                    ],
                     axis=-1,
                 )
             q = np.where(np.isfinite(step), q - np.clip(step, -20.0, 20.0), q)
