@@ -134,10 +134,10 @@ def unwarp_video(
     report = VideoReport()
     started = time.perf_counter()
     live = is_live(source)
-    declared_end = None if live else declared_duration_s(current.container)
-    rate = frame_rate(current.container) if current.container.streams.video else 25.0
     try:
-        size = _check_input(current.container, table, source)
+        size = _check_input(current.container, table, source)  # (first: it refuses an input with no video)
+        declared_end = None if live else declared_duration_s(current.container)
+        rate = frame_rate(current.container)
         in_format = current.container.streams.video[0].codec_context.pix_fmt or "yuv420p"
         work = work_format(in_format, encoder.pix_fmt)
         sizes = [item.view.output_size(table) for item in outputs]
