@@ -34,21 +34,23 @@ sending) are closed, and so is one whose request has not arrived whole within
 
 from __future__ import annotations
 
-import ipaddress
-import json
-import math
 import threading
-from http import HTTPStatus
 from importlib import resources
-from typing import Any
 from urllib.parse import urlsplit
 
-from ..errors import PanomapError
-from ..io.http_server import IDLE_TIMEOUT_S, REQUEST_DEADLINE_S, BoundedHTTPServer, WholeRequestHandler
+from ..io.local_web import (
+    IDLE_TIMEOUT_S,
+    REQUEST_DEADLINE_S,
+    LocalHandler,
+    LocalServer,
+    RequestError,
+    bind,
+    is_loopback,
+    json_safe,
+    only_keys,
+)
 from .session import Session
-from .validate import MAX_BODY_BYTES, RequestError, only_keys, parse_body
-
-CONTENT_SECURITY_POLICY = "default-src 'self'; img-src 'self' blob: data:; frame-ancestors 'none'"
+from .validate import MAX_BODY_BYTES
 
 STATIC_FILES = {
     "/": ("index.html", "text/html; charset=utf-8"),
@@ -63,32 +65,7 @@ def static_file(name: str) -> bytes:
     return resources.files("panomap.learn").joinpath("static", name).read_bytes()
 
 
-def json_safe(data: Any) -> Any:
-    """``data`` with every non-finite float replaced by None (JSON has no NaN)."""
-    if isinstance(data, float):
-        return data if math.isfinite(data) else None
-    if isinstance(data, dict):
-        return {k: json_safe(v) for k, v in data.items()}
-    if isinstance(data, list | tuple):
-        return [json_safe(v) for v in data]
-    return data
-
-
-def is_loopback(host: str) -> bool:
-    """True for ``localhost`` and loopback addresses (127.0.0.0/8, ::1)."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
-
-
-def _host_text(host: str | bytes | bytearray) -> str:
-    return host if isinstance(host, str) else bytes(host).decode("ascii")
-
-
-class LearnServer(BoundedHTTPServer):
+class LearnServer(LocalServer):
     """An HTTP server holding the session it serves (:class:`~panomap.io.http_server.BoundedHTTPServer`:
     idle and slow connections hold no thread, a bounded pool answers whole requests, a request must
     arrive whole within ``request_deadline_s`` and a silent connection closes after ``idle_timeout_s``)."""
@@ -103,104 +80,12 @@ class LearnServer(BoundedHTTPServer):
         self.session = session
         super().__init__(address, LearnHandler, idle_timeout_s, request_deadline_s, max_body_bytes=MAX_BODY_BYTES)
 
-    @property
-    def url(self) -> str:
-        host, port = _host_text(self.server_address[0]), self.server_address[1]
-        shown = f"[{host}]" if ":" in host else host
-        return f"http://{shown}:{port}/"
 
-    def allowed_hosts(self) -> set[str] | None:
-        """Host headers accepted on a loopback server; None (any) when bound elsewhere."""
-        host, port = _host_text(self.server_address[0]), self.server_address[1]
-        if not is_loopback(host):
-            return None
-        names = {host, "localhost", "127.0.0.1", "[::1]", f"[{host}]"}
-        return {f"{name}:{port}" for name in names}
-
-
-class LearnHandler(WholeRequestHandler):
+class LearnHandler(LocalHandler):
     """Routes the page's requests to the session."""
 
     server: LearnServer
     server_version = "panomap-learn"
-
-    def log_message(self, format: str, *args: Any) -> None:
-        """Quiet: the terminal shows the address and errors, not every request."""
-
-    # ------------------------------------------------------------------ answers
-
-    def _send(self, status: int, body: bytes, content_type: str) -> None:
-        self.send_response(status)
-        self.send_header("Content-Type", content_type)
-        self.send_header("Content-Length", str(len(body)))
-        self.send_header("Cache-Control", "no-store")
-        self.send_header("X-Content-Type-Options", "nosniff")
-        self.send_header("Content-Security-Policy", CONTENT_SECURITY_POLICY)
-        self.send_header("X-Frame-Options", "DENY")
-        if self.close_connection:
-            self.send_header("Connection", "close")
-        self.end_headers()
-        if self.command != "HEAD":
-            self.wfile.write(body)
-
-    def _json(self, data: Any, status: int = 200) -> None:
-        try:
-            text = json.dumps(data, allow_nan=False)
-        except ValueError:  # a NaN or infinity somewhere in a report: JSON has none, send null
-            text = json.dumps(json_safe(data), allow_nan=False)
-        self._send(status, text.encode("utf-8"), "application/json")
-
-    def _error(self, status: int, message: str, extra: dict[str, Any] | None = None) -> None:
-        # The request's body may be unread: end the connection rather than parse it as the next request.
-        self.close_connection = True
-        self._json({"error": message} | (extra or {}), status)
-
-    def _guarded(self, action: Any) -> None:
-        try:
-            if not self._host_ok():
-                raise RequestError("this server answers only requests addressed to it by its loopback name", 403)
-            action()
-        except RequestError as exc:
-            self._error(exc.status, exc.detail, exc.extra)
-        except PanomapError as exc:
-            self._error(400, str(exc))
-        except Exception as exc:  # a bug: say so on the page and keep serving
-            self._error(500, f"internal error ({exc.__class__.__name__}: {exc})")
-            raise
-
-    def _host_ok(self) -> bool:
-        allowed = self.server.allowed_hosts()
-        return allowed is None or self.headers.get("Host", "") in allowed
-
-    def _check_origin(self) -> None:
-        """Refuse a state-changing request sent by another site's page (a browser says whose in ``Origin``).
-
-        Scripts (curl, urllib) send no ``Origin``: they are let through, as the
-        ``Host`` and ``Content-Type`` checks already bind them to this server.
-        """
-        origin = self.headers.get("Origin")
-        if origin is not None and origin != f"http://{self.headers.get('Host', '')}":
-            raise RequestError(f"refused a request sent from another site's page (Origin {origin[:80]})", 403)
-
-    # ------------------------------------------------------------------ methods
-
-    def do_GET(self) -> None:
-        self._guarded(self._get)
-
-    def do_HEAD(self) -> None:
-        self._guarded(self._get)
-
-    def do_POST(self) -> None:
-        self._guarded(self._post)
-
-    def do_PUT(self) -> None:
-        self._guarded(self._not_allowed)
-
-    do_DELETE = do_PATCH = do_PUT
-
-    def _not_allowed(self) -> None:
-        self._check_origin()
-        raise RequestError(f"{self.command} is not supported here", HTTPStatus.METHOD_NOT_ALLOWED)
 
     def _get(self) -> None:
         path = urlsplit(self.path).path
@@ -221,21 +106,7 @@ class LearnHandler(WholeRequestHandler):
         else:
             raise RequestError(f"no such page: {path}", 404)
 
-    def _body(self) -> dict[str, Any]:
-        content_type = self.headers.get("Content-Type", "").split(";")[0].strip().lower()
-        if content_type != "application/json":
-            raise RequestError("send the request as JSON (Content-Type: application/json)", 415)
-        try:
-            length = int(self.headers.get("Content-Length", ""))
-        except ValueError:
-            raise RequestError("the request has no Content-Length") from None
-        if length < 0 or length > MAX_BODY_BYTES:
-            self.close_connection = True
-            raise RequestError(f"the request is larger than {MAX_BODY_BYTES} bytes", 413)
-        return parse_body(self.rfile.read(length))
-
     def _post(self) -> None:
-        self._check_origin()
         path = urlsplit(self.path).path
         session = self.server.session
         routes = {"/api/state", "/api/landmarks/save", "/api/landmarks/load", "/api/table/save"}
@@ -274,18 +145,13 @@ def make_server(
     PanomapError
         When the address cannot be bound (the port is in use, the host is not this machine's).
     """
-    if host.startswith("[") and host.endswith("]"):  # an IPv6 address as written in a URL
-        host = host[1:-1]
-    try:
-        return LearnServer((host, port), session, idle_timeout_s, request_deadline_s)
-    except OSError as exc:
-        shown = f"[{host}]" if ":" in host else host
-        raise PanomapError(
-            f"cannot listen on {shown}:{port} ({exc.strerror or exc}); choose another --port (0 picks a free one)"
-        ) from None
+    return bind(lambda address: LearnServer(address, session, idle_timeout_s, request_deadline_s), host, port)
 
 
-def serve_in_thread(server: LearnServer) -> threading.Thread:
+__all__ = ["LearnServer", "is_loopback", "json_safe", "make_server", "serve_in_thread"]
+
+
+def serve_in_thread(server: LocalServer) -> threading.Thread:
     """Serve in a daemon thread (for tests and scripts); stop with ``server.shutdown()``."""
     thread = threading.Thread(target=server.serve_forever, args=(0.05,), name="panomap-learn", daemon=True)
     thread.start()

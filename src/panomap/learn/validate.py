@@ -11,10 +11,21 @@ import json
 import re
 from typing import Any
 
-from ..errors import PanomapError
+from ..io.local_web import MAX_BODY_BYTES, RequestError, only_keys, parse_body
 from ..values import NotFinite, TooLarge, finite_number
 
-MAX_BODY_BYTES = 1 << 20
+# (RequestError, parse_body and only_keys are the local web tools' own, io.local_web: used here and by the server.)
+__all__ = [
+    "MAX_BODY_BYTES",
+    "RequestError",
+    "file_name",
+    "finite",
+    "landmark_name",
+    "numbers",
+    "only_keys",
+    "parse_body",
+]
+
 MAX_LANDMARKS = 500
 MAX_NAME_LENGTH = 64
 # World coordinates beyond this are typing mistakes, not rooms.
@@ -23,46 +34,6 @@ MAX_WORLD_ABS = 1e6
 NAME_PATTERN = re.compile(r"[^,\"'\x00-\x1f\x7f]{1,64}")
 # A file name the page may save or load: a bare name in the server's folder.
 FILE_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
-
-
-class RequestError(PanomapError):
-    """A bad request, with the HTTP status to answer it with (400 by default) and more fields for its answer."""
-
-    def __init__(self, message: str, status: int = 400, extra: dict[str, Any] | None = None) -> None:
-        super().__init__(message)
-        self.status = status
-        # More fields of the error's JSON answer, for the page (``{"exists": name}``).
-        self.extra = extra or {}
-
-
-def _refuse_constant(name: str) -> Any:
-    raise RequestError(f"the JSON holds {name}; numbers must be finite")
-
-
-def parse_body(body: bytes) -> dict[str, Any]:
-    """A request body as a JSON object (refusing NaN and Infinity, which Python's json accepts)."""
-    if len(body) > MAX_BODY_BYTES:
-        raise RequestError(f"the request is larger than {MAX_BODY_BYTES} bytes", 413)
-    try:
-        data = json.loads(body.decode("utf-8"), parse_constant=_refuse_constant)
-    except UnicodeDecodeError:
-        raise RequestError("the request body is not UTF-8 text") from None
-    except json.JSONDecodeError as exc:
-        raise RequestError(f"the request body is not valid JSON ({exc})") from None
-    except RecursionError:
-        raise RequestError("the request body's JSON is nested too deeply") from None
-    except ValueError as exc:  # an integer of more digits than Python converts (4300)
-        raise RequestError(f"the request body holds a number too long to read ({exc})") from None
-    if not isinstance(data, dict):
-        raise RequestError("the request body must be a JSON object")
-    return data
-
-
-def only_keys(data: dict[str, Any], allowed: tuple[str, ...], what: str) -> None:
-    """Refuse keys the request does not know (a typo would otherwise be ignored)."""
-    unknown = sorted(set(data) - set(allowed))
-    if unknown:
-        raise RequestError(f"{what}: unknown field(s) {', '.join(unknown)}; it takes {', '.join(allowed)}")
 
 
 def finite(value: Any, what: str, limit: float | None = None) -> float:
