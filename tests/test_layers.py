@@ -2,7 +2,8 @@
 
 The order, lowest first (STYLE.md, habit 17: layers never climb):
 
-    errors, geometry, files < camera < table, remap < views < interop < calibrate < io < video < learn < batch < cli
+    errors, geometry, files < camera < table, remap < views < interop < calibrate < io < video
+    < learn, viewer < batch < cli
 
 A module may import its own layer and the ones below. ``simulate`` is the ground truth, outside
 the chain: it imports only ``errors`` and ``geometry``, and only the command line (the demo) uses
@@ -30,7 +31,7 @@ LAYERS = [
     {"calibrate"},
     {"io"},
     {"video"},
-    {"learn"},
+    {"learn", "viewer"},
     {"batch"},
     {"cli"},
 ]

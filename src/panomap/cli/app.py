@@ -23,12 +23,15 @@ from .interop import export, import_
 from .learn import learn
 from .points import project, unproject
 from .video import video
+from .viewer import view
 from .views import VIEW_COMMANDS
 
 # Every command, registered here and nowhere else.
 COMMANDS = (fit, centre, info, *VIEW_COMMANDS, project, unproject, video, batch, learn, demo)
 # Calibrations of other tools in and out (issue 36).
 COMMANDS += (import_, export)
+# The live viewer (issue 37).
+COMMANDS += (view,)
 
 
 # Click 8.2 raises this for a group called without a command (8.1 printed the help itself).

@@ -1,0 +1,261 @@
+"""The viewer's web server: the page, the table's texture, and the source (an image, a video file with
+range requests, or decoded frames).
+
+API (GET unless said; errors are ``{"error": "..."}`` with their status):
+
+- ``/api/info``: JSON ``{"table": {...}, "source": {...}}`` (:func:`~panomap.viewer.table_texture.table_description`;
+  the source's kind ``image``, ``video`` or ``live``, size, and for a video its MIME type where a browser
+  plays it itself, its length and frame rate).
+- ``/api/table.bin``: the table's entries as float32 texture data; ``/api/lookup.bin``: its direction
+  lookup (what the CLI's perspective and floor views read), where it has one.
+- ``/api/image``: a still image (PNG).
+- ``/api/video``: a video file, as it is, with HTTP range requests (at most :data:`MAX_RANGE_BYTES`
+  an answer: a browser asks for the rest).
+- ``/api/frame?after=K``: the newest decoded frame (JPEG) when its index is above K, waiting up to a
+  second for one; 204 when none came. Headers ``X-Frame-Index``, ``X-Frame-Time`` (s) and
+  ``X-Frame-Age`` (s since it was decoded).
+- ``/api/status``: the decoded frames' state (playing, paused, ended, reconnecting, failed) in words.
+- POST ``/api/playback`` ``{"paused": bool, "seek_s": s}`` (either): pause, play or seek a decoded file.
+
+Security as the learning page's (:mod:`panomap.io.local_web`): loopback by default, ``Host`` and
+``Origin`` checked, never framed, bounded connections and a deadline per request. Nothing is served
+but the page, the table and the one source given.
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+import time
+from importlib import resources
+from pathlib import Path
+from urllib.parse import parse_qs, urlsplit
+
+from ..io.local_web import (
+    IDLE_TIMEOUT_S,
+    REQUEST_DEADLINE_S,
+    LocalHandler,
+    LocalServer,
+    RequestError,
+    bind,
+    only_keys,
+)
+from ..table.table import PanoMappingTable
+from .feed import FrameFeed
+from .source import Source
+from .table_texture import lookup_texture, table_description, texture_bytes
+
+# The most bytes of a video one answer carries (a browser asks for the rest as it plays).
+MAX_RANGE_BYTES = 8 << 20
+# The longest wait (s) for a new frame within one request.
+MAX_FRAME_WAIT_S = 1.0
+CHUNK_BYTES = 1 << 20
+_RANGE = re.compile(r"^bytes=(\d*)-(\d*)$")
+
+STATIC_FILES = {
+    "/": ("index.html", "text/html; charset=utf-8"),
+    "/index.html": ("index.html", "text/html; charset=utf-8"),
+    "/static/viewer.js": ("viewer.js", "text/javascript; charset=utf-8"),
+    "/static/viewer.css": ("viewer.css", "text/css; charset=utf-8"),
+}
+
+
+def static_file(name: str) -> bytes:
+    """A front-end file shipped in ``panomap/viewer/static``."""
+    return resources.files("panomap.viewer").joinpath("static", name).read_bytes()
+
+
+def byte_range(header: str | None, size: int) -> tuple[int, int] | None:
+    """The (first, last) bytes, inclusive, that a ``Range`` header asks of a file of ``size`` bytes, at most
+    :data:`MAX_RANGE_BYTES` of them; None without a header.
+
+    Raises
+    ------
+    RequestError
+        416 for a range that is malformed, of several parts, or outside the file.
+    """
+    if header is None:
+        return None
+    match = _RANGE.match(header.strip())
+    if match is None or match.group(1) == match.group(2) == "":
+        raise RequestError(f"unsupported range {header[:60]!r} (one bytes=FIRST-LAST range)", 416)
+    first_text, last_text = match.groups()
+    if first_text == "":  # the last N bytes
+        first, last = max(0, size - int(last_text)), size - 1
+    else:
+        first = int(first_text)
+        last = size - 1 if last_text == "" else min(int(last_text), size - 1)
+    if first >= size or last < first:
+        raise RequestError(f"the range {header[:60]!r} lies outside the file ({size} bytes)", 416, {"size": size})
+    return first, min(last, first + MAX_RANGE_BYTES - 1)
+
+
+class ViewerServer(LocalServer):
+    """An HTTP server for one table and one source (see the module docstring)."""
+
+    def __init__(
+        self,
+        address: tuple[str, int],
+        table: PanoMappingTable,
+        table_name: str,
+        source: Source,
+        feed: FrameFeed | None = None,
+        idle_timeout_s: float = IDLE_TIMEOUT_S,
+        request_deadline_s: float = REQUEST_DEADLINE_S,
+    ) -> None:
+        self.table = table
+        self.source = source
+        self.info = {
+            "table": table_description(table) | {"name": table_name},
+            "source": {
+                "name": Path(source.name).name if source.kind != "live" else source.name,
+                "kind": source.kind,
+                "size": list(source.size),
+                "mime": source.mime,
+                "duration_s": source.duration_s,
+                "frame_rate": source.frame_rate,
+            },
+        }
+        self.table_bytes = texture_bytes(table)
+        lookup = lookup_texture(table)
+        self.lookup_bytes = None if lookup is None else lookup[0].astype("<f4", copy=False).tobytes()
+        self.info["table"]["lookup"] = None if lookup is None else lookup[1]
+        self.feed = feed if feed is not None else (FrameFeed(source) if source.kind != "image" else None)
+        super().__init__(address, ViewerHandler, idle_timeout_s, request_deadline_s)
+
+    def server_close(self) -> None:
+        super().server_close()
+        if self.feed is not None:
+            self.feed.close()
+
+
+class ViewerHandler(LocalHandler):
+    """Routes the page's requests (see the module docstring)."""
+
+    server: ViewerServer
+    server_version = "panomap-view"
+    content_security_policy = (
+        "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; frame-ancestors 'none'"
+    )
+
+    def _get(self) -> None:
+        parts = urlsplit(self.path)
+        path = parts.path
+        server = self.server
+        if path in STATIC_FILES:
+            name, content_type = STATIC_FILES[path]
+            self._send(200, static_file(name), content_type)
+        elif path == "/api/info":
+            self._json(server.info)
+        elif path == "/api/table.bin":
+            self._send(200, server.table_bytes, "application/octet-stream")
+        elif path == "/api/lookup.bin" and server.lookup_bytes is not None:
+            self._send(200, server.lookup_bytes, "application/octet-stream")
+        elif path == "/favicon.ico":
+            self._send(204, b"", "image/x-icon")
+        elif path == "/api/image" and server.source.image_png is not None:
+            self._send(200, server.source.image_png, "image/png")
+        elif path == "/api/video" and server.source.mime is not None:
+            self._video(server.source)
+        elif path == "/api/frame" and server.feed is not None:
+            self._frame(server.feed, parse_qs(parts.query))
+        elif path == "/api/status" and server.feed is not None:
+            status = server.feed.status()
+            self._json(
+                {
+                    "state": status.state,
+                    "message": status.message,
+                    "time_s": status.time_s,
+                    "index": status.index,
+                    "paused": status.paused,
+                }
+            )
+        elif path.startswith("/api/"):
+            raise RequestError(f"no such API for this source: GET {path[:200]}", 404)
+        else:
+            raise RequestError(f"no such page: {path[:200]}", 404)
+
+    def _post(self) -> None:
+        path = urlsplit(self.path).path
+        if path != "/api/playback":
+            raise RequestError(f"no such API: POST {path[:200]}", 404)
+        data = self._body()
+        only_keys(data, ("paused", "seek_s"), path)
+        feed = self.server.feed
+        if feed is None or self.server.source.kind != "video":
+            raise RequestError("only a video file's decoded frames can be paused or sought", 409)
+        paused, seek_s = data.get("paused"), data.get("seek_s")
+        if paused is not None and not isinstance(paused, bool):
+            raise RequestError(f"{path}: paused must be true or false")
+        if seek_s is not None and (isinstance(seek_s, bool) or not isinstance(seek_s, int | float) or seek_s < 0):
+            raise RequestError(f"{path}: seek_s must be a time of at least 0 s")
+        feed.control(paused, None if seek_s is None else float(seek_s))
+        self._json({"ok": True})
+
+    def _frame(self, feed: FrameFeed, query: dict[str, list[str]]) -> None:
+        try:
+            after = int(query.get("after", ["0"])[0])
+        except ValueError:
+            raise RequestError("after must be a whole number (the index of the frame the page has)") from None
+        frame = feed.frame_after(after, MAX_FRAME_WAIT_S)
+        if frame is None:
+            self.send_response(204)
+            self.send_header("X-Feed-State", feed.status().state)
+            self.send_common_headers("text/plain")
+            self.end_headers()
+            return
+        headers = {
+            "X-Frame-Index": str(frame.index),
+            "X-Frame-Time": f"{frame.time_s:.6f}",
+            "X-Frame-Age": f"{time.monotonic() - frame.decoded_at:.6f}",
+        }
+        self._send(200, frame.jpeg, "image/jpeg", headers)
+
+    def _video(self, source: Source) -> None:
+        path = source.path
+        assert path is not None and source.mime is not None
+        try:
+            file = open(path, "rb")
+        except OSError as exc:
+            raise RequestError(f"cannot read the video ({exc.strerror or exc})", 500) from None
+        with file:
+            size = file.seek(0, 2)
+            wanted = byte_range(self.headers.get("Range"), size)
+            first, last = wanted if wanted is not None else (0, size - 1)
+            self.send_response(206 if wanted is not None else 200)
+            self.send_header("Content-Length", str(last - first + 1))
+            self.send_header("Accept-Ranges", "bytes")
+            if wanted is not None:
+                self.send_header("Content-Range", f"bytes {first}-{last}/{size}")
+            self.send_common_headers(source.mime)
+            self.end_headers()
+            if self.command == "HEAD":
+                return
+            file.seek(first)
+            left = last - first + 1
+            while left > 0:
+                chunk = file.read(min(CHUNK_BYTES, left))
+                if not chunk:
+                    self.close_connection = True  # (the file shrank: the client sees a short answer)
+                    return
+                self.wfile.write(chunk)
+                left -= len(chunk)
+
+
+def make_server(
+    table: PanoMappingTable,
+    table_name: str,
+    source: Source,
+    host: str = "127.0.0.1",
+    port: int = 0,
+    feed: FrameFeed | None = None,
+) -> ViewerServer:
+    """A viewer server bound to ``host:port`` (0: a free port), not yet serving (:func:`~panomap.io.local_web.bind`)."""
+    return bind(lambda address: ViewerServer(address, table, table_name, source, feed), host, port)
+
+
+def serve_in_thread(server: ViewerServer) -> threading.Thread:
+    """Serve in a daemon thread (for tests and scripts); stop with ``server.shutdown()``."""
+    thread = threading.Thread(target=server.serve_forever, args=(0.05,), name="panomap-view", daemon=True)
+    thread.start()
+    return thread

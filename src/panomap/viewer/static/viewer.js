@@ -1,0 +1,750 @@
+// panomap view: unwarps the source through the pano-mapping table on the GPU (WebGL2), as the user drags.
+//
+// Every output pixel: its ray (the view's convention, docs/conventions.md) -> azimuth theta and
+// elevation rho -> the table's (u, v), read bilinearly by hand from the entries' float texture
+// (azimuth wraps, the last elevation cell continues the line through the last two entries, as
+// panomap's own sampling does) -> the source's colour, bilinear, sampled at ((u + 0.5) / width,
+// (v + 0.5) / height) (pixel centres at integers). No source: black, as the CLI's views.
+//
+// API for embedding and tests: window.panomapView (see docs/viewer.md).
+"use strict";
+
+(() => {
+  const DEG = Math.PI / 180;
+  const TWO_PI = 2 * Math.PI;
+  const STRIP_HEIGHT_RATIO = 0.25; // the strip's height, of the view's width
+  const MODES = ["perspective", "panorama", "floor"];
+  const MODE_CODE = { perspective: 0, panorama: 1, floor: 2 };
+
+  const VERTEX = `#version 300 es
+in vec2 corner;
+void main() { gl_Position = vec4(corner, 0.0, 1.0); }`;
+
+  // One program per kind of view (MODE 0 perspective, 1 panorama, 2 floor): no branch on the kind per pixel.
+  const FRAGMENT = `
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D table_entries;  // RGBA32F: texel (c, b*(N+1) + j) = entries (i, j) and (i, j+1), i = b*B + c
+uniform sampler2D source_image;   // the omni-image, RGBA8, linear, clamped to its edge
+uniform vec2 view_origin;         // the viewport's lower-left corner in the canvas (px, GL's y up)
+uniform vec2 view_size;           // W, H (px)
+uniform vec3 forward; uniform vec3 right_axis; uniform vec3 down_axis; uniform float focal;
+uniform float theta_start;        // panorama: azimuth at the left edge (rad)
+uniform vec4 floor_extent;        // floor: x_min, x_max, y_min, y_max (world)
+uniform float floor_z;
+uniform vec3 camera_position;
+uniform int table_m; uniform int table_n; uniform int block_width;
+uniform float rho_s; uniform float rho_e;
+uniform vec2 image_size;
+uniform float no_entry;
+uniform sampler2D lookup_texels;  // RGBA32F: texel (X, Y) = the lookup's (u, v) at (X, Y) and (X, Y + 1)
+uniform float lookup_pole; uniform float lookup_scale; uniform float lookup_centre; uniform int lookup_side;
+uniform vec2 sine_range;
+uniform int outline;              // panorama: dim what the perspective view (outline_*) does not see
+uniform vec3 outline_forward; uniform vec3 outline_right; uniform vec3 outline_down;
+uniform float outline_focal; uniform vec2 outline_size;
+out vec4 colour;
+
+const float TWO_PI = 6.283185307179586;
+
+void main() {
+  vec2 at = gl_FragCoord.xy - view_origin;             // (k + 0.5, H - l - 0.5)
+  float k5 = at.x, l5 = view_size.y - at.y;            // k + 0.5, l + 0.5
+  float theta, rho;
+#if MODE == 1
+  theta = theta_start - TWO_PI * k5 / view_size.x;
+  rho = rho_e - l5 / view_size.y * (rho_e - rho_s);
+  vec3 d = vec3(cos(rho) * cos(theta), cos(rho) * sin(theta), sin(rho));
+#else
+#if MODE == 0
+  vec3 d = forward + (k5 - 0.5 * view_size.x) / focal * right_axis + (l5 - 0.5 * view_size.y) / focal * down_axis;
+#else
+  vec3 d = vec3(floor_extent.x + k5 * (floor_extent.y - floor_extent.x) / view_size.x,
+                floor_extent.w - l5 * (floor_extent.w - floor_extent.z) / view_size.y, floor_z) - camera_position;
+#endif
+#endif
+#if LOOKUP
+  // The table's direction lookup (as panomap perspective and floor read it): no trigonometry per pixel.
+  float length_d = length(d);
+  vec2 at_lookup = lookup_centre + lookup_scale * d.xy / (length_d + lookup_pole * d.z);
+  float sine = d.z / length_d;
+  vec2 cell = floor(at_lookup), t = at_lookup - cell;
+  ivec2 texel = clamp(ivec2(cell), ivec2(0), ivec2(lookup_side - 2));
+  vec4 left = texelFetch(lookup_texels, texel, 0), right = texelFetch(lookup_texels, texel + ivec2(1, 0), 0);
+  bool seen = sine >= sine_range.x && sine <= sine_range.y && min(min(left.x, left.z), min(right.x, right.z)) > 0.5 * no_entry;
+  vec2 uv = mix(mix(left.xy, right.xy, t.x), mix(left.zw, right.zw, t.x), t.y);
+#else
+#if MODE != 1
+  theta = atan(d.y, d.x);
+  rho = atan(d.z, length(d.xy));
+#endif
+  theta = mod(theta, TWO_PI);
+  float fi = theta * float(table_m) / TWO_PI;
+  float fj = (rho - rho_s) * float(table_n) / (rho_e - rho_s);
+  float i_floor = floor(fi), j_floor = floor(fj);
+  float ti = fi - i_floor, tj = fj - j_floor;
+  int i0 = min(int(i_floor), table_m - 1);
+  int block = int((float(i0) + 0.5) / float(block_width));  // (an integer division by a uniform is slow on CPUs' GL)
+  ivec2 texel = ivec2(i0 - block * block_width, block * (table_n + 1) + clamp(int(j_floor), 0, table_n));
+  vec4 left = texelFetch(table_entries, texel, 0), right = texelFetch(table_entries, texel + ivec2(1, 0), 0);
+  bool seen = fj >= 0.0 && fj <= float(table_n) && min(min(left.x, left.z), min(right.x, right.z)) > 0.5 * no_entry;
+  vec2 uv = mix(mix(left.xy, right.xy, ti), mix(left.zw, right.zw, ti), tj);
+#endif
+  seen = seen && uv.x >= -0.5 && uv.y >= -0.5 && uv.x <= image_size.x - 0.5 && uv.y <= image_size.y - 0.5;
+  vec3 rgb = texture(source_image, (uv + 0.5) / image_size).rgb;
+#if MODE == 1
+  if (outline == 1) {
+    float depth = dot(d, outline_forward);
+    vec2 p = vec2(dot(d, outline_right), dot(d, outline_down)) / depth * outline_focal;
+    bool inside = depth > 0.0 && abs(p.x) <= 0.5 * outline_size.x && abs(p.y) <= 0.5 * outline_size.y;
+    rgb *= inside ? 1.0 : 0.4;
+  }
+#endif
+  colour = seen ? vec4(rgb, 1.0) : vec4(0.0, 0.0, 0.0, 1.0);
+}`;
+
+  const $ = (id) => document.getElementById(id);
+  const state = {
+    mode: "perspective",
+    yaw: 0, pitch: -30, roll: 0, fov: 90,
+    width: 960, height: 540,
+    panoramaStart: 0,       // deg, the panorama's left edge
+    floorCentre: null,      // [X, Y] world
+    floorHalf: null,        // half the floor map's height (world units)
+    strip: true,
+  };
+  const stats = { views: 0, drawMs: [], sourceFrames: 0, frameTime: null, latencyMs: [], dragToPictureMs: [] };
+  let gl = null, uniforms = {}, info = null;
+  const programs = {};
+  let sourceTexture = null, sourceReady = false, pendingInput = null;
+
+  function message(text) { $("message").textContent = text || ""; }
+  function sourceState(text) { $("source-state").textContent = text || ""; }
+
+  // ------------------------------------------------------------------ geometry (the CLI's conventions)
+
+  function perspectiveAxes(yawDeg, pitchDeg, rollDeg) {
+    const psi = yawDeg * DEG, tau = pitchDeg * DEG, omega = rollDeg * DEG;
+    const ct = Math.cos(tau), st = Math.sin(tau), cp = Math.cos(psi), sp = Math.sin(psi);
+    const forward = [ct * cp, ct * sp, st];
+    const right0 = [sp, -cp, 0];
+    const down0 = [st * cp, st * sp, -ct];
+    const co = Math.cos(omega), so = Math.sin(omega);
+    const right = right0.map((r, n) => co * r + so * down0[n]);
+    const down = down0.map((r, n) => co * r - so * right0[n]);
+    return { forward, right, down };
+  }
+
+  function focalPx(width, fovDeg) { return (width / 2) / Math.tan(fovDeg * DEG / 2); }
+
+  function floorDefaults() {
+    const [x0, y0, z0] = info.table.camera_position;
+    state.floorCentre = state.floorCentre || [x0, y0];
+    state.floorHalf = state.floorHalf || Math.max(Math.abs(z0) * 2, 1e-6);
+  }
+
+  function floorExtent() {
+    floorDefaults();
+    const aspect = state.width / state.height;
+    const [cx, cy] = state.floorCentre, h = state.floorHalf;
+    return [cx - h * aspect, cx + h * aspect, cy - h, cy + h];
+  }
+
+  function floorProblem() {
+    const t = info.table;
+    if (!t.camera_height_known) return "the table does not know the camera's height (fit it with --camera-height H)";
+    if (t.axis === "up") return "a camera looking up does not see the floor";
+    if (!(t.camera_position[2] > 0)) return "the camera is not above the floor Z = 0";
+    return null;
+  }
+
+  // ------------------------------------------------------------------ WebGL
+
+  function compile(type, text) {
+    const shader = gl.createShader(type);
+    gl.shaderSource(shader, text);
+    gl.compileShader(shader);
+    if (!gl.getShaderParameter(shader, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(shader));
+    return shader;
+  }
+
+  function makeProgram(mode) {
+    const program = gl.createProgram();
+    gl.attachShader(program, compile(gl.VERTEX_SHADER, VERTEX));
+    const lookup = mode !== "panorama" && info.table.lookup ? 1 : 0;
+    gl.attachShader(program, compile(gl.FRAGMENT_SHADER, `#version 300 es\n#define MODE ${MODE_CODE[mode]}\n#define LOOKUP ${lookup}\n` + FRAGMENT));
+    gl.bindAttribLocation(program, 0, "corner");
+    gl.linkProgram(program);
+    if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(program));
+    const locations = {};
+    const count = gl.getProgramParameter(program, gl.ACTIVE_UNIFORMS);
+    for (let n = 0; n < count; n++) {
+      const name = gl.getActiveUniform(program, n).name;
+      locations[name] = gl.getUniformLocation(program, name);
+    }
+    return { program, locations };
+  }
+
+  function setUpGl(canvas) {
+    gl = canvas.getContext("webgl2", { antialias: false, depth: false, stencil: false, preserveDrawingBuffer: false, premultipliedAlpha: false });
+    if (!gl) throw new Error("this browser has no WebGL2: the viewer needs it");
+    for (const mode of MODES) programs[mode] = makeProgram(mode);
+    const buffer = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 1, -1, -1, 1, 1, 1]), gl.STATIC_DRAW);
+    gl.enableVertexAttribArray(0);
+    gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
+    gl.pixelStorei(gl.UNPACK_COLORSPACE_CONVERSION_WEBGL, gl.NONE);
+    gl.pixelStorei(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL, false);
+    gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
+  }
+
+  // Switch to the program of ``mode``; its uniforms become ``uniforms``.
+  function use(mode) {
+    gl.useProgram(programs[mode].program);
+    uniforms = programs[mode].locations;
+  }
+
+  function floatTexture(unit, width, height, bytes) {
+    const texture = gl.createTexture();
+    gl.activeTexture(unit);
+    gl.bindTexture(gl.TEXTURE_2D, texture);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, width, height, 0, gl.RGBA, gl.FLOAT, new Float32Array(bytes));
+    for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, gl.NEAREST);
+    for (const p of [gl.TEXTURE_WRAP_S, gl.TEXTURE_WRAP_T]) gl.texParameteri(gl.TEXTURE_2D, p, gl.CLAMP_TO_EDGE);
+    return texture;
+  }
+
+  function uploadTable(bytes, lookupBytes) {
+    const t = info.table;
+    const most = gl.getParameter(gl.MAX_TEXTURE_SIZE);
+    if (t.texture_rows > most || t.texture_width > most) {
+      throw new Error(`the table needs a ${t.texture_width} x ${t.texture_rows} texture; this GPU takes at most ${most} a side (make a smaller table)`);
+    }
+    floatTexture(gl.TEXTURE0, t.texture_width, t.texture_rows, bytes);
+    if (t.lookup) floatTexture(gl.TEXTURE2, t.lookup.side, t.lookup.side, lookupBytes);
+    const size = info.source.size;
+    for (const mode of MODES) {
+      use(mode);
+      gl.uniform1i(uniforms.table_entries, 0);
+      gl.uniform1i(uniforms.source_image, 1);
+      gl.uniform1i(uniforms.table_m, t.M);
+      gl.uniform1i(uniforms.table_n, t.N);
+      gl.uniform1i(uniforms.block_width, t.block_width);
+      gl.uniform1f(uniforms.rho_s, t.rho_s);
+      gl.uniform1f(uniforms.rho_e, t.rho_e);
+      gl.uniform1f(uniforms.no_entry, t.no_entry);
+      gl.uniform2f(uniforms.image_size, size[0], size[1]);
+      if (uniforms.camera_position) gl.uniform3fv(uniforms.camera_position, t.camera_position);
+      if (t.lookup && mode !== "panorama") {
+        gl.uniform1i(uniforms.lookup_texels, 2);
+        gl.uniform1f(uniforms.lookup_pole, t.lookup.pole);
+        gl.uniform1f(uniforms.lookup_scale, t.lookup.scale);
+        gl.uniform1f(uniforms.lookup_centre, t.lookup.centre);
+        gl.uniform1i(uniforms.lookup_side, t.lookup.side);
+        gl.uniform2fv(uniforms.sine_range, t.lookup.sine_range);
+      }
+    }
+  }
+
+  function uploadSource(element) {
+    gl.activeTexture(gl.TEXTURE1);
+    if (!sourceTexture) {
+      sourceTexture = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, sourceTexture);
+      for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, gl.LINEAR);
+      for (const p of [gl.TEXTURE_WRAP_S, gl.TEXTURE_WRAP_T]) gl.texParameteri(gl.TEXTURE_2D, p, gl.CLAMP_TO_EDGE);
+    }
+    gl.bindTexture(gl.TEXTURE_2D, sourceTexture);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, element);
+    sourceReady = true;
+  }
+
+  function stripHeight() { return state.strip && state.mode === "perspective" ? Math.max(16, Math.round(state.width * STRIP_HEIGHT_RATIO)) : 0; }
+
+  function setPerspectiveUniforms(prefix, width, height) {
+    const axes = perspectiveAxes(state.yaw, state.pitch, state.roll);
+    gl.uniform3fv(uniforms[prefix + "forward"], axes.forward);
+    gl.uniform3fv(uniforms[prefix + (prefix ? "right" : "right_axis")], axes.right);
+    gl.uniform3fv(uniforms[prefix + (prefix ? "down" : "down_axis")], axes.down);
+    gl.uniform1f(uniforms[prefix + "focal"], focalPx(width, state.fov));
+    if (prefix) gl.uniform2f(uniforms.outline_size, width, height);
+  }
+
+  function drawPart(mode, x, y, width, height, withOutline) {
+    gl.viewport(x, y, width, height);
+    use(mode);
+    gl.uniform2f(uniforms.view_origin, x, y);
+    gl.uniform2f(uniforms.view_size, width, height);
+    if (mode === "panorama") gl.uniform1i(uniforms.outline, withOutline ? 1 : 0);
+    if (mode === "perspective") setPerspectiveUniforms("", width, height);
+    if (mode === "panorama") gl.uniform1f(uniforms.theta_start, (withOutline ? state.yaw + 180 : state.panoramaStart) * DEG);
+    if (mode === "floor") {
+      gl.uniform4fv(uniforms.floor_extent, floorExtent());
+      gl.uniform1f(uniforms.floor_z, 0);
+    }
+    if (withOutline) setPerspectiveUniforms("outline_", state.width, state.height);
+    gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
+  }
+
+  const one = new Uint8Array(4);
+
+  // Draw the view (and the strip below it) now; the GPU has finished when this returns.
+  function draw() {
+    if (!gl || !sourceReady) return false;
+    const started = performance.now();
+    const canvas = gl.canvas;
+    const strip = stripHeight();
+    const total = state.height + strip;
+    if (canvas.width !== state.width || canvas.height !== total) {
+      canvas.width = state.width;
+      canvas.height = total;
+    }
+    if (state.mode === "floor" && floorProblem()) {
+      gl.viewport(0, 0, canvas.width, canvas.height);
+      gl.clearColor(0, 0, 0, 1);
+      gl.clear(gl.COLOR_BUFFER_BIT);
+    } else {
+      drawPart(state.mode, 0, strip, state.width, state.height, false);
+    }
+    if (strip) drawPart("panorama", 0, 0, state.width, strip, true);
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, one); // waits for the GPU: the view is drawn
+    stats.views += 1;
+    stats.drawMs.push(performance.now() - started);
+    if (stats.drawMs.length > 1000) stats.drawMs.shift();
+    return true;
+  }
+
+  let drawQueued = false;
+  function requestDraw() {
+    if (drawQueued) return;
+    drawQueued = true;
+    requestAnimationFrame(() => {
+      drawQueued = false;
+      if (draw() && pendingInput !== null) {
+        stats.dragToPictureMs.push(performance.now() - pendingInput);
+        if (stats.dragToPictureMs.length > 1000) stats.dragToPictureMs.shift();
+        pendingInput = null;
+      }
+      showState();
+    });
+  }
+
+  function viewPixels() {
+    draw();
+    const strip = stripHeight();
+    const { width, height } = state;
+    const data = new Uint8Array(width * height * 4);
+    gl.readPixels(0, strip, width, height, gl.RGBA, gl.UNSIGNED_BYTE, data);
+    const out = document.createElement("canvas");
+    out.width = width;
+    out.height = height;
+    const context = out.getContext("2d");
+    const image = context.createImageData(width, height);
+    const row = width * 4;
+    for (let y = 0; y < height; y++) image.data.set(data.subarray((height - 1 - y) * row, (height - y) * row), y * row);
+    context.putImageData(image, 0, 0);
+    return out.toDataURL("image/png");
+  }
+
+  // ------------------------------------------------------------------ the view's state, the URL, the commands
+
+  function clampState() {
+    state.pitch = Math.max(-90, Math.min(90, state.pitch));
+    state.fov = Math.max(1, Math.min(179, state.fov));
+    state.yaw = ((state.yaw % 360) + 540) % 360 - 180;
+    state.roll = ((state.roll % 360) + 540) % 360 - 180;
+    state.width = Math.max(16, Math.min(4096, Math.round(state.width)));
+    state.height = Math.max(16, Math.min(4096, Math.round(state.height)));
+  }
+
+  const round = (x, digits = 1) => Number(x.toFixed(digits));
+
+  function hashText() {
+    const p = state.mode === "perspective"
+      ? { view: "perspective", yaw: round(state.yaw, 2), pitch: round(state.pitch, 2), roll: round(state.roll, 2), fov: round(state.fov, 2) }
+      : state.mode === "panorama" ? { view: "panorama", start: round(state.panoramaStart, 2) }
+        : { view: "floor", x: round(state.floorCentre[0], 3), y: round(state.floorCentre[1], 3), half: round(state.floorHalf, 3) };
+    p.width = state.width;
+    p.height = state.height;
+    return "#" + Object.entries(p).map(([k, v]) => `${k}=${v}`).join("&");
+  }
+
+  function readHash() {
+    const params = new URLSearchParams(location.hash.slice(1));
+    const number = (key) => {
+      const v = params.get(key);
+      return v !== null && v !== "" && Number.isFinite(Number(v)) ? Number(v) : null;
+    };
+    if (MODES.includes(params.get("view"))) state.mode = params.get("view");
+    for (const key of ["yaw", "pitch", "roll", "fov", "width", "height"]) {
+      const v = number(key);
+      if (v !== null) state[key] = v;
+    }
+    if (number("start") !== null) state.panoramaStart = number("start");
+    if (number("x") !== null && number("y") !== null) state.floorCentre = [number("x"), number("y")];
+    if (number("half") !== null && number("half") > 0) state.floorHalf = number("half");
+    clampState();
+  }
+
+  const quote = (text) => (/^[A-Za-z0-9_./:=@%+-]+$/.test(text) ? text : "'" + text.replace(/'/g, "'\\''") + "'");
+
+  function commands() {
+    const t = quote(info.table.name), s = quote(info.source.name);
+    const size = `${state.width}x${state.height}`;
+    if (state.mode === "perspective") {
+      const [y, p, r, f] = [state.yaw, state.pitch, state.roll, state.fov].map((x) => round(x, 2));
+      return {
+        command: `panomap perspective ${t} ${s} -o view.png --yaw ${y} --pitch ${p} --roll ${r} --fov ${f} --size ${size}`,
+        spec: `perspective:yaw=${y},pitch=${p},roll=${r},fov=${f},size=${size}`,
+      };
+    }
+    if (state.mode === "panorama") {
+      const start = round(state.panoramaStart, 2);
+      return { command: `panomap panorama ${t} ${s} -o pano.png --start ${start} --size ${size}`, spec: `panorama:start=${start},size=${size}` };
+    }
+    const [x0, x1, y0, y1] = floorExtent().map((x) => round(x, 3));
+    return {
+      command: `panomap floor ${t} ${s} -o floor.png --z 0 --x ${x0} ${x1} --y ${y0} ${y1} --size ${size}`,
+      spec: `floor:z=0,x=${x0}:${x1},y=${y0}:${y1},size=${size}`,
+    };
+  }
+
+  let hashTimer = null;
+  function showState() {
+    for (const key of ["yaw", "pitch", "roll", "fov", "width", "height"]) {
+      const input = $(key);
+      if (document.activeElement !== input) input.value = round(state[key], 2);
+    }
+    $("mode").value = state.mode;
+    document.querySelector(".fields").hidden = state.mode !== "perspective";
+    $("show-strip").checked = state.strip;
+    const c = commands();
+    $("command").textContent = c.command;
+    $("spec").textContent = c.spec;
+    message(state.mode === "floor" ? floorProblem() : "");
+    if (hashTimer === null) {
+      hashTimer = setTimeout(() => {
+        hashTimer = null;
+        const text = hashText();
+        if (location.hash !== text) history.replaceState(null, "", text);
+      }, 150);
+    }
+  }
+
+  function change(update) {
+    update();
+    clampState();
+    requestDraw();
+  }
+
+  // ------------------------------------------------------------------ input
+
+  function viewScale() {
+    const canvas = gl.canvas;
+    return canvas.width / canvas.getBoundingClientRect().width; // canvas px per CSS px
+  }
+
+  function setUpInput(canvas) {
+    const pointers = new Map();
+    let pinchStart = null;
+    canvas.addEventListener("pointerdown", (event) => {
+      canvas.setPointerCapture(event.pointerId);
+      pointers.set(event.pointerId, { x: event.clientX, y: event.clientY });
+      canvas.classList.add("dragging");
+      const rect = canvas.getBoundingClientRect();
+      const y = (event.clientY - rect.top) * viewScale();
+      if (pointers.size === 1 && y >= state.height && stripHeight()) {
+        // A click on the strip turns the view there.
+        const x = (event.clientX - rect.left) * viewScale();
+        const strip = stripHeight();
+        const t = info.table;
+        const theta = state.yaw + 180 - 360 * x / state.width;
+        const rho = (t.rho_e - (y - state.height) / strip * (t.rho_e - t.rho_s)) / DEG;
+        pendingInput = performance.now();
+        change(() => { state.yaw = theta; state.pitch = rho; });
+        pointers.delete(event.pointerId);
+      }
+      if (pointers.size === 2) {
+        const [a, b] = [...pointers.values()];
+        pinchStart = { distance: Math.hypot(a.x - b.x, a.y - b.y), fov: state.fov, half: state.floorHalf };
+      }
+    });
+    canvas.addEventListener("pointermove", (event) => {
+      const last = pointers.get(event.pointerId);
+      if (!last) return;
+      const dx = (event.clientX - last.x) * viewScale(), dy = (event.clientY - last.y) * viewScale();
+      pointers.set(event.pointerId, { x: event.clientX, y: event.clientY });
+      pendingInput = performance.now();
+      if (pointers.size === 2 && pinchStart) {
+        const [a, b] = [...pointers.values()];
+        const ratio = pinchStart.distance / Math.max(1, Math.hypot(a.x - b.x, a.y - b.y));
+        change(() => {
+          if (state.mode === "floor") state.floorHalf = pinchStart.half * ratio;
+          else state.fov = pinchStart.fov * ratio;
+        });
+        return;
+      }
+      change(() => {
+        if (state.mode === "perspective") {
+          const perPixel = 2 * Math.atan(Math.tan(state.fov * DEG / 2) / (state.width / 2)) / DEG; // deg per px at the centre
+          state.yaw += dx * perPixel;
+          state.pitch += dy * perPixel;
+        } else if (state.mode === "panorama") {
+          state.panoramaStart += dx * 360 / state.width;
+        } else {
+          const perPixel = 2 * state.floorHalf / state.height;
+          state.floorCentre = [state.floorCentre[0] - dx * perPixel, state.floorCentre[1] + dy * perPixel];
+        }
+      });
+    });
+    const end = (event) => {
+      pointers.delete(event.pointerId);
+      if (pointers.size < 2) pinchStart = null;
+      if (pointers.size === 0) canvas.classList.remove("dragging");
+    };
+    canvas.addEventListener("pointerup", end);
+    canvas.addEventListener("pointercancel", end);
+    canvas.addEventListener("wheel", (event) => {
+      event.preventDefault();
+      pendingInput = performance.now();
+      const factor = Math.exp(event.deltaY * 0.001);
+      change(() => {
+        if (state.mode === "floor") { floorDefaults(); state.floorHalf *= factor; } else state.fov *= factor;
+      });
+    }, { passive: false });
+    canvas.addEventListener("keydown", (event) => {
+      const steps = { ArrowLeft: ["yaw", 2], ArrowRight: ["yaw", -2], ArrowUp: ["pitch", 2], ArrowDown: ["pitch", -2], q: ["roll", -2], e: ["roll", 2] };
+      const key = event.key;
+      if (key in steps) {
+        const [name, by] = steps[key];
+        change(() => { state[name] += by; });
+      } else if (key === "+" || key === "=") change(() => { state.fov /= 1.1; });
+      else if (key === "-") change(() => { state.fov *= 1.1; });
+      else if (key === "0") change(() => { Object.assign(state, { yaw: 0, pitch: -30, roll: 0, fov: 90 }); });
+      else return;
+      event.preventDefault();
+    });
+    for (const key of ["yaw", "pitch", "roll", "fov", "width", "height"]) {
+      $(key).addEventListener("change", () => {
+        const v = Number($(key).value);
+        if (Number.isFinite(v)) change(() => { state[key] = v; });
+      });
+    }
+    $("mode").addEventListener("change", () => change(() => { state.mode = $("mode").value; }));
+    $("show-strip").addEventListener("change", () => change(() => { state.strip = $("show-strip").checked; }));
+    window.addEventListener("hashchange", () => { readHash(); requestDraw(); });
+  }
+
+  // ------------------------------------------------------------------ the source
+
+  function loadImage(url) {
+    return fetch(url).then((r) => {
+      if (!r.ok) throw new Error(`the image did not load (HTTP ${r.status})`);
+      return r.blob();
+    }).then((blob) => createImageBitmap(blob, { colorSpaceConversion: "none", premultiplyAlpha: "none" }));
+  }
+
+  function formatTime(s) {
+    if (s === null || s === undefined || !Number.isFinite(s)) return "";
+    const m = Math.floor(s / 60);
+    return `${m}:${(s - 60 * m).toFixed(2).padStart(5, "0")}`;
+  }
+
+  function showTime(seconds) {
+    stats.frameTime = seconds;
+    const d = info.source.duration_s;
+    $("time").textContent = formatTime(seconds) + (d ? " / " + formatTime(d) : "");
+    if (d && document.activeElement !== $("seek")) $("seek").value = seconds / d;
+  }
+
+  function noteFrame(latencyMs) {
+    stats.sourceFrames += 1;
+    if (latencyMs !== null) {
+      stats.latencyMs.push(latencyMs);
+      if (stats.latencyMs.length > 1000) stats.latencyMs.shift();
+    }
+  }
+
+  // A file the browser plays: frames go up as the video element presents them.
+  function playInBrowser() {
+    return new Promise((resolve, reject) => {
+      const video = $("video");
+      let started = false;
+      const onFrame = (now, metadata) => {
+        uploadSource(video);
+        if (draw()) noteFrame(null);
+        showTime(metadata.mediaTime);
+        if (!started) { started = true; resolve(true); }
+        video.requestVideoFrameCallback(onFrame);
+      };
+      video.addEventListener("error", () => (started ? message("the video stopped playing") : reject(new Error("the browser cannot play it"))), { once: true });
+      video.requestVideoFrameCallback(onFrame);
+      video.loop = false;
+      video.src = "/api/video";
+      video.play().catch(reject);
+      $("playback").hidden = false;
+      $("play").onclick = () => { if (video.paused) video.play(); else video.pause(); };
+      video.addEventListener("play", () => { $("play").textContent = "Pause"; });
+      video.addEventListener("pause", () => { $("play").textContent = "Play"; });
+      $("seek").oninput = () => { if (info.source.duration_s) video.currentTime = Number($("seek").value) * info.source.duration_s; };
+    });
+  }
+
+  // Anything else: frames decoded by the server, one request per frame ("the one after the frame I have").
+  async function playFromServer() {
+    const live = info.source.kind === "live";
+    $("playback").hidden = live;
+    let paused = false;
+    if (!live) {
+      $("play").onclick = async () => {
+        paused = !paused;
+        $("play").textContent = paused ? "Play" : "Pause";
+        await post("/api/playback", { paused });
+      };
+      $("seek").oninput = () => post("/api/playback", { seek_s: Number($("seek").value) * (info.source.duration_s || 0) });
+    }
+    let index = 0;
+    let lastStatus = 0;
+    for (;;) {
+      let response;
+      try {
+        response = await fetch(`/api/frame?after=${index}`, { cache: "no-store" });
+      } catch (error) {
+        sourceState("the viewer's server does not answer (stopped?)");
+        await new Promise((r) => setTimeout(r, 1000));
+        continue;
+      }
+      if (response.status === 200) {
+        const received = performance.now();
+        index = Number(response.headers.get("X-Frame-Index"));
+        const age = Number(response.headers.get("X-Frame-Age")) * 1000;
+        const bitmap = await createImageBitmap(await response.blob(), { colorSpaceConversion: "none", premultiplyAlpha: "none" });
+        uploadSource(bitmap);
+        bitmap.close();
+        if (draw()) noteFrame(age + (performance.now() - received));
+        showTime(Number(response.headers.get("X-Frame-Time")));
+        if (live) sourceState("");
+      } else if (response.status !== 204) {
+        const body = await response.json().catch(() => ({}));
+        sourceState(body.error || `frames stopped (HTTP ${response.status})`);
+        await new Promise((r) => setTimeout(r, 1000));
+      }
+      if (response.status === 204 || performance.now() - lastStatus > 2000) {
+        lastStatus = performance.now();
+        const status = await fetch("/api/status").then((r) => r.json()).catch(() => null);
+        if (status && ["reconnecting", "failed", "ended"].includes(status.state)) sourceState(status.message);
+        else if (status && status.state !== "paused") sourceState("");
+      }
+    }
+  }
+
+  function post(url, body) {
+    return fetch(url, { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body) })
+      .then((r) => r.json()).then((answer) => { if (answer.error) message(answer.error); return answer; });
+  }
+
+  async function startSource() {
+    const source = info.source;
+    if (source.kind === "image") {
+      uploadSource(await loadImage("/api/image"));
+      return;
+    }
+    if (source.kind === "video" && source.mime && $("video").canPlayType(source.mime)) {
+      try {
+        await playInBrowser();
+        stats.decodedBy = "browser";
+        return;
+      } catch (error) {
+        $("video").removeAttribute("src");
+        sourceState(`the browser cannot play it (${error.message}); the server decodes it instead`);
+      }
+    }
+    stats.decodedBy = "server";
+    playFromServer();
+    // The first frame: resolve once it is up.
+    while (!sourceReady) await new Promise((r) => setTimeout(r, 20));
+  }
+
+  // ------------------------------------------------------------------ the API
+
+  function setView(view) {
+    return new Promise((resolve, reject) => {
+      try {
+        const known = ["yaw", "pitch", "roll", "fov", "width", "height", "mode", "strip", "start"];
+        for (const key of Object.keys(view)) if (!known.includes(key)) throw new Error(`set: unknown key ${key}`);
+        for (const key of ["yaw", "pitch", "roll", "fov", "width", "height"]) {
+          if (key in view) {
+            if (!Number.isFinite(view[key])) throw new Error(`set: ${key} must be a finite number`);
+            state[key] = view[key];
+          }
+        }
+        if ("mode" in view) {
+          if (!MODES.includes(view.mode)) throw new Error(`set: mode must be one of ${MODES.join(", ")}`);
+          state.mode = view.mode;
+        }
+        if ("start" in view) state.panoramaStart = view.start;
+        if ("strip" in view) state.strip = Boolean(view.strip);
+        clampState();
+        draw();
+        showState();
+        resolve({ ...state });
+      } catch (error) {
+        reject(error);
+      }
+    });
+  }
+
+  function summary(values) {
+    if (!values.length) return null;
+    const sorted = [...values].sort((a, b) => a - b);
+    const at = (q) => sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))];
+    return { count: values.length, mean: values.reduce((a, b) => a + b, 0) / values.length, median: at(0.5), p90: at(0.9), max: sorted[sorted.length - 1] };
+  }
+
+  window.panomapView = {
+    set: setView,
+    get: () => ({ ...state }),
+    pixels: () => new Promise((resolve, reject) => { try { resolve(viewPixels()); } catch (error) { reject(error); } }),
+    stats: () => ({
+      views: stats.views,
+      drawMs: summary(stats.drawMs),
+      sourceFrames: stats.sourceFrames,
+      frameTime: stats.frameTime,
+      latencyMs: summary(stats.latencyMs),
+      dragToPictureMs: summary(stats.dragToPictureMs),
+      decodedBy: stats.decodedBy || (info && info.source.kind === "image" ? "image" : null),
+    }),
+    commands: () => commands(),
+  };
+
+  // ------------------------------------------------------------------ start
+
+  async function start() {
+    try {
+      info = await fetch("/api/info").then((r) => r.json());
+      $("names").textContent = `${info.table.name} \u00b7 ${info.source.name}`;
+      readHash();
+      const canvas = $("canvas");
+      setUpGl(canvas);
+      const binary = (url) => fetch(url).then((r) => {
+        if (!r.ok) throw new Error(`the table did not load (HTTP ${r.status})`);
+        return r.arrayBuffer();
+      });
+      uploadTable(await binary("/api/table.bin"), info.table.lookup ? await binary("/api/lookup.bin") : null);
+      setUpInput(canvas);
+      await startSource();
+      draw();
+      showState();
+      document.body.dataset.ready = "yes";
+    } catch (error) {
+      message(String(error.message || error));
+      document.body.dataset.ready = "failed";
+    }
+  }
+
+  start();
+})();
