@@ -8,10 +8,15 @@ what runs that code on it (making ``Landmarks``, fitting, building tables) is he
 
 from __future__ import annotations
 
+import socket
+import subprocess
+import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import cv2
+import imageio_ffmpeg
 import numpy as np
 from click.testing import CliRunner, Result
 from numpy.typing import NDArray
@@ -224,3 +229,49 @@ def assert_map_sees_like_the_camera(map_uv: np.ndarray, camera: SimulatedCamera,
     assert np.count_nonzero(seen != mapped) <= 2 * sum(map_uv.shape[:2]), np.count_nonzero(seen != mapped)
     both = seen & mapped
     assert_view_errors_within(np.linalg.norm(map_uv[both] - truth[both], axis=-1), camera.name)
+
+
+LIMIT_S = 20.0  # the limit on every wait for an event
+
+
+def wait_until(condition: Callable[[], bool], what: str, limit_s: float = LIMIT_S) -> None:
+    deadline = time.monotonic() + limit_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"waited {limit_s} s for {what}")
+        time.sleep(0.02)
+
+
+class StreamServer:
+    """ffmpeg serving ``clip`` as MPEG-TS in real time over TCP to one client at a time (started by ``start``)."""
+
+    def __init__(self, clip: Path) -> None:
+        self.clip = clip
+        with socket.socket() as probe:
+            probe.bind(("127.0.0.1", 0))
+            self.port = probe.getsockname()[1]
+        self.url = f"tcp://127.0.0.1:{self.port}"
+        self.process: subprocess.Popen[bytes] | None = None
+
+    def start(self, wait: bool = True) -> None:
+        """Start ffmpeg; with ``wait``, return once it listens (it serves the first client only: no probing)."""
+        command = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-loglevel", "error", "-nostdin", "-re"]
+        command += ["-i", str(self.clip), "-c", "copy", "-f", "mpegts", f"{self.url}?listen=1"]
+        self.process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        if wait:
+            wait_until(self.listening, "the server to listen")
+
+    def listening(self) -> bool:
+        """True while a socket listens on the port (read from /proc/net/tcp: state 0A)."""
+        assert self.process is not None
+        if self.process.poll() is not None:
+            raise AssertionError(f"the server ended (exit code {self.process.returncode})")
+        wanted = f"0100007F:{self.port:04X}"
+        lines = Path("/proc/net/tcp").read_text().splitlines()[1:]
+        return any(line.split()[1] == wanted and line.split()[3] == "0A" for line in lines)
+
+    def kill(self) -> None:
+        """Kill it (SIGKILL): the connection ends as it does when a camera or a network goes away."""
+        if self.process is not None and self.process.poll() is None:
+            self.process.kill()
+            self.process.wait(timeout=LIMIT_S)

@@ -9,7 +9,6 @@ a time limit; no test waits a fixed time or counts on a number of frames arrivin
 from __future__ import annotations
 
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -19,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 import av
-import imageio_ffmpeg
 import numpy as np
 import pytest
 
@@ -32,7 +30,7 @@ from panomap.video.report import Gap, VideoReport
 from panomap.video.unwarp import ViewOutput, unwarp_video
 from panomap.views import GenericPanorama
 
-from helpers import assert_one_line_error, learn_table, run, spread_landmarks
+from helpers import LIMIT_S, StreamServer, assert_one_line_error, learn_table, run, spread_landmarks, wait_until
 
 SIZE = (160, 160)
 RATE = 25
@@ -43,16 +41,7 @@ PANORAMA = "panorama:size=160x40"
 LARGE_FRAMES = ["--crf", "0", "--preset", "ultrafast"]
 # The test's own backoff: quick waits, and enough attempts to outlast a server's restart.
 QUICK = Reconnect(attempts=40, first_wait_s=0.1, max_wait_s=0.2, timeout_s=5.0)
-LIMIT_S = 20.0  # the limit on every wait for an event
 OUTAGE_S = 1.0  # how long the server stays down in the reconnect test
-
-
-def wait_until(condition: Callable[[], bool], what: str, limit_s: float = LIMIT_S) -> None:
-    deadline = time.monotonic() + limit_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"waited {limit_s} s for {what}")
-        time.sleep(0.02)
 
 
 def frame_count(path: Path) -> int:
@@ -72,41 +61,6 @@ def growing(folder: Path, name: str, size: int = 2000) -> Callable[[], bool]:
         return any(p.stat().st_size > size for p in folder.glob(f".{name}.*part*"))
 
     return check
-
-
-class StreamServer:
-    """ffmpeg serving ``clip`` as MPEG-TS in real time over TCP to one client at a time (started by ``start``)."""
-
-    def __init__(self, clip: Path) -> None:
-        self.clip = clip
-        with socket.socket() as probe:
-            probe.bind(("127.0.0.1", 0))
-            self.port = probe.getsockname()[1]
-        self.url = f"tcp://127.0.0.1:{self.port}"
-        self.process: subprocess.Popen[bytes] | None = None
-
-    def start(self, wait: bool = True) -> None:
-        """Start ffmpeg; with ``wait``, return once it listens (it serves the first client only: no probing)."""
-        command = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-loglevel", "error", "-nostdin", "-re"]
-        command += ["-i", str(self.clip), "-c", "copy", "-f", "mpegts", f"{self.url}?listen=1"]
-        self.process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        if wait:
-            wait_until(self.listening, "the server to listen")
-
-    def listening(self) -> bool:
-        """True while a socket listens on the port (read from /proc/net/tcp: state 0A)."""
-        assert self.process is not None
-        if self.process.poll() is not None:
-            raise AssertionError(f"the server ended (exit code {self.process.returncode})")
-        wanted = f"0100007F:{self.port:04X}"
-        lines = Path("/proc/net/tcp").read_text().splitlines()[1:]
-        return any(line.split()[1] == wanted and line.split()[3] == "0A" for line in lines)
-
-    def kill(self) -> None:
-        """Kill it (SIGKILL): the connection ends as it does when a camera or a network goes away."""
-        if self.process is not None and self.process.poll() is None:
-            self.process.kill()
-            self.process.wait(timeout=LIMIT_S)
 
 
 @pytest.fixture(scope="module")

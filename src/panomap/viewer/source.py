@@ -79,6 +79,8 @@ def open_source(name: str) -> Source:
         Naming the input, when it is neither an image nor a video, or cannot be opened.
     """
     if not is_live(name):
+        if not Path(name).is_file():
+            raise PanomapError("no such file" if not Path(name).exists() else "not a file", name)
         try:
             image = display_image(read_image(name))
         except PanomapError as exc:

@@ -26,7 +26,10 @@ precision highp float;
 precision highp int;
 precision highp sampler2D;
 uniform sampler2D table_entries;  // RGBA32F: texel (c, b*(N+1) + j) = entries (i, j) and (i, j+1), i = b*B + c
-uniform sampler2D source_image;   // the omni-image, RGBA8, linear, clamped to its edge
+uniform sampler2D source_image;   // the omni-image, RGBA8 (or a video frame's Y plane), linear, clamped to its edge
+uniform sampler2D plane_u;        // a video frame's U plane (NV12: U and V interleaved)
+uniform sampler2D plane_v;        // ... and V plane (I420)
+uniform mat3 yuv_to_rgb; uniform vec3 yuv_offset;
 uniform vec2 view_origin;         // the viewport's lower-left corner in the canvas (px, GL's y up)
 uniform vec2 view_size;           // W, H (px)
 uniform vec3 forward; uniform vec3 right_axis; uniform vec3 down_axis; uniform float focal;
@@ -92,7 +95,17 @@ void main() {
   vec2 uv = mix(mix(left.xy, right.xy, ti), mix(left.zw, right.zw, ti), tj);
 #endif
   seen = seen && uv.x >= -0.5 && uv.y >= -0.5 && uv.x <= image_size.x - 0.5 && uv.y <= image_size.y - 0.5;
-  vec3 rgb = texture(source_image, (uv + 0.5) / image_size).rgb;
+  vec2 at_source = (uv + 0.5) / image_size;
+#if PLANES == 0
+  vec3 rgb = texture(source_image, at_source).rgb;
+#else
+#if PLANES == 2
+  vec3 yuv = vec3(texture(source_image, at_source).r, texture(plane_u, at_source).rg);
+#else
+  vec3 yuv = vec3(texture(source_image, at_source).r, texture(plane_u, at_source).r, texture(plane_v, at_source).r);
+#endif
+  vec3 rgb = clamp(yuv_to_rgb * yuv + yuv_offset, 0.0, 1.0);
+#endif
 #if MODE == 1
   if (outline == 1) {
     float depth = dot(d, outline_forward);
@@ -117,7 +130,8 @@ void main() {
   const stats = { views: 0, drawMs: [], sourceFrames: 0, frameTime: null, latencyMs: [], dragToPictureMs: [] };
   let gl = null, uniforms = {}, info = null;
   const programs = {};
-  let sourceTexture = null, sourceReady = false, pendingInput = null;
+  const sourceTextures = {};
+  let sourceReady = false, sourcePlanes = 0, yuvMatrix = null, frameBuffer = null, pendingInput = null;
 
   function message(text) { $("message").textContent = text || ""; }
   function sourceState(text) { $("source-state").textContent = text || ""; }
@@ -169,11 +183,14 @@ void main() {
     return shader;
   }
 
-  function makeProgram(mode) {
+  // A program per kind of view and kind of source picture (PLANES 0: RGBA; 2: NV12, Y and interleaved UV;
+  // 3: I420, Y, U and V), made on first use with every uniform that does not change from view to view.
+  function makeProgram(mode, planes) {
     const program = gl.createProgram();
     gl.attachShader(program, compile(gl.VERTEX_SHADER, VERTEX));
     const lookup = mode !== "panorama" && info.table.lookup ? 1 : 0;
-    gl.attachShader(program, compile(gl.FRAGMENT_SHADER, `#version 300 es\n#define MODE ${MODE_CODE[mode]}\n#define LOOKUP ${lookup}\n` + FRAGMENT));
+    const defines = `#version 300 es\n#define MODE ${MODE_CODE[mode]}\n#define LOOKUP ${lookup}\n#define PLANES ${planes}\n`;
+    gl.attachShader(program, compile(gl.FRAGMENT_SHADER, defines + FRAGMENT));
     gl.bindAttribLocation(program, 0, "corner");
     gl.linkProgram(program);
     if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(program));
@@ -183,13 +200,35 @@ void main() {
       const name = gl.getActiveUniform(program, n).name;
       locations[name] = gl.getUniformLocation(program, name);
     }
+    gl.useProgram(program);
+    uniforms = locations;
+    const t = info.table, size = info.source.size;
+    gl.uniform1i(uniforms.table_entries, 0);
+    gl.uniform1i(uniforms.source_image, 1);
+    gl.uniform1i(uniforms.lookup_texels, 2);
+    gl.uniform1i(uniforms.plane_u, 3);
+    gl.uniform1i(uniforms.plane_v, 4);
+    gl.uniform1i(uniforms.table_m, t.M);
+    gl.uniform1i(uniforms.table_n, t.N);
+    gl.uniform1i(uniforms.block_width, t.block_width);
+    gl.uniform1f(uniforms.rho_s, t.rho_s);
+    gl.uniform1f(uniforms.rho_e, t.rho_e);
+    gl.uniform1f(uniforms.no_entry, t.no_entry);
+    gl.uniform2f(uniforms.image_size, size[0], size[1]);
+    gl.uniform3fv(uniforms.camera_position, t.camera_position);
+    if (lookup) {
+      gl.uniform1f(uniforms.lookup_pole, t.lookup.pole);
+      gl.uniform1f(uniforms.lookup_scale, t.lookup.scale);
+      gl.uniform1f(uniforms.lookup_centre, t.lookup.centre);
+      gl.uniform1i(uniforms.lookup_side, t.lookup.side);
+      gl.uniform2fv(uniforms.sine_range, t.lookup.sine_range);
+    }
     return { program, locations };
   }
 
   function setUpGl(canvas) {
     gl = canvas.getContext("webgl2", { antialias: false, depth: false, stencil: false, preserveDrawingBuffer: false, premultipliedAlpha: false });
     if (!gl) throw new Error("this browser has no WebGL2: the viewer needs it");
-    for (const mode of MODES) programs[mode] = makeProgram(mode);
     const buffer = gl.createBuffer();
     gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
     gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 1, -1, -1, 1, 1, 1]), gl.STATIC_DRAW);
@@ -200,10 +239,16 @@ void main() {
     gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
   }
 
-  // Switch to the program of ``mode``; its uniforms become ``uniforms``.
+  // Switch to the program of ``mode`` for the source's planes; its uniforms become ``uniforms``.
   function use(mode) {
-    gl.useProgram(programs[mode].program);
-    uniforms = programs[mode].locations;
+    const key = `${mode}/${sourcePlanes}`;
+    if (!programs[key]) programs[key] = makeProgram(mode, sourcePlanes);
+    gl.useProgram(programs[key].program);
+    uniforms = programs[key].locations;
+    if (sourcePlanes) {
+      gl.uniformMatrix3fv(uniforms.yuv_to_rgb, false, yuvMatrix.matrix);
+      gl.uniform3fv(uniforms.yuv_offset, yuvMatrix.offset);
+    }
   }
 
   function floatTexture(unit, width, height, bytes) {
@@ -220,46 +265,81 @@ void main() {
   function uploadTable(bytes, lookupBytes) {
     const t = info.table;
     const most = gl.getParameter(gl.MAX_TEXTURE_SIZE);
-    if (t.texture_rows > most || t.texture_width > most) {
-      throw new Error(`the table needs a ${t.texture_width} x ${t.texture_rows} texture; this GPU takes at most ${most} a side (make a smaller table)`);
+    const side = t.lookup ? t.lookup.side : 0;
+    if (Math.max(t.texture_rows, t.texture_width, side) > most) {
+      throw new Error(`the table needs a texture of ${Math.max(t.texture_rows, t.texture_width, side)} texels a side; this GPU takes at most ${most} (make a smaller table)`);
     }
     floatTexture(gl.TEXTURE0, t.texture_width, t.texture_rows, bytes);
-    if (t.lookup) floatTexture(gl.TEXTURE2, t.lookup.side, t.lookup.side, lookupBytes);
-    const size = info.source.size;
-    for (const mode of MODES) {
-      use(mode);
-      gl.uniform1i(uniforms.table_entries, 0);
-      gl.uniform1i(uniforms.source_image, 1);
-      gl.uniform1i(uniforms.table_m, t.M);
-      gl.uniform1i(uniforms.table_n, t.N);
-      gl.uniform1i(uniforms.block_width, t.block_width);
-      gl.uniform1f(uniforms.rho_s, t.rho_s);
-      gl.uniform1f(uniforms.rho_e, t.rho_e);
-      gl.uniform1f(uniforms.no_entry, t.no_entry);
-      gl.uniform2f(uniforms.image_size, size[0], size[1]);
-      if (uniforms.camera_position) gl.uniform3fv(uniforms.camera_position, t.camera_position);
-      if (t.lookup && mode !== "panorama") {
-        gl.uniform1i(uniforms.lookup_texels, 2);
-        gl.uniform1f(uniforms.lookup_pole, t.lookup.pole);
-        gl.uniform1f(uniforms.lookup_scale, t.lookup.scale);
-        gl.uniform1f(uniforms.lookup_centre, t.lookup.centre);
-        gl.uniform1i(uniforms.lookup_side, t.lookup.side);
-        gl.uniform2fv(uniforms.sine_range, t.lookup.sine_range);
-      }
-    }
+    if (t.lookup) floatTexture(gl.TEXTURE2, side, side, lookupBytes);
   }
 
-  function uploadSource(element) {
-    gl.activeTexture(gl.TEXTURE1);
-    if (!sourceTexture) {
-      sourceTexture = gl.createTexture();
-      gl.bindTexture(gl.TEXTURE_2D, sourceTexture);
+  // A texture on ``unit`` for the source's pictures, linear and clamped to its edge (made once per unit).
+  function sourceTextureOn(unit) {
+    gl.activeTexture(gl.TEXTURE0 + unit);
+    if (!sourceTextures[unit]) {
+      sourceTextures[unit] = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, sourceTextures[unit]);
       for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, gl.LINEAR);
       for (const p of [gl.TEXTURE_WRAP_S, gl.TEXTURE_WRAP_T]) gl.texParameteri(gl.TEXTURE_2D, p, gl.CLAMP_TO_EDGE);
     }
-    gl.bindTexture(gl.TEXTURE_2D, sourceTexture);
+    gl.bindTexture(gl.TEXTURE_2D, sourceTextures[unit]);
+  }
+
+  // An image, bitmap or video element: one RGBA picture.
+  function uploadSource(element) {
+    sourceTextureOn(1);
     gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
+    gl.pixelStorei(gl.UNPACK_ROW_LENGTH, 0);
     gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, element);
+    sourcePlanes = 0;
+    sourceReady = true;
+  }
+
+  // The YUV -> RGB matrix and offset of a video frame's colour space (BT.709 or BT.601, limited or full range).
+  function yuvConversion(colorSpace) {
+    const bt709 = colorSpace && colorSpace.matrix === "bt709";
+    const full = Boolean(colorSpace && colorSpace.fullRange);
+    const [kr, kb] = bt709 ? [0.2126, 0.0722] : [0.299, 0.114];
+    const kg = 1 - kr - kb;
+    const ys = full ? 1 : 255 / 219, cs = full ? 1 : 255 / 224;
+    const y0 = full ? 0 : 16 / 255;
+    // R = Y + 2(1-kr) V, B = Y + 2(1-kb) U, G = (Y - kr R - kb B) / kg; U, V centred on 0.5.
+    const rv = 2 * (1 - kr) * cs, bu = 2 * (1 - kb) * cs;
+    const gu = -kb * bu / kg, gv = -kr * rv / kg;
+    // Column-major mat3: columns are Y, U, V.
+    const matrix = [ys, ys, ys, 0, gu, bu, rv, gv, 0];
+    const offset = [-ys * y0 - rv * 0.5, -ys * y0 - (gu + gv) * 0.5, -ys * y0 - bu * 0.5];
+    return { matrix, offset };
+  }
+
+  // A decoded video frame (WebCodecs VideoFrame) in NV12 or I420: its planes go up as they are (a fraction of the
+  // cost of uploading the video element, which the browser converts to RGBA first); the shader converts.
+  async function uploadVideoFrame(frame) {
+    const planes = { NV12: 2, I420: 3 }[frame.format];
+    if (!planes) {
+      uploadSource(frame);
+      return;
+    }
+    const width = frame.visibleRect.width, height = frame.visibleRect.height;
+    const size = frame.allocationSize();
+    if (!frameBuffer || frameBuffer.length < size) frameBuffer = new Uint8Array(size);
+    const layout = await frame.copyTo(frameBuffer);
+    const cw = Math.ceil(width / 2), ch = Math.ceil(height / 2);
+    const put = (unit, format, internal, w, h, plane, bytesPerTexel) => {
+      sourceTextureOn(unit);
+      gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+      gl.pixelStorei(gl.UNPACK_ROW_LENGTH, plane.stride / bytesPerTexel);
+      gl.texImage2D(gl.TEXTURE_2D, 0, internal, w, h, 0, format, gl.UNSIGNED_BYTE, frameBuffer, plane.offset);
+    };
+    put(1, gl.RED, gl.R8, width, height, layout[0], 1);
+    if (planes === 2) put(3, gl.RG, gl.RG8, cw, ch, layout[1], 2);
+    else {
+      put(3, gl.RED, gl.R8, cw, ch, layout[1], 1);
+      put(4, gl.RED, gl.R8, cw, ch, layout[2], 1);
+    }
+    gl.pixelStorei(gl.UNPACK_ROW_LENGTH, 0);
+    yuvMatrix = yuvConversion(frame.colorSpace);
+    sourcePlanes = planes;
     sourceReady = true;
   }
 
@@ -574,8 +654,13 @@ void main() {
     return new Promise((resolve, reject) => {
       const video = $("video");
       let started = false;
-      const onFrame = (now, metadata) => {
-        uploadSource(video);
+      const onFrame = async (now, metadata) => {
+        const frame = new VideoFrame(video, { timestamp: Math.round(metadata.mediaTime * 1e6) });
+        try {
+          await uploadVideoFrame(frame);
+        } finally {
+          frame.close();
+        }
         if (draw()) noteFrame(null);
         showTime(metadata.mediaTime);
         if (!started) { started = true; resolve(true); }

@@ -1,0 +1,380 @@
+"""The viewer's server side: the table's textures, the API and its security, range requests, the decoded frames.
+
+The page itself (the shader) is tested in a real browser in ``test_viewer_browser.py``. Here the
+textures are checked against the table's entries by the layout the module documents (closed form),
+the API against HTTP, and the frame feed against a clip whose frame times are known.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import http.client
+import json
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import av
+import cv2
+import numpy as np
+import pytest
+
+from panomap.errors import PanomapError
+from panomap.io.local_web import RequestError
+from panomap.simulate import load_room, render, standard_cameras
+from panomap.table.file import save_table
+from panomap.table.table import PanoMappingTable
+from panomap.video.live import Reconnect
+from panomap.viewer.feed import FrameFeed
+from panomap.viewer.server import MAX_RANGE_BYTES, ViewerServer, byte_range, make_server, serve_in_thread
+from panomap.viewer.source import Source, open_source
+from panomap.viewer.table_texture import NO_ENTRY, lookup_texture, padded_entries, texture_data
+from panomap.views.lookup import direction_lookup
+
+from helpers import LIMIT_S, StreamServer, assert_one_line_error, learn_table, run, spread_landmarks, wait_until
+
+SIZE = (160, 160)
+RATE = 25
+CAMERA = standard_cameras(SIZE, centre=(80.2, 79.7))["equidistant"]
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """cam.npz (a table of the simulated camera), omni.png (its picture), clip.avi (2 s at 25 fps, MPEG-4
+    part 2: no browser plays it), clip.mp4 (H.264) and clip.ts (MPEG-TS, for a live stream)."""
+    folder = tmp_path_factory.mktemp("viewer")
+    room = load_room()
+    position = tuple(room.camera)
+    table, _ = learn_table(CAMERA, position, spread_landmarks(CAMERA, position, 16, np.random.default_rng(4)), SIZE)
+    save_table(table, folder / "cam.npz")
+    omni = render(room, CAMERA, supersample=1)
+    cv2.imwrite(str(folder / "omni.png"), omni)
+    for name, codec, fmt in (
+        ("clip.avi", "mpeg4", None),
+        ("clip.mp4", "libx264", None),
+        ("clip.ts", "libx264", "mpegts"),
+    ):
+        with av.open(str(folder / name), "w", format=fmt) as container:
+            video = container.add_stream(codec, rate=RATE)
+            video.width, video.height = SIZE
+            video.pix_fmt = "yuv420p"
+            frames = 50 if name != "clip.ts" else 500
+            for index in range(frames):
+                frame = av.VideoFrame.from_ndarray(np.roll(omni, 2 * index, axis=1), format="bgr24")
+                frame.pts = index
+                for packet in video.encode(frame):
+                    container.mux(packet)
+            for packet in video.encode(None):
+                container.mux(packet)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def table(work: Path) -> PanoMappingTable:
+    from panomap.table.file import load_table
+
+    return load_table(work / "cam.npz")
+
+
+# ---------------------------------------------------------------------- textures
+
+
+def test_the_table_texture_holds_each_entry_and_the_next_row_where_the_layout_says(table: PanoMappingTable) -> None:
+    m, n = table.size
+    entries = table.entries.astype(np.float64)
+    texture = texture_data(table)
+    width = texture.shape[1] - 1
+    rng = np.random.default_rng(1)
+    for i, j in [
+        (0, 0),
+        (m - 1, n - 1),
+        (m - 1, 0),
+        *zip(rng.integers(0, m, 50), rng.integers(0, n - 1, 50), strict=True),
+    ]:
+        block, column = divmod(int(i), width)
+        texel = texture[block * (n + 1) + int(j), column]
+        np.testing.assert_array_equal(texel[:2], entries[i, j])
+        below = entries[i, j + 1] if j + 1 < n else 2 * entries[i, n - 1] - entries[i, n - 2]
+        np.testing.assert_allclose(texel[2:], below, atol=1e-4)
+        # The cell's second column: the next azimuth, wrapping at M.
+        right = texture[block * (n + 1) + int(j), column + 1]
+        np.testing.assert_array_equal(right[:2], entries[(i + 1) % m, j])
+
+
+def test_a_wide_table_is_cut_into_blocks_whose_last_column_repeats_the_next_blocks_first(
+    table: PanoMappingTable,
+) -> None:
+    m, n = 5000, 12
+    rng = np.random.default_rng(2)
+    entries = rng.uniform(0, 150, (m, n, 2)).astype(np.float32)
+    wide = dataclasses.replace(table, entries=entries)
+    texture = texture_data(wide)
+    width = texture.shape[1] - 1
+    assert width == 2047 and texture.shape[0] == 3 * (n + 1)
+    for i in (0, 2046, 2047, 2048, 4094, 4095, 4999):
+        block, column = divmod(i, width)
+        np.testing.assert_array_equal(texture[block * (n + 1) + 5, column, :2], entries[i, 5])
+        np.testing.assert_array_equal(texture[block * (n + 1) + 5, column + 1, :2], entries[(i + 1) % m, 5])
+
+
+def test_entries_the_camera_does_not_see_are_sent_as_no_entry(table: PanoMappingTable) -> None:
+    entries = np.array(table.entries)
+    entries[3, 4] = np.nan
+    padded = padded_entries(dataclasses.replace(table, entries=entries))
+    assert (padded[3, 4] == NO_ENTRY).all()
+    assert np.isfinite(padded).all()
+    n = table.size[1]
+    entries = np.array(table.entries)
+    entries[7, n - 2] = np.nan  # the extrapolated rows read it
+    padded = padded_entries(dataclasses.replace(table, entries=entries))
+    assert (padded[7, n] == NO_ENTRY).all() and (padded[7, n + 1] == NO_ENTRY).all()
+
+
+def test_the_lookup_texture_pairs_each_texel_with_the_one_below(table: PanoMappingTable) -> None:
+    made = lookup_texture(table)
+    lookup = direction_lookup(table)
+    assert made is not None and lookup is not None
+    texture, description = made
+    side = lookup.u.shape[0]
+    assert texture.shape == (side, side, 4) and description["side"] == side
+    ok = np.isfinite(lookup.u[:-1]) & np.isfinite(lookup.u[1:]) & np.isfinite(lookup.v[:-1]) & np.isfinite(lookup.v[1:])
+    np.testing.assert_array_equal(texture[:-1, :, 0][ok], lookup.u[:-1][ok])
+    np.testing.assert_array_equal(texture[:-1, :, 3][ok], lookup.v[1:][ok])
+    assert (texture[-1, :, 2:] == NO_ENTRY).all()
+    assert description["sine_range"] == pytest.approx([np.sin(r) for r in table.elevation_range])
+
+
+# ---------------------------------------------------------------------- sources
+
+
+def test_sources_are_told_apart(work: Path) -> None:
+    image = open_source(str(work / "omni.png"))
+    assert image.kind == "image" and image.size == SIZE and image.image_png is not None
+    decoded = cv2.imdecode(np.frombuffer(image.image_png, np.uint8), cv2.IMREAD_UNCHANGED)
+    np.testing.assert_array_equal(decoded, cv2.imread(str(work / "omni.png"), cv2.IMREAD_UNCHANGED))
+    mp4 = open_source(str(work / "clip.mp4"))
+    assert (mp4.kind, mp4.mime, mp4.size) == ("video", "video/mp4", SIZE)
+    assert mp4.duration_s == pytest.approx(2.0, abs=0.05) and mp4.frame_rate == pytest.approx(RATE)
+    avi = open_source(str(work / "clip.avi"))
+    assert (avi.kind, avi.mime) == ("video", None)  # the server decodes it
+    with pytest.raises(PanomapError, match="no such file"):
+        open_source(str(work / "missing.png"))
+
+
+def test_the_command_refuses_a_source_of_another_size_and_bad_files_in_one_line(work: Path, tmp_path: Path) -> None:
+    other = tmp_path / "other.png"
+    cv2.imwrite(str(other), np.zeros((100, 120, 3), np.uint8))
+    assert_one_line_error(run("view", work / "cam.npz", other, "--port", "0"), "120 x 100", "160 x 160")
+    junk = tmp_path / "junk.mp4"
+    junk.write_bytes(b"not a video at all" * 10)
+    assert_one_line_error(run("view", work / "cam.npz", junk, "--port", "0"), "junk.mp4")
+    assert_one_line_error(run("view", tmp_path / "none.npz", work / "omni.png", "--port", "0"), "none.npz")
+
+
+# ---------------------------------------------------------------------- the API
+
+
+@pytest.fixture
+def serve(table: PanoMappingTable) -> Iterator[object]:
+    servers: list[ViewerServer] = []
+
+    def start(source: Source, feed: FrameFeed | None = None) -> ViewerServer:
+        server = make_server(table, "cam.npz", source, port=0, feed=feed)
+        serve_in_thread(server)
+        servers.append(server)
+        return server
+
+    yield start
+    for server in servers:
+        server.shutdown()
+        server.server_close()
+
+
+def request(
+    server: ViewerServer, method: str, path: str, body: bytes | None = None, headers: dict[str, str] | None = None
+) -> tuple[int, dict[str, str], bytes]:
+    host, port = server.server_address[:2]
+    connection = http.client.HTTPConnection(str(host), int(port), timeout=LIMIT_S)
+    try:
+        connection.request(method, path, body, headers or {})
+        answer = connection.getresponse()
+        return answer.status, {k.lower(): v for k, v in answer.getheaders()}, answer.read()
+    finally:
+        connection.close()
+
+
+def test_the_api_gives_the_table_the_image_and_a_description(
+    serve: object, work: Path, table: PanoMappingTable
+) -> None:
+    server = serve(open_source(str(work / "omni.png")))  # type: ignore[operator]
+    status, headers, body = request(server, "GET", "/api/info")
+    assert status == 200
+    info = json.loads(body)
+    assert info["table"]["M"] == table.size[0] and info["table"]["N"] == table.size[1]
+    assert info["table"]["rho_s"] == pytest.approx(table.elevation_range[0])
+    assert info["source"] == {
+        "name": "omni.png",
+        "kind": "image",
+        "size": list(SIZE),
+        "mime": None,
+        "duration_s": None,
+        "frame_rate": None,
+    }
+    status, _, body = request(server, "GET", "/api/table.bin")
+    assert status == 200 and body == texture_data(table).astype("<f4").tobytes()
+    status, _, body = request(server, "GET", "/api/image")
+    assert status == 200 and body[:8] == b"\x89PNG\r\n\x1a\n"
+    for path in ("/", "/static/viewer.js", "/static/viewer.css"):
+        status, headers, _ = request(server, "GET", path)
+        assert status == 200
+        assert headers["x-frame-options"] == "DENY" and "frame-ancestors 'none'" in headers["content-security-policy"]
+    assert request(server, "GET", "/api/video")[0] == 404  # an image has no video
+    assert request(server, "GET", "/../cam.npz")[0] == 404
+    assert request(server, "GET", "/api/frame")[0] == 404
+
+
+def test_requests_by_another_name_or_from_another_site_are_refused(serve: object, work: Path) -> None:
+    server = serve(open_source(str(work / "clip.avi")))  # type: ignore[operator]
+    assert request(server, "GET", "/api/info", headers={"Host": "evil.example:80"})[0] == 403
+    body = json.dumps({"paused": True}).encode()
+    json_type = {"Content-Type": "application/json"}
+    assert request(server, "POST", "/api/playback", body, json_type | {"Origin": "http://evil.example"})[0] == 403
+    assert request(server, "POST", "/api/playback", body, {"Content-Type": "text/plain"})[0] == 415
+    assert request(server, "POST", "/api/playback", b'{"paused": 1}', json_type)[0] == 400
+    assert request(server, "POST", "/api/playback", b'{"speed": 2}', json_type)[0] == 400
+    assert request(server, "POST", "/api/playback", body, json_type)[0] == 200
+
+
+def test_a_video_file_is_served_by_ranges(serve: object, work: Path) -> None:
+    server = serve(open_source(str(work / "clip.mp4")))  # type: ignore[operator]
+    data = (work / "clip.mp4").read_bytes()
+    status, headers, body = request(server, "GET", "/api/video", headers={"Range": "bytes=100-299"})
+    assert status == 206 and body == data[100:300]
+    assert headers["content-range"] == f"bytes 100-299/{len(data)}" and headers["accept-ranges"] == "bytes"
+    status, headers, body = request(server, "GET", "/api/video", headers={"Range": "bytes=-50"})
+    assert status == 206 and body == data[-50:]
+    status, _, body = request(server, "GET", "/api/video")
+    assert status == 200 and body == data
+    assert request(server, "GET", "/api/video", headers={"Range": f"bytes={len(data)}-"})[0] == 416
+    assert request(server, "POST", "/api/playback", b"{}", {"Content-Type": "application/json"})[0] == 200
+
+
+def test_byte_ranges_are_read_and_capped() -> None:
+    assert byte_range(None, 1000) is None
+    assert byte_range("bytes=0-", 1000) == (0, 999)
+    assert byte_range("bytes=10-19", 1000) == (10, 19)
+    assert byte_range("bytes=990-2000", 1000) == (990, 999)
+    assert byte_range("bytes=-10", 1000) == (990, 999)
+    assert byte_range("bytes=0-", 10 * MAX_RANGE_BYTES) == (0, MAX_RANGE_BYTES - 1)
+    for bad in ("bytes=5-2", "bytes=1000-", "items=0-1", "bytes=0-1,5-9", "bytes=-"):
+        with pytest.raises(RequestError):
+            byte_range(bad, 1000)
+
+
+# ---------------------------------------------------------------------- decoded frames
+
+
+def test_decoded_frames_come_at_the_files_rate_and_pause_and_seek(work: Path) -> None:
+    feed = FrameFeed(open_source(str(work / "clip.avi")))
+    try:
+        first = feed.frame_after(0, LIMIT_S)
+        assert first is not None and first.time_s == pytest.approx(0.0, abs=1e-6)
+        image = cv2.imdecode(np.frombuffer(first.jpeg, np.uint8), cv2.IMREAD_COLOR)
+        assert image.shape == (SIZE[1], SIZE[0], 3)
+        started, index, times = time.monotonic(), first.index, []
+        while len(times) < 10:
+            frame = feed.frame_after(index, LIMIT_S)
+            assert frame is not None
+            index = frame.index
+            times.append(frame.time_s)
+        elapsed = time.monotonic() - started
+        # Paced: 10 frames of a 25 fps clip take 0.4 s of its time and about as long to come (not at once).
+        assert times[-1] - first.time_s >= 0.4 - 1e-6
+        assert elapsed >= 0.3
+        feed.control(paused=True)
+        wait_until(lambda: feed.status().state == "paused", "the pause")
+        held = feed.status().index
+        time.sleep(0.3)
+        assert feed.status().index <= held + 1
+        feed.control(paused=False, seek_s=1.5)
+        wait_until(lambda: (feed.status().time_s or 0) >= 1.5 - 1e-6, "the seek")
+        sought = feed.frame_after(0, LIMIT_S)
+        assert sought is not None and 1.5 - 1e-6 <= sought.time_s <= 1.5 + 0.2
+        wait_until(lambda: feed.status().state == "ended", "the end")
+        assert feed.status().time_s == pytest.approx(1.96, abs=1e-6)
+    finally:
+        feed.close()
+    assert not feed.running
+
+
+def test_a_page_that_goes_away_frees_the_decoder(work: Path) -> None:
+    feed = FrameFeed(open_source(str(work / "clip.avi")), idle_stop_s=0.3)
+    try:
+        assert feed.frame_after(0, LIMIT_S) is not None
+        assert feed.running
+        wait_until(lambda: not feed.running, "the decoder to stop when nobody asks")
+        assert feed.status().state == "idle"
+        # A page that comes back gets frames again, from where the file was.
+        frame = feed.frame_after(0, LIMIT_S)
+        assert frame is not None and frame.time_s > 0.1
+    finally:
+        feed.close()
+
+
+def test_the_frame_api_answers_with_the_frame_and_its_time(serve: object, work: Path) -> None:
+    server = serve(open_source(str(work / "clip.avi")))  # type: ignore[operator]
+    status, headers, body = request(server, "GET", "/api/frame?after=0")
+    assert status == 200 and headers["content-type"] == "image/jpeg" and body[:2] == b"\xff\xd8"
+    index = int(headers["x-frame-index"])
+    assert float(headers["x-frame-time"]) >= 0 and float(headers["x-frame-age"]) >= 0
+    status, headers, _ = request(server, "GET", f"/api/frame?after={index}")
+    assert status == 200 and int(headers["x-frame-index"]) > index
+    assert request(server, "GET", "/api/frame?after=x")[0] == 400
+    status, _, body = request(server, "GET", "/api/status")
+    assert status == 200 and json.loads(body)["state"] in ("playing", "ended")
+
+
+def test_a_live_source_that_drops_is_reconnected_and_says_so(work: Path) -> None:
+    stream = StreamServer(work / "clip.ts")
+    stream.start()
+    source = Source(stream.url, "live", SIZE, frame_rate=RATE)
+    feed = FrameFeed(source, Reconnect(attempts=40, first_wait_s=0.1, max_wait_s=0.2, timeout_s=5.0))
+    try:
+        first = feed.frame_after(0, LIMIT_S)
+        assert first is not None
+        stream.kill()
+        wait_until(lambda: feed.status().state == "reconnecting", "the drop to be seen")
+        feed.frame_after(first.index, 0.01)  # (a page still asking)
+        assert "reconnecting" in feed.status().message
+        stream.start()
+        index = feed.status().index
+
+        def newer() -> bool:
+            return feed.frame_after(index, 0.5) is not None
+
+        wait_until(newer, "frames after the reconnect")
+        assert feed.status().state == "playing"
+    finally:
+        feed.close()
+        stream.kill()
+
+
+def test_a_live_source_that_never_comes_back_fails_with_a_message(work: Path) -> None:
+    stream = StreamServer(work / "clip.ts")  # never started: nothing listens
+    feed = FrameFeed(
+        Source(stream.url, "live", SIZE), Reconnect(attempts=2, first_wait_s=0.05, max_wait_s=0.05, timeout_s=1.0)
+    )
+    try:
+        assert feed.frame_after(0, 0.1) is None
+        wait_until(lambda: feed.status().state == "failed", "the feed to give up")
+        assert "did not come back after 2 attempt(s)" in feed.status().message
+    finally:
+        feed.close()
+
+
+def test_only_videos_have_frames_to_feed(work: Path) -> None:
+    with pytest.raises(PanomapError, match="only a video"):
+        FrameFeed(open_source(str(work / "omni.png")))
+    live = FrameFeed(Source("tcp://127.0.0.1:9", "live", SIZE))
+    with pytest.raises(PanomapError, match="cannot be paused"):
+        live.control(paused=True)
