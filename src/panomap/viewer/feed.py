@@ -104,6 +104,7 @@ class FrameFeed:
         self._paused = False
         self._seek_s: float | None = None
         self._position_s = 0.0  # where a file goes on from when the thread starts again
+        self._connection = source.connection  # (the first reading's, opened by open_source)
         self._state = "idle"
         self._message = "waiting for a page to ask for frames"
 
@@ -162,6 +163,9 @@ class FrameFeed:
             thread = self._thread
         if thread is not None:
             thread.join(timeout_s)
+        if self._connection is not None:  # (never read)
+            self._connection.close()
+            self._connection = None
 
     # ------------------------------------------------------------------ the thread
 
@@ -300,8 +304,10 @@ class FrameFeed:
     def _one_connection(self) -> tuple[str, bool]:
         """Read one connection to its end: (why it ended, whether it gave any frame)."""
         timeout = self.reconnect.timeout_s
+        container, self._connection = self._connection, None
         try:
-            container = open_input(self.source.name, open_timeout=timeout, read_timeout=timeout)
+            if container is None:
+                container = open_input(self.source.name, open_timeout=timeout, read_timeout=timeout)
         except PanomapError as exc:
             return exc.detail, False
         got = False

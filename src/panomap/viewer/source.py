@@ -9,8 +9,9 @@ browser cannot play it. Everything else, and live sources, is decoded here and s
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +55,9 @@ class Source:
     mime: str | None = None
     duration_s: float | None = None
     frame_rate: float | None = None
+    # A live source's connection, opened to read what it is and kept for the first reading (some cameras take
+    # one client at a time); None once taken, and for other sources.
+    connection: Any = field(default=None, compare=False, repr=False)
 
     @property
     def path(self) -> Path | None:
@@ -91,9 +95,14 @@ def open_source(name: str) -> Source:
             return Source(name, "image", (width, height), image_png=encode_png(image))
     container = open_input(name)
     try:
-        return _video_source(name, container)
-    finally:
+        source = _video_source(name, container)
+    except BaseException:
         container.close()
+        raise
+    if source.kind == "live":
+        return dataclasses.replace(source, connection=container)
+    container.close()
+    return source
 
 
 def _video_source(name: str, container: Any) -> Source:

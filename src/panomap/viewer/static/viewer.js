@@ -154,8 +154,9 @@ void main() {
 
   function floorDefaults() {
     const [x0, y0, z0] = info.table.camera_position;
-    state.floorCentre = state.floorCentre || [x0, y0];
-    state.floorHalf = state.floorHalf || Math.max(Math.abs(z0) * 2, 1e-6);
+    // Round numbers, so that the command line the page gives draws exactly this map.
+    state.floorCentre = state.floorCentre || [round(x0, 2), round(y0, 2)];
+    state.floorHalf = state.floorHalf || Number(Math.max(Math.abs(z0) * 2, 1e-3).toPrecision(2));
   }
 
   function floorExtent() {
@@ -303,12 +304,13 @@ void main() {
     const kg = 1 - kr - kb;
     const ys = full ? 1 : 255 / 219, cs = full ? 1 : 255 / 224;
     const y0 = full ? 0 : 16 / 255;
-    // R = Y + 2(1-kr) V, B = Y + 2(1-kb) U, G = (Y - kr R - kb B) / kg; U, V centred on 0.5.
+    // R = Y + 2(1-kr) V, B = Y + 2(1-kb) U, G = (Y - kr R - kb B) / kg; U and V centred on 128 (of 255).
     const rv = 2 * (1 - kr) * cs, bu = 2 * (1 - kb) * cs;
     const gu = -kb * bu / kg, gv = -kr * rv / kg;
+    const c0 = 128 / 255;
     // Column-major mat3: columns are Y, U, V.
     const matrix = [ys, ys, ys, 0, gu, bu, rv, gv, 0];
-    const offset = [-ys * y0 - rv * 0.5, -ys * y0 - (gu + gv) * 0.5, -ys * y0 - bu * 0.5];
+    const offset = [-ys * y0 - rv * c0, -ys * y0 - (gu + gv) * c0, -ys * y0 - bu * c0];
     return { matrix, offset };
   }
 
@@ -712,7 +714,7 @@ void main() {
         bitmap.close();
         if (draw()) noteFrame(age + (performance.now() - received));
         showTime(Number(response.headers.get("X-Frame-Time")));
-        if (live) sourceState("");
+        if (stats.sourceFrames === 1 || live) sourceState("");
       } else if (response.status !== 204) {
         const body = await response.json().catch(() => ({}));
         sourceState(body.error || `frames stopped (HTTP ${response.status})`);
@@ -749,9 +751,8 @@ void main() {
       }
     }
     stats.decodedBy = "server";
+    sourceState("waiting for the first frame");
     playFromServer();
-    // The first frame: resolve once it is up.
-    while (!sourceReady) await new Promise((r) => setTimeout(r, 20));
   }
 
   // ------------------------------------------------------------------ the API
