@@ -80,8 +80,8 @@ V360 = (
 )
 
 
-def make_clip(folder: Path, frames: int) -> tuple[Path, Path, float]:
-    """The clip and its camera's table; returns (clip, table, bit rate in Mbit/s)."""
+def make_clip(folder: Path, frames: int, rate: int = RATE) -> tuple[Path, Path, float]:
+    """The clip (``rate`` frames/s) and its camera's table; returns (clip, table, bit rate in Mbit/s)."""
     room = load_room()
     camera = standard_cameras(SIZE)["equidistant"]
     assert isinstance(camera, RadialCamera)
@@ -105,7 +105,7 @@ def make_clip(folder: Path, frames: int) -> tuple[Path, Path, float]:
     clip = folder / "clip.mp4"
     rng = np.random.default_rng(1)
     with av.open(str(clip), "w") as container:
-        stream = container.add_stream("libx264", rate=RATE)
+        stream = container.add_stream("libx264", rate=rate)
         stream.width, stream.height = SIZE
         stream.pix_fmt = "yuv420p"
         stream.options = {"preset": "veryfast", "crf": "18"}
@@ -118,7 +118,7 @@ def make_clip(folder: Path, frames: int) -> tuple[Path, Path, float]:
                 container.mux(packet)
         for packet in stream.encode(None):
             container.mux(packet)
-    megabits = clip.stat().st_size * 8 / 1e6 / (frames / RATE)
+    megabits = clip.stat().st_size * 8 / 1e6 / (frames / rate)
     return clip, table_path, megabits
 
 

@@ -130,18 +130,18 @@ def test_entries_the_camera_does_not_see_are_sent_as_no_entry(table: PanoMapping
     assert (padded[7, n] == NO_ENTRY).all() and (padded[7, n + 1] == NO_ENTRY).all()
 
 
-def test_the_lookup_texture_pairs_each_texel_with_the_one_below(table: PanoMappingTable) -> None:
+def test_the_lookup_texture_is_the_lookups_u_and_v(table: PanoMappingTable) -> None:
     made = lookup_texture(table)
     lookup = direction_lookup(table)
     assert made is not None and lookup is not None
     texture, description = made
     side = lookup.u.shape[0]
-    assert texture.shape == (side, side, 4) and description["side"] == side
-    ok = np.isfinite(lookup.u[:-1]) & np.isfinite(lookup.u[1:]) & np.isfinite(lookup.v[:-1]) & np.isfinite(lookup.v[1:])
-    np.testing.assert_array_equal(texture[:-1, :, 0][ok], lookup.u[:-1][ok])
-    np.testing.assert_array_equal(texture[:-1, :, 3][ok], lookup.v[1:][ok])
-    assert (texture[-1, :, 2:] == NO_ENTRY).all()
-    assert description["sine_range"] == pytest.approx([np.sin(r) for r in table.elevation_range])
+    assert texture.shape == (side, side, 2) and description["side"] == side
+    assert description["scale"] == lookup.scale and description["centre"] == lookup.centre
+    ok = np.isfinite(lookup.u) & np.isfinite(lookup.v)
+    np.testing.assert_array_equal(texture[..., 0][ok], lookup.u[ok])
+    np.testing.assert_array_equal(texture[..., 1][ok], lookup.v[ok])
+    assert (texture[~ok] == NO_ENTRY).all()
 
 
 # ---------------------------------------------------------------------- sources

@@ -122,30 +122,22 @@ def table_description(table: PanoMappingTable) -> dict[str, Any]:
 
 def lookup_texture(table: PanoMappingTable) -> tuple[NDArray[np.float32], dict[str, Any]] | None:
     """The table's direction lookup (:mod:`panomap.views.lookup`, what ``panomap perspective`` and ``floor``
-    read their rays from) as an (S, S, 4) float32 texture and its description; None where the table has none.
+    read their rays from) as an (S, S, 2) float32 texture of (u, v) and its description; None where the table
+    has none.
 
-    Texel (X, Y) holds the lookup's (u, v) at (X, Y), then at (X, Y + 1) (the last row's second pair is
-    :data:`NO_ENTRY`), so that the shader reads a texel's bilinear cell in two reads. A ray d is read at
-    ``(X, Y) = centre + scale * (d_x, d_y) / (|d| + pole * d_z)`` and has a source where ``d_z / |d|`` lies
-    in ``sine_range`` (and its pixel on the image).
+    A ray d is read at texel ``(X, Y) = centre + scale * (d_x, d_y) / (|d| + pole * d_z)`` (bilinear, texel
+    centres at integers) and has a source where ``d_z / |d|`` lies within the sines of the table's elevation
+    range (and its pixel on the image). Texels without an entry (NaN) are :data:`NO_ENTRY`.
     """
     lookup = direction_lookup(table)
     if lookup is None:
         return None
-    side = lookup.u.shape[0]
-    pairs = np.full((side, side, 4), NO_ENTRY, dtype=np.float32)
-    for channel, image in enumerate((lookup.u, lookup.v)):
-        finite = np.where(np.isfinite(image), image, np.float32(NO_ENTRY))
-        pairs[:, :, channel] = finite
-        pairs[:-1, :, channel + 2] = finite[1:]
-    # A pair with a NaN half is no entry as a whole (as cv2.remap's NaN would spoil the cell).
-    for half in (slice(0, 2), slice(2, 4)):
-        pairs[..., half][(pairs[..., half] <= NO_ENTRY).any(axis=-1)] = NO_ENTRY
+    texture = np.stack([lookup.u, lookup.v], axis=-1).astype(np.float32)
+    texture[~np.isfinite(texture).all(axis=-1)] = NO_ENTRY
     description = {
-        "side": side,
+        "side": int(lookup.u.shape[0]),
         "pole": lookup.pole,
         "scale": lookup.scale,
         "centre": lookup.centre,
-        "sine_range": list(lookup.sine_range),
     }
-    return pairs, description
+    return texture, description

@@ -41,7 +41,7 @@ uniform int table_m; uniform int table_n; uniform int block_width;
 uniform float rho_s; uniform float rho_e;
 uniform vec2 image_size;
 uniform float no_entry;
-uniform sampler2D lookup_texels;  // RGBA32F: texel (X, Y) = the lookup's (u, v) at (X, Y) and (X, Y + 1)
+uniform sampler2D lookup_texels;  // RG32F: the lookup's (u, v) at texel (X, Y)
 uniform float lookup_pole; uniform float lookup_scale; uniform float lookup_centre; uniform int lookup_side;
 uniform vec2 sine_range;
 uniform int outline;              // panorama: dim what the perspective view (outline_*) does not see
@@ -72,11 +72,19 @@ void main() {
   float length_d = length(d);
   vec2 at_lookup = lookup_centre + lookup_scale * d.xy / (length_d + lookup_pole * d.z);
   float sine = d.z / length_d;
+  bool seen = sine >= sine_range.x && sine <= sine_range.y;
+#if LINEAR_FLOAT
+  // The GPU's own bilinear filter (exact float weights on SwiftShader; 1/256 steps on some GPUs, docs/viewer.md).
+  // A texel without an entry (NO_ENTRY) pulls the pixel far off the image: no source, as cv2.remap's NaN.
+  vec2 uv = texture(lookup_texels, (at_lookup + 0.5) / float(lookup_side)).xy;
+#else
   vec2 cell = floor(at_lookup), t = at_lookup - cell;
   ivec2 texel = clamp(ivec2(cell), ivec2(0), ivec2(lookup_side - 2));
-  vec4 left = texelFetch(lookup_texels, texel, 0), right = texelFetch(lookup_texels, texel + ivec2(1, 0), 0);
-  bool seen = sine >= sine_range.x && sine <= sine_range.y && min(min(left.x, left.z), min(right.x, right.z)) > 0.5 * no_entry;
-  vec2 uv = mix(mix(left.xy, right.xy, t.x), mix(left.zw, right.zw, t.x), t.y);
+  vec2 a = texelFetch(lookup_texels, texel, 0).xy, b = texelFetch(lookup_texels, texel + ivec2(1, 0), 0).xy;
+  vec2 c = texelFetch(lookup_texels, texel + ivec2(0, 1), 0).xy, e = texelFetch(lookup_texels, texel + ivec2(1, 1), 0).xy;
+  seen = seen && min(min(a.x, b.x), min(c.x, e.x)) > 0.5 * no_entry;
+  vec2 uv = mix(mix(a, b, t.x), mix(c, e, t.x), t.y);
+#endif
 #else
 #if MODE != 1
   theta = atan(d.y, d.x);
@@ -131,6 +139,7 @@ void main() {
   let gl = null, uniforms = {}, info = null;
   const programs = {};
   const sourceTextures = {};
+  let linearFloat = false;
   let sourceReady = false, sourcePlanes = 0, yuvMatrix = null, frameBuffer = null, pendingInput = null;
 
   function message(text) { $("message").textContent = text || ""; }
@@ -190,7 +199,8 @@ void main() {
     const program = gl.createProgram();
     gl.attachShader(program, compile(gl.VERTEX_SHADER, VERTEX));
     const lookup = mode !== "panorama" && info.table.lookup ? 1 : 0;
-    const defines = `#version 300 es\n#define MODE ${MODE_CODE[mode]}\n#define LOOKUP ${lookup}\n#define PLANES ${planes}\n`;
+    const defines = `#version 300 es\n#define MODE ${MODE_CODE[mode]}\n#define LOOKUP ${lookup}\n#define PLANES ${planes}\n`
+      + `#define LINEAR_FLOAT ${linearFloat ? 1 : 0}\n`;
     gl.attachShader(program, compile(gl.FRAGMENT_SHADER, defines + FRAGMENT));
     gl.bindAttribLocation(program, 0, "corner");
     gl.linkProgram(program);
@@ -222,7 +232,7 @@ void main() {
       gl.uniform1f(uniforms.lookup_scale, t.lookup.scale);
       gl.uniform1f(uniforms.lookup_centre, t.lookup.centre);
       gl.uniform1i(uniforms.lookup_side, t.lookup.side);
-      gl.uniform2fv(uniforms.sine_range, t.lookup.sine_range);
+      gl.uniform2f(uniforms.sine_range, Math.sin(t.rho_s), Math.sin(t.rho_e));
     }
     return { program, locations };
   }
@@ -271,7 +281,18 @@ void main() {
       throw new Error(`the table needs a texture of ${Math.max(t.texture_rows, t.texture_width, side)} texels a side; this GPU takes at most ${most} (make a smaller table)`);
     }
     floatTexture(gl.TEXTURE0, t.texture_width, t.texture_rows, bytes);
-    if (t.lookup) floatTexture(gl.TEXTURE2, side, side, lookupBytes);
+    if (t.lookup) {
+      // Filtered by the GPU where it filters float textures (OES_texture_float_linear), read texel by texel otherwise.
+      linearFloat = Boolean(gl.getExtension("OES_texture_float_linear"));
+      const texture = gl.createTexture();
+      gl.activeTexture(gl.TEXTURE2);
+      gl.bindTexture(gl.TEXTURE_2D, texture);
+      gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RG32F, side, side, 0, gl.RG, gl.FLOAT, new Float32Array(lookupBytes));
+      const filter = linearFloat ? gl.LINEAR : gl.NEAREST;
+      for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, filter);
+      for (const p of [gl.TEXTURE_WRAP_S, gl.TEXTURE_WRAP_T]) gl.texParameteri(gl.TEXTURE_2D, p, gl.CLAMP_TO_EDGE);
+    }
   }
 
   // A texture on ``unit`` for the source's pictures, linear and clamped to its edge (made once per unit).
@@ -515,6 +536,14 @@ void main() {
         if (location.hash !== text) history.replaceState(null, "", text);
       }, 150);
     }
+  }
+
+  // The fields, the command line and the address follow the view at the next frame (not once per API call).
+  let stateQueued = false;
+  function showStateSoon() {
+    if (stateQueued) return;
+    stateQueued = true;
+    requestAnimationFrame(() => { stateQueued = false; showState(); });
   }
 
   function change(update) {
@@ -776,7 +805,7 @@ void main() {
         if ("strip" in view) state.strip = Boolean(view.strip);
         clampState();
         draw();
-        showState();
+        showStateSoon();
         resolve({ ...state });
       } catch (error) {
         reject(error);

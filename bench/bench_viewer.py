@@ -1,0 +1,243 @@
+"""``panomap view`` in headless Chromium on SwiftShader (a software GPU, the slowest a user can have), against the
+CPU's way in the same run.
+
+On a simulated 1920 x 1920 fisheye (the table and clip of ``bench_video.py``, here at 30 frames/s):
+
+1. **Views/s**: 1280 x 720 perspective views set one after another through ``window.panomapView.set`` (each
+   resolved once drawn), against the CPU making the same views (``build_map`` + ``Remapper``, what ``panomap
+   perspective`` does per picture less the file I/O). Target: 30 views/s.
+2. **Drag to picture**: mouse drags of the view; time from each pointer event to the view drawn (ms).
+3. **Video**: the 1920 x 1920 H.264 clip played by the browser, one 1280 x 720 view: frames shown per second,
+   against the clip's rate (target: its rate, up to 30 fps).
+4. **Live**: the clip served in real time over TCP by ffmpeg (a camera), decoded by the server and sent frame by
+   frame: frames shown per second, and the latency from a frame decoded to it drawn (ms).
+5. **Memory**: the server's resident memory over a live stream of ``--minutes`` (sampled every few seconds: first,
+   last, largest), and the decoder freed when the page closes.
+
+The numbers depend on the machine's load: run it on an otherwise idle machine. ``--quick``: a short clip, few
+views, a 20 s stream.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import av
+import cv2
+import imageio_ffmpeg
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_video import make_clip
+from panomap.remap import Remapper
+from panomap.table.file import load_table
+from panomap.viewer.server import ViewerServer, make_server, serve_in_thread
+from panomap.viewer.source import open_source
+from panomap.views import PerspectiveView, build_map
+
+CHROMIUM = "/usr/bin/chromium"
+ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
+    "--disable-dev-shm-usage",
+    "--autoplay-policy=no-user-gesture-required",
+]
+RATE = 30
+VIEW = (1280, 720)
+
+
+def rss_mb() -> float:
+    """This process's resident memory (MB)."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    return float("nan")
+
+
+def open_page(browser: Any, server: ViewerServer, fragment: str = "") -> Any:
+    page = browser.new_page(viewport={"width": 1400, "height": 1000})
+    page.set_default_timeout(120_000)
+    page.goto(server.url + fragment)
+    page.wait_for_selector("body[data-ready=yes], body[data-ready=failed]")
+    if page.evaluate("document.body.dataset.ready") != "yes":
+        raise SystemExit("the page failed: " + page.evaluate("document.getElementById('message').textContent"))
+    return page
+
+
+def views_per_second(browser: Any, server: ViewerServer, count: int) -> float:
+    page = open_page(browser, server)
+    script = """async ([count, width, height]) => {
+      await window.panomapView.set({yaw: 0, pitch: -30, fov: 90, width, height, strip: false});
+      const started = performance.now();
+      for (let k = 0; k < count; k++) await window.panomapView.set({yaw: 3 * k, pitch: -30 + (k % 20), fov: 90});
+      return (performance.now() - started) / 1000;
+    }"""
+    seconds = page.evaluate(script, [count, *VIEW])
+    page.close()
+    return count / seconds
+
+
+def cpu_views_per_second(server: ViewerServer, image: np.ndarray, count: int) -> float:
+    table = server.table
+    started = time.perf_counter()
+    for k in range(count):
+        view = PerspectiveView(np.radians(3 * k), np.radians(-30 + (k % 20)), 0.0, np.radians(90), VIEW)
+        Remapper(build_map(table, view))(image)
+    return count / (time.perf_counter() - started)
+
+
+def drag_to_picture(browser: Any, server: ViewerServer, moves: int) -> dict[str, float]:
+    page = open_page(browser, server, f"#width={VIEW[0]}&height={VIEW[1]}")
+    box = page.locator("#canvas").bounding_box()
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 3
+    page.mouse.move(x, y)
+    page.mouse.down()
+    for k in range(moves):
+        page.mouse.move(x + 3 * (k % 60) - 90, y + (k % 7))
+        page.wait_for_timeout(16)
+    page.mouse.up()
+    page.wait_for_timeout(200)
+    stats = page.evaluate("window.panomapView.stats().dragToPictureMs")
+    page.close()
+    return stats
+
+
+def play(browser: Any, server: ViewerServer, seconds: float) -> dict[str, Any]:
+    page = open_page(browser, server, f"#yaw=30&pitch=-20&fov=90&width={VIEW[0]}&height={VIEW[1]}")
+    page.evaluate("document.getElementById('show-strip').click()")  # one view
+    first = page.evaluate("window.panomapView.stats()")
+    started = time.monotonic()
+    page.wait_for_timeout(seconds * 1000)
+    last = page.evaluate("window.panomapView.stats()")
+    wall = time.monotonic() - started
+    page.close()
+    return {
+        "shown_per_s": (last["sourceFrames"] - first["sourceFrames"]) / wall,
+        "clip_s_per_s": ((last["frameTime"] or 0) - (first["frameTime"] or 0)) / wall,
+        "latency_ms": last["latencyMs"],
+        "decoded_by": last["decodedBy"],
+    }
+
+
+def live_stream(clip: Path) -> tuple[subprocess.Popen[bytes], str]:
+    """ffmpeg serving ``clip`` in a loop, in real time, as MPEG-TS over TCP (one client)."""
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    url = f"tcp://127.0.0.1:{port}"
+    command = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-loglevel", "error", "-nostdin", "-re"]
+    command += ["-stream_loop", "-1", "-i", str(clip), "-c", "copy", "-f", "mpegts", f"{url}?listen=1"]
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(1.0)
+    return process, url
+
+
+def summary(values: dict[str, float] | None) -> str:
+    if not values:
+        return "none"
+    return f"median {values['median']:.0f}, p90 {values['p90']:.0f}, max {values['max']:.0f} (n {values['count']})"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="A short clip, few views, a 20 s stream.")
+    parser.add_argument("--minutes", type=float, default=10.0, help="Length of the live stream for memory (min).")
+    options = parser.parse_args()
+    if not Path(CHROMIUM).exists():
+        raise SystemExit(f"{CHROMIUM} is missing (Debian's chromium: scripts/install-test-deps.sh)")
+    from playwright.sync_api import sync_playwright
+
+    frames = 60 if options.quick else 300
+    views = 20 if options.quick else 100
+    stream_s = 20.0 if options.quick else 60.0 * options.minutes
+    with tempfile.TemporaryDirectory() as temporary:
+        folder = Path(temporary)
+        print(f"making a 1920 x 1920 clip of {frames} frames at {RATE} fps and its table ...", flush=True)
+        clip, table_path, megabits = make_clip(folder, frames, RATE)
+        table = load_table(table_path)
+        with av.open(str(clip)) as container:
+            image = next(container.decode(video=0)).to_ndarray(format="bgr24")
+        image_path = folder / "omni.png"
+        cv2.imwrite(str(image_path), image)
+        print(f"clip: {megabits:.1f} Mbit/s; table {table.size[0]} x {table.size[1]}", flush=True)
+        with sync_playwright() as playwright:
+            browser = playwright.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            server = make_server(table, table_path.name, open_source(str(image_path)))
+            serve_in_thread(server)
+            try:
+                gpu = views_per_second(browser, server, views)
+                cpu = cpu_views_per_second(server, image, max(5, views // 5))
+                print(f"\n1. views of {VIEW[0]} x {VIEW[1]} set one after another through the API:")
+                print(
+                    f"   browser (SwiftShader) {gpu:.1f} views/s (target 30); CPU (build_map + remap) {cpu:.1f} views/s;"
+                )
+                print(f"   ratio browser / CPU {gpu / cpu:.2f}")
+                drag = drag_to_picture(browser, server, 60 if options.quick else 240)
+                print(f"2. drag to picture (ms): {summary(drag)}")
+            finally:
+                server.shutdown()
+                server.server_close()
+
+            server = make_server(table, table_path.name, open_source(str(clip)))
+            serve_in_thread(server)
+            try:
+                result = play(browser, server, min(frames / RATE - 0.5, 8.0))
+                print(f"3. the 1920 x 1920 H.264 clip at {RATE} fps, decoded by the {result['decoded_by']}, one view:")
+                print(
+                    f"   {result['shown_per_s']:.1f} frames shown/s, {result['clip_s_per_s']:.2f} s of clip per s "
+                    f"(ratio to its rate {result['shown_per_s'] / RATE:.2f})"
+                )
+            finally:
+                server.shutdown()
+                server.server_close()
+
+            process, url = live_stream(clip)
+            try:
+                server = make_server(table, table_path.name, open_source(url))
+                serve_in_thread(server)
+                page = open_page(browser, server, f"#yaw=30&pitch=-20&fov=90&width={VIEW[0]}&height={VIEW[1]}")
+                samples = [rss_mb()]
+                started = time.monotonic()
+                first = page.evaluate("window.panomapView.stats().sourceFrames")
+                while time.monotonic() - started < stream_s:
+                    time.sleep(min(5.0, stream_s / 4))
+                    samples.append(rss_mb())
+                stats = page.evaluate("window.panomapView.stats()")
+                shown = (stats["sourceFrames"] - first) / (time.monotonic() - started)
+                page.close()
+                feed = server.feed
+                assert feed is not None
+                freed_started = time.monotonic()
+                while feed.running and time.monotonic() - freed_started < feed.idle_stop_s + 15:
+                    time.sleep(0.2)
+                freed = time.monotonic() - freed_started
+                print(f"4. live stream (MPEG-TS over TCP at {RATE} fps, decoded by the server, JPEG to the page):")
+                print(f"   {shown:.1f} frames shown/s; latency decoded -> drawn (ms): {summary(stats['latencyMs'])}")
+                print(
+                    f"5. server memory over {stream_s / 60:.1f} min: first {samples[0]:.0f} MB, last {samples[-1]:.0f} MB, "
+                    f"largest {max(samples):.0f} MB (growth {samples[-1] - samples[0]:+.0f} MB); "
+                    f"the decoder {'stopped' if not feed.running else 'still running'} "
+                    f"{freed:.1f} s after the page closed (idle limit {feed.idle_stop_s:g} s); "
+                    f"open connections {server.open_connections}"
+                )
+                server.shutdown()
+                server.server_close()
+            finally:
+                process.kill()
+            browser.close()
+    print(f"\n(load average at the end: {', '.join(f'{x:.2f}' for x in os.getloadavg())})")
+
+
+if __name__ == "__main__":
+    main()
