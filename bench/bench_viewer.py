@@ -180,7 +180,8 @@ def main() -> None:
                 cpu = cpu_views_per_second(server, image, max(5, views // 5))
                 print(f"\n1. views of {VIEW[0]} x {VIEW[1]} set one after another through the API:")
                 print(
-                    f"   browser (SwiftShader) {gpu:.1f} views/s (target 30); CPU (build_map + remap) {cpu:.1f} views/s;"
+                    f"   browser (SwiftShader) {gpu:.1f} views/s (target 30); "
+                    f"CPU (build_map + remap) {cpu:.1f} views/s;"
                 )
                 print(f"   ratio browser / CPU {gpu / cpu:.2f}")
                 drag = drag_to_picture(browser, server, 60 if options.quick else 240)
@@ -225,7 +226,8 @@ def main() -> None:
                 print(f"4. live stream (MPEG-TS over TCP at {RATE} fps, decoded by the server, JPEG to the page):")
                 print(f"   {shown:.1f} frames shown/s; latency decoded -> drawn (ms): {summary(stats['latencyMs'])}")
                 print(
-                    f"5. server memory over {stream_s / 60:.1f} min: first {samples[0]:.0f} MB, last {samples[-1]:.0f} MB, "
+                    f"5. server memory over {stream_s / 60:.1f} min: first {samples[0]:.0f} MB, "
+                    f"last {samples[-1]:.0f} MB, "
                     f"largest {max(samples):.0f} MB (growth {samples[-1] - samples[0]:+.0f} MB); "
                     f"the decoder {'stopped' if not feed.running else 'still running'} "
                     f"{freed:.1f} s after the page closed (idle limit {feed.idle_stop_s:g} s); "
