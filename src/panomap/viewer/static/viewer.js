@@ -40,6 +40,7 @@ uniform vec3 camera_position;
 uniform int table_m; uniform int table_n; uniform int block_width;
 uniform float rho_s; uniform float rho_e;
 uniform vec2 image_size;
+uniform vec4 source_window;       // the part of the image the source textures hold: x0, y0 (px), width, height
 uniform float no_entry;
 uniform sampler2D lookup_texels;  // RG32F: the lookup's (u, v) at texel (X, Y)
 uniform float lookup_pole; uniform float lookup_scale; uniform float lookup_centre; uniform int lookup_side;
@@ -103,7 +104,7 @@ void main() {
   vec2 uv = mix(mix(left.xy, right.xy, ti), mix(left.zw, right.zw, ti), tj);
 #endif
   seen = seen && uv.x >= -0.5 && uv.y >= -0.5 && uv.x <= image_size.x - 0.5 && uv.y <= image_size.y - 0.5;
-  vec2 at_source = (uv + 0.5) / image_size;
+  vec2 at_source = (uv + 0.5 - source_window.xy) / source_window.zw;
 #if PLANES == 0
   vec3 rgb = texture(source_image, at_source).rgb;
 #else
@@ -139,7 +140,8 @@ void main() {
   let gl = null, uniforms = {}, info = null;
   const programs = {};
   const sourceTextures = {};
-  let linearFloat = false;
+  const textureShapes = {};  // the internal format and size each source texture unit holds
+  let linearFloat = false, lookupData = null, shownWindow = null, currentFrame = null;
   let sourceReady = false, sourcePlanes = 0, yuvMatrix = null, frameBuffer = null, pendingInput = null;
 
   function message(text) { $("message").textContent = text || ""; }
@@ -256,6 +258,7 @@ void main() {
     if (!programs[key]) programs[key] = makeProgram(mode, sourcePlanes);
     gl.useProgram(programs[key].program);
     uniforms = programs[key].locations;
+    gl.uniform4fv(uniforms.source_window, shownWindow);
     if (sourcePlanes) {
       gl.uniformMatrix3fv(uniforms.yuv_to_rgb, false, yuvMatrix.matrix);
       gl.uniform3fv(uniforms.yuv_offset, yuvMatrix.offset);
@@ -288,7 +291,8 @@ void main() {
       gl.activeTexture(gl.TEXTURE2);
       gl.bindTexture(gl.TEXTURE_2D, texture);
       gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
-      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RG32F, side, side, 0, gl.RG, gl.FLOAT, new Float32Array(lookupBytes));
+      lookupData = new Float32Array(lookupBytes);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RG32F, side, side, 0, gl.RG, gl.FLOAT, lookupData);
       const filter = linearFloat ? gl.LINEAR : gl.NEAREST;
       for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, filter);
       for (const p of [gl.TEXTURE_WRAP_S, gl.TEXTURE_WRAP_T]) gl.texParameteri(gl.TEXTURE_2D, p, gl.CLAMP_TO_EDGE);
@@ -307,12 +311,83 @@ void main() {
     gl.bindTexture(gl.TEXTURE_2D, sourceTextures[unit]);
   }
 
+  // The rectangle [x0, y0, width, height] (px, even) of the image that the view reads: the bounding box of the
+  // pixels of rays along the view's border (an injective map takes a region's border to its image's border), with
+  // a margin; the whole image where the border leaves the table's range, or a panorama (the strip) is drawn.
+  function sourceWindow() {
+    const [width, height] = info.source.size;
+    const whole = [0, 0, width, height];
+    const t = info.table;
+    if (!lookupData || state.mode === "panorama" || stripHeight() || (state.mode === "floor" && floorProblem())) return whole;
+    const axes = perspectiveAxes(state.yaw, state.pitch, state.roll);
+    const f = focalPx(state.width, state.fov);
+    const extent = state.mode === "floor" ? floorExtent() : null;
+    const [x0, y0, z0] = t.camera_position;
+    const sines = [Math.sin(t.rho_s), Math.sin(t.rho_e)];
+    let low = [Infinity, Infinity], high = [-Infinity, -Infinity];
+    const steps = 32;
+    for (let n = 0; n < 4 * steps; n++) {
+      const side = Math.floor(n / steps), s = (n % steps) / steps;
+      const k = [s, 1, 1 - s, 0][side] * state.width, l = [0, s, 1, 1 - s][side] * state.height;
+      let d;
+      if (extent) {
+        d = [extent[0] + k / state.width * (extent[1] - extent[0]) - x0, extent[3] - l / state.height * (extent[3] - extent[2]) - y0, -z0];
+      } else {
+        const x = (k - state.width / 2) / f, y = (l - state.height / 2) / f;
+        d = [0, 1, 2].map((a) => axes.forward[a] + x * axes.right[a] + y * axes.down[a]);
+      }
+      const length = Math.hypot(d[0], d[1], d[2]);
+      const sine = d[2] / length;
+      if (!(sine >= sines[0] && sine <= sines[1])) return whole;
+      const uv = lookupRead(d, length);
+      if (!uv || !(uv[0] >= -0.5 && uv[1] >= -0.5 && uv[0] <= width - 0.5 && uv[1] <= height - 0.5)) return whole;
+      low = [Math.min(low[0], uv[0]), Math.min(low[1], uv[1])];
+      high = [Math.max(high[0], uv[0]), Math.max(high[1], uv[1])];
+    }
+    const margin = 4 + 0.02 * Math.max(high[0] - low[0], high[1] - low[1]);  // (the border between samples bulges)
+    const left = Math.max(0, 2 * Math.floor((low[0] - margin) / 2)), top = Math.max(0, 2 * Math.floor((low[1] - margin) / 2));
+    const right = Math.min(width, 2 * Math.ceil((high[0] + margin + 1) / 2)), bottom = Math.min(height, 2 * Math.ceil((high[1] + margin + 1) / 2));
+    return [left, top, right - left, bottom - top];
+  }
+
+  // Make sure the source textures hold what the view reads (a video frame's window is re-read after a move).
+  async function ensureWindow() {
+    if (!sourcePlanes || !currentFrame) return;
+    const wanted = sourceWindow(), [x, y, w, h] = shownWindow;
+    if (wanted[0] >= x && wanted[1] >= y && wanted[0] + wanted[2] <= x + w && wanted[1] + wanted[3] <= y + h) return;
+    try {
+      await uploadVideoFrame(currentFrame);
+    } catch (error) {
+      // (the frame was closed by a newer one, which brings its own window)
+    }
+  }
+
+  // The lookup read on the CPU at ray d (bilinear), as the shader reads it; null where it has no entry.
+  function lookupRead(d, length) {
+    const l = info.table.lookup;
+    const scale = l.scale / (length + l.pole * d[2]);
+    const X = l.centre + scale * d[0], Y = l.centre + scale * d[1];
+    const x0 = Math.floor(X), y0 = Math.floor(Y);
+    if (!(x0 >= 0 && y0 >= 0 && x0 < l.side - 1 && y0 < l.side - 1)) return null;
+    const tx = X - x0, ty = Y - y0;
+    const out = [0, 0];
+    for (const [dx, dy, w] of [[0, 0, (1 - tx) * (1 - ty)], [1, 0, tx * (1 - ty)], [0, 1, (1 - tx) * ty], [1, 1, tx * ty]]) {
+      const at = 2 * ((y0 + dy) * l.side + x0 + dx);
+      if (lookupData[at] <= 0.5 * info.table.no_entry) return null;
+      out[0] += w * lookupData[at];
+      out[1] += w * lookupData[at + 1];
+    }
+    return out;
+  }
+
   // An image, bitmap or video element: one RGBA picture.
   function uploadSource(element) {
     sourceTextureOn(1);
     gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
     gl.pixelStorei(gl.UNPACK_ROW_LENGTH, 0);
     gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, element);
+    textureShapes[1] = null;
+    shownWindow = [0, 0, ...info.source.size];
     sourcePlanes = 0;
     sourceReady = true;
   }
@@ -343,24 +418,37 @@ void main() {
       uploadSource(frame);
       return;
     }
-    const width = frame.visibleRect.width, height = frame.visibleRect.height;
-    const size = frame.allocationSize();
-    if (!frameBuffer || frameBuffer.length < size) frameBuffer = new Uint8Array(size);
-    const layout = await frame.copyTo(frameBuffer);
+    // Only the part of the frame the view reads (its window), copied out of the decoder and uploaded.
+    const window_ = sourceWindow();
+    const rect = { x: window_[0], y: window_[1], width: window_[2], height: window_[3] };
+    const width = rect.width, height = rect.height;
     const cw = Math.ceil(width / 2), ch = Math.ceil(height / 2);
-    const put = (unit, format, internal, w, h, plane, bytesPerTexel) => {
+    // Planes packed row after row (no row padding): Y, then U and V (I420) or UV (NV12).
+    const layout = planes === 2
+      ? [{ offset: 0, stride: width }, { offset: width * height, stride: 2 * cw }]
+      : [{ offset: 0, stride: width }, { offset: width * height, stride: cw }, { offset: width * height + cw * ch, stride: cw }];
+    const size = width * height + 2 * cw * ch;
+    if (!frameBuffer || frameBuffer.length < size) frameBuffer = new Uint8Array(size);
+    await frame.copyTo(frameBuffer, { rect, layout });
+    shownWindow = window_;
+    // Textures keep their size while the window does: their storage is reused (texSubImage2D).
+    const put = (unit, format, internal, w, h, offset) => {
       sourceTextureOn(unit);
       gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
-      gl.pixelStorei(gl.UNPACK_ROW_LENGTH, plane.stride / bytesPerTexel);
-      gl.texImage2D(gl.TEXTURE_2D, 0, internal, w, h, 0, format, gl.UNSIGNED_BYTE, frameBuffer, plane.offset);
+      const key = `${internal}:${w}x${h}`;
+      if (textureShapes[unit] !== key) {
+        gl.texImage2D(gl.TEXTURE_2D, 0, internal, w, h, 0, format, gl.UNSIGNED_BYTE, frameBuffer, offset);
+        textureShapes[unit] = key;
+      } else {
+        gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, w, h, format, gl.UNSIGNED_BYTE, frameBuffer, offset);
+      }
     };
-    put(1, gl.RED, gl.R8, width, height, layout[0], 1);
-    if (planes === 2) put(3, gl.RG, gl.RG8, cw, ch, layout[1], 2);
+    put(1, gl.RED, gl.R8, width, height, layout[0].offset);
+    if (planes === 2) put(3, gl.RG, gl.RG8, cw, ch, layout[1].offset);
     else {
-      put(3, gl.RED, gl.R8, cw, ch, layout[1], 1);
-      put(4, gl.RED, gl.R8, cw, ch, layout[2], 1);
+      put(3, gl.RED, gl.R8, cw, ch, layout[1].offset);
+      put(4, gl.RED, gl.R8, cw, ch, layout[2].offset);
     }
-    gl.pixelStorei(gl.UNPACK_ROW_LENGTH, 0);
     yuvMatrix = yuvConversion(frame.colorSpace);
     sourcePlanes = planes;
     sourceReady = true;
@@ -396,7 +484,7 @@ void main() {
   const one = new Uint8Array(4);
 
   // Draw the view (and the strip below it) now; the GPU has finished when this returns.
-  function draw() {
+  function draw(sync = true) {
     if (!gl || !sourceReady) return false;
     const started = performance.now();
     const canvas = gl.canvas;
@@ -414,7 +502,7 @@ void main() {
       drawPart(state.mode, 0, strip, state.width, state.height, false);
     }
     if (strip) drawPart("panorama", 0, 0, state.width, strip, true);
-    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, one); // waits for the GPU: the view is drawn
+    if (sync) gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, one); // waits for the GPU: the view is drawn
     stats.views += 1;
     stats.drawMs.push(performance.now() - started);
     if (stats.drawMs.length > 1000) stats.drawMs.shift();
@@ -425,7 +513,8 @@ void main() {
   function requestDraw() {
     if (drawQueued) return;
     drawQueued = true;
-    requestAnimationFrame(() => {
+    requestAnimationFrame(async () => {
+      await ensureWindow();
       drawQueued = false;
       if (draw() && pendingInput !== null) {
         stats.dragToPictureMs.push(performance.now() - pendingInput);
@@ -687,12 +776,14 @@ void main() {
       let started = false;
       const onFrame = async (now, metadata) => {
         const frame = new VideoFrame(video, { timestamp: Math.round(metadata.mediaTime * 1e6) });
+        if (currentFrame) currentFrame.close();
+        currentFrame = frame;  // (kept: a view that moves off the uploaded window reads it again)
         try {
           await uploadVideoFrame(frame);
-        } finally {
-          frame.close();
+        } catch (error) {
+          return video.requestVideoFrameCallback(onFrame);  // (closed meanwhile by a newer frame)
         }
-        if (draw()) noteFrame(null);
+        if (draw(false)) noteFrame(null);
         showTime(metadata.mediaTime);
         if (!started) { started = true; resolve(true); }
         video.requestVideoFrameCallback(onFrame);
@@ -787,7 +878,7 @@ void main() {
   // ------------------------------------------------------------------ the API
 
   function setView(view) {
-    return new Promise((resolve, reject) => {
+    return new Promise(async (resolve, reject) => {
       try {
         const known = ["yaw", "pitch", "roll", "fov", "width", "height", "mode", "strip", "start"];
         for (const key of Object.keys(view)) if (!known.includes(key)) throw new Error(`set: unknown key ${key}`);
@@ -804,6 +895,7 @@ void main() {
         if ("start" in view) state.panoramaStart = view.start;
         if ("strip" in view) state.strip = Boolean(view.strip);
         clampState();
+        await ensureWindow();
         draw();
         showStateSoon();
         resolve({ ...state });
@@ -823,7 +915,7 @@ void main() {
   window.panomapView = {
     set: setView,
     get: () => ({ ...state }),
-    pixels: () => new Promise((resolve, reject) => { try { resolve(viewPixels()); } catch (error) { reject(error); } }),
+    pixels: async () => { await ensureWindow(); return viewPixels(); },
     stats: () => ({
       views: stats.views,
       drawMs: summary(stats.drawMs),
@@ -832,6 +924,7 @@ void main() {
       latencyMs: summary(stats.latencyMs),
       dragToPictureMs: summary(stats.dragToPictureMs),
       decodedBy: stats.decodedBy || (info && info.source.kind === "image" ? "image" : null),
+      sourceWindow: shownWindow,
     }),
     commands: () => commands(),
   };
