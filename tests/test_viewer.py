@@ -10,6 +10,10 @@ from __future__ import annotations
 import dataclasses
 import http.client
 import json
+import re
+import signal
+import subprocess
+import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -378,3 +382,26 @@ def test_only_videos_have_frames_to_feed(work: Path) -> None:
     live = FrameFeed(Source("tcp://127.0.0.1:9", "live", SIZE))
     with pytest.raises(PanomapError, match="cannot be paused"):
         live.control(paused=True)
+
+
+def test_the_command_serves_until_ctrl_c(work: Path) -> None:
+    process = subprocess.Popen(
+        [sys.executable, "-m", "panomap", "view", str(work / "cam.npz"), str(work / "clip.avi"), "--port", "0"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stdout is not None
+        line = process.stdout.readline()
+        match = re.search(r"showing clip\.avi \(video\) through cam\.npz at http://127\.0\.0\.1:(\d+)/", line)
+        assert match, line
+        connection = http.client.HTTPConnection("127.0.0.1", int(match.group(1)), timeout=LIMIT_S)
+        connection.request("GET", "/api/info")
+        answer = connection.getresponse()
+        assert answer.status == 200 and json.loads(answer.read())["source"]["kind"] == "video"
+        connection.close()
+    finally:
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=LIMIT_S)
+    assert process.returncode == 0 and "stopped" in out and err == ""
