@@ -283,8 +283,15 @@ def test_decoded_frames_come_at_the_files_rate_and_pause_and_seek(work: Path) ->
     try:
         first = feed.frame_after(0, LIMIT_S)
         assert first is not None and first.time_s == pytest.approx(0.0, abs=1e-6)
-        image = cv2.imdecode(np.frombuffer(first.jpeg, np.uint8), cv2.IMREAD_COLOR)
-        assert image.shape == (SIZE[1], SIZE[0], 3)
+        assert first.image.shape == (SIZE[1], SIZE[0], 3)
+        whole = cv2.imdecode(np.frombuffer(feed.jpeg(first), np.uint8), cv2.IMREAD_COLOR)
+        assert np.abs(whole.astype(np.int16) - first.image).mean() < 8.0  # (JPEG at 85: 4.1 on this small, sharp frame)
+        part = cv2.imdecode(np.frombuffer(feed.jpeg(first, (40, 30, 64, 50)), np.uint8), cv2.IMREAD_COLOR)
+        assert part.shape == (50, 64, 3)
+        error = np.abs(part.astype(np.int16) - first.image[30:80, 40:104]).mean()
+        assert (
+            error < 0.5 * np.abs(part.astype(np.int16) - first.image[35:85, 45:109]).mean()
+        )  # (that part, JPEG aside)
         started, index, times = time.monotonic(), first.index, []
         while len(times) < 10:
             frame = feed.frame_after(index, LIMIT_S)
@@ -331,8 +338,12 @@ def test_the_frame_api_answers_with_the_frame_and_its_time(serve: object, work: 
     assert status == 200 and headers["content-type"] == "image/jpeg" and body[:2] == b"\xff\xd8"
     index = int(headers["x-frame-index"])
     assert float(headers["x-frame-time"]) >= 0 and float(headers["x-frame-age"]) >= 0
-    status, headers, _ = request(server, "GET", f"/api/frame?after={index}")
+    assert headers["x-frame-window"] == f"0,0,{SIZE[0]},{SIZE[1]}"
+    status, headers, body = request(server, "GET", f"/api/frame?after={index}&window=150,20,40,300")
     assert status == 200 and int(headers["x-frame-index"]) > index
+    assert headers["x-frame-window"] == "150,20,10,140"  # (clipped to the frame)
+    assert cv2.imdecode(np.frombuffer(body, np.uint8), cv2.IMREAD_COLOR).shape == (140, 10, 3)
+    assert request(server, "GET", "/api/frame?after=0&window=1,2,3")[0] == 400
     assert request(server, "GET", "/api/frame?after=x")[0] == 400
     status, _, body = request(server, "GET", "/api/status")
     assert status == 200 and json.loads(body)["state"] in ("playing", "ended")

@@ -1,8 +1,9 @@
 """Frames decoded here for the page: a video the browser cannot play itself, or a live source.
 
 One thread decodes the source (PyAV), paced at the source's rate for a file (as it would play) and as
-fast as frames come for a live source, and keeps only the newest frame, as JPEG: the server's memory
-does not grow with the length of the stream or the number of pages. Pages ask for "the frame after
+fast as frames come for a live source, and keeps only the newest frame: the server's memory does not
+grow with the length of the stream or the number of pages. A page gets it as JPEG, cut to the part its
+view reads (:meth:`FrameFeed.jpeg`). Pages ask for "the frame after
 the one I have" (:meth:`FrameFeed.frame_after`), so a slow page skips frames instead of queueing
 them. The thread starts with the first request and ends when no page has asked for
 ``idle_stop_s`` seconds (a closed page frees it); a file then goes on where it was.
@@ -23,6 +24,8 @@ from typing import Any
 
 import av
 import cv2
+import numpy as np
+from numpy.typing import NDArray
 
 from ..errors import PanomapError
 from ..video.handoff import reason
@@ -31,6 +34,8 @@ from ..video.source import drops, open_input
 from .source import Source
 
 JPEG_QUALITY = 85
+# JPEG answers kept (the newest frame for a few pages' windows).
+ENCODED_KEPT = 4
 # A file's playback that falls this far (s) behind its clock restarts the clock instead of rushing.
 MAX_LAG_S = 0.5
 
@@ -41,13 +46,26 @@ class Frame:
 
     ``index`` counts frames over the feed's life (1, 2, ...); ``time_s`` is the frame's time in the
     source (s from a file's start; for a live source, from its first frame of this connection);
-    ``decoded_at`` is ``time.monotonic()`` when it was decoded; ``jpeg`` its picture.
+    ``decoded_at`` is ``time.monotonic()`` when it was decoded; ``image`` its picture, (H, W, 3) BGR,
+    read-only.
     """
 
     index: int
     time_s: float
     decoded_at: float
-    jpeg: bytes
+    image: NDArray[np.uint8]
+
+
+def window_of(size: tuple[int, int], window: tuple[int, int, int, int] | None) -> tuple[int, int, int, int]:
+    """``window`` (x0, y0, width, height, px) clipped to an image of ``size``; the whole image for None or an
+    empty window."""
+    width, height = size
+    if window is None:
+        return 0, 0, width, height
+    x0, y0, w, h = window
+    x0, y0 = min(max(x0, 0), width - 1), min(max(y0, 0), height - 1)
+    w, h = min(max(w, 1), width - x0), min(max(h, 1), height - y0)
+    return x0, y0, w, h
 
 
 @dataclass(frozen=True)
@@ -97,6 +115,7 @@ class FrameFeed:
         self.idle_stop_s = idle_stop_s
         self._changed = threading.Condition()
         self._frame: Frame | None = None
+        self._encoded: dict[tuple[int, tuple[int, int, int, int]], bytes] = {}  # (index, window) -> JPEG, oldest first
         self._index = 0
         self._thread: threading.Thread | None = None
         self._asked_at = time.monotonic()
@@ -199,13 +218,36 @@ class FrameFeed:
                     return
                 self._changed.wait(min(left, 0.25))
 
-    def _publish(self, image: Any, time_s: float) -> None:
-        ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, self.quality])
+    def jpeg(self, frame: Frame, window: tuple[int, int, int, int] | None = None) -> bytes:
+        """``frame``'s picture within ``window`` (x0, y0, width, height, px; clipped; None: all of it) as JPEG.
+
+        A page sends only the part of the frame its view reads. The last few answers are kept (pages that
+        show the same view share them).
+        """
+        box = window_of(self.source.size, window)
+        key = (frame.index, box)
+        with self._changed:
+            cached = self._encoded.get(key)
+        if cached is not None:
+            return cached
+        x0, y0, w, h = box
+        ok, encoded = cv2.imencode(
+            ".jpg", frame.image[y0 : y0 + h, x0 : x0 + w], [cv2.IMWRITE_JPEG_QUALITY, self.quality]
+        )
         if not ok:
             raise PanomapError("a frame could not be encoded as JPEG", self.source.name)
+        data = encoded.tobytes()
+        with self._changed:
+            self._encoded[key] = data
+            while len(self._encoded) > ENCODED_KEPT:
+                self._encoded.pop(next(iter(self._encoded)))
+        return data
+
+    def _publish(self, image: Any, time_s: float) -> None:
+        image.setflags(write=False)
         with self._changed:
             self._index += 1
-            self._frame = Frame(self._index, time_s, time.monotonic(), jpeg.tobytes())
+            self._frame = Frame(self._index, time_s, time.monotonic(), image)
             self._changed.notify_all()
 
     def _run(self) -> None:

@@ -11,9 +11,10 @@ API (GET unless said; errors are ``{"error": "..."}`` with their status):
 - ``/api/image``: a still image (PNG).
 - ``/api/video``: a video file, as it is, with HTTP range requests (at most :data:`MAX_RANGE_BYTES`
   an answer: a browser asks for the rest).
-- ``/api/frame?after=K``: the newest decoded frame (JPEG) when its index is above K, waiting up to a
-  second for one; 204 when none came. Headers ``X-Frame-Index``, ``X-Frame-Time`` (s) and
-  ``X-Frame-Age`` (s since it was decoded).
+- ``/api/frame?after=K[&window=X0,Y0,W,H]``: the newest decoded frame (JPEG; only the window's pixels
+  where one is given) when its index is above K, waiting up to a second for one; 204 when none came.
+  Headers ``X-Frame-Index``, ``X-Frame-Time`` (s), ``X-Frame-Age`` (s since it was decoded) and
+  ``X-Frame-Window`` (the window sent, clipped to the frame).
 - ``/api/status``: the decoded frames' state (playing, paused, ended, reconnecting, failed) in words.
 - POST ``/api/playback`` ``{"paused": bool, "seek_s": s}`` (either): pause, play or seek a decoded file.
 
@@ -41,7 +42,7 @@ from ..io.local_web import (
     only_keys,
 )
 from ..table.table import PanoMappingTable
-from .feed import FrameFeed
+from .feed import FrameFeed, window_of
 from .source import Source
 from .table_texture import lookup_texture, table_description, texture_bytes
 
@@ -197,6 +198,13 @@ class ViewerHandler(LocalHandler):
             after = int(query.get("after", ["0"])[0])
         except ValueError:
             raise RequestError("after must be a whole number (the index of the frame the page has)") from None
+        window = None
+        if "window" in query:
+            try:
+                x0, y0, w, h = (int(v) for v in query["window"][0].split(","))
+            except ValueError:
+                raise RequestError("window must be X0,Y0,WIDTH,HEIGHT in whole pixels") from None
+            window = (x0, y0, w, h)
         frame = feed.frame_after(after, MAX_FRAME_WAIT_S)
         if frame is None:
             self.send_response(204)
@@ -204,12 +212,15 @@ class ViewerHandler(LocalHandler):
             self.send_common_headers("text/plain")
             self.end_headers()
             return
+        box = window_of(self.server.source.size, window)
+        body = feed.jpeg(frame, box)
         headers = {
             "X-Frame-Index": str(frame.index),
             "X-Frame-Time": f"{frame.time_s:.6f}",
             "X-Frame-Age": f"{time.monotonic() - frame.decoded_at:.6f}",
+            "X-Frame-Window": ",".join(str(v) for v in box),
         }
-        self._send(200, frame.jpeg, "image/jpeg", headers)
+        self._send(200, body, "image/jpeg", headers)
 
     def _video(self, source: Source) -> None:
         path = source.path

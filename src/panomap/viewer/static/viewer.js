@@ -141,7 +141,7 @@ void main() {
   const programs = {};
   const sourceTextures = {};
   const textureShapes = {};  // the internal format and size each source texture unit holds
-  let linearFloat = false, lookupData = null, shownWindow = null, currentFrame = null;
+  let linearFloat = false, lookupData = null, shownWindow = null, currentFrame = null, serverFrameIndex = 0;
   let sourceReady = false, sourcePlanes = 0, yuvMatrix = null, frameBuffer = null, pendingInput = null;
 
   function message(text) { $("message").textContent = text || ""; }
@@ -352,13 +352,14 @@ void main() {
 
   // Make sure the source textures hold what the view reads (a video frame's window is re-read after a move).
   async function ensureWindow() {
-    if (!sourcePlanes || !currentFrame) return;
+    if (!shownWindow || (!currentFrame && !serverFrameIndex)) return;
     const wanted = sourceWindow(), [x, y, w, h] = shownWindow;
     if (wanted[0] >= x && wanted[1] >= y && wanted[0] + wanted[2] <= x + w && wanted[1] + wanted[3] <= y + h) return;
     try {
-      await uploadVideoFrame(currentFrame);
+      if (currentFrame) await uploadVideoFrame(currentFrame);
+      else await serverFrame(serverFrameIndex - 1);  // (the newest frame again, cut to the new window)
     } catch (error) {
-      // (the frame was closed by a newer one, which brings its own window)
+      // (the frame was closed by a newer one, or the server went away: the next frame brings its own window)
     }
   }
 
@@ -381,13 +382,13 @@ void main() {
   }
 
   // An image, bitmap or video element: one RGBA picture.
-  function uploadSource(element) {
+  function uploadSource(element, window_ = null) {
     sourceTextureOn(1);
     gl.pixelStorei(gl.UNPACK_ALIGNMENT, 4);
     gl.pixelStorei(gl.UNPACK_ROW_LENGTH, 0);
     gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, element);
     textureShapes[1] = null;
-    shownWindow = [0, 0, ...info.source.size];
+    shownWindow = window_ || [0, 0, ...info.source.size];
     sourcePlanes = 0;
     sourceReady = true;
   }
@@ -801,6 +802,24 @@ void main() {
     });
   }
 
+  // The newest frame decoded by the server after frame ``after``, cut to the view's window, drawn; the response.
+  async function serverFrame(after) {
+    const [x, y, w, h] = sourceWindow();
+    const response = await fetch(`/api/frame?after=${after}&window=${x},${y},${w},${h}`, { cache: "no-store" });
+    if (response.status !== 200) return response;
+    const received = performance.now();
+    const index = Number(response.headers.get("X-Frame-Index"));
+    const age = Number(response.headers.get("X-Frame-Age")) * 1000;
+    const window_ = response.headers.get("X-Frame-Window").split(",").map(Number);
+    const bitmap = await createImageBitmap(await response.blob(), { colorSpaceConversion: "none", premultiplyAlpha: "none" });
+    uploadSource(bitmap, window_);
+    bitmap.close();
+    serverFrameIndex = Math.max(serverFrameIndex, index);
+    if (draw()) noteFrame(age + (performance.now() - received));
+    showTime(Number(response.headers.get("X-Frame-Time")));
+    return response;
+  }
+
   // Anything else: frames decoded by the server, one request per frame ("the one after the frame I have").
   async function playFromServer() {
     const live = info.source.kind === "live";
@@ -814,26 +833,17 @@ void main() {
       };
       $("seek").oninput = () => post("/api/playback", { seek_s: Number($("seek").value) * (info.source.duration_s || 0) });
     }
-    let index = 0;
     let lastStatus = 0;
     for (;;) {
       let response;
       try {
-        response = await fetch(`/api/frame?after=${index}`, { cache: "no-store" });
+        response = await serverFrame(serverFrameIndex);
       } catch (error) {
         sourceState("the viewer's server does not answer (stopped?)");
         await new Promise((r) => setTimeout(r, 1000));
         continue;
       }
       if (response.status === 200) {
-        const received = performance.now();
-        index = Number(response.headers.get("X-Frame-Index"));
-        const age = Number(response.headers.get("X-Frame-Age")) * 1000;
-        const bitmap = await createImageBitmap(await response.blob(), { colorSpaceConversion: "none", premultiplyAlpha: "none" });
-        uploadSource(bitmap);
-        bitmap.close();
-        if (draw()) noteFrame(age + (performance.now() - received));
-        showTime(Number(response.headers.get("X-Frame-Time")));
         if (stats.sourceFrames === 1 || live) sourceState("");
       } else if (response.status !== 204) {
         const body = await response.json().catch(() => ({}));
