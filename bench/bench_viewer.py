@@ -128,6 +128,25 @@ def play(browser: Any, server: ViewerServer, seconds: float) -> dict[str, Any]:
     }
 
 
+def decode_floor(browser: Any, server: ViewerServer, seconds: float) -> float:
+    """Frames/s Chromium presents of the clip with nothing drawn (its decoder's rate here: the floor)."""
+    page = browser.new_page()
+    page.set_content("<video id=v muted playsinline></video>")
+    script = """async ([url, ms]) => {
+      const v = document.getElementById('v');
+      let n = 0;
+      const count = () => { n++; v.requestVideoFrameCallback(count); };
+      v.requestVideoFrameCallback(count);
+      v.src = url;
+      await v.play();
+      await new Promise((r) => setTimeout(r, ms));
+      return n / (ms / 1000);
+    }"""
+    rate = float(page.evaluate(script, [server.url + "api/video", seconds * 1000]))
+    page.close()
+    return rate
+
+
 def live_stream(clip: Path) -> tuple[subprocess.Popen[bytes], str]:
     """ffmpeg serving ``clip`` in a loop, in real time, as MPEG-TS over TCP (one client)."""
     import socket
@@ -193,11 +212,16 @@ def main() -> None:
             server = make_server(table, table_path.name, open_source(str(clip)))
             serve_in_thread(server)
             try:
+                floor = decode_floor(browser, server, min(frames / RATE - 0.5, 8.0))
                 result = play(browser, server, min(frames / RATE - 0.5, 8.0))
                 print(f"3. the 1920 x 1920 H.264 clip at {RATE} fps, decoded by the {result['decoded_by']}, one view:")
                 print(
                     f"   {result['shown_per_s']:.1f} frames shown/s, {result['clip_s_per_s']:.2f} s of clip per s "
                     f"(ratio to its rate {result['shown_per_s'] / RATE:.2f})"
+                )
+                print(
+                    f"   the floor: Chromium presents {floor:.1f} frames/s of it with nothing drawn "
+                    f"(ratio shown / floor {result['shown_per_s'] / floor:.2f})"
                 )
             finally:
                 server.shutdown()
