@@ -112,8 +112,7 @@ def drag_to_picture(browser: Any, server: ViewerServer, moves: int) -> dict[str,
 
 
 def play(browser: Any, server: ViewerServer, seconds: float) -> dict[str, Any]:
-    page = open_page(browser, server, f"#yaw=30&pitch=-20&fov=90&width={VIEW[0]}&height={VIEW[1]}")
-    page.evaluate("document.getElementById('show-strip').click()")  # one view
+    page = open_page(browser, server, f"#yaw=30&pitch=-20&fov=90&strip=0&width={VIEW[0]}&height={VIEW[1]}")  # one view
     first = page.evaluate("window.panomapView.stats()")
     started = time.monotonic()
     page.wait_for_timeout(seconds * 1000)

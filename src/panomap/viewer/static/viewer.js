@@ -561,6 +561,7 @@ void main() {
       ? { view: "perspective", yaw: round(state.yaw, 2), pitch: round(state.pitch, 2), roll: round(state.roll, 2), fov: round(state.fov, 2) }
       : state.mode === "panorama" ? { view: "panorama", start: round(state.panoramaStart, 2) }
         : { view: "floor", x: round(state.floorCentre[0], 3), y: round(state.floorCentre[1], 3), half: round(state.floorHalf, 3) };
+    p.strip = state.strip ? 1 : 0;
     p.width = state.width;
     p.height = state.height;
     return "#" + Object.entries(p).map(([k, v]) => `${k}=${v}`).join("&");
@@ -580,6 +581,7 @@ void main() {
     if (number("start") !== null) state.panoramaStart = number("start");
     if (number("x") !== null && number("y") !== null) state.floorCentre = [number("x"), number("y")];
     if (number("half") !== null && number("half") > 0) state.floorHalf = number("half");
+    if (number("strip") !== null) state.strip = number("strip") !== 0;
     clampState();
   }
 
@@ -945,6 +947,8 @@ void main() {
     try {
       info = await fetch("/api/info").then((r) => r.json());
       $("names").textContent = `${info.table.name} \u00b7 ${info.source.name}`;
+      // A video's strip is off unless asked for: it needs the whole of every frame, the view only its part.
+      state.strip = info.source.kind === "image";
       readHash();
       const canvas = $("canvas");
       setUpGl(canvas);
