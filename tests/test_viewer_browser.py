@@ -284,6 +284,15 @@ def test_dragging_turns_the_view_by_the_pinholes_angle_and_a_click_on_the_strip_
         page.page.mouse.wheel(0, 200)
         page.page.wait_for_function("window.panomapView.get().fov < 89 || window.panomapView.get().fov > 91")
         assert page.js("window.panomapView.get().fov") == pytest.approx(90 * math.exp(0.2), rel=1e-6)
+        # Keys: arrows pan and tilt by 2 deg, E rolls, + zooms in by 1.1.
+        page.set(yaw=0.0, pitch=-30.0, roll=0.0, fov=90.0)
+        page.page.locator("#canvas").focus()
+        for key in ("ArrowLeft", "ArrowUp", "e", "+"):
+            page.page.keyboard.press(key)
+        page.page.wait_for_function("window.panomapView.get().roll === 2")
+        state = page.js("window.panomapView.get()")
+        assert (state["yaw"], state["pitch"], state["roll"]) == (2, -28, 2)
+        assert state["fov"] == pytest.approx(90 / 1.1)
         # The strip (a panorama W x W/4 below the view, centred on the view's yaw): a click looks at its point.
         page.set(yaw=10.0, pitch=-30.0, fov=90.0)
         table = load_table(work / "cam.npz")

@@ -667,7 +667,7 @@ void main() {
         const t = info.table;
         const theta = state.yaw + 180 - 360 * x / state.width;
         const rho = (t.rho_e - (y - state.height) / strip * (t.rho_e - t.rho_s)) / DEG;
-        pendingInput = performance.now();
+        if (pendingInput === null) pendingInput = event.timeStamp;  // (the oldest input not yet drawn, from its event)
         change(() => { state.yaw = theta; state.pitch = rho; });
         pointers.delete(event.pointerId);
       }
@@ -681,7 +681,7 @@ void main() {
       if (!last) return;
       const dx = (event.clientX - last.x) * viewScale(), dy = (event.clientY - last.y) * viewScale();
       pointers.set(event.pointerId, { x: event.clientX, y: event.clientY });
-      pendingInput = performance.now();
+      if (pendingInput === null) pendingInput = event.timeStamp;  // (the oldest input not yet drawn, from its event)
       if (pointers.size === 2 && pinchStart) {
         const [a, b] = [...pointers.values()];
         const ratio = pinchStart.distance / Math.max(1, Math.hypot(a.x - b.x, a.y - b.y));
@@ -713,7 +713,7 @@ void main() {
     canvas.addEventListener("pointercancel", end);
     canvas.addEventListener("wheel", (event) => {
       event.preventDefault();
-      pendingInput = performance.now();
+      if (pendingInput === null) pendingInput = event.timeStamp;  // (the oldest input not yet drawn, from its event)
       const factor = Math.exp(event.deltaY * 0.001);
       change(() => {
         if (state.mode === "floor") { floorDefaults(); state.floorHalf *= factor; } else state.fov *= factor;
@@ -722,13 +722,14 @@ void main() {
     canvas.addEventListener("keydown", (event) => {
       const steps = { ArrowLeft: ["yaw", 2], ArrowRight: ["yaw", -2], ArrowUp: ["pitch", 2], ArrowDown: ["pitch", -2], q: ["roll", -2], e: ["roll", 2] };
       const key = event.key;
-      if (key in steps) {
-        const [name, by] = steps[key];
-        change(() => { state[name] += by; });
-      } else if (key === "+" || key === "=") change(() => { state.fov /= 1.1; });
-      else if (key === "-") change(() => { state.fov *= 1.1; });
-      else if (key === "0") change(() => { Object.assign(state, { yaw: 0, pitch: -30, roll: 0, fov: 90 }); });
-      else return;
+      let update = null;
+      if (key in steps) update = () => { state[steps[key][0]] += steps[key][1]; };
+      else if (key === "+" || key === "=") update = () => { state.fov /= 1.1; };
+      else if (key === "-") update = () => { state.fov *= 1.1; };
+      else if (key === "0") update = () => { Object.assign(state, { yaw: 0, pitch: -30, roll: 0, fov: 90 }); };
+      if (!update) return;
+      if (pendingInput === null) pendingInput = event.timeStamp;
+      change(update);
       event.preventDefault();
     });
     for (const key of ["yaw", "pitch", "roll", "fov", "width", "height"]) {
