@@ -1,0 +1,291 @@
+"""Lines and landmarks in one refinement: the straight lines of an image join a landmark fit (beyond the paper).
+
+Convention: as in :mod:`panomap.calibrate.refine` (landmark rays in the camera's axes, pixel radius r about the
+centre, ``r = f_r(rho)``); a line's points in px.
+
+A landmark fits f_r, the centre, phi0, the tilt and the position at once, and a few landmarks leave them
+entangled: near the nadir a tilt of the axis and a shift of the centre move the landmarks alike, and five
+landmarks hold a flexible f_r loosely. The straight lines of an image of the same camera fix f_r and the centre
+on their own (:mod:`panomap.calibrate.lines`), but neither the azimuth, nor the tilt against the world's
+vertical where no vertical edge shows, nor any distance. Together, in the one refinement of
+:func:`panomap.calibrate.refine.refine`, each line is a residual block (:class:`LineBlock`): every point's
+distance (px) from the image of its line's plane through the viewpoint, over that line's measured noise (so that
+the lines' residuals are in standard deviations, as the landmarks' are). The plane of each line is solved in
+closed form for every trial camera (variable projection, as the line fit does), so a block adds no unknowns of
+its own to the refinement.
+
+The steps (:func:`refine_with_lines`):
+
+1. **Lines**: the line fit (:func:`panomap.calibrate.lines.fit.fit_lines`) on the image's edge arcs, with the
+   landmarks' axis; it finds the straight lines, sets aside the curved arcs, and chooses the radial kind by
+   cross-validation over lines (each line scored by a fit without its fold). Its kind is the joint fit's: the
+   lines hold far more of f_r than a dozen landmarks do.
+2. **Noise**: each line's sigma is its own RMS under the line fit, at least the edge noise of all lines
+   (``LineFitReport.sigma_px``): a blurred or slightly bent edge counts less, none counts more than the rest.
+3. **Mount**: the centre (unless it was given and held), then the tilt and the position where the landmarks'
+   chi-square falls by more than chance would for their added unknowns, as the landmark fit screens them
+   (:data:`panomap.calibrate.mount.CHI2_95`): with f_r and the centre held by the lines, a tilt no longer
+   trades against the centre.
+4. **Agreement**: where the landmarks' chi-square under the joint camera exceeds theirs under the landmark
+   fit by more than chance would for the unknowns the lines take over (:data:`DISAGREE_QUANTILE`), the
+   lines and the landmarks disagree (lines that are not straight in the world, landmarks measured in another
+   frame): the landmark fit stands, with a note that says so. So it does where the line fit fails (too few
+   lines) or the joint f_r does not cover the annulus.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..camera.radial_models import radial_kind
+from ..errors import PanomapError
+from ..geometry import FloatArray
+from .circles import ImageCircles
+from .lines.arcs import EdgeArc
+from .lines.fit import LineFit, LineFitOptions, fit_lines
+from .lines.objective import LineData, evaluate
+from .lines.report import FittedLine, LineFitReport
+from .mount import CHI2_95, _mount_misses_annulus
+from .refine import LandmarkBlock, MountOptions, MountProblem, MountSolution, Refinement, refine
+
+# Points per arc the joint refinement takes (evenly along it), as the line fit does.
+POINTS_PER_ARC = 100
+# The lines disagree with the landmarks where the landmarks' chi-square rises, from the landmark fit to the
+# joint one, beyond this quantile of a chi-square with as many degrees of freedom as the lines take over.
+DISAGREE_QUANTILE = 0.999
+
+
+@dataclass(frozen=True)
+class ImageLines:
+    """The edge arcs of an image of the camera, for a landmark fit to take its straight lines from.
+
+    Attributes
+    ----------
+    arcs : sequence of EdgeArc
+        Candidate arcs (:func:`panomap.calibrate.lines.arcs.find_arcs`), px.
+    circles : ImageCircles
+        The image circles the arcs were found in.
+    """
+
+    arcs: Sequence[EdgeArc]
+    circles: ImageCircles
+
+
+@dataclass(frozen=True)
+class JointLines:
+    """What the lines brought to a landmark fit.
+
+    Attributes
+    ----------
+    report : LineFitReport or None
+        The lines that joined, each line's RMS (px) under the joint camera; None where none joined.
+    note : str or None
+        Why no line joined (the line fit failed, the lines disagree with the landmarks), None where they did.
+    """
+
+    report: LineFitReport | None
+    note: str | None = None
+
+
+class LineBlock:
+    """The straight lines as one residual block of :func:`panomap.calibrate.refine.refine`; no unknowns.
+
+    Parameters
+    ----------
+    lines : list of (k_i, 2) ndarray
+        Each line's points, px.
+    sigmas_px : (L,) ndarray
+        Each line's noise, px.
+    axis : {"down", "up"}
+    r_max : float
+        The radius (px) f_r must reach (beyond the farthest point).
+    """
+
+    unknowns = 0
+
+    def __init__(self, lines: list[FloatArray], sigmas_px: FloatArray, axis: str, r_max: float) -> None:
+        self.data = LineData.of(lines, r_max)
+        self.axis = axis
+        self.point_sigma = np.asarray(sigmas_px, dtype=np.float64)[self.data.line_index]
+
+    def start(self) -> FloatArray:
+        return np.empty(0)
+
+    def distances_px(self, camera: MountSolution) -> FloatArray | None:
+        """Each point's distance (px) from its line's plane image under ``camera``; None where f_r does not
+        rise monotonically to the lines."""
+        params = np.array([*camera.centre, *camera.radial.coefficients], dtype=np.float64)
+        trial = evaluate(camera.radial.kind, self.axis, params, self.data)
+        return None if trial is None else trial.distances_px
+
+    def residuals(self, camera: MountSolution, own: FloatArray) -> FloatArray:
+        distances = self.distances_px(camera)
+        if distances is None:
+            return np.full(self.data.pixels.shape[0], np.nan)
+        return np.asarray(distances / self.point_sigma, dtype=np.float64)
+
+
+def line_pixels(fit: LineFit, arcs: Sequence[EdgeArc]) -> list[FloatArray]:
+    """Each line's points (px): its arcs' points, at most :data:`POINTS_PER_ARC` evenly along each."""
+    out = []
+    for line in fit.report.lines:
+        pieces = []
+        for k in line.arcs:
+            pixels = np.asarray(arcs[k].pixels, dtype=np.float64)
+            if len(pixels) > POINTS_PER_ARC:
+                pixels = pixels[np.round(np.linspace(0, len(pixels) - 1, POINTS_PER_ARC)).astype(int)]
+            pieces.append(pixels)
+        out.append(np.concatenate(pieces))
+    return out
+
+
+def line_sigmas(report: LineFitReport) -> FloatArray:
+    """Each line's noise (px): its RMS under the line fit, at least the edge noise of all the lines."""
+    floor = max(report.sigma_px, 1e-3)
+    return np.array([max(line.rms_px, floor) for line in report.lines], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class JointResult:
+    """The joint refinement: the camera, the mount refined, the radial kind, and the lines' account."""
+
+    solution: MountSolution
+    options: MountOptions
+    kind: str
+    refinement: Refinement
+    lines: JointLines
+
+
+def landmark_chi2(problem: MountProblem, solution: MountSolution, subset: FloatArray, rays_move: bool) -> float:
+    """The landmarks' (``subset``, bool) sum of squared whitened residuals under ``solution``."""
+    block = LandmarkBlock(problem, solution, np.flatnonzero(subset), rays_move=rays_move)
+    value = float(np.sum(block.residuals(solution, np.empty(0)) ** 2))
+    return value if math.isfinite(value) else math.inf
+
+
+def refine_with_lines(
+    problem: MountProblem,
+    landmark_solution: MountSolution,
+    inliers: FloatArray,
+    landmark_options: MountOptions,
+    image: ImageLines,
+    *,
+    model: str,
+    refine_centre: bool,
+    tilt: bool,
+    annulus: tuple[float, float] | None,
+) -> JointResult | JointLines:
+    """The camera refined on the landmarks (``inliers``, bool) and the straight lines of ``image`` together.
+
+    ``landmark_solution`` (refined with ``landmark_options``) is the landmark fit's camera; ``model`` is the
+    kind asked for (``"auto"``: the lines' cross-validated choice); ``refine_centre`` whether the centre is
+    refined; ``tilt`` whether a tilt may be fitted. Returns a :class:`JointResult`, or a :class:`JointLines`
+    with its note where the lines do not join (the landmark fit then stands).
+    """
+    if model != "auto" and radial_kind(model).centre_given:
+        return JointLines(None, f"the {model} model takes the centre as given; no line joined the fit")
+    try:
+        line_fit = fit_lines(image.arcs, image.circles, LineFitOptions(axis=problem.axis, s=problem.s, model=model))
+    except PanomapError as exc:
+        return JointLines(None, f"no line joined the fit: {exc.detail}")
+    lines = line_pixels(line_fit, image.arcs)
+    reach = max(float(np.max(np.hypot(*(p - np.asarray(line_fit.model.centre)).T))) for p in lines)
+    block = LineBlock(lines, line_sigmas(line_fit.report), problem.axis, reach * 1.02 + 2.0)
+    kind = line_fit.model.radial.kind
+    joint_problem = replace(problem, kind=kind)
+    start = MountSolution(
+        line_fit.model.radial,
+        landmark_solution.phi0,
+        line_fit.model.centre if refine_centre else landmark_solution.centre,
+        landmark_solution.w,
+        landmark_solution.delta,
+        np.empty((0, 0)),
+    )
+    # The mounts, simplest first; each kept where the landmarks' chi-square falls beyond chance.
+    options = [MountOptions(centre=refine_centre)]
+    if tilt:
+        options.append(MountOptions(centre=refine_centre, tilt=True))
+    if problem.camera_sigma > 0:
+        options += [replace(option, position=True) for option in list(options)]
+    fits: dict[MountOptions, Refinement] = {}
+    for option in options:
+        # (A mount that does not refine the tilt or the position holds it level, or as given.)
+        begin = replace(
+            start,
+            w=start.w if option.tilt else np.zeros(2),
+            delta=start.delta if option.position else np.zeros(3),
+        )
+        try:
+            fits[option] = refine(
+                joint_problem, begin, inliers, option, blocks=(block,), what="the refinement with the lines"
+            )
+        except PanomapError:
+            continue
+    chosen = _screen(joint_problem, fits, inliers)
+    if chosen is None:
+        return JointLines(None, "no line joined the fit: the refinement with the lines did not converge")
+    refinement = fits[chosen]
+    solution = refinement.solution
+    moves = landmark_options.tilt or landmark_options.position
+    before = landmark_chi2(problem, landmark_solution, inliers, moves)
+    after = landmark_chi2(joint_problem, solution, inliers, chosen.tilt or chosen.position)
+    taken_over = len(solution.radial.coefficients) + 2 * refine_centre
+    from scipy import stats  # here, not at the top: importing SciPy is slow
+
+    limit = float(stats.chi2.ppf(DISAGREE_QUANTILE, max(taken_over, 1)))
+    if after - before > limit:
+        return JointLines(
+            None,
+            f"the {len(lines)} straight lines of the image disagree with the landmarks (their chi-square rises "
+            f"from {before:.1f} to {after:.1f} with the lines): no line joined the fit",
+        )
+    if annulus is not None and _mount_misses_annulus(joint_problem, solution, inliers, annulus):
+        return JointLines(None, f"with the lines the {kind} model does not cover the annulus: no line joined the fit")
+    return JointResult(solution, chosen, kind, refinement, JointLines(_joint_report(line_fit, block, solution)))
+
+
+def _screen(problem: MountProblem, fits: dict[MountOptions, Refinement], inliers: FloatArray) -> MountOptions | None:
+    """The mount kept: the simplest fitted, then each with more unknowns whose chi-square (landmarks, lines and
+    the position's prior) falls below the best so far's by more than chance would for its added unknowns."""
+    if not fits:
+        return None
+    order = list(fits)
+    best = order[0]
+    for option in order[1:]:
+        added = 2 * (option.tilt and not best.tilt) + 3 * (option.position and not best.position)
+        if added not in CHI2_95 or (best.tilt and not option.tilt):
+            continue
+        drop = float(fits[best].residuals @ fits[best].residuals) - float(fits[option].residuals @ fits[option].residuals)
+        if drop > CHI2_95[added]:
+            best = option
+    return best
+
+
+def _joint_report(line_fit: LineFit, block: LineBlock, solution: MountSolution) -> LineFitReport:
+    """The line fit's report with each line's RMS and largest distance (px) under the joint camera."""
+    distances = block.distances_px(solution)
+    report = line_fit.report
+    if distances is None:
+        return report
+    index = block.data.line_index
+    count = block.data.count
+    rms = np.sqrt(np.bincount(index, distances**2, minlength=count) / np.maximum(np.bincount(index, minlength=count), 1))
+    worst = np.zeros(count)
+    np.maximum.at(worst, index, np.abs(distances))
+    lines = tuple(
+        FittedLine(
+            line.arcs,
+            line.image_index,
+            int(np.sum(index == k)),
+            float(rms[k]),
+            float(worst[k]),
+            line.family,
+            line.elevation_deg,
+        )
+        for k, line in enumerate(report.lines)
+    )
+    return replace(report, lines=lines)
