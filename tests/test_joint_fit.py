@@ -25,7 +25,6 @@ from panomap.geometry import azimuth_elevation
 from panomap.simulate.cameras import TiltedCamera, mount_rotation
 from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras
 from panomap.simulate.scenarios import test_points as view_points
-
 from test_line_fit import line_arcs
 
 CENTRE_START_OFF = (1.5, -1.0)  # px: where the fit starts, off the true centre (as a rim found a little off)

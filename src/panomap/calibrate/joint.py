@@ -259,10 +259,13 @@ def _screen(problem: MountProblem, fits: dict[MountOptions, Refinement], inliers
         added = 2 * (option.tilt and not best.tilt) + 3 * (option.position and not best.position)
         if added not in CHI2_95 or (best.tilt and not option.tilt):
             continue
-        drop = float(fits[best].residuals @ fits[best].residuals) - float(fits[option].residuals @ fits[option].residuals)
-        if drop > CHI2_95[added]:
+        if _chi2(fits[best]) - _chi2(fits[option]) > CHI2_95[added]:
             best = option
     return best
+
+
+def _chi2(refinement: Refinement) -> float:
+    return float(refinement.residuals @ refinement.residuals)
 
 
 def _joint_report(line_fit: LineFit, block: LineBlock, solution: MountSolution) -> LineFitReport:
@@ -273,7 +276,8 @@ def _joint_report(line_fit: LineFit, block: LineBlock, solution: MountSolution) 
         return report
     index = block.data.line_index
     count = block.data.count
-    rms = np.sqrt(np.bincount(index, distances**2, minlength=count) / np.maximum(np.bincount(index, minlength=count), 1))
+    points = np.maximum(np.bincount(index, minlength=count), 1)
+    rms = np.sqrt(np.bincount(index, distances**2, minlength=count) / points)
     worst = np.zeros(count)
     np.maximum.at(worst, index, np.abs(distances))
     lines = tuple(
