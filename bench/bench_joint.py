@@ -176,7 +176,7 @@ def main() -> None:
         f"{args.trials} trials per camera, {time.perf_counter() - start:.0f} s; worst error (px) over the test "
         "points: median / p90 / worst trial ('fails (k)': k trials with no fit)"
     )
-    print("| camera | landmarks | " + " | ".join(FITS) + " | lines joined | line RMS px |")
+    print("| camera | n landmarks | " + " | ".join(FITS) + " | lines joined | line RMS px |")
     print("| --- | --- | " + " | ".join("---" for _ in FITS) + " | --- | --- |")
     for kind in args.cameras:
         for count in args.counts:

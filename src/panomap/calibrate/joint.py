@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -73,6 +73,26 @@ class ImageLines:
 
     arcs: Sequence[EdgeArc]
     circles: ImageCircles
+    _fits: dict[LineFitOptions, LineFit | PanomapError] = field(default_factory=dict, compare=False, repr=False)
+
+    def line_fit(self, options: LineFitOptions) -> LineFit:
+        """The line fit of these arcs with ``options`` (:func:`panomap.calibrate.lines.fit.fit_lines`), found once
+        per options (a page that refits at every change of its landmarks fits the lines once).
+
+        Raises
+        ------
+        PanomapError
+            As the line fit does (too few lines, no two orthogonal families).
+        """
+        if options not in self._fits:
+            try:
+                self._fits[options] = fit_lines(self.arcs, self.circles, options)
+            except PanomapError as exc:
+                self._fits[options] = exc
+        found = self._fits[options]
+        if isinstance(found, PanomapError):
+            raise PanomapError(found.detail)
+        return found
 
 
 @dataclass(frozen=True)
@@ -189,7 +209,7 @@ def refine_with_lines(
     if model != "auto" and radial_kind(model).centre_given:
         return JointLines(None, f"the {model} model takes the centre as given; no line joined the fit")
     try:
-        line_fit = fit_lines(image.arcs, image.circles, LineFitOptions(axis=problem.axis, s=problem.s, model=model))
+        line_fit = image.line_fit(LineFitOptions(axis=problem.axis, s=problem.s, model=model))
     except PanomapError as exc:
         return JointLines(None, f"no line joined the fit: {exc.detail}")
     lines = line_pixels(line_fit, image.arcs)
