@@ -434,11 +434,14 @@ class Session:
             with self._lock:
                 revision = self.lines_status.get("revision", 0) + 1
             if lines is None:
-                learned, status = None, {
-                    "ok": False,
-                    "revision": revision,
-                    "message": "no image circle was found: learning from lines needs its centre and radius",
-                }
+                learned, status = (
+                    None,
+                    {
+                        "ok": False,
+                        "revision": revision,
+                        "message": "no image circle was found: learning from lines needs its centre and radius",
+                    },
+                )
             else:
                 try:
                     learned = learn_from_lines(lines, self.image_size, self.image_name)
