@@ -52,8 +52,9 @@ from .lines.report import FittedLine, LineFitReport
 from .mount import CHI2_95, _mount_misses_annulus
 from .refine import LandmarkBlock, MountOptions, MountProblem, MountSolution, Refinement, refine
 
-# Points per arc the joint refinement takes (evenly along it), as the line fit does.
-POINTS_PER_ARC = 100
+# Points per arc the joint refinement takes (evenly along it): half the line fit's, for speed (a refit of the learn
+# page at every change of its landmarks), and since neighbouring edge points share their errors.
+POINTS_PER_ARC = 50
 # The lines disagree with the landmarks where the landmarks' chi-square rises, from the landmark fit to the
 # joint one, beyond this quantile of a chi-square with as many degrees of freedom as the lines take over.
 DISAGREE_QUANTILE = 0.999
@@ -215,17 +216,49 @@ def refine_with_lines(
     lines = line_pixels(line_fit, image.arcs)
     reach = max(float(np.max(np.hypot(*(p - np.asarray(line_fit.model.centre)).T))) for p in lines)
     block = LineBlock(lines, line_sigmas(line_fit.report), problem.axis, reach * 1.02 + 2.0)
-    kind = line_fit.model.radial.kind
+    centre = line_fit.model.centre if refine_centre else landmark_solution.centre
+    # The lines' kind, from its own fit; and the landmarks' where it differs (and the choice is automatic).
+    starts = [line_fit.model.radial]
+    if model == "auto" and landmark_solution.radial.kind != starts[0].kind:
+        if not radial_kind(landmark_solution.radial.kind).centre_given:
+            starts.append(landmark_solution.radial)
+    tried: list[tuple[float, str, MountOptions, Refinement]] = []
+    for radial in starts:
+        start = MountSolution(
+            radial, landmark_solution.phi0, centre, landmark_solution.w, landmark_solution.delta, np.empty((0, 0))
+        )
+        found = _mount(replace(problem, kind=radial.kind), start, inliers, block, refine_centre, tilt)
+        if found is not None:
+            option, refinement = found
+            # Akaike's penalty: each coefficient more must lower the chi-square by 2.
+            score = _chi2(refinement) + 2 * len(radial.coefficients)
+            tried.append((score, radial.kind, option, refinement))
+    if not tried:
+        return JointLines(None, "no line joined the fit: the refinement with the lines did not converge")
+    _, kind, chosen, refinement = min(tried, key=lambda t: t[0])
     joint_problem = replace(problem, kind=kind)
-    start = MountSolution(
-        line_fit.model.radial,
-        landmark_solution.phi0,
-        line_fit.model.centre if refine_centre else landmark_solution.centre,
-        landmark_solution.w,
-        landmark_solution.delta,
-        np.empty((0, 0)),
-    )
-    # The mounts, simplest first; each kept where the landmarks' chi-square falls beyond chance.
+    solution = refinement.solution
+    note = _disagreement(problem, landmark_solution, landmark_options, joint_problem, solution, chosen, inliers)
+    if note is not None:
+        return JointLines(
+            None,
+            f"the {len(lines)} straight lines of the image disagree with the landmarks ({note}): "
+            "no line joined the fit",
+        )
+    if annulus is not None and _mount_misses_annulus(joint_problem, solution, inliers, annulus):
+        return JointLines(None, f"with the lines the {kind} model does not cover the annulus: no line joined the fit")
+    return JointResult(solution, chosen, kind, refinement, JointLines(_joint_report(line_fit, block, solution)))
+
+
+def _mount(
+    problem: MountProblem,
+    start: MountSolution,
+    inliers: FloatArray,
+    block: LineBlock,
+    refine_centre: bool,
+    tilt: bool,
+) -> tuple[MountOptions, Refinement] | None:
+    """The mount chosen with the lines (:func:`_screen`) and its refinement; None where none converged."""
     options = [MountOptions(centre=refine_centre)]
     if tilt:
         options.append(MountOptions(centre=refine_centre, tilt=True))
@@ -241,34 +274,52 @@ def refine_with_lines(
         )
         try:
             fits[option] = refine(
-                joint_problem, begin, inliers, option, blocks=(block,), what="the refinement with the lines"
+                problem, begin, inliers, option, blocks=(block,), what="the refinement with the lines"
             )
         except PanomapError:
             continue
-    chosen = _screen(joint_problem, fits, inliers)
-    if chosen is None:
-        return JointLines(None, "no line joined the fit: the refinement with the lines did not converge")
-    refinement = fits[chosen]
-    solution = refinement.solution
-    moves = landmark_options.tilt or landmark_options.position
-    before = landmark_chi2(problem, landmark_solution, inliers, moves)
-    after = landmark_chi2(joint_problem, solution, inliers, chosen.tilt or chosen.position)
-    taken_over = len(solution.radial.coefficients) + 2 * refine_centre
+    chosen = _screen(fits)
+    return None if chosen is None else (chosen, fits[chosen])
+
+
+def _disagreement(
+    problem: MountProblem,
+    landmark_solution: MountSolution,
+    landmark_options: MountOptions,
+    joint_problem: MountProblem,
+    solution: MountSolution,
+    chosen: MountOptions,
+    inliers: FloatArray,
+) -> str | None:
+    """Why the lines disagree with the landmarks (None where they agree): the landmarks' chi-square rises, from
+    the landmark fit to the joint one, beyond :data:`DISAGREE_QUANTILE` of chance for the unknowns the lines take
+    over (f_r's coefficients and the centre), measured in their assumed noise (a chi-square test) or in their own
+    scatter about the landmark fit (an F test, where they have 3 degrees of freedom or more: landmarks far more
+    precise than assumed, exact ones in the limit, are not moved by lines that miss them by a pixel)."""
     from scipy import stats  # here, not at the top: importing SciPy is slow
 
-    limit = float(stats.chi2.ppf(DISAGREE_QUANTILE, max(taken_over, 1)))
-    if after - before > limit:
-        return JointLines(
-            None,
-            f"the {len(lines)} straight lines of the image disagree with the landmarks (their chi-square rises "
-            f"from {before:.1f} to {after:.1f} with the lines): no line joined the fit",
-        )
-    if annulus is not None and _mount_misses_annulus(joint_problem, solution, inliers, annulus):
-        return JointLines(None, f"with the lines the {kind} model does not cover the annulus: no line joined the fit")
-    return JointResult(solution, chosen, kind, refinement, JointLines(_joint_report(line_fit, block, solution)))
+    before = landmark_chi2(problem, landmark_solution, inliers, landmark_options.tilt or landmark_options.position)
+    after = landmark_chi2(joint_problem, solution, inliers, chosen.tilt or chosen.position)
+    taken_over = len(solution.radial.coefficients) + 2 * chosen.centre
+    rise = after - before
+    if rise > float(stats.chi2.ppf(DISAGREE_QUANTILE, taken_over)):
+        return f"their chi-square rises from {before:.1f} to {after:.1f} with the lines"
+    unknowns = len(landmark_solution.radial.coefficients) + 1 + 2 * landmark_options.centre
+    unknowns += 2 * landmark_options.tilt + 3 * landmark_options.position
+    dof = 2 * int(np.count_nonzero(inliers)) - unknowns
+    if dof >= 3 and rise > 0:
+        ratio = (rise / taken_over) / max(before / dof, 1e-12)
+        if ratio > float(stats.f.ppf(DISAGREE_QUANTILE, taken_over, dof)):
+            rms_before, rms_after = (math.sqrt(x / (2 * np.count_nonzero(inliers))) for x in (before, after))
+            times = f"{ratio:.0f} times" if ratio < 1000 else "over 1000 times"
+            return (
+                f"their whitened RMS rises from {rms_before:.2f} to {rms_after:.2f} with the lines, "
+                f"{times} their own scatter"
+            )
+    return None
 
 
-def _screen(problem: MountProblem, fits: dict[MountOptions, Refinement], inliers: FloatArray) -> MountOptions | None:
+def _screen(fits: dict[MountOptions, Refinement]) -> MountOptions | None:
     """The mount kept: the simplest fitted, then each with more unknowns whose chi-square (landmarks, lines and
     the position's prior) falls below the best so far's by more than chance would for its added unknowns."""
     if not fits:

@@ -410,6 +410,8 @@ class Session:
                         calibration.fit, centre_guessed=calibration.sources["centre"].source is Source.FRAME_CENTRE
                     )
                 }
+                if calibration.fit.lines_note is not None:  # why the image's lines did not join the fit
+                    status["warnings"] = [*status["warnings"], calibration.fit.lines_note]
         return table, status
 
     def _image_lines(self) -> ImageLines | None:
@@ -542,6 +544,8 @@ class Session:
         mount = fit.mount
         if mount is not None:
             refined += "".join(f"; {sentence}" for sentence in mount.sentences())
+        if fit.lines is not None:
+            refined += f"; {len(fit.lines.lines)} straight lines of the image joined (RMS {fit.lines.rms_px:.2f} px)"
         return {
             "ok": True,
             "revision": revision,
@@ -560,6 +564,7 @@ class Session:
             "phi0_deg": fit.phi0_deg,
             "axis": fit.axis,
             "outliers": list(fit.outliers),
+            "lines_joined": 0 if fit.lines is None else len(fit.lines.lines),
             "tilt_deg": 0.0 if mount is None else mount.tilt_deg,
             "tilt_toward_deg": 0.0 if mount is None else mount.toward_deg,
             "tilt_se_deg": None if mount is None else mount.tilt_se_deg,
