@@ -22,10 +22,12 @@ The steps (:func:`refine_with_lines`):
    lines hold far more of f_r than a dozen landmarks do.
 2. **Noise**: each line's sigma is its own RMS under the line fit, at least the edge noise of all lines
    (``LineFitReport.sigma_px``): a blurred or slightly bent edge counts less, none counts more than the rest.
-3. **Mount**: the centre (unless it was given and held), then the tilt and the position where the landmarks'
-   chi-square falls by more than chance would for their added unknowns, as the landmark fit screens them
-   (:data:`panomap.calibrate.mount.CHI2_95`): with f_r and the centre held by the lines, a tilt no longer
-   trades against the centre.
+3. **Kind and mount**: the lines' kind and, where it differs, the landmark fit's, each refined with the lines
+   and the landmark fit's mount (its tilt and position as it chose them; the centre refined unless it was given
+   and held); the one with the lower chi-square plus Akaike's penalty (2 per coefficient) is kept. Then, where
+   the landmark fit took no tilt, the tilt is refined too and kept where the chi-square falls by more than
+   chance would for two unknowns (:data:`panomap.calibrate.mount.CHI2_95`): with f_r and the centre held by
+   the lines, a tilt no longer trades against a shift of the centre.
 4. **Agreement**: where the landmarks' chi-square under the joint camera exceeds theirs under the landmark
    fit by more than chance would for the unknowns the lines take over (:data:`DISAGREE_QUANTILE`), the
    lines and the landmarks disagree (lines that are not straight in the world, landmarks measured in another
@@ -222,20 +224,28 @@ def refine_with_lines(
     if model == "auto" and landmark_solution.radial.kind != starts[0].kind:
         if not radial_kind(landmark_solution.radial.kind).centre_given:
             starts.append(landmark_solution.radial)
-    tried: list[tuple[float, str, MountOptions, Refinement]] = []
+    # The landmark fit's mount (its tilt and position as it chose them, the centre refined with the lines), for each
+    # kind; then, for the kind kept, the tilt where the landmark fit did not take one: lines that fix f_r and the
+    # centre let the landmarks show a tilt that a shift of the centre stood in for.
+    mount = MountOptions(centre=refine_centre, tilt=tilt and landmark_options.tilt, position=landmark_options.position)
+    tried: list[tuple[float, str, Refinement]] = []
     for radial in starts:
         start = MountSolution(
             radial, landmark_solution.phi0, centre, landmark_solution.w, landmark_solution.delta, np.empty((0, 0))
         )
-        found = _mount(replace(problem, kind=radial.kind), start, inliers, block, refine_centre, tilt)
-        if found is not None:
-            option, refinement = found
+        refinement = _refined(replace(problem, kind=radial.kind), start, inliers, block, mount)
+        if refinement is not None:
             # Akaike's penalty: each coefficient more must lower the chi-square by 2.
-            score = _chi2(refinement) + 2 * len(radial.coefficients)
-            tried.append((score, radial.kind, option, refinement))
+            tried.append((_chi2(refinement) + 2 * len(radial.coefficients), radial.kind, refinement))
     if not tried:
         return JointLines(None, "no line joined the fit: the refinement with the lines did not converge")
-    _, kind, chosen, refinement = min(tried, key=lambda t: t[0])
+    _, kind, refinement = min(tried, key=lambda t: t[0])
+    chosen = mount
+    if tilt and not mount.tilt:
+        tilted = replace(mount, tilt=True)
+        trial = _refined(replace(problem, kind=kind), refinement.solution, inliers, block, tilted)
+        if trial is not None and _chi2(refinement) - _chi2(trial) > CHI2_95[2]:
+            chosen, refinement = tilted, trial
     joint_problem = replace(problem, kind=kind)
     solution = refinement.solution
     note = _disagreement(problem, landmark_solution, landmark_options, joint_problem, solution, chosen, inliers)
@@ -250,36 +260,19 @@ def refine_with_lines(
     return JointResult(solution, chosen, kind, refinement, JointLines(_joint_report(line_fit, block, solution)))
 
 
-def _mount(
-    problem: MountProblem,
-    start: MountSolution,
-    inliers: FloatArray,
-    block: LineBlock,
-    refine_centre: bool,
-    tilt: bool,
-) -> tuple[MountOptions, Refinement] | None:
-    """The mount chosen with the lines (:func:`_screen`) and its refinement; None where none converged."""
-    options = [MountOptions(centre=refine_centre)]
-    if tilt:
-        options.append(MountOptions(centre=refine_centre, tilt=True))
-    if problem.camera_sigma > 0:
-        options += [replace(option, position=True) for option in list(options)]
-    fits: dict[MountOptions, Refinement] = {}
-    for option in options:
-        # (A mount that does not refine the tilt or the position holds it level, or as given.)
-        begin = replace(
-            start,
-            w=start.w if option.tilt else np.zeros(2),
-            delta=start.delta if option.position else np.zeros(3),
-        )
-        try:
-            fits[option] = refine(
-                problem, begin, inliers, option, blocks=(block,), what="the refinement with the lines"
-            )
-        except PanomapError:
-            continue
-    chosen = _screen(fits)
-    return None if chosen is None else (chosen, fits[chosen])
+def _refined(
+    problem: MountProblem, start: MountSolution, inliers: FloatArray, block: LineBlock, option: MountOptions
+) -> Refinement | None:
+    """The refinement of ``start`` with the lines' ``block`` and the mount ``option``; None where it fails."""
+    begin = replace(
+        start,
+        w=start.w if option.tilt else np.zeros(2),
+        delta=start.delta if option.position else np.zeros(3),
+    )
+    try:
+        return refine(problem, begin, inliers, option, blocks=(block,), what="the refinement with the lines")
+    except PanomapError:
+        return None
 
 
 def _disagreement(
@@ -317,22 +310,6 @@ def _disagreement(
                 f"{times} their own scatter"
             )
     return None
-
-
-def _screen(fits: dict[MountOptions, Refinement]) -> MountOptions | None:
-    """The mount kept: the simplest fitted, then each with more unknowns whose chi-square (landmarks, lines and
-    the position's prior) falls below the best so far's by more than chance would for its added unknowns."""
-    if not fits:
-        return None
-    order = list(fits)
-    best = order[0]
-    for option in order[1:]:
-        added = 2 * (option.tilt and not best.tilt) + 3 * (option.position and not best.position)
-        if added not in CHI2_95 or (best.tilt and not option.tilt):
-            continue
-        if _chi2(fits[best]) - _chi2(fits[option]) > CHI2_95[added]:
-            best = option
-    return best
 
 
 def _chi2(refinement: Refinement) -> float:

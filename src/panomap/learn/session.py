@@ -16,6 +16,7 @@ existing file is replaced only when the request says ``overwrite``.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import threading
 from dataclasses import dataclass
@@ -25,6 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..calibrate.circles import ImageCircles
 from ..calibrate.diagnosis import diagnose
 from ..calibrate.joint import ImageLines
 from ..calibrate.landmarks import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
@@ -420,7 +422,7 @@ class Session:
         Called with ``_fit_lock`` held.
         """
         if self._lines is None and self._found is not None and self._found.circles is not None:
-            self._lines = image_lines(self.image, self._found.circles)
+            self._lines = _shared_lines(self.image, self._found.circles)
         return self._lines
 
     # ------------------------------------------------------------------ learning from lines
@@ -675,6 +677,24 @@ class Session:
             "landmarks": [n for n in names if n.lower().endswith(LANDMARK_SUFFIXES)],
             "tables": [n for n in names if n.lower().endswith(TABLE_SUFFIXES)],
         }
+
+
+# The edge arcs (and line fits) of the last few images served, by the image's digest and circles: a session
+# opened again on the same image (a restarted page, a test suite's many sessions) finds its lines once.
+_LINES_KEPT = 4
+_lines_lock = threading.Lock()
+_lines_seen: dict[tuple[str, str], ImageLines] = {}
+
+
+def _shared_lines(image: NDArray[Any], circles: ImageCircles) -> ImageLines:
+    """The :class:`ImageLines` of ``image`` inside ``circles``, found once per image and circles."""
+    key = (hashlib.sha256(np.ascontiguousarray(image).tobytes()).hexdigest(), repr(circles.to_dict()))
+    with _lines_lock:
+        if key not in _lines_seen:
+            if len(_lines_seen) >= _LINES_KEPT:
+                del _lines_seen[next(iter(_lines_seen))]
+            _lines_seen[key] = image_lines(image, circles)
+        return _lines_seen[key]
 
 
 def _horizon(table: PanoMappingTable) -> list[list[float] | None] | None:
