@@ -42,17 +42,31 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import NDArray
 
+from ..camera.orientation import rotation_from_vector
 from ..camera.radial_models import radial_kind
+from ..camera.valid_range import is_monotonic
 from ..errors import PanomapError
-from ..geometry import FloatArray
+from ..geometry import FloatArray, azimuth_elevation
 from .circles import ImageCircles
 from .lines.arcs import EdgeArc
-from .lines.fit import LineFit, LineFitOptions, fit_lines
+from .lines.families import common_direction
+from .lines.fit import VERTICAL_WITHIN_DEG, LineFit, LineFitOptions, fit_lines
 from .lines.objective import LineData, evaluate
+from .lines.rays import InverseRadial, PixelRays, best_planes, pixel_rays, plane_distances_px
 from .lines.report import FittedLine, LineFitReport
-from .mount import CHI2_95, _mount_misses_annulus
-from .refine import LandmarkBlock, MountOptions, MountProblem, MountSolution, Refinement, refine
+from .mount import CHI2_95, MOUNT_SCORE_CAP_SIGMAS, _mount_misses_annulus
+from .refine import (
+    LandmarkBlock,
+    MountOptions,
+    MountProblem,
+    MountSolution,
+    Refinement,
+    camera_rays,
+    refine,
+    residual_parts,
+)
 
 # Points per arc the joint refinement takes (evenly along it): half the line fit's, for speed (a refit of the learn
 # page at every change of its landmarks), and since neighbouring edge points share their errors.
@@ -60,6 +74,9 @@ POINTS_PER_ARC = 50
 # The lines disagree with the landmarks where the landmarks' chi-square rises, from the landmark fit to the
 # joint one, beyond this quantile of a chi-square with as many degrees of freedom as the lines take over.
 DISAGREE_QUANTILE = 0.999
+# The landmarks are left out one at a time up to this many, else in this many folds, to ask whether the lines
+# predict them better than the landmarks alone do.
+HELD_OUT_FOLDS = 10
 
 
 @dataclass(frozen=True)
@@ -114,8 +131,31 @@ class JointLines:
     note: str | None = None
 
 
+@dataclass(frozen=True)
+class VerticalLines:
+    """Which lines are the world's vertical edges, and what places the world's vertical in the camera's rays.
+
+    Attributes
+    ----------
+    members : (L,) bool
+        True for the lines of the vertical family.
+    s : {+1, -1}
+        The handedness.
+    rotation : (3, 3) ndarray or None
+        A rotation given by the user (camera to world), applied before the tilt ``w``.
+    """
+
+    members: NDArray[np.bool_]
+    s: int
+    rotation: FloatArray | None
+
+
 class LineBlock:
     """The straight lines as one residual block of :func:`panomap.calibrate.refine.refine`; no unknowns.
+
+    Each line's plane is the one its rays lie closest to; a vertical edge's (``vertical``) is the closest that
+    holds the world's vertical as the camera being tried places it (its tilt ``w``, phi0 and ``s``), so that the
+    vertical edges measure the tilt, as they do in a fit from lines alone.
 
     Parameters
     ----------
@@ -126,14 +166,24 @@ class LineBlock:
     axis : {"down", "up"}
     r_max : float
         The radius (px) f_r must reach (beyond the farthest point).
+    vertical : VerticalLines, optional
+        The vertical edges among the lines.
     """
 
     unknowns = 0
 
-    def __init__(self, lines: list[FloatArray], sigmas_px: FloatArray, axis: str, r_max: float) -> None:
+    def __init__(
+        self,
+        lines: list[FloatArray],
+        sigmas_px: FloatArray,
+        axis: str,
+        r_max: float,
+        vertical: VerticalLines | None = None,
+    ) -> None:
         self.data = LineData.of(lines, r_max)
         self.axis = axis
         self.point_sigma = np.asarray(sigmas_px, dtype=np.float64)[self.data.line_index]
+        self.vertical = vertical if vertical is not None and vertical.members.any() else None
 
     def start(self) -> FloatArray:
         return np.empty(0)
@@ -141,15 +191,74 @@ class LineBlock:
     def distances_px(self, camera: MountSolution) -> FloatArray | None:
         """Each point's distance (px) from its line's plane image under ``camera``; None where f_r does not
         rise monotonically to the lines."""
-        params = np.array([*camera.centre, *camera.radial.coefficients], dtype=np.float64)
-        trial = evaluate(camera.radial.kind, self.axis, params, self.data)
-        return None if trial is None else trial.distances_px
+        try:
+            inverse = InverseRadial.of(camera.radial, self.data.r_max)
+        except PanomapError:
+            return None
+        rays = pixel_rays(self.data.pixels, camera.centre, inverse)
+        normals = best_planes(rays, self.data.line_index, self.data.count)
+        if self.vertical is not None:
+            up = self.world_vertical(camera)
+            held = planes_holding(rays, self.data.line_index, self.data.count, up)
+            normals[self.vertical.members] = held[self.vertical.members]
+        return plane_distances_px(normals[self.data.line_index], rays)
+
+    def world_vertical(self, camera: MountSolution) -> FloatArray:
+        """The world's vertical (3,) in the rays' axes (:mod:`panomap.calibrate.lines.rays`) under ``camera``."""
+        assert self.vertical is not None
+        rotation = np.eye(3) if not np.any(camera.w) else rotation_from_vector([camera.w[0], camera.w[1], 0.0])
+        if self.vertical.rotation is not None:
+            rotation = self.vertical.rotation @ rotation
+        up = rotation.T @ np.array([0.0, 0.0, 1.0])  # in the camera's axes (theta, rho)
+        # The rays' axes: the image angle phi = s theta + phi0 as azimuth, alpha from the pole the centre sees.
+        up = up * np.array([1.0, self.vertical.s, -1.0 if self.axis == "down" else 1.0])
+        c, s = math.cos(camera.phi0), math.sin(camera.phi0)
+        return np.array([c * up[0] - s * up[1], s * up[0] + c * up[1], up[2]])
 
     def residuals(self, camera: MountSolution, own: FloatArray) -> FloatArray:
         distances = self.distances_px(camera)
         if distances is None:
             return np.full(self.data.pixels.shape[0], np.nan)
         return np.asarray(distances / self.point_sigma, dtype=np.float64)
+
+
+def planes_holding(rays: PixelRays, line_index: NDArray[np.intp], count: int, up: FloatArray) -> FloatArray:
+    """Unit normals (count, 3) of the planes through the viewpoint that hold the direction ``up`` (3,) and that
+    each line's rays lie closest to (weighted as :func:`panomap.calibrate.lines.rays.best_planes` weighs them)."""
+    scale = 1.0 / np.maximum(np.hypot(rays.alpha_per_px, rays.phi_per_px), 1e-12)
+    weighted = rays.d * scale[:, None]
+    up = up / np.linalg.norm(up)
+    e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(up, e1)
+    a, b = weighted @ e1, weighted @ e2
+    saa = np.bincount(line_index, a * a, minlength=count)
+    sab = np.bincount(line_index, a * b, minlength=count)
+    sbb = np.bincount(line_index, b * b, minlength=count)
+    # The normal is the direction of least spread of the rays in the plane across ``up``: the minor axis.
+    t = 0.5 * np.arctan2(2.0 * sab, saa - sbb) + 0.5 * math.pi
+    return np.asarray(np.cos(t)[:, None] * e1 + np.sin(t)[:, None] * e2, dtype=np.float64)
+
+
+def vertical_members(fit: LineFit, block_data: LineData) -> NDArray[np.bool_]:
+    """The lines (L,) of the family that the line fit took for the world's vertical (the most populated within
+    ``VERTICAL_WITHIN_DEG`` of the axis); none where it found none."""
+    members = np.zeros(block_data.count, dtype=bool)
+    if not fit.report.vertical_lines:
+        return members
+    params = np.array([*fit.model.centre, *fit.model.radial.coefficients], dtype=np.float64)
+    trial = evaluate(fit.model.radial.kind, fit.model.radial.axis, params, block_data)
+    if trial is None:
+        return members
+    families = {line.family for line in fit.report.lines if line.family is not None}
+    best: NDArray[np.bool_] | None = None
+    for family in families:
+        mask = np.array([line.family == family for line in fit.report.lines])
+        direction = common_direction(trial.normals[mask])
+        near_axis = abs(direction[2]) > math.cos(math.radians(VERTICAL_WITHIN_DEG))
+        if near_axis and (best is None or mask.sum() > best.sum()):
+            best = mask
+    return members if best is None else best
 
 
 def line_pixels(fit: LineFit, arcs: Sequence[EdgeArc]) -> list[FloatArray]:
@@ -218,6 +327,16 @@ def refine_with_lines(
     lines = line_pixels(line_fit, image.arcs)
     reach = max(float(np.max(np.hypot(*(p - np.asarray(line_fit.model.centre)).T))) for p in lines)
     block = LineBlock(lines, line_sigmas(line_fit.report), problem.axis, reach * 1.02 + 2.0)
+    vertical = vertical_members(line_fit, block.data) if tilt else np.zeros(block.data.count, dtype=bool)
+    if vertical.any():
+        # The vertical edges hold the world's vertical: they measure the tilt beside the landmarks.
+        block = LineBlock(
+            lines,
+            line_sigmas(line_fit.report),
+            problem.axis,
+            reach * 1.02 + 2.0,
+            VerticalLines(vertical, problem.s, problem.rotation),
+        )
     centre = line_fit.model.centre if refine_centre else landmark_solution.centre
     # The lines' kind, from its own fit; and the landmarks' where it differs (and the choice is automatic).
     starts = [line_fit.model.radial]
@@ -227,7 +346,10 @@ def refine_with_lines(
     # The landmark fit's mount (its tilt and position as it chose them, the centre refined with the lines), for each
     # kind; then, for the kind kept, the tilt where the landmark fit did not take one: lines that fix f_r and the
     # centre let the landmarks show a tilt that a shift of the centre stood in for.
-    mount = MountOptions(centre=refine_centre, tilt=tilt and landmark_options.tilt, position=landmark_options.position)
+    mount = MountOptions(
+        centre=refine_centre, tilt=tilt and (landmark_options.tilt or block.vertical is not None),
+        position=landmark_options.position,
+    )  # fmt: skip
     tried: list[tuple[float, str, Refinement]] = []
     for radial in starts:
         start = MountSolution(
@@ -255,9 +377,62 @@ def refine_with_lines(
             f"the {len(lines)} straight lines of the image disagree with the landmarks ({note}): "
             "no line joined the fit",
         )
+    if not _monotonic(joint_problem, solution, inliers, line_fit.report.elevation_range_deg):
+        return JointLines(None, f"with the lines the {kind} model folds over the view: no line joined the fit")
     if annulus is not None and _mount_misses_annulus(joint_problem, solution, inliers, annulus):
         return JointLines(None, f"with the lines the {kind} model does not cover the annulus: no line joined the fit")
+    landmark_problem = replace(problem, kind=landmark_solution.radial.kind)
+    alone = _held_out(landmark_problem, landmark_solution, inliers, landmark_options, ())
+    joined = _held_out(joint_problem, solution, inliers, chosen, (block,))
+    if joined > alone:
+        return JointLines(
+            None,
+            f"the {len(lines)} straight lines of the image predict the landmarks worse than the landmarks do alone "
+            f"(held-out RMS {joined:.2f} against {alone:.2f} standard deviations): no line joined the fit",
+        )
     return JointResult(solution, chosen, kind, refinement, JointLines(_joint_report(line_fit, block, solution)))
+
+
+def _monotonic(
+    problem: MountProblem, solution: MountSolution, inliers: FloatArray, lines_deg: tuple[float, float]
+) -> bool:
+    """Whether f_r rises monotonically (and finitely) over the landmarks' and the lines' elevations."""
+    _, rho = azimuth_elevation(camera_rays(problem, solution.w, solution.delta)[inliers])
+    low = min(float(np.min(rho)), math.radians(lines_deg[0]))
+    high = max(float(np.max(rho)), math.radians(lines_deg[1]))
+    grid = np.linspace(low, high, 200)
+    return bool(is_monotonic(solution.radial, low, high) and np.all(np.isfinite(solution.radial(grid))))
+
+
+def _held_out(
+    problem: MountProblem,
+    solution: MountSolution,
+    inliers: FloatArray,
+    option: MountOptions,
+    blocks: tuple[LineBlock, ...],
+) -> float:
+    """The RMS (in standard deviations, each capped at ``MOUNT_SCORE_CAP_SIGMAS``) of the landmarks' errors under
+    fits made without them (with ``blocks``): one left out at a time, or ``HELD_OUT_FOLDS`` folds dealt in
+    elevation order; each fit starts from ``solution``. A fold whose fit fails counts as the cap."""
+    members = np.flatnonzero(inliers)
+    if members.size <= HELD_OUT_FOLDS:
+        folds = [np.array([k]) for k in range(members.size)]
+    else:
+        _, rho = azimuth_elevation(camera_rays(problem, solution.w, solution.delta)[members])
+        order = np.argsort(rho, kind="stable")
+        folds = [order[k::HELD_OUT_FOLDS] for k in range(HELD_OUT_FOLDS)]
+    cap = MOUNT_SCORE_CAP_SIGMAS**2
+    squared = np.full(members.size, cap)
+    for positions in folds:
+        others = inliers.copy()
+        others[members[positions]] = False
+        try:
+            fold = refine(problem, solution, others, option, blocks=blocks, what="a held-out fit").solution
+        except PanomapError:
+            continue
+        errors = residual_parts(problem, fold, members[positions]).whitened_norm
+        squared[positions] = np.minimum(np.where(np.isfinite(errors), errors**2, cap), cap)
+    return math.sqrt(float(np.mean(squared)))
 
 
 def _refined(
