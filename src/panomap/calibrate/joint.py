@@ -17,22 +17,26 @@ its own to the refinement.
 The steps (:func:`refine_with_lines`):
 
 1. **Lines**: the line fit (:func:`panomap.calibrate.lines.fit.fit_lines`) on the image's edge arcs, with the
-   landmarks' axis; it finds the straight lines, sets aside the curved arcs, and chooses the radial kind by
-   cross-validation over lines (each line scored by a fit without its fold). Its kind is the joint fit's: the
-   lines hold far more of f_r than a dozen landmarks do.
+   landmarks' axis; it finds the straight lines, sets aside the curved arcs, finds the families of parallel
+   lines, and chooses the radial kind by cross-validation over lines (each line scored by a fit without its
+   fold).
 2. **Noise**: each line's sigma is its own RMS under the line fit, at least the edge noise of all lines
    (``LineFitReport.sigma_px``): a blurred or slightly bent edge counts less, none counts more than the rest.
-3. **Kind and mount**: the lines' kind and, where it differs, the landmark fit's, each refined with the lines
-   and the landmark fit's mount (its tilt and position as it chose them; the centre refined unless it was given
-   and held); the one with the lower chi-square plus Akaike's penalty (2 per coefficient) is kept. Then, where
-   the landmark fit took no tilt, the tilt is refined too and kept where the chi-square falls by more than
-   chance would for two unknowns (:data:`panomap.calibrate.mount.CHI2_95`): with f_r and the centre held by
-   the lines, a tilt no longer trades against a shift of the centre.
-4. **Agreement**: where the landmarks' chi-square under the joint camera exceeds theirs under the landmark
-   fit by more than chance would for the unknowns the lines take over (:data:`DISAGREE_QUANTILE`), the
-   lines and the landmarks disagree (lines that are not straight in the world, landmarks measured in another
-   frame): the landmark fit stands, with a note that says so. So it does where the line fit fails (too few
-   lines) or the joint f_r does not cover the annulus.
+3. **Vertical edges**: the lines of the family the line fit took for the world's vertical have their planes
+   solved through the world's vertical as the camera being tried places it (:class:`VerticalLines`): they
+   measure the tilt, as they do in a fit from lines alone.
+4. **Kind and mount**: the lines' kind and, where it differs, the landmark fit's, each refined with the lines
+   and the landmark fit's mount (its tilt and position as it chose them, the tilt also where vertical edges
+   show; the centre refined unless it was given and held); the one with the lower chi-square plus Akaike's
+   penalty (2 per coefficient) is kept. Then, where no tilt was refined, the tilt is tried and kept where the
+   chi-square falls by more than chance would for two unknowns (:data:`panomap.calibrate.mount.CHI2_95`):
+   with f_r and the centre held by the lines, a tilt no longer trades against a shift of the centre.
+5. **Agreement**: the lines join only where they agree with the landmarks (:func:`_disagreement`: the
+   landmarks' chi-square, from the landmark fit to the joint one, rises by no more than chance would for
+   the unknowns the lines take over, in their assumed noise and in their own scatter) and predict them no
+   worse than the landmarks alone do (:func:`_held_out`), and where the joint f_r stays monotonic over the
+   view and covers the annulus. Otherwise, or where the line fit fails (too few lines), the landmark fit
+   stands, with a note that says why.
 """
 
 from __future__ import annotations
