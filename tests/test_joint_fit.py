@@ -221,6 +221,7 @@ def test_panomap_fit_with_an_image_joins_its_lines_and_says_so(tmp_path) -> None
     assert len(said) == 1 and "RMS" in said[0]
     assert int(said[0].split()[0]) >= 30
     assert "joined the fit" not in alone.output
+    assert "centre refined with the landmarks and the image's lines" in joined.output
     rho = np.linspace(camera.elevation_range[0] + 0.05, camera.elevation_range[1] - 0.05, 40)
     truth = camera.camera.radius_of_rho(rho)
     for name in ("joint", "alone"):
