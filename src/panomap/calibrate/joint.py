@@ -330,17 +330,12 @@ def refine_with_lines(
         return JointLines(None, f"no line joined the fit: {exc.detail}")
     lines = line_pixels(line_fit, image.arcs)
     reach = max(float(np.max(np.hypot(*(p - np.asarray(line_fit.model.centre)).T))) for p in lines)
-    block = LineBlock(lines, line_sigmas(line_fit.report), problem.axis, reach * 1.02 + 2.0)
-    vertical = vertical_members(line_fit, block.data) if tilt else np.zeros(block.data.count, dtype=bool)
-    if vertical.any():
-        # The vertical edges hold the world's vertical: they measure the tilt beside the landmarks.
-        block = LineBlock(
-            lines,
-            line_sigmas(line_fit.report),
-            problem.axis,
-            reach * 1.02 + 2.0,
-            VerticalLines(vertical, problem.s, problem.rotation),
-        )
+    r_max = reach * 1.02 + 2.0
+    # The vertical edges hold the world's vertical: they measure the tilt beside the landmarks.
+    vertical = None
+    if tilt:
+        vertical = VerticalLines(vertical_members(line_fit, LineData.of(lines, r_max)), problem.s, problem.rotation)
+    block = LineBlock(lines, line_sigmas(line_fit.report), problem.axis, r_max, vertical)
     centre = line_fit.model.centre if refine_centre else landmark_solution.centre
     # The lines' kind, from its own fit; and the landmarks' where it differs (and the choice is automatic).
     starts = [line_fit.model.radial]
