@@ -1,8 +1,8 @@
 """Screenshots of ``panomap learn`` in use, for docs/learn.md (a scripted session in headless Chromium).
 
-Run from the repository root: ``.venv/bin/python docs/make_screenshots.py`` (needs the test
+Run from the repository root: ``.venv/bin/python docs/make_screenshots.py [--lines]`` (needs the test
 extra's playwright and Debian's chromium: ``scripts/install-test-deps.sh``). Writes
-``docs/img/learn-*.png``.
+``docs/img/learn-*.png`` (with ``--lines``, only ``learn-lines.png``: "learn from lines" on a rendered room).
 
 The session: the bundled room through a simulated hyperbolic-mirror camera; 10 landmarks
 clicked at their true pixels plus 0.4 px of (seeded) noise, as a person would place them;
@@ -92,6 +92,38 @@ def main() -> None:
         print(f"wrote {path.relative_to(ROOT)} ({path.stat().st_size // 1024} KB)")
 
 
+def lines_screenshot() -> None:
+    """``docs/img/learn-lines.png``: "learn from lines" on a rendered room (a tilted hyperbolic mirror, 1200 x
+    900, vignetting, sensor noise, JPEG), after a click has set azimuth 0."""
+    from playwright.sync_api import sync_playwright
+
+    from panomap.simulate.line_scenes import line_camera, render_line_scene
+
+    camera = line_camera("hyperbolic", 0.75, tilt_deg=2.0, toward_deg=30.0)
+    image = render_line_scene(camera, seed=4, supersample=2).image
+    zero = camera.project(np.array([[0.87, 0.0, -0.5]]))[0]  # world azimuth 0, 30 deg below the horizon
+    with tempfile.TemporaryDirectory() as folder, sync_playwright() as playwright:
+        server = make_server(Session(image, "room.png", folder), port=0)
+        serve_in_thread(server)
+        browser = playwright.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
+        page = browser.new_page(viewport={"width": 1400, "height": 1000}, bypass_csp=True)
+        page.goto(server.url)
+        page.wait_for_selector("body[data-ready=yes]")
+        page.click("#learn-lines")
+        page.wait_for_selector("#lines-status[data-revision='1']")
+        page.click("#lines-azimuth")
+        point = page.evaluate(f"window.panomap.imageToClient({float(zero[0])!r}, {float(zero[1])!r})")
+        page.mouse.click(point["x"], point["y"])
+        page.wait_for_selector("#lines-status[data-revision='2']")
+        page.mouse.move(5, 500)
+        page.screenshot(path=str(OUT / "learn-lines.png"))
+        print(page.inner_text("#lines-status"))
+        browser.close()
+        server.shutdown()
+        server.server_close()
+    shrink(OUT / "learn-lines.png")
+
+
 def shrink(path: Path) -> None:
     """Re-save a screenshot with a 256-colour palette (a third of the size; the page has few colours)."""
     from PIL import Image
@@ -102,4 +134,6 @@ def shrink(path: Path) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    if "--lines" not in sys.argv:  # --lines: only docs/img/learn-lines.png
+        main()
+    lines_screenshot()

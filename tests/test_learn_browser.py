@@ -27,7 +27,10 @@ from panomap.cli.app import main
 from panomap.learn.server import LearnServer, make_server, serve_in_thread
 from panomap.learn.session import Session
 from panomap.simulate.example import Example
+from panomap.simulate.line_scenes import line_camera, render_line_scene
 from panomap.table.file import load_table
+from test_learn_lines import SCALE as LINES_SCALE
+from test_learn_lines import learned_pixel, true_pixel
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [
@@ -344,3 +347,44 @@ def test_dragging_the_circles_and_editing_landmarks(browser: Any, serve: Any, ex
     assert "need 1 more landmark(s)" in page.inner_text("#fit-status")
     assert page.locator("#panorama").is_hidden()
     view.close()
+
+
+def test_learning_from_lines_in_the_browser(browser: Any, serve: Any, tmp_path: Path) -> None:
+    """ "learn from lines" on a rendered room (a tilted hyperbolic mirror): the report and the lines drawn, then
+    "set azimuth 0 by a click" on the true pixel of world azimuth 0 (it adds no landmark), and the line table
+    saved: its world azimuth 90 deg within 2.5 px of the truth (``tests/test_learn_lines.py`` measures 0.84)."""
+    camera = line_camera("hyperbolic", LINES_SCALE, tilt_deg=2.0, toward_deg=30.0)
+    image = render_line_scene(camera, seed=4, supersample=2).image
+    folder = tmp_path / "work"
+    folder.mkdir()
+    view = Page(browser, serve(Session(image, "room.png", folder)))
+    page = view.page
+    assert page.locator("#lines-azimuth").is_disabled() and page.locator("#save-lines-table").is_disabled()
+    page.click("#learn-lines")
+    page.wait_for_selector("#lines-status[data-revision='1']")
+    lines = view.js("window.panomap.state.lines")
+    assert lines["ok"] and lines["lines_used"] >= 30, lines["message"]
+    assert page.inner_text("#lines-status").startswith("learned from")
+    assert page.locator("#lines-report li").count() >= 4
+    green = view.js(
+        "(() => { const c = document.getElementById('image-canvas'); const d = c.getContext('2d')"
+        ".getImageData(0, 0, c.width, c.height).data; let n = 0;"
+        " for (let i = 0; i < d.length; i += 4) if (d[i] === 52 && d[i + 1] === 199 && d[i + 2] === 89) n++;"
+        " return n; })()"
+    )
+    assert green > 200  # the lines used are drawn
+
+    u, v = (float(x) for x in true_pixel(camera, 0.0))
+    view.js(f"window.panomap.zoomTo({u!r}, {v!r}, {CLICK_SCALE})")
+    page.click("#lines-azimuth")
+    page.mouse.click(*view.client_point(u, v))
+    page.wait_for_selector("#lines-status[data-revision='2']")
+    zero = view.js("window.panomap.state.lines.azimuth_zero")
+    assert abs(zero[0] - u) < 0.01 and abs(zero[1] - v) < 0.01, (zero, u, v)
+    assert view.landmarks() == []  # the click set the azimuth; it added no landmark
+    page.fill("#lines-file", "lines.npz")
+    page.click("#save-lines-table")
+    page.wait_for_selector("#files-status[data-done='lines.npz']")
+    view.close()
+    table = load_table(folder / "lines.npz")
+    assert np.linalg.norm(learned_pixel(table.model, 90.0) - true_pixel(camera, 90.0)) < 2.5

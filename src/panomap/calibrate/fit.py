@@ -44,7 +44,9 @@ from ..camera.valid_range import annulus_coverage_problem, is_monotonic
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
 from . import selection as selection_module
+from .joint import ImageLines, JointResult, refine_with_lines
 from .landmarks import MIN_LANDMARKS, Landmarks
+from .lines.report import LineFitReport
 from .mount import DEFAULT_CAMERA_SIGMA_FRACTION, MountChoice, choose_mount, given_tilt, mount_options, mount_report
 from .noise import DEFAULT_WORLD_SIGMA_FRACTION, Observations, radial_weights, rim_slack_px, world_sigmas
 from .outliers import choose, choose_start
@@ -99,6 +101,11 @@ class CameraFit:
         (``rho`` is in the world's; the same for a level camera).
     mount : MountReport, optional
         The camera's tilt and position as fitted, and how they were chosen.
+    lines : LineFitReport, optional
+        The straight lines of an image that joined the fit (:mod:`.joint`), each line's residual under the
+        fitted camera; None where no line joined.
+    lines_note : str, optional
+        Why no line joined, where lines were offered and none did.
     """
 
     model: CameraModel
@@ -119,6 +126,8 @@ class CameraFit:
     centre_start: tuple[float, float] | None = None
     rho_camera: FloatArray | None = None
     mount: MountReport | None = None
+    lines: LineFitReport | None = None
+    lines_note: str | None = None
 
     @property
     def rms_px(self) -> float:
@@ -190,6 +199,7 @@ class CameraFit:
             landmarks=rows,
             centre_start=self.centre_start,
             mount=self.mount,
+            lines=self.lines,
         )
 
 
@@ -211,6 +221,7 @@ def fit_camera(
     camera_sigma: float | None = None,
     centre_is_guess: bool = False,
     tilt: str | tuple[float, float] | None = None,
+    lines: ImageLines | None = None,
 ) -> CameraFit:
     """Fit the camera model to landmark pairs.
 
@@ -261,6 +272,11 @@ def fit_camera(
         centre's own error: 5-10 px on simulated full-frame fisheyes).
     tilt : optional
         The old spelling of ``tilt_deg``: still taken, with a DeprecationWarning.
+    lines : ImageLines, optional
+        The edge arcs of an image of the camera: its straight lines join the landmarks in the final refinement
+        (:mod:`.joint`), each weighted by its measured noise; the radial kind is then the lines'
+        cross-validated choice. Where they cannot join, the landmark fit stands and ``CameraFit.lines_note``
+        says why.
 
     Raises
     ------
@@ -302,10 +318,28 @@ def fit_camera(
         problem = replace(problem, kind=chosen[1].name)
     if not level_covers and mount_choice is None:
         choose(candidates, data, annulus, robust)  # raises: no model covers the annulus, and no tilt was tried
-    return _camera_fit(
+    joint = None
+    if lines is not None:
+        landmark_options = mount_choice.chosen_options if mount_choice is not None else MountOptions(refine_centre)
+        joint = refine_with_lines(
+            problem, chosen[3], chosen[0], landmark_options, lines, model=model, refine_centre=refine_centre,
+            tilt=tilt == "fit" and azimuth == "fit", annulus=annulus,
+        )  # fmt: skip
+        if isinstance(joint, JointResult):
+            chosen = (chosen[0], radial_kind(joint.kind), chosen[2], joint.solution)
+            mount_choice = MountChoice(chosen, joint.options, {})
+            problem = replace(problem, kind=joint.kind)
+    fitted = _camera_fit(
         landmarks, problem, data, chosen, mount_choice, tilt, start_centre, setup.axis_source, model, refine_centre,
         reject_outliers,
     )  # fmt: skip
+    if isinstance(joint, JointResult):
+        count = len(joint.solution.radial.coefficients)
+        covariance = joint.refinement.covariance[:count, :count]
+        return replace(fitted, covariance=covariance, lines=joint.lines.report)
+    if joint is not None:
+        return replace(fitted, lines_note=joint.note)
+    return fitted
 
 
 def renamed_keyword(function: str, old: str, old_value: _T | None, new: str, new_value: _T) -> _T:

@@ -177,7 +177,7 @@ def table_for(
     table_info = dict(info)
     table_info["fit"] = replace(fit.report(), uncertainty=_uncertainty(fit, (rho_s, rho_e))).to_dict()
     table_info["warnings"] = _rim_notes(fit, cutoff_radius, outer_radius) + _range_warnings(
-        fit.landmark_range, (rho_s, rho_e)
+        *_data_range(fit), (rho_s, rho_e)
     )
     return PanoMappingTable(
         entries=entries,
@@ -234,19 +234,30 @@ def _rim_notes(fit: CameraFit, cutoff_radius: float, outer_radius: float) -> lis
     return notes
 
 
-def _range_warnings(landmark_range: tuple[float, float], table_range: tuple[float, float]) -> list[str]:
-    """Warnings where the table reaches beyond the landmarks' elevations by more than a few degrees."""
+def _data_range(fit: CameraFit) -> tuple[tuple[float, float], str]:
+    """The elevations (rad, camera axes) the fit's data span, and what they are: the landmarks', with the
+    image's lines where they joined the fit (:mod:`panomap.calibrate.joint`)."""
+    low, high = fit.landmark_range
+    if fit.lines is None:
+        return (low, high), "landmark"
+    lines_low, lines_high = (math.radians(x) for x in fit.lines.elevation_range_deg)
+    return (min(low, lines_low), max(high, lines_high)), "landmark or line point"
+
+
+def _range_warnings(landmark_range: tuple[float, float], what: str, table_range: tuple[float, float]) -> list[str]:
+    """Warnings where the table reaches beyond the data's elevations (``what``: the landmarks', or also the
+    lines') by more than a few degrees."""
     warnings = []
     below = math.degrees(landmark_range[0] - table_range[0])
     above = math.degrees(table_range[1] - landmark_range[1])
     if below > EXTRAPOLATION_WARNING_DEG:
         warnings.append(
-            f"the table reaches {below:.1f} deg below the lowest landmark "
+            f"the table reaches {below:.1f} deg below the lowest {what} "
             f"({math.degrees(landmark_range[0]):.1f} deg): the radius there is extrapolated"
         )
     if above > EXTRAPOLATION_WARNING_DEG:
         warnings.append(
-            f"the table reaches {above:.1f} deg above the highest landmark "
+            f"the table reaches {above:.1f} deg above the highest {what} "
             f"({math.degrees(landmark_range[1]):.1f} deg): the radius there is extrapolated"
         )
     return warnings

@@ -32,6 +32,7 @@ from .circles import (
     find_image_circles,
 )
 from .fit import CameraFit, fit_camera, renamed_keyword
+from .joint import ImageLines
 from .landmarks import Landmarks
 from .make_table import choose_annulus, table_for
 from .noise import rim_slack_px
@@ -331,6 +332,7 @@ def calibrate_camera(
     camera_sigma: float | None = None,
     found: CircleChoice | None = None,
     tilt: str | tuple[float, float] | None = None,
+    lines: bool | ImageLines = False,
 ) -> Calibration:
     """Landmarks (and an omni-image) to a fitted camera and its pano-mapping table.
 
@@ -381,6 +383,12 @@ def calibrate_camera(
         centre and radii) beforehand, taken instead of looking again: the learn
         page finds the circles once, when it opens, and fits as this function
         does with them.
+    lines : bool or ImageLines
+        True: the straight lines of ``omni`` join the landmarks in the fit (:mod:`panomap.calibrate.joint`),
+        each weighted by its measured noise; where they cannot (no image circle found, too few lines, lines
+        that disagree with the landmarks) the landmark fit stands, with a warning saying why. An
+        :class:`~panomap.calibrate.joint.ImageLines` of ``omni`` found beforehand (its arcs, and its line fit
+        once made) is taken instead of looking again: the learn page refits at every change.
 
     Raises
     ------
@@ -408,13 +416,16 @@ def calibrate_camera(
     if refine_centre:
         recorded["centre"] = Origin(recorded["centre"].source, refined=True)
     cutoff, outer = choice.cutoff_radius, choice.outer_radius
+    image_lines, line_warnings = (lines, ()) if isinstance(lines, ImageLines) else _image_lines(omni, choice, lines)
     camera_fit = fit_camera(
         landmarks, position, choice.centre, model=model, azimuth=azimuth, axis=axis, image_size=image_size,
         annulus=None if cutoff is None or outer is None or not models_cover_annulus else (cutoff, outer),
         refine_centre=refine_centre, centre_is_guess=recorded["centre"].source is Source.FRAME_CENTRE,
         pixel_sigma=pixel_sigma, world_sigma=world_sigma, reject_outliers=reject_outliers, tilt_deg=tilt_deg,
-        camera_sigma=camera_sigma,
+        camera_sigma=camera_sigma, lines=image_lines,
     )  # fmt: skip
+    if camera_fit.lines_note is not None:
+        line_warnings += (camera_fit.lines_note,)
     # 4. The cut-off settled against the fit: the disc measured again about the fitted centre.
     cutoff = _cutoff_settled(omni, choice, camera_fit, cutoff, recorded)
     # 5. Annulus: the radii the table spans, each with where it came from.
@@ -425,7 +436,27 @@ def calibrate_camera(
     table_info: dict[str, Any] = {} if choice.circles is None else {"image_circles": choice.circles.to_dict()}
     table_info["sources"] = source_texts(recorded)
     table = table_for(camera_fit, annulus, size=table_size, image_size=image_size, info=table_info | dict(info or {}))
-    return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings)
+    return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings + line_warnings)
+
+
+def _image_lines(
+    omni: NDArray[Any] | None, choice: CircleChoice, wanted: bool
+) -> tuple[ImageLines | None, tuple[str, ...]]:
+    """The edge arcs of ``omni`` for the lines to join the fit (where ``wanted``), or a warning why they cannot."""
+    if not wanted:
+        return None, ()
+    if omni is None:
+        return None, ("no image: no line joined the fit",)
+    if choice.circles is None:
+        return None, ("no image circle found: the lines need its centre and radius, and no line joined the fit",)
+    return image_lines(omni, choice.circles), ()
+
+
+def image_lines(omni: NDArray[Any], circles: ImageCircles) -> ImageLines:
+    """The edge arcs of ``omni`` inside ``circles``, for the lines to join a fit."""
+    from .lines.arcs import find_arcs
+
+    return ImageLines(find_arcs(omni, circles), circles)
 
 
 def _refines_centre(refine_centre: bool | None, centre: Origin, model: str) -> bool:

@@ -351,8 +351,9 @@ class FitReport:
                 "better than moving it"
             )
         us, vs = self.centre_start
+        joined = " and the image's lines" if self.lines is not None and self.azimuth_mode != "lines" else ""
         return (
-            f"centre refined with the landmarks: ({u0:.2f}, {v0:.2f}), "
+            f"centre refined with the landmarks{joined}: ({u0:.2f}, {v0:.2f}), "
             f"{math.hypot(u0 - us, v0 - vs):.2f} px from the start ({us:.2f}, {vs:.2f})"
         )
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -138,6 +139,15 @@ from .options import (
     "the position when cross-validation says the landmarks support it; 0 keeps it exact [default: 1% of the "
     "landmarks' median distance].",
 )
+@click.option(
+    "--lines/--no-lines",
+    "use_lines",
+    default=True,
+    show_default=True,
+    help="With LANDMARKS and --image: the straight lines of the image join the landmarks in the fit, each "
+    "weighted by its measured noise (they fix the radial function and the centre; the landmarks the azimuth, "
+    "the tilt and the position).",
+)
 @click.option("--keep-outliers", is_flag=True, help="Keep landmarks that disagree with the rest (default: drop them).")
 @click.option("--plot", type=PATH, help="Also write the fit plot (PNG): the curve, landmarks and residuals.")
 @click.option(
@@ -186,6 +196,7 @@ def fit(
     world_sigma: float | None,
     tilt: str | tuple[float, float],
     camera_sigma: float | None,
+    use_lines: bool,
     keep_outliers: bool,
     plot: Path | None,
     overlay: Path | None,
@@ -202,6 +213,8 @@ def fit(
     """
     # Options missing or out of range are usage errors (exit 2); the files' problems are failures (1).
     if landmarks is None:
+        if not use_lines:
+            raise click.UsageError("--no-lines leaves nothing to learn from without LANDMARKS")
         _fit_lines(output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time)
         return
     size = _image_size(image_size)
@@ -247,6 +260,7 @@ def fit(
             reject_outliers=not keep_outliers,
             tilt_deg=tilt,
             camera_sigma=camera_sigma,
+            lines=use_lines and omni is not None,
         )
     except PanomapError as exc:
         raise PanomapError(exc.detail, exc.source or landmarks) from None
@@ -449,12 +463,11 @@ def _describe_fit(table: PanoMappingTable) -> str:
     if fit is None:
         raise PanomapError("the table holds no fit report")
     selection = fit.model_selection_loo_rms_px
-    if selection:
-        ranked = ", ".join(
-            f"{k} {v:.3f}" if v is not None else f"{k} -"
-            for k, v in sorted(selection.items(), key=lambda kv: (kv[1] is None, kv[1] or 0))
-        )
-        chosen = f"radial model: {fit.model} (leave-one-out RMS px: {ranked})"
+    if fit.lines is not None and fit.azimuth_mode != "lines" and fit.lines.model_selection_cv_rms_px:
+        ranked = _ranked(fit.lines.model_selection_cv_rms_px)
+        chosen = f"radial model: {fit.model} (chosen over the image's lines, held-out RMS px: {ranked})"
+    elif selection:
+        chosen = f"radial model: {fit.model} (leave-one-out RMS px: {_ranked(selection)})"
     else:
         chosen = f"radial model: {fit.model} (forced)"
     mirrored = "mirrored" if fit.s == -1 else "not mirrored"
@@ -473,9 +486,15 @@ def _describe_fit(table: PanoMappingTable) -> str:
     return "\n".join([*lines, _describe_residuals(table, fit)])
 
 
+def _ranked(scores: Mapping[str, float | None]) -> str:
+    """Each model's score (px), best first; '-' where it could not serve."""
+    ordered = sorted(scores.items(), key=lambda kv: (kv[1] is None, kv[1] or 0))
+    return ", ".join(f"{k} {v:.3f}" if v is not None else f"{k} -" for k, v in ordered)
+
+
 def _describe_residuals(table: PanoMappingTable, fit: FitReport | None) -> str:
     """Every landmark's residual, their RMS and the radius's standard error (when there is a fit), and the table."""
-    if fit is not None and fit.lines is not None:
+    if fit is not None and fit.lines is not None and fit.azimuth_mode == "lines":
         lines = [*fit.lines.sentences(), _describe_table(table)]
         return "\n".join(lines)
     rows = () if fit is None else fit.landmarks
@@ -490,6 +509,13 @@ def _describe_residuals(table: PanoMappingTable, fit: FitReport | None) -> str:
         lines.append(f"outliers dropped: {', '.join(fit.outliers)}")
     rms, largest = (math.nan, math.nan) if fit is None else (fit.rms_px, fit.max_px)
     lines.append(f"residuals: RMS {rms:.3f} px, max {largest:.3f} px")
+    if fit is not None and fit.lines is not None:
+        joined = fit.lines
+        lines.append(
+            f"{len(joined.lines)} straight lines of the image joined the fit ({len(joined.rejected)} arcs set aside): "
+            f"RMS {joined.rms_px:.2f} px, max {joined.max_px:.2f} px from their planes; edge noise "
+            f"{joined.sigma_px:.2f} px"
+        )
     uncertainty = None if fit is None else fit.uncertainty
     if uncertainty is not None:
         inside = uncertainty.max_se_in_landmark_range_px

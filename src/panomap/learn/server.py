@@ -18,6 +18,12 @@ API (bodies and answers are JSON unless said otherwise; errors are
 - ``POST /api/landmarks/save`` ``{"name": "landmarks.csv"}`` (or ``.json``),
   ``POST /api/landmarks/load`` ``{"name": ...}``, ``POST /api/table/save``
   ``{"name": "cam.npz"}``: bare names in the server's folder only.
+- ``POST /api/lines`` ``{}``: learn the camera from the image's straight lines (no landmark needed),
+  answer the state (its ``"lines"``: the report's sentences and figures, every line used and every
+  arc set aside with its points, the centre, the tilt, the azimuth origin, the horizon).
+- ``POST /api/lines/azimuth`` ``{"u": u, "v": v}``: the pixel that sees world azimuth 0 on the
+  camera learned from lines (``--azimuth-zero U V``; 409 before learning), answer the state.
+- ``POST /api/lines/save`` ``{"name": "lines.npz"}``: the table learned from lines, as the saves above.
 
 POSTs must say ``Content-Type: application/json`` (a cross-site form cannot, so
 other sites' pages cannot drive the server), a POST's ``Origin``, when sent, must
@@ -109,12 +115,24 @@ class LearnHandler(LocalHandler):
     def _post(self) -> None:
         path = urlsplit(self.path).path
         session = self.server.session
-        routes = {"/api/state", "/api/landmarks/save", "/api/landmarks/load", "/api/table/save"}
+        routes = {
+            "/api/state",
+            "/api/landmarks/save",
+            "/api/landmarks/load",
+            "/api/table/save",
+            "/api/lines",
+            "/api/lines/azimuth",
+            "/api/lines/save",
+        }
         if path not in routes:
             raise RequestError(f"no such API: POST {path}", 404)
         data = self._body()
         if path == "/api/state":
             self._json(session.update(data))
+        elif path == "/api/lines":
+            self._json(session.learn_lines(data))
+        elif path == "/api/lines/azimuth":
+            self._json(session.line_azimuth(data))
         elif path == "/api/landmarks/load":
             only_keys(data, ("name",), path)
             self._json(session.load_landmarks(data.get("name")))
@@ -123,7 +141,8 @@ class LearnHandler(LocalHandler):
             overwrite = data.get("overwrite", False)
             if not isinstance(overwrite, bool):
                 raise RequestError(f"{path}: overwrite must be true or false")
-            save = session.save_landmarks if path == "/api/landmarks/save" else session.save_table
+            saves = {"/api/landmarks/save": session.save_landmarks, "/api/lines/save": session.save_line_table}
+            save = saves.get(path, session.save_table)
             self._json({"wrote": save(data.get("name"), overwrite=overwrite)})
 
 

@@ -16,6 +16,7 @@ existing file is replaced only when the request says ``overwrite``.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import threading
 from dataclasses import dataclass
@@ -25,12 +26,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..calibrate.circles import ImageCircles
 from ..calibrate.diagnosis import diagnose
+from ..calibrate.joint import ImageLines
 from ..calibrate.landmarks import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
 from ..calibrate.pipeline import (
     CircleChoice,
     calibrate_camera,
     choose_circles,
+    image_lines,
     landmarks_past_rim,
     rim_without_landmarks_past_it,
 )
@@ -46,6 +50,7 @@ from ..remap import Remapper
 from ..table.file import save_table
 from ..table.table import PanoMappingTable
 from ..views import GenericPanorama, build_map
+from .lines import LineLearning, learn_from_lines, line_status
 from .validate import (
     MAX_LANDMARKS,
     MAX_WORLD_ABS,
@@ -150,6 +155,10 @@ class Session:
                 except RequestError as exc:
                     raise PanomapError(f"the landmarks to start with: {exc.detail}") from None
         self.model = "auto"
+        # The image's edge arcs (and their line fit, once made), found at the first fit that needs them.
+        self._lines: ImageLines | None = None
+        self._learned: LineLearning | None = None  # the camera learned from lines, once asked for
+        self.lines_status: dict[str, Any] = {}
         self.revision = 0
         self.table: PanoMappingTable | None = None
         self.fit_status: dict[str, Any] = {}
@@ -203,6 +212,7 @@ class Session:
             "folder": str(self.folder),
             "revision": self.revision,
             "fit": self.fit_status,
+            "lines": self.lines_status,
         }
 
     def update(self, data: dict[str, Any]) -> dict[str, Any]:
@@ -369,6 +379,7 @@ class Session:
                 if self._opened_with is not None and circles == self._as_found[0]:
                     # The circles found, unchanged: fitted as `panomap fit --image` fits with them (the cut-off
                     # disc then looked for again about a fitted centre that ends away from the rim's, say).
+                    # The image's straight lines join the fit, as they do in `panomap fit --image`.
                     calibration = calibrate_camera(
                         landmarks,
                         camera,
@@ -378,6 +389,7 @@ class Session:
                         model=model,
                         sources={"camera_position": Source.GIVEN},
                         info=self._info(),
+                        lines=self._image_lines() or True,
                     )
                 else:
                     calibration = calibrate_camera(
@@ -400,7 +412,83 @@ class Session:
                         calibration.fit, centre_guessed=calibration.sources["centre"].source is Source.FRAME_CENTRE
                     )
                 }
+                if calibration.fit.lines_note is not None:  # why the image's lines did not join the fit
+                    status["warnings"] = [*status["warnings"], calibration.fit.lines_note]
         return table, status
+
+    def _image_lines(self) -> ImageLines | None:
+        """The edge arcs of the image inside the circles found (None where no rim was found), found once.
+
+        Called with ``_fit_lock`` held.
+        """
+        if self._lines is None and self._found is not None and self._found.circles is not None:
+            self._lines = _shared_lines(self.image, self._found.circles)
+        return self._lines
+
+    # ------------------------------------------------------------------ learning from lines
+
+    def learn_lines(self, data: dict[str, Any]) -> dict[str, Any]:
+        """Learn the camera from the image's straight lines (no landmark needed); return the state.
+
+        A failure (no rim found, too few lines) is the lines' status, with its message, not an error.
+        """
+        only_keys(data, (), "lines")
+        with self._fit_lock:
+            lines = self._image_lines()
+            with self._lock:
+                revision = self.lines_status.get("revision", 0) + 1
+            if lines is None:
+                learned, status = (
+                    None,
+                    {
+                        "ok": False,
+                        "revision": revision,
+                        "message": "no image circle was found: learning from lines needs its centre and radius",
+                    },
+                )
+            else:
+                try:
+                    learned = learn_from_lines(lines, self.image_size, self.image_name)
+                except PanomapError as exc:
+                    learned = None
+                    status = {"ok": False, "revision": revision, "message": f"learning from lines failed: {exc.detail}"}
+                else:
+                    status = line_status(learned, lines, revision, _horizon(learned.table))
+            with self._lock:
+                self._learned, self.lines_status = learned, status
+                return self._state()
+
+    def line_azimuth(self, data: dict[str, Any]) -> dict[str, Any]:
+        """Set the pixel ``{"u", "v"}`` that sees world azimuth 0 on the camera learned from lines; return the state."""
+        only_keys(data, ("u", "v"), "lines azimuth")
+        u, v = finite(data.get("u"), "u"), finite(data.get("v"), "v")
+        if not inside_image(u, v, self.image_size):
+            width, height = self.image_size
+            raise RequestError(f"the pixel ({u:g}, {v:g}) is outside the {width} x {height} image")
+        with self._fit_lock:
+            lines = self._lines
+            if self._learned is None or lines is None:
+                raise RequestError("no camera learned from lines yet: learn from lines first", 409)
+            learned = learn_from_lines(lines, self.image_size, self.image_name, (u, v))
+            with self._lock:
+                revision = self.lines_status.get("revision", 0) + 1
+                self._learned = learned
+                self.lines_status = line_status(learned, lines, revision, _horizon(learned.table))
+                return self._state()
+
+    def save_line_table(self, name: Any, overwrite: bool = False) -> str:
+        """Write the table of the camera learned from lines (.npz) into the folder; returns the file name.
+
+        An existing file of that name is replaced only if ``overwrite``.
+        """
+        with self._lock:
+            path = self._path(name, TABLE_SUFFIXES, "save line table")
+            if self._learned is None:
+                raise RequestError("no camera learned from lines to save: learn from lines first", 409)
+            self._replaceable(path, overwrite, "save line table")
+            table = self._learned.table
+            self._write(path, lambda target: save_table(table, target))
+            return path.name
 
     def _sources(self, circles: Circles | None = None) -> dict[str, Source]:
         """The circles (the state's, by default) as detected, or set on the page; the camera position given."""
@@ -458,6 +546,8 @@ class Session:
         mount = fit.mount
         if mount is not None:
             refined += "".join(f"; {sentence}" for sentence in mount.sentences())
+        if fit.lines is not None:
+            refined += f"; {len(fit.lines.lines)} straight lines of the image joined (RMS {fit.lines.rms_px:.2f} px)"
         return {
             "ok": True,
             "revision": revision,
@@ -476,6 +566,7 @@ class Session:
             "phi0_deg": fit.phi0_deg,
             "axis": fit.axis,
             "outliers": list(fit.outliers),
+            "lines_joined": 0 if fit.lines is None else len(fit.lines.lines),
             "tilt_deg": 0.0 if mount is None else mount.tilt_deg,
             "tilt_toward_deg": 0.0 if mount is None else mount.toward_deg,
             "tilt_se_deg": None if mount is None else mount.tilt_se_deg,
@@ -586,6 +677,24 @@ class Session:
             "landmarks": [n for n in names if n.lower().endswith(LANDMARK_SUFFIXES)],
             "tables": [n for n in names if n.lower().endswith(TABLE_SUFFIXES)],
         }
+
+
+# The edge arcs (and line fits) of the last few images served, by the image's digest and circles: a session
+# opened again on the same image (a restarted page, a test suite's many sessions) finds its lines once.
+_LINES_KEPT = 4
+_lines_lock = threading.Lock()
+_lines_seen: dict[tuple[str, str], ImageLines] = {}
+
+
+def _shared_lines(image: NDArray[Any], circles: ImageCircles) -> ImageLines:
+    """The :class:`ImageLines` of ``image`` inside ``circles``, found once per image and circles."""
+    key = (hashlib.sha256(np.ascontiguousarray(image).tobytes()).hexdigest(), repr(circles.to_dict()))
+    with _lines_lock:
+        if key not in _lines_seen:
+            if len(_lines_seen) >= _LINES_KEPT:
+                del _lines_seen[next(iter(_lines_seen))]
+            _lines_seen[key] = image_lines(image, circles)
+        return _lines_seen[key]
 
 
 def _horizon(table: PanoMappingTable) -> list[list[float] | None] | None:

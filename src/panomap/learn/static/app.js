@@ -31,6 +31,8 @@
     model: "auto",
     fit: null,
     revision: 0,
+    lines: null, // the camera learned from lines: {ok, message, sentences, used, rejected, azimuth_zero, ...}
+    pickingAzimuth: false, // the next click on the image sets the lines' azimuth 0
   };
   const view = { scale: 1, ox: 0, oy: 0 };
   const image = new Image();
@@ -106,8 +108,47 @@
       ctx.drawImage(image, view.ox, view.oy, state.width * view.scale, state.height * view.scale);
     }
     if (state.circles) drawCircles();
+    if (state.lines && state.lines.ok && $("lines-show").checked) drawLines(state.lines);
     if (state.fit && state.fit.ok) drawFitted(state.fit);
     state.landmarks.forEach((lm, k) => drawLandmark(lm, k === state.selected));
+  }
+
+  function polyline(points) {
+    ctx.beginPath();
+    points.forEach((point, k) => {
+      const p = imageToCanvas(point[0], point[1]);
+      if (k) ctx.lineTo(p.x, p.y);
+      else ctx.moveTo(p.x, p.y);
+    });
+    ctx.stroke();
+  }
+
+  // The camera learned from lines: each line used (green; orange where its RMS is over twice the edge noise),
+  // each arc set aside (red, thin), the azimuth-0 pixel (a ring) and the horizon (dashed).
+  function drawLines(lines) {
+    ctx.lineWidth = 1;
+    ctx.strokeStyle = "#ff3b30";
+    for (const arc of lines.rejected) polyline(arc.points);
+    ctx.lineWidth = 2;
+    for (const line of lines.used) {
+      ctx.strokeStyle = line.rms_px > 2 * lines.sigma_px ? "#ff9f1c" : "#34c759";
+      for (const points of line.points) polyline(points);
+    }
+    if (lines.azimuth_zero) {
+      const p = imageToCanvas(lines.azimuth_zero[0], lines.azimuth_zero[1]);
+      ctx.strokeStyle = "#0a84ff";
+      ctx.lineWidth = 2;
+      ctx.beginPath();
+      ctx.arc(p.x, p.y, 8, 0, 2 * Math.PI);
+      ctx.stroke();
+    }
+    if (lines.horizon) {
+      ctx.strokeStyle = "#0a84ff";
+      ctx.lineWidth = 1;
+      ctx.setLineDash([4, 3]);
+      polyline(lines.horizon.filter((point) => point !== null));
+      ctx.setLineDash([]);
+    }
   }
 
   function drawCircles() {
@@ -305,7 +346,8 @@
     drag = null;
     if (finished.kind === "pan" && !finished.moved && event.type === "pointerup" && event.button === 0) {
       const q = canvasToImage(finished.start.x, finished.start.y);
-      addLandmark(q.u, q.v);
+      if (state.pickingAzimuth) setLinesAzimuth(q.u, q.v);
+      else addLandmark(q.u, q.v);
     } else if (finished.moved && finished.kind !== "pan") {
       scheduleSync();
     }
@@ -825,6 +867,69 @@
   $("save-table").addEventListener("click", () => fileAction("/api/table/save", "table-file"));
   $("load-landmarks").addEventListener("click", () => fileAction("/api/landmarks/load", "landmarks-file", applyState));
 
+  // ------------------------------------------------------------------ learning from lines
+
+  function showLines(lines) {
+    state.lines = lines && lines.revision ? lines : null;
+    const status = $("lines-status");
+    const learned = Boolean(state.lines && state.lines.ok);
+    if (state.lines) {
+      status.textContent = state.lines.message;
+      status.className = learned ? "note" : "note failed";
+      status.dataset.revision = String(state.lines.revision);
+    }
+    $("lines-report").replaceChildren(
+      ...(learned ? state.lines.sentences : []).map((text) => {
+        const li = document.createElement("li");
+        li.textContent = text;
+        return li;
+      }),
+    );
+    $("lines-azimuth").disabled = !learned;
+    $("save-lines-table").disabled = !learned;
+    draw();
+  }
+
+  function pickAzimuth(on) {
+    state.pickingAzimuth = on;
+    canvas.classList.toggle("picking", on);
+    $("lines-azimuth").textContent = on ? "click the image (Esc: cancel)" : "set azimuth 0 by a click";
+  }
+
+  async function learnLines() {
+    const button = $("learn-lines");
+    button.disabled = true;
+    $("lines-status").textContent = "learning from lines...";
+    try {
+      const s = await api("POST", "/api/lines", {});
+      showLines(s.lines);
+      showMessage(s.lines.message, !s.lines.ok);
+    } catch (error) {
+      showMessage(error.message, true);
+    } finally {
+      button.disabled = false;
+    }
+  }
+
+  async function setLinesAzimuth(u, v) {
+    pickAzimuth(false);
+    try {
+      const s = await api("POST", "/api/lines/azimuth", { u: round3(u), v: round3(v) });
+      showLines(s.lines);
+      showMessage(`azimuth 0 set at (${u.toFixed(1)}, ${v.toFixed(1)})`, false);
+    } catch (error) {
+      showMessage(error.message, true);
+    }
+  }
+
+  $("learn-lines").addEventListener("click", learnLines);
+  $("lines-azimuth").addEventListener("click", () => pickAzimuth(!state.pickingAzimuth));
+  $("lines-show").addEventListener("change", draw);
+  $("save-lines-table").addEventListener("click", () => fileAction("/api/lines/save", "lines-file"));
+  window.addEventListener("keydown", (event) => {
+    if (event.key === "Escape" && state.pickingAzimuth) pickAzimuth(false);
+  });
+
   // ------------------------------------------------------------------ start
 
   function applyState(s) {
@@ -840,6 +945,7 @@
     showCircles();
     $("circles-note").textContent = s.circles.note || "";
     showFit(s.fit);
+    showLines(s.lines);
   }
 
   async function start() {
