@@ -149,3 +149,19 @@ def test_miniomni_tables_keep_the_cameras_reflection_out_where_the_rim_is_found_
             cutoffs[path.name] = round(result.table.cutoff_radius, 1)
     assert len(cutoffs) >= 11, cutoffs
     assert min(cutoffs.values()) >= 23.0, cutoffs
+
+
+def test_a_fit_whose_radius_does_not_reach_the_image_circle_is_one_clear_error() -> None:
+    """Five MiniOmni corners spread in elevation on its first image: the fisheye law fitted to them gives no radius
+    at the image circle's elevation (NaN); that was a ValueError from the table's size, now one line saying so."""
+    from panomap.calibrate.landmarks import Landmarks
+    from panomap.calibrate.pipeline import calibrate_camera
+    from panomap.errors import PanomapError
+
+    bench = _bench_real()
+    folder = REAL / "ocam_miniomni_catadioptric"
+    corners = bench.read_corners(folder)
+    chosen = bench.spread_choice(corners.elevation, 5)
+    landmarks = Landmarks(corners.pixels[chosen], corners.world[chosen], tuple(f"corner{k}" for k in chosen))
+    with pytest.raises(PanomapError, match="gives no radius over the elevations"):
+        calibrate_camera(landmarks, (0.0, 0.0, 0.0), omni=read_image(folder / "images" / "MiniOmni1.jpg"))

@@ -167,6 +167,13 @@ def table_for(
     )
     rho_s, rho_e = world_range(camera_range, fit.model.tilt[0])
     tilted = fit.model.rotation is not None
+    ends = np.asarray(fit.model.radial(np.array([rho_s, rho_e])), dtype=np.float64)
+    if not (math.isfinite(rho_s) and math.isfinite(rho_e) and np.isfinite(ends).all()):
+        raise PanomapError(
+            f"the fitted radial function ({fit.model.radial.kind}) gives no radius over the elevations from the "
+            f"cut-off radius ({cutoff_radius:.1f} px) to the image circle ({outer_radius:.1f} px): too few landmarks, "
+            "or all at a few radii; add landmarks spread over the annulus, or try another radial model"
+        )
     if size is None:
         r_span = abs(float(fit.model.radial(rho_e) - fit.model.radial(rho_s)))
         reach = max(float(np.nanmax(np.abs(fit.model.radial(np.array([rho_s, rho_e]))))), 1.0)
