@@ -248,3 +248,35 @@ def test_cli_dark_room_is_one_clear_line_and_no_table(tmp_path) -> None:
     errors = [line for line in result.output.splitlines() if line.startswith("panomap: error")]
     assert len(errors) == 1 and "found (at least 8 are needed)" in errors[0], result.output
     assert not table_path.exists()
+
+
+@pytest.mark.parametrize("fan_deg", [150.0, 6.0])
+def test_a_familys_direction_uncertainty_matches_its_scatter(fan_deg: float) -> None:
+    """The direction of a family of 8 planes through the viewpoint (normals perpendicular to it, fanned over
+    ``fan_deg``, each tipped by 0.1 deg of noise), and its covariance, against 3000 seeded draws: the
+    predicted standard deviation of the direction towards each axis perpendicular to it within 15% of the
+    drawn one. Planes that nearly coincide (a 6 deg fan) fix the direction 20x worse across them: the
+    weight of a right angle between two families must follow that (objective.orthogonality_residuals).
+    """
+    from panomap.calibrate.lines.objective import direction_spread
+
+    rng = np.random.default_rng(11)
+    direction = np.array([0.3, -0.5, 0.81])
+    direction /= np.linalg.norm(direction)
+    e1 = np.cross(direction, [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(direction, e1)
+    fan = np.radians(np.linspace(-fan_deg / 2, fan_deg / 2, 8))
+    clean = np.cos(fan)[:, None] * e1 + np.sin(fan)[:, None] * e2
+    noise_rad = math.radians(0.1)
+    drawn, predicted = [], []
+    for _ in range(3000):
+        normals = clean + rng.normal(0.0, noise_rad, clean.shape)
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        found, covariance = direction_spread(normals)
+        found = found if found @ direction > 0 else -found
+        drawn.append([found @ e1, found @ e2])
+        predicted.append([e1 @ covariance @ e1, e2 @ covariance @ e2])
+    spread = np.std(np.array(drawn), axis=0)
+    expected = np.sqrt(np.mean(np.array(predicted), axis=0))
+    assert np.allclose(expected, spread, rtol=0.15), (expected, spread)
