@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 
 from panomap.calibrate.circles import Circle, ImageCircles, find_image_circles
 from panomap.calibrate.lines.arcs import EdgeArc, find_arcs
+from panomap.calibrate.lines.frame_circles import line_circles
 from panomap.camera.model import CameraModel
 from panomap.errors import PanomapError
 from panomap.io.images import read_image
@@ -377,6 +378,12 @@ def corner_radii(folder: Path, centre: tuple[float, float]) -> tuple[float, floa
     return float(r.min()), float(r.max()), images
 
 
+def stand_in(circles: ImageCircles) -> str:
+    if circles.cutoff is not None:
+        return f"cut-off disc's centre ({circles.centre[0]:.1f}, {circles.centre[1]:.1f})"
+    return f"frame's middle ({circles.centre[0]:.1f}, {circles.centre[1]:.1f})"
+
+
 def real(data: Path) -> None:
     print("== real cameras: learned vs the established calibration over the corners' radii")
     for folder in sorted(p for p in data.iterdir() if p.is_dir()):
@@ -407,10 +414,12 @@ def real(data: Path) -> None:
         for index, (path, image) in enumerate(zip(paths, images, strict=True)):
             start = time.perf_counter()
             try:
-                circles = find_image_circles(image)
+                circles = line_circles(image)
             except PanomapError as exc:
                 print(f"      {path.name}: no image circle ({exc})")
                 continue
+            if circles.rim_in_frame == 0:
+                print(f"      {path.name}: no rim in the frame; the fit starts from the {stand_in(circles)}")
             found = find_arcs(image, circles, image_index=index)
             t_arcs += time.perf_counter() - start
             first_circles = first_circles or circles

@@ -192,9 +192,9 @@ def test_a_straight_step_edge_is_found_to_a_few_hundredths_of_a_pixel(angle_deg:
         points = np.concatenate([a.pixels for a in arcs])
         error = (points - np.asarray(middle)) @ n - offset
         assert np.abs(error).max() < 0.06, (offset, np.abs(error).max())
-        # the chord 12 px from the centre inside the circle less its margin (3 + 3 sigma = 6.6 px), less 3
-        # points trimmed at each end: 118.5 px
-        chord = 2.0 * math.sqrt((70.0 - 6.6) ** 2 - 12.0**2) - 6.0
+        # the chord 12 px from the centre inside the circle less its margin (3 + 3 sigma = 6.6 px), less 2
+        # points trimmed at each end: 120.5 px
+        chord = 2.0 * math.sqrt((70.0 - 6.6) ** 2 - 12.0**2) - 4.0
         assert abs(arcs[0].length_px - chord) < 4.0  # the trimmed points are up to sqrt(2) px apart
         # a 120-level step smoothed by sigma = 1.2 px, its central difference at the edge: 120 erf(1/(sigma
         # sqrt 2)) / 2 = 35.7 grey levels / px (measured 34.0: the pixels' own box adds blur)

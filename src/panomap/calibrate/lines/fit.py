@@ -232,9 +232,12 @@ def _starts(state: _State, circles: ImageCircles, axis: str, r_max: float) -> li
     families (as parameters of the grouping's kind)."""
     u0, v0 = circles.centre
     data = LineData.of(state.line_pixels(), r_max)
+    # the angles are tried at the rim; with no rim in the frame (a stand-in circle through the frame's corner,
+    # frame_circles), at the farthest arc instead
+    rim = circles.outer_radius if circles.rim_in_frame > 0 else r_max
     ranked: list[tuple[float, FloatArray]] = []
     for angle_deg in START_ANGLES_DEG:
-        params = np.array([u0, v0, circles.outer_radius / math.radians(angle_deg)])
+        params = np.array([u0, v0, rim / math.radians(angle_deg)])
         trial = evaluate("odd1", axis, params, data)
         if trial is None:
             continue
