@@ -402,9 +402,12 @@ def real(data: Path) -> None:
         h, w = images[0].shape[:2]
         grid = ring_grid(centre, r_min, r_max, (w, h))
         print(f"  {folder.name}: {len(images)} images {w} x {h}, corners at r {r_min:.0f}-{r_max:.0f} px")
+        own_law: dict[str, float] = {}
         for kind in ("poly3", "odd5", "unified"):
             check = ray_agreement(reference, grid, reference_as_model(reference, centre, r_min, r_max, kind))
+            own_law[kind] = check.p90_px
             print(f"      floor: the calibration's own law fitted by {kind:7s} {check.line()}")
+        floor_kind = min(own_law, key=lambda k: own_law[k])
         arcs: list[EdgeArc] = []
         first_circles: ImageCircles | None = None
         t_arcs = 0.0
@@ -440,7 +443,7 @@ def real(data: Path) -> None:
             except PanomapError as exc:
                 verdict = f"no fit: {exc}"
             print(f"      {label}: fit {time.perf_counter() - start:.2f} s: {verdict}")
-            kind = "unified" if circ.cutoff is not None else "poly3"
+            kind = floor_kind  # the kind that follows the calibration best
             try:
                 both, straight, lines, pairs = objective_floor(reference, centre, these, circ, r_max, kind)
                 print(
