@@ -23,8 +23,9 @@ itself gives 0; the true model with its centre moved by 0.5 px is reported besid
    corners (``corners.csv``). Beside it, the time per image and the landmark fit's time
    (``calibrate_camera`` from 10 corners with their 3-D points and the image, as ``bench_real``).
    Beside it, the **floor of the objective** (:func:`objective_floor`): the fit given the grouping the
-   calibration knows (the arcs straight under it, its families, its right angles) and started at the
-   calibration's own law: how far the objective's minimum on these edge points lies from the calibration.
+   calibration knows (the arcs straight under it inside its corners' radii, its families, its right
+   angles) and started at the calibration's own law: how far the objective's minimum on these edge
+   points lies from the calibration.
 3. **Speed**: one 1920 x 1920 render (the mirror): arcs and fit, seconds, beside the landmark fit.
 """
 
@@ -321,11 +322,13 @@ def reference_line_rms(reference: Rays, pixels: FloatArray) -> tuple[float, Floa
 
 
 def objective_floor(
-    reference: Rays, centre: tuple[float, float], arcs: list[EdgeArc], circles: ImageCircles, r_max: float, kind: str
+    reference: Rays, centre: tuple[float, float], arcs: list[EdgeArc], band: tuple[float, float], kind: str
 ) -> tuple[CameraModel, CameraModel, int, int]:
     """The floor of the line fit's objective on these edge points: the grouping known (the arcs straight under
-    the calibration, its families and their true right angles), the fit started at the calibration's own
-    law (fitted by ``kind``); the camera it ends at, straightness and right angles, and straightness alone.
+    the calibration inside the radii ``band`` (px from its centre) where it has corners, 10% beyond: outside
+    it the calibration extrapolates; its families and their true right angles), the fit started at the
+    calibration's own law (fitted by ``kind`` over the band); the camera it ends at, straightness and right
+    angles, and straightness alone.
     What separates that camera from the calibration is not the grouping nor the start: it is the edge points
     and what straightness and right angles can tell."""
     from scipy import optimize
@@ -337,6 +340,9 @@ def objective_floor(
 
     kept, normals = [], []
     for arc in arcs:
+        r = np.hypot(arc.pixels[:, 0] - centre[0], arc.pixels[:, 1] - centre[1])
+        if r.min() < 0.9 * band[0] or r.max() > 1.1 * band[1]:
+            continue
         rms, normal = reference_line_rms(reference, arc.pixels)
         if rms < FLOOR_STRAIGHT_PX:
             kept.append(arc)
@@ -345,9 +351,10 @@ def objective_floor(
     families = find_families(np.array(normals), images)
     pairs = orthogonal_pairs(families, math.radians(FLOOR_SQUARE_DEG))
     pixels = [_thin(a.pixels, 100) for a in kept]
-    reach = max(float(np.max(np.hypot(p[:, 0] - circles.centre[0], p[:, 1] - circles.centre[1]))) for p in pixels)
-    data = LineData.of(pixels, reach * 1.02 + 2.0)
-    start_model = reference_as_model(reference, centre, 1.0, max(r_max, data.r_max), kind)
+    if len(pixels) < 8:
+        raise PanomapError(f"only {len(pixels)} arcs straight under the calibration inside its corners' radii")
+    data = LineData.of(pixels, 1.1 * band[1] + 2.0)
+    start_model = reference_as_model(reference, centre, band[0], band[1], kind)
     start = np.array([*start_model.centre, *start_model.radial.coefficients])
     scale = _orthogonality_scale(kind, "down", start, data)
     out = []
@@ -407,7 +414,8 @@ def real(data: Path) -> None:
             check = ray_agreement(reference, grid, reference_as_model(reference, centre, r_min, r_max, kind))
             own_law[kind] = check.p90_px
             print(f"      floor: the calibration's own law fitted by {kind:7s} {check.line()}")
-        floor_kind = min(own_law, key=lambda k: own_law[k])
+        # the kind with fewest parameters that follows the calibration within 0.1 px of the best
+        floor_kind = next(k for k in ("unified", "poly3", "odd5") if own_law[k] <= min(own_law.values()) + 0.1)
         arcs: list[EdgeArc] = []
         first_circles: ImageCircles | None = None
         t_arcs = 0.0
@@ -445,10 +453,10 @@ def real(data: Path) -> None:
             print(f"      {label}: fit {time.perf_counter() - start:.2f} s: {verdict}")
             kind = floor_kind  # the kind that follows the calibration best
             try:
-                both, straight, lines, pairs = objective_floor(reference, centre, these, circ, r_max, kind)
+                both, straight, lines, pairs = objective_floor(reference, centre, these, (r_min, r_max), kind)
                 print(
-                    f"        floor ({kind}, the grouping known: {lines} arcs, {pairs} right angles; started at the "
-                    f"calibration): {ray_agreement(reference, grid, both).line()}"
+                    f"        floor ({kind}, the grouping known: {lines} arcs inside the corners' radii, {pairs} right "
+                    f"angles; started at the calibration): {ray_agreement(reference, grid, both).line()}"
                 )
                 print(f"        the same, straightness alone: {ray_agreement(reference, grid, straight).line()}")
             except (PanomapError, ValueError, np.linalg.LinAlgError) as exc:
