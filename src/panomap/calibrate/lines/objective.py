@@ -110,7 +110,8 @@ def orthogonality_residuals(
     normals: FloatArray, families: list[Family], pairs: list[tuple[int, int]], sigma_px: float
 ) -> FloatArray:
     """Cosine of the angle between each pair of families' directions (recomputed from ``normals``) over its
-    standard error, times ``sigma_px`` (the points' noise, px): whitened as the points' distances are.
+    standard error, times ``sigma_px``: what one standard error is worth in the points' px (the fit gives the
+    points' noise times the square root of the points per line, ``fit._orthogonality_scale``).
 
     The standard error is the directions' (:func:`direction_spread`, to first order) and the world's own
     squareness (``WORLD_SQUARENESS_DEG``) together. A pair whose angle hardly moves with the camera's scale (a
@@ -136,8 +137,8 @@ def residuals(
     pairs: list[tuple[int, int]],
     sigma_px: float,
 ) -> FloatArray:
-    """Every point's distance (px) from its line's plane, then the families' orthogonality residuals (whitened,
-    times the points' noise ``sigma_px``: :func:`orthogonality_residuals`)."""
+    """Every point's distance (px) from its line's plane, then the families' orthogonality residuals (over their
+    standard errors, times ``sigma_px``: :func:`orthogonality_residuals`)."""
     trial = evaluate(kind, axis, params, data)
     if trial is None:
         return np.full(data.pixels.shape[0] + len(pairs), INVALID_RESIDUAL_PX)
