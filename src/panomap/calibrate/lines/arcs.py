@@ -51,10 +51,10 @@ JOIN_OFFSET_PX = 1.5
 #: Points (at the ends) over which a piece's end tangent is measured.
 END_POINTS = 10
 #: Points left out at both ends of every chain (where it bends into a junction it was cut from).
-END_TRIM_POINTS = 3
+END_TRIM_POINTS = 2
 #: Fewest points of a piece between junctions and corners that takes part in the joins (a checkerboard's
 #: square side between two crossings).
-MIN_PIECE_POINTS = 6
+MIN_PIECE_POINTS = 4
 #: The strong edge threshold: this many times the median gradient magnitude of the annulus, and
 #: at least MIN_EDGE_GRADIENT grey levels / px; the weak one is half of it.
 EDGE_THRESHOLD_MEDIANS = 4.0

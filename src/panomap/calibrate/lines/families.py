@@ -107,13 +107,13 @@ def _largest_family(normals: FloatArray) -> NDArray[np.intp]:
     return np.flatnonzero(np.abs(normals @ refined) < np.sin(FAMILY_TOLERANCE_RAD))
 
 
-def orthogonal_pairs(families: list[Family]) -> list[tuple[int, int]]:
-    """Pairs of families (indices) of one image whose directions are nearly perpendicular."""
+def orthogonal_pairs(families: list[Family], within_rad: float = ORTHOGONAL_WITHIN_RAD) -> list[tuple[int, int]]:
+    """Pairs of families (indices) of one image whose directions are within ``within_rad`` of perpendicular."""
     pairs = []
     for a in range(len(families)):
         for b in range(a + 1, len(families)):
             same_image = families[a].image_index == families[b].image_index
             cosine = abs(float(families[a].direction @ families[b].direction))
-            if same_image and cosine < np.sin(ORTHOGONAL_WITHIN_RAD):
+            if same_image and cosine < np.sin(within_rad):
                 pairs.append((a, b))
     return pairs

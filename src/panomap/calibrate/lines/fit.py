@@ -33,7 +33,7 @@ from ...geometry import HALF_PI, FloatArray
 from ..circles import ImageCircles
 from .arcs import EdgeArc
 from .families import Family, find_families, orthogonal_pairs
-from .objective import LineData, evaluate, residuals
+from .objective import LineData, evaluate, orthogonality_residuals, residuals
 from .orientation import level_rotation, zero_azimuth
 from .rays import InverseRadial
 from .report import FittedLine, LineFitReport, RejectedArc, empty_bands
@@ -79,6 +79,8 @@ CONTENDER_MARGIN = 0.25
 # The best starts grouped to the end; the one that leaves the arcs straightest is kept (on the real
 # fisheye's first image, the best start by its own score ended at p90 28 px, two others at 3.7 px).
 STARTS_KEPT = 3
+# Least noise (px) taken for the points when weighting the orthogonality residuals.
+SIGMA_FLOOR_PX = 0.1
 # Scales tried at the start: the angle (deg) from the axis at the image circle.
 START_ANGLES_DEG = (60.0, 75.0, 90.0, 100.0, 110.0, 125.0)
 
@@ -177,7 +179,7 @@ def fit_lines(
         say(f"grouping from start {k + 1} of {STARTS_KEPT}")
         trial_state = _State(state.arcs, state.images, [list(g) for g in state.groups])
         params, families = _group(trial_state, axis, start, r_max, outer)
-        tried.append((_arc_score(trial_state, axis, params, r_max), k, params, families, trial_state))
+        tried.append((_start_score(trial_state, axis, params, families, r_max), k, params, families, trial_state))
     _, _, params, families, state = min(tried, key=lambda t: (t[0], t[1]))
     if len(state.groups) < MIN_LINES:
         raise _too_few(len(state.groups), "straight lines")
@@ -206,9 +208,15 @@ def _r_max(state: _State, circles: ImageCircles) -> float:
     return max(reach, 1.0) * 1.02 + 2.0
 
 
-def _px_per_rad(params: FloatArray, outer: float) -> float:
-    """Pixels per radian about the middle of the image circle (the orthogonality residuals' unit)."""
-    return outer / (0.5 * math.pi)
+def _orthogonality_scale(kind: str, axis: str, params: FloatArray, data: LineData) -> float:
+    """The scale (px) of the whitened orthogonality residuals, fixed during one least-squares fit: the points'
+    RMS distance from their planes under ``params`` (at least ``SIGMA_FLOOR_PX``) times the square root of
+    the points per line. A line's points are not independent (the edge's blur and its sub-pixel step err
+    alike along it), so its straightness is worth about one measurement of its plane: each pair's
+    orthogonality counts as much as one line's points."""
+    trial = evaluate(kind, axis, params, data)
+    sigma = SIGMA_FLOOR_PX if trial is None else max(float(np.sqrt(np.mean(trial.distances_px**2))), SIGMA_FLOOR_PX)
+    return sigma * math.sqrt(data.pixels.shape[0] / max(data.count, 1))
 
 
 def _too_few(found: int, what: str) -> PanomapError:
@@ -224,9 +232,12 @@ def _starts(state: _State, circles: ImageCircles, axis: str, r_max: float) -> li
     families (as parameters of the grouping's kind)."""
     u0, v0 = circles.centre
     data = LineData.of(state.line_pixels(), r_max)
+    # the angles are tried at the rim; with no rim in the frame (a stand-in circle through the frame's corner,
+    # frame_circles), at the farthest arc instead
+    rim = circles.outer_radius if circles.rim_in_frame > 0 else r_max
     ranked: list[tuple[float, FloatArray]] = []
     for angle_deg in START_ANGLES_DEG:
-        params = np.array([u0, v0, circles.outer_radius / math.radians(angle_deg)])
+        params = np.array([u0, v0, rim / math.radians(angle_deg)])
         trial = evaluate("odd1", axis, params, data)
         if trial is None:
             continue
@@ -254,12 +265,24 @@ def _group(state: _State, axis: str, params: FloatArray, r_max: float, outer: fl
     return params, families
 
 
-def _arc_score(state: _State, axis: str, params: FloatArray, r_max: float) -> float:
-    """Median RMS distance (px) of every arc from its own plane: how straight the camera makes the arcs, the
-    curved ones included (a start that sets more arcs aside gains nothing by it)."""
+def _start_score(state: _State, axis: str, params: FloatArray, families: list[Family], r_max: float) -> float:
+    """How well a start ended (px): the median RMS distance of every arc from its own plane (how straight the
+    camera makes the arcs, the curved ones included: a start that sets more arcs aside gains nothing by it),
+    and the families' orthogonality residuals' sum of squares per point of the lines, in quadrature.
+    Straightness alone leaves the scale nearly free (module doc of :mod:`.families`): two starts can end
+    equally straight at different scales, and only the right angles tell them apart."""
     data = LineData.of(state.arcs, r_max)
     trial = evaluate(GROUPING_KIND, axis, params, data)
-    return math.inf if trial is None else float(np.median(_line_rms(trial.distances_px, data)))
+    if trial is None:
+        return math.inf
+    straight = float(np.median(_line_rms(trial.distances_px, data)))
+    lines = LineData.of(state.line_pixels(), r_max)
+    grouped = evaluate(GROUPING_KIND, axis, params, lines)
+    if grouped is None:
+        return math.inf
+    scale = _orthogonality_scale(GROUPING_KIND, axis, params, lines)
+    square = orthogonality_residuals(grouped.normals, families, orthogonal_pairs(families), scale)
+    return math.sqrt(straight**2 + float(np.sum(square**2)) / lines.pixels.shape[0])
 
 
 def _convert(kind: str, to_kind: str, axis: str, params: FloatArray, r_max: float) -> FloatArray:
@@ -361,7 +384,7 @@ def _refit(
         families = _restrict(families, groups)
     data = LineData.of(lines, r_max)
     pairs = orthogonal_pairs(families)
-    scale = _px_per_rad(params, outer)
+    scale = _orthogonality_scale(kind, axis, params, data)
 
     def fun(x: FloatArray) -> FloatArray:
         return residuals(kind, axis, x, data, families, pairs, scale)
@@ -550,7 +573,7 @@ def _covariance(
 ) -> FloatArray:
     """Covariance of the radial coefficients from the Jacobian at the solution."""
     pairs = orthogonal_pairs(families)
-    scale = _px_per_rad(params, outer)
+    scale = _orthogonality_scale(kind, axis, params, data)
     base = residuals(kind, axis, params, data, families, pairs, scale)
     jacobian = np.empty((base.size, params.size))
     for j in range(params.size):
