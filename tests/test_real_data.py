@@ -165,3 +165,15 @@ def test_a_fit_whose_radius_does_not_reach_the_image_circle_is_one_clear_error()
     landmarks = Landmarks(corners.pixels[chosen], corners.world[chosen], tuple(f"corner{k}" for k in chosen))
     with pytest.raises(PanomapError, match="gives no radius over the elevations"):
         calibrate_camera(landmarks, (0.0, 0.0, 0.0), omni=read_image(folder / "images" / "MiniOmni1.jpg"))
+
+
+def test_the_line_fit_of_an_image_with_no_rim_starts_from_stand_in_circles(tmp_path: Path) -> None:
+    """MiniOmni13 overfills the frame (no rim to find): `panomap fit --image` without landmarks used to stop at
+    "no image circle"; it now starts from the cut-off disc's centre and writes a table, saying how uncertain the
+    radius is (this set's lines fix it only loosely: docs/lines.md)."""
+    from helpers import run
+
+    image = REAL / "ocam_miniomni_catadioptric" / "images" / "MiniOmni13.jpg"
+    result = run("fit", "-o", tmp_path / "cam.npz", "--image", image)
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "cam.npz").is_file() and "standard error of the radius" in result.output
