@@ -26,7 +26,10 @@ precision highp float;
 precision highp int;
 precision highp sampler2D;
 uniform sampler2D table_entries;  // RGBA32F: texel (c, b*(N+1) + j) = entries (i, j) and (i, j+1), i = b*B + c
-uniform sampler2D source_image;   // the omni-image (or the window of it a frame went up as), RGBA8, linear, clamped
+uniform sampler2D source_image;   // the omni-image, RGBA8 (or a video frame's Y plane), linear, clamped to its edge
+uniform sampler2D plane_u;        // a video frame's U plane (NV12: U and V interleaved)
+uniform sampler2D plane_v;        // ... and V plane (I420)
+uniform mat3 yuv_to_rgb; uniform vec3 yuv_offset;
 uniform vec2 view_origin;         // the viewport's lower-left corner in the canvas (px, GL's y up)
 uniform vec2 view_size;           // W, H (px)
 uniform vec3 forward; uniform vec3 right_axis; uniform vec3 down_axis; uniform float focal;
@@ -102,7 +105,16 @@ void main() {
 #endif
   seen = seen && uv.x >= -0.5 && uv.y >= -0.5 && uv.x <= image_size.x - 0.5 && uv.y <= image_size.y - 0.5;
   vec2 at_source = (uv + 0.5 - source_window.xy) / source_window.zw;
+#if PLANES == 0
   vec3 rgb = texture(source_image, at_source).rgb;
+#else
+#if PLANES == 2
+  vec3 yuv = vec3(texture(source_image, at_source).r, texture(plane_u, at_source).rg);
+#else
+  vec3 yuv = vec3(texture(source_image, at_source).r, texture(plane_u, at_source).r, texture(plane_v, at_source).r);
+#endif
+  vec3 rgb = clamp(yuv_to_rgb * yuv + yuv_offset, 0.0, 1.0);
+#endif
 #if MODE == 1
   if (outline == 1) {
     float depth = dot(d, outline_forward);
@@ -130,7 +142,7 @@ void main() {
   const sourceTextures = {};
   const textureShapes = {};  // the internal format and size each source texture unit holds
   let linearFloat = false, lookupData = null, shownWindow = null, currentFrame = null, serverFrameIndex = 0;
-  let sourceReady = false, yuvMatrix = null, frameBuffer = null, pendingInput = null;
+  let sourceReady = false, sourcePlanes = 0, yuvMatrix = null, frameBuffer = null, pendingInput = null;
 
   function message(text) { $("message").textContent = text || ""; }
   function sourceState(text) { $("source-state").textContent = text || ""; }
@@ -183,12 +195,13 @@ void main() {
     return shader;
   }
 
-  // A program per kind of view, made on first use with every uniform that does not change from view to view.
-  function makeProgram(mode) {
+  // A program per kind of view and kind of source picture (PLANES 0: RGBA; 2: NV12, Y and interleaved UV;
+  // 3: I420, Y, U and V), made on first use with every uniform that does not change from view to view.
+  function makeProgram(mode, planes) {
     const program = gl.createProgram();
     gl.attachShader(program, compile(gl.VERTEX_SHADER, VERTEX));
     const lookup = mode !== "panorama" && info.table.lookup ? 1 : 0;
-    const defines = `#version 300 es\n#define MODE ${MODE_CODE[mode]}\n#define LOOKUP ${lookup}\n`
+    const defines = `#version 300 es\n#define MODE ${MODE_CODE[mode]}\n#define LOOKUP ${lookup}\n#define PLANES ${planes}\n`
       + `#define LINEAR_FLOAT ${linearFloat ? 1 : 0}\n`;
     gl.attachShader(program, compile(gl.FRAGMENT_SHADER, defines + FRAGMENT));
     gl.bindAttribLocation(program, 0, "corner");
@@ -206,6 +219,8 @@ void main() {
     gl.uniform1i(uniforms.table_entries, 0);
     gl.uniform1i(uniforms.source_image, 1);
     gl.uniform1i(uniforms.lookup_texels, 2);
+    gl.uniform1i(uniforms.plane_u, 3);
+    gl.uniform1i(uniforms.plane_v, 4);
     gl.uniform1i(uniforms.table_m, t.M);
     gl.uniform1i(uniforms.table_n, t.N);
     gl.uniform1i(uniforms.block_width, t.block_width);
@@ -237,12 +252,17 @@ void main() {
     gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
   }
 
-  // Switch to the program of ``mode``; its uniforms become ``uniforms``.
+  // Switch to the program of ``mode`` for the source's planes; its uniforms become ``uniforms``.
   function use(mode) {
-    if (!programs[mode]) programs[mode] = makeProgram(mode);
-    gl.useProgram(programs[mode].program);
-    uniforms = programs[mode].locations;
+    const key = `${mode}/${sourcePlanes}`;
+    if (!programs[key]) programs[key] = makeProgram(mode, sourcePlanes);
+    gl.useProgram(programs[key].program);
+    uniforms = programs[key].locations;
     gl.uniform4fv(uniforms.source_window, shownWindow);
+    if (sourcePlanes) {
+      gl.uniformMatrix3fv(uniforms.yuv_to_rgb, false, yuvMatrix.matrix);
+      gl.uniform3fv(uniforms.yuv_offset, yuvMatrix.offset);
+    }
   }
 
   function floatTexture(unit, width, height, bytes) {
@@ -369,6 +389,7 @@ void main() {
     gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, element);
     textureShapes[1] = null;
     shownWindow = window_ || [0, 0, ...info.source.size];
+    sourcePlanes = 0;
     sourceReady = true;
   }
 
@@ -430,76 +451,8 @@ void main() {
       put(4, gl.RED, gl.R8, cw, ch, layout[2].offset);
     }
     yuvMatrix = yuvConversion(frame.colorSpace);
-    convertToRgba(planes, width, height);
+    sourcePlanes = planes;
     sourceReady = true;
-  }
-
-  // The YUV planes on units 1 and 3 (and 4) converted once into an RGBA texture, then bound on unit 1 for the views
-  // (a view then reads one texture per pixel, not two or three: 26 ms a 1280 x 720 view on SwiftShader, not 45).
-  const CONVERT_VERTEX = `#version 300 es
-in vec2 corner;
-void main() { gl_Position = vec4(corner, 0.0, 1.0); }`;
-  const CONVERT_FRAGMENT = `
-precision highp float;
-uniform sampler2D source_image;   // Y
-uniform sampler2D plane_u;        // U (NV12: U and V)
-uniform sampler2D plane_v;        // V (I420)
-uniform mat3 yuv_to_rgb; uniform vec3 yuv_offset;
-uniform vec2 size;
-out vec4 colour;
-void main() {
-  vec2 t = gl_FragCoord.xy / size;  // (texture row 0 is the window's top row, as uploaded)
-#if PLANES == 2
-  vec3 yuv = vec3(texture(source_image, t).r, texture(plane_u, t).rg);
-#else
-  vec3 yuv = vec3(texture(source_image, t).r, texture(plane_u, t).r, texture(plane_v, t).r);
-#endif
-  colour = vec4(clamp(yuv_to_rgb * yuv + yuv_offset, 0.0, 1.0), 1.0);
-}`;
-  const converter = { programs: {}, texture: null, framebuffer: null, size: null };
-
-  function convertToRgba(planes, width, height) {
-    if (!converter.programs[planes]) {
-      const program = gl.createProgram();
-      gl.attachShader(program, compile(gl.VERTEX_SHADER, CONVERT_VERTEX));
-      gl.attachShader(program, compile(gl.FRAGMENT_SHADER, `#version 300 es\n#define PLANES ${planes}\n` + CONVERT_FRAGMENT));
-      gl.bindAttribLocation(program, 0, "corner");
-      gl.linkProgram(program);
-      if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(program));
-      converter.programs[planes] = program;
-    }
-    const program = converter.programs[planes];
-    if (!converter.texture || converter.size !== `${width}x${height}`) {
-      if (converter.texture) gl.deleteTexture(converter.texture);
-      converter.texture = gl.createTexture();
-      gl.activeTexture(gl.TEXTURE6);
-      gl.bindTexture(gl.TEXTURE_2D, converter.texture);
-      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA8, width, height);
-      for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, gl.LINEAR);
-      for (const p of [gl.TEXTURE_WRAP_S, gl.TEXTURE_WRAP_T]) gl.texParameteri(gl.TEXTURE_2D, p, gl.CLAMP_TO_EDGE);
-      converter.framebuffer = converter.framebuffer || gl.createFramebuffer();
-      gl.bindFramebuffer(gl.FRAMEBUFFER, converter.framebuffer);
-      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, converter.texture, 0);
-      converter.size = `${width}x${height}`;
-    }
-    gl.activeTexture(gl.TEXTURE6);
-    gl.bindTexture(gl.TEXTURE_2D, null);  // (not sampled while drawn into)
-    gl.activeTexture(gl.TEXTURE1);
-    gl.bindTexture(gl.TEXTURE_2D, sourceTextures[1]);  // the Y plane
-    gl.bindFramebuffer(gl.FRAMEBUFFER, converter.framebuffer);
-    gl.viewport(0, 0, width, height);
-    gl.useProgram(program);
-    const at = (name) => gl.getUniformLocation(program, name);
-    gl.uniform1i(at("source_image"), 1);
-    gl.uniform1i(at("plane_u"), 3);
-    gl.uniform1i(at("plane_v"), 4);
-    gl.uniformMatrix3fv(at("yuv_to_rgb"), false, yuvMatrix.matrix);
-    gl.uniform3fv(at("yuv_offset"), yuvMatrix.offset);
-    gl.uniform2f(at("size"), width, height);
-    gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
-    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
-    gl.activeTexture(gl.TEXTURE1);
-    gl.bindTexture(gl.TEXTURE_2D, converter.texture);  // what the views read
   }
 
   function stripHeight() { return state.strip && state.mode === "perspective" ? Math.max(16, Math.round(state.width * STRIP_HEIGHT_RATIO)) : 0; }
