@@ -19,9 +19,11 @@ from __future__ import annotations
 import ipaddress
 import json
 import math
+import threading
 from collections.abc import Callable
 from http import HTTPStatus
-from typing import Any, TypeVar
+from importlib import resources
+from typing import Any, ClassVar, TypeVar
 
 from ..errors import PanomapError
 from .http_server import IDLE_TIMEOUT_S, REQUEST_DEADLINE_S, BoundedHTTPServer, WholeRequestHandler
@@ -132,12 +134,45 @@ def bind(factory: Callable[[tuple[str, int]], ServerT], host: str, port: int) ->
         ) from None
 
 
+def serve_in_thread(server: LocalServer) -> threading.Thread:
+    """Serve in a daemon thread (for tests and scripts); stop with ``server.shutdown()``."""
+    name = getattr(server.RequestHandlerClass, "server_version", "panomap-http")
+    thread = threading.Thread(target=server.serve_forever, args=(0.05,), name=name, daemon=True)
+    thread.start()
+    return thread
+
+
+def page_files(script: str, style: str) -> dict[str, tuple[str, str]]:
+    """A page's routes: ``/`` and ``/index.html``, ``/static/<script>`` and ``/static/<style>`` -> (file, type)."""
+    html = ("index.html", "text/html; charset=utf-8")
+    return {
+        "/": html,
+        "/index.html": html,
+        f"/static/{script}": (script, "text/javascript; charset=utf-8"),
+        f"/static/{style}": (style, "text/css; charset=utf-8"),
+    }
+
+
 class LocalHandler(WholeRequestHandler):
-    """Checks every request (see the module docstring) and routes it to ``_get`` or ``_post``."""
+    """Checks every request (see the module docstring) and routes it to ``_get`` or ``_post``.
+
+    A handler's page is ``static_files`` (URL path -> (file, content type), :func:`page_files`), shipped
+    in the package ``static_package``'s ``static`` folder; :meth:`_page` answers them.
+    """
 
     server: LocalServer
     content_security_policy = "default-src 'self'; img-src 'self' blob: data:; frame-ancestors 'none'"
     max_body_bytes = MAX_BODY_BYTES
+    static_package: ClassVar[str] = ""
+    static_files: ClassVar[dict[str, tuple[str, str]]] = {}
+
+    def _page(self, path: str) -> bool:
+        """Answer ``path`` with the page's file where it is one of ``static_files``; False otherwise."""
+        if path not in self.static_files:
+            return False
+        name, content_type = self.static_files[path]
+        self._send(200, resources.files(self.static_package).joinpath("static", name).read_bytes(), content_type)
+        return True
 
     def log_message(self, format: str, *args: Any) -> None:
         """Quiet: the terminal shows the address and errors, not every request."""
@@ -259,5 +294,7 @@ __all__ = [
     "is_loopback",
     "json_safe",
     "only_keys",
+    "page_files",
     "parse_body",
+    "serve_in_thread",
 ]

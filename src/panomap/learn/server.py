@@ -40,8 +40,7 @@ sending) are closed, and so is one whose request has not arrived whole within
 
 from __future__ import annotations
 
-import threading
-from importlib import resources
+from typing import ClassVar
 from urllib.parse import urlsplit
 
 from ..io.local_web import (
@@ -54,21 +53,11 @@ from ..io.local_web import (
     is_loopback,
     json_safe,
     only_keys,
+    page_files,
+    serve_in_thread,
 )
 from .session import Session
 from .validate import MAX_BODY_BYTES
-
-STATIC_FILES = {
-    "/": ("index.html", "text/html; charset=utf-8"),
-    "/index.html": ("index.html", "text/html; charset=utf-8"),
-    "/static/app.js": ("app.js", "text/javascript; charset=utf-8"),
-    "/static/app.css": ("app.css", "text/css; charset=utf-8"),
-}
-
-
-def static_file(name: str) -> bytes:
-    """A front-end file shipped in ``panomap/learn/static``."""
-    return resources.files("panomap.learn").joinpath("static", name).read_bytes()
 
 
 class LearnServer(LocalServer):
@@ -92,14 +81,15 @@ class LearnHandler(LocalHandler):
 
     server: LearnServer
     server_version = "panomap-learn"
+    static_package: ClassVar[str] = "panomap.learn"
+    static_files: ClassVar[dict[str, tuple[str, str]]] = page_files("app.js", "app.css")
 
     def _get(self) -> None:
         path = urlsplit(self.path).path
+        if self._page(path):
+            return
         session = self.server.session
-        if path in STATIC_FILES:
-            name, content_type = STATIC_FILES[path]
-            self._send(200, static_file(name), content_type)
-        elif path == "/api/state":
+        if path == "/api/state":
             self._json(session.state())
         elif path == "/api/image":
             self._send(200, session.image_png, "image/png")
@@ -168,10 +158,3 @@ def make_server(
 
 
 __all__ = ["LearnServer", "is_loopback", "json_safe", "make_server", "serve_in_thread"]
-
-
-def serve_in_thread(server: LocalServer) -> threading.Thread:
-    """Serve in a daemon thread (for tests and scripts); stop with ``server.shutdown()``."""
-    thread = threading.Thread(target=server.serve_forever, args=(0.05,), name="panomap-learn", daemon=True)
-    thread.start()
-    return thread

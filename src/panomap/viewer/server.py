@@ -25,11 +25,11 @@ but the page, the table and the one source given.
 
 from __future__ import annotations
 
+import dataclasses
 import re
-import threading
 import time
-from importlib import resources
 from pathlib import Path
+from typing import ClassVar
 from urllib.parse import parse_qs, urlsplit
 
 from ..io.local_web import (
@@ -40,6 +40,8 @@ from ..io.local_web import (
     RequestError,
     bind,
     only_keys,
+    page_files,
+    serve_in_thread,
 )
 from ..table.table import PanoMappingTable
 from .feed import FrameFeed, window_of
@@ -52,18 +54,6 @@ MAX_RANGE_BYTES = 8 << 20
 MAX_FRAME_WAIT_S = 1.0
 CHUNK_BYTES = 1 << 20
 _RANGE = re.compile(r"^bytes=(\d*)-(\d*)$")
-
-STATIC_FILES = {
-    "/": ("index.html", "text/html; charset=utf-8"),
-    "/index.html": ("index.html", "text/html; charset=utf-8"),
-    "/static/viewer.js": ("viewer.js", "text/javascript; charset=utf-8"),
-    "/static/viewer.css": ("viewer.css", "text/css; charset=utf-8"),
-}
-
-
-def static_file(name: str) -> bytes:
-    """A front-end file shipped in ``panomap/viewer/static``."""
-    return resources.files("panomap.viewer").joinpath("static", name).read_bytes()
 
 
 def byte_range(header: str | None, size: int) -> tuple[int, int] | None:
@@ -135,6 +125,8 @@ class ViewerHandler(LocalHandler):
 
     server: ViewerServer
     server_version = "panomap-view"
+    static_package: ClassVar[str] = "panomap.viewer"
+    static_files: ClassVar[dict[str, tuple[str, str]]] = page_files("viewer.js", "viewer.css")
     content_security_policy = (
         "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; frame-ancestors 'none'"
     )
@@ -142,11 +134,10 @@ class ViewerHandler(LocalHandler):
     def _get(self) -> None:
         parts = urlsplit(self.path)
         path = parts.path
+        if self._page(path):
+            return
         server = self.server
-        if path in STATIC_FILES:
-            name, content_type = STATIC_FILES[path]
-            self._send(200, static_file(name), content_type)
-        elif path == "/api/info":
+        if path == "/api/info":
             self._json(server.info)
         elif path == "/api/table.bin":
             self._send(200, server.table_bytes, "application/octet-stream")
@@ -161,16 +152,7 @@ class ViewerHandler(LocalHandler):
         elif path == "/api/frame" and server.feed is not None:
             self._frame(server.feed, parse_qs(parts.query))
         elif path == "/api/status" and server.feed is not None:
-            status = server.feed.status()
-            self._json(
-                {
-                    "state": status.state,
-                    "message": status.message,
-                    "time_s": status.time_s,
-                    "index": status.index,
-                    "paused": status.paused,
-                }
-            )
+            self._json(dataclasses.asdict(server.feed.status()))
         elif path.startswith("/api/"):
             raise RequestError(f"no such API for this source: GET {path[:200]}", 404)
         else:
@@ -265,8 +247,4 @@ def make_server(
     return bind(lambda address: ViewerServer(address, table, table_name, source, feed), host, port)
 
 
-def serve_in_thread(server: ViewerServer) -> threading.Thread:
-    """Serve in a daemon thread (for tests and scripts); stop with ``server.shutdown()``."""
-    thread = threading.Thread(target=server.serve_forever, args=(0.05,), name="panomap-view", daemon=True)
-    thread.start()
-    return thread
+__all__ = ["ViewerHandler", "ViewerServer", "byte_range", "make_server", "serve_in_thread"]
