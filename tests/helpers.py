@@ -8,16 +8,20 @@ what runs that code on it (making ``Landmarks``, fitting, building tables) is he
 
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
+import av
 import cv2
 import imageio_ffmpeg
 import numpy as np
+import pytest
 from click.testing import CliRunner, Result
 from numpy.typing import NDArray
 
@@ -25,10 +29,13 @@ from panomap.calibrate.fit import CameraFit, fit_camera
 from panomap.calibrate.landmarks import Landmarks, landmarks_to_csv
 from panomap.calibrate.make_table import create_table
 from panomap.cli.app import main
+from panomap.io.local_web import LocalServer, serve_in_thread
 from panomap.simulate import sampling
 from panomap.simulate.cameras import RadialCamera, SimulatedCamera
 from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, Trial
 from panomap.table.table import PanoMappingTable
+
+ServerT = TypeVar("ServerT", bound=LocalServer)
 
 # ----------------------------------------------------------------------------- the command line, in-process
 
@@ -275,3 +282,109 @@ class StreamServer:
         if self.process is not None and self.process.poll() is None:
             self.process.kill()
             self.process.wait(timeout=LIMIT_S)
+
+
+# ----------------------------------------------------------------------------- a room camera, its clips
+
+
+def room_camera_files(folder: Path, camera: SimulatedCamera, size: tuple[int, int], seed: int) -> NDArray[np.uint8]:
+    """``folder/cam.npz`` (the table of ``camera`` in the bundled room, learned from 16 spread landmarks drawn
+    with ``seed``, at its true centre) and ``folder/omni.png`` (the room through it); returns the picture."""
+    from panomap.simulate import load_room, render
+    from panomap.table.file import save_table
+
+    room = load_room()
+    position = tuple(room.camera)
+    landmarks = spread_landmarks(camera, position, 16, np.random.default_rng(seed))
+    table, _ = learn_table(camera, position, landmarks, size)
+    save_table(table, folder / "cam.npz")
+    omni = np.asarray(render(room, camera, supersample=1))
+    cv2.imwrite(str(folder / "omni.png"), omni)
+    return omni
+
+
+def write_clip(
+    path: Path,
+    pictures: Iterable[NDArray[np.uint8]],
+    rate: int,
+    codec: str = "libx264",
+    container_format: str | None = None,
+    options: dict[str, str] | None = None,
+    bit_rate: int | None = None,
+) -> None:
+    """``pictures`` (BGR, all one size) as a yuv420p clip at ``rate`` frames/s, picture k at time k / rate."""
+    with av.open(str(path), "w", format=container_format) as container:
+        video = container.add_stream(codec, rate=rate)
+        video.pix_fmt = "yuv420p"
+        if options:
+            video.options = options
+        if bit_rate is not None:
+            video.bit_rate = bit_rate
+        for index, picture in enumerate(pictures):
+            if index == 0:
+                video.height, video.width = picture.shape[:2]
+            frame = av.VideoFrame.from_ndarray(picture, format="bgr24")
+            frame.pts = index
+            for packet in video.encode(frame):
+                container.mux(packet)
+        for packet in video.encode(None):
+            container.mux(packet)
+
+
+# ----------------------------------------------------------------------------- local web servers, a browser
+
+CHROMIUM = Path("/usr/bin/chromium")
+# What every test's headless Chromium is started with (each test adds its own: no GPU, or SwiftShader's).
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-dev-shm-usage",
+]
+
+
+def chromium(extra_args: list[str]) -> Iterator[Any]:
+    """Debian's Chromium driven by Playwright, for a module-scoped fixture (``yield from chromium([...])``).
+
+    Without /usr/bin/chromium (or the playwright package) the tests skip, saying why; with the
+    environment variable CI set they fail instead: CI must install them (``scripts/install-test-deps.sh``).
+    """
+    reason = None
+    try:
+        import playwright.sync_api
+    except ImportError:
+        reason = "the playwright package is not installed (pip install -e '.[test]')"
+    if reason is None and not CHROMIUM.exists():
+        reason = f"{CHROMIUM} is missing (Debian's chromium: run scripts/install-test-deps.sh)"
+    if reason is not None:
+        if os.environ.get("CI"):
+            pytest.fail(f"CI must run the browser tests: {reason}")
+        pytest.skip(reason)
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS + extra_args)
+        yield browser
+        browser.close()
+
+
+@contextmanager
+def serving() -> Iterator[Callable[[ServerT], ServerT]]:
+    """``start(server)``: serve it in a thread; every server started is stopped when the block ends."""
+    servers: list[LocalServer] = []
+
+    def start(server: ServerT) -> ServerT:
+        serve_in_thread(server)
+        servers.append(server)
+        return server
+
+    try:
+        yield start
+    finally:
+        for server in servers:
+            server.shutdown()
+            server.server_close()

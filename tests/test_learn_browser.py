@@ -12,7 +12,6 @@ the environment variable CI set they fail instead: CI must install them
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -24,7 +23,7 @@ from click.testing import CliRunner
 
 from panomap.calibrate.landmarks import Landmarks, read_landmarks
 from panomap.cli.app import main
-from panomap.learn.server import LearnServer, make_server, serve_in_thread
+from panomap.learn.server import LearnServer, make_server
 from panomap.learn.session import Session
 from panomap.simulate.example import Example
 from panomap.simulate.line_scenes import line_camera, render_line_scene
@@ -32,47 +31,17 @@ from panomap.table.file import load_table
 from test_learn_lines import SCALE as LINES_SCALE
 from test_learn_lines import learned_pixel, true_pixel
 
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--disable-dev-shm-usage",
-]
+from helpers import chromium, serving
+
 SIZE = (640, 640)
 # Clicks are made zoomed in, at this many CSS px per image pixel.
 CLICK_SCALE = 8.0
 TIMEOUT_MS = 30_000
 
 
-def _unavailable() -> str | None:
-    try:
-        import playwright.sync_api  # noqa: F401
-    except ImportError:
-        return "the playwright package is not installed (pip install -e '.[test]')"
-    if not CHROMIUM.exists():
-        return f"{CHROMIUM} is missing (Debian's chromium: run scripts/install-test-deps.sh)"
-    return None
-
-
 @pytest.fixture(scope="module")
 def browser() -> Iterator[Any]:
-    reason = _unavailable()
-    if reason is not None:
-        if os.environ.get("CI"):
-            pytest.fail(f"CI must run the browser tests: {reason}")
-        pytest.skip(reason)
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as playwright:
-        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        yield chromium
-        chromium.close()
+    yield from chromium(["--disable-gpu"])
 
 
 class Page:
@@ -108,18 +77,8 @@ class Page:
 
 @pytest.fixture
 def serve(tmp_path: Path, example: Example) -> Iterator[Any]:
-    servers: list[LearnServer] = []
-
-    def start(session: Session) -> LearnServer:
-        server = make_server(session, port=0)
-        serve_in_thread(server)
-        servers.append(server)
-        return server
-
-    yield start
-    for server in servers:
-        server.shutdown()
-        server.server_close()
+    with serving() as start:
+        yield lambda session: start(make_server(session, port=0))
 
 
 def contrast_pixels(example: Example, session: Session, count: int) -> list[tuple[int, int]]:

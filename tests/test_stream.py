@@ -23,14 +23,22 @@ import pytest
 
 from panomap.cli.video import summary
 from panomap.errors import PanomapError
-from panomap.simulate import load_room, render, standard_cameras
-from panomap.table.file import load_table, save_table
+from panomap.simulate import standard_cameras
+from panomap.table.file import load_table
 from panomap.video.live import Reconnect, check_segment_names, segment_path
 from panomap.video.report import Gap, VideoReport
 from panomap.video.unwarp import ViewOutput, unwarp_video
 from panomap.views import GenericPanorama
 
-from helpers import LIMIT_S, StreamServer, assert_one_line_error, learn_table, run, spread_landmarks, wait_until
+from helpers import (
+    LIMIT_S,
+    StreamServer,
+    assert_one_line_error,
+    room_camera_files,
+    run,
+    wait_until,
+    write_clip,
+)
 
 SIZE = (160, 160)
 RATE = 25
@@ -67,23 +75,10 @@ def growing(folder: Path, name: str, size: int = 2000) -> Callable[[], bool]:
 def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The camera's table (cam.npz) and a clip of it (clip.ts: MPEG-TS, H.264, a keyframe a second)."""
     folder = tmp_path_factory.mktemp("stream")
-    room = load_room()
-    position = tuple(room.camera)
-    table, _ = learn_table(CAMERA, position, spread_landmarks(CAMERA, position, 16, np.random.default_rng(4)), SIZE)
-    save_table(table, folder / "cam.npz")
-    omni = render(room, CAMERA, supersample=1)
-    with av.open(str(folder / "clip.ts"), "w", format="mpegts") as container:
-        video = container.add_stream("libx264", rate=RATE)
-        video.width, video.height = SIZE
-        video.pix_fmt = "yuv420p"
-        video.options = {"preset": "ultrafast", "crf": "23", "g": str(RATE)}
-        for index in range(CLIP_FRAMES):
-            frame = av.VideoFrame.from_ndarray(np.roll(omni, 2 * index, axis=1), format="bgr24")
-            frame.pts = index
-            for packet in video.encode(frame):
-                container.mux(packet)
-        for packet in video.encode(None):
-            container.mux(packet)
+    omni = room_camera_files(folder, CAMERA, SIZE, seed=4)
+    moving = (np.roll(omni, 2 * index, axis=1) for index in range(CLIP_FRAMES))
+    options = {"preset": "ultrafast", "crf": "23", "g": str(RATE)}
+    write_clip(folder / "clip.ts", moving, RATE, container_format="mpegts", options=options)
     return folder
 
 

@@ -18,24 +18,31 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-import av
 import cv2
 import numpy as np
 import pytest
 
 from panomap.errors import PanomapError
 from panomap.io.local_web import RequestError
-from panomap.simulate import load_room, render, standard_cameras
-from panomap.table.file import save_table
+from panomap.simulate import standard_cameras
 from panomap.table.table import PanoMappingTable
 from panomap.video.live import Reconnect
 from panomap.viewer.feed import FrameFeed
-from panomap.viewer.server import MAX_RANGE_BYTES, ViewerServer, byte_range, make_server, serve_in_thread
+from panomap.viewer.server import MAX_RANGE_BYTES, ViewerServer, byte_range, make_server
 from panomap.viewer.source import Source, open_source
 from panomap.viewer.table_texture import NO_ENTRY, lookup_texture, padded_entries, texture_data
 from panomap.views.lookup import direction_lookup
 
-from helpers import LIMIT_S, StreamServer, assert_one_line_error, learn_table, run, spread_landmarks, wait_until
+from helpers import (
+    LIMIT_S,
+    StreamServer,
+    assert_one_line_error,
+    room_camera_files,
+    run,
+    serving,
+    wait_until,
+    write_clip,
+)
 
 SIZE = (160, 160)
 RATE = 25
@@ -47,29 +54,11 @@ def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """cam.npz (a table of the simulated camera), omni.png (its picture), clip.avi (2 s at 25 fps, MPEG-4
     part 2: no browser plays it), clip.mp4 (H.264) and clip.ts (MPEG-TS, for a live stream)."""
     folder = tmp_path_factory.mktemp("viewer")
-    room = load_room()
-    position = tuple(room.camera)
-    table, _ = learn_table(CAMERA, position, spread_landmarks(CAMERA, position, 16, np.random.default_rng(4)), SIZE)
-    save_table(table, folder / "cam.npz")
-    omni = render(room, CAMERA, supersample=1)
-    cv2.imwrite(str(folder / "omni.png"), omni)
-    for name, codec, fmt in (
-        ("clip.avi", "mpeg4", None),
-        ("clip.mp4", "libx264", None),
-        ("clip.ts", "libx264", "mpegts"),
-    ):
-        with av.open(str(folder / name), "w", format=fmt) as container:
-            video = container.add_stream(codec, rate=RATE)
-            video.width, video.height = SIZE
-            video.pix_fmt = "yuv420p"
-            frames = 50 if name != "clip.ts" else 500
-            for index in range(frames):
-                frame = av.VideoFrame.from_ndarray(np.roll(omni, 2 * index, axis=1), format="bgr24")
-                frame.pts = index
-                for packet in video.encode(frame):
-                    container.mux(packet)
-            for packet in video.encode(None):
-                container.mux(packet)
+    omni = room_camera_files(folder, CAMERA, SIZE, seed=4)
+    moving = [np.roll(omni, 2 * k, axis=1) for k in range(500)]
+    write_clip(folder / "clip.avi", moving[:50], RATE, "mpeg4")
+    write_clip(folder / "clip.mp4", moving[:50], RATE)
+    write_clip(folder / "clip.ts", moving, RATE, container_format="mpegts")
     return folder
 
 
@@ -180,18 +169,8 @@ def test_the_command_refuses_a_source_of_another_size_and_bad_files_in_one_line(
 
 @pytest.fixture
 def serve(table: PanoMappingTable) -> Iterator[object]:
-    servers: list[ViewerServer] = []
-
-    def start(source: Source, feed: FrameFeed | None = None) -> ViewerServer:
-        server = make_server(table, "cam.npz", source, port=0, feed=feed)
-        serve_in_thread(server)
-        servers.append(server)
-        return server
-
-    yield start
-    for server in servers:
-        server.shutdown()
-        server.server_close()
+    with serving() as start:
+        yield lambda source, feed=None: start(make_server(table, "cam.npz", source, port=0, feed=feed))
 
 
 def request(

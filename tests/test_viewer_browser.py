@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import base64
 import math
-import os
 import shlex
 from collections.abc import Iterator
 from pathlib import Path
@@ -25,29 +24,17 @@ import cv2
 import numpy as np
 import pytest
 
-from panomap.simulate import load_room, render, standard_cameras
-from panomap.table.file import load_table, save_table
+from panomap.simulate import standard_cameras
+from panomap.table.file import load_table
 from panomap.video.live import Reconnect
 from panomap.viewer.feed import FrameFeed
-from panomap.viewer.server import ViewerServer, make_server, serve_in_thread
+from panomap.viewer.server import ViewerServer, make_server
 from panomap.viewer.source import open_source
 
-from helpers import LIMIT_S, StreamServer, learn_table, run, spread_landmarks
+from helpers import LIMIT_S, StreamServer, chromium, room_camera_files, run, serving, write_clip
 
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--use-angle=swiftshader",
-    "--enable-unsafe-swiftshader",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--disable-dev-shm-usage",
-    "--autoplay-policy=no-user-gesture-required",
-]
+# WebGL2 on SwiftShader (the slowest GPU a user can have); videos play without a click.
+VIEWER_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--autoplay-policy=no-user-gesture-required"]
 SIZE = (480, 480)
 RATE = 25
 CAMERA = standard_cameras(SIZE, centre=(240.3, 239.6))["equidistant"]
@@ -65,29 +52,9 @@ BROWSER_VIDEO_MEAN = 1.0
 SERVER_VIDEO_MEAN = 3.5
 
 
-def _unavailable() -> str | None:
-    try:
-        import playwright.sync_api  # noqa: F401
-    except ImportError:
-        return "the playwright package is not installed (pip install -e '.[test]')"
-    if not CHROMIUM.exists():
-        return f"{CHROMIUM} is missing (Debian's chromium: run scripts/install-test-deps.sh)"
-    return None
-
-
 @pytest.fixture(scope="module")
 def browser() -> Iterator[Any]:
-    reason = _unavailable()
-    if reason is not None:
-        if os.environ.get("CI"):
-            pytest.fail(f"CI must run the browser tests: {reason}")
-        pytest.skip(reason)
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as playwright:
-        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        yield chromium
-        chromium.close()
+    yield from chromium(VIEWER_ARGS)
 
 
 @pytest.fixture(scope="module")
@@ -95,34 +62,11 @@ def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """cam.npz, omni.png, and clips of omni.png standing still: still.mp4 (H.264), still.avi (MPEG-4
     part 2), and moving.ts (MPEG-TS) for a live stream."""
     folder = tmp_path_factory.mktemp("viewer-browser")
-    room = load_room()
-    position = tuple(room.camera)
-    table, _ = learn_table(CAMERA, position, spread_landmarks(CAMERA, position, 16, np.random.default_rng(5)), SIZE)
-    save_table(table, folder / "cam.npz")
-    omni = render(room, CAMERA, supersample=1)
-    cv2.imwrite(str(folder / "omni.png"), omni)
-    clips = (
-        ("still.mp4", "libx264", None, 100),
-        ("still.avi", "mpeg4", None, 100),
-        ("moving.ts", "libx264", "mpegts", 250),
-    )
-    for name, codec, fmt, count in clips:
-        with av.open(str(folder / name), "w", format=fmt) as container:
-            video = container.add_stream(codec, rate=RATE)
-            video.width, video.height = SIZE
-            video.pix_fmt = "yuv420p"
-            if codec == "libx264":
-                video.options = {"crf": "12"}
-            else:
-                video.bit_rate = 20_000_000  # (near lossless: every frame alike)
-            for index in range(count):
-                picture = omni if name != "moving.ts" else np.roll(omni, index, axis=1)
-                frame = av.VideoFrame.from_ndarray(picture, format="bgr24")
-                frame.pts = index
-                for packet in video.encode(frame):
-                    container.mux(packet)
-            for packet in video.encode(None):
-                container.mux(packet)
+    omni = room_camera_files(folder, CAMERA, SIZE, seed=5)
+    write_clip(folder / "still.mp4", [omni] * 100, RATE, options={"crf": "12"})
+    write_clip(folder / "still.avi", [omni] * 100, RATE, "mpeg4", bit_rate=20_000_000)  # (near lossless)
+    moving = (np.roll(omni, k, axis=1) for k in range(250))
+    write_clip(folder / "moving.ts", moving, RATE, container_format="mpegts", options={"crf": "12"})
     return folder
 
 
@@ -162,20 +106,13 @@ class Page:
 
 @pytest.fixture
 def serve(work: Path) -> Iterator[Any]:
-    servers: list[ViewerServer] = []
-
-    def start(source_name: str, feed_reconnect: Reconnect | None = None) -> ViewerServer:
+    def viewer(source_name: str, feed_reconnect: Reconnect | None = None) -> ViewerServer:
         source = open_source(source_name)
         feed = FrameFeed(source, feed_reconnect) if feed_reconnect is not None else None
-        server = make_server(load_table(work / "cam.npz"), "cam.npz", source, port=0, feed=feed)
-        serve_in_thread(server)
-        servers.append(server)
-        return server
+        return make_server(load_table(work / "cam.npz"), "cam.npz", source, port=0, feed=feed)
 
-    yield start
-    for server in servers:
-        server.shutdown()
-        server.server_close()
+    with serving() as start:
+        yield lambda *args: start(viewer(*args))
 
 
 def cli_picture(tmp_path: Path, kind: str, source: Path, *options: object) -> np.ndarray:
