@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import signal
 from pathlib import Path
 
 import click
 
 from ..calibrate.landmarks import read_landmarks
 from ..errors import PanomapError
+from .local_page import serve_until_interrupted, server_options, warn_unless_loopback
 from .options import FINITE, FOLDER, PATH, frame_time_option, read_omni, warn_orientation
 
 
@@ -26,15 +26,7 @@ from .options import FINITE, FOLDER, PATH, frame_time_option, read_omni, warn_or
     show_default=True,
     help="The only folder the page saves into and loads from.",
 )
-@click.option(
-    "--port", type=click.IntRange(0, 65535), default=8765, show_default=True, help="Port; 0 picks a free one."
-)
-@click.option(
-    "--host",
-    default="127.0.0.1",
-    show_default=True,
-    help="Address to listen on. Anything but loopback lets other machines use the page (and save files).",
-)
+@server_options(8765, "lets other machines use the page (and save files)")
 @frame_time_option
 def learn(
     omni: Path,
@@ -50,7 +42,7 @@ def learn(
     Starts a local web server and prints its address; open it in a browser.
     Ctrl-C stops it. Files are saved only into --dir (default: here).
     """
-    from ..learn.server import is_loopback, make_server
+    from ..learn.server import make_server
     from ..learn.session import Session
 
     if not folder.is_dir():
@@ -61,21 +53,6 @@ def learn(
     session = Session(image, omni.name, folder, preload, camera)
     if session.circles_note:
         click.echo(f"panomap: note: {session.circles_note}", err=True)
-    if not is_loopback(host):
-        click.echo(
-            f"panomap: warning: listening on {host}, not loopback: anyone who can reach this machine can use "
-            "the page and write files into the folder",
-            err=True,
-        )
+    warn_unless_loopback(host, "anyone who can reach this machine can use the page and write files into the folder")
     server = make_server(session, host, port)
-    # Ctrl-C (SIGINT) stops the server even where it was started ignoring SIGINT (a shell's background job,
-    # nohup), as Python then leaves it.
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    click.echo(f"panomap learn: serving {omni.name} at {server.url} (files in {session.folder}); Ctrl-C stops it")
-    try:
-        server.serve_forever()
-    except KeyboardInterrupt:
-        click.echo("panomap learn: stopped")
-    finally:
-        server.server_close()
-        signal.signal(signal.SIGINT, previous)
+    serve_until_interrupted(server, "learn", f"serving {omni.name} at {server.url} (files in {session.folder})")

@@ -2,27 +2,19 @@
 
 from __future__ import annotations
 
-import signal
 from pathlib import Path
 
 import click
 
 from ..errors import PanomapError
+from .local_page import serve_until_interrupted, server_options, warn_unless_loopback
 from .options import PATH
 
 
 @click.command("view")
 @click.argument("table_path", metavar="TABLE", type=PATH)
 @click.argument("source_name", metavar="SOURCE")
-@click.option(
-    "--port", type=click.IntRange(0, 65535), default=8766, show_default=True, help="Port; 0 picks a free one."
-)
-@click.option(
-    "--host",
-    default="127.0.0.1",
-    show_default=True,
-    help="Address to listen on. Anything but loopback shows the source to whoever can reach this machine.",
-)
+@server_options(8766, "shows the source to whoever can reach this machine")
 def view(table_path: Path, source_name: str, port: int, host: str) -> None:
     """Look around in SOURCE through TABLE in the browser: drag to pan and tilt, wheel to zoom.
 
@@ -38,7 +30,6 @@ def view(table_path: Path, source_name: str, port: int, host: str) -> None:
       panomap view cam.npz omni.jpg
       panomap view cam.npz rtsp://camera.local/stream --port 8080
     """
-    from ..io.local_web import is_loopback
     from ..table.file import load_table
     from ..video.source import is_live
     from ..viewer.server import make_server
@@ -53,21 +44,9 @@ def view(table_path: Path, source_name: str, port: int, host: str) -> None:
             f"its frames are {width} x {height}, the table {table_path} is for {expected[0]} x {expected[1]} images",
             source_name if is_live(source_name) else Path(source_name),
         )
-    if not is_loopback(host):
-        click.echo(
-            f"panomap: warning: listening on {host}, not loopback: whoever can reach this machine sees the source",
-            err=True,
-        )
+    warn_unless_loopback(host, "whoever can reach this machine sees the source")
     server = make_server(table, table_path.name, source, host, port)
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     shown = source.name if source.kind == "live" else Path(source.name).name
-    click.echo(
-        f"panomap view: showing {shown} ({source.kind}) through {table_path.name} at {server.url}; Ctrl-C stops it"
+    serve_until_interrupted(
+        server, "view", f"showing {shown} ({source.kind}) through {table_path.name} at {server.url}"
     )
-    try:
-        server.serve_forever()
-    except KeyboardInterrupt:
-        click.echo("panomap view: stopped")
-    finally:
-        server.server_close()
-        signal.signal(signal.SIGINT, previous)
