@@ -8,6 +8,7 @@ what runs that code on it (making ``Landmarks``, fitting, building tables) is he
 
 from __future__ import annotations
 
+import math
 import os
 import socket
 import subprocess
@@ -25,6 +26,7 @@ import pytest
 from click.testing import CliRunner, Result
 from numpy.typing import NDArray
 
+from panomap.calibrate.circles import Circle, ImageCircles
 from panomap.calibrate.fit import CameraFit, fit_camera
 from panomap.calibrate.landmarks import Landmarks, landmarks_to_csv
 from panomap.calibrate.make_table import create_table
@@ -388,3 +390,41 @@ def serving() -> Iterator[Callable[[ServerT], ServerT]]:
         for server in servers:
             server.shutdown()
             server.server_close()
+
+
+def true_circles(camera) -> ImageCircles:
+    outer = Circle(camera.centre, camera.outer_radius, 0.1, 100, 100)
+    cutoff = None if camera.cutoff_radius <= 0 else Circle(camera.centre, camera.cutoff_radius, 0.1, 100, 100)
+    return ImageCircles(camera.centre, outer, cutoff, None)
+
+
+def pixel_errors(model, camera, step: int = 12) -> np.ndarray:
+    """Distance (px) between each image pixel and where the learned camera puts its true ray.
+
+    The true rays are first mapped by the orthogonal matrix (rotation or reflection) that best
+    aligns them with the learned camera's own: what lines leave free (azimuth origin, handedness),
+    and the tilt, which is compared separately.
+    """
+    width, height = camera.image_size
+    u, v = np.meshgrid(np.arange(0, width, step), np.arange(0, height, step))
+    pixels = np.stack([u.ravel(), v.ravel()], axis=-1).astype(float)
+    _, rays = camera.trace(pixels)
+    seen = np.all(np.isfinite(rays), axis=1)
+    pixels, rays = pixels[seen], rays[seen]
+    u0, v0 = model.centre
+    radius = np.hypot(pixels[:, 0] - u0, pixels[:, 1] - v0)
+    # The learned camera's rays of those pixels: alpha from the axis by inverting f_r numerically.
+    alpha_grid = np.linspace(0.0, math.radians(150.0), 20001)
+    r_grid = np.abs(model.radial(alpha_grid - math.pi / 2))
+    rising = np.concatenate([[True], np.diff(r_grid) > 0]) & np.isfinite(r_grid)
+    last = int(np.argmin(rising)) if not rising.all() else rising.size
+    alpha = np.interp(radius, r_grid[:last], alpha_grid[:last])
+    phi = np.arctan2(pixels[:, 1] - v0, pixels[:, 0] - u0)
+    learned = np.stack([np.sin(alpha) * np.cos(phi), np.sin(alpha) * np.sin(phi), np.cos(alpha)], axis=-1)
+    left, _, right = np.linalg.svd(learned.T @ rays)
+    mapped = rays @ (left @ right).T
+    alpha_true = np.arccos(np.clip(mapped[:, 2], -1.0, 1.0))
+    phi_true = np.arctan2(mapped[:, 1], mapped[:, 0])
+    r_true = np.abs(model.radial(alpha_true - math.pi / 2))
+    predicted = np.stack([u0 + r_true * np.cos(phi_true), v0 + r_true * np.sin(phi_true)], axis=-1)
+    return np.hypot(*(predicted - pixels).T)

@@ -148,6 +148,15 @@ from .options import (
     "weighted by its measured noise (they fix the radial function and the centre; the landmarks the azimuth, "
     "the tilt and the position).",
 )
+@click.option(
+    "--boards/--no-boards",
+    "use_boards",
+    default=True,
+    show_default=True,
+    help="Learning from lines: checkerboards in the images (any size, found by their corners) come first; their "
+    "evenly spaced rows and columns fix the scale that straightness alone leaves loose. --no-boards fits the "
+    "images' edges only.",
+)
 @click.option("--keep-outliers", is_flag=True, help="Keep landmarks that disagree with the rest (default: drop them).")
 @click.option("--plot", type=PATH, help="Also write the fit plot (PNG): the curve, landmarks and residuals.")
 @click.option(
@@ -197,6 +206,7 @@ def fit(
     tilt: str | tuple[float, float],
     camera_sigma: float | None,
     use_lines: bool,
+    use_boards: bool,
     keep_outliers: bool,
     plot: Path | None,
     overlay: Path | None,
@@ -208,14 +218,16 @@ def fit(
     """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table.
 
     Without LANDMARKS, learn the camera from the straight lines in --image (walls, door and window frames,
-    shelves, floor tiles, a checkerboard): no measurement needed. Lines know neither the azimuth origin
-    (--azimuth-zero), the handedness (--handedness) nor any distance (--camera-height).
+    shelves, floor tiles; a checkerboard of any size first, where one shows): no measurement needed. Lines
+    know neither the azimuth origin (--azimuth-zero), the handedness (--handedness) nor any distance (--camera-height).
     """
     # Options missing or out of range are usage errors (exit 2); the files' problems are failures (1).
     if landmarks is None:
         if not use_lines:
             raise click.UsageError("--no-lines leaves nothing to learn from without LANDMARKS")
-        _fit_lines(output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time)
+        _fit_lines(
+            output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time, use_boards
+        )
         return
     size = _image_size(image_size)
     image = _check_landmark_fit_options(
@@ -350,8 +362,9 @@ def _fit_lines(
     handedness: str,
     camera_height: float | None,
     frame_time: float | None,
+    use_boards: bool,
 ) -> None:
-    """``fit`` without landmarks: the camera learned from the lines of ``images``."""
+    """``fit`` without landmarks: the camera learned from the lines (and checkerboards) of ``images``."""
     from ..calibrate.lines.fit import LineFitOptions
     from .lines import fit_from_lines
 
@@ -380,6 +393,7 @@ def _fit_lines(
         camera_height=camera_height,
         overlay=overlay,
         find_circles=line_circles_in,
+        use_boards=use_boards,
     )
 
 

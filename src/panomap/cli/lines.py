@@ -10,9 +10,12 @@ from typing import Any
 import click
 import numpy as np
 
+from ..calibrate.boards.detect import Board, find_boards
+from ..calibrate.boards.fit import MIN_CORNERS as BOARD_MIN_CORNERS
+from ..calibrate.boards.fit import board_arcs, fit_boards
 from ..calibrate.circles import ImageCircles
 from ..calibrate.lines.arcs import EdgeArc, find_arcs
-from ..calibrate.lines.fit import LineFitOptions, fit_lines
+from ..calibrate.lines.fit import LineFit, LineFitOptions, fit_lines
 from ..calibrate.lines.table import create_line_table
 from ..errors import PanomapError, printable
 from ..files import all_or_none
@@ -32,35 +35,43 @@ def fit_from_lines(
     camera_height: float | None,
     overlay: Path | None,
     find_circles: Any,
+    use_boards: bool = True,
 ) -> None:
     """Learn the camera from the lines of ``images``, write its table (and ``overlay``), say what the fit saw.
+
+    Checkerboards in the images (``use_boards``) come first: their corners are evenly spaced on straight
+    lines at right angles, which fixes the scale that straightness alone leaves loose. Without any, or
+    when they give no camera, the edge arcs are fitted.
 
     ``find_circles(path, image)`` finds the image circles, naming the file in its errors.
     """
     started = time.monotonic()
     bar = ProgressBar(enabled=sys.stderr.isatty())
+    notes: list[str] = []
     try:
         omnis = _read_all(images, frame_time)
         circles = find_circles(images[0], omnis[0])
+        steps = 2 * len(images) + 1
+        table: PanoMappingTable | None = None
         arcs: list[EdgeArc] = []
-        for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
-            bar.update(k, len(images) + 1, f"edges of {path.name}")
-            arcs += find_arcs(omni, circles, image_index=k)
-        bar.update(len(images), len(images) + 1, "fitting the camera to the lines")
-        try:
-            fit = fit_lines(
-                arcs, circles, options, progress=lambda step: bar.update(len(images), len(images) + 1, step)
-            )
-        except PanomapError as exc:
-            raise PanomapError(exc.detail, images[0] if len(images) == 1 else None) from None
-        table = create_line_table(
-            fit,
-            cutoff_radius=circles.cutoff_radius or 0.0,
-            outer_radius=circles.outer_radius,
-            image_size=(omnis[0].shape[1], omnis[0].shape[0]),
-            camera_height=camera_height,
-            info={"source": "lines", "images": [str(path) for path in images]},
-        )
+        if use_boards:
+            fit, arcs, notes = _fit_boards(images, omnis, circles, options, bar, steps)
+            if fit is not None:
+                try:
+                    table = _table(fit, circles, omnis, camera_height, images, "checkerboards")
+                except PanomapError as exc:
+                    notes.append(f"the checkerboards gave no table ({exc.detail}); learning from the lines instead")
+        if table is None:
+            arcs = []
+            for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
+                bar.update(len(images) + k, steps, f"edges of {path.name}")
+                arcs += find_arcs(omni, circles, image_index=k)
+            bar.update(steps - 1, steps, "fitting the camera to the lines")
+            try:
+                fit = fit_lines(arcs, circles, options, progress=lambda step: bar.update(steps - 1, steps, step))
+            except PanomapError as exc:
+                raise PanomapError(exc.detail, images[0] if len(images) == 1 else None) from None
+            table = _table(fit, circles, omnis, camera_height, images, "lines")
     finally:
         bar.close()
     with all_or_none():
@@ -72,8 +83,58 @@ def fit_from_lines(
     click.echo(printable(describe_line_fit(table, circles, time.monotonic() - started), keep="\n"))
     written = [str(path) for path in (output, overlay) if path is not None]
     click.echo("wrote " + " and ".join(written))
-    for warning in table.info.get("warnings", []):
+    for warning in [*notes, *table.info.get("warnings", [])]:
         click.echo(f"panomap: warning: {warning}", err=True)
+
+
+def _table(
+    fit: LineFit,
+    circles: ImageCircles,
+    omnis: list[np.ndarray],
+    camera_height: float | None,
+    images: tuple[Path, ...],
+    source: str,
+) -> PanoMappingTable:
+    """The table of a camera learned from ``source`` ("lines" or "checkerboards")."""
+    info: dict[str, Any] = {"source": source, "images": [str(path) for path in images]}
+    if source == "checkerboards":
+        info["sources"] = {
+            "camera_position": "given (--camera-height)" if camera_height is not None else "unknown (boards' size)",
+            "centre": "fitted to the checkerboards' corners",
+            "cutoff_radius": "detected",
+            "outer_radius": "detected",
+        }
+    return create_line_table(
+        fit,
+        cutoff_radius=circles.cutoff_radius or 0.0,
+        outer_radius=circles.outer_radius,
+        image_size=(omnis[0].shape[1], omnis[0].shape[0]),
+        camera_height=camera_height,
+        info=info,
+    )
+
+
+def _fit_boards(
+    images: tuple[Path, ...],
+    omnis: list[np.ndarray],
+    circles: ImageCircles,
+    options: LineFitOptions,
+    bar: ProgressBar,
+    steps: int,
+) -> tuple[LineFit | None, list[EdgeArc], list[str]]:
+    """The camera learned from the checkerboards in ``omnis``, with their rows as arcs; None where too few."""
+    boards: list[Board] = []
+    for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
+        bar.update(k, steps, f"checkerboards in {path.name}")
+        boards += find_boards(omni, image_index=k)
+    if sum(len(board.pixels) for board in boards) < BOARD_MIN_CORNERS:
+        return None, [], []
+    bar.update(steps - 1, steps, "fitting the camera to the checkerboards")
+    try:
+        fit = fit_boards(boards, circles, options, progress=lambda step: bar.update(steps - 1, steps, step))
+    except PanomapError as exc:
+        return None, [], [f"the checkerboards gave no camera ({exc.detail}); learning from the lines instead"]
+    return fit, board_arcs(boards), []
 
 
 def _read_all(images: tuple[Path, ...], frame_time: float | None) -> list[np.ndarray]:
@@ -101,12 +162,15 @@ def describe_line_fit(table: PanoMappingTable, circles: ImageCircles, seconds: f
     model = table.model
     tilt_deg, toward_deg = (float(np.degrees(a)) for a in model.tilt)
     out = [
-        f"camera learned from lines in {seconds:.1f} s: radial model {report.model} "
+        f"camera learned from {'checkerboards' if report.lines.boards else 'lines'} in {seconds:.1f} s: "
+        f"radial model {report.model} "
         f"{tuple(round(c, 6) for c in model.radial.coefficients)}, centre ({model.centre[0]:.2f}, "
         f"{model.centre[1]:.2f}) ({circles.centre[0]:.2f}, {circles.centre[1]:.2f} from the rim)",
         f"tilt {tilt_deg:.2f} deg toward azimuth {toward_deg:.1f} deg"
         if report.lines.vertical_lines
-        else "no vertical lines: the camera is taken as level",
+        else "no vertical lines: the camera is taken as level"
+        if not report.lines.boards
+        else "",
         *(x for x in report.lines.sentences() if not x.startswith("no line between")),
         "azimuth 0 is "
         + ("the pixel given" if report.lines.azimuth_source == "given" else "image angle 0 (+u): --azimuth-zero U V")
@@ -116,4 +180,4 @@ def describe_line_fit(table: PanoMappingTable, circles: ImageCircles, seconds: f
         out.append(f"standard error of the radius: at most {report.uncertainty.max_se_px:.2f} px")
     if not table.info.get("camera_height_known", True):
         out.append("distances unknown (lines know none): floor, cylinder and plane views need --camera-height H")
-    return "\n".join(out)
+    return "\n".join(line for line in out if line)

@@ -561,7 +561,7 @@ def _result(
         vertical_lines=0 if vertical is None else int(vertical[1]),
         model_selection_cv_rms_px=scores,
         elevation_range_deg=(low, high),
-        empty_bands_deg=empty_bands(np.degrees(rho), _annulus_deg(radial, circles, r_max)),
+        empty_bands_deg=empty_bands(np.degrees(rho), annulus_deg(radial, circles, r_max)),
         azimuth_source="given" if options.azimuth_zero is not None else "image angle 0",
         handedness_source="given" if options.s is not None else ("mirror" if circles.cutoff is not None else "lens"),
     )
@@ -604,7 +604,7 @@ def _camera_elevations(rays: FloatArray, axis: str) -> FloatArray:
     return _camera_elevations_of_alpha(np.arccos(np.clip(rays[:, 2], -1.0, 1.0)), axis)
 
 
-def _annulus_deg(radial: RadialFunction, circles: ImageCircles, r_max: float) -> tuple[float, float]:
+def annulus_deg(radial: RadialFunction, circles: ImageCircles, r_max: float) -> tuple[float, float]:
     """Camera elevations (deg, low to high) from the cut-off disc (or the axis) to the farthest line radius."""
     inverse = InverseRadial.of(radial, r_max)
     radii = np.array([circles.cutoff_radius or 0.0, min(circles.outer_radius, r_max)])

@@ -119,6 +119,11 @@ class LineFitReport:
         Elevation bands of the annulus with no line point.
     azimuth_source, handedness_source : str
         Where the azimuth origin and the handedness came from (lines know neither).
+    boards, corners : int
+        Checkerboards and their inner corners the camera was learned from (0: learned from edge arcs);
+        ``lines`` are then the boards' rows and columns, each with its corners' residuals.
+    corner_rms_px : float
+        RMS distance (px) of the corners from their projection (boards only).
     """
 
     model: str
@@ -132,6 +137,9 @@ class LineFitReport:
     empty_bands_deg: tuple[tuple[float, float], ...]
     azimuth_source: str
     handedness_source: str
+    boards: int = 0
+    corners: int = 0
+    corner_rms_px: float = 0.0
 
     @property
     def rms_px(self) -> float:
@@ -145,6 +153,8 @@ class LineFitReport:
 
     def sentences(self) -> list[str]:
         """The report in a few lines, for the terminal."""
+        if self.boards:
+            return self._board_sentences()
         out = [
             f"learned from {len(self.lines)} straight lines ({sum(len(x.arcs) for x in self.lines)} arcs; "
             f"{len(self.rejected)} set aside), {self.families} famil{'y' if self.families == 1 else 'ies'} "
@@ -160,8 +170,22 @@ class LineFitReport:
         out += [band_sentence(band) for band in self.empty_bands_deg]
         return out
 
+    def _board_sentences(self) -> list[str]:
+        out = [
+            f"learned from {self.boards} checkerboard{'s' if self.boards != 1 else ''}: {self.corners} inner corners "
+            f"on {len(self.lines)} straight, evenly spaced rows and columns; radial model {self.model}",
+            f"corner residuals: RMS {self.corner_rms_px:.2f} px, max {self.max_px:.2f} px",
+            "tilt: boards do not show the vertical; the camera is taken as level",
+        ]
+        out += [f"set aside: board {arc.arc + 1}: {arc.reason}" for arc in self.rejected]
+        out += [band_sentence(band) for band in self.empty_bands_deg]
+        return out
+
     def to_dict(self) -> dict[str, Any]:
         return {
+            "boards": self.boards,
+            "corners": self.corners,
+            "corner_rms_px": self.corner_rms_px,
             "model": self.model,
             "sigma_px": self.sigma_px,
             "lines": [line.to_dict() for line in self.lines],
@@ -193,6 +217,9 @@ class LineFitReport:
                 empty_bands_deg=tuple((float(a), float(b)) for a, b in data["empty_bands_deg"]),
                 azimuth_source=str(data["azimuth_source"]),
                 handedness_source=str(data["handedness_source"]),
+                boards=int(data.get("boards", 0)),
+                corners=int(data.get("corners", 0)),
+                corner_rms_px=float(data.get("corner_rms_px", 0.0)),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise PanomapError(f"the line fit report is malformed ({exc})") from None

@@ -1,0 +1,96 @@
+"""The inner corners of a checkerboard in an omni-image, with their place on the board's grid.
+
+Convention: pixels (u, v) px, pixel centres at integers (as :mod:`panomap.geometry`); a corner's grid
+place is (column, row) counted in squares from the first corner found.
+
+OpenCV's sector-based detector (``findChessboardCornersSB``) finds boards bent by a mirror or a
+fisheye lens, to a fraction of a pixel; told that the board may be larger than the pattern asked for
+(``CALIB_CB_LARGER``) it grows the grid to the whole board, so the board's size need not be known.
+It grows from a small seed that it may not find on every board, so several seeds are tried and the
+largest grid kept.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ...geometry import FloatArray
+
+# Seeds (columns, rows of inner corners) the detector grows from; the largest board found is kept.
+SEEDS = ((3, 3), (4, 4), (5, 5))
+# Fewest inner corners a board must show to be used.
+MIN_CORNERS = 12
+# Images larger than this (px, the longer side) are searched downscaled, and the corners refined in full.
+SEARCH_SIZE_PX = 1400
+
+
+@dataclass(frozen=True)
+class Board:
+    """One checkerboard found in one image.
+
+    Attributes
+    ----------
+    image_index : int
+        Which of the images given it is in.
+    pixels : (n, 2) float64, px
+        Its inner corners (u, v).
+    grid : (n, 2) int
+        Each corner's place on the board: (column, row), in squares.
+    """
+
+    image_index: int
+    pixels: FloatArray
+    grid: NDArray[np.intp]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(columns, rows) of inner corners."""
+        return int(self.grid[:, 0].max()) + 1, int(self.grid[:, 1].max()) + 1
+
+
+def find_boards(image: NDArray[np.generic], image_index: int = 0) -> list[Board]:
+    """The checkerboard in ``image`` ((H, W) or (H, W, 3) uint8, BGR), if there is one.
+
+    Returns
+    -------
+    list of Board
+        The largest board found (at least ``MIN_CORNERS`` inner corners), or none.
+    """
+    grey = image if image.ndim == 2 else cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_BGR2GRAY)
+    grey = np.ascontiguousarray(grey, dtype=np.uint8)
+    scale = min(1.0, SEARCH_SIZE_PX / max(grey.shape))
+    search = grey if scale == 1.0 else cv2.resize(grey, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+    flags = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER | cv2.CALIB_CB_ACCURACY
+    best: tuple[FloatArray, tuple[int, int]] | None = None
+    for seed in SEEDS:
+        found, corners, meta = cv2.findChessboardCornersSBWithMeta(search, seed, flags=flags)
+        if found and corners is not None and (best is None or len(corners) > len(best[0])):
+            best = (corners.reshape(-1, 2).astype(np.float64), meta.shape[:2])
+    if best is None or len(best[0]) < MIN_CORNERS:
+        return []
+    pixels, (rows, columns) = best
+    if len(pixels) != rows * columns:
+        return []
+    if scale != 1.0:
+        pixels = _refine(grey, (pixels + 0.5) / scale - 0.5, _spacing(pixels, columns) / scale)
+    column, row = np.meshgrid(np.arange(columns), np.arange(rows))
+    grid = np.stack([column.ravel(), row.ravel()], axis=1).astype(np.intp)
+    return [Board(image_index, pixels, grid)]
+
+
+def _spacing(pixels: FloatArray, columns: int) -> float:
+    """The smallest distance (px) between neighbouring corners along a row."""
+    steps = np.linalg.norm(np.diff(pixels.reshape(-1, columns, 2), axis=1), axis=2)
+    return float(steps.min())
+
+
+def _refine(grey: NDArray[np.uint8], pixels: FloatArray, spacing_px: float) -> FloatArray:
+    """Corners found in a downscaled image, refined to a fraction of a pixel in the full one."""
+    half = int(np.clip(spacing_px / 4.0, 2, 15))
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 40, 0.01)
+    refined = cv2.cornerSubPix(grey, pixels.astype(np.float32).reshape(-1, 1, 2), (half, half), (-1, -1), criteria)
+    return np.asarray(refined.reshape(-1, 2), dtype=np.float64)

@@ -1,0 +1,453 @@
+"""The fit of a camera from the checkerboards in its images: radial function, centre, each board's pose.
+
+Convention: pixels (u, v) px; rays in the camera's axes of :mod:`..lines.rays` (alpha from the pole
+the image centre sees, the image angle phi as azimuth); a board's corners are ``R (c, r, 0) + t`` in
+those axes, (c, r) its grid place in squares, so distances are in squares (the square's size, like
+every distance, is not learned).
+
+The method: the paper's landmark learning with landmarks whose positions are known up to their board's
+pose. Each corner's residual is the distance (px) between the corner found and the projection
+``centre + f_r(alpha) (cos phi, sin phi)`` of its place on the board; all of them are minimised
+together over the centre, the radial coefficients and six pose parameters per board. Straightness,
+even spacing, right angles and square squares are all in it. Starts: equidistant cameras at several
+scales about the circle's centre, each board's pose from its corners' rays (a planar PnP on the rays
+turned to face the board); the start that ends lowest is kept. Corners far off (a misread corner) and
+boards mostly off (a misread board) are set aside and the fit repeated. The radial kind is chosen by
+the Bayesian information criterion over the corners, the camera's own law (the mirrors' for an image
+with a cut-off disc, the lenses' else) preferred within a margin.
+
+What boards cannot know, as lines cannot: the azimuth origin, the handedness (a planar board seen
+mirrored is the same board seen from its back) and every distance; the tilt of the axis is not
+learned from boards (the camera is taken as level).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.sparse import lil_matrix
+from scipy.spatial.transform import Rotation
+
+from ...camera.model import CameraModel
+from ...camera.radial import RadialFunction, fit_radial
+from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_kind
+from ...errors import PanomapError
+from ...geometry import HALF_PI, FloatArray
+from ..circles import ImageCircles
+from ..lines.arcs import EdgeArc
+from ..lines.fit import LineFit, LineFitOptions, annulus_deg, default_handedness
+from ..lines.orientation import zero_azimuth
+from ..lines.rays import ALPHA_LIMIT, InverseRadial, pixel_rays
+from ..lines.report import FittedLine, LineFitReport, RejectedArc, empty_bands
+from .detect import Board
+
+# Fewest corners, over all boards, a fit needs.
+MIN_CORNERS = 24
+# Scales tried at the start: the angle (deg) from the axis at the image circle.
+START_ANGLES_DEG = (60.0, 75.0, 90.0, 105.0, 120.0)
+# The radial kind used from the starts (flexible enough to bring every pose home).
+START_KIND = "odd3"
+# The kind whose residuals tell misread corners: flexible enough for any camera here.
+FLEXIBLE_KIND = "odd5"
+# Evaluations of the residuals a joint fit may take (a slow one has found its minimum long before).
+MAX_EVALUATIONS = 400
+# A corner is set aside beyond this many times the noise per coordinate (and this floor, px): 4e-6 of
+# honest corners are.
+OUTLIER_FACTOR = 5.0
+OUTLIER_FLOOR_PX = 1.5
+# A board with more than this fraction of its corners set aside is misread as a whole and set aside.
+BOARD_OFF_FRACTION = 0.3
+# Fewer boards than this choose among two-parameter kinds only.
+FEW_BOARDS = 3
+# The camera's own law wins unless another kind's BIC is lower by more than this (nats).
+OWN_LAW_MARGIN = 10.0
+# A residual where the model gives no radius (beyond a law's range), px.
+UNREACHED_PX = 1.0e3
+
+
+@dataclass(frozen=True)
+class _Fit:
+    """One converged joint fit: the kind, centre and coefficients, the poses, the corner residuals."""
+
+    kind: str
+    params: FloatArray
+    poses: FloatArray
+    residuals_px: FloatArray
+    jacobian: FloatArray
+
+    @property
+    def cost(self) -> float:
+        return float(np.sum(self.residuals_px**2))
+
+
+def fit_boards(
+    boards: Sequence[Board],
+    circles: ImageCircles,
+    options: LineFitOptions = LineFitOptions(),
+    progress: Callable[[str], None] | None = None,
+) -> LineFit:
+    """Learn the camera from checkerboards found in one or more images of it.
+
+    Parameters
+    ----------
+    boards : sequence of Board
+        The boards of every image (:func:`.detect.find_boards`).
+    circles : ImageCircles
+        The image circles (of the first image): the centre to start from and the annulus.
+    options : LineFitOptions
+        What boards cannot know (axis, handedness, azimuth origin) and the radial kind.
+    progress : callable, optional
+        Called with a short description of each step.
+
+    Raises
+    ------
+    PanomapError
+        With fewer than ``MIN_CORNERS`` corners, or when no start converges.
+    """
+    say = progress or (lambda _step: None)
+    boards = [b for b in boards if len(b.pixels) >= 4]
+    corners = sum(len(b.pixels) for b in boards)
+    if corners < MIN_CORNERS:
+        raise PanomapError(
+            f"{len(boards)} checkerboard(s) with {corners} corners were found; the fit needs {MIN_CORNERS} or more"
+        )
+    axis = options.axis
+    # f_r must rise to the farthest corner (the image circle may be a stand-in far beyond the mirror's reach)
+    r_max = _farthest(boards, circles.centre) * 1.05
+    say("starting scale")
+    best = _from_starts(boards, circles, axis, r_max)
+    best = _refit_as(boards, best, FLEXIBLE_KIND, axis, r_max) or best
+    say("setting aside misread corners")
+    given = list(boards)
+    # misread boards first (they spoil every residual), then misread corners against the fit without them
+    boards, kept_index, rejected = _without_outliers(boards, best, corners=False)
+    best = _joint(boards, best.kind, axis, best.params, best.poses[kept_index])
+    boards, again, more = _without_outliers(boards, best, corners=True)
+    rejected += [(kept_index[k], why, rms) for k, why, rms in more]
+    kept_index = [kept_index[k] for k in again]
+    best = _joint(boards, best.kind, axis, best.params, best.poses[again])
+    say("choosing the radial model")
+    candidates = _candidates(options, circles, len(boards))
+    fits = {kind: _refit_as(boards, best, kind, axis, r_max) for kind in candidates}
+    scores = {kind: (None if fit is None else _bic(fit)) for kind, fit in fits.items()}
+    chosen = _choose(scores, candidates, circles)
+    final = fits[chosen]
+    assert final is not None
+    rms = {kind: (None if fit is None else float(np.sqrt(np.mean(fit.residuals_px**2)))) for kind, fit in fits.items()}
+    return _result(final, given, boards, kept_index, rejected, rms, options, circles, r_max)
+
+
+def _farthest(boards: Sequence[Board], centre: tuple[float, float]) -> float:
+    return max(float(np.hypot(*(b.pixels - centre).T).max()) for b in boards)
+
+
+def _candidates(options: LineFitOptions, circles: ImageCircles, boards: int) -> list[str]:
+    """The kinds tried: the one asked for, or every kind that fits the centre (two parameters at most when
+    the boards are few: a flexible kind follows them and turns away beyond them, where BIC cannot see)."""
+    if options.model != "auto":
+        if radial_kind(options.model).centre_given:
+            raise PanomapError(f"the {options.model} model takes the centre as given; boards fit the centre")
+        return [options.model]
+    order = MIRROR_CANDIDATES if circles.cutoff is not None else AUTO_CANDIDATES
+    most = 2 if boards < FEW_BOARDS else 99
+    return [
+        kind for kind in order if not radial_kind(kind).centre_given and 2 <= radial_kind(kind).parameter_count <= most
+    ]
+
+
+# -- the projection and the residuals ---------------------------------------------------------------
+
+
+def project(kind: str, axis: str, params: FloatArray, points: FloatArray) -> FloatArray:
+    """Pixels (n, 2) of points (n, 3) in the camera's axes under the camera ``params`` (u0, v0, coefficients)."""
+    length = np.linalg.norm(points, axis=1)
+    alpha = np.arccos(np.clip(points[:, 2] / np.maximum(length, 1e-300), -1.0, 1.0))
+    phi = np.arctan2(points[:, 1], points[:, 0])
+    rho = alpha - HALF_PI if axis == "down" else HALF_PI - alpha
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        r = radial_kind(kind).evaluate(tuple(float(c) for c in params[2:]), rho, axis)
+    return np.stack([params[0] + r * np.cos(phi), params[1] + r * np.sin(phi)], axis=1)
+
+
+def board_points(poses: FloatArray, boards: Sequence[Board]) -> FloatArray:
+    """Corners (N, 3) of every board, in the camera's axes, from the poses (B, 6): rotation vector, translation."""
+    out = []
+    for pose, board in zip(poses, boards, strict=True):
+        plane = np.column_stack([board.grid.astype(np.float64), np.zeros(len(board.grid))])
+        out.append(Rotation.from_rotvec(pose[:3]).apply(plane) + pose[3:])
+    return np.concatenate(out)
+
+
+def _residuals(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], observed: FloatArray) -> FloatArray:
+    count = 2 + radial_kind(kind).parameter_count
+    params, poses = x[:count], x[count:].reshape(-1, 6)
+    predicted = project(kind, axis, params, board_points(poses, boards))
+    out = (predicted - observed).ravel()
+    return np.where(np.isfinite(out), out, UNREACHED_PX)
+
+
+def _sparsity(count: int, boards: Sequence[Board]) -> lil_matrix:
+    rows = 2 * sum(len(b.pixels) for b in boards)
+    pattern = lil_matrix((rows, count + 6 * len(boards)), dtype=int)
+    pattern[:, :count] = 1
+    row = 0
+    for k, board in enumerate(boards):
+        n = 2 * len(board.pixels)
+        pattern[row : row + n, count + 6 * k : count + 6 * k + 6] = 1
+        row += n
+    return pattern
+
+
+def _joint(
+    boards: Sequence[Board], kind: str, axis: str, params: FloatArray, poses: FloatArray, max_nfev: int | None = None
+) -> _Fit:
+    """The joint least-squares fit of the camera and the poses from a start."""
+    observed = np.concatenate([b.pixels for b in boards])
+    count = 2 + radial_kind(kind).parameter_count
+    x0 = np.concatenate([params, poses.ravel()])
+    solution = least_squares(
+        _residuals,
+        x0,
+        jac_sparsity=_sparsity(count, boards),
+        x_scale="jac",
+        method="trf",
+        max_nfev=max_nfev or MAX_EVALUATIONS,
+        args=(kind, axis, boards, observed),
+    )
+    residuals_px = np.hypot(*solution.fun.reshape(-1, 2).T)
+    jacobian = solution.jac.toarray() if hasattr(solution.jac, "toarray") else np.asarray(solution.jac)
+    return _Fit(kind, solution.x[:count], solution.x[count:].reshape(-1, 6), residuals_px, jacobian)
+
+
+# -- the starts -------------------------------------------------------------------------------------
+
+
+def _from_starts(boards: Sequence[Board], circles: ImageCircles, axis: str, r_max: float) -> _Fit:
+    """The joint fit from each start scale, brought home; the one that ends lowest."""
+    tried: list[_Fit] = []
+    for angle_deg in START_ANGLES_DEG:
+        a1 = circles.outer_radius / math.radians(angle_deg)
+        params = np.array([circles.centre[0], circles.centre[1], a1, 0.0])
+        radial = RadialFunction("odd1", (a1,), axis)
+        try:
+            inverse = InverseRadial.of(radial, r_max)
+        except PanomapError:
+            continue
+        poses = np.array([_pose(board, circles.centre, inverse) for board in boards])
+        tried.append(_joint(boards, START_KIND, axis, params, poses, max_nfev=200))
+    if not tried:
+        raise PanomapError("no start scale brought the boards' poses home")
+    return min(tried, key=lambda fit: fit.cost)
+
+
+def _pose(board: Board, centre: tuple[float, float], inverse: InverseRadial) -> FloatArray:
+    """A board's pose (6,) from its corners' rays under a trial camera: a planar PnP facing the board."""
+    rays = pixel_rays(board.pixels, centre, inverse).d
+    mean = rays.mean(axis=0)
+    facing = _facing(mean / np.linalg.norm(mean))
+    turned = rays @ facing.T
+    turned[:, 2] = np.maximum(turned[:, 2], 1e-3)
+    plane = np.column_stack([board.grid.astype(np.float64), np.zeros(len(board.grid))])
+    ok, rvec, tvec = cv2.solvePnP(plane, turned[:, :2] / turned[:, 2:3], np.eye(3), None, flags=cv2.SOLVEPNP_IPPE)
+    if not ok:
+        rvec, tvec = np.zeros(3), np.array([0.0, 0.0, 10.0])
+    rotation = facing.T @ cv2.Rodrigues(rvec)[0]
+    return np.concatenate([Rotation.from_matrix(rotation).as_rotvec(), facing.T @ np.ravel(tvec)])
+
+
+def _facing(direction: FloatArray) -> FloatArray:
+    """A rotation (3, 3) taking the unit ``direction`` to +z."""
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(direction, z)
+    sine, cosine = float(np.linalg.norm(axis)), float(direction @ z)
+    if sine < 1e-12:
+        return np.eye(3) if cosine > 0 else np.diag([1.0, -1.0, -1.0])
+    return np.asarray(Rotation.from_rotvec(axis / sine * math.atan2(sine, cosine)).as_matrix())
+
+
+# -- outliers, kinds and the choice -----------------------------------------------------------------
+
+
+def _without_outliers(
+    boards: Sequence[Board], fit: _Fit, corners: bool
+) -> tuple[list[Board], list[int], list[tuple[int, str, float]]]:
+    """The boards kept and their indices; boards mostly misread dropped, and with ``corners`` the misread
+    corners of the others set aside (index, why, RMS px)."""
+    # the noise per coordinate from the median corner distance (a Rayleigh's median is sigma sqrt(ln 4))
+    sigma = float(np.median(fit.residuals_px)) / math.sqrt(math.log(4.0))
+    limit = max(OUTLIER_FACTOR * sigma, OUTLIER_FLOOR_PX)
+    kept: list[Board] = []
+    kept_index: list[int] = []
+    rejected: list[tuple[int, str, float]] = []
+    start = 0
+    for k, board in enumerate(boards):
+        residuals = fit.residuals_px[start : start + len(board.pixels)]
+        start += len(board.pixels)
+        off = residuals > limit
+        rms = float(np.sqrt(np.mean(residuals**2)))
+        if off.mean() > BOARD_OFF_FRACTION:
+            rejected.append((k, f"board misread ({int(off.sum())} of {off.size} corners off by > {limit:.1f} px)", rms))
+            continue
+        if corners and off.any():
+            kept.append(Board(board.image_index, board.pixels[~off], board.grid[~off]))
+            rejected.append((k, f"{int(off.sum())} corner(s) off by > {limit:.1f} px set aside", rms))
+        else:
+            kept.append(board)
+        kept_index.append(k)
+    if sum(len(b.pixels) for b in kept) < MIN_CORNERS:
+        raise PanomapError(
+            f"the checkerboards' corners do not agree with any one camera ({len(rejected)} board(s) misread)"
+        )
+    return kept, kept_index, rejected
+
+
+def _refit_as(boards: Sequence[Board], fit: _Fit, kind: str, axis: str, r_max: float) -> _Fit | None:
+    """The joint fit with radial ``kind``, started from ``fit`` (its f_r refitted as ``kind``)."""
+    rho_low, rho_high = _corner_rho(fit, boards, axis)
+    rho = np.linspace(rho_low, rho_high, 64)
+    start = RadialFunction(fit.kind, tuple(float(c) for c in fit.params[2:]), axis)
+    try:
+        converted = fit_radial(kind, rho, start(rho), axis)
+        result = _joint(boards, kind, axis, np.concatenate([fit.params[:2], converted.coefficients]), fit.poses)
+    except (PanomapError, ValueError, np.linalg.LinAlgError):
+        return None
+    if not (np.all(np.isfinite(result.residuals_px)) and result.residuals_px.max() < UNREACHED_PX):
+        return None
+    points = board_points(result.poses, boards)
+    if np.any(points[:, 2] < np.cos(ALPHA_LIMIT) * np.linalg.norm(points, axis=1)):
+        return None  # corners beyond any camera's view: the fit went round the back
+    try:  # a law that turns back or ends before the image circle gives no table there
+        InverseRadial.of(RadialFunction(kind, tuple(float(c) for c in result.params[2:]), axis), r_max)
+    except PanomapError:
+        return None
+    return result
+
+
+def _corner_rho(fit: _Fit, boards: Sequence[Board], axis: str) -> tuple[float, float]:
+    points = board_points(fit.poses, boards)
+    alpha = np.arccos(np.clip(points[:, 2] / np.linalg.norm(points, axis=1), -1.0, 1.0))
+    rho = alpha - HALF_PI if axis == "down" else HALF_PI - alpha
+    return float(rho.min()), float(rho.max())
+
+
+def _bic(fit: _Fit) -> float:
+    n = 2 * fit.residuals_px.size
+    k = fit.params.size + fit.poses.size
+    return n * math.log(max(fit.cost, 1e-12) / n) + k * math.log(n)
+
+
+def _choose(scores: dict[str, float | None], candidates: list[str], circles: ImageCircles) -> str:
+    """The kind with the lowest BIC; the camera's own law within ``OWN_LAW_MARGIN`` of it."""
+    valid = {kind: score for kind, score in scores.items() if score is not None}
+    if not valid:
+        raise PanomapError("no radial model follows the checkerboards' corners")
+    best = min(valid, key=lambda kind: (valid[kind], candidates.index(kind)))
+    mirror = circles.cutoff is not None
+    own = [k for k in valid if (radial_kind(k).mirror_law if mirror else radial_kind(k).lens_law)]
+    if own and valid[own[0]] <= valid[best] + OWN_LAW_MARGIN:
+        return own[0]
+    return best
+
+
+# -- the result -------------------------------------------------------------------------------------
+
+
+def _result(
+    fit: _Fit,
+    given: Sequence[Board],
+    boards: Sequence[Board],
+    kept_index: list[int],
+    rejected: list[tuple[int, str, float]],
+    scores: dict[str, float | None],
+    options: LineFitOptions,
+    circles: ImageCircles,
+    r_max: float,
+) -> LineFit:
+    """The camera model, the covariance of its radial coefficients and the report.
+
+    The report's lines are the boards' rows and columns; their ``arcs`` index :func:`board_arcs` of the
+    boards given, and a board set aside points at its first row there.
+    """
+    first_arc = _first_arcs(given)
+    axis = options.axis
+    n = fit.residuals_px.size
+    dof = max(2 * n - fit.params.size - fit.poses.size, 1)
+    sigma = math.sqrt(fit.cost / dof)
+    covariance = np.linalg.pinv(fit.jacobian.T @ fit.jacobian) * sigma**2
+    count = fit.params.size
+    radial = RadialFunction(fit.kind, tuple(float(c) for c in fit.params[2:]), axis)
+    s = options.s if options.s is not None else default_handedness(circles.cutoff is not None, axis)
+    model = CameraModel((float(fit.params[0]), float(fit.params[1])), radial, s, 0.0, None)
+    if options.azimuth_zero is not None:
+        model = zero_azimuth(model, options.azimuth_zero)
+    points = board_points(fit.poses, boards)
+    alpha = np.arccos(np.clip(points[:, 2] / np.linalg.norm(points, axis=1), -1.0, 1.0))
+    rho_deg = np.degrees(alpha - HALF_PI if axis == "down" else HALF_PI - alpha)
+    lines: list[FittedLine] = []
+    start = 0
+    for k, board in enumerate(boards):
+        residuals = fit.residuals_px[start : start + len(board.pixels)]
+        elevations = rho_deg[start : start + len(board.pixels)]
+        start += len(board.pixels)
+        places = _places(given[kept_index[k]])
+        for column, place in places:
+            on = board.grid[:, column] == place
+            if on.sum() >= 2:
+                lines.append(
+                    FittedLine(
+                        arcs=(first_arc[kept_index[k]] + places.index((column, place)),),
+                        image_index=board.image_index,
+                        points=int(on.sum()),
+                        rms_px=float(np.sqrt(np.mean(residuals[on] ** 2))),
+                        max_px=float(residuals[on].max()),
+                        family=2 * k + column,
+                        elevation_deg=(float(elevations[on].min()), float(elevations[on].max())),
+                    )
+                )
+    report = LineFitReport(
+        model=fit.kind,
+        sigma_px=sigma,
+        lines=tuple(lines),
+        rejected=tuple(
+            RejectedArc(arc=first_arc[k], image_index=given[k].image_index, reason=why, rms_px=rms)
+            for k, why, rms in rejected
+        ),
+        families=2 * len(boards),
+        vertical_lines=0,
+        model_selection_cv_rms_px=dict(scores),
+        elevation_range_deg=(float(rho_deg.min()), float(rho_deg.max())),
+        empty_bands_deg=empty_bands(rho_deg, annulus_deg(radial, circles, r_max)),
+        azimuth_source="given" if options.azimuth_zero is not None else "image angle 0",
+        handedness_source="given" if options.s is not None else ("mirror" if circles.cutoff is not None else "lens"),
+        boards=len(boards),
+        corners=int(n),
+        corner_rms_px=float(np.sqrt(np.mean(fit.residuals_px**2))),
+    )
+    return LineFit(model, np.asarray(covariance[2:count, 2:count], dtype=np.float64), report)
+
+
+def _places(board: Board) -> list[tuple[int, int]]:
+    """The board's lines as (grid column that is constant, its value): its rows (1, row), then columns (0, column)."""
+    return [(1, int(r)) for r in np.unique(board.grid[:, 1])] + [(0, int(c)) for c in np.unique(board.grid[:, 0])]
+
+
+def _first_arcs(boards: Sequence[Board]) -> list[int]:
+    """Index in :func:`board_arcs` of each board's first line."""
+    counts = [len(_places(board)) for board in boards]
+    return [int(x) for x in np.concatenate([[0], np.cumsum(counts)[:-1]])]
+
+
+def board_arcs(boards: Sequence[Board]) -> list[EdgeArc]:
+    """Each board's rows, then its columns, as arcs through their corners (for the overlay), boards in order."""
+    arcs = []
+    for board in boards:
+        for column, place in _places(board):
+            on = board.grid[:, column] == place
+            order = np.argsort(board.grid[on, 1 - column])
+            arcs.append(EdgeArc(board.pixels[on][order], board.image_index, 0.0))
+    return arcs
