@@ -26,6 +26,10 @@ SEEDS = ((3, 3), (4, 4), (5, 5))
 MIN_CORNERS = 12
 # Images larger than this (px, the longer side) are searched downscaled, and the corners refined in full.
 SEARCH_SIZE_PX = 1400
+# The half-width (px) of the window a corner is refined in: a quarter of the way to its nearest corner, at
+# least MIN (smaller squares keep the detector's estimate) and at most MAX.
+MIN_WINDOW_PX = 4
+MAX_WINDOW_PX = 15
 
 
 @dataclass(frozen=True)
@@ -76,21 +80,39 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0) -> list[Board]
     if len(pixels) != rows * columns:
         return []
     if scale != 1.0:
-        pixels = _refine(grey, (pixels + 0.5) / scale - 0.5, _spacing(pixels, columns) / scale)
+        pixels = (pixels + 0.5) / scale - 0.5
+    pixels = _refine(grey, pixels, columns, rows)
     column, row = np.meshgrid(np.arange(columns), np.arange(rows))
     grid = np.stack([column.ravel(), row.ravel()], axis=1).astype(np.intp)
     return [Board(image_index, pixels, grid)]
 
 
-def _spacing(pixels: FloatArray, columns: int) -> float:
-    """The smallest distance (px) between neighbouring corners along a row."""
-    steps = np.linalg.norm(np.diff(pixels.reshape(-1, columns, 2), axis=1), axis=2)
-    return float(steps.min())
+def _neighbour_spacing(pixels: FloatArray, columns: int, rows: int) -> FloatArray:
+    """Each corner's distance (px) to its nearest neighbour on the grid, (n,)."""
+    grid = pixels.reshape(rows, columns, 2)
+    nearest = np.full((rows, columns), np.inf)
+    along = np.linalg.norm(np.diff(grid, axis=1), axis=2)
+    across = np.linalg.norm(np.diff(grid, axis=0), axis=2)
+    nearest[:, :-1] = np.minimum(nearest[:, :-1], along)
+    nearest[:, 1:] = np.minimum(nearest[:, 1:], along)
+    nearest[:-1, :] = np.minimum(nearest[:-1, :], across)
+    nearest[1:, :] = np.minimum(nearest[1:, :], across)
+    return nearest.ravel()
 
 
-def _refine(grey: NDArray[np.uint8], pixels: FloatArray, spacing_px: float) -> FloatArray:
-    """Corners found in a downscaled image, refined to a fraction of a pixel in the full one."""
-    half = int(np.clip(spacing_px / 4.0, 2, 15))
+def _refine(grey: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int) -> FloatArray:
+    """Corners refined by the saddle of the grey levels (``cornerSubPix``) where their squares are large enough.
+
+    The window reaches a quarter of the way to the nearest corner; where that is under ``MIN_WINDOW_PX`` the
+    window holds too few pixels of the four squares' edges and the detector's own estimate is kept.
+    """
+    half = np.floor(_neighbour_spacing(pixels, columns, rows) / 4.0)
+    out = pixels.copy()
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 40, 0.01)
-    refined = cv2.cornerSubPix(grey, pixels.astype(np.float32).reshape(-1, 1, 2), (half, half), (-1, -1), criteria)
-    return np.asarray(refined.reshape(-1, 2), dtype=np.float64)
+    for size in np.unique(np.clip(half[half >= MIN_WINDOW_PX], MIN_WINDOW_PX, MAX_WINDOW_PX)):
+        these = np.clip(half, MIN_WINDOW_PX, MAX_WINDOW_PX) == size
+        these &= half >= MIN_WINDOW_PX
+        corners = pixels[these].astype(np.float32).reshape(-1, 1, 2)
+        refined = cv2.cornerSubPix(grey, corners, (int(size), int(size)), (-1, -1), criteria)
+        out[these] = refined.reshape(-1, 2)
+    return out

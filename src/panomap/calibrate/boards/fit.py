@@ -62,6 +62,9 @@ OUTLIER_FACTOR = 5.0
 OUTLIER_FLOOR_PX = 1.5
 # A board with more than this fraction of its corners set aside is misread as a whole and set aside.
 BOARD_OFF_FRACTION = 0.3
+# Corners are found to a fraction of a pixel (0.2-0.5 px RMS on real sets): a fit worse than this is of
+# something else (tiles that are not a square grid, a grid misread as a whole).
+MAX_RMS_PX = 1.0
 # Fewer boards than this choose among two-parameter kinds only.
 FEW_BOARDS = 3
 # The camera's own law wins unless another kind's BIC is lower by more than this (nats).
@@ -138,6 +141,12 @@ def fit_boards(
     chosen = _choose(scores, candidates, circles)
     final = fits[chosen]
     assert final is not None
+    rms_px = float(np.sqrt(np.mean(final.residuals_px**2)))
+    if rms_px > MAX_RMS_PX:
+        raise PanomapError(
+            f"the checkerboards' corners fit no camera better than {rms_px:.1f} px RMS (a board's corners are "
+            f"found to a fraction of a pixel: what was found is no board, or not a square grid)"
+        )
     rms = {kind: (None if fit is None else float(np.sqrt(np.mean(fit.residuals_px**2)))) for kind, fit in fits.items()}
     return _result(final, given, boards, kept_index, rejected, rms, options, circles, r_max)
 
