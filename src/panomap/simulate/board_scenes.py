@@ -484,6 +484,7 @@ def render_board_scene(
     noise: float = 2.5,
     jpeg_quality: int = 85,
     falloff: float = 0.45,
+    blur_px: float = 0.0,
 ) -> BoardScene:
     """Render checkerboards in the line scenes' room through ``camera``, degrade the image as a sensor
     does, and give the true pixels of every board's inner corners.
@@ -491,8 +492,9 @@ def render_board_scene(
     Each pixel is the mean grey level over its area (``supersample**2`` rays where anything changes
     within it, one ray elsewhere); each ray meets the nearest board (black squares 20-45, white 195-235
     grey levels, lit with a gradient of up to 12% across the board, all drawn per board; a board's back
-    is plain grey) or else the room. Then, as the line scenes: vignetting (``falloff`` at the rim, 0.1 more
-    on one side), Gaussian sensor noise of ``noise`` grey levels and JPEG at ``jpeg_quality``.
+    is plain grey) or else the room. Then a lens's blur (``blur_px``, none by default) and, as the line
+    scenes: vignetting (``falloff`` at the rim, 0.1 more on one side), Gaussian sensor noise of
+    ``noise`` grey levels and JPEG at ``jpeg_quality``.
 
     Parameters
     ----------
@@ -506,6 +508,15 @@ def render_board_scene(
         Rays per pixel along each axis where the image changes, >= 1.
     background : {'lines', 'dark'}
         The room (:data:`panomap.simulate.line_scenes.SCENE_KINDS`): its painted lines, or dim and bare.
+    noise : float
+        Sensor noise (grey levels, Gaussian) before the JPEG.
+    jpeg_quality : int
+        JPEG quality, 1..100.
+    falloff : float
+        Vignetting at the rim (fraction of the light lost), plus 0.1 more on one side.
+    blur_px : float
+        A lens out of focus: the render blurred by a Gaussian of this sigma (px) before the sensor
+        (part of :attr:`BoardScene.clean`); 0 (default): as sharp as the pixels.
 
     Returns
     -------
@@ -515,6 +526,8 @@ def render_board_scene(
         raise PanomapError(f"background must be one of {SCENE_KINDS}, got {background!r}")
     if supersample < 1:
         raise PanomapError(f"supersample must be >= 1, got {supersample}")
+    if not (math.isfinite(blur_px) and blur_px >= 0):
+        raise PanomapError(f"blur_px must be finite and >= 0, got {blur_px}")
     rng = np.random.default_rng(seed)
     looks = tuple(
         _Look(
@@ -525,6 +538,8 @@ def render_board_scene(
         for _ in boards
     )
     grey = _render(camera, boards, looks, background, seed, supersample)
+    if blur_px > 0:
+        grey = cv2.GaussianBlur(grey, (0, 0), blur_px)
     clean = np.clip(np.rint(grey), 0, 255).astype(np.uint8)
     dim_angle = float(rng.uniform(0, 2 * math.pi))
     image = vignette(clean, camera.centre, float(camera.outer_radius), falloff=falloff, dim=0.1, dim_angle=dim_angle)
