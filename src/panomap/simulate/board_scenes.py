@@ -539,7 +539,7 @@ def render_board_scene(
     )
     grey = _render(camera, boards, looks, background, seed, supersample)
     if blur_px > 0:
-        grey = cv2.GaussianBlur(grey, (0, 0), blur_px)
+        grey = np.asarray(cv2.GaussianBlur(grey, (0, 0), blur_px), dtype=np.float64)
     clean = np.clip(np.rint(grey), 0, 255).astype(np.uint8)
     dim_angle = float(rng.uniform(0, 2 * math.pi))
     image = vignette(clean, camera.centre, float(camera.outer_radius), falloff=falloff, dim=0.1, dim_angle=dim_angle)
