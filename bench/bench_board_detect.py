@@ -11,10 +11,11 @@ noise 2.5 grey levels, JPEG 85. The detector: ``cv2.findChessboardCornersSBWithM
 detected corner is matched to the nearest true inner corner of any board (``camera.project`` of its
 3-D point); a corner more than ``MATCH_PX`` from every true corner is a false corner. A board counts as
 found when every one of its inner corners is matched by exactly one detected corner and nothing else
-was detected. Printed: per scene the grid found, its corners' errors; then per camera the success rate
-and the errors of all matched corners (median, p90, max, px); then scenes with two boards, and which
-board the detector returns, and what it finds once that board is painted over (the hull of its corners,
-grown by two squares, filled with the median grey).
+was detected. Printed: per scene the grid found, its corners' errors, and their errors once moved by
+``cv2.cornerSubPix`` (half-window a third of the smallest corner spacing, 2-5 px); then per camera the
+success rate and the errors of all matched corners (median, p90, max, px); then scenes with two boards:
+which board the detector returns, and what it finds once that board is painted over (the hull of its
+corners, grown by two squares, filled with the median grey).
 """
 
 from __future__ import annotations
@@ -35,6 +36,18 @@ STARTS = ((3, 3), (4, 4), (5, 5), (3, 5))
 FLAGS = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER | cv2.CALIB_CB_ACCURACY
 MATCH_PX = 3.0
 CAMERAS = (("fisheye190", 2.0 / 3.0), ("hyperbolic", 0.64))
+
+
+def refined(gray: NDArray[np.uint8], corners: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Corners (n, 2) moved by ``cv2.cornerSubPix``, its half-window a third of the smallest spacing (2-5 px)."""
+    if len(corners) < 2:
+        return corners
+    spacing = np.linalg.norm(corners[:, None, :] - corners[None, :, :], axis=2)
+    np.fill_diagonal(spacing, np.inf)
+    half = int(np.clip(np.min(spacing) / 3.0, 2, 5))
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-4)
+    start = corners.astype(np.float32).reshape(-1, 1, 2)
+    return np.asarray(cv2.cornerSubPix(gray, start, (half, half), (-1, -1), criteria), dtype=np.float64).reshape(-1, 2)
 
 
 def masked(gray: NDArray[np.uint8], corners: NDArray[np.float64]) -> NDArray[np.uint8]:
@@ -105,7 +118,7 @@ def main() -> None:
     for kind, scale in CAMERAS:
         camera = line_camera(kind, 1.0 if args.full else scale)
         print(f"\n{kind} {camera.image_size[0]} x {camera.image_size[1]}, one board per image")
-        found, errors, seconds = 0, [], []
+        found, errors, errors_refined, seconds = 0, [], [], []
         for seed in range(args.scenes):
             boards = board_poses(camera, 1, seed)
             scene = render_board_scene(camera, boards, seed, blur_px=args.blur)
@@ -115,18 +128,23 @@ def main() -> None:
             outcome = judge(scene, corners)
             found += outcome.found
             errors.append(outcome.errors)
+            again = judge(scene, refined(scene.image, corners))
+            errors_refined.append(again.errors)
             b = boards[0]
             spacing = np.hypot(*np.diff(scene.truth[0].pixels.reshape(b.rows, b.cols, 2), axis=1).reshape(-1, 2).T)
             print(
                 f"  seed {seed}: board {b.cols} x {b.rows} (squares {spacing.min():.0f}-{spacing.max():.0f} px), "
                 f"found {grid[0]} x {grid[1]}{'' if outcome.found else ' (not the whole board)'}; "
-                f"false {outcome.false}, duplicates {outcome.duplicates}; {stats(outcome.errors)}"
+                f"false {outcome.false}, duplicates {outcome.duplicates}; {stats(outcome.errors)}; "
+                f"then cornerSubPix: {stats(again.errors)}"
             )
         all_errors = np.concatenate([np.zeros(0), *errors])
         print(
             f"  {kind}: {found} of {args.scenes} boards found whole; matched corners: {stats(all_errors)}; "
             f"detector {np.mean(seconds):.2f} s per image (4 starts)"
         )
+        moved = np.concatenate([np.zeros(0), *errors_refined])
+        print(f"  {kind}: the same corners moved by cornerSubPix: {stats(moved)}")
         print(f"{kind}, two boards per image")
         for seed in range(100, 100 + args.pairs):
             boards = board_poses(camera, 2, seed)
