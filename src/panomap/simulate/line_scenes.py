@@ -274,6 +274,12 @@ def _hit(directions: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[
     return directions * t_best[:, None], surface
 
 
+def room_grey(directions: NDArray[np.float64], kind: str = "lines", seed: int = 0) -> NDArray[np.float64]:
+    """Grey levels (n,) (before the sensor) of the room where rays (n, 3) from O_m, world axes, meet it."""
+    p, surface = _hit(directions)
+    return surface_grey(p, surface, kind, seed)
+
+
 def render_grey(
     camera: SimulatedCamera, kind: str = "lines", supersample: int = 3, seed: int = 0
 ) -> NDArray[np.float64]:
@@ -294,8 +300,7 @@ def render_grey(
         ok = np.all(np.isfinite(d), axis=1)
         grey = np.zeros(len(uv))
         if ok.any():
-            p, surface = _hit(d[ok])
-            grey[ok] = surface_grey(p, surface, kind, seed)
+            grey[ok] = room_grey(d[ok], kind, seed)
         r = np.hypot(uv[:, 0] - centre[0], uv[:, 1] - centre[1])
         grey[(~ok) & (r < camera.cutoff_radius)] = 25.0
         out[v_start : v_start + len(v)] = grey.reshape(len(v), width, supersample * supersample).mean(axis=2)
