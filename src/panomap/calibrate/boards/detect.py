@@ -22,8 +22,10 @@ from ...geometry import FloatArray
 
 # Seeds (columns, rows of inner corners) the detector grows from; the largest board found is kept.
 SEEDS = ((3, 3), (4, 4), (5, 5))
+# Most boards searched for in one image.
+MAX_BOARDS = 6
 # Fewest inner corners a board must show to be used.
-MIN_CORNERS = 12
+MIN_CORNERS = 20
 # Images larger than this (px, the longer side) are searched downscaled, and the corners refined in full.
 SEARCH_SIZE_PX = 1400
 # The half-width (px) of the window a corner is refined in: a quarter of the way to its nearest corner, at
@@ -56,35 +58,62 @@ class Board:
         return int(self.grid[:, 0].max()) + 1, int(self.grid[:, 1].max()) + 1
 
 
-def find_boards(image: NDArray[np.generic], image_index: int = 0) -> list[Board]:
-    """The checkerboard in ``image`` ((H, W) or (H, W, 3) uint8, BGR), if there is one.
+def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: int = MAX_BOARDS) -> list[Board]:
+    """The checkerboards in ``image`` ((H, W) or (H, W, 3) uint8, BGR).
+
+    The detector returns one board per search: each board found is painted over (its corners' hull,
+    grown by its squares) and the image searched again, up to ``max_boards``.
 
     Returns
     -------
     list of Board
-        The largest board found (at least ``MIN_CORNERS`` inner corners), or none.
+        The boards found (each at least ``MIN_CORNERS`` inner corners), in the order found.
     """
     grey = image if image.ndim == 2 else cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_BGR2GRAY)
     grey = np.ascontiguousarray(grey, dtype=np.uint8)
     scale = min(1.0, SEARCH_SIZE_PX / max(grey.shape))
-    search = grey if scale == 1.0 else cv2.resize(grey, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+    search: NDArray[np.uint8] = np.asarray(
+        grey if scale == 1.0 else cv2.resize(grey, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA),
+        dtype=np.uint8,
+    )
+    boards: list[Board] = []
+    while len(boards) < max_boards:
+        found = _largest(search)
+        if found is None:
+            break
+        pixels, (rows, columns) = found
+        search = _painted_over(search, pixels, columns, rows)
+        if len(pixels) < MIN_CORNERS or len(pixels) != rows * columns:
+            continue
+        if scale != 1.0:
+            pixels = (pixels + 0.5) / scale - 0.5
+        pixels = _refine(grey, pixels, columns, rows)
+        column, row = np.meshgrid(np.arange(columns), np.arange(rows))
+        grid = np.stack([column.ravel(), row.ravel()], axis=1).astype(np.intp)
+        boards.append(Board(image_index, pixels, grid))
+    return boards
+
+
+def _largest(search: NDArray[np.uint8]) -> tuple[FloatArray, tuple[int, int]] | None:
+    """The largest board the detector grows from any seed: corners (n, 2) px and (rows, columns)."""
     flags = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER | cv2.CALIB_CB_ACCURACY
     best: tuple[FloatArray, tuple[int, int]] | None = None
     for seed in SEEDS:
         found, corners, meta = cv2.findChessboardCornersSBWithMeta(search, seed, flags=flags)
         if found and corners is not None and (best is None or len(corners) > len(best[0])):
-            best = (corners.reshape(-1, 2).astype(np.float64), meta.shape[:2])
-    if best is None or len(best[0]) < MIN_CORNERS:
-        return []
-    pixels, (rows, columns) = best
-    if len(pixels) != rows * columns:
-        return []
-    if scale != 1.0:
-        pixels = (pixels + 0.5) / scale - 0.5
-    pixels = _refine(grey, pixels, columns, rows)
-    column, row = np.meshgrid(np.arange(columns), np.arange(rows))
-    grid = np.stack([column.ravel(), row.ravel()], axis=1).astype(np.intp)
-    return [Board(image_index, pixels, grid)]
+            best = (corners.reshape(-1, 2).astype(np.float64), (int(meta.shape[0]), int(meta.shape[1])))
+    return best
+
+
+def _painted_over(search: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int) -> NDArray[np.uint8]:
+    """``search`` with a board's corners' hull, grown by two of its squares, filled with its median grey."""
+    hull = np.zeros(search.shape, dtype=np.uint8)
+    cv2.fillConvexPoly(hull, cv2.convexHull(np.round(pixels).astype(np.int32)), 1)
+    grow = 2 * int(np.ceil(np.median(_neighbour_spacing(pixels, columns, rows)))) + 1
+    mask = cv2.dilate(hull, np.ones((grow, grow), np.uint8))
+    out: NDArray[np.uint8] = search.copy()
+    out[mask > 0] = np.uint8(np.median(search))
+    return out
 
 
 def _neighbour_spacing(pixels: FloatArray, columns: int, rows: int) -> FloatArray:
