@@ -19,7 +19,7 @@ from panomap.calibrate.boards.fit import board_arcs, fit_boards
 from panomap.errors import PanomapError
 from panomap.simulate.cameras import TiltedCamera, mount_rotation, standard_cameras
 
-from helpers import pixel_errors, true_circles
+from helpers import pixel_errors, run, true_circles
 
 COLUMNS, ROWS = 8, 6
 SQUARE_M = 0.06
@@ -152,3 +152,68 @@ def test_the_reports_lines_are_the_boards_rows_and_columns() -> None:
         assert len(arcs[k].pixels) == line.points
     first_row = arcs[0].pixels
     assert np.allclose(first_row, boards[0].pixels[:COLUMNS])
+
+
+@pytest.fixture(scope="module")
+def rendered_boards(tmp_path_factory: pytest.TempPathFactory):
+    """Two rendered images of a tilted hyperbolic mirror camera (800 x 600), two boards held in each."""
+    import cv2
+
+    from panomap.simulate.board_scenes import board_poses, render_board_scene
+    from panomap.simulate.line_scenes import line_camera
+
+    camera = line_camera("hyperbolic", 0.5, tilt_deg=2.0)
+    folder = tmp_path_factory.mktemp("boards")
+    paths = []
+    for k in range(2):
+        scene = render_board_scene(camera, board_poses(camera, 2, seed=30 + k), seed=k, supersample=2)
+        paths.append(folder / f"boards{k}.png")
+        cv2.imwrite(str(paths[-1]), scene.image)
+    return camera, paths
+
+
+@pytest.mark.slow
+def test_cli_learns_the_camera_from_rendered_boards(rendered_boards, tmp_path) -> None:
+    """``panomap fit -o T --image A --image B``: the boards are found and the table's camera is the true one.
+
+    Measured: 4 boards found, corner RMS 0.07 px, p90 1.11 / max 1.59 px over the whole annulus (the true
+    corners with the true law give 0: the rest is the detected corners' 0.05-0.1 px, magnified by the
+    scale that boards this size pin only through their perspective); the tilt from the room's 9 vertical
+    lines under that camera 1.88 deg (true 2.0).
+    """
+    from panomap.table.file import load_table
+
+    camera, paths = rendered_boards
+    table_path, overlay = tmp_path / "cam.npz", tmp_path / "seen.png"
+    result = run("fit", "-o", table_path, "--image", paths[0], "--image", paths[1], "--overlay", overlay)
+    assert result.exit_code == 0, result.output
+    assert "camera learned from checkerboards" in result.output
+    assert "learned from 4 checkerboards" in result.output
+    model = load_table(table_path).model
+    errors = pixel_errors(model, camera, step=4)
+    assert np.percentile(errors, 90) < 2.0
+    assert errors.max() < 3.0
+    assert "tilt from" in result.output and "vertical lines of the images" in result.output
+    assert math.degrees(model.tilt[0]) == pytest.approx(2.0, abs=0.3)
+    import cv2
+
+    drawn = cv2.imread(str(overlay))
+    source = cv2.imread(str(paths[0]))
+    assert drawn is not None and drawn.shape == source.shape
+    assert np.count_nonzero(np.any(drawn != source, axis=2)) > 1000, "the boards' rows were not drawn"
+
+
+def test_cli_without_boards_learns_from_the_edges(rendered_boards, tmp_path) -> None:
+    """``--no-boards`` skips them: the same image goes to the edge-arc fit, which learns the tilt the boards
+    cannot (the room's vertical edges).
+
+    Measured: 2.00 deg (true 2.0).
+    """
+    _, paths = rendered_boards
+    result = run("fit", "-o", tmp_path / "cam.npz", "--image", paths[0], "--no-boards")
+    assert result.exit_code == 0, result.output
+    assert "checkerboard" not in result.output
+    assert "camera learned from lines" in result.output
+    from panomap.table.file import load_table
+
+    assert math.degrees(load_table(tmp_path / "cam.npz").model.tilt[0]) == pytest.approx(2.0, abs=0.2)

@@ -52,20 +52,21 @@ def fit_from_lines(
         omnis = _read_all(images, frame_time)
         circles = find_circles(images[0], omnis[0])
         steps = 2 * len(images) + 1
+        edges: list[EdgeArc] = []
+        for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
+            bar.update(k, steps, f"edges of {path.name}")
+            edges += find_arcs(omni, circles, image_index=k)
         table: PanoMappingTable | None = None
         arcs: list[EdgeArc] = []
         if use_boards:
-            fit, arcs, notes = _fit_boards(images, omnis, circles, options, bar, steps)
+            fit, arcs, notes = _fit_boards(images, omnis, circles, options, edges, bar, steps)
             if fit is not None:
                 try:
                     table = _table(fit, circles, omnis, camera_height, images, "checkerboards")
                 except PanomapError as exc:
                     notes.append(f"the checkerboards gave no table ({exc.detail}); learning from the lines instead")
         if table is None:
-            arcs = []
-            for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
-                bar.update(len(images) + k, steps, f"edges of {path.name}")
-                arcs += find_arcs(omni, circles, image_index=k)
+            arcs = edges
             bar.update(steps - 1, steps, "fitting the camera to the lines")
             try:
                 fit = fit_lines(arcs, circles, options, progress=lambda step: bar.update(steps - 1, steps, step))
@@ -119,19 +120,21 @@ def _fit_boards(
     omnis: list[np.ndarray],
     circles: ImageCircles,
     options: LineFitOptions,
+    edges: list[EdgeArc],
     bar: ProgressBar,
     steps: int,
 ) -> tuple[LineFit | None, list[EdgeArc], list[str]]:
-    """The camera learned from the checkerboards in ``omnis``, with their rows as arcs; None where too few."""
+    """The camera learned from the checkerboards in ``omnis`` (the tilt from the vertical ``edges``), with the
+    boards' rows and columns as arcs; None where too few."""
     boards: list[Board] = []
     for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
-        bar.update(k, steps, f"checkerboards in {path.name}")
+        bar.update(len(images) + k, steps, f"checkerboards in {path.name}")
         boards += find_boards(omni, image_index=k)
     if sum(len(board.pixels) for board in boards) < BOARD_MIN_CORNERS:
         return None, [], []
     bar.update(steps - 1, steps, "fitting the camera to the checkerboards")
     try:
-        fit = fit_boards(boards, circles, options, progress=lambda step: bar.update(steps - 1, steps, step))
+        fit = fit_boards(boards, circles, options, progress=lambda step: bar.update(steps - 1, steps, step), arcs=edges)
     except PanomapError as exc:
         return None, [], [f"the checkerboards gave no camera ({exc.detail}); learning from the lines instead"]
     return fit, board_arcs(boards), []

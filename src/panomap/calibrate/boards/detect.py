@@ -22,6 +22,8 @@ from ...geometry import FloatArray
 
 # Seeds (columns, rows of inner corners) the detector grows from; the largest board found is kept.
 SEEDS = ((3, 3), (4, 4), (5, 5))
+# Seeds tried in the searches after a board was found.
+LATER_SEEDS = 1
 # Most boards searched for in one image.
 MAX_BOARDS = 6
 # Fewest inner corners a board must show to be used.
@@ -77,8 +79,11 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
         dtype=np.uint8,
     )
     boards: list[Board] = []
+    searched = 0
     while len(boards) < max_boards:
-        found = _largest(search)
+        # every seed on the first search; after a board, fewer (a search that finds nothing costs all of them)
+        found = _largest(search, SEEDS if searched == 0 else SEEDS[:LATER_SEEDS])
+        searched += 1
         if found is None:
             break
         pixels, (rows, columns) = found
@@ -94,11 +99,13 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
     return boards
 
 
-def _largest(search: NDArray[np.uint8]) -> tuple[FloatArray, tuple[int, int]] | None:
+def _largest(
+    search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...]
+) -> tuple[FloatArray, tuple[int, int]] | None:
     """The largest board the detector grows from any seed: corners (n, 2) px and (rows, columns)."""
     flags = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER | cv2.CALIB_CB_ACCURACY
     best: tuple[FloatArray, tuple[int, int]] | None = None
-    for seed in SEEDS:
+    for seed in seeds:
         found, corners, meta = cv2.findChessboardCornersSBWithMeta(search, seed, flags=flags)
         if found and corners is not None and (best is None or len(corners) > len(best[0])):
             best = (corners.reshape(-1, 2).astype(np.float64), (int(meta.shape[0]), int(meta.shape[1])))

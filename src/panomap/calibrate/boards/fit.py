@@ -17,8 +17,9 @@ the Bayesian information criterion over the corners, the camera's own law (the m
 with a cut-off disc, the lenses' else) preferred within a margin.
 
 What boards cannot know, as lines cannot: the azimuth origin, the handedness (a planar board seen
-mirrored is the same board seen from its back) and every distance; the tilt of the axis is not
-learned from boards (the camera is taken as level).
+mirrored is the same board seen from its back) and every distance. Nor the tilt of the axis: the
+vertical edges of the images give it, straight under the camera the boards gave (``arcs``); without
+them the camera is taken as level.
 """
 
 from __future__ import annotations
@@ -40,8 +41,8 @@ from ...errors import PanomapError
 from ...geometry import HALF_PI, FloatArray
 from ..circles import ImageCircles
 from ..lines.arcs import EdgeArc
-from ..lines.fit import LineFit, LineFitOptions, annulus_deg, default_handedness
-from ..lines.orientation import zero_azimuth
+from ..lines.fit import LineFit, LineFitOptions, annulus_deg, default_handedness, vertical_under
+from ..lines.orientation import level_rotation, zero_azimuth
 from ..lines.rays import ALPHA_LIMIT, InverseRadial, pixel_rays
 from ..lines.report import FittedLine, LineFitReport, RejectedArc, empty_bands
 from .detect import Board
@@ -54,6 +55,9 @@ START_ANGLES_DEG = (60.0, 75.0, 90.0, 105.0, 120.0)
 START_KIND = "odd3"
 # The kind whose residuals tell misread corners: flexible enough for any camera here.
 FLEXIBLE_KIND = "odd5"
+# Evaluations each start may take, and the scale (px) of its robust loss.
+START_EVALUATIONS = 40
+ROBUST_SCALE_PX = 2.0
 # Evaluations of the residuals a joint fit may take (a slow one has found its minimum long before).
 MAX_EVALUATIONS = 400
 # A corner is set aside beyond this many times the noise per coordinate (and this floor, px): 4e-6 of
@@ -93,6 +97,7 @@ def fit_boards(
     circles: ImageCircles,
     options: LineFitOptions = LineFitOptions(),
     progress: Callable[[str], None] | None = None,
+    arcs: Sequence[EdgeArc] = (),
 ) -> LineFit:
     """Learn the camera from checkerboards found in one or more images of it.
 
@@ -106,6 +111,9 @@ def fit_boards(
         What boards cannot know (axis, handedness, azimuth origin) and the radial kind.
     progress : callable, optional
         Called with a short description of each step.
+    arcs : sequence of EdgeArc
+        The images' edge arcs (:func:`..lines.arcs.find_arcs`): their vertical lines, straight under the
+        camera the boards gave, give the tilt of its axis (boards do not show the vertical). None: level.
 
     Raises
     ------
@@ -148,7 +156,8 @@ def fit_boards(
             f"found to a fraction of a pixel: what was found is no board, or not a square grid)"
         )
     rms = {kind: (None if fit is None else float(np.sqrt(np.mean(fit.residuals_px**2)))) for kind, fit in fits.items()}
-    return _result(final, given, boards, kept_index, rejected, rms, options, circles, r_max)
+    vertical = vertical_under(arcs, circles, final.kind, axis, final.params) if arcs else None
+    return _result(final, given, boards, kept_index, rejected, rms, options, circles, r_max, vertical)
 
 
 def _farthest(boards: Sequence[Board], centre: tuple[float, float]) -> float:
@@ -213,9 +222,16 @@ def _sparsity(count: int, boards: Sequence[Board]) -> lil_matrix:
 
 
 def _joint(
-    boards: Sequence[Board], kind: str, axis: str, params: FloatArray, poses: FloatArray, max_nfev: int | None = None
+    boards: Sequence[Board],
+    kind: str,
+    axis: str,
+    params: FloatArray,
+    poses: FloatArray,
+    max_nfev: int | None = None,
+    robust: bool = False,
 ) -> _Fit:
-    """The joint least-squares fit of the camera and the poses from a start."""
+    """The joint least-squares fit of the camera and the poses from a start (``robust``: a misread board
+    pulls less, for the starts, before misread boards are set aside)."""
     observed = np.concatenate([b.pixels for b in boards])
     count = 2 + radial_kind(kind).parameter_count
     x0 = np.concatenate([params, poses.ravel()])
@@ -225,6 +241,8 @@ def _joint(
         jac_sparsity=_sparsity(count, boards),
         x_scale="jac",
         method="trf",
+        loss="soft_l1" if robust else "linear",
+        f_scale=ROBUST_SCALE_PX,
         max_nfev=max_nfev or MAX_EVALUATIONS,
         args=(kind, axis, boards, observed),
     )
@@ -248,7 +266,7 @@ def _from_starts(boards: Sequence[Board], circles: ImageCircles, axis: str, r_ma
         except PanomapError:
             continue
         poses = np.array([_pose(board, circles.centre, inverse) for board in boards])
-        tried.append(_joint(boards, START_KIND, axis, params, poses, max_nfev=200))
+        tried.append(_joint(boards, START_KIND, axis, params, poses, max_nfev=START_EVALUATIONS, robust=True))
     if not tried:
         raise PanomapError("no start scale brought the boards' poses home")
     return min(tried, key=lambda fit: fit.cost)
@@ -376,6 +394,7 @@ def _result(
     options: LineFitOptions,
     circles: ImageCircles,
     r_max: float,
+    vertical: tuple[FloatArray, int] | None,
 ) -> LineFit:
     """The camera model, the covariance of its radial coefficients and the report.
 
@@ -391,7 +410,14 @@ def _result(
     count = fit.params.size
     radial = RadialFunction(fit.kind, tuple(float(c) for c in fit.params[2:]), axis)
     s = options.s if options.s is not None else default_handedness(circles.cutoff is not None, axis)
-    model = CameraModel((float(fit.params[0]), float(fit.params[1])), radial, s, 0.0, None)
+    rotation = None if vertical is None else level_rotation(vertical[0], axis, s)
+    model = CameraModel(
+        (float(fit.params[0]), float(fit.params[1])),
+        radial,
+        s,
+        0.0,
+        None if rotation is None else tuple(map(tuple, rotation)),
+    )
     if options.azimuth_zero is not None:
         model = zero_azimuth(model, options.azimuth_zero)
     points = board_points(fit.poses, boards)
@@ -423,11 +449,16 @@ def _result(
         sigma_px=sigma,
         lines=tuple(lines),
         rejected=tuple(
-            RejectedArc(arc=first_arc[k], image_index=given[k].image_index, reason=why, rms_px=rms)
+            RejectedArc(
+                arc=first_arc[k],
+                image_index=given[k].image_index,
+                reason=f"board {k + 1} (image {given[k].image_index + 1}): {why}",
+                rms_px=rms,
+            )
             for k, why, rms in rejected
         ),
         families=2 * len(boards),
-        vertical_lines=0,
+        vertical_lines=0 if vertical is None else int(vertical[1]),
         model_selection_cv_rms_px=dict(scores),
         elevation_range_deg=(float(rho_deg.min()), float(rho_deg.max())),
         empty_bands_deg=empty_bands(rho_deg, annulus_deg(radial, circles, r_max)),

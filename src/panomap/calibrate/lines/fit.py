@@ -568,6 +568,35 @@ def _result(
     return LineFit(model, covariance, report)
 
 
+def vertical_under(
+    arcs: Sequence[EdgeArc], circles: ImageCircles, kind: str, axis: str, params: FloatArray
+) -> tuple[FloatArray, int] | None:
+    """The world's vertical (this package's axes) from the vertical edges among ``arcs`` under a camera
+    learned otherwise (``params``: centre and ``kind``'s coefficients), and how many lines show it.
+
+    The arcs within the camera's reach are tested for straightness and grouped under it (no refit); the
+    family within ``VERTICAL_WITHIN_DEG`` of the axis with most lines gives the direction. None without one.
+    """
+    try:
+        reach = float(InverseRadial.of(RadialFunction(kind, tuple(float(c) for c in params[2:]), axis), 0.0).r[-1])
+    except PanomapError:
+        return None
+    centre = params[:2]
+    inside = [a for a in arcs if float(np.hypot(*(a.pixels - centre).T).max()) < 0.98 * reach]
+    if len(inside) < MIN_LINES:
+        return None
+    per_arc = int(np.clip(MAX_POINTS // len(inside), MIN_POINTS_PER_ARC, POINTS_PER_ARC))
+    state = _State([_thin(arc.pixels, per_arc) for arc in inside], [arc.image_index for arc in inside])
+    state.groups = [[k] for k in range(len(inside))]
+    r_max = min(_r_max(state, circles), reach)
+    try:
+        _, families = _regroup(state, kind, axis, params, r_max, first=False)
+    except PanomapError:
+        return None
+    trial = evaluate(kind, axis, params, LineData.of(state.line_pixels(), r_max))
+    return None if trial is None else _vertical(families, trial.normals)
+
+
 def _covariance(
     kind: str, axis: str, params: FloatArray, data: LineData, families: list[Family], outer: float, sigma: float
 ) -> FloatArray:

@@ -175,9 +175,11 @@ class LineFitReport:
             f"learned from {self.boards} checkerboard{'s' if self.boards != 1 else ''}: {self.corners} inner corners "
             f"on {len(self.lines)} straight, evenly spaced rows and columns; radial model {self.model}",
             f"corner residuals: RMS {self.corner_rms_px:.2f} px, max {self.max_px:.2f} px",
-            "tilt: boards do not show the vertical; the camera is taken as level",
+            f"tilt from {self.vertical_lines} vertical lines of the images"
+            if self.vertical_lines
+            else "tilt: no vertical lines (boards do not show the vertical); the camera is taken as level",
         ]
-        out += [f"set aside: board {arc.arc + 1}: {arc.reason}" for arc in self.rejected]
+        out += [f"set aside: {arc.reason}" for arc in self.rejected]
         out += [band_sentence(band) for band in self.empty_bands_deg]
         return out
 
