@@ -53,6 +53,8 @@ from ..camera.radial_models import radial_kind
 from ..camera.valid_range import is_monotonic
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation
+from .boards.detect import Board
+from .boards.fit import board_arcs, fit_boards
 from .circles import ImageCircles
 from .lines.arcs import EdgeArc
 from .lines.families import common_direction
@@ -93,11 +95,31 @@ class ImageLines:
         Candidate arcs (:func:`panomap.calibrate.lines.arcs.find_arcs`), px.
     circles : ImageCircles
         The image circles the arcs were found in.
+    boards : sequence of Board
+        The checkerboards of the image (:func:`panomap.calibrate.boards.detect.find_boards`), where looked for.
     """
 
     arcs: Sequence[EdgeArc]
     circles: ImageCircles
+    boards: Sequence[Board] = ()
     _fits: dict[LineFitOptions, LineFit | PanomapError] = field(default_factory=dict, compare=False, repr=False)
+    _board_fits: dict[LineFitOptions, LineFit | None] = field(default_factory=dict, compare=False, repr=False)
+
+    def board_fit(self, options: LineFitOptions) -> LineFit | None:
+        """The camera learned from the image's checkerboards (:func:`panomap.calibrate.boards.fit.fit_boards`, the
+        tilt from these arcs), found once per options; None without boards, or where they give no camera."""
+        if options not in self._board_fits:
+            try:
+                found = fit_boards(self.boards, self.circles, options, arcs=self.arcs) if self.boards else None
+            except PanomapError:
+                found = None
+            self._board_fits[options] = found
+        return self._board_fits[options]
+
+    @property
+    def board_arcs(self) -> list[EdgeArc]:
+        """The boards' rows and columns as arcs: what a board fit's report indexes."""
+        return board_arcs(self.boards)
 
     def line_fit(self, options: LineFitOptions) -> LineFit:
         """The line fit of these arcs with ``options`` (:func:`panomap.calibrate.lines.fit.fit_lines`), found once

@@ -12,16 +12,19 @@ world azimuth 0 (:func:`panomap.calibrate.lines.orientation.zero_azimuth`, what 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from ..calibrate.joint import ImageLines
+from ..calibrate.lines.arcs import EdgeArc
 from ..calibrate.lines.fit import LineFit, LineFitOptions
 from ..calibrate.lines.orientation import zero_azimuth
 from ..calibrate.lines.table import create_line_table
 from ..calibrate.report import table_fit_report
+from ..errors import PanomapError
 from ..geometry import FloatArray
 from ..table.table import PanoMappingTable
 
@@ -31,18 +34,21 @@ POINTS_PER_ARC_SHOWN = 48
 
 @dataclass(frozen=True)
 class LineLearning:
-    """A camera learned from the page's lines: the fit, its table, and the pixel that fixes azimuth 0 (or None)."""
+    """A camera learned from the page's lines: the fit, its table, and the pixel that fixes azimuth 0 (or None);
+    ``arcs``: what the fit's report indexes (the edge arcs, or the checkerboards' rows and columns)."""
 
     fit: LineFit
     table: PanoMappingTable
     azimuth_zero: tuple[float, float] | None
+    arcs: Sequence[EdgeArc]
 
 
 def learn_from_lines(
     lines: ImageLines, image_size: tuple[int, int], image_name: str, azimuth_zero: tuple[float, float] | None = None
 ) -> LineLearning:
-    """The line fit of ``lines`` (the command's defaults) and its table; azimuth 0 at ``azimuth_zero`` (u, v) px
-    when given, else at image angle 0.
+    """The camera of ``lines`` as the command learns it (the image's checkerboards first, else its edge arcs,
+    with the command's defaults) and its table; azimuth 0 at ``azimuth_zero`` (u, v) px when given, else at
+    image angle 0.
 
     Raises
     ------
@@ -50,7 +56,24 @@ def learn_from_lines(
         As the line fit does (too few lines, no two orthogonal families), or where the camera does not see
         ``azimuth_zero``.
     """
-    fit = lines.line_fit(LineFitOptions())
+    board_fit = lines.board_fit(LineFitOptions())
+    if board_fit is not None:
+        try:
+            return _learned(board_fit, lines, image_size, image_name, azimuth_zero, "checkerboards", lines.board_arcs)
+        except PanomapError:
+            pass  # the boards' camera gives no table: the lines', as the command does
+    return _learned(lines.line_fit(LineFitOptions()), lines, image_size, image_name, azimuth_zero, "lines", lines.arcs)
+
+
+def _learned(
+    fit: LineFit,
+    lines: ImageLines,
+    image_size: tuple[int, int],
+    image_name: str,
+    azimuth_zero: tuple[float, float] | None,
+    source: str,
+    arcs: Sequence[EdgeArc],
+) -> LineLearning:
     if azimuth_zero is not None:
         fit = replace(
             fit,
@@ -63,9 +86,9 @@ def learn_from_lines(
         cutoff_radius=circles.cutoff_radius or 0.0,
         outer_radius=circles.outer_radius,
         image_size=image_size,
-        info={"source": "lines", "images": [image_name], "learned_with": f"panomap learn on {image_name}"},
+        info={"source": source, "images": [image_name], "learned_with": f"panomap learn on {image_name}"},
     )
-    return LineLearning(fit, table, azimuth_zero)
+    return LineLearning(fit, table, azimuth_zero, arcs)
 
 
 def _shown(pixels: FloatArray) -> list[list[float]]:
@@ -87,13 +110,13 @@ def line_status(learning: LineLearning, lines: ImageLines, revision: int, horizo
     uncertainty = None if fit is None or fit.uncertainty is None else fit.uncertainty.max_se_px
     used = [
         {
-            "points": [_shown(lines.arcs[k].pixels) for k in line.arcs],
+            "points": [_shown(learning.arcs[k].pixels) for k in line.arcs],
             "rms_px": line.rms_px,
             "family": line.family,
         }
         for line in report.lines
     ]
-    rejected = [{"points": _shown(lines.arcs[arc.arc].pixels), "reason": arc.reason} for arc in report.rejected]
+    rejected = [{"points": _shown(learning.arcs[arc.arc].pixels), "reason": arc.reason} for arc in report.rejected]
     origin = "the pixel clicked" if learning.azimuth_zero is not None else "image angle 0 (+u): click to set it"
     sentences = [
         *report.sentences(),
@@ -107,9 +130,13 @@ def line_status(learning: LineLearning, lines: ImageLines, revision: int, horizo
         "ok": True,
         "revision": revision,
         "message": (
-            f"learned from {len(report.lines)} lines: model {report.model}, RMS {report.rms_px:.2f} px, "
+            f"learned from {report.boards} checkerboard(s), {report.corners} corners: model {report.model}, corner "
+            f"RMS {report.corner_rms_px:.2f} px, max {report.max_px:.2f} px"
+            if report.boards
+            else f"learned from {len(report.lines)} lines: model {report.model}, RMS {report.rms_px:.2f} px, "
             f"max {report.max_px:.2f} px"
         ),
+        "boards": report.boards,
         "sentences": [s for s in sentences if s],
         "model": report.model,
         "lines_used": len(report.lines),

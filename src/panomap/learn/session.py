@@ -19,13 +19,14 @@ from __future__ import annotations
 import hashlib
 import math
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..calibrate.boards.detect import find_boards
 from ..calibrate.circles import ImageCircles
 from ..calibrate.diagnosis import diagnose
 from ..calibrate.joint import ImageLines
@@ -157,6 +158,7 @@ class Session:
         self.model = "auto"
         # The image's edge arcs (and their line fit, once made), found at the first fit that needs them.
         self._lines: ImageLines | None = None
+        self._boards_looked_for = False
         self._learned: LineLearning | None = None  # the camera learned from lines, once asked for
         self.lines_status: dict[str, Any] = {}
         self.revision = 0
@@ -435,6 +437,9 @@ class Session:
         only_keys(data, (), "lines")
         with self._fit_lock:
             lines = self._image_lines()
+            if lines is not None and not self._boards_looked_for:  # the checkerboards come first, looked for once
+                lines = self._lines = replace(lines, boards=find_boards(self.image))
+                self._boards_looked_for = True
             with self._lock:
                 revision = self.lines_status.get("revision", 0) + 1
             if lines is None:

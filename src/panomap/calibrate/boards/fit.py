@@ -201,6 +201,12 @@ def board_points(poses: FloatArray, boards: Sequence[Board]) -> FloatArray:
     return np.concatenate(out)
 
 
+def residuals_under(kind: str, axis: str, params: FloatArray, poses: FloatArray, boards: Sequence[Board]) -> FloatArray:
+    """The corners' residuals (2N,) px, u and v interleaved, under the camera ``params`` with ``poses`` (6B,)."""
+    observed = np.concatenate([b.pixels for b in boards])
+    return _residuals(np.concatenate([params, poses]), kind, axis, boards, observed)
+
+
 def _residuals(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], observed: FloatArray) -> FloatArray:
     count = 2 + radial_kind(kind).parameter_count
     params, poses = x[:count], x[count:].reshape(-1, 6)
@@ -209,7 +215,7 @@ def _residuals(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], obs
     return np.where(np.isfinite(out), out, UNREACHED_PX)
 
 
-def _sparsity(count: int, boards: Sequence[Board]) -> lil_matrix:
+def sparsity(count: int, boards: Sequence[Board]) -> lil_matrix:
     rows = 2 * sum(len(b.pixels) for b in boards)
     pattern = lil_matrix((rows, count + 6 * len(boards)), dtype=int)
     pattern[:, :count] = 1
@@ -238,7 +244,7 @@ def _joint(
     solution = least_squares(
         _residuals,
         x0,
-        jac_sparsity=_sparsity(count, boards),
+        jac_sparsity=sparsity(count, boards),
         x_scale="jac",
         method="trf",
         loss="soft_l1" if robust else "linear",
@@ -265,14 +271,14 @@ def _from_starts(boards: Sequence[Board], circles: ImageCircles, axis: str, r_ma
             inverse = InverseRadial.of(radial, r_max)
         except PanomapError:
             continue
-        poses = np.array([_pose(board, circles.centre, inverse) for board in boards])
+        poses = np.array([pose_of(board, circles.centre, inverse) for board in boards])
         tried.append(_joint(boards, START_KIND, axis, params, poses, max_nfev=START_EVALUATIONS, robust=True))
     if not tried:
         raise PanomapError("no start scale brought the boards' poses home")
     return min(tried, key=lambda fit: fit.cost)
 
 
-def _pose(board: Board, centre: tuple[float, float], inverse: InverseRadial) -> FloatArray:
+def pose_of(board: Board, centre: tuple[float, float], inverse: InverseRadial) -> FloatArray:
     """A board's pose (6,) from its corners' rays under a trial camera: a planar PnP facing the board."""
     rays = pixel_rays(board.pixels, centre, inverse).d
     mean = rays.mean(axis=0)

@@ -1,0 +1,144 @@
+"""Boards or lines: the camera that explains both the boards' corners and the images' straight lines.
+
+Convention: as :mod:`.fit` (pixels px, rays in the camera's axes of :mod:`..lines.rays`).
+
+The two fits fail in opposite ways. Straight lines leave the scale of the elevations loose, and on
+real rooms the line fit can settle at a wrong scale (tens of px off) with every line straight; a board
+pins the scale through its perspective but only where it is held, and one or two small boards leave
+the radius beyond them loose. Each fit's camera is therefore scored on the other's data: the corners
+under the line fit's camera (each board's pose refitted, the camera held), the lines under the boards'
+camera (each line's plane refitted, the camera held); each RMS over that fit's own (its noise), squared,
+summed: ``(corners RMS / corner noise)^2 + (lines RMS / line noise)^2``. The camera with the lower sum
+is kept. With ``TRUSTED_BOARDS`` boards or more the boards are kept without the line fit: spread boards
+pin the radius everywhere they are held, and the line fit of many images is slow.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ...errors import PanomapError
+from ..circles import ImageCircles
+from ..lines.arcs import EdgeArc
+from ..lines.fit import LineFit, LineFitOptions, fit_lines
+from ..lines.objective import LineData, evaluate
+from ..lines.rays import InverseRadial
+from .detect import Board
+from .fit import MIN_CORNERS, board_arcs, fit_boards, pose_of, residuals_under, sparsity
+
+# With this many boards or more, the boards' camera is kept without the line fit.
+TRUSTED_BOARDS = 3
+
+
+@dataclass(frozen=True)
+class LearnedCamera:
+    """The camera learned from an image set, where from, and what its report's lines index.
+
+    Attributes
+    ----------
+    fit : LineFit
+    source : {"checkerboards", "lines"}
+    arcs : list of EdgeArc
+        What ``fit.report`` indexes: the boards' rows and columns, or the edge arcs.
+    notes : list of str
+        Sentences for the user: which was chosen and why, what failed.
+    """
+
+    fit: LineFit
+    source: str
+    arcs: list[EdgeArc]
+    notes: list[str]
+
+
+def learn_camera(
+    boards: Sequence[Board],
+    arcs: Sequence[EdgeArc],
+    circles: ImageCircles,
+    options: LineFitOptions,
+    progress: Callable[[str], None] | None = None,
+) -> LearnedCamera:
+    """The camera of an image set from its checkerboards and its edge arcs (either may be empty).
+
+    Raises
+    ------
+    PanomapError
+        As the line fit does, where the boards give no camera either.
+    """
+    say = progress or (lambda _step: None)
+    notes: list[str] = []
+    board_fit: LineFit | None = None
+    if sum(len(board.pixels) for board in boards) >= MIN_CORNERS:
+        say("fitting the camera to the checkerboards")
+        try:
+            board_fit = fit_boards(boards, circles, options, progress=say, arcs=arcs)
+        except PanomapError as exc:
+            notes.append(f"the checkerboards gave no camera ({exc.detail}); learning from the lines instead")
+    if board_fit is not None and (board_fit.report.boards >= TRUSTED_BOARDS or not arcs):
+        return LearnedCamera(board_fit, "checkerboards", board_arcs(boards), notes)
+    say("fitting the camera to the lines")
+    try:
+        line_fit = fit_lines(arcs, circles, options, progress=say)
+    except PanomapError:
+        if board_fit is None:
+            raise
+        return LearnedCamera(board_fit, "checkerboards", board_arcs(boards), notes)
+    if board_fit is None:
+        return LearnedCamera(line_fit, "lines", list(arcs), notes)
+    say("checking the boards' camera against the lines and the lines' against the boards")
+    used = [b for b in boards if len(b.pixels) >= 4]
+    boards_score = 1.0 + _ratio(_line_rms(board_fit, line_fit, arcs, circles), line_fit.report.rms_px) ** 2
+    lines_score = _ratio(_corner_rms(line_fit, used), board_fit.report.corner_rms_px) ** 2 + 1.0
+    figures = f"boards' camera {boards_score:.1f}, lines' camera {lines_score:.1f}"
+    if lines_score < boards_score:
+        notes.append(
+            f"the lines' camera explains the boards' corners and the lines better than the boards' ({figures}: "
+            "the sum of each RMS over its own fit's, squared): learned from the lines"
+        )
+        return LearnedCamera(line_fit, "lines", list(arcs), notes)
+    notes.append(
+        f"the boards' camera explains the lines and the corners better than the lines' ({figures}): learned "
+        "from the checkerboards"
+    )
+    return LearnedCamera(board_fit, "checkerboards", board_arcs(boards), notes)
+
+
+def _ratio(rms_px: float, noise_px: float) -> float:
+    return rms_px / max(noise_px, 1e-3) if math.isfinite(rms_px) else math.inf
+
+
+def _corner_rms(fit: LineFit, boards: Sequence[Board]) -> float:
+    """RMS (px) of the corners under ``fit``'s camera (centre and f_r), each board's pose refitted."""
+    model = fit.model
+    params = np.array([*model.centre, *model.radial.coefficients])
+    kind, axis = model.radial.kind, model.axis
+    reach = max(float(np.hypot(*(b.pixels - model.centre).T).max()) for b in boards) * 1.02
+    try:
+        inverse = InverseRadial.of(model.radial, reach)
+    except PanomapError:
+        return math.inf
+    poses = np.concatenate([pose_of(board, model.centre, inverse) for board in boards])
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        return residuals_under(kind, axis, params, x, boards)
+
+    solution = least_squares(fun, poses, jac_sparsity=sparsity(0, boards), x_scale="jac", method="trf", max_nfev=200)
+    return float(np.sqrt(np.mean(solution.fun**2) * 2.0))
+
+
+def _line_rms(board_fit: LineFit, line_fit: LineFit, arcs: Sequence[EdgeArc], circles: ImageCircles) -> float:
+    """RMS (px) of the line fit's lines' points from their planes under the boards' camera (planes refitted)."""
+    model = board_fit.model
+    lines = [np.concatenate([arcs[k].pixels for k in line.arcs]) for line in line_fit.report.lines]
+    if not lines:
+        return math.inf
+    reach = max(float(np.hypot(*(p - model.centre).T).max()) for p in lines) * 1.02
+    params = np.array([*model.centre, *model.radial.coefficients])
+    trial = evaluate(model.radial.kind, model.axis, params, LineData.of(lines, reach))
+    if trial is None:
+        return math.inf
+    return float(np.sqrt(np.mean(trial.distances_px**2)))
