@@ -24,7 +24,7 @@ top-left pixel at (0, 0); images (H, W) uint8 grey.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -162,7 +162,7 @@ class BoardScene:
     clean: NDArray[np.uint8]
     camera: SimulatedCamera
     boards: tuple[Board, ...]
-    truth: tuple[BoardTruth, ...] = field(default=())
+    truth: tuple[BoardTruth, ...]
 
 
 # -- poses ------------------------------------------------------------------------------------------
