@@ -128,7 +128,9 @@ class BoardTruth:
     Attributes
     ----------
     pixels : (n, 2) float64
-        True pixels ``(u, v)`` of the inner corners (``camera.project`` of :attr:`points`).
+        True pixels ``(u, v)`` of the inner corners (``camera.project`` of :attr:`points`); NaN where the
+        camera does not see one (never for boards from :func:`board_poses`; hiding by another board is not
+        checked here, :func:`board_poses` keeps their images apart).
     grid : (n, 2) int64
         Their indices ``(i, j)`` on the board.
     points : (n, 3) float64
