@@ -1,6 +1,6 @@
 """What OpenCV's checkerboard detector finds in the rendered checkerboard scenes, against their truth.
 
-Run: ``.venv/bin/python bench/bench_board_detect.py [--scenes 10] [--pairs 3] [--blur SIGMA_PX] [--full]``
+Run: ``.venv/bin/python bench/bench_board_detect.py [--scenes 10] [--pairs 3] [--blur SIGMA_PX] [--full] [--big]``
 
 Scenes (:mod:`panomap.simulate.board_scenes`): the issue's two rendered cameras at two thirds of their
 size (a 190 deg equidistant fisheye on 1280 x 720, the image circle cut by the frame; a hyperbolic mirror
@@ -113,14 +113,16 @@ def main() -> None:
     parser.add_argument("--pairs", type=int, default=3, help="scenes with two boards per camera (default 3)")
     parser.add_argument("--blur", type=float, default=0.0, help="lens blur, Gaussian sigma in px (default 0)")
     parser.add_argument("--full", action="store_true", help="the issue's full-size sensors (1920 x 1080, 1600 x 1200)")
+    parser.add_argument("--big", action="store_true", help="boards as big as on the real sets (span 1.0-1.6)")
     args = parser.parse_args()
-    print(f"blur {args.blur} px")
+    span = (1.0, 1.6) if args.big else (0.4, 1.6)
+    print(f"blur {args.blur} px, span {span}")
     for kind, scale in CAMERAS:
         camera = line_camera(kind, 1.0 if args.full else scale)
         print(f"\n{kind} {camera.image_size[0]} x {camera.image_size[1]}, one board per image")
         found, errors, errors_refined, seconds = 0, [], [], []
         for seed in range(args.scenes):
-            boards = board_poses(camera, 1, seed)
+            boards = board_poses(camera, 1, seed, span=span)
             scene = render_board_scene(camera, boards, seed, blur_px=args.blur)
             start = time.perf_counter()
             corners, grid = largest_grid(scene.image)
@@ -147,7 +149,7 @@ def main() -> None:
         print(f"  {kind}: the same corners moved by cornerSubPix: {stats(moved)}")
         print(f"{kind}, two boards per image")
         for seed in range(100, 100 + args.pairs):
-            boards = board_poses(camera, 2, seed)
+            boards = board_poses(camera, 2, seed, span=span)
             scene = render_board_scene(camera, boards, seed, blur_px=args.blur)
             corners, grid = largest_grid(scene.image)
             outcome = judge(scene, corners)

@@ -5,10 +5,11 @@ board's pose (``t + i*square*x + j*square*y``); the image is made by tracing ray
 (``camera.trace``). The two must meet: OpenCV's corner finders (``findChessboardCornersSB`` on the
 degraded image, ``cornerSubPix`` started at the truth on the clean render) find the corners where the
 truth says, for the issue's 190 deg fisheye on 16:9 and its tilted hyperbolic mirror on 4:3 (at two thirds
-of their size). Measured (seed 0): the SB detector's corners lie median 0.066 / max 0.12 px (fisheye) and
-0.086 / 0.24 px (mirror) from the truth; cornerSubPix on the clean render median 0.04-0.05 / max 0.10-0.16
-px, its mean offset under 0.015 px on either axis (a half-pixel slip of the convention, or a shift of
-0.05 px, shows there).
+of their size). Measured (seed 0: a 6 x 4 board on the fisheye, 10 x 7 on the mirror): the SB detector's
+corners lie median 0.058 / max 0.22 px (fisheye) and 0.067 / 0.38 px (mirror) from the truth;
+cornerSubPix on the clean render median 0.043 / max 0.10 px and 0.044 / 0.145 px, its mean offset
+(-0.009, -0.023) and (0.010, 0.003) px, (0.005, -0.004) px over both (94 corners): a shift of the truth
+by 0.05 px in any of eight directions moves that to at least 0.030 px on one axis.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from numpy.typing import NDArray
 
 from panomap.errors import PanomapError
 from panomap.simulate.board_scenes import Board, BoardScene, board_poses, render_board_scene
-from panomap.simulate.cameras import SimulatedCamera
+from panomap.simulate.cameras import SimulatedCamera, standard_cameras
 from panomap.simulate.line_scenes import line_camera
 
 SCALES = {"fisheye190": 2.0 / 3.0, "hyperbolic": 0.64}  # 1280 x 720 and 1024 x 768
@@ -30,10 +31,19 @@ SEED = 0
 MARGIN_PX = 4.0
 
 
-@pytest.fixture(scope="module", params=sorted(SCALES))
-def scene(request: pytest.FixtureRequest) -> BoardScene:
-    camera = line_camera(request.param, SCALES[request.param])
-    return render_board_scene(camera, board_poses(camera, 1, SEED), SEED)
+@pytest.fixture(scope="module")
+def scenes() -> dict[str, BoardScene]:
+    """One board per camera kind, as the defaults place and render it."""
+    out = {}
+    for kind, scale in SCALES.items():
+        camera = line_camera(kind, scale)
+        out[kind] = render_board_scene(camera, board_poses(camera, 1, SEED), SEED)
+    return out
+
+
+@pytest.fixture(params=sorted(SCALES))
+def scene(request: pytest.FixtureRequest, scenes: dict[str, BoardScene]) -> BoardScene:
+    return scenes[request.param]
 
 
 @pytest.fixture(scope="module")
@@ -73,18 +83,45 @@ def test_opencv_finds_the_corners_where_the_truth_says(scene: BoardScene) -> Non
     assert ok, f"{scene.camera.name}: no {board.cols} x {board.rows} board found"
     index, error = nearest(corners.reshape(-1, 2).astype(np.float64), truth)
     assert len(np.unique(index)) == len(truth), "two found corners on one true corner"
-    assert np.median(error) < 0.15 and error.max() < 0.5, (np.median(error), error.max())
+    assert np.median(error) < 0.15 and error.max() < 0.8, (np.median(error), error.max())
+
+
+def saddle_offsets(scene: BoardScene) -> NDArray[np.float64]:
+    """Where cornerSubPix, started at the true corners, finds the clean render's saddles, minus the truth (n, 2);
+    its half-window a third of the smallest corner spacing (2-5 px), so that it holds one corner."""
+    board, truth = scene.boards[0], scene.truth[0].pixels
+    grid = truth.reshape(board.rows, board.cols, 2)
+    spacing = min(
+        np.linalg.norm(np.diff(grid, axis=0), axis=2).min(), np.linalg.norm(np.diff(grid, axis=1), axis=2).min()
+    )
+    half = int(np.clip(spacing / 3.0, 2, 5))
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-5)
+    start = truth.astype(np.float32).reshape(-1, 1, 2)
+    found = cv2.cornerSubPix(scene.clean, start, (half, half), (-1, -1), criteria).reshape(-1, 2)
+    return np.asarray(found - truth, dtype=np.float64)
 
 
 def test_the_clean_render_has_its_saddles_on_the_truth(scene: BoardScene) -> None:
-    truth = scene.truth[0].pixels
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-5)
-    start = truth.astype(np.float32).reshape(-1, 1, 2)
-    found = cv2.cornerSubPix(scene.clean, start, (4, 4), (-1, -1), criteria).reshape(-1, 2)
-    offset = found - truth
+    offset = saddle_offsets(scene)
     error = np.hypot(offset[:, 0], offset[:, 1])
-    assert np.all(np.abs(offset.mean(axis=0)) < 0.03), offset.mean(axis=0)
-    assert np.median(error) < 0.1 and error.max() < 0.4, (np.median(error), error.max())
+    assert np.all(np.abs(offset.mean(axis=0)) < 0.04), offset.mean(axis=0)
+    assert np.median(error) < 0.1 and error.max() < 0.35, (np.median(error), error.max())
+
+
+def test_the_saddles_are_not_shifted_on_average(scenes: dict[str, BoardScene]) -> None:
+    offset = np.concatenate([saddle_offsets(scene) for scene in scenes.values()])
+    assert np.all(np.abs(offset.mean(axis=0)) < 0.025), offset.mean(axis=0)
+
+
+def test_a_mirror_without_a_single_viewpoint_is_traced_from_its_surface() -> None:
+    # The spherical mirror's rays start on the mirror, mm off O_m: traced from O_m instead, the saddles
+    # move by median 0.43 px (measured); traced right, median 0.091 / max 0.28 px, mean (0.002, 0.011) px.
+    camera = standard_cameras((640, 480))["spherical"]
+    scene = render_board_scene(camera, board_poses(camera, 1, 0), 0)
+    offset = saddle_offsets(scene)
+    error = np.hypot(offset[:, 0], offset[:, 1])
+    assert np.all(np.abs(offset.mean(axis=0)) < 0.04), offset.mean(axis=0)
+    assert np.median(error) < 0.15 and error.max() < 0.5, (np.median(error), error.max())
 
 
 def square_levels(scene: BoardScene, k: int) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:

@@ -24,7 +24,7 @@ top-left pixel at (0, 0); images (H, W) uint8 grey.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -54,6 +54,8 @@ _HOUSING_GREY = 25.0
 _EDGE_LEVELS = 3.0
 #: Samples traced per chunk (bounds memory use).
 _SAMPLES_PER_CHUNK = 300_000
+#: Largest angle (rad) a board's longer side may span, seen from O_m.
+_MAX_EXTENT_RAD = math.radians(100.0)
 #: Boards stay this far (m) inside the room's walls, floor and ceiling.
 _ROOM_CLEARANCE_M = 0.05
 
@@ -126,7 +128,9 @@ class BoardTruth:
     Attributes
     ----------
     pixels : (n, 2) float64
-        True pixels ``(u, v)`` of the inner corners (``camera.project`` of :attr:`points`).
+        True pixels ``(u, v)`` of the inner corners (``camera.project`` of :attr:`points`); NaN where the
+        camera does not see one (never for boards from :func:`board_poses`; hiding by another board is not
+        checked here, :func:`board_poses` keeps their images apart).
     grid : (n, 2) int64
         Their indices ``(i, j)`` on the board.
     points : (n, 3) float64
@@ -160,7 +164,7 @@ class BoardScene:
     clean: NDArray[np.uint8]
     camera: SimulatedCamera
     boards: tuple[Board, ...]
-    truth: tuple[BoardTruth, ...] = field(default=())
+    truth: tuple[BoardTruth, ...]
 
 
 # -- poses ------------------------------------------------------------------------------------------
@@ -254,6 +258,8 @@ def _pose_candidate(
         return None
     # The board's longer side, margin included, spans a drawn fraction of the annulus's width.
     extent = rng.uniform(*span) * (outer - inner) / k
+    if extent > _MAX_EXTENT_RAD:
+        return None
     distance = float(np.linalg.norm(centre - origins))
     square = 2.0 * distance * math.tan(0.5 * extent) / (max(cols, rows) + 3)
     # Facing the camera within max_tilt_deg: the board's z (away from the camera) is the ray turned off it.
@@ -278,7 +284,7 @@ def board_poses(
     seed: int,
     *,
     sizes: tuple[tuple[int, int], ...] = BOARD_SIZES,
-    span: tuple[float, float] = (0.3, 0.55),
+    span: tuple[float, float] = (0.4, 1.6),
     distance_m: tuple[float, float] = (0.5, 1.5),
     max_tilt_deg: float = 40.0,
     max_roll_deg: float = 35.0,
@@ -293,13 +299,17 @@ def board_poses(
     centre is drawn uniformly between the cut-off disc and the image circle, 5% of the annulus's width
     clear of each). Each board: inner-corner counts drawn from ``sizes``; its centre ``distance_m`` m along
     that pixel's ray; its square so that the board, margin included, spans a fraction ``span`` of the
-    annulus's width (pixels, at the local magnification); its face within ``max_tilt_deg`` of facing the
-    camera (the angle between its normal and the ray to its centre, uniform); held upright (its y axis
-    toward the world's down), rolled by up to ``max_roll_deg``. A draw is kept when every corner of the
-    checker (the inner corners and the outer corners of the outermost squares) projects ``margin_px``
-    inside the frame and the annulus, neighbouring inner corners are at least ``min_square_px`` apart,
-    the board with its margin stays 5 cm inside the line scenes' room, and its image (with its margin)
-    keeps clear of the boards before it (so no board hides another).
+    annulus's width (pixels, at the local magnification; at most 100 deg seen from O_m). The default
+    reaches boards as big as on real checkerboard sets, whose boards span 1.2-2 times the radial spread
+    of all their corners (``span=(1.0, 1.6)`` gives 1.15-1.44 here, the default about 0.6). After every
+    tenth of the ``attempts`` without a pose, the span is taken 0.8 times smaller: a crowded view gets
+    smaller boards. Its face within ``max_tilt_deg`` of facing the camera (the angle between its normal
+    and the ray to its centre, uniform); held upright (its y axis toward the world's down), rolled by up
+    to ``max_roll_deg``. A draw is kept when every corner of the checker (the inner corners and the
+    outer corners of the outermost squares) projects ``margin_px`` inside the frame and the annulus,
+    neighbouring inner corners are at least ``min_square_px`` apart, the board with its margin stays
+    5 cm inside the line scenes' room, and its image (with its margin) keeps clear of the boards before
+    it (so no board hides another).
 
     Parameters
     ----------
@@ -328,8 +338,11 @@ def board_poses(
     footprints: list[tuple[NDArray[np.float64], float]] = []
     for k in range(count):
         phi_range = (start + k * sector, start + (k + 1) * sector)
-        for _ in range(attempts):
-            board = _pose_candidate(camera, rng, phi_range, sizes, span, distance_m, max_tilt_deg, max_roll_deg)
+        for attempt in range(attempts):
+            # Where big boards do not fit (a crowded view), ever smaller ones: 0.8 times every tenth of the draws.
+            shrink = 0.8 ** (10 * attempt // attempts)
+            scaled = (span[0] * shrink, span[1] * shrink)
+            board = _pose_candidate(camera, rng, phi_range, sizes, scaled, distance_m, max_tilt_deg, max_roll_deg)
             if board is None or not _in_room(board.outline()):
                 continue
             checker = board.points(
