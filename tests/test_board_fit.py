@@ -217,3 +217,21 @@ def test_cli_without_boards_learns_from_the_edges(rendered_boards, tmp_path) -> 
     from panomap.table.file import load_table
 
     assert math.degrees(load_table(tmp_path / "cam.npz").model.tilt[0]) == pytest.approx(2.0, abs=0.2)
+
+
+def test_a_loosely_pinned_radius_is_said() -> None:
+    """One board before a parabolic mirror (p90 8.4 px off, above) gets a warning with the radius' standard error
+    (measured 4.2 px); twelve boards before the hyperbolic one (0.82 px) do not."""
+    from panomap.calibrate.lines.table import create_line_table
+
+    def warnings(name: str, count: int) -> list[str]:
+        camera = level(name)
+        fit = fit_boards(boards_of(camera, count, seed=11), true_circles(camera))
+        table = create_line_table(
+            fit, cutoff_radius=camera.cutoff_radius, outer_radius=camera.outer_radius, image_size=camera.image_size
+        )
+        return [w for w in table.info["warnings"] if "pinned loosely" in w]
+
+    (loose,) = warnings("parabolic", 1)
+    assert "standard error reaches" in loose and "the board near and far" in loose
+    assert warnings("hyperbolic", 12) == []

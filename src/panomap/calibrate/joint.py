@@ -53,8 +53,8 @@ from ..camera.radial_models import radial_kind
 from ..camera.valid_range import is_monotonic
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation
+from .boards.choice import LearnedCamera, learn_camera
 from .boards.detect import Board
-from .boards.fit import board_arcs, fit_boards
 from .circles import ImageCircles
 from .lines.arcs import EdgeArc
 from .lines.families import common_direction
@@ -103,23 +103,28 @@ class ImageLines:
     circles: ImageCircles
     boards: Sequence[Board] = ()
     _fits: dict[LineFitOptions, LineFit | PanomapError] = field(default_factory=dict, compare=False, repr=False)
-    _board_fits: dict[LineFitOptions, LineFit | None] = field(default_factory=dict, compare=False, repr=False)
+    _learned: dict[LineFitOptions, LearnedCamera | PanomapError] = field(
+        default_factory=dict, compare=False, repr=False
+    )
 
-    def board_fit(self, options: LineFitOptions) -> LineFit | None:
-        """The camera learned from the image's checkerboards (:func:`panomap.calibrate.boards.fit.fit_boards`, the
-        tilt from these arcs), found once per options; None without boards, or where they give no camera."""
-        if options not in self._board_fits:
+    def learned(self, options: LineFitOptions) -> LearnedCamera:
+        """The camera as ``panomap fit --image`` learns it from this image (its checkerboards and its lines,
+        :func:`panomap.calibrate.boards.choice.learn_camera`), found once per options.
+
+        Raises
+        ------
+        PanomapError
+            As the line fit does, where the boards give no camera either.
+        """
+        if options not in self._learned:
             try:
-                found = fit_boards(self.boards, self.circles, options, arcs=self.arcs) if self.boards else None
-            except PanomapError:
-                found = None
-            self._board_fits[options] = found
-        return self._board_fits[options]
-
-    @property
-    def board_arcs(self) -> list[EdgeArc]:
-        """The boards' rows and columns as arcs: what a board fit's report indexes."""
-        return board_arcs(self.boards)
+                self._learned[options] = learn_camera(self.boards, self.arcs, self.circles, options)
+            except PanomapError as exc:
+                self._learned[options] = exc
+        found = self._learned[options]
+        if isinstance(found, PanomapError):
+            raise PanomapError(found.detail)
+        return found
 
     def line_fit(self, options: LineFitOptions) -> LineFit:
         """The line fit of these arcs with ``options`` (:func:`panomap.calibrate.lines.fit.fit_lines`), found once

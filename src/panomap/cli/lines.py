@@ -10,9 +10,8 @@ from typing import Any
 import click
 import numpy as np
 
+from ..calibrate.boards.choice import learn_camera
 from ..calibrate.boards.detect import Board, find_boards
-from ..calibrate.boards.fit import MIN_CORNERS as BOARD_MIN_CORNERS
-from ..calibrate.boards.fit import board_arcs, fit_boards
 from ..calibrate.circles import ImageCircles
 from ..calibrate.lines.arcs import EdgeArc, find_arcs
 from ..calibrate.lines.fit import LineFit, LineFitOptions, fit_lines
@@ -39,9 +38,10 @@ def fit_from_lines(
 ) -> None:
     """Learn the camera from the lines of ``images``, write its table (and ``overlay``), say what the fit saw.
 
-    Checkerboards in the images (``use_boards``) come first: their corners are evenly spaced on straight
-    lines at right angles, which fixes the scale that straightness alone leaves loose. Without any, or
-    when they give no camera, the edge arcs are fitted.
+    Checkerboards in the images (``use_boards``) and the edge arcs both count
+    (:func:`panomap.calibrate.boards.choice.learn_camera`): a board's corners are evenly spaced on straight
+    lines at right angles, which fixes the scale that straightness alone leaves loose; with few boards the
+    line fit is made too and the camera that explains both is kept.
 
     ``find_circles(path, image)`` finds the image circles, naming the file in its errors.
     """
@@ -56,18 +56,26 @@ def fit_from_lines(
         for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
             bar.update(k, steps, f"edges of {path.name}")
             edges += find_arcs(omni, circles, image_index=k)
-        table: PanoMappingTable | None = None
-        arcs: list[EdgeArc] = []
+        boards: list[Board] = []
         if use_boards:
-            fit, arcs, notes = _fit_boards(images, omnis, circles, options, edges, bar, steps)
-            if fit is not None:
-                try:
-                    table = _table(fit, circles, omnis, camera_height, images, "checkerboards")
-                except PanomapError as exc:
-                    notes.append(f"the checkerboards gave no table ({exc.detail}); learning from the lines instead")
-        if table is None:
+            for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
+                bar.update(len(images) + k, steps, f"checkerboards in {path.name}")
+                boards += find_boards(omni, image_index=k)
+        try:
+            learned = learn_camera(
+                boards, edges, circles, options, progress=lambda step: bar.update(steps - 1, steps, step)
+            )
+        except PanomapError as exc:
+            raise PanomapError(exc.detail, images[0] if len(images) == 1 else None) from None
+        notes = list(learned.notes)
+        arcs = learned.arcs
+        try:
+            table = _table(learned.fit, circles, omnis, camera_height, images, learned.source)
+        except PanomapError as exc:
+            if learned.source == "lines":
+                raise
+            notes.append(f"the checkerboards gave no table ({exc.detail}); learning from the lines instead")
             arcs = edges
-            bar.update(steps - 1, steps, "fitting the camera to the lines")
             try:
                 fit = fit_lines(arcs, circles, options, progress=lambda step: bar.update(steps - 1, steps, step))
             except PanomapError as exc:
@@ -82,6 +90,8 @@ def fit_from_lines(
 
             write_image(overlay, draw_line_overlay(omnis[0], table, arcs))
     click.echo(printable(describe_line_fit(table, circles, time.monotonic() - started), keep="\n"))
+    if learned.choice is not None:
+        click.echo(learned.choice)
     written = [str(path) for path in (output, overlay) if path is not None]
     click.echo("wrote " + " and ".join(written))
     for warning in [*notes, *table.info.get("warnings", [])]:
@@ -113,31 +123,6 @@ def _table(
         camera_height=camera_height,
         info=info,
     )
-
-
-def _fit_boards(
-    images: tuple[Path, ...],
-    omnis: list[np.ndarray],
-    circles: ImageCircles,
-    options: LineFitOptions,
-    edges: list[EdgeArc],
-    bar: ProgressBar,
-    steps: int,
-) -> tuple[LineFit | None, list[EdgeArc], list[str]]:
-    """The camera learned from the checkerboards in ``omnis`` (the tilt from the vertical ``edges``), with the
-    boards' rows and columns as arcs; None where too few."""
-    boards: list[Board] = []
-    for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
-        bar.update(len(images) + k, steps, f"checkerboards in {path.name}")
-        boards += find_boards(omni, image_index=k)
-    if sum(len(board.pixels) for board in boards) < BOARD_MIN_CORNERS:
-        return None, [], []
-    bar.update(steps - 1, steps, "fitting the camera to the checkerboards")
-    try:
-        fit = fit_boards(boards, circles, options, progress=lambda step: bar.update(steps - 1, steps, step), arcs=edges)
-    except PanomapError as exc:
-        return None, [], [f"the checkerboards gave no camera ({exc.detail}); learning from the lines instead"]
-    return fit, board_arcs(boards), []
 
 
 def _read_all(images: tuple[Path, ...], frame_time: float | None) -> list[np.ndarray]:

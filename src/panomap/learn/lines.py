@@ -56,12 +56,12 @@ def learn_from_lines(
         As the line fit does (too few lines, no two orthogonal families), or where the camera does not see
         ``azimuth_zero``.
     """
-    board_fit = lines.board_fit(LineFitOptions())
-    if board_fit is not None:
-        try:
-            return _learned(board_fit, lines, image_size, image_name, azimuth_zero, "checkerboards", lines.board_arcs)
-        except PanomapError:
-            pass  # the boards' camera gives no table: the lines', as the command does
+    learned = lines.learned(LineFitOptions())
+    try:
+        return _learned(learned.fit, lines, image_size, image_name, azimuth_zero, learned.source, learned.arcs)
+    except PanomapError:
+        if learned.source == "lines":
+            raise  # the boards' camera gives no table: the lines', as the command does
     return _learned(lines.line_fit(LineFitOptions()), lines, image_size, image_name, azimuth_zero, "lines", lines.arcs)
 
 

@@ -438,7 +438,7 @@ class Session:
         with self._fit_lock:
             lines = self._image_lines()
             if lines is not None and not self._boards_looked_for:  # the checkerboards come first, looked for once
-                lines = self._lines = replace(lines, boards=find_boards(self.image))
+                lines = self._lines = replace(lines, boards=find_boards(self.image), _learned={})
                 self._boards_looked_for = True
             with self._lock:
                 revision = self.lines_status.get("revision", 0) + 1

@@ -8,8 +8,9 @@ pins the scale through its perspective but only where it is held, and one or two
 the radius beyond them loose. Each fit's camera is therefore scored on the other's data: the corners
 under the line fit's camera (each board's pose refitted, the camera held), the lines under the boards'
 camera (each line's plane refitted, the camera held); each RMS over that fit's own (its noise), squared,
-summed: ``(corners RMS / corner noise)^2 + (lines RMS / line noise)^2``. The camera with the lower sum
-is kept. With ``TRUSTED_BOARDS`` boards or more the boards are kept without the line fit: spread boards
+summed: ``(corners RMS / corner noise)^2 + (lines RMS / line noise)^2`` (lines beyond the radius the boards'
+camera reaches are not tested). The boards' camera is kept unless the lines' sum is ``LINES_MARGIN`` times
+lower. With ``TRUSTED_BOARDS`` boards or more the boards are kept without the line fit: spread boards
 pin the radius everywhere they are held, and the line fit of many images is slow.
 """
 
@@ -25,7 +26,7 @@ from scipy.optimize import least_squares
 from ...errors import PanomapError
 from ..circles import ImageCircles
 from ..lines.arcs import EdgeArc
-from ..lines.fit import LineFit, LineFitOptions, fit_lines
+from ..lines.fit import MIN_LINES, LineFit, LineFitOptions, fit_lines
 from ..lines.objective import LineData, evaluate
 from ..lines.rays import InverseRadial
 from .detect import Board
@@ -33,6 +34,12 @@ from .fit import MIN_CORNERS, board_arcs, fit_boards, pose_of, residuals_under, 
 
 # With this many boards or more, the boards' camera is kept without the line fit.
 TRUSTED_BOARDS = 3
+# The lines' camera is kept only when its sum is this many times lower: where it fails, it fails by tens of px
+# (a wrong basin of the loose scale, every line straight; on the real fisheye's images 99 and 112 px, with
+# sums within 20% of the boards'), where the boards fail, by a few.
+LINES_MARGIN = 2.0
+# Lines within this fraction of the radius the boards' f_r reaches are tested under it.
+REACH_FRACTION = 0.98
 
 
 @dataclass(frozen=True)
@@ -46,13 +53,16 @@ class LearnedCamera:
     arcs : list of EdgeArc
         What ``fit.report`` indexes: the boards' rows and columns, or the edge arcs.
     notes : list of str
-        Sentences for the user: which was chosen and why, what failed.
+        Warnings for the user: what failed.
+    choice : str or None
+        Which camera was kept and why, where both fits were made.
     """
 
     fit: LineFit
     source: str
     arcs: list[EdgeArc]
     notes: list[str]
+    choice: str | None = None
 
 
 def learn_camera(
@@ -94,17 +104,17 @@ def learn_camera(
     boards_score = 1.0 + _ratio(_line_rms(board_fit, line_fit, arcs, circles), line_fit.report.rms_px) ** 2
     lines_score = _ratio(_corner_rms(line_fit, used), board_fit.report.corner_rms_px) ** 2 + 1.0
     figures = f"boards' camera {boards_score:.1f}, lines' camera {lines_score:.1f}"
-    if lines_score < boards_score:
-        notes.append(
+    if lines_score * LINES_MARGIN < boards_score:
+        choice = (
             f"the lines' camera explains the boards' corners and the lines better than the boards' ({figures}: "
-            "the sum of each RMS over its own fit's, squared): learned from the lines"
+            "each RMS over its own fit's, squared, summed): learned from the lines"
         )
-        return LearnedCamera(line_fit, "lines", list(arcs), notes)
-    notes.append(
-        f"the boards' camera explains the lines and the corners better than the lines' ({figures}): learned "
-        "from the checkerboards"
+        return LearnedCamera(line_fit, "lines", list(arcs), notes, choice)
+    choice = (
+        f"the boards' camera explains the lines and the corners better than the lines' ({figures}: each RMS "
+        "over its own fit's, squared, summed): learned from the checkerboards"
     )
-    return LearnedCamera(board_fit, "checkerboards", board_arcs(boards), notes)
+    return LearnedCamera(board_fit, "checkerboards", board_arcs(boards), notes, choice)
 
 
 def _ratio(rms_px: float, noise_px: float) -> float:
@@ -133,10 +143,15 @@ def _corner_rms(fit: LineFit, boards: Sequence[Board]) -> float:
 def _line_rms(board_fit: LineFit, line_fit: LineFit, arcs: Sequence[EdgeArc], circles: ImageCircles) -> float:
     """RMS (px) of the line fit's lines' points from their planes under the boards' camera (planes refitted)."""
     model = board_fit.model
-    lines = [np.concatenate([arcs[k].pixels for k in line.arcs]) for line in line_fit.report.lines]
-    if not lines:
+    try:  # the radius up to which the boards' f_r rises: lines beyond it are not tested (the boards say nothing there)
+        limit = REACH_FRACTION * float(InverseRadial.of(model.radial, 0.0).r[-1])
+    except PanomapError:
         return math.inf
-    reach = max(float(np.hypot(*(p - model.centre).T).max()) for p in lines) * 1.02
+    lines = [np.concatenate([arcs[k].pixels for k in line.arcs]) for line in line_fit.report.lines]
+    lines = [p for p in lines if float(np.hypot(*(p - model.centre).T).max()) < limit]
+    if len(lines) < MIN_LINES:
+        return 0.0
+    reach = max(float(np.hypot(*(p - model.centre).T).max()) for p in lines) * 1.01
     params = np.array([*model.centre, *model.radial.coefficients])
     trial = evaluate(model.radial.kind, model.axis, params, LineData.of(lines, reach))
     if trial is None:

@@ -23,7 +23,9 @@ from ...geometry import FloatArray
 # Seeds (columns, rows of inner corners) the detector grows from; the largest board found is kept.
 SEEDS = ((3, 3), (4, 4), (5, 5))
 # Seeds tried in the searches after a board was found.
-LATER_SEEDS = 1
+LATER_SEEDS = 2
+# The detector draws random samples from OpenCV's global generator; it is seeded before every search.
+RNG_SEED = 20071
 # Most boards searched for in one image.
 MAX_BOARDS = 6
 # Fewest inner corners a board must show to be used.
@@ -106,6 +108,7 @@ def _largest(
     flags = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER | cv2.CALIB_CB_ACCURACY
     best: tuple[FloatArray, tuple[int, int]] | None = None
     for seed in seeds:
+        cv2.setRNGSeed(RNG_SEED)  # the detector samples with OpenCV's global generator: the same image, the same boards
         found, corners, meta = cv2.findChessboardCornersSBWithMeta(search, seed, flags=flags)
         if found and corners is not None and (best is None or len(corners) > len(best[0])):
             best = (corners.reshape(-1, 2).astype(np.float64), (int(meta.shape[0]), int(meta.shape[1])))

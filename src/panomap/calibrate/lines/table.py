@@ -21,6 +21,9 @@ from ..make_table import DEFAULT_MAX_SIZE, world_range
 from ..report import FitReport, FitSettings, RadiusUncertainty
 from .fit import LineFit
 
+# A standard error of the radius beyond this (px) anywhere in the table is said: on one image of the real sets,
+# every fit worse than 20 px had one over 3 px (several better ones too).
+LOOSE_RADIUS_PX = 3.0
 # The camera position of a table learned from lines: lines know no distance; --camera-height sets Z0.
 ORIGIN = (0.0, 0.0, 0.0)
 
@@ -71,12 +74,20 @@ def create_line_table(
             "outer_radius": "detected",
         },
     )
-    table_info["fit"] = line_fit_report(fit, (rho_s, rho_e)).to_dict()
+    report = line_fit_report(fit, (rho_s, rho_e))
+    table_info["fit"] = report.to_dict()
     table_info["camera_height_known"] = camera_height is not None
     table_info.setdefault("warnings", [])
     table_info["warnings"] = list(table_info["warnings"]) + [
         sentence for sentence in fit.report.sentences() if sentence.startswith("no line between")
     ]
+    loose = report.uncertainty.max_se_px if report.uncertainty is not None else None
+    if loose is not None and loose > LOOSE_RADIUS_PX:
+        table_info["warnings"].append(
+            f"the radius is pinned loosely: its standard error reaches {loose:.1f} px (on real images the error "
+            "is up to several times it); add pictures: "
+            + ("the board near and far, tilted, across the annulus" if fit.report.boards else "more straight edges")
+        )
     position = ORIGIN if camera_height is None else (0.0, 0.0, float(camera_height))
     if camera_height is not None and not (math.isfinite(camera_height) and camera_height > 0):
         raise PanomapError(f"the camera height must be a positive number, not {camera_height!r}")
