@@ -146,6 +146,9 @@ def _refine(grey: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int
     window holds too few pixels of the four squares' edges and the detector's own estimate is kept.
     """
     half = np.floor(_neighbour_spacing(pixels, columns, rows) / 4.0)
+    height, width = grey.shape
+    margin = np.minimum.reduce([pixels[:, 0], pixels[:, 1], width - 1 - pixels[:, 0], height - 1 - pixels[:, 1]])
+    half = np.minimum(half, np.floor(margin) - 1.0)  # the window stays inside the image
     out = pixels.copy()
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 40, 0.01)
     for size in np.unique(np.clip(half[half >= MIN_WINDOW_PX], MIN_WINDOW_PX, MAX_WINDOW_PX)):

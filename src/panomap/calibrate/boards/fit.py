@@ -128,13 +128,46 @@ def fit_boards(
             f"{len(boards)} checkerboard(s) with {corners} corners were found; the fit needs {MIN_CORNERS} or more"
         )
     axis = options.axis
+    given = list(boards)
+    dropped: list[tuple[int, str, float]] = []
+    # a fit over MAX_RMS_PX sets its worst board aside and fits again, up to half the boards: a misread board the
+    # fit half follows spoils the others' residuals as much as its own (a 5 x 5 grid read off a rendered room's
+    # boards: 5.0 px RMS, the two true boards 2.4 px with it, 0.10 px without)
+    while True:
+        kept = [k for k in range(len(given)) if k not in {d[0] for d in dropped}]
+        final, fits, boards, kept_index, rejected = _fit_all([given[k] for k in kept], circles, axis, options, say)
+        kept_index = [kept[k] for k in kept_index]
+        rejected = [(kept[k], why, rms) for k, why, rms in rejected]
+        rms_px = float(np.sqrt(np.mean(final.residuals_px**2)))
+        if rms_px <= MAX_RMS_PX:
+            break
+        worst, worst_rms, others = _worst_board(final, boards)
+        if len(dropped) + 1 > len(given) // 2:
+            raise PanomapError(
+                f"the checkerboards' corners fit no camera better than {rms_px:.1f} px RMS (a board's corners are "
+                f"found to a fraction of a pixel: what was found is no board, or not a square grid)"
+            )
+        say("setting aside a board no camera fits with the rest")
+        dropped.append(
+            (kept_index[worst], f"board misread (RMS {worst_rms:.1f} px, the rest {others:.2f} px)", worst_rms)
+        )
+    rms = {kind: (None if fit is None else float(np.sqrt(np.mean(fit.residuals_px**2)))) for kind, fit in fits.items()}
+    vertical = vertical_under(arcs, circles, final.kind, axis, final.params) if arcs else None
+    r_max = _farthest(boards, circles.centre) * 1.05
+    return _result(final, given, boards, kept_index, sorted(dropped + rejected), rms, options, circles, r_max, vertical)
+
+
+def _fit_all(
+    boards: list[Board], circles: ImageCircles, axis: str, options: LineFitOptions, say: Callable[[str], None]
+) -> tuple[_Fit, dict[str, _Fit | None], list[Board], list[int], list[tuple[int, str, float]]]:
+    """The fit of ``boards``: the chosen kind's, every candidate's, the boards kept (their indices) and those set
+    aside or trimmed (index, why, RMS px)."""
     # f_r must rise to the farthest corner (the image circle may be a stand-in far beyond the mirror's reach)
     r_max = _farthest(boards, circles.centre) * 1.05
     say("starting scale")
     best = _from_starts(boards, circles, axis, r_max)
     best = _refit_as(boards, best, FLEXIBLE_KIND, axis, r_max) or best
     say("setting aside misread corners")
-    given = list(boards)
     # misread boards first (they spoil every residual), then misread corners against the fit without them
     boards, kept_index, rejected = _without_outliers(boards, best, corners=False)
     best = _joint(boards, best.kind, axis, best.params, best.poses[kept_index])
@@ -142,22 +175,25 @@ def fit_boards(
     rejected += [(kept_index[k], why, rms) for k, why, rms in more]
     kept_index = [kept_index[k] for k in again]
     best = _joint(boards, best.kind, axis, best.params, best.poses[again])
+    if float(np.sqrt(np.mean(best.residuals_px**2))) > MAX_RMS_PX:  # no kind will save it: a board to set aside
+        return best, {best.kind: best}, boards, kept_index, rejected
+    r_max = _farthest(boards, circles.centre) * 1.05  # the boards kept: a misread one may lie beyond the mirror
     say("choosing the radial model")
     candidates = _candidates(options, circles, len(boards))
     fits = {kind: _refit_as(boards, best, kind, axis, r_max) for kind in candidates}
     scores = {kind: (None if fit is None else _bic(fit)) for kind, fit in fits.items()}
-    chosen = _choose(scores, candidates, circles)
-    final = fits[chosen]
+    final = fits[_choose(scores, candidates, circles)]
     assert final is not None
-    rms_px = float(np.sqrt(np.mean(final.residuals_px**2)))
-    if rms_px > MAX_RMS_PX:
-        raise PanomapError(
-            f"the checkerboards' corners fit no camera better than {rms_px:.1f} px RMS (a board's corners are "
-            f"found to a fraction of a pixel: what was found is no board, or not a square grid)"
-        )
-    rms = {kind: (None if fit is None else float(np.sqrt(np.mean(fit.residuals_px**2)))) for kind, fit in fits.items()}
-    vertical = vertical_under(arcs, circles, final.kind, axis, final.params) if arcs else None
-    return _result(final, given, boards, kept_index, rejected, rms, options, circles, r_max, vertical)
+    return final, fits, boards, kept_index, rejected
+
+
+def _worst_board(fit: _Fit, boards: Sequence[Board]) -> tuple[int, float, float]:
+    """The board with the largest RMS (px) under ``fit``, its RMS, and the RMS of the others' corners."""
+    owner = np.repeat(np.arange(len(boards)), [len(b.pixels) for b in boards])
+    rms = [float(np.sqrt(np.mean(fit.residuals_px[owner == k] ** 2))) for k in range(len(boards))]
+    worst = int(np.argmax(rms))
+    others = fit.residuals_px[owner != worst]
+    return worst, rms[worst], float(np.sqrt(np.mean(others**2))) if others.size else 0.0
 
 
 def _farthest(boards: Sequence[Board], centre: tuple[float, float]) -> float:
