@@ -151,18 +151,18 @@ def test_a_room_without_lines_is_the_status_not_an_error(tmp_path: Path) -> None
 @pytest.mark.slow
 def test_learn_from_lines_takes_the_checkerboards_first(tmp_path: Path) -> None:
     """An image with two boards held before the camera: the page learns from them, as ``panomap fit --image``
-    does (a third grid read off the image, 5 x 5, is set aside as misread), draws their rows and columns, and
+    does (a third grid read off the image, 7 x 3, is set aside as misread), draws their rows and columns, and
     its camera is the command's.
 
-    Measured: 2 boards kept, p90 2.55 / max 3.0 px over the whole annulus against the true camera (one image
-    with two boards: docs/lines.md); the saved table's model equals the command's.
+    Measured: 2 boards kept, p90 0.39 / max 0.46 px over the whole annulus against the true camera; the saved
+    table's model equals the command's.
     """
     from panomap.simulate.board_scenes import board_poses, render_board_scene
 
     from helpers import pixel_errors
 
     camera = line_camera("hyperbolic", 0.5, tilt_deg=2.0)
-    image = render_board_scene(camera, board_poses(camera, 2, seed=31), seed=1, supersample=2).image
+    image = render_board_scene(camera, board_poses(camera, 2, seed=30), seed=1, supersample=2).image
     if image.ndim == 2:
         image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
     for client in serve(image, tmp_path):
@@ -176,8 +176,8 @@ def test_learn_from_lines_takes_the_checkerboards_first(tmp_path: Path) -> None:
         assert status == 200, saved
     learned = load_table(tmp_path / "boards.npz").model
     errors = pixel_errors(learned, camera, step=4)
-    assert np.percentile(errors, 90) < 4.0
-    assert errors.max() < 5.0
+    assert np.percentile(errors, 90) < 1.0
+    assert errors.max() < 1.5
     cv2.imwrite(str(tmp_path / "boards.png"), image)
     result = CliRunner().invoke(main, ["fit", "-o", str(tmp_path / "cli.npz"), "--image", str(tmp_path / "boards.png")])
     assert result.exit_code == 0, result.output
