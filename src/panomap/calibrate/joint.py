@@ -42,8 +42,9 @@ The steps (:func:`refine_with_lines`):
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -73,6 +74,8 @@ from .refine import (
     refine,
     residual_parts,
 )
+
+T = TypeVar("T")
 
 # Points per arc the joint refinement takes (evenly along it): half the line fit's, for speed (a refit of the learn
 # page at every change of its landmarks), and since neighbouring edge points share their errors.
@@ -116,15 +119,7 @@ class ImageLines:
         PanomapError
             As the line fit does, where the boards give no camera either.
         """
-        if options not in self._learned:
-            try:
-                self._learned[options] = learn_camera(self.boards, self.arcs, self.circles, options)
-            except PanomapError as exc:
-                self._learned[options] = exc
-        found = self._learned[options]
-        if isinstance(found, PanomapError):
-            raise PanomapError(found.detail)
-        return found
+        return _once(self._learned, options, lambda: learn_camera(self.boards, self.arcs, self.circles, options))
 
     def line_fit(self, options: LineFitOptions) -> LineFit:
         """The line fit of these arcs with ``options`` (:func:`panomap.calibrate.lines.fit.fit_lines`), found once
@@ -135,15 +130,20 @@ class ImageLines:
         PanomapError
             As the line fit does (too few lines, no two orthogonal families).
         """
-        if options not in self._fits:
-            try:
-                self._fits[options] = fit_lines(self.arcs, self.circles, options)
-            except PanomapError as exc:
-                self._fits[options] = exc
-        found = self._fits[options]
-        if isinstance(found, PanomapError):
-            raise PanomapError(found.detail)
-        return found
+        return _once(self._fits, options, lambda: fit_lines(self.arcs, self.circles, options))
+
+
+def _once(cache: dict[LineFitOptions, T | PanomapError], options: LineFitOptions, make: Callable[[], T]) -> T:
+    """``make()``'s result (or its error, raised again) for ``options``, made once and kept in ``cache``."""
+    if options not in cache:
+        try:
+            cache[options] = make()
+        except PanomapError as exc:
+            cache[options] = exc
+    found = cache[options]
+    if isinstance(found, PanomapError):
+        raise PanomapError(found.detail)
+    return found
 
 
 @dataclass(frozen=True)

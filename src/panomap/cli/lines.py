@@ -14,7 +14,7 @@ from ..calibrate.boards.choice import learn_camera
 from ..calibrate.boards.detect import Board, find_boards
 from ..calibrate.circles import ImageCircles
 from ..calibrate.lines.arcs import EdgeArc, find_arcs
-from ..calibrate.lines.fit import LineFit, LineFitOptions, fit_lines
+from ..calibrate.lines.fit import LineFit, LineFitOptions
 from ..calibrate.lines.table import create_line_table
 from ..errors import PanomapError, printable
 from ..files import all_or_none
@@ -47,7 +47,6 @@ def fit_from_lines(
     """
     started = time.monotonic()
     bar = ProgressBar(enabled=sys.stderr.isatty())
-    notes: list[str] = []
     try:
         omnis = _read_all(images, frame_time)
         circles = find_circles(images[0], omnis[0])
@@ -67,20 +66,7 @@ def fit_from_lines(
             )
         except PanomapError as exc:
             raise PanomapError(exc.detail, images[0] if len(images) == 1 else None) from None
-        notes = list(learned.notes)
-        arcs = learned.arcs
-        try:
-            table = _table(learned.fit, circles, omnis, camera_height, images, learned.source)
-        except PanomapError as exc:
-            if learned.source == "lines":
-                raise
-            notes.append(f"the checkerboards gave no table ({exc.detail}); learning from the lines instead")
-            arcs = edges
-            try:
-                fit = fit_lines(arcs, circles, options, progress=lambda step: bar.update(steps - 1, steps, step))
-            except PanomapError as exc:
-                raise PanomapError(exc.detail, images[0] if len(images) == 1 else None) from None
-            table = _table(fit, circles, omnis, camera_height, images, "lines")
+        table = _table(learned.fit, circles, omnis, camera_height, images, learned.source)
     finally:
         bar.close()
     with all_or_none():
@@ -88,13 +74,13 @@ def fit_from_lines(
         if overlay is not None:
             from ..io.line_overlay import draw_line_overlay
 
-            write_image(overlay, draw_line_overlay(omnis[0], table, arcs))
+            write_image(overlay, draw_line_overlay(omnis[0], table, learned.arcs))
     click.echo(printable(describe_line_fit(table, circles, time.monotonic() - started), keep="\n"))
     if learned.choice is not None:
         click.echo(learned.choice)
     written = [str(path) for path in (output, overlay) if path is not None]
     click.echo("wrote " + " and ".join(written))
-    for warning in [*notes, *table.info.get("warnings", [])]:
+    for warning in [*learned.notes, *table.info.get("warnings", [])]:
         click.echo(f"panomap: warning: {warning}", err=True)
 
 

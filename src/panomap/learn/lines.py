@@ -24,7 +24,6 @@ from ..calibrate.lines.fit import LineFit, LineFitOptions
 from ..calibrate.lines.orientation import zero_azimuth
 from ..calibrate.lines.table import create_line_table
 from ..calibrate.report import table_fit_report
-from ..errors import PanomapError
 from ..geometry import FloatArray
 from ..table.table import PanoMappingTable
 
@@ -57,23 +56,7 @@ def learn_from_lines(
         ``azimuth_zero``.
     """
     learned = lines.learned(LineFitOptions())
-    try:
-        return _learned(learned.fit, lines, image_size, image_name, azimuth_zero, learned.source, learned.arcs)
-    except PanomapError:
-        if learned.source == "lines":
-            raise  # the boards' camera gives no table: the lines', as the command does
-    return _learned(lines.line_fit(LineFitOptions()), lines, image_size, image_name, azimuth_zero, "lines", lines.arcs)
-
-
-def _learned(
-    fit: LineFit,
-    lines: ImageLines,
-    image_size: tuple[int, int],
-    image_name: str,
-    azimuth_zero: tuple[float, float] | None,
-    source: str,
-    arcs: Sequence[EdgeArc],
-) -> LineLearning:
+    fit = learned.fit
     if azimuth_zero is not None:
         fit = replace(
             fit,
@@ -86,9 +69,9 @@ def _learned(
         cutoff_radius=circles.cutoff_radius or 0.0,
         outer_radius=circles.outer_radius,
         image_size=image_size,
-        info={"source": source, "images": [image_name], "learned_with": f"panomap learn on {image_name}"},
+        info={"source": learned.source, "images": [image_name], "learned_with": f"panomap learn on {image_name}"},
     )
-    return LineLearning(fit, table, azimuth_zero, arcs)
+    return LineLearning(fit, table, azimuth_zero, learned.arcs)
 
 
 def _shown(pixels: FloatArray) -> list[list[float]]:

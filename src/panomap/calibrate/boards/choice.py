@@ -86,7 +86,9 @@ def learn_camera(
         say("fitting the camera to the checkerboards")
         try:
             board_fit = fit_boards(boards, circles, options, progress=say, arcs=arcs)
+            board_fit.camera_range(circles.cutoff_radius or 0.0, circles.outer_radius)  # it makes a table
         except PanomapError as exc:
+            board_fit = None
             notes.append(f"the checkerboards gave no camera ({exc.detail}); learning from the lines instead")
     if board_fit is not None and (board_fit.report.boards >= TRUSTED_BOARDS or not arcs):
         return LearnedCamera(board_fit, "checkerboards", board_arcs(boards), notes)

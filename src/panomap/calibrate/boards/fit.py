@@ -219,13 +219,18 @@ def _candidates(options: LineFitOptions, circles: ImageCircles, boards: int) -> 
 
 def project(kind: str, axis: str, params: FloatArray, points: FloatArray) -> FloatArray:
     """Pixels (n, 2) of points (n, 3) in the camera's axes under the camera ``params`` (u0, v0, coefficients)."""
-    length = np.linalg.norm(points, axis=1)
-    alpha = np.arccos(np.clip(points[:, 2] / np.maximum(length, 1e-300), -1.0, 1.0))
+    rho = elevations(points, axis)
     phi = np.arctan2(points[:, 1], points[:, 0])
-    rho = alpha - HALF_PI if axis == "down" else HALF_PI - alpha
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         r = radial_kind(kind).evaluate(tuple(float(c) for c in params[2:]), rho, axis)
     return np.stack([params[0] + r * np.cos(phi), params[1] + r * np.sin(phi)], axis=1)
+
+
+def elevations(points: FloatArray, axis: str) -> FloatArray:
+    """Elevations rho (n,) rad of points (n, 3) in the camera's axes (alpha from the pole the centre sees)."""
+    length = np.maximum(np.linalg.norm(points, axis=1), 1e-300)
+    alpha = np.arccos(np.clip(points[:, 2] / length, -1.0, 1.0))
+    return np.asarray(alpha - HALF_PI if axis == "down" else HALF_PI - alpha, dtype=np.float64)
 
 
 def board_points(poses: FloatArray, boards: Sequence[Board]) -> FloatArray:
@@ -398,9 +403,7 @@ def _refit_as(boards: Sequence[Board], fit: _Fit, kind: str, axis: str, r_max: f
 
 
 def _corner_rho(fit: _Fit, boards: Sequence[Board], axis: str) -> tuple[float, float]:
-    points = board_points(fit.poses, boards)
-    alpha = np.arccos(np.clip(points[:, 2] / np.linalg.norm(points, axis=1), -1.0, 1.0))
-    rho = alpha - HALF_PI if axis == "down" else HALF_PI - alpha
+    rho = elevations(board_points(fit.poses, boards), axis)
     return float(rho.min()), float(rho.max())
 
 
@@ -462,14 +465,12 @@ def _result(
     )
     if options.azimuth_zero is not None:
         model = zero_azimuth(model, options.azimuth_zero)
-    points = board_points(fit.poses, boards)
-    alpha = np.arccos(np.clip(points[:, 2] / np.linalg.norm(points, axis=1), -1.0, 1.0))
-    rho_deg = np.degrees(alpha - HALF_PI if axis == "down" else HALF_PI - alpha)
+    rho_deg = np.degrees(elevations(board_points(fit.poses, boards), axis))
     lines: list[FittedLine] = []
     start = 0
     for k, board in enumerate(boards):
         residuals = fit.residuals_px[start : start + len(board.pixels)]
-        elevations = rho_deg[start : start + len(board.pixels)]
+        board_rho_deg = rho_deg[start : start + len(board.pixels)]
         start += len(board.pixels)
         places = _places(given[kept_index[k]])
         for column, place in places:
@@ -483,7 +484,7 @@ def _result(
                         rms_px=float(np.sqrt(np.mean(residuals[on] ** 2))),
                         max_px=float(residuals[on].max()),
                         family=2 * k + column,
-                        elevation_deg=(float(elevations[on].min()), float(elevations[on].max())),
+                        elevation_deg=(float(board_rho_deg[on].min()), float(board_rho_deg[on].max())),
                     )
                 )
     report = LineFitReport(

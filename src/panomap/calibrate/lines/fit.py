@@ -28,6 +28,7 @@ import numpy as np
 from ...camera.model import CameraModel
 from ...camera.radial import RadialFunction, fit_radial
 from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_kind
+from ...camera.valid_range import valid_elevation_range
 from ...errors import PanomapError
 from ...geometry import HALF_PI, FloatArray
 from ..circles import ImageCircles
@@ -123,6 +124,19 @@ class LineFit:
     model: CameraModel
     covariance: FloatArray
     report: LineFitReport
+
+    def camera_range(self, cutoff_radius: float, outer_radius: float) -> tuple[float, float]:
+        """The elevations (rad, camera axes) a table of this camera spans over the annulus ``[cutoff_radius,
+        outer_radius]`` (px): where f_r runs monotonically from the fit's data outwards.
+
+        Raises
+        ------
+        PanomapError
+            If f_r does not run monotonically across the fit's elevations.
+        """
+        low_deg, high_deg = self.report.elevation_range_deg
+        data_range = (math.radians(low_deg), math.radians(high_deg))
+        return valid_elevation_range(self.model.radial, data_range, cutoff_radius, outer_radius, slack_px=1.0)
 
 
 @dataclass

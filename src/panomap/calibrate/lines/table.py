@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 
 from ...camera.uncertainty import radius_standard_error
-from ...camera.valid_range import valid_elevation_range
 from ...errors import PanomapError
 from ...geometry import TWO_PI
 from ...table.table import PanoMappingTable, check_table_size, fill_entries
@@ -48,9 +47,7 @@ def create_line_table(
         If f_r does not run monotonically across the lines' elevations.
     """
     model = fit.model
-    low_deg, high_deg = fit.report.elevation_range_deg
-    lines_range = (math.radians(low_deg), math.radians(high_deg))
-    camera_range = valid_elevation_range(model.radial, lines_range, cutoff_radius, outer_radius, slack_px=1.0)
+    camera_range = fit.camera_range(cutoff_radius, outer_radius)
     rho_s, rho_e = world_range(camera_range, model.tilt[0])
     tilted = model.rotation is not None
     reach = max(float(np.nanmax(np.abs(model.radial(np.array(camera_range))))), 1.0)
