@@ -73,8 +73,9 @@ def ray_plane_points(origin: ArrayLike, theta: ArrayLike, rho: ArrayLike, z_plan
 
     Parameters
     ----------
-    origin : (3,) array_like
-        The rays' common origin (X0, Y0, Z0), world units (the camera position O_m).
+    origin : (3,) or (..., 3) array_like
+        The rays' origin (X0, Y0, Z0), world units: the camera position O_m, or each ray's own origin
+        (a camera without a single viewpoint), broadcast with ``theta`` and ``rho``.
     theta, rho : (...) array_like
         Azimuth and elevation (rad) of each ray.
     z_plane : float
@@ -86,7 +87,8 @@ def ray_plane_points(origin: ArrayLike, theta: ArrayLike, rho: ArrayLike, z_plan
         World points (X, Y, Z); NaN where the ray does not reach the plane
         (it runs parallel to it or away from it, or its angles are NaN).
     """
-    x0, y0, z0 = (float(c) for c in np.asarray(origin, dtype=np.float64))
+    origin = np.asarray(origin, dtype=np.float64)
+    x0, y0, z0 = origin[..., 0], origin[..., 1], origin[..., 2]
     theta = np.asarray(theta, dtype=np.float64)
     rho = np.asarray(rho, dtype=np.float64)
     rise = z_plane - z0
@@ -96,7 +98,9 @@ def ray_plane_points(origin: ArrayLike, theta: ArrayLike, rho: ArrayLike, z_plan
         along = np.where(reaches, rise / sin_rho, np.nan)  # distance along the unit ray
     horizontal = along * np.cos(rho)
     points = np.stack(
-        [x0 + horizontal * np.cos(theta), y0 + horizontal * np.sin(theta), np.full(horizontal.shape, z_plane)],
+        np.broadcast_arrays(
+            x0 + horizontal * np.cos(theta), y0 + horizontal * np.sin(theta), np.full(horizontal.shape, z_plane)
+        ),
         axis=-1,
     )
     return np.where(reaches[..., None], points, np.nan)

@@ -51,8 +51,16 @@ from .mount import DEFAULT_CAMERA_SIGMA_FRACTION, MountChoice, choose_mount, giv
 from .noise import DEFAULT_WORLD_SIGMA_FRACTION, Observations, radial_weights, rim_slack_px, world_sigmas
 from .outliers import choose, choose_start
 from .refine import MountOptions, MountProblem, MountSolution, camera_rays, refine
-from .report import FitReport, FitSettings, LandmarkResidual, MountReport
+from .report import FitReport, FitSettings, LandmarkResidual, MountReport, ViewpointReport
 from .start import consistency, detect_axis, handedness, pixels_hint, separable_fit
+from .viewpoint import (
+    PARALLAX_DISTANCE,
+    VIEWPOINT_MODES,
+    annulus_elevations,
+    choose_viewpoint,
+    landmark_rays,
+    parallax_px,
+)
 
 _T = TypeVar("_T")
 
@@ -106,6 +114,9 @@ class CameraFit:
         fitted camera; None where no line joined.
     lines_note : str, optional
         Why no line joined, where lines were offered and none did.
+    viewpoint : ViewpointReport, optional
+        Whether the camera has a single viewpoint, as cross-validation over the landmarks says
+        (:mod:`.viewpoint`); None where it was not tried.
     """
 
     model: CameraModel
@@ -128,6 +139,7 @@ class CameraFit:
     mount: MountReport | None = None
     lines: LineFitReport | None = None
     lines_note: str | None = None
+    viewpoint: ViewpointReport | None = None
 
     @property
     def rms_px(self) -> float:
@@ -200,6 +212,7 @@ class CameraFit:
             centre_start=self.centre_start,
             mount=self.mount,
             lines=self.lines,
+            viewpoint=self.viewpoint,
         )
 
 
@@ -222,6 +235,7 @@ def fit_camera(
     centre_is_guess: bool = False,
     tilt: str | tuple[float, float] | None = None,
     lines: ImageLines | None = None,
+    viewpoint: str = "auto",
 ) -> CameraFit:
     """Fit the camera model to landmark pairs.
 
@@ -277,7 +291,13 @@ def fit_camera(
         (:mod:`.joint`), each weighted by its measured noise; the radial kind is then the lines'
         cross-validated choice. Where they cannot join, the landmark fit stands and ``CameraFit.lines_note``
         says why.
-
+    viewpoint : {"auto", "single", "caustic"}
+        ``"single"``: every ray from O_m (the paper's model). ``"auto"``: a mirror camera (one with a cut-off
+        disc in ``annulus``) gets each elevation's ray origin on the axis, as a mirror of revolution's caustic,
+        where cross-validation over the landmarks chooses it (:mod:`.viewpoint`); a lens keeps the single
+        viewpoint. ``"caustic"``: the caustic is fitted whatever cross-validation says (a mirror known to be a
+        sphere or a cone, seen from landmarks too far to show it). Lines joined to the landmarks keep the single
+        viewpoint.
     Raises
     ------
     PanomapError
@@ -285,6 +305,8 @@ def fit_camera(
         landmarks at one elevation, or no model that fits monotonically.
     """
     tilt = renamed_keyword("fit_camera", "tilt", tilt, "tilt_deg", tilt_deg)
+    if viewpoint not in VIEWPOINT_MODES:
+        raise PanomapError(f"viewpoint must be one of {', '.join(VIEWPOINT_MODES)}, not {viewpoint!r}")
     requested, camera, start_centre, tilt_given = _checked(
         landmarks, camera_position, centre, model, azimuth, axis, image_size, refine_centre, pixel_sigma,
         world_sigma, camera_sigma, tilt,
@@ -339,7 +361,54 @@ def fit_camera(
         return replace(fitted, covariance=covariance, lines=joint.lines.report)
     if joint is not None:
         return replace(fitted, lines_note=joint.note)
-    return fitted
+    if viewpoint == "single" or azimuth != "fit" or (viewpoint == "auto" and (annulus is None or annulus[0] <= 0)):
+        return fitted
+    return with_viewpoint(fitted, annulus, forced=viewpoint == "caustic")
+
+
+def with_viewpoint(fitted: CameraFit, annulus: tuple[float, float] | None = None, forced: bool = False) -> CameraFit:
+    """The fit with each elevation's ray origin on the axis, where cross-validation over the inlier landmarks
+    chooses it (:func:`.viewpoint.choose_viewpoint`), its residuals and covariance made again; else the fit
+    as it is, with the report of the choice."""
+    model, inliers = fitted.model, fitted.inliers
+    world, pixels = fitted.landmarks.world[inliers], fitted.landmarks.pixels[inliers]
+    settings = fitted.settings
+    rays = landmark_rays(
+        world, pixels, fitted.camera_position, model.rotation, model.centre, model.radial,
+        settings.pixel_sigma_px, settings.world_sigma, annulus_elevations(model.radial, annulus),
+    )  # fmt: skip
+    choice = choose_viewpoint(rays, model.radial, forced)
+    if choice.fit is None or choice.fit.viewpoint is None:
+        report = ViewpointReport(True, 0.0, 0.0, PARALLAX_DISTANCE, choice.held_out)
+        return replace(fitted, viewpoint=report) if choice.held_out else fitted
+    radial, viewpoint = choice.fit.radial, choice.fit.viewpoint
+    camera_model = replace(model, radial=radial, viewpoint=viewpoint)
+    d = fitted.landmarks.world - np.asarray(fitted.camera_position)
+    theta, rho = camera_model.point_angles(d)
+    _, rho_camera = camera_model.camera_angles(theta, rho)
+    predicted = camera_model.pixels(theta, rho)
+    r, _ = pixel_polar(fitted.landmarks.pixels, model.centre)
+    covariance = coefficient_covariance(radial, rho_camera[inliers], r[inliers], 1.0 / rays.sigma)
+    low, high = float(np.min(rho_camera[inliers])), float(np.max(rho_camera[inliers]))
+    report = ViewpointReport(
+        single_viewpoint=False,
+        excursion=viewpoint.excursion(low, high),
+        parallax_px=parallax_px(radial, viewpoint, (low, high)),
+        parallax_distance=PARALLAX_DISTANCE,
+        cross_validation=choice.held_out,
+    )
+    return replace(
+        fitted,
+        model=camera_model,
+        theta=theta,
+        rho=rho,
+        rho_camera=rho_camera,
+        predicted=predicted,
+        residuals_px=np.linalg.norm(predicted - fitted.landmarks.pixels, axis=1),
+        radial_residuals_px=radial(rho_camera) - r,
+        covariance=covariance,
+        viewpoint=report,
+    )
 
 
 def renamed_keyword(function: str, old: str, old_value: _T | None, new: str, new_value: _T) -> _T:

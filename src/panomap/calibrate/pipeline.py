@@ -333,6 +333,7 @@ def calibrate_camera(
     found: CircleChoice | None = None,
     tilt: str | tuple[float, float] | None = None,
     lines: bool | ImageLines = False,
+    viewpoint: str = "auto",
 ) -> Calibration:
     """Landmarks (and an omni-image) to a fitted camera and its pano-mapping table.
 
@@ -370,7 +371,7 @@ def calibrate_camera(
         Refine the centre with the landmarks. Default: when the centre was not
         given (found in the image, or the frame's middle where no image circle
         is found) and the model does not take the centre as given (``paper``).
-    model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers, tilt_deg, camera_sigma
+    model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers, tilt_deg, camera_sigma, viewpoint
         As :func:`panomap.fit_camera` (by default the tilt and the camera position are refined where
         cross-validation says the landmarks support it; ``tilt``, deprecated, is ``tilt_deg``'s old spelling).
     models_cover_annulus : bool
@@ -422,7 +423,7 @@ def calibrate_camera(
         annulus=None if cutoff is None or outer is None or not models_cover_annulus else (cutoff, outer),
         refine_centre=refine_centre, centre_is_guess=recorded["centre"].source is Source.FRAME_CENTRE,
         pixel_sigma=pixel_sigma, world_sigma=world_sigma, reject_outliers=reject_outliers, tilt_deg=tilt_deg,
-        camera_sigma=camera_sigma, lines=image_lines,
+        camera_sigma=camera_sigma, lines=image_lines, viewpoint=viewpoint,
     )  # fmt: skip
     if camera_fit.lines_note is not None:
         line_warnings += (camera_fit.lines_note,)

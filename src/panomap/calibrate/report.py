@@ -159,6 +159,61 @@ def tilt_standard_errors(w: FloatArray, covariance: FloatArray) -> tuple[float, 
 
 
 @dataclass(frozen=True)
+class ViewpointReport:
+    """Whether the camera has a single viewpoint, as the landmarks say (:mod:`panomap.calibrate.viewpoint`).
+
+    Attributes
+    ----------
+    single_viewpoint : bool
+        Every ray leaves from O_m (the paper's model); False where cross-validation chose ray origins along
+        the axis.
+    excursion : float
+        How far the ray origin moves along the axis over the landmarks' elevations, world units.
+    parallax_px : float
+        The largest error (px) a single-viewpoint table of this camera would make at a horizontal distance of
+        ``parallax_distance`` (0 for a single viewpoint).
+    parallax_distance : float
+        World units (1: a metre, where the world is in metres).
+    cross_validation : mapping of str to float
+        Leave-one-out whitened RMS of the landmarks' radii of each candidate.
+    """
+
+    single_viewpoint: bool
+    excursion: float
+    parallax_px: float
+    parallax_distance: float
+    cross_validation: Mapping[str, float]
+
+    def sentences(self) -> list[str]:
+        """The report in lines, as ``fit`` and ``info`` print it."""
+        scores = ", ".join(f"{name} {value:.3f}" for name, value in self.cross_validation.items())
+        held_out = f" (held-out whitened RMS: {scores})" if scores else ""
+        if self.single_viewpoint:
+            return [f"viewpoint: single (every ray from O_m){held_out}"]
+        return [
+            f"viewpoint: not single: the rays leave the axis over {self.excursion:.4g} world units "
+            f"({1000 * self.excursion:.1f} mm where the world is in metres) over the landmarks' elevations, "
+            f"as a mirror of revolution's caustic{held_out}",
+            f"a single-viewpoint table would be up to {self.parallax_px:.2f} px off at a distance of "
+            f"{self.parallax_distance:g}; views at a distance (cylinder, plane, floor, project, unproject --z) "
+            "use each ray's own origin",
+        ]
+
+    def to_dict(self) -> dict[str, Any]:
+        data = {f.name: getattr(self, f.name) for f in fields(self)}
+        data["cross_validation"] = dict(self.cross_validation)
+        return data
+
+    @classmethod
+    def from_dict(cls, data: Any) -> ViewpointReport:
+        report = _Reader(data, "the viewpoint", cls)
+        scores = report.mapping("cross_validation")
+        if not all(_is_number(value) for value in scores.values()):
+            raise _malformed("a cross-validation score of the viewpoint is not a number")
+        return cls(cross_validation={str(k): float(v) for k, v in scores.items()}, **report.scalars())
+
+
+@dataclass(frozen=True)
 class MountReport:
     """How the camera is mounted, as fitted: its tilt off the vertical and its position.
 
@@ -312,6 +367,9 @@ class FitReport:
     lines : LineFitReport or None
         The straight lines a camera learned from lines was fitted to (None for
         a landmark fit); its ``azimuth_mode`` is then ``"lines"``.
+    viewpoint : ViewpointReport or None
+        Whether the camera has a single viewpoint (None where it was not tried: tables made before, fits
+        with lines or forced models).
     """
 
     model: str
@@ -334,6 +392,7 @@ class FitReport:
     centre_start: tuple[float, float] | None = None
     mount: MountReport | None = None
     lines: LineFitReport | None = None
+    viewpoint: ViewpointReport | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "model_selection_loo_rms_px", MappingProxyType(dict(self.model_selection_loo_rms_px)))
@@ -385,6 +444,8 @@ class FitReport:
             data["uncertainty"] = self.uncertainty.to_dict()
         if self.lines is not None:
             data["lines"] = self.lines.to_dict()
+        if self.viewpoint is not None:
+            data["viewpoint"] = self.viewpoint.to_dict()
         return data
 
     @classmethod
@@ -396,7 +457,9 @@ class FitReport:
         PanomapError
             If an entry is missing, unexpected or of the wrong type.
         """
-        report = _Reader(data, "the fit report", cls, optional=("uncertainty", "centre_start", "mount", "lines"))
+        report = _Reader(
+            data, "the fit report", cls, optional=("uncertainty", "centre_start", "mount", "lines", "viewpoint")
+        )
         selection = report.mapping("model_selection_loo_rms_px")
         for name, value in selection.items():
             if value is not None and not _is_number(value):
@@ -429,6 +492,7 @@ class FitReport:
             uncertainty=None if uncertainty is None else RadiusUncertainty.from_dict(uncertainty),
             mount=None if data.get("mount") is None else MountReport.from_dict(data["mount"]),
             lines=None if data.get("lines") is None else LineFitReport.from_dict(data["lines"]),
+            viewpoint=None if data.get("viewpoint") is None else ViewpointReport.from_dict(data["viewpoint"]),
             **scalars,
         )
 

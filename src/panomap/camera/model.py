@@ -22,6 +22,7 @@ from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, ray_from_angles
 from .orientation import tilt_angles, to_camera, to_world
 from .radial import RadialFunction
+from .viewpoint import Viewpoint
 
 
 @dataclass(frozen=True)
@@ -40,6 +41,9 @@ class CameraModel:
         Image angle (rad) of azimuth 0.
     rotation : (3, 3) tuple of tuples, optional
         R, camera to world, of a tilted camera; None for a level one (R = I).
+    viewpoint : Viewpoint, optional
+        Where each elevation's ray leaves the optical axis, for a camera without a single viewpoint
+        (:mod:`panomap.camera.viewpoint`); None for a single-viewpoint camera (every ray from O_m).
     """
 
     centre: tuple[float, float]
@@ -47,6 +51,7 @@ class CameraModel:
     s: int = 1
     phi0: float = 0.0
     rotation: tuple[tuple[float, float, float], ...] | None = None
+    viewpoint: Viewpoint | None = None
 
     def __post_init__(self) -> None:
         u0, v0 = (float(c) for c in self.centre)
@@ -99,6 +104,41 @@ class CameraModel:
         )
         return azimuth_elevation(to_world(ray_from_angles(theta, rho), self.rotation))
 
+    @property
+    def single_viewpoint(self) -> bool:
+        """Every ray leaves from O_m (no :class:`Viewpoint`)."""
+        return self.viewpoint is None
+
+    def axis_direction(self) -> FloatArray:
+        """The camera's Z axis in world axes (3,): the line the ray origins of a non-central camera lie on."""
+        if self.rotation is None:
+            return np.array([0.0, 0.0, 1.0])
+        return np.asarray(self.rotation, dtype=np.float64)[:, 2].copy()
+
+    def point_angles(self, d: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """World azimuth and elevation (rad) of the rays that reach points ``d`` (..., 3), relative to O_m.
+
+        The direction from O_m for a single-viewpoint camera; otherwise the direction of the ray, leaving the
+        axis at its own point (:mod:`panomap.camera.viewpoint`), that passes through the point: the table
+        entry where the point is seen.
+        """
+        d = np.asarray(d, dtype=np.float64)
+        if self.viewpoint is None:
+            return azimuth_elevation(d)
+        camera = to_camera(d, self.rotation)
+        theta = np.arctan2(camera[..., 1], camera[..., 0])
+        rho = self.viewpoint.elevation_of_point(np.hypot(camera[..., 0], camera[..., 1]), camera[..., 2])
+        return self.world_angles(theta, rho)
+
+    def ray_origins(self, theta: ArrayLike, rho: ArrayLike) -> FloatArray:
+        """Where the rays of world azimuth ``theta`` and elevation ``rho`` (rad) leave, (..., 3) relative to
+        O_m in world axes: zero for a single-viewpoint camera."""
+        theta, rho = np.broadcast_arrays(np.asarray(theta, dtype=np.float64), np.asarray(rho, dtype=np.float64))
+        if self.viewpoint is None:
+            return np.zeros((*theta.shape, 3))
+        _, rho_camera = self.camera_angles(theta, rho)
+        return self.viewpoint.offset(rho_camera)[..., None] * self.axis_direction()
+
     def image_angle(self, theta: ArrayLike) -> FloatArray:
         """Image angle phi (rad) of azimuth(s) theta (rad) in the camera's axes."""
         return self.s * np.asarray(theta, dtype=np.float64) + self.phi0
@@ -121,6 +161,8 @@ class CameraModel:
         }
         if self.rotation is not None:
             data["rotation"] = [list(row) for row in self.rotation]
+        if self.viewpoint is not None:
+            data["viewpoint"] = self.viewpoint.to_dict()
         return data
 
     @classmethod
@@ -130,8 +172,14 @@ class CameraModel:
             rotation = data.get("rotation")
             if rotation is not None:
                 rotation = tuple(tuple(float(x) for x in row) for row in rotation)
+            viewpoint = None if data.get("viewpoint") is None else Viewpoint.from_dict(data["viewpoint"])
             return cls(
-                (u0, v0), RadialFunction.from_dict(data["radial"]), int(data["s"]), float(data["phi0_rad"]), rotation
+                (u0, v0),
+                RadialFunction.from_dict(data["radial"]),
+                int(data["s"]),
+                float(data["phi0_rad"]),
+                rotation,
+                viewpoint,
             )
         except (KeyError, TypeError, ValueError) as exc:
             if isinstance(exc, PanomapError):

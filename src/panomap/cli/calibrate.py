@@ -140,6 +140,16 @@ from .options import (
     "landmarks' median distance].",
 )
 @click.option(
+    "--viewpoint",
+    type=click.Choice(["auto", "single", "caustic"]),
+    default="auto",
+    show_default=True,
+    help="A mirror without a single viewpoint (a sphere, a cone): 'auto' gives a mirror camera (a cut-off disc "
+    "shows) each elevation's ray origin on its axis where cross-validation over the landmarks chooses it; "
+    "'single' keeps every ray from --camera (the paper); 'caustic' fits the ray origins whatever "
+    "cross-validation says (a mirror known to be a sphere or a cone).",
+)
+@click.option(
     "--lines/--no-lines",
     "use_lines",
     default=True,
@@ -205,6 +215,7 @@ def fit(
     world_sigma: float | None,
     tilt: str | tuple[float, float],
     camera_sigma: float | None,
+    viewpoint: str,
     use_lines: bool,
     use_boards: bool,
     keep_outliers: bool,
@@ -273,6 +284,7 @@ def fit(
             tilt_deg=tilt,
             camera_sigma=camera_sigma,
             lines=use_lines and omni is not None,
+            viewpoint=viewpoint,
         )
     except PanomapError as exc:
         raise PanomapError(exc.detail, exc.source or landmarks) from None
@@ -508,6 +520,8 @@ def _describe_fit(table: PanoMappingTable) -> str:
         lines.append(centre)
     if fit is not None and fit.mount is not None:
         lines.extend(fit.mount.sentences())
+    if fit.viewpoint is not None:
+        lines.extend(fit.viewpoint.sentences())
     return "\n".join([*lines, _describe_residuals(table, fit)])
 
 
@@ -567,6 +581,18 @@ def _describe_table(table: PanoMappingTable) -> str:
 # ----------------------------------------------------------------------------- info
 
 
+def _describe_viewpoint(table: PanoMappingTable, report: FitReport | None) -> list[str]:
+    """Whether the table's camera has a single viewpoint, and what a single-viewpoint table would miss."""
+    if report is not None and report.viewpoint is not None:
+        return report.viewpoint.sentences()
+    if table.model.single_viewpoint:
+        return ["viewpoint: single (every ray from the camera position)"]
+    viewpoint = table.model.viewpoint
+    assert viewpoint is not None
+    low, high = viewpoint.elevations_rad[0], viewpoint.elevations_rad[-1]
+    return [f"viewpoint: not single: the rays leave the axis over {viewpoint.excursion(low, high):.4g} world units"]
+
+
 def _describe_import(record: object) -> list[str]:
     """Where an imported table came from (``panomap import``): none for a table fitted here."""
     if not isinstance(record, dict):
@@ -612,6 +638,7 @@ def info(table: Path, as_json: bool) -> None:
     report = table_fit_report(loaded, table)
     if report is not None and report.mount is not None and report.mount.position_refined:
         lines.append(f"camera position refined from {tuple(round(c, 6) for c in report.mount.camera_given)}")
+    lines.extend(_describe_viewpoint(loaded, report))
     # An imported table has no landmarks: its table line instead of their residuals.
     last = _describe_table(loaded) if "import" in loaded.info else _describe_residuals(loaded, report)
     click.echo(printable("\n".join([*lines, last]), keep="\n"))

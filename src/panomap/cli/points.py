@@ -92,7 +92,7 @@ def unproject(table: Path, pixels: Path, output: Path, z_plane: float | None) ->
     replaced = {name.lower() for name in added}
     keep = [i for i, name in enumerate(header) if name.lower() not in replaced]
     world = (
-        ray_plane_points(loaded.camera_position, theta, rho, z_plane)
+        ray_plane_points(loaded.ray_origins(np.nan_to_num(theta), np.nan_to_num(rho)), theta, rho, z_plane)
         if z_plane is not None
         else np.full((len(rows), 0), np.nan)
     )

@@ -37,9 +37,11 @@ from ..files import write_with
 from .sampling import MAX_TABLE_SIDE
 from .table import MAX_TABLE_ENTRIES, TABLE_FORMAT, PanoMappingTable, fill_entries
 
-READ_VERSIONS = (1, 2, 3)
+READ_VERSIONS = (1, 2, 3, 4)
 # Version 3 added the camera's rotation (a tilted camera) to the model; older files hold level cameras.
 ROTATION_VERSION = 3
+# Version 4 added the ray origins of a camera without a single viewpoint (``model["viewpoint"]``).
+VIEWPOINT_VERSION = 4
 # Entries are float32: about 1e-4 px at radii of 2000 px. A loaded table whose
 # entries stray further than this from its own model is corrupt.
 ENTRY_TOLERANCE_PX = 1e-2
@@ -195,6 +197,8 @@ class TableMetadata:
             raise _malformed(f"model is {_shown(meta['model'])}, not an object")
         if version < ROTATION_VERSION and "rotation" in meta["model"]:
             raise _malformed(f"a version {version} table holds no camera rotation (version {ROTATION_VERSION} does)")
+        if version < VIEWPOINT_VERSION and "viewpoint" in meta["model"]:
+            raise _malformed(f"a version {version} table holds no viewpoint (version {VIEWPOINT_VERSION} does)")
         try:
             model = CameraModel.from_dict(meta["model"])
         except PanomapError as exc:

@@ -28,13 +28,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..camera.model import CameraModel
 from ..errors import PanomapError
-from ..geometry import TWO_PI, FloatArray, azimuth_elevation, inside_image, pixel_polar, wrap_azimuth
+from ..geometry import TWO_PI, FloatArray, inside_image, pixel_polar, wrap_azimuth
 from .sampling import MAX_TABLE_SIDE, RemapImages, remap_images, sample_entries, sample_grid
 
 MAX_TABLE_ENTRIES = 50_000_000
-# The file format's name and version (:mod:`panomap.table.file` reads versions 1 to 3).
+# The file format's name and version (:mod:`panomap.table.file` reads versions 1 to 4). A table of a
+# single-viewpoint camera is written as version 3, which panomap has read since tilted cameras; version 4
+# adds the ray origins of a camera without a single viewpoint (``model["viewpoint"]``), which a reader of
+# version 3 refuses by its version, saying so, rather than reading its views at the wrong distance.
 TABLE_FORMAT = "panomap-table"
 TABLE_VERSION = 3
+VIEWPOINT_VERSION = 4
 # Pixels this close outside the annulus or the radial profile's ends (px) still unproject:
 # the ends are solved to rounding, and a pixel's radius is computed to rounding.
 PROFILE_SLACK_PX = 1e-6
@@ -161,10 +165,19 @@ class PanoMappingTable:
         return remap_images(self.entries, self.image_size)
 
     def project(self, points: ArrayLike, sampling: str = "bilinear") -> NDArray[np.float32]:
-        """Pixels (..., 2) of world points (..., 3) through the table; NaN where not visible."""
+        """Pixels (..., 2) of world points (..., 3) through the table; NaN where not visible.
+
+        Each point is sampled at the direction of the ray that reaches it (:meth:`CameraModel.point_angles`):
+        the direction from O_m, or for a camera without a single viewpoint the ray from its own origin.
+        """
         d = np.asarray(points, dtype=np.float64) - np.asarray(self.camera_position)
-        theta, rho = azimuth_elevation(d)
+        theta, rho = self.model.point_angles(d)
         return self.sample(theta, rho, sampling)
+
+    def ray_origins(self, theta: ArrayLike, rho: ArrayLike) -> FloatArray:
+        """World points (..., 3) where the rays of azimuth ``theta`` and elevation ``rho`` (rad) leave: O_m for
+        a single-viewpoint camera, else each ray's own point on the axis (:mod:`panomap.camera.viewpoint`)."""
+        return np.asarray(self.camera_position, dtype=np.float64) + self.model.ray_origins(theta, rho)
 
     def unproject(self, uv: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Azimuth and elevation of pixels: the inverse of the table.
@@ -310,7 +323,7 @@ class PanoMappingTable:
         m, n = self.size
         return {
             "format": TABLE_FORMAT,
-            "version": TABLE_VERSION,
+            "version": TABLE_VERSION if self.model.viewpoint is None else VIEWPOINT_VERSION,
             "size": [m, n],
             "elevation_range_rad": list(self.elevation_range),
             "model": self.model.to_dict(),

@@ -297,7 +297,18 @@ def build_map(
     giving the exact map); ``exact=True`` takes the exact way always. The
     lookup is made from the second such map of a table on (it costs about two
     exact maps): a lone map, as a still render or a video's, is exact.
+
+    For a camera without a single viewpoint (:mod:`panomap.camera.viewpoint`), a view of a surface
+    (cylinder, plane, floor) reads each point through the ray that reaches it from its own origin on the
+    axis; the panoramas and the perspective view see directions, the rays at infinity.
     """
+    if not table.model.single_viewpoint:
+        # A camera without a single viewpoint sees a point along the ray through it from its own origin: the
+        # views of a surface read the table at those rays' directions; the views of directions, at infinity.
+        points = view.points(table)
+        if points is not None:
+            theta, rho = table.model.point_angles(points)
+            return table.sample(theta.astype(np.float32), rho.astype(np.float32), sampling, overwrite=True)
     if not exact:
         quick = view.quick_map(table, sampling)
         if quick is not None:

@@ -121,7 +121,10 @@ class FloorView(View):
         return out
 
     def points(self, table: PanoMappingTable) -> FloatArray:
-        """The (H, W, 3) points the pixels see, relative to O_m: :meth:`world_points` less ``table.camera_position``."""
+        """The (H, W, 3) points the pixels see, relative to O_m: :meth:`world_points` less ``table.camera_position``.
+
+        Refuses a plane the camera cannot see (:meth:`check_plane`)."""
+        self.check_plane(table)
         return self.world_points() - np.asarray(table.camera_position)
 
     def check_plane(self, table: PanoMappingTable) -> None:

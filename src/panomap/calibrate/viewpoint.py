@@ -1,0 +1,311 @@
+"""A camera without a single viewpoint, learned from landmarks (beyond the paper).
+
+The paper's table holds one pixel per direction, as if every ray left the mirror centre O_m. A mirror
+without a single viewpoint (a sphere, a cone) sends each elevation's ray from its own point on the axis
+(:mod:`panomap.camera.viewpoint`): a table made for far landmarks then misplaces near points, by pixels
+at a metre. Landmarks at several distances show it: the elevation a landmark is seen at depends on its
+distance as well as its direction.
+
+:func:`choose_viewpoint` fits, after the landmark fit (:func:`panomap.calibrate.fit.fit_camera`), the
+radial function together with the ray origins of a mirror of revolution, ``z = k_1 (h(rho) - h_mean)`` with
+h the caustic that f_r itself implies (:func:`panomap.camera.viewpoint.caustic_shape`; one unknown, the
+mirror's size, with a prior; O_m is the mean ray origin), to the inlier landmarks' radii; the azimuth does
+not depend on z, so the centre, the handedness, phi0, the tilt and the position stay as fitted. Each
+residual is whitened by the noise model (:mod:`.noise`). The camera is taken as non-central only where leave-one-out
+cross-validation says so: its held-out whitened RMS is at most ``VIEWPOINT_GAIN`` times the single
+viewpoint's. A single-viewpoint camera keeps its fit unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..camera.orientation import to_camera
+from ..camera.radial import RadialFunction, fit_radial
+from ..camera.radial_models import MODELS, radial_kind
+from ..camera.viewpoint import Viewpoint, caustic_viewpoint
+from ..errors import PanomapError
+from ..geometry import HALF_PI, FloatArray, pixel_polar
+from .noise import radial_sigma, world_sigmas
+
+# What ``fit_camera(viewpoint=...)`` takes: choose by cross-validation, keep O_m, or fit the caustic.
+VIEWPOINT_MODES = ("auto", "single", "caustic")
+# A non-central camera is kept where its held-out RMS is at most this fraction of the single viewpoint's
+# (bench/bench_noncentral.py: single-viewpoint cameras keep theirs).
+VIEWPOINT_GAIN = 0.9
+# Fewer inliers than the unknowns plus this leave too little to hold out: the camera stays single-viewpoint.
+SPARE_LANDMARKS = 3
+# Distance (world units) at which the report states the parallax a single-viewpoint table would make.
+PARALLAX_DISTANCE = 1.0
+# The viewpoint's nodes reach this far (rad) beyond the landmarks' elevations, within alpha 1..179 deg.
+NODE_MARGIN_RAD = math.radians(20.0)
+NODE_LIMIT_RAD = math.radians(1.0)
+# The radial kinds the caustic is tried with, beside the single viewpoint's own: those of at most this many
+# parameters (a stiff law cannot bend to stand in for the ray origins).
+CAUSTIC_KIND_PARAMETERS = 2
+# The prior of the mirror's size: the spread of its ray origins over the landmarks' elevations has a standard
+# deviation of this fraction of the landmarks' median distance (a mirror is small beside the room it sees). A
+# dozen landmarks with a centimetre of error pin the spread loosely: without the prior, the fitted spread of a
+# simulated sphere's was 0.4-3.6 times the true one, and 1 m views 12 px off (bench/bench_noncentral.py).
+SPREAD_PRIOR_FRACTION = 0.02
+# The starts of the caustic's size: its spread over the landmarks' elevations as a fraction of their distance.
+START_SPREADS = (0.0, -0.04, -0.02, -0.01, -0.005, 0.005, 0.01, 0.02, 0.04)
+
+
+@dataclass(frozen=True)
+class LandmarkRays:
+    """The inlier landmarks in the camera's axes, what a viewpoint fit needs, each (n,).
+
+    Attributes
+    ----------
+    horizontal, height : (n,) ndarray
+        Distance from the camera's axis and height above O_m along it (world units).
+    r : (n,) ndarray
+        Pixel radius about the centre (px).
+    sigma : (n,) ndarray
+        Standard deviation of each radial residual (px), from the noise model (held fixed).
+    position_sigma : float
+        Standard deviation of the camera position along the axis (world units): the prior of the ray
+        origins' mean height.
+    """
+
+    horizontal: FloatArray
+    height: FloatArray
+    r: FloatArray
+    sigma: FloatArray
+    reference_rad: tuple[float, float] | None = None
+
+    def subset(self, keep: Any) -> LandmarkRays:
+        return LandmarkRays(
+            self.horizontal[keep], self.height[keep], self.r[keep], self.sigma[keep], self.reference_rad
+        )
+
+
+@dataclass(frozen=True)
+class ViewpointFit:
+    """The radial function and the ray origins fitted together."""
+
+    radial: RadialFunction
+    viewpoint: Viewpoint | None
+
+
+@dataclass(frozen=True)
+class ViewpointChoice:
+    """What :func:`choose_viewpoint` chose.
+
+    Attributes
+    ----------
+    fit : ViewpointFit or None
+        The non-central camera, where cross-validation chose it; None keeps the single viewpoint.
+    held_out : dict of str to float
+        Leave-one-out whitened RMS of the landmarks' radii of each candidate: ``"single viewpoint"`` and
+        ``"viewpoint degree k"``.
+    """
+
+    fit: ViewpointFit | None
+    held_out: dict[str, float]
+
+
+def landmark_rays(
+    world: FloatArray,
+    pixels: FloatArray,
+    camera: tuple[float, float, float],
+    rotation: Any,
+    centre: tuple[float, float],
+    radial: RadialFunction,
+    pixel_sigma: float,
+    world_sigma: float,
+    reference_rad: tuple[float, float] | None = None,
+) -> LandmarkRays:
+    """Landmarks (world (n, 3), pixels (n, 2)) as :class:`LandmarkRays` of a camera at ``camera`` turned by
+    ``rotation`` (camera to world, or None), centred at ``centre``; sigmas from the noise model with the
+    slope of ``radial``; ``reference_rad``, the camera elevations (rad) over which O_m is the mean ray origin
+    (:func:`annulus_elevations`; the landmarks' own where None)."""
+    d = to_camera(np.asarray(world, dtype=np.float64) - np.asarray(camera), rotation)
+    horizontal = np.hypot(d[:, 0], d[:, 1])
+    r, _ = pixel_polar(pixels, centre)
+    sigma_rho, _ = world_sigmas(d, world_sigma)
+    sigma = radial_sigma(radial, np.arctan2(d[:, 2], horizontal), sigma_rho, pixel_sigma)
+    return LandmarkRays(horizontal, d[:, 2], r, sigma, reference_rad)
+
+
+def annulus_elevations(radial: RadialFunction, annulus: tuple[float, float] | None) -> tuple[float, float] | None:
+    """The camera elevations (rad) whose radius under ``radial`` is within ``annulus`` (cut-off and outer
+    radius, px), on f_r's branch from the pole the image centre sees: the range over which O_m is the mean ray
+    origin; None where unknown or empty."""
+    if annulus is None:
+        return None
+    alpha = np.linspace(NODE_LIMIT_RAD, np.pi - NODE_LIMIT_RAD, 2001)
+    rho = alpha - HALF_PI if radial.axis == "down" else HALF_PI - alpha
+    with np.errstate(invalid="ignore"):
+        r = np.abs(radial(rho))
+    reached = np.flatnonzero(r >= annulus[0])
+    if reached.size == 0:
+        return None
+    first = int(reached[0])
+    beyond = np.flatnonzero(~(r[first:] <= annulus[1]))
+    last = first + (int(beyond[0]) if beyond.size else r.size - first) - 1
+    if last <= first:
+        return None
+    ends = (float(rho[first]), float(rho[last]))
+    return (min(ends), max(ends))
+
+
+def node_range(rays: LandmarkRays, axis: str) -> tuple[float, float]:
+    """Camera elevations (rad) a fitted viewpoint's nodes span: the landmarks' and ``NODE_MARGIN_RAD`` beyond,
+    within alpha ``NODE_LIMIT_RAD``..180 deg less that (the caustic is not defined at the poles)."""
+    rho = np.arctan2(rays.height, rays.horizontal)
+    low, high = float(np.min(rho)) - NODE_MARGIN_RAD, float(np.max(rho)) + NODE_MARGIN_RAD
+    bottom, top = -HALF_PI + NODE_LIMIT_RAD, HALF_PI - NODE_LIMIT_RAD
+    return max(low, bottom), min(high, top)
+
+
+def fit_viewpoint(
+    rays: LandmarkRays, start: RadialFunction, caustic: bool, shape_from: RadialFunction | None = None
+) -> ViewpointFit:
+    """f_r and, with ``caustic``, the mirror's ray origins, by least squares of the whitened radial residuals
+    from ``start`` and z = 0; without, f_r alone about O_m.
+
+    The ray origins are ``z = k_1 (h - h_mean)``: h the caustic of ``shape_from`` (default ``start``;
+    :func:`caustic_viewpoint`), held while f_r moves, and h_mean its mean over the image area of the reference
+    elevations (``rays.reference_rad``), so that O_m is the mean ray origin, as the position given for a
+    mirror camera (its mirror's centre) means. The mirror's size k_1 has a prior: the origins' spread over the
+    reference elevations has a standard deviation of ``SPREAD_PRIOR_FRACTION`` of the landmarks' distance.
+
+    Raises
+    ------
+    PanomapError
+        If the least squares does not end at a finite camera.
+    """
+    spec = start.spec
+    count = len(start.coefficients)
+    span = node_range(rays, start.axis)
+    straight = np.arctan2(rays.height, rays.horizontal)
+    landmark_span = (float(np.min(straight)), float(np.max(straight)))
+
+    # The caustic's shape h from the starting f_r, held: a radial kind that bends near the rim would otherwise
+    # trade its shape against the caustic's size (2-3 times the true spread, on simulated spheres).
+    mirror = start if shape_from is None else shape_from
+    shape = caustic_viewpoint(mirror, 0.0, 1.0, span)
+    rho_nodes = np.asarray(shape.elevations_rad)
+    reference = landmark_span if rays.reference_rad is None else rays.reference_rad
+    inside = (rho_nodes >= reference[0]) & (rho_nodes <= reference[1])
+    area = np.abs(mirror(rho_nodes) * mirror.slope(rho_nodes))[inside]
+    h = np.asarray(shape.offsets)
+    mean = float(np.sum(area * h[inside]) / np.sum(area)) if np.sum(area) > 0 else float(np.mean(h[inside]))
+
+    unit_spread = float(np.ptp(h[inside])) if np.any(inside) else float(np.ptp(h))
+    distance = float(np.median(np.hypot(rays.horizontal, rays.height)))
+    spread_sigma = SPREAD_PRIOR_FRACTION * distance
+
+    def camera(x: FloatArray) -> ViewpointFit:
+        radial = RadialFunction(start.kind, tuple(float(c) for c in x[:count]), start.axis)
+        if not caustic:
+            return ViewpointFit(radial, None)
+        return ViewpointFit(radial, Viewpoint(shape.elevations_rad, tuple((float(x[count]) * (h - mean)).tolist())))
+
+    def residuals(x: FloatArray) -> FloatArray:
+        coefficients = tuple(float(c) for c in x[:count])
+        rho = straight
+        if caustic:
+            try:
+                fitted = camera(x)
+            except PanomapError:
+                return np.full(rays.r.size, 1e6)
+            assert fitted.viewpoint is not None
+            rho = fitted.viewpoint.elevation_of_point(rays.horizontal, rays.height)
+        predicted = spec.evaluate(coefficients, rho, start.axis)
+        whitened = np.nan_to_num((predicted - rays.r) / rays.sigma, nan=1e6, posinf=1e6, neginf=-1e6)
+        if not caustic:
+            return whitened
+        return np.append(whitened, x[count] * unit_spread / spread_sigma)
+
+    x0 = np.asarray(start.coefficients, dtype=np.float64)
+    if caustic:
+        # The ray origins' spread is weakly pinned by a dozen landmarks: the least squares starts from the best
+        # of a profile over spreads of 0 to 4% of the landmarks' distance, each way (or it can stop short).
+        unit = camera(np.append(x0, 1.0)).viewpoint
+        assert unit is not None
+        spread = max(unit.excursion(*landmark_span), 1e-12)
+        starts = [np.append(x0, f * distance / spread) for f in START_SPREADS]
+        x0 = min(starts, key=lambda x: float(np.sum(residuals(x) ** 2)))
+    solution = least_squares(residuals, x0, x_scale="jac", max_nfev=100 * x0.size)
+    try:
+        return camera(solution.x)
+    except PanomapError as exc:
+        raise PanomapError(f"the viewpoint fit failed ({exc.detail})") from None
+
+
+def held_out_rms(
+    rays: LandmarkRays, start: RadialFunction, caustic: bool, shape_from: RadialFunction | None = None
+) -> float:
+    """Leave-one-out RMS of the whitened radial residuals of :func:`fit_viewpoint` (inf where a fold fails)."""
+    n = rays.r.size
+    errors = np.empty(n)
+    for k in range(n):
+        keep = np.arange(n) != k
+        try:
+            fitted = fit_viewpoint(rays.subset(keep), start, caustic, shape_from)
+        except PanomapError:
+            return math.inf
+        one = rays.subset(~keep)
+        rho = (
+            np.arctan2(one.height, one.horizontal)
+            if fitted.viewpoint is None
+            else fitted.viewpoint.elevation_of_point(one.horizontal, one.height)
+        )
+        errors[k] = float(((fitted.radial(rho) - one.r) / one.sigma)[0])
+    return float(np.sqrt(np.mean(errors**2))) if np.all(np.isfinite(errors)) else math.inf
+
+
+SINGLE = "single viewpoint"
+CAUSTIC = "mirror caustic"
+
+
+def choose_viewpoint(rays: LandmarkRays, start: RadialFunction, forced: bool = False) -> ViewpointChoice:
+    """The single viewpoint, or the mirror's caustic where its held-out RMS is at most ``VIEWPOINT_GAIN`` times
+    the single viewpoint's (see the module's docstring); with ``forced``, the caustic of the best kind whatever
+    their scores.
+
+    The caustic is tried with the single viewpoint's radial kind and with every weighted kind of at most
+    ``CAUSTIC_KIND_PARAMETERS`` (each started about O_m): the kind a single-viewpoint fit chose may bend to
+    stand in for the ray origins at the landmarks' distances, and then trade its shape against the caustic's
+    size.
+    """
+    if not start.spec.weighted or rays.r.size < len(start.coefficients) + 2 + SPARE_LANDMARKS:
+        return ViewpointChoice(None, {})
+    held_out = {SINGLE: held_out_rms(rays, start, False)}
+    straight = np.arctan2(rays.height, rays.horizontal)
+    candidates: dict[str, RadialFunction] = {}
+    for name in MODELS:
+        kind = radial_kind(name)
+        own = name == start.kind
+        if not own and (not kind.weighted or kind.parameter_count > CAUSTIC_KIND_PARAMETERS):
+            continue
+        try:
+            candidates[name] = start if own else fit_radial(name, straight, rays.r, start.axis, 1.0 / rays.sigma)
+        except PanomapError:
+            continue
+        held_out[f"{CAUSTIC} ({name})"] = held_out_rms(rays, candidates[name], True, start)
+    best = min(candidates, key=lambda name: held_out[f"{CAUSTIC} ({name})"], default=None)
+    if best is None or not (forced or held_out[f"{CAUSTIC} ({best})"] <= VIEWPOINT_GAIN * held_out[SINGLE]):
+        return ViewpointChoice(None, held_out)
+    try:
+        return ViewpointChoice(fit_viewpoint(rays, candidates[best], True, start), held_out)
+    except PanomapError:
+        return ViewpointChoice(None, held_out)
+
+
+def parallax_px(radial: RadialFunction, viewpoint: Viewpoint, elevation_range: tuple[float, float]) -> float:
+    """The largest error (px) a single-viewpoint table of this camera would make for points at horizontal
+    distance ``PARALLAX_DISTANCE`` from the axis, over camera elevations ``elevation_range`` (rad): the
+    point on each ray at that distance, seen from O_m instead of from the ray's origin."""
+    rho = np.linspace(*elevation_range, 181)
+    height = viewpoint.offset(rho) + PARALLAX_DISTANCE * np.tan(rho)
+    seen = np.arctan2(height, PARALLAX_DISTANCE)
+    return float(np.nanmax(np.abs(radial(seen) - radial(rho))))
