@@ -44,6 +44,7 @@ from ..io.local_web import (
     serve_in_thread,
 )
 from ..table.table import PanoMappingTable
+from ..values import MAX_ABS, NotFinite, finite_number
 from .feed import FrameFeed, window_of
 from .source import Source
 from .table_texture import lookup_texture, table_description, texture_bytes
@@ -53,12 +54,34 @@ MAX_RANGE_BYTES = 8 << 20
 # The longest wait (s) for a new frame within one request.
 MAX_FRAME_WAIT_S = 1.0
 CHUNK_BYTES = 1 << 20
-_RANGE = re.compile(r"^bytes=(\d*)-(\d*)$")
+_RANGE = re.compile(r"^bytes=([0-9]*)-([0-9]*)$")
+# Digits read of a number in a request: more is beyond any file, frame or index (and Python refuses to convert
+# an integer of over 4300 digits).
+MAX_DIGITS = 18
+BEYOND = 10**MAX_DIGITS  # what a number of more digits reads as
+
+
+def bounded_int(text: str) -> int:
+    """The whole number ``text`` (ASCII digits, an optional ``-``), or :data:`BEYOND` (``-BEYOND``) where it has
+    more than :data:`MAX_DIGITS` digits: larger than anything it can count.
+
+    Raises
+    ------
+    ValueError
+        When ``text`` is not a whole number.
+    """
+    digits = text[1:] if text.startswith("-") else text
+    if not digits or not digits.isascii() or not digits.isdigit():
+        raise ValueError(f"not a whole number: {text[:40]!r}")
+    digits = digits.lstrip("0") or "0"
+    value = int(digits) if len(digits) <= MAX_DIGITS else BEYOND
+    return -value if text.startswith("-") else value
 
 
 def byte_range(header: str | None, size: int) -> tuple[int, int] | None:
     """The (first, last) bytes, inclusive, that a ``Range`` header asks of a file of ``size`` bytes, at most
-    :data:`MAX_RANGE_BYTES` of them; None without a header.
+    :data:`MAX_RANGE_BYTES` of them; None without a header. Numbers of any length are read (one beyond
+    :data:`MAX_DIGITS` digits as beyond the file).
 
     Raises
     ------
@@ -72,10 +95,10 @@ def byte_range(header: str | None, size: int) -> tuple[int, int] | None:
         raise RequestError(f"unsupported range {header[:60]!r} (one bytes=FIRST-LAST range)", 416)
     first_text, last_text = match.groups()
     if first_text == "":  # the last N bytes
-        first, last = max(0, size - int(last_text)), size - 1
+        first, last = max(0, size - bounded_int(last_text)), size - 1
     else:
-        first = int(first_text)
-        last = size - 1 if last_text == "" else min(int(last_text), size - 1)
+        first = bounded_int(first_text)
+        last = size - 1 if last_text == "" else min(bounded_int(last_text), size - 1)
     if first >= size or last < first:
         raise RequestError(f"the range {header[:60]!r} lies outside the file ({size} bytes)", 416, {"size": size})
     return first, min(last, first + MAX_RANGE_BYTES - 1)
@@ -167,26 +190,14 @@ class ViewerHandler(LocalHandler):
         feed = self.server.feed
         if feed is None or self.server.source.kind != "video":
             raise RequestError("only a video file's decoded frames can be paused or sought", 409)
-        paused, seek_s = data.get("paused"), data.get("seek_s")
+        paused = data.get("paused")
         if paused is not None and not isinstance(paused, bool):
             raise RequestError(f"{path}: paused must be true or false")
-        if seek_s is not None and (isinstance(seek_s, bool) or not isinstance(seek_s, int | float) or seek_s < 0):
-            raise RequestError(f"{path}: seek_s must be a time of at least 0 s")
-        feed.control(paused, None if seek_s is None else float(seek_s))
+        feed.control(paused, _seek_time(data.get("seek_s"), path))
         self._json({"ok": True})
 
     def _frame(self, feed: FrameFeed, query: dict[str, list[str]]) -> None:
-        try:
-            after = int(query.get("after", ["0"])[0])
-        except ValueError:
-            raise RequestError("after must be a whole number (the index of the frame the page has)") from None
-        window = None
-        if "window" in query:
-            try:
-                x0, y0, w, h = (int(v) for v in query["window"][0].split(","))
-            except ValueError:
-                raise RequestError("window must be X0,Y0,WIDTH,HEIGHT in whole pixels") from None
-            window = (x0, y0, w, h)
+        after, window = _frame_query(query)
         frame = feed.frame_after(after, MAX_FRAME_WAIT_S)
         if frame is None:
             self.send_response(204)
@@ -233,6 +244,41 @@ class ViewerHandler(LocalHandler):
                     return
                 self.wfile.write(chunk)
                 left -= len(chunk)
+
+
+def _seek_time(value: object, path: str) -> float | None:
+    """A request's ``seek_s``: None, or a time of at least 0 s and at most :data:`~panomap.values.MAX_ABS`."""
+    if value is None:
+        return None
+    problem = f"{path}: seek_s must be a time of at least 0 s and at most {MAX_ABS:g} s"
+    if not isinstance(value, int | float):
+        raise RequestError(problem)
+    try:
+        seconds = finite_number(value, bools=False)
+    except NotFinite:
+        raise RequestError(problem) from None
+    if seconds < 0:
+        raise RequestError(problem)
+    return seconds
+
+
+def _frame_query(query: dict[str, list[str]]) -> tuple[int, tuple[int, int, int, int] | None]:
+    """``/api/frame``'s ``after`` (the index of the frame the page has) and ``window`` (x0, y0, width, height)."""
+    try:
+        after = bounded_int(query.get("after", ["0"])[0])
+    except ValueError:
+        raise RequestError("after must be a whole number (the index of the frame the page has)") from None
+    if abs(after) >= BEYOND:
+        raise RequestError(f"after must be a whole number of at most {MAX_DIGITS} digits")
+    if "window" not in query:
+        return after, None
+    try:
+        x0, y0, w, h = (bounded_int(v) for v in query["window"][0].split(","))
+    except ValueError:
+        raise RequestError("window must be X0,Y0,WIDTH,HEIGHT in whole pixels") from None
+    if max(abs(x0), abs(y0), abs(w), abs(h)) >= BEYOND:
+        raise RequestError(f"window must be X0,Y0,WIDTH,HEIGHT in whole pixels of at most {MAX_DIGITS} digits")
+    return after, (x0, y0, w, h)
 
 
 def make_server(
