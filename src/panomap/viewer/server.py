@@ -10,7 +10,9 @@ API (GET unless said; errors are ``{"error": "..."}`` with their status):
   lookup (what the CLI's perspective and floor views read), where it has one.
 - ``/api/image``: a still image (PNG).
 - ``/api/video``: a video file, as it is, with HTTP range requests (at most :data:`MAX_RANGE_BYTES`
-  an answer: a browser asks for the rest).
+  an answer: a browser asks for the rest). The file is opened once, when the server starts
+  (:class:`~panomap.viewer.source.HeldFile`): a link swapped or a file replaced later changes nothing
+  that is sent or decoded.
 - ``/api/frame?after=K[&window=X0,Y0,W,H]``: the newest decoded frame (JPEG; only the window's pixels
   where one is given) when its index is above K, waiting up to a second for one; 204 when none came.
   Headers ``X-Frame-Index``, ``X-Frame-Time`` (s), ``X-Frame-Age`` (s since it was decoded) and
@@ -46,7 +48,7 @@ from ..io.local_web import (
 from ..table.table import PanoMappingTable
 from ..values import MAX_ABS, NotFinite, finite_number
 from .feed import FrameFeed, window_of
-from .source import Source
+from .source import HeldFile, Source
 from .table_texture import lookup_texture, table_description, texture_bytes
 
 # The most bytes of a video one answer carries (a browser asks for the rest as it plays).
@@ -134,13 +136,19 @@ class ViewerServer(LocalServer):
         lookup = lookup_texture(table)
         self.lookup_bytes = None if lookup is None else lookup[0].astype("<f4", copy=False).tobytes()
         self.info["table"]["lookup"] = None if lookup is None else lookup[1]
-        self.feed = feed if feed is not None else (FrameFeed(source) if source.kind != "image" else None)
-        super().__init__(address, ViewerHandler, idle_timeout_s, request_deadline_s)
+        # A video file is opened once, here: what is sent and decoded, whatever its name points to later.
+        self.file = HeldFile(source.name) if source.kind == "video" and source.path is not None else None
+        self.feed = feed
+        if feed is None and source.kind != "image":
+            self.feed = FrameFeed(source, file=self.file)
+        super().__init__(address, ViewerHandler, idle_timeout_s, request_deadline_s)  # (a failed bind closes)
 
     def server_close(self) -> None:
         super().server_close()
         if self.feed is not None:
             self.feed.close()
+        if self.file is not None:
+            self.file.close()
 
 
 class ViewerHandler(LocalHandler):
@@ -170,8 +178,8 @@ class ViewerHandler(LocalHandler):
             self._send(204, b"", "image/x-icon")
         elif path == "/api/image" and server.source.image_png is not None:
             self._send(200, server.source.image_png, "image/png")
-        elif path == "/api/video" and server.source.mime is not None:
-            self._video(server.source)
+        elif path == "/api/video" and server.source.mime is not None and server.file is not None:
+            self._video(server.file, server.source.mime)
         elif path == "/api/frame" and server.feed is not None:
             self._frame(server.feed, parse_qs(parts.query))
         elif path == "/api/status" and server.feed is not None:
@@ -215,35 +223,31 @@ class ViewerHandler(LocalHandler):
         }
         self._send(200, body, "image/jpeg", headers)
 
-    def _video(self, source: Source) -> None:
-        path = source.path
-        assert path is not None and source.mime is not None
-        try:
-            file = open(path, "rb")
-        except OSError as exc:
-            raise RequestError(f"cannot read the video ({exc.strerror or exc})", 500) from None
-        with file:
-            size = file.seek(0, 2)
-            wanted = byte_range(self.headers.get("Range"), size)
-            first, last = wanted if wanted is not None else (0, size - 1)
-            self.send_response(206 if wanted is not None else 200)
-            self.send_header("Content-Length", str(last - first + 1))
-            self.send_header("Accept-Ranges", "bytes")
-            if wanted is not None:
-                self.send_header("Content-Range", f"bytes {first}-{last}/{size}")
-            self.send_common_headers(source.mime)
-            self.end_headers()
-            if self.command == "HEAD":
+    def _video(self, file: HeldFile, mime: str) -> None:
+        """The video file held since the server started, whole or the range asked for."""
+        size = file.size
+        wanted = byte_range(self.headers.get("Range"), size)
+        first, last = wanted if wanted is not None else (0, size - 1)
+        self.send_response(206 if wanted is not None else 200)
+        self.send_header("Content-Length", str(last - first + 1))
+        self.send_header("Accept-Ranges", "bytes")
+        if wanted is not None:
+            self.send_header("Content-Range", f"bytes {first}-{last}/{size}")
+        self.send_common_headers(mime)
+        self.end_headers()
+        if self.command == "HEAD":
+            return
+        at, end = first, last + 1
+        while at < end:
+            try:
+                chunk = file.read_at(at, min(CHUNK_BYTES, end - at))
+            except (OSError, ValueError):  # (the server closes meanwhile)
+                chunk = b""
+            if not chunk:
+                self.close_connection = True  # (the file shrank: the client sees a short answer)
                 return
-            file.seek(first)
-            left = last - first + 1
-            while left > 0:
-                chunk = file.read(min(CHUNK_BYTES, left))
-                if not chunk:
-                    self.close_connection = True  # (the file shrank: the client sees a short answer)
-                    return
-                self.wfile.write(chunk)
-                left -= len(chunk)
+            self.wfile.write(chunk)
+            at += len(chunk)
 
 
 def _seek_time(value: object, path: str) -> float | None:
