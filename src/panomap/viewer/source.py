@@ -100,6 +100,7 @@ class HeldFile:
         return _HeldReader(self)
 
     def close(self) -> None:
+        """Let the file go (readers fail after this)."""
         self._file.close()
 
 
