@@ -12,6 +12,7 @@ import http.client
 import json
 import re
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -252,6 +253,102 @@ def test_byte_ranges_are_read_and_capped() -> None:
     for bad in ("bytes=5-2", "bytes=1000-", "items=0-1", "bytes=0-1,5-9", "bytes=-"):
         with pytest.raises(RequestError):
             byte_range(bad, 1000)
+
+
+SECURITY_HEADERS = {
+    "x-frame-options": "DENY",
+    "x-content-type-options": "nosniff",
+    "cache-control": "no-store",
+}
+
+
+def assert_refused_safely(status: int, headers: dict[str, str], body: bytes, expected: int) -> None:
+    """A refusal with the status ``expected``: a JSON reason and every security header of a normal answer."""
+    assert status == expected, (status, body[:200])
+    for name, value in SECURITY_HEADERS.items():
+        assert headers.get(name) == value, (expected, name, headers)
+    assert "frame-ancestors 'none'" in headers.get("content-security-policy", ""), (expected, headers)
+    assert headers["content-type"] == "application/json" and json.loads(body)["error"]
+
+
+def test_ranges_and_seeks_of_thousands_of_digits_are_refused_not_crashed(
+    serve: object, work: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    size = (work / "clip.mp4").stat().st_size
+    huge = "9" * 5000  # (beyond the 4300 digits Python converts)
+    assert byte_range(f"bytes=0-{huge}", size) == (0, size - 1)  # (to the end)
+    assert byte_range(f"bytes=-{huge}", size) == (0, size - 1)  # (the last N bytes: all of them)
+    assert byte_range(f"bytes={'0' * 5000}5-9", size) == (5, 9)
+    with pytest.raises(RequestError) as refused:
+        byte_range(f"bytes={huge}-", size)
+    assert refused.value.status == 416
+    server = serve(open_source(str(work / "clip.mp4")))  # type: ignore[operator]
+    for asked in (f"bytes={huge}-", f"bytes={huge}-{huge}"):
+        assert_refused_safely(*request(server, "GET", "/api/video", headers={"Range": asked}), 416)
+    status, _, body = request(server, "GET", "/api/video", headers={"Range": f"bytes=10-{huge}"})
+    assert status == 206 and len(body) == size - 10
+    decoded = serve(open_source(str(work / "clip.avi")))  # type: ignore[operator]
+    json_type = {"Content-Type": "application/json"}
+    for seek in ("1" + "0" * 4000, "1e400", "-1e400", "1e300", "-1"):
+        body = f'{{"seek_s": {seek}}}'.encode()
+        assert_refused_safely(*request(decoded, "POST", "/api/playback", body, json_type), 400)
+    for query in (f"after={huge}", f"after=0&window={huge},0,10,10"):
+        assert_refused_safely(*request(decoded, "GET", f"/api/frame?{query}"), 400)
+    assert "Traceback" not in capsys.readouterr().err
+
+
+def raw_request(server: ViewerServer, data: bytes) -> tuple[int, dict[str, str], bytes]:
+    """Send ``data`` as it is and read the answer to the connection's end: (status, headers, body)."""
+    with socket.create_connection(server.server_address[:2], timeout=LIMIT_S) as sock:
+        sock.sendall(data)
+        answer = b""
+        while chunk := sock.recv(65536):
+            answer += chunk
+    head, _, body = answer.partition(b"\r\n\r\n")
+    lines = head.decode("latin-1").split("\r\n")
+    headers = dict(line.split(": ", 1) for line in lines[1:])
+    return int(lines[0].split()[1]), {k.lower(): v for k, v in headers.items()}, body
+
+
+def test_the_http_libraries_own_refusals_carry_the_security_headers(serve: object, work: Path) -> None:
+    server = serve(open_source(str(work / "omni.png")))  # type: ignore[operator]
+    host = f"Host: 127.0.0.1:{server.server_address[1]}\r\n".encode()
+    many = b"".join(f"X-{k}: {k}\r\n".encode() for k in range(120))
+    for data, expected in (
+        (b"BREW /coffee HTTP/1.1\r\n" + host + b"\r\n", 501),  # an unknown method
+        (b"GET /" + b"a" * 70000 + b" HTTP/1.1\r\n" + host + b"\r\n", 414),  # a URL too long
+        (b"GET / HTTP/1.1\r\n" + host + many + b"\r\n", 431),  # too many headers
+        (b"GET / HTTP/1.1\r\n" + host + b"X-Long: " + b"a" * 65600 + b"\r\n\r\n", 431),  # a header too long
+        (b"GET / HTTP/1.x\r\n" + host + b"\r\n", 400),  # a malformed request line
+        (b"GET / HTTP/2.0\r\n" + host + b"\r\n", 505),
+        (b"GET /\r\n\r\n", 505),  # HTTP/0.9, whose answers have no headers
+    ):
+        assert_refused_safely(*raw_request(server, data), expected)
+
+
+def test_the_source_is_opened_once_and_a_swapped_link_serves_the_same_file(
+    table: PanoMappingTable, work: Path, tmp_path: Path
+) -> None:
+    other = tmp_path / "other.bin"
+    other.write_bytes(b"another file, not a video" * 100)
+    data = (work / "clip.mp4").read_bytes()
+    links = {name: tmp_path / name for name in ("clip.mp4", "clip.avi")}
+    for name, link in links.items():
+        link.symlink_to(work / name)
+    with serving() as start:
+        played = start(make_server(table, "cam.npz", open_source(str(links["clip.mp4"]))))
+        decoded = start(make_server(table, "cam.npz", open_source(str(links["clip.avi"]))))
+        for link in links.values():
+            link.unlink()
+            link.symlink_to(other)
+        status, _, body = request(played, "GET", "/api/video", headers={"Range": "bytes=0-"})
+        assert status == 206 and body == data
+        status, headers, body = request(decoded, "GET", "/api/frame?after=0")
+        assert status == 200 and body[:2] == b"\xff\xd8", headers
+        assert decoded.feed is not None
+        decoded.feed.control(seek_s=1.0)  # (decoding starts again: from the file held, not the name)
+        wait_until(lambda: (decoded.feed.status().time_s or 0) >= 1.0 - 1e-6, "the seek")  # type: ignore[union-attr]
+        assert decoded.feed.status().state != "failed", decoded.feed.status().message
 
 
 # ---------------------------------------------------------------------- decoded frames

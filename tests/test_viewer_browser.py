@@ -13,6 +13,7 @@ environment variable CI set they fail instead: CI must install them (``scripts/i
 from __future__ import annotations
 
 import base64
+import json
 import math
 import shlex
 from collections.abc import Iterator
@@ -70,13 +71,23 @@ def work(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return folder
 
 
+def png_picture(url: str) -> np.ndarray:
+    """A PNG data URL's picture (BGR)."""
+    assert url.startswith("data:image/png;base64,")
+    image = cv2.imdecode(np.frombuffer(base64.b64decode(url.split(",", 1)[1]), np.uint8), cv2.IMREAD_COLOR)
+    assert image is not None
+    return image
+
+
 class Page:
     """The served page in a browser tab."""
 
-    def __init__(self, browser: Any, server: ViewerServer, fragment: str = "") -> None:
+    def __init__(self, browser: Any, server: ViewerServer, fragment: str = "", init_script: str = "") -> None:
         # bypass_csp: the page's Content-Security-Policy forbids eval, which wait_for_function uses.
         self.context = browser.new_context(viewport={"width": 1400, "height": 1000}, bypass_csp=True)
         self.page = self.context.new_page()
+        if init_script:  # (run before the page's own scripts)
+            self.page.add_init_script(init_script)
         self.page.set_default_timeout(TIMEOUT_MS)
         self.errors: list[str] = []
         self.page.on("pageerror", lambda error: self.errors.append(str(error)))
@@ -93,11 +104,7 @@ class Page:
         return dict(self.page.evaluate("(view) => window.panomapView.set(view)", view))
 
     def pixels(self) -> np.ndarray:
-        url = self.js("window.panomapView.pixels()")
-        assert url.startswith("data:image/png;base64,")
-        image = cv2.imdecode(np.frombuffer(base64.b64decode(url.split(",", 1)[1]), np.uint8), cv2.IMREAD_COLOR)
-        assert image is not None
-        return image
+        return png_picture(self.js("window.panomapView.pixels()"))
 
     def close(self) -> None:
         self.context.close()
@@ -177,6 +184,39 @@ def test_the_view_is_the_command_lines_picture(browser: Any, serve: Any, work: P
         assert np.abs(got.astype(np.int16) - expected).max() <= 2
     finally:
         page.close()
+
+
+# Asks for a view the moment the page defines its API (before the table or the source has arrived), then for
+# its pixels: window.firstView, a Promise of {state, url}.
+FIRST_VIEW_SCRIPT = """
+Object.defineProperty(window, "panomapView", {
+  configurable: true,
+  set(api) {
+    Object.defineProperty(window, "panomapView", { value: api, writable: true, configurable: true });
+    window.firstView = api.set(%s).then((state) => api.pixels().then((url) => ({ state, url })));
+  },
+});
+"""
+
+
+def test_the_first_view_a_script_asks_for_is_drawn_from_the_source(
+    browser: Any, serve: Any, work: Path, tmp_path: Path
+) -> None:
+    view = {"mode": "perspective", "yaw": 30.0, "pitch": -20.0, "roll": 0.0, "fov": 90.0, "width": 640, "height": 480}
+    expected = cli_picture(
+        tmp_path, "perspective", work / "omni.png", "--yaw", 30, "--pitch", -20, "--fov", 90, "--size", "640x480"
+    )
+    # The image, and a video whose frames the server decodes (the page is ready before its first frame comes).
+    for source, limit in (("omni.png", SAME_MEAN), ("still.avi", 2 * SERVER_VIDEO_MEAN)):
+        page = Page(browser, serve(str(work / source)), init_script=FIRST_VIEW_SCRIPT % json.dumps(view))
+        try:
+            first = page.js("window.firstView")
+            assert {key: first["state"][key] for key in view} == view
+            got = png_picture(first["url"])
+            print(f"{source}: the first view's mean difference {mean_difference(got, expected):.3f}")
+            assert mean_difference(got, expected) <= limit, source  # (a black view: 60 and more)
+        finally:
+            page.close()
 
 
 def test_the_page_gives_the_command_and_the_view_spec_of_what_it_shows(

@@ -11,7 +11,9 @@ first checked:
   pages cannot drive the server), and its ``Origin``, when sent, must be the page's own (403);
 - every answer forbids framing (``X-Frame-Options: DENY``, CSP ``frame-ancestors 'none'``) and
   sniffing, and is not cached;
-- errors are ``{"error": "..."}`` with their status; a bug is answered 500 and shown on the terminal.
+- errors are ``{"error": "..."}`` with their status, those http.server sends itself (an unknown
+  method, a URL or a header too long, a malformed request) too; a bug is answered 500 and shown on
+  the terminal.
 """
 
 from __future__ import annotations
@@ -210,6 +212,27 @@ class LocalHandler(WholeRequestHandler):
         # The request's body may be unread: end the connection rather than parse it as the next request.
         self.close_connection = True
         self._json({"error": message} | (extra or {}), status)
+
+    def send_error(self, code: int, message: str | None = None, explain: str | None = None) -> None:
+        """http.server's own refusals (an unknown method, a request line or a header too long, too many
+        headers, a malformed request) answered as every error is: JSON, with the security headers of every
+        answer, the connection closed."""
+        if getattr(self, "request_version", "") == "HTTP/0.9":  # (a request line that did not parse)
+            self.request_version = "HTTP/1.0"  # (an HTTP/0.9 answer has no status line and no headers)
+        try:
+            phrase = HTTPStatus(code).phrase
+        except ValueError:
+            phrase = "refused"
+        self._error(code, (message or phrase)[:200])
+
+    def parse_request(self) -> bool:
+        """http.server's reading of the request, refusing HTTP/0.9 (whose answers carry no headers)."""
+        if not super().parse_request():
+            return False
+        if self.request_version == "HTTP/0.9":
+            self.send_error(HTTPStatus.HTTP_VERSION_NOT_SUPPORTED, "HTTP/0.9 requests are not answered")
+            return False
+        return True
 
     def _guarded(self, action: Any) -> None:
         try:

@@ -31,7 +31,7 @@ from ..errors import PanomapError
 from ..video.handoff import reason
 from ..video.live import Reconnect
 from ..video.source import drops, open_input
-from .source import Source
+from .source import HeldFile, Source, open_held
 
 JPEG_QUALITY = 85
 # JPEG answers kept (the newest frame for a few pages' windows).
@@ -102,13 +102,24 @@ class FrameFeed:
         JPEG quality of the frames, 1-100.
     idle_stop_s : float
         The thread ends when no page has asked for a frame for this long (s).
+    file : HeldFile or None
+        A video file's :class:`~panomap.viewer.source.HeldFile`, decoded every time playback starts or seeks
+        (whatever the name points to by then); None: the file is opened here, once, and closed by :meth:`close`.
     """
 
     def __init__(
-        self, source: Source, reconnect: Reconnect | None = None, quality: int = JPEG_QUALITY, idle_stop_s: float = 10.0
+        self,
+        source: Source,
+        reconnect: Reconnect | None = None,
+        quality: int = JPEG_QUALITY,
+        idle_stop_s: float = 10.0,
+        file: HeldFile | None = None,
     ) -> None:
         if source.kind not in ("video", "live"):
             raise PanomapError(f"only a video or a live source has frames to feed, not {source.kind}", source.name)
+        local = source.path is not None
+        self._owned_file = HeldFile(source.name) if file is None and local else None
+        self._file = file or self._owned_file
         self.source = source
         self.reconnect = reconnect or Reconnect()
         self.quality = int(quality)
@@ -185,6 +196,8 @@ class FrameFeed:
         if self._connection is not None:  # (never read)
             self._connection.close()
             self._connection = None
+        if self._owned_file is not None:
+            self._owned_file.close()
 
     # ------------------------------------------------------------------ the thread
 
@@ -278,7 +291,7 @@ class FrameFeed:
                 continue
 
     def _play_file_from(self, start_s: float) -> None:
-        container = open_input(self.source.name)
+        container = open_input(self.source.name) if self._file is None else open_held(self._file)
         try:
             stream = container.streams.video[0]
             stream.thread_type = "AUTO"

@@ -10,7 +10,9 @@ API (GET unless said; errors are ``{"error": "..."}`` with their status):
   lookup (what the CLI's perspective and floor views read), where it has one.
 - ``/api/image``: a still image (PNG).
 - ``/api/video``: a video file, as it is, with HTTP range requests (at most :data:`MAX_RANGE_BYTES`
-  an answer: a browser asks for the rest).
+  an answer: a browser asks for the rest). The file is opened once, when the server starts
+  (:class:`~panomap.viewer.source.HeldFile`): a link swapped or a file replaced later changes nothing
+  that is sent or decoded.
 - ``/api/frame?after=K[&window=X0,Y0,W,H]``: the newest decoded frame (JPEG; only the window's pixels
   where one is given) when its index is above K, waiting up to a second for one; 204 when none came.
   Headers ``X-Frame-Index``, ``X-Frame-Time`` (s), ``X-Frame-Age`` (s since it was decoded) and
@@ -44,8 +46,9 @@ from ..io.local_web import (
     serve_in_thread,
 )
 from ..table.table import PanoMappingTable
+from ..values import MAX_ABS, NotFinite, finite_number
 from .feed import FrameFeed, window_of
-from .source import Source
+from .source import HeldFile, Source
 from .table_texture import lookup_texture, table_description, texture_bytes
 
 # The most bytes of a video one answer carries (a browser asks for the rest as it plays).
@@ -53,12 +56,34 @@ MAX_RANGE_BYTES = 8 << 20
 # The longest wait (s) for a new frame within one request.
 MAX_FRAME_WAIT_S = 1.0
 CHUNK_BYTES = 1 << 20
-_RANGE = re.compile(r"^bytes=(\d*)-(\d*)$")
+_RANGE = re.compile(r"^bytes=([0-9]*)-([0-9]*)$")
+# Digits read of a number in a request: more is beyond any file, frame or index (and Python refuses to convert
+# an integer of over 4300 digits).
+MAX_DIGITS = 18
+BEYOND = 10**MAX_DIGITS  # what a number of more digits reads as
+
+
+def bounded_int(text: str) -> int:
+    """The whole number ``text`` (ASCII digits, an optional ``-``), or :data:`BEYOND` (``-BEYOND``) where it has
+    more than :data:`MAX_DIGITS` digits: larger than anything it can count.
+
+    Raises
+    ------
+    ValueError
+        When ``text`` is not a whole number.
+    """
+    digits = text[1:] if text.startswith("-") else text
+    if not digits or not digits.isascii() or not digits.isdigit():
+        raise ValueError(f"not a whole number: {text[:40]!r}")
+    digits = digits.lstrip("0") or "0"
+    value = int(digits) if len(digits) <= MAX_DIGITS else BEYOND
+    return -value if text.startswith("-") else value
 
 
 def byte_range(header: str | None, size: int) -> tuple[int, int] | None:
     """The (first, last) bytes, inclusive, that a ``Range`` header asks of a file of ``size`` bytes, at most
-    :data:`MAX_RANGE_BYTES` of them; None without a header.
+    :data:`MAX_RANGE_BYTES` of them; None without a header. Numbers of any length are read (one beyond
+    :data:`MAX_DIGITS` digits as beyond the file).
 
     Raises
     ------
@@ -72,10 +97,10 @@ def byte_range(header: str | None, size: int) -> tuple[int, int] | None:
         raise RequestError(f"unsupported range {header[:60]!r} (one bytes=FIRST-LAST range)", 416)
     first_text, last_text = match.groups()
     if first_text == "":  # the last N bytes
-        first, last = max(0, size - int(last_text)), size - 1
+        first, last = max(0, size - bounded_int(last_text)), size - 1
     else:
-        first = int(first_text)
-        last = size - 1 if last_text == "" else min(int(last_text), size - 1)
+        first = bounded_int(first_text)
+        last = size - 1 if last_text == "" else min(bounded_int(last_text), size - 1)
     if first >= size or last < first:
         raise RequestError(f"the range {header[:60]!r} lies outside the file ({size} bytes)", 416, {"size": size})
     return first, min(last, first + MAX_RANGE_BYTES - 1)
@@ -111,13 +136,19 @@ class ViewerServer(LocalServer):
         lookup = lookup_texture(table)
         self.lookup_bytes = None if lookup is None else lookup[0].astype("<f4", copy=False).tobytes()
         self.info["table"]["lookup"] = None if lookup is None else lookup[1]
-        self.feed = feed if feed is not None else (FrameFeed(source) if source.kind != "image" else None)
-        super().__init__(address, ViewerHandler, idle_timeout_s, request_deadline_s)
+        # A video file is opened once, here: what is sent and decoded, whatever its name points to later.
+        self.file = HeldFile(source.name) if source.kind == "video" and source.path is not None else None
+        self.feed = feed
+        if feed is None and source.kind != "image":
+            self.feed = FrameFeed(source, file=self.file)
+        super().__init__(address, ViewerHandler, idle_timeout_s, request_deadline_s)  # (a failed bind closes)
 
     def server_close(self) -> None:
         super().server_close()
         if self.feed is not None:
             self.feed.close()
+        if self.file is not None:
+            self.file.close()
 
 
 class ViewerHandler(LocalHandler):
@@ -147,8 +178,8 @@ class ViewerHandler(LocalHandler):
             self._send(204, b"", "image/x-icon")
         elif path == "/api/image" and server.source.image_png is not None:
             self._send(200, server.source.image_png, "image/png")
-        elif path == "/api/video" and server.source.mime is not None:
-            self._video(server.source)
+        elif path == "/api/video" and server.source.mime is not None and server.file is not None:
+            self._video(server.file, server.source.mime)
         elif path == "/api/frame" and server.feed is not None:
             self._frame(server.feed, parse_qs(parts.query))
         elif path == "/api/status" and server.feed is not None:
@@ -167,26 +198,14 @@ class ViewerHandler(LocalHandler):
         feed = self.server.feed
         if feed is None or self.server.source.kind != "video":
             raise RequestError("only a video file's decoded frames can be paused or sought", 409)
-        paused, seek_s = data.get("paused"), data.get("seek_s")
+        paused = data.get("paused")
         if paused is not None and not isinstance(paused, bool):
             raise RequestError(f"{path}: paused must be true or false")
-        if seek_s is not None and (isinstance(seek_s, bool) or not isinstance(seek_s, int | float) or seek_s < 0):
-            raise RequestError(f"{path}: seek_s must be a time of at least 0 s")
-        feed.control(paused, None if seek_s is None else float(seek_s))
+        feed.control(paused, _seek_time(data.get("seek_s"), path))
         self._json({"ok": True})
 
     def _frame(self, feed: FrameFeed, query: dict[str, list[str]]) -> None:
-        try:
-            after = int(query.get("after", ["0"])[0])
-        except ValueError:
-            raise RequestError("after must be a whole number (the index of the frame the page has)") from None
-        window = None
-        if "window" in query:
-            try:
-                x0, y0, w, h = (int(v) for v in query["window"][0].split(","))
-            except ValueError:
-                raise RequestError("window must be X0,Y0,WIDTH,HEIGHT in whole pixels") from None
-            window = (x0, y0, w, h)
+        after, window = _frame_query(query)
         frame = feed.frame_after(after, MAX_FRAME_WAIT_S)
         if frame is None:
             self.send_response(204)
@@ -204,35 +223,66 @@ class ViewerHandler(LocalHandler):
         }
         self._send(200, body, "image/jpeg", headers)
 
-    def _video(self, source: Source) -> None:
-        path = source.path
-        assert path is not None and source.mime is not None
-        try:
-            file = open(path, "rb")
-        except OSError as exc:
-            raise RequestError(f"cannot read the video ({exc.strerror or exc})", 500) from None
-        with file:
-            size = file.seek(0, 2)
-            wanted = byte_range(self.headers.get("Range"), size)
-            first, last = wanted if wanted is not None else (0, size - 1)
-            self.send_response(206 if wanted is not None else 200)
-            self.send_header("Content-Length", str(last - first + 1))
-            self.send_header("Accept-Ranges", "bytes")
-            if wanted is not None:
-                self.send_header("Content-Range", f"bytes {first}-{last}/{size}")
-            self.send_common_headers(source.mime)
-            self.end_headers()
-            if self.command == "HEAD":
+    def _video(self, file: HeldFile, mime: str) -> None:
+        """The video file held since the server started, whole or the range asked for."""
+        size = file.size
+        wanted = byte_range(self.headers.get("Range"), size)
+        first, last = wanted if wanted is not None else (0, size - 1)
+        self.send_response(206 if wanted is not None else 200)
+        self.send_header("Content-Length", str(last - first + 1))
+        self.send_header("Accept-Ranges", "bytes")
+        if wanted is not None:
+            self.send_header("Content-Range", f"bytes {first}-{last}/{size}")
+        self.send_common_headers(mime)
+        self.end_headers()
+        if self.command == "HEAD":
+            return
+        at, end = first, last + 1
+        while at < end:
+            try:
+                chunk = file.read_at(at, min(CHUNK_BYTES, end - at))
+            except (OSError, ValueError):  # (the server closes meanwhile)
+                chunk = b""
+            if not chunk:
+                self.close_connection = True  # (the file shrank: the client sees a short answer)
                 return
-            file.seek(first)
-            left = last - first + 1
-            while left > 0:
-                chunk = file.read(min(CHUNK_BYTES, left))
-                if not chunk:
-                    self.close_connection = True  # (the file shrank: the client sees a short answer)
-                    return
-                self.wfile.write(chunk)
-                left -= len(chunk)
+            self.wfile.write(chunk)
+            at += len(chunk)
+
+
+def _seek_time(value: object, path: str) -> float | None:
+    """A request's ``seek_s``: None, or a time of at least 0 s and at most :data:`~panomap.values.MAX_ABS`."""
+    if value is None:
+        return None
+    problem = f"{path}: seek_s must be a time of at least 0 s and at most {MAX_ABS:g} s"
+    if not isinstance(value, int | float):
+        raise RequestError(problem)
+    try:
+        seconds = finite_number(value, bools=False)
+    except NotFinite:
+        raise RequestError(problem) from None
+    if seconds < 0:
+        raise RequestError(problem)
+    return seconds
+
+
+def _frame_query(query: dict[str, list[str]]) -> tuple[int, tuple[int, int, int, int] | None]:
+    """``/api/frame``'s ``after`` (the index of the frame the page has) and ``window`` (x0, y0, width, height)."""
+    try:
+        after = bounded_int(query.get("after", ["0"])[0])
+    except ValueError:
+        raise RequestError("after must be a whole number (the index of the frame the page has)") from None
+    if abs(after) >= BEYOND:
+        raise RequestError(f"after must be a whole number of at most {MAX_DIGITS} digits")
+    if "window" not in query:
+        return after, None
+    try:
+        x0, y0, w, h = (bounded_int(v) for v in query["window"][0].split(","))
+    except ValueError:
+        raise RequestError("window must be X0,Y0,WIDTH,HEIGHT in whole pixels") from None
+    if max(abs(x0), abs(y0), abs(w), abs(h)) >= BEYOND:
+        raise RequestError(f"window must be X0,Y0,WIDTH,HEIGHT in whole pixels of at most {MAX_DIGITS} digits")
+    return after, (x0, y0, w, h)
 
 
 def make_server(

@@ -10,7 +10,9 @@ browser cannot play it. Everything else, and live sources, is decoded here and s
 from __future__ import annotations
 
 import dataclasses
+import io
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,6 +23,7 @@ from numpy.typing import NDArray
 
 from ..errors import PanomapError
 from ..io.images import UNKNOWN_FORMAT, encode_png, read_image
+from ..video.handoff import reason
 from ..video.source import is_live, open_input
 
 # Codecs and pixel formats a browser plays by itself (in MP4, or WebM but for H.264).
@@ -61,8 +64,91 @@ class Source:
 
     @property
     def path(self) -> Path | None:
-        """The file of an image or video file; None for a live source."""
-        return None if self.kind == "live" else Path(self.name)
+        """The file of an image or video file on this machine; None for a live source or a URL."""
+        return None if self.kind == "live" or is_live(self.name) else Path(self.name)
+
+
+class HeldFile:
+    """A source file opened once: what the viewer sends and decodes, whatever its name points to later (a link
+    swapped, the file replaced or removed). Read at offsets (``os.pread``), so that any number of readers share
+    it; :meth:`reader` gives each decoder its own position. Close it with :meth:`close`.
+
+    Raises
+    ------
+    PanomapError
+        Naming the file, when it cannot be opened.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.name = str(path)
+        try:
+            self._file = open(path, "rb", buffering=0)  # (held until close)
+        except OSError as exc:
+            raise PanomapError(f"cannot open it ({exc.strerror or exc})", path) from None
+
+    @property
+    def size(self) -> int:
+        """The file's size now (bytes)."""
+        return os.fstat(self._file.fileno()).st_size
+
+    def read_at(self, offset: int, count: int) -> bytes:
+        """Up to ``count`` bytes from ``offset`` (fewer at the end of the file)."""
+        return os.pread(self._file.fileno(), count, offset)
+
+    def reader(self) -> io.RawIOBase:
+        """A file object over the held file with its own position (for PyAV)."""
+        return _HeldReader(self)
+
+    def close(self) -> None:
+        """Let the file go (readers fail after this)."""
+        self._file.close()
+
+
+class _HeldReader(io.RawIOBase):
+    """Reads a :class:`HeldFile` from a position of its own."""
+
+    def __init__(self, held: HeldFile) -> None:
+        super().__init__()
+        self._held = held
+        self._position = 0
+
+    def readable(self) -> bool:
+        return True
+
+    def seekable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        data = self._held.read_at(self._position, len(buffer))
+        buffer[: len(data)] = data
+        self._position += len(data)
+        return len(data)
+
+    def seek(self, offset: int, whence: int = io.SEEK_SET) -> int:
+        base = {io.SEEK_SET: 0, io.SEEK_CUR: self._position, io.SEEK_END: self._held.size}[whence]
+        self._position = max(0, base + offset)
+        return self._position
+
+    def tell(self) -> int:
+        return self._position
+
+
+def open_held(held: HeldFile) -> Any:
+    """A PyAV container reading ``held`` (as :func:`~panomap.video.source.open_input` opens a name).
+
+    Raises
+    ------
+    PanomapError
+        Naming the file, when PyAV cannot open it or it holds no video.
+    """
+    try:
+        container = av.open(held.reader())
+    except (av.error.FFmpegError, OSError, ValueError) as exc:
+        raise PanomapError(f"cannot open it as a video ({reason(exc)})", held.name) from None
+    if not container.streams.video:
+        container.close()
+        raise PanomapError("it holds no video stream", held.name)
+    return container
 
 
 def display_image(image: NDArray[Any]) -> NDArray[np.uint8]:

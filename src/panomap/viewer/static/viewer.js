@@ -391,6 +391,7 @@ void main() {
     shownWindow = window_ || [0, 0, ...info.source.size];
     sourcePlanes = 0;
     sourceReady = true;
+    pictureArrived();
   }
 
   // The YUV -> RGB matrix and offset of a video frame's colour space (BT.709 or BT.601, limited or full range).
@@ -453,6 +454,7 @@ void main() {
     yuvMatrix = yuvConversion(frame.colorSpace);
     sourcePlanes = planes;
     sourceReady = true;
+    pictureArrived();
   }
 
   function stripHeight() { return state.strip && state.mode === "perspective" ? Math.max(16, Math.round(state.width * STRIP_HEIGHT_RATIO)) : 0; }
@@ -890,32 +892,48 @@ void main() {
 
   // ------------------------------------------------------------------ the API
 
+  // The source's first picture: the API waits for it (a view drawn before it would be black).
+  let pictureArrived = null, pictureFailed = null;
+  const firstPicture = new Promise((resolve, reject) => { pictureArrived = resolve; pictureFailed = reject; });
+  firstPicture.catch(() => {});  // (a page that fails says so itself; the API's callers get the error)
+  // The API's calls, one after another once the source's first picture is here: each set() is drawn before
+  // the next one changes the view, and pixels() reads what the sets before it asked for.
+  let apiQueue = firstPicture;
+  function queued(action) {
+    const done = apiQueue.then(action);
+    apiQueue = done.catch(() => {});
+    return done;
+  }
+
+  // Refuse what set() does not take, before anything changes.
+  function checkView(view) {
+    const known = ["yaw", "pitch", "roll", "fov", "width", "height", "mode", "strip", "start"];
+    for (const key of Object.keys(view)) if (!known.includes(key)) throw new Error(`set: unknown key ${key}`);
+    for (const key of ["yaw", "pitch", "roll", "fov", "width", "height", "start"]) {
+      if (key in view && !Number.isFinite(view[key])) throw new Error(`set: ${key} must be a finite number`);
+    }
+    if ("mode" in view && !MODES.includes(view.mode)) throw new Error(`set: mode must be one of ${MODES.join(", ")}`);
+  }
+
+  // The view asked for, drawn from the source (its window uploaded first); the whole state.
+  async function showView(view) {
+    for (const key of ["yaw", "pitch", "roll", "fov", "width", "height", "mode"]) if (key in view) state[key] = view[key];
+    if ("start" in view) state.panoramaStart = view.start;
+    if ("strip" in view) state.strip = Boolean(view.strip);
+    clampState();
+    await ensureWindow();
+    if (!draw()) throw new Error("set: the view could not be drawn");
+    showStateSoon();
+    return { ...state };
+  }
+
   function setView(view) {
-    return new Promise(async (resolve, reject) => {
-      try {
-        const known = ["yaw", "pitch", "roll", "fov", "width", "height", "mode", "strip", "start"];
-        for (const key of Object.keys(view)) if (!known.includes(key)) throw new Error(`set: unknown key ${key}`);
-        for (const key of ["yaw", "pitch", "roll", "fov", "width", "height"]) {
-          if (key in view) {
-            if (!Number.isFinite(view[key])) throw new Error(`set: ${key} must be a finite number`);
-            state[key] = view[key];
-          }
-        }
-        if ("mode" in view) {
-          if (!MODES.includes(view.mode)) throw new Error(`set: mode must be one of ${MODES.join(", ")}`);
-          state.mode = view.mode;
-        }
-        if ("start" in view) state.panoramaStart = view.start;
-        if ("strip" in view) state.strip = Boolean(view.strip);
-        clampState();
-        await ensureWindow();
-        draw();
-        showStateSoon();
-        resolve({ ...state });
-      } catch (error) {
-        reject(error);
-      }
-    });
+    try {
+      checkView(view);
+    } catch (error) {
+      return Promise.reject(error);
+    }
+    return queued(() => showView(view));
   }
 
   function summary(values) {
@@ -928,7 +946,7 @@ void main() {
   window.panomapView = {
     set: setView,
     get: () => ({ ...state }),
-    pixels: async () => { await ensureWindow(); return viewPixels(); },
+    pixels: () => queued(async () => { await ensureWindow(); return viewPixels(); }),
     stats: () => ({
       views: stats.views,
       drawMs: summary(stats.drawMs),
@@ -966,6 +984,7 @@ void main() {
     } catch (error) {
       message(String(error.message || error));
       document.body.dataset.ready = "failed";
+      pictureFailed(new Error(`the viewer did not start: ${error.message || error}`));
     }
   }
 
