@@ -14,8 +14,13 @@ A failed or interrupted write never leaves a half-written output behind:
   one that is replaced keeps its mode;
 - every error names the user's path (never the temporary one) and says why
   ("No space left on device");
-- :func:`check_output_paths` refuses an output that is one of the run's inputs
-  (the same file, through symbolic or hard links too) or another of its outputs.
+- an existing output that is not a regular file (a FIFO, a device node, a socket)
+  is refused: renaming over it would replace it, writing through it would block
+  or reach the device;
+- :func:`check_outputs`, the check every command runs on its outputs before any
+  work, refuses an output that is one of the run's inputs (the same file, through
+  symbolic or hard links too) or another of its outputs, and one that cannot be
+  written.
 """
 
 from __future__ import annotations
@@ -249,9 +254,24 @@ def check_replaceable(path: str | Path) -> int:
         raise PanomapError(f"cannot write it ({exc.strerror or exc})", path) from None
     if stat.S_ISDIR(info.st_mode):
         raise PanomapError("it is a folder, not a file", path)
+    if not stat.S_ISREG(info.st_mode):
+        raise PanomapError(f"it is {_kind(info.st_mode)}, not a regular file: not replaced (choose a file name)", path)
     if not info.st_mode & stat.S_IWUSR or not os.access(path, os.W_OK):
         raise PanomapError("the file is read-only; not replaced (make it writable or choose another name)", path)
     return stat.S_IMODE(info.st_mode)
+
+
+def _kind(mode: int) -> str:
+    """What a file that is not a regular file is, in words (for errors)."""
+    for test, words in (
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return words
+    return "a special file"
 
 
 def check_output(path: str | Path) -> None:
@@ -264,6 +284,28 @@ def check_output(path: str | Path) -> None:
     if not os.access(directory, os.W_OK | os.X_OK):
         raise PanomapError("its folder is not writable", path)
     check_replaceable(path)
+
+
+def check_outputs(
+    inputs: Iterable[tuple[str, str | Path | None]], outputs: Iterable[tuple[str, str | Path | None]]
+) -> None:
+    """The one check every command that writes runs on its outputs before any work.
+
+    No output is one of ``inputs`` or another output (:func:`check_output_paths`: by device and inode,
+    through symbolic and hard links and any spelling), and each can be written (:func:`check_output`: its
+    folder exists and is writable; it is a new name or a regular, writable file, never a folder, a FIFO or
+    a device). Items are ``(what, path)``; a None path is skipped.
+
+    Raises
+    ------
+    PanomapError
+        Naming the output and the problem.
+    """
+    outputs = list(outputs)
+    check_output_paths(inputs, outputs)
+    for _, path in outputs:
+        if path is not None:
+            check_output(path)
 
 
 def file_identity(path: Path) -> tuple[object, ...]:

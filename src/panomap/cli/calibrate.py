@@ -18,7 +18,7 @@ from ..calibrate.report import FitReport, table_fit_report
 from ..calibrate.sources import Source
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_output_paths
+from ..files import all_or_none, check_outputs
 from ..io.images import write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table, save_table
@@ -318,7 +318,7 @@ def _check_landmark_fit_options(
             raise usage_error(exc) from None
     if overlay is not None and image is None:
         raise click.UsageError("--overlay draws the fit on --image: give --image OMNI too")
-    check_output_paths(
+    check_outputs(
         [("the landmarks", landmarks), ("the image", image)],
         [("the output", output), ("--plot", plot), ("--overlay", overlay)],
     )
@@ -374,7 +374,7 @@ def _fit_lines(
         raise click.UsageError("--plot draws landmarks; learning from lines draws with --overlay")
     if model == "paper":
         raise click.UsageError("the paper model takes the centre as given; learning from lines needs another model")
-    check_output_paths([("the image", path) for path in images], [("the output", output), ("--overlay", overlay)])
+    check_outputs([("the image", path) for path in images], [("the output", output), ("--overlay", overlay)])
     if output.suffix.lower() != ".npz":
         raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
     if overlay is not None and overlay.suffix.lower() != ".png":
@@ -413,7 +413,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
     mirror image that overfills the frame: the cut-off disc found and its centre);
     the overlay then shows that disc and the starting value.
     """
-    check_output_paths([("the input image", image)], [("--overlay", overlay)])
+    check_outputs([("the input image", image)], [("--overlay", overlay)])
     omni = read_omni(image, frame_time)
     warn_orientation(image)
     try:

@@ -1,0 +1,190 @@
+"""Issue 44 (hardening 4): the new doors (import, export, learning from pictures) held to the old promises.
+
+Every command that writes runs one output check (:func:`panomap.files.check_outputs`): an output is never
+one of the run's inputs (by device and inode: the same name, another spelling, a symbolic or a hard link),
+and it is a new name or a regular file (never a FIFO, a device node or a folder). A table is checked at
+writing as every reader will check it; inputs that only cost time (an OCam polynomial of 20001
+coefficients, the same picture given many times, a camchain with 100 MB of comments) are refused or read
+once; options a command would not use are refused, naming them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from panomap.errors import PanomapError
+from panomap.table.file import MAX_IMAGE_SIDE, load_table, save_table
+
+from helpers import assert_one_line_error, run
+
+OCAM = """#polynomial coefficients for the DIRECT mapping function
+5 -2.063866e+02 0.000000e+00 2.165610e-03 -4.495456e-06 1.810639e-08
+#polynomial coefficients for the inverse mapping function
+3 293.0 151.5 -11.1
+#center: "row" and "column", starting from 0 (C convention)
+241.0 385.7
+#affine parameters "c", "d", "e"
+1.0 0.0 0.0
+#image size: "height" and "width"
+480 748
+"""
+WIDTH, HEIGHT = 748, 480
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder with an OCam calibration (calib.txt), its table (cam.npz), an image of its size (omni.png)
+    and a landmark file (lm.csv)."""
+    folder = tmp_path_factory.mktemp("hardening")
+    (folder / "calib.txt").write_text(OCAM)
+    result = run("import", folder / "calib.txt", "-o", folder / "cam.npz")
+    assert result.exit_code == 0, result.output + result.stderr
+    v, u = np.mgrid[0:HEIGHT, 0:WIDTH]
+    cv2.imwrite(str(folder / "omni.png"), np.stack([u % 256, v % 256, (u + v) % 256], -1).astype(np.uint8))
+    (folder / "lm.csv").write_text("u,v,X,Y,Z\n100,200,1,2,0\n")
+    return folder
+
+
+def copy_in(inputs: Path, folder: Path, *names: str) -> dict[str, Path]:
+    """Fresh copies of ``names`` from the fixture's folder in ``folder``."""
+    copies = {}
+    for name in names:
+        copies[name] = folder / name
+        copies[name].write_bytes((inputs / name).read_bytes())
+    return copies
+
+
+def spelled(path: Path, how: str) -> Path:
+    """Another way to reach ``path``: itself, a symbolic link, a hard link, or another spelling of its name."""
+    if how == "same":
+        return path
+    if how == "spelling":
+        (path.parent / "sub").mkdir(exist_ok=True)
+        return path.parent / "sub" / ".." / "." / path.name
+    other = path.parent / f"other{path.suffix}"
+    if how == "symlink":
+        other.symlink_to(path)
+    else:
+        os.link(path, other)
+    return other
+
+
+# ----------------------------------------------------------------------------- inputs never overwritten
+
+
+WAYS = ["same", "symlink", "hardlink", "spelling"]
+
+
+@pytest.mark.parametrize("how", WAYS)
+def test_import_refuses_to_write_over_its_calibration(inputs: Path, tmp_path: Path, how: str) -> None:
+    calibration = copy_in(inputs, tmp_path, "calib.txt")["calib.txt"]
+    result = run("import", calibration, "-o", spelled(calibration, how))
+    assert_one_line_error(result, "the calibration", "refusing to overwrite an input", exit_code=1)
+    assert calibration.read_text() == OCAM
+
+
+@pytest.mark.parametrize("how", WAYS)
+def test_import_refuses_to_write_over_its_image(inputs: Path, tmp_path: Path, how: str) -> None:
+    files = copy_in(inputs, tmp_path, "calib.txt", "omni.png")
+    before = files["omni.png"].read_bytes()
+    result = run("import", files["calib.txt"], "-o", spelled(files["omni.png"], how), "--image", files["omni.png"])
+    assert_one_line_error(result, "the image", "refusing to overwrite an input", exit_code=1)
+    assert files["omni.png"].read_bytes() == before
+
+
+@pytest.mark.parametrize("how", WAYS)
+def test_export_refuses_to_write_over_its_table(inputs: Path, tmp_path: Path, how: str) -> None:
+    table = copy_in(inputs, tmp_path, "cam.npz")["cam.npz"]
+    before = table.read_bytes()
+    result = run("export", table, "-o", spelled(table, how), "--format", "ocam")
+    assert_one_line_error(result, "the table", "refusing to overwrite an input", exit_code=1)
+    assert table.read_bytes() == before
+
+
+def special(tmp_path: Path, kind: str, suffix: str) -> tuple[Path, int]:
+    """An output name that is not a regular file: a FIFO or a link to a device node (/dev/null: never the
+    node itself, which a failing test would replace); with its mode, to check it is still what it was. (A
+    folder is refused by click, exit 2.)"""
+    path = tmp_path / f"out{suffix}"
+    if kind == "fifo":
+        os.mkfifo(path)
+    else:
+        path.symlink_to("/dev/null")
+    return path, os.lstat(path).st_mode
+
+
+def commands(inputs: Path, output: Path) -> dict[str, list[object]]:
+    """Every command that writes, with ``output`` as its output (each refused before any work)."""
+    calib, table, omni, landmarks = (inputs / n for n in ("calib.txt", "cam.npz", "omni.png", "lm.csv"))
+    return {
+        "import": ["import", calib, "-o", output],
+        "export": ["export", table, "-o", output, "--format", "ocam"],
+        "fit": ["fit", landmarks, "-o", output, "--camera", 0, 0, 1, "--centre", 374, 240],
+        "fit-lines": ["fit", "-o", output, "--image", omni],
+        "fit-overlay": ["fit", "-o", output.parent / "t.npz", "--image", omni, "--overlay", output],
+        "panorama": ["panorama", table, omni, "-o", output, "--size", "64x16"],
+        "save-map": ["panorama", table, omni, "-o", output.parent / "p.png", "--size", "64x16", "--save-map", output],
+        "project": ["project", table, landmarks, "-o", output],
+        "centre": ["centre", omni, "--overlay", output],
+        "video": ["video", table, omni, "-o", output, "--view", "panorama:size=64x16"],
+    }
+
+
+SUFFIX = {"import": ".npz", "export": ".txt", "fit": ".npz", "fit-lines": ".npz", "save-map": ".npy", "project": ".csv"}
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device"])
+@pytest.mark.parametrize(
+    "command",
+    ["import", "export", "fit", "fit-lines", "fit-overlay", "panorama", "save-map", "project", "centre", "video"],
+)
+def test_an_output_that_is_not_a_regular_file_is_refused(inputs: Path, tmp_path: Path, command: str, kind: str) -> None:
+    output, mode = special(tmp_path, kind, SUFFIX.get(command, ".mp4" if command == "video" else ".png"))
+    started = time.monotonic()
+    result = run(*commands(inputs, output)[command])
+    words = {"fifo": "a FIFO", "device": "a character device"}[kind]
+    assert_one_line_error(result, str(output), words, exit_code=1)
+    assert os.lstat(output).st_mode == mode  # still the FIFO, the link to the device
+    assert time.monotonic() - started < 3  # refused before any work
+    assert sorted(p.name for p in tmp_path.iterdir()) == [output.name]
+
+
+def test_batch_refuses_an_output_that_is_its_table(inputs: Path, tmp_path: Path) -> None:
+    files = copy_in(inputs, tmp_path, "omni.png")
+    table = tmp_path / "t.png"  # a table file may have any name; a still image's output keeps its suffix
+    table.write_bytes((inputs / "cam.npz").read_bytes())
+    before = table.read_bytes()
+    result = run("batch", files["omni.png"], "--table", table, "-o", str(table), "--view", "panorama:size=64x16",
+                 "--record", tmp_path / "record.jsonl")  # fmt: skip
+    assert_one_line_error(result, str(table), "refusing to overwrite", exit_code=1)
+    assert table.read_bytes() == before
+
+
+# ----------------------------------------------------------------------------- a table every reader can load
+
+
+def test_a_calibration_for_an_impossible_image_is_refused_at_import(tmp_path: Path) -> None:
+    path = tmp_path / "calib.txt"
+    path.write_text(OCAM.replace("480 748\n", "1000000000 1000000000\n"))
+    out = tmp_path / "cam.npz"
+    result = run("import", path, "-o", out)
+    assert_one_line_error(result, str(path), "image size", f"at most {MAX_IMAGE_SIDE} px a side", exit_code=1)
+    assert not out.exists()
+
+
+def test_a_table_no_command_could_load_is_not_written(inputs: Path, tmp_path: Path) -> None:
+    # The class of the fault: whatever makes the table, save_table holds it to load_table's checks.
+    table = dataclasses.replace(load_table(inputs / "cam.npz"), image_size=(MAX_IMAGE_SIDE + 1, HEIGHT))
+    out = tmp_path / "cam.npz"
+    with pytest.raises(PanomapError, match=r"no command could load this table .*image_size"):
+        save_table(table, out)
+    assert list(tmp_path.iterdir()) == []
+    save_table(load_table(inputs / "cam.npz"), out)  # a good table is written, and loads
+    assert load_table(out).size == load_table(inputs / "cam.npz").size
