@@ -12,17 +12,21 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import re
 import time
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 import pytest
+import yaml
 
 from panomap.errors import PanomapError
+from panomap.simulate import standard_cameras
 from panomap.table.file import MAX_IMAGE_SIDE, load_table, save_table
 
-from helpers import assert_one_line_error, run
+from helpers import assert_one_line_error, learn_table, run, spread_landmarks
 
 OCAM = """#polynomial coefficients for the DIRECT mapping function
 5 -2.063866e+02 0.000000e+00 2.165610e-03 -4.495456e-06 1.810639e-08
@@ -188,3 +192,64 @@ def test_a_table_no_command_could_load_is_not_written(inputs: Path, tmp_path: Pa
     assert list(tmp_path.iterdir()) == []
     save_table(load_table(inputs / "cam.npz"), out)  # a good table is written, and loads
     assert load_table(out).size == load_table(inputs / "cam.npz").size
+
+
+# ----------------------------------------------------------------------------- export: the figure it prints
+
+
+def table_and_rays(kind: str) -> tuple[Any, np.ndarray, np.ndarray]:
+    """A table fitted to 40 landmarks of a simulated 800 x 800 camera of ``kind``; its pixels on a grid
+    running to both ends of its elevation range (the outermost ring included), and their rays in the
+    exported (OpenCV) frame: z the optical axis, alpha = rho + pi/2 from it looking down, at image angle
+    phi = s theta + phi0."""
+    camera = standard_cameras((800, 800), centre=(401.3, 396.2), s=-1, phi0=0.4)[kind]
+    position = (0.3, -0.2, 2.5)
+    table, _ = learn_table(camera, position, spread_landmarks(camera, position, 40, np.random.default_rng(3)),
+                           (800, 800))  # fmt: skip
+    theta, rho = np.meshgrid(
+        np.linspace(0, 2 * np.pi, 360, endpoint=False), np.linspace(*table.elevation_range, 121), indexing="ij"
+    )
+    uv = table.sample(theta, rho).astype(np.float64).reshape(-1, 2)
+    alpha, phi = (rho + np.pi / 2).ravel(), (table.model.s * theta + table.model.phi0).ravel()
+    ray = np.stack([np.sin(alpha) * np.cos(phi), np.sin(alpha) * np.sin(phi), np.cos(alpha)], -1)
+    good = np.all(np.isfinite(uv), axis=1) & (np.sin(alpha) > 1e-9)
+    return table, uv[good], ray[good]
+
+
+def printed_error(output: str) -> float:
+    return float(re.search(r"over its valid range: ([0-9.]+) px", output).group(1))
+
+
+def test_export_prints_its_largest_error_over_the_whole_range_outer_ring_included(tmp_path: Path) -> None:
+    # The check grid stopped short of both ends: 0.186 px printed, 0.290 px at the outermost ring.
+    table, uv, ray = table_and_rays("hyperbolic")
+    save_table(table, tmp_path / "cam.npz")
+    out = tmp_path / "calib_results.txt"
+    result = run("export", tmp_path / "cam.npz", "-o", out, "--format", "ocam")
+    assert result.exit_code == 0, result.output + result.stderr
+    rows = [line.split() for line in out.read_text().splitlines() if line.strip() and not line.startswith("#")]
+    invpol, (xc, yc), (c, d, e) = [float(x) for x in rows[1][1:]], map(float, rows[2]), map(float, rows[3])
+    # OCamCalib's world2cam (ocam_functions.c), its frame (y, x, -z) of the OpenCV one.
+    x, y, z = ray[:, 1], ray[:, 0], -ray[:, 2]
+    norm = np.hypot(x, y)
+    rho = sum(p * np.arctan(z / norm) ** k for k, p in enumerate(invpol))
+    xp, yp = x / norm * rho, y / norm * rho
+    error = np.hypot(e * xp + yp + yc - uv[:, 0], xp * c + yp * d + xc - uv[:, 1])
+    assert error.max() <= printed_error(result.output) + 1e-3
+
+
+def test_a_double_sphere_export_is_fitted_from_several_starts(tmp_path: Path) -> None:
+    # From (xi, alpha) = (0, 0.5) alone, the fit of this equisolid fisheye stopped at 0.84 px.
+    table, uv, ray = table_and_rays("equisolid")
+    save_table(table, tmp_path / "cam.npz")
+    out = tmp_path / "camchain.yaml"
+    result = run("export", tmp_path / "cam.npz", "-o", out, "--format", "kalibr-ds")
+    assert result.exit_code == 0, result.output + result.stderr
+    xi, alpha, fx, fy, cx, cy = yaml.safe_load(out.read_text())["cam0"]["intrinsics"]
+    # The double sphere's projection (Usenko et al. 2018), written here.
+    d1 = np.linalg.norm(ray, axis=1)
+    d2 = np.sqrt(ray[:, 0] ** 2 + ray[:, 1] ** 2 + (xi * d1 + ray[:, 2]) ** 2)
+    m = alpha * d2 + (1 - alpha) * (xi * d1 + ray[:, 2])
+    error = np.hypot(fx * ray[:, 0] / m + cx - uv[:, 0], fy * ray[:, 1] / m + cy - uv[:, 1])
+    assert error.max() < 0.05
+    assert error.max() <= printed_error(result.output) + 1e-3
