@@ -253,3 +253,93 @@ def test_a_double_sphere_export_is_fitted_from_several_starts(tmp_path: Path) ->
     error = np.hypot(fx * ray[:, 0] / m + cx - uv[:, 0], fy * ray[:, 1] / m + cy - uv[:, 1])
     assert error.max() < 0.05
     assert error.max() <= printed_error(result.output) + 1e-3
+
+
+# ----------------------------------------------------------------------------- small inputs, small costs
+
+
+def test_an_ocam_polynomial_of_thousands_of_coefficients_is_refused_at_once(tmp_path: Path) -> None:
+    # 20001 coefficients took 89 s to import (every evaluation costs the degree).
+    path = tmp_path / "calib.txt"
+    pol = " ".join(["-2.063866e+02", "0", "2.165610e-03"] + ["0"] * 1998)
+    path.write_text(OCAM.replace("5 -2.063866e+02 0.000000e+00 2.165610e-03 -4.495456e-06 1.810639e-08", f"2001 {pol}"))
+    out = tmp_path / "cam.npz"
+    started = time.monotonic()
+    result = run("import", path, "-o", out)
+    assert_one_line_error(result, str(path), "pol has 2001 coefficients; at most 64", exit_code=1)
+    assert time.monotonic() - started < 2
+    assert not out.exists()
+
+
+def test_a_camchain_is_parsed_once(inputs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Detection parsed the YAML, then the reader again, and `import --image` read the file twice over: a
+    # camchain followed by 100 MB of comments cost minutes.
+    path = tmp_path / "camchain.yaml"
+    path.write_text(
+        "cam0:\n  camera_model: ds\n  intrinsics: [-0.2, 0.58, 200.0, 199.0, 373.5, 239.5]\n"
+        "  distortion_model: none\n  distortion_coeffs: []\n  resolution: [748, 480]\n" + "# a comment\n" * 1000
+    )
+    parses = []
+    for name in ("load", "safe_load"):
+        real = getattr(yaml, name)
+        monkeypatch.setattr(yaml, name, lambda *a, real=real, **k: parses.append(1) or real(*a, **k))
+    result = run("import", path, "-o", tmp_path / "cam.npz", "--image", inputs / "omni.png")
+    assert result.exit_code == 0, result.output + result.stderr
+    assert len(parses) == 1
+
+
+@pytest.mark.skipif(not yaml.__with_libyaml__, reason="PyYAML without libyaml parses 0.3 s per MB")
+def test_a_camchain_followed_by_megabytes_of_comments_imports_in_a_second(tmp_path: Path) -> None:
+    path = tmp_path / "camchain.yaml"
+    path.write_text(
+        "cam0:\n  camera_model: ds\n  intrinsics: [-0.2, 0.58, 200.0, 199.0, 373.5, 239.5]\n"
+        "  distortion_model: none\n  distortion_coeffs: []\n  resolution: [748, 480]\n"
+        + ("# " + "x" * 78 + "\n")
+        * 125_000  # 10 MB
+    )
+    started = time.monotonic()
+    result = run("import", path, "-o", tmp_path / "cam.npz", "--table-size", "360x90")
+    assert result.exit_code == 0, result.output + result.stderr
+    assert time.monotonic() - started < 2.5  # (four pure-Python parses took 14 s)
+
+
+@pytest.mark.parametrize("how", ["same", "symlink", "copy"])
+def test_one_picture_given_twice_to_learn_from_is_refused(inputs: Path, tmp_path: Path, how: str) -> None:
+    # The same picture given 50 times was learned from 50 times (47 s): its lines add nothing.
+    image = copy_in(inputs, tmp_path, "omni.png")["omni.png"]
+    again = image if how == "same" else tmp_path / "again.png"
+    if how == "symlink":
+        again.symlink_to(image)
+    elif how == "copy":
+        again.write_bytes(image.read_bytes())
+    result = run("fit", "-o", tmp_path / "cam.npz", *["--image", image] * 2, "--image", again)
+    assert_one_line_error(result, "'--image'", "one picture", "give each picture once", exit_code=2)
+    assert not (tmp_path / "cam.npz").exists()
+
+
+# ----------------------------------------------------------------------------- no option silently ignored
+
+
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        (["--centre", 374, 240], "--centre"),
+        (["--cutoff-radius", 30], "--cutoff-radius"),
+        (["--outer-radius", 200], "--outer-radius"),
+        (["--camera", 0, 0, 1], "--camera"),
+        (["--tilt", "none"], "--tilt"),
+        (["--tilt", "fit"], "--tilt"),  # (its default, given: still a landmark fit's option)
+        (["--image-size", "748x480"], "--image-size"),
+        (["--size", "360x90"], "--size"),
+        (["--no-refine-centre"], "--refine-centre/--no-refine-centre"),
+        (["--keep-outliers", "--pixel-sigma", 2], "--pixel-sigma, --keep-outliers"),
+    ],
+)
+def test_learning_from_pictures_refuses_the_options_it_would_ignore(
+    inputs: Path, tmp_path: Path, options: list[object], named: str
+) -> None:
+    started = time.monotonic()
+    result = run("fit", "-o", tmp_path / "cam.npz", "--image", inputs / "omni.png", *options)
+    assert_one_line_error(result, named, "for a fit to LANDMARKS", "does not use", exit_code=2)
+    assert time.monotonic() - started < 2  # before any work
+    assert not (tmp_path / "cam.npz").exists()

@@ -25,13 +25,14 @@ A failed or interrupted write never leaves a half-written output behind:
 
 from __future__ import annotations
 
+import hashlib
 import os
 import stat
 import string
 import tempfile
 import urllib.parse
 import urllib.request
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
 from pathlib import Path
@@ -306,6 +307,50 @@ def check_outputs(
     for _, path in outputs:
         if path is not None:
             check_output(path)
+
+
+def same_input(paths: Sequence[str | Path]) -> tuple[Path, Path, str] | None:
+    """The first two of ``paths`` that are one input: the same file (by device and inode: a link, another
+    spelling) or two files of the same bytes; as ``(earlier, later, how)``, None where all differ.
+
+    Only files of equal size are read (SHA-256, in blocks), so that distinct files cost a ``stat`` each.
+    """
+    seen: dict[tuple[object, ...], Path] = {}
+    by_size: dict[int, list[Path]] = {}
+    digests: dict[Path, str] = {}
+
+    def digest(path: Path) -> str:
+        if path not in digests:
+            digests[path] = _sha256(path)
+        return digests[path]
+
+    for given in paths:
+        path = Path(given)
+        key = file_identity(path)
+        if key in seen:
+            return seen[key], path, "the same file"
+        seen[key] = path
+        try:
+            size = os.stat(path).st_size
+        except OSError:
+            continue
+        for other in by_size.get(size, []):
+            if digest(path) and digest(other) == digest(path):
+                return other, path, "the same bytes"
+        by_size.setdefault(size, []).append(path)
+    return None
+
+
+def _sha256(path: Path) -> str:
+    """SHA-256 (hex) of the file's bytes; "" where it cannot be read (its reader says why)."""
+    digest = hashlib.sha256()
+    try:
+        with open(path, "rb") as handle:
+            while block := handle.read(1 << 20):
+                digest.update(block)
+    except OSError:
+        return ""
+    return digest.hexdigest()
 
 
 def file_identity(path: Path) -> tuple[object, ...]:
