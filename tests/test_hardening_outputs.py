@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import re
+import stat
 import time
 from pathlib import Path
 from typing import Any
@@ -158,6 +159,18 @@ def test_an_output_that_is_not_a_regular_file_is_refused(inputs: Path, tmp_path:
     assert os.lstat(output).st_mode == mode  # still the FIFO, the link to the device
     assert time.monotonic() - started < 3  # refused before any work
     assert sorted(p.name for p in tmp_path.iterdir()) == [output.name]
+
+
+def test_the_demo_checks_all_its_outputs_before_any_work(tmp_path: Path) -> None:
+    (tmp_path / "out").mkdir()
+    fifo = tmp_path / "out" / "fit.png"
+    os.mkfifo(fifo)
+    started = time.monotonic()
+    result = run("demo", "-o", tmp_path / "out")
+    assert_one_line_error(result, str(fifo), "a FIFO", exit_code=1)
+    assert time.monotonic() - started < 3
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    assert [p.name for p in (tmp_path / "out").iterdir()] == ["fit.png"]
 
 
 def test_batch_refuses_an_output_that_is_its_table(inputs: Path, tmp_path: Path) -> None:
