@@ -14,19 +14,25 @@ A failed or interrupted write never leaves a half-written output behind:
   one that is replaced keeps its mode;
 - every error names the user's path (never the temporary one) and says why
   ("No space left on device");
-- :func:`check_output_paths` refuses an output that is one of the run's inputs
-  (the same file, through symbolic or hard links too) or another of its outputs.
+- an existing output that is not a regular file (a FIFO, a device node, a socket)
+  is refused: renaming over it would replace it, writing through it would block
+  or reach the device;
+- :func:`check_outputs`, the check every command runs on its outputs before any
+  work, refuses an output that is one of the run's inputs (the same file, through
+  symbolic or hard links too) or another of its outputs, and one that cannot be
+  written.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
 import stat
 import string
 import tempfile
 import urllib.parse
 import urllib.request
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
 from pathlib import Path
@@ -249,9 +255,24 @@ def check_replaceable(path: str | Path) -> int:
         raise PanomapError(f"cannot write it ({exc.strerror or exc})", path) from None
     if stat.S_ISDIR(info.st_mode):
         raise PanomapError("it is a folder, not a file", path)
+    if not stat.S_ISREG(info.st_mode):
+        raise PanomapError(f"it is {_kind(info.st_mode)}, not a regular file: not replaced (choose a file name)", path)
     if not info.st_mode & stat.S_IWUSR or not os.access(path, os.W_OK):
         raise PanomapError("the file is read-only; not replaced (make it writable or choose another name)", path)
     return stat.S_IMODE(info.st_mode)
+
+
+def _kind(mode: int) -> str:
+    """What a file that is not a regular file is, in words (for errors)."""
+    for test, words in (
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return words
+    return "a special file"
 
 
 def check_output(path: str | Path) -> None:
@@ -264,6 +285,72 @@ def check_output(path: str | Path) -> None:
     if not os.access(directory, os.W_OK | os.X_OK):
         raise PanomapError("its folder is not writable", path)
     check_replaceable(path)
+
+
+def check_outputs(
+    inputs: Iterable[tuple[str, str | Path | None]], outputs: Iterable[tuple[str, str | Path | None]]
+) -> None:
+    """The one check every command that writes runs on its outputs before any work.
+
+    No output is one of ``inputs`` or another output (:func:`check_output_paths`: by device and inode,
+    through symbolic and hard links and any spelling), and each can be written (:func:`check_output`: its
+    folder exists and is writable; it is a new name or a regular, writable file, never a folder, a FIFO or
+    a device). Items are ``(what, path)``; a None path is skipped.
+
+    Raises
+    ------
+    PanomapError
+        Naming the output and the problem.
+    """
+    outputs = list(outputs)
+    check_output_paths(inputs, outputs)
+    for _, path in outputs:
+        if path is not None:
+            check_output(path)
+
+
+def same_input(paths: Sequence[str | Path]) -> tuple[Path, Path, str] | None:
+    """The first two of ``paths`` that are one input: the same file (by device and inode: a link, another
+    spelling) or two files of the same bytes; as ``(earlier, later, how)``, None where all differ.
+
+    Only files of equal size are read (SHA-256, in blocks), so that distinct files cost a ``stat`` each.
+    """
+    seen: dict[tuple[object, ...], Path] = {}
+    by_size: dict[int, list[Path]] = {}
+    digests: dict[Path, str] = {}
+
+    def digest(path: Path) -> str:
+        if path not in digests:
+            digests[path] = _sha256(path)
+        return digests[path]
+
+    for given in paths:
+        path = Path(given)
+        key = file_identity(path)
+        if key in seen:
+            return seen[key], path, "the same file"
+        seen[key] = path
+        try:
+            size = os.stat(path).st_size
+        except OSError:
+            continue
+        for other in by_size.get(size, []):
+            if digest(path) and digest(other) == digest(path):
+                return other, path, "the same bytes"
+        by_size.setdefault(size, []).append(path)
+    return None
+
+
+def _sha256(path: Path) -> str:
+    """SHA-256 (hex) of the file's bytes; "" where it cannot be read (its reader says why)."""
+    digest = hashlib.sha256()
+    try:
+        with open(path, "rb") as handle:
+            while block := handle.read(1 << 20):
+                digest.update(block)
+    except OSError:
+        return ""
+    return digest.hexdigest()
 
 
 def file_identity(path: Path) -> tuple[object, ...]:

@@ -322,7 +322,8 @@ def make_job(
         raise PanomapError("with several views the output template needs {name}, e.g. '{stem}_{name}.mp4'")
     tables: dict[Path, str] = {}
     seen: dict[Path, str] = {}
-    sources = {file_identity(item.path) for item in inputs}  # (as files: through links and other spellings)
+    # The inputs and their tables, as files: through links and other spellings.
+    sources = {file_identity(item.path) for item in inputs} | {file_identity(item.table) for item in inputs}
     described = json.dumps([repr(view) for view in views]) + repr(settings)
     items = []
     for item in inputs:

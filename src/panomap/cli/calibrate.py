@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import click
+from click.core import ParameterSource
 
 from ..calibrate.circles import ImageCircles, NoImageCircle, find_image_circles
 from ..calibrate.diagnosis import diagnose
@@ -18,7 +19,7 @@ from ..calibrate.report import FitReport, table_fit_report
 from ..calibrate.sources import Source
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_output_paths
+from ..files import all_or_none, check_outputs, same_input
 from ..io.images import write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table, save_table
@@ -236,6 +237,7 @@ def fit(
     if landmarks is None:
         if not use_lines:
             raise click.UsageError("--no-lines leaves nothing to learn from without LANDMARKS")
+        _refuse_landmark_options(click.get_current_context())
         _fit_lines(
             output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time, use_boards
         )
@@ -296,6 +298,31 @@ def fit(
         click.echo(f"panomap: warning: {warning}", err=True)
 
 
+# The options of a landmark fit that learning from lines (no LANDMARKS) does not use: the lines find the centre,
+# the annulus, the tilt and the table's size themselves, and know no position.
+LANDMARK_ONLY = (
+    "camera", "centre", "image_size", "table_size", "cutoff_radius", "outer_radius", "azimuth", "refine_centre",
+    "pixel_sigma", "world_sigma", "tilt", "camera_sigma", "keep_outliers",
+)  # fmt: skip
+
+
+def _refuse_landmark_options(context: click.Context) -> None:
+    """Refuse, as a usage error naming them, the landmark fit's options given to a fit from lines (it
+    would ignore them)."""
+    given = [
+        "/".join(param.opts[:1] + param.secondary_opts[:1])
+        for param in context.command.params
+        if param.name in LANDMARK_ONLY
+        and context.get_parameter_source(param.name) in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)
+    ]
+    if given:
+        raise click.UsageError(
+            f"{', '.join(given)}: for a fit to LANDMARKS; learning from lines (no LANDMARKS) does not use "
+            + ("it" if len(given) == 1 else "them")
+            + " (it finds the centre, the annulus and the tilt itself; --camera-height gives the camera's height)"
+        )
+
+
 def _check_landmark_fit_options(
     landmarks: Path,
     output: Path,
@@ -330,7 +357,7 @@ def _check_landmark_fit_options(
             raise usage_error(exc) from None
     if overlay is not None and image is None:
         raise click.UsageError("--overlay draws the fit on --image: give --image OMNI too")
-    check_output_paths(
+    check_outputs(
         [("the landmarks", landmarks), ("the image", image)],
         [("the output", output), ("--plot", plot), ("--overlay", overlay)],
     )
@@ -386,7 +413,14 @@ def _fit_lines(
         raise click.UsageError("--plot draws landmarks; learning from lines draws with --overlay")
     if model == "paper":
         raise click.UsageError("the paper model takes the centre as given; learning from lines needs another model")
-    check_output_paths([("the image", path) for path in images], [("the output", output), ("--overlay", overlay)])
+    twice = same_input(images)
+    if twice is not None:
+        first, second, how = twice
+        raise click.BadParameter(
+            f"{first} and {second} are one picture ({how}): give each picture once (its lines twice add nothing)",
+            param_hint="'--image'",
+        )
+    check_outputs([("the image", path) for path in images], [("the output", output), ("--overlay", overlay)])
     if output.suffix.lower() != ".npz":
         raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
     if overlay is not None and overlay.suffix.lower() != ".png":
@@ -425,7 +459,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
     mirror image that overfills the frame: the cut-off disc found and its centre);
     the overlay then shows that disc and the starting value.
     """
-    check_output_paths([("the input image", image)], [("--overlay", overlay)])
+    check_outputs([("the input image", image)], [("--overlay", overlay)])
     omni = read_omni(image, frame_time)
     warn_orientation(image)
     try:

@@ -18,7 +18,7 @@ import numpy as np
 from ..calibrate.landmarks import Landmarks, landmarks_to_csv
 from ..calibrate.pipeline import calibrate_camera, choose_circles
 from ..calibrate.sources import Source
-from ..files import write_text_atomic
+from ..files import check_outputs, write_text_atomic
 from ..io.images import save_map, write_image
 from ..io.overlay import draw_fit_overlay
 from ..io.plot import save_fit_plot
@@ -30,6 +30,12 @@ from .options import FOLDER
 
 IMAGE_SIZE = (1024, 1024)
 LANDMARK_COUNT = 12
+VIEWS = ("panorama", "cylinder", "plane")  # (the views written below, in this order)
+# Every file the demo writes into its folder.
+OUTPUTS = (
+    "omni.png", "landmarks.csv", "table.npz", "fit.png", "fit-overlay.png",
+    *(f"{name}{end}" for name in VIEWS for end in (".png", "_map.npy")),
+)  # fmt: skip
 
 
 def pick_landmarks(
@@ -48,6 +54,7 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
     """Run the demo into folder ``out``; yields one line per step for the user."""
     start = time.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
+    check_outputs([], [(name, out / name) for name in OUTPUTS])  # (none a FIFO, a device, read-only)
     room = load_room()
     position = np.asarray(room.camera)
     camera = standard_cameras(IMAGE_SIZE, centre=(517.3, 503.8), s=-1, phi0=0.6)[camera_name]

@@ -9,8 +9,8 @@ import click
 
 from ..calibrate.circles import ImageCircles
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_output
-from ..interop.api import check_image_size, import_calibration
+from ..files import all_or_none, check_outputs
+from ..interop.api import check_image_size, table_of_imported
 from ..interop.export import FORMATS, export_calibration
 from ..interop.readers import READERS, read_calibration
 from ..table.file import load_table, save_table
@@ -80,13 +80,13 @@ def import_(
         )
     if camera_name is not None and camera_id is not None:
         raise click.UsageError("give --camera-name (Kalibr) or --camera-id (COLMAP), not both")
-    check_output(output)
+    check_outputs([("the calibration", calibration), ("the image", image)], [("the output", output)])
     image_size = None
     sources: dict[str, str] = {}
+    imported = read_calibration(calibration, format_, camera_name or camera_id)
     if image is not None:
         omni = read_omni(image)
         image_size = (int(omni.shape[1]), int(omni.shape[0]))
-        imported = read_calibration(calibration, format_, camera_name or camera_id)
         check_image_size(imported, image_size, calibration)
         try:
             circles = find_image_circles_in(image, omni)
@@ -96,10 +96,9 @@ def import_(
             cutoff_radius, outer_radius = _circle_radii(
                 imported.model.principal_point, circles, cutoff_radius, outer_radius, sources, image
             )
-    table = import_calibration(
+    table = table_of_imported(
+        imported,
         calibration,
-        format=format_,
-        camera=camera_name or camera_id,
         axis=axis,
         tilt_rad=(0.0, 0.0) if isinstance(tilt, str) else (math.radians(tilt[0]), math.radians(tilt[1])),
         camera_position=camera,
@@ -153,7 +152,7 @@ def _circle_radii(
 def export(table: Path, output: Path, format_: str) -> None:
     """Write a table's camera in another tool's model, fitted to the table over its valid range; print the
     largest difference (px) between the two over that range."""
-    check_output(output)
+    check_outputs([("the table", table)], [("the output", output)])
     loaded = load_table(table)
     try:
         result = export_calibration(loaded, output, format_)

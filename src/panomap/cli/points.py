@@ -13,7 +13,7 @@ import numpy as np
 
 from ..calibrate.landmarks import read_points
 from ..errors import printable
-from ..files import check_output_paths, write_text_atomic
+from ..files import check_outputs, write_text_atomic
 from ..geometry import ray_plane_points
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
@@ -31,7 +31,7 @@ STDOUT = "-"  # an output of this name is standard output, as for ffmpeg and mos
 @click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True)
 def project(table: Path, points: Path, output: Path, table_sampling: str) -> None:
     """World points (CSV with X,Y,Z) to pixels through the table; u,v empty where not visible."""
-    check_output_paths([("the table", table), ("the points", points)], _outputs(output))
+    check_outputs([("the table", table), ("the points", points)], _outputs(output))
     loaded = load_table(table)
     read = read_points(points)
     header, rows = read.header, read.rows
@@ -83,7 +83,7 @@ def _write(output: Path, text: str, summary: str) -> None:
 )
 def unproject(table: Path, pixels: Path, output: Path, z_plane: float | None) -> None:
     """Pixels (CSV with u,v) to rays: azimuth and elevation, empty outside the valid region."""
-    check_output_paths([("the table", table), ("the pixels", pixels)], _outputs(output))
+    check_outputs([("the table", table), ("the pixels", pixels)], _outputs(output))
     loaded = load_table(table)
     read = read_points(pixels, ("u", "v"))
     header, rows = read.header, read.rows

@@ -18,7 +18,7 @@ from typing import Any
 import click
 
 from ..errors import PanomapError
-from ..files import check_output_paths, local_file, placeholder_text, placeholders
+from ..files import check_outputs, local_file, placeholder_text, placeholders
 from ..remap import INTERPOLATIONS
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
@@ -255,7 +255,7 @@ def video(
     if no_reconnect and attempts:
         raise click.UsageError("give --reconnect N or --no-reconnect, not both")
     reconnect = Reconnect(attempts=0 if no_reconnect else (5 if attempts is None else attempts), timeout_s=timeout_s)
-    check_output_paths(
+    check_outputs(
         [("the table", table), ("the input", local_file(source))],
         [(f"the output of view {item.name}", path) for item, path in zip(named, paths, strict=True)],
     )

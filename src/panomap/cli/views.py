@@ -16,7 +16,7 @@ import click
 import numpy as np
 
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_output, check_output_paths
+from ..files import all_or_none, check_outputs
 from ..io.images import UNKNOWN_FORMAT, pgm_map_paths, read_image, save_map, save_map_pgm, write_image
 from ..remap import INTERPOLATIONS, Remapper
 from ..table.file import load_table
@@ -78,14 +78,12 @@ def _render(
     if save_map_path is not None and save_map_path.suffix.lower() != ".npy":
         raise click.BadParameter(f"{save_map_path} is not a .npy file name", param_hint="--save-map")
     pgm_paths = pgm_map_paths(pgm_prefix) if pgm_prefix is not None else (None, None)
-    check_output_paths(
+    check_outputs(
         [("the table", table_path), ("the input image", image_path)],
         [("the output", output), ("--save-map", save_map_path)]
         + [(f"--save-map-pgm's {path.name}", path) for path in pgm_paths if path is not None],
     )
     extra = [path for path in (save_map_path, *pgm_paths) if path is not None]
-    for path in [output, *extra]:
-        check_output(path)
     table = load_table(table_path)
     if view.needs_camera_height and table.info.get("camera_height_known") is False:
         click.echo(

@@ -64,7 +64,35 @@ def import_calibration(
     sources : dict, optional
         Where quantities came from (stored in ``info["sources"]``).
     """
-    imported = read_calibration(path, format, camera)
+    return table_of_imported(
+        read_calibration(path, format, camera),
+        path,
+        axis=axis,
+        tilt_rad=tilt_rad,
+        camera_position=camera_position,
+        image_size=image_size,
+        cutoff_radius=cutoff_radius,
+        outer_radius=outer_radius,
+        size=size,
+        sources=sources,
+    )
+
+
+def table_of_imported(
+    imported: Imported,
+    path: str | Path,
+    *,
+    axis: str = "down",
+    tilt_rad: tuple[float, float] = (0.0, 0.0),
+    camera_position: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    image_size: tuple[int, int] | None = None,
+    cutoff_radius: float | None = None,
+    outer_radius: float | None = None,
+    size: tuple[int, int] | None = None,
+    sources: dict[str, str] | None = None,
+) -> PanoMappingTable:
+    """The table of a calibration already read from ``path`` (:func:`read_calibration`: a caller that
+    needs the calibration first reads the file once); the parameters as :func:`import_calibration`'s."""
     check_image_size(imported, image_size, path)
     size_used = imported.image_size if image_size is None else tuple(image_size)
     record: dict[str, Any] = {

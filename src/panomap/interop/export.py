@@ -3,8 +3,9 @@
 The table's rays over its valid range (a grid of its entries, every one finite and in the image) are
 taken into the camera's own frame (through the mount, then :mod:`.frame`); the format's parameters are
 fitted to the table's pixels of them by ``scipy.optimize.least_squares``, from a start the table's
-radial model gives; the largest distance (px) between the fitted model and the table, on a grid twice
-as fine as the fit's, is returned and printed. A format whose model cannot hold the camera is refused
+radial model gives (the double sphere from several, the best kept); the largest distance (px) between the
+fitted model and the table, on a grid twice as fine as the fit's that runs to both ends of the table's
+range (its outermost ring included), is returned and printed. A format whose model cannot hold the camera is refused
 with the reason (OpenCV's fisheye: rays at 90 deg or more from the axis).
 """
 
@@ -65,12 +66,15 @@ def table_samples(table: PanoMappingTable, grid: tuple[int, int]) -> Samples:
     m, n = grid
     theta = TWO_PI * np.arange(m) / m
     low, high = table.elevation_range
-    rho = np.linspace(low, high, n + 2)[1:-1] if table.camera_elevation_range is None else np.linspace(low, high, n)
+    rho = np.linspace(low, high, n)  # (both ends: the outermost ring and the innermost are the table's too)
     theta, rho = np.meshgrid(theta, rho, indexing="ij")
     uv = table.sample(theta, rho).astype(np.float64)
     theta_c, rho_c = table.model.camera_angles(theta, rho)
     rays = camera_rays(theta_c, rho_c, table.model.axis, table.model.s, table.model.phi0)
-    good = np.all(np.isfinite(uv), axis=-1)
+    # A ray on the optical axis itself (a table without a cut-off disc starts there) is left out: every model
+    # sends it to its principal point, the limit of the ring next to it, but through a 0 / 0 (OCam's atan).
+    off_axis = np.hypot(rays[..., 0], rays[..., 1]) > 1e-9
+    good = np.all(np.isfinite(uv), axis=-1) & off_axis
     if np.count_nonzero(good) < 20:
         raise PanomapError("the table has too few valid entries to fit a camera model to")
     return Samples(rays[good], uv[good])
@@ -89,6 +93,29 @@ def _fit(build: Callable[[FloatArray], ExternalCamera], start: list[float], samp
 
     result = least_squares(residuals, np.asarray(start, dtype=np.float64), method="lm", x_scale="jac")
     return build(result.x)
+
+
+def _fit_best(
+    build: Callable[[FloatArray], ExternalCamera], starts: list[list[float]], samples: Samples
+) -> ExternalCamera:
+    """:func:`_fit` from each of ``starts``; the model whose largest distance from the samples (px) is the
+    least (a start that reaches no valid model is passed over; if none does, its error is raised)."""
+    best: tuple[float, ExternalCamera] | None = None
+    failure: PanomapError | None = None
+    for start in starts:
+        try:
+            model = _fit(build, start, samples)
+        except PanomapError as exc:
+            failure = failure or exc
+            continue
+        miss = np.hypot(*(model.project(samples.rays) - samples.uv).T)
+        largest = float(np.max(miss)) if np.all(np.isfinite(miss)) else math.inf
+        if best is None or largest < best[0]:
+            best = (largest, model)
+    if best is None:
+        assert failure is not None
+        raise failure
+    return best[1]
 
 
 def _start(table: PanoMappingTable) -> tuple[float, float, float]:
@@ -116,9 +143,16 @@ def _fit_mei(table: PanoMappingTable, samples: Samples, skew: bool) -> ExternalC
     return _fit(lambda p: Mei(*p), start, samples)
 
 
+# The double sphere's starts (xi, alpha): from one start the fit can stop in a local minimum (issue 44: a
+# kalibr-ds export stopped at 11.6 px where another start reached 0.80 px; a simulated 800 x 800 equisolid
+# fisheye stops at 0.84 px from (0, 0.5) and reaches 0.002 px from (0.3, 0.5)).
+DOUBLE_SPHERE_STARTS = ((0.0, 0.5), (0.3, 0.5), (0.6, 0.6), (0.0, 0.3))
+
+
 def _fit_double_sphere(table: PanoMappingTable, samples: Samples) -> ExternalCamera:
     cx, cy, f = _start(table)
-    return _fit(lambda p: DoubleSphere(*p), [0.0, 0.5, f, f, cx, cy], samples)
+    starts = [[xi, alpha, f, f, cx, cy] for xi, alpha in DOUBLE_SPHERE_STARTS]
+    return _fit_best(lambda p: DoubleSphere(*p), starts, samples)
 
 
 def _fit_eucm(table: PanoMappingTable, samples: Samples) -> ExternalCamera:

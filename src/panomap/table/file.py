@@ -67,15 +67,34 @@ _FIELDS = {
 
 
 def save_table(table: PanoMappingTable, path: str | Path) -> None:
-    """Write the table to ``path`` (an ``.npz``), through a temporary file."""
+    """Write the table to ``path`` (an ``.npz``), through a temporary file.
+
+    The file is first held to the checks :func:`load_table` makes of its metadata and its arrays' sizes
+    (the image size within :data:`MAX_IMAGE_SIDE`, the radii, the table limits...): a table that no
+    command could load is refused here, naming ``path``, and nothing is written.
+    """
     meta = table.metadata() | {"entries_sha256": _digest(table.entries)}
     meta["metadata_sha256"] = metadata_digest(meta)
     text = json.dumps(meta, indent=1, allow_nan=False)
+    _check_loadable(text, table.entries, path)
 
     def writer(handle: Any) -> None:
         np.savez(handle, entries=table.entries, meta=np.array(text))
 
     write_with(path, writer)
+
+
+def _check_loadable(text: str, entries: NDArray[np.float32], path: str | Path) -> None:
+    """Refuse to write a table :func:`load_table` would refuse: its metadata ``text`` and the declared
+    shapes of ``entries`` and of the metadata, checked as a load checks them."""
+    try:
+        _check_declared(
+            (tuple(entries.shape), np.dtype(entries.dtype).newbyteorder("<")),
+            ((), np.dtype(f"<U{max(len(text), 1)}")),
+        )
+        TableMetadata.from_dict(json.loads(text))
+    except PanomapError as exc:
+        raise PanomapError(f"not written: no command could load this table ({exc.detail})", path) from None
 
 
 def _digest(entries: NDArray[np.float32]) -> str:

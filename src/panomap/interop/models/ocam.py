@@ -37,6 +37,10 @@ from .base import ExternalCamera, as_rays, pixels, positive
 _INVERSE_NODES = 8193
 # Newton steps from that table's linear interpolation (within 0.01 px): each squares the error.
 NEWTON_STEPS = 2
+# Coefficients of pol and of invpol, at most: OCamCalib writes 5 for pol and up to about 20 for invpol, and a
+# polynomial of far higher degree in radii of hundreds of px is no camera (and costs its degree in every
+# evaluation: 20001 coefficients took 89 s to import).
+MAX_COEFFICIENTS = 64
 
 
 @dataclass(frozen=True)
@@ -54,6 +58,12 @@ class OCam(ExternalCamera):
     width: int
 
     def check(self) -> None:
+        for name, coefficients in (("pol", self.pol), ("invpol", self.invpol)):
+            if len(coefficients) > MAX_COEFFICIENTS:
+                raise PanomapError(
+                    f"{self.name}: {name} has {len(coefficients)} coefficients; at most {MAX_COEFFICIENTS} "
+                    "(OCamCalib writes 5 for pol, about 20 for invpol)"
+                )
         if len(self.pol) < 2:
             raise PanomapError(f"{self.name}: pol needs at least 2 coefficients, has {len(self.pol)}")
         if not self.pol[0] < 0:

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import PanomapError
+from ...table.file import MAX_IMAGE_SIDE
 from ..models.base import ExternalCamera
 
 
@@ -50,9 +51,14 @@ def numbers(value: Any, where: str, path: str | Path, count: int | tuple[int, ..
 
 
 def image_size_of(width: float, height: float, where: str, path: str | Path) -> tuple[int, int]:
-    """(width, height) as positive whole numbers."""
+    """(width, height) px as positive whole numbers, each side at most a table file's limit
+    (:data:`panomap.table.file.MAX_IMAGE_SIDE`: a table for a larger image could not be loaded)."""
     if not (width == int(width) and height == int(height) and width > 0 and height > 0):
         raise PanomapError(f"{where} is {width:g} x {height:g}, not a positive whole size", path)
+    if max(width, height) > MAX_IMAGE_SIDE:
+        raise PanomapError(
+            f"{where} is {width:g} x {height:g}: larger than any image (at most {MAX_IMAGE_SIDE} px a side)", path
+        )
     return int(width), int(height)
 
 
