@@ -65,7 +65,15 @@ _FIELDS = {
 
 
 def save_table(table: PanoMappingTable, path: str | Path) -> None:
-    """Write the table to ``path`` (an ``.npz``), through a temporary file."""
+    """Write the table to ``path`` (an ``.npz``), through a temporary file.
+
+    Parameters
+    ----------
+    table : PanoMappingTable
+        The table; its entries, model and ``info`` are written with checksums of both.
+    path : str or path
+        The file to write (whole or not at all).
+    """
     meta = table.metadata() | {"entries_sha256": _digest(table.entries)}
     meta["metadata_sha256"] = metadata_digest(meta)
     text = json.dumps(meta, indent=1, allow_nan=False)
@@ -272,6 +280,15 @@ def _check_declared(
 
 def load_table(path: str | Path) -> PanoMappingTable:
     """Read a table file, checking its format, version and contents.
+
+    Parameters
+    ----------
+    path : str or path
+        A table file written by :func:`save_table` (``panomap fit``, ``panomap import``, the learn page).
+
+    Returns
+    -------
+    PanoMappingTable
 
     Raises
     ------

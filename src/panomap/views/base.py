@@ -297,6 +297,23 @@ def build_map(
     giving the exact map); ``exact=True`` takes the exact way always. The
     lookup is made from the second such map of a table on (it costs about two
     exact maps): a lone map, as a still render or a video's, is exact.
+
+    Parameters
+    ----------
+    table : PanoMappingTable
+        The camera's table.
+    view : View
+        Any view: :class:`GenericPanorama`, :class:`CylinderPanorama`, :class:`PlaneView`,
+        :class:`PerspectiveView`, :class:`FloorView`.
+    sampling : {"bilinear", "nearest"}
+        How the table is read between its entries (``nearest``: the paper's floor indices).
+    exact : bool
+        Make the map the exact way, never the quick one.
+
+    Returns
+    -------
+    (H, W, 2) float32 ndarray
+        Each output pixel's source pixel (u, v), NaN where there is none.
     """
     if not exact:
         quick = view.quick_map(table, sampling)
