@@ -159,10 +159,11 @@ def test_the_manuals_ten_line_script_learns_a_camera_from_a_picture(
 
 
 def test_the_readme_is_a_front_page_and_its_test_command_is_what_ci_runs() -> None:
-    """README.md: at most 150 lines, its picture small; its test command is, character for character, the
-    command .ci/run runs (which the README says)."""
+    """README.md: at most 150 lines, its picture small; its test command is the command .ci/run runs (which
+    the README says), but for pip's ``-q`` there."""
     readme = (ROOT / "README.md").read_text()
     assert len(readme.splitlines()) <= 150
     assert "![" in readme and (DOCS / "img" / "front.png").stat().st_size < 300_000
     (command,) = [line for line in readme.splitlines() if line.startswith("scripts/install-test-deps.sh &&")]
-    assert (ROOT / ".ci" / "run").read_text().rstrip("\n").splitlines()[-1] == command
+    ci = (ROOT / ".ci" / "run").read_text().rstrip("\n").splitlines()[-1]
+    assert ci.replace("pip install -q ", "pip install ") == command
