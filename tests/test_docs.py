@@ -125,36 +125,38 @@ def test_every_public_name_is_in_the_api_reference_with_its_parameters() -> None
     assert not problems, "\n".join(problems)
 
 
-def manual_script() -> str:
-    """The script the getting-started page shows after its mark."""
+def manual_scripts() -> list[str]:
+    """The scripts the getting-started page shows after its marks, in order."""
     text = (DOCS / "getting-started.md").read_text()
-    after = text[text.index(SCRIPT_MARK) + len(SCRIPT_MARK) :]
-    match = re.match(r"\s*```python\n(.*?)```", after, re.S)
-    assert match is not None, "no python block after the mark"
-    return match.group(1)
+    scripts = []
+    for part in text.split(SCRIPT_MARK)[1:]:
+        match = re.match(r"\s*```python\n(.*?)```", part, re.S)
+        assert match is not None, "no python block after a mark"
+        scripts.append(match.group(1))
+    return scripts
 
 
 @pytest.mark.slow
-def test_the_manuals_ten_line_script_learns_a_camera_from_a_picture(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """The getting-started page's script, as printed, on the demo's omni-image (rendered as ``panomap demo``
-    renders it): it learns the camera from the lines and writes a table that loads."""
+def test_the_getting_started_scripts_run_on_the_demo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The getting-started page's scripts, as printed, after ``panomap demo`` (run here as the command runs it):
+    the perspective view of the demo's table, then the ten-line script that learns the camera from the demo's
+    picture alone and writes a table that loads."""
     from panomap.cli.demo import run_demo
 
-    script = manual_script()
-    assert len(script.strip().splitlines()) <= 10
-    demo = run_demo(tmp_path / "demo-out")
-    next(demo)  # the first step renders and writes omni.png
-    demo.close()
+    view, learn = manual_scripts()
+    assert len(learn.strip().splitlines()) <= 10
+    for _line in run_demo(tmp_path / "demo-out"):
+        pass
     monkeypatch.chdir(tmp_path)
+    exec(compile(view, "getting-started.md", "exec"), {"__name__": "__main__"})
+    assert panomap.read_image(tmp_path / "ptz.png").shape[:2] == (720, 960)
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        exec(compile(script, "getting-started.md", "exec"), {"__name__": "__main__"})
-    assert printed.getvalue().startswith("learned from lines: model ")
+        exec(compile(learn, "getting-started.md", "exec"), {"__name__": "__main__"})
+    assert printed.getvalue().startswith("learned from lines: model unified, ")
     table = panomap.load_table(tmp_path / "learned.npz")
     assert table.info["source"] == "lines" and table.info["images"] == ["demo-out/omni.png"]
-    assert table.image_size == (1024, 1024)
+    assert table.image_size == (1024, 1024) and table.model.s == -1
 
 
 def test_the_readme_is_a_front_page_and_its_test_command_is_what_ci_runs() -> None:
