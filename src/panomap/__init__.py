@@ -11,6 +11,8 @@ The pieces, in the paper's order:
   and an omni-image (its circles found when the centre or radii are not
   given (:func:`choose_circles` -> :class:`CircleChoice`; :class:`NoImageCircle` where no rim
   shows), each one's :class:`Source` recorded) to the fit and its table.
+- :func:`learn_from_images` -> :class:`LearnedCalibration`: the same without landmarks, the camera
+  learned from the straight lines and checkerboards of one or more pictures.
 - Views (2.3): :class:`GenericPanorama`, :class:`CylinderPanorama`,
   :class:`PlaneView`, and beyond the paper :class:`PerspectiveView` (a virtual
   pan-tilt-zoom camera) and :class:`FloorView` (a bird's-eye map);
@@ -58,6 +60,9 @@ _EXPORTS = {
     "choose_circles": "calibrate.pipeline",
     "Calibration": "calibrate.pipeline",
     "calibrate_camera": "calibrate.pipeline",
+    # a camera learned from pictures (lines, checkerboards), no landmark
+    "LearnedCalibration": "calibrate.pictures",
+    "learn_from_images": "calibrate.pictures",
     # the camera model
     "CameraModel": "camera.model",
     "RadialFunction": "camera.radial",

@@ -116,6 +116,22 @@ def find_inputs(
 
     Without a manifest, ``table`` is every input's table and ``camera`` (default: the table's
     stem) its camera name. Raises PanomapError naming what matched nothing.
+
+    Parameters
+    ----------
+    patterns : sequence of str
+        Files, folders and globs, or one manifest file mapping each input to its table.
+    table : path or None
+        Every input's table where no manifest is given (None with a manifest).
+    camera : str, optional
+        The camera's name in the output template's ``{camera}``.
+    exclude : sequence of str
+        Globs of inputs to leave out.
+
+    Returns
+    -------
+    list of BatchInput
+        Each input with its table and camera name.
     """
     manifest = check_inputs_and_table(patterns, table)
     if manifest is not None:
@@ -310,6 +326,22 @@ def make_job(
 
     Raises PanomapError for a template with an unknown key, a missing input or table, two
     outputs of one path, or an output that is an input.
+
+    Parameters
+    ----------
+    inputs : iterable of BatchInput
+        What :func:`find_inputs` found.
+    views : sequence of NamedView
+        The views every input is unwarped into.
+    template : str
+        Each output's path, with the keys ``{camera}``, ``{stem}`` (the input's file name less its suffix),
+        ``{name}`` (the view's) and ``{ext}`` (the input's suffix), e.g. ``out/{camera}/{stem}_{name}.mp4``.
+    settings : Settings
+        How each output is made (encoder, frames, sampling), part of each output's key in the record.
+
+    Returns
+    -------
+    Job
     """
     if not views:
         raise PanomapError("give at least one view")

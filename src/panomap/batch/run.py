@@ -190,6 +190,29 @@ def run_job(
     starts and when it ends (:func:`panomap.batch.leftovers.tidy`). A failing input is tried
     ``retries`` more times, then recorded as failed, and the job goes on. ``progress``, ``stop``,
     ``warn`` and ``on_dashboard``: :class:`RunHooks`.
+
+    Parameters
+    ----------
+    job : Job
+        What :func:`panomap.make_job` made.
+    record : Record
+        The job's record of finished outputs, updated as each finishes.
+    settings : RunSettings, optional
+        Where and how to run (scheduler, workers, segments, retries, ``force``).
+    progress : callable, optional
+        Called with the progress as results come in.
+    stop : threading.Event, optional
+        Set it to cancel what has not finished.
+    warn : callable, optional
+        Called with one line for each failure as it happens.
+    on_dashboard : callable, optional
+        Called with the Dask dashboard's address, where there is one.
+    **options
+        Fields of :class:`RunSettings`, replacing those of ``settings``.
+
+    Returns
+    -------
+    BatchReport
     """
     settings = replace(settings or RunSettings(), **options)
     hooks = RunHooks(progress, stop or threading.Event(), warn or (lambda message: None), on_dashboard)

@@ -104,6 +104,16 @@ class Landmarks:
 def read_landmarks(path: str | Path) -> Landmarks:
     """Read landmarks from a CSV or JSON file (chosen by the ``.json`` suffix).
 
+    Parameters
+    ----------
+    path : str or path
+        A CSV of ``u,v,X,Y,Z[,name]`` rows (comma-, semicolon- or tab-separated, a header optional), or a
+        JSON file of landmarks (which may also hold the camera position).
+
+    Returns
+    -------
+    Landmarks
+
     Raises
     ------
     PanomapError

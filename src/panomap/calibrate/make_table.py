@@ -102,6 +102,9 @@ def create_table(
 ) -> PanoMappingTable:
     """Make the pano-mapping table of a fitted camera.
 
+    The elevation range runs from the cut-off radius to the outer radius,
+    narrowed to where f_r is monotonic and around the landmarks.
+
     Parameters
     ----------
     fit : CameraFit
@@ -122,8 +125,9 @@ def create_table(
         Stored in the table; its ``sources`` (quantity -> text) gain the
         radii's when it lacks them.
 
-    The elevation range runs from the cut-off radius to the outer radius,
-    narrowed to where f_r is monotonic and around the landmarks.
+    Returns
+    -------
+    PanoMappingTable
     """
     annulus = choose_annulus(fit, image_size, cutoff_radius, outer_radius)
     sources = dict(info.get("sources", {})) if info else {}

@@ -255,6 +255,22 @@ def choose_circles(
     defaults) and a warning says so. A camera that does not see itself (no
     cut-off disc) gets the cut-off radius 0, :attr:`Source.DETECTED_NONE`.
 
+    Parameters
+    ----------
+    omni : (H, W[, C]) ndarray
+        An omni-image of the camera.
+    centre : (u0, v0), optional
+        The image centre (px), where known; found in ``omni`` otherwise.
+    cutoff_radius, outer_radius : float, optional
+        The cut-off disc's and the image circle's radii (px), where known; found in ``omni`` otherwise.
+    name : str or path, optional
+        The omni-image's file, named in errors and warnings.
+
+    Returns
+    -------
+    CircleChoice
+        The centre and radii settled on (None where still open), where each came from, and the warnings.
+
     Raises
     ------
     PanomapError
@@ -371,7 +387,7 @@ def calibrate_camera(
         Refine the centre with the landmarks. Default: when the centre was not
         given (found in the image, or the frame's middle where no image circle
         is found) and the model does not take the centre as given (``paper``).
-    model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers, tilt_deg, camera_sigma, viewpoint
+    model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers, tilt_deg, camera_sigma, viewpoint, tilt
         As :func:`panomap.fit_camera` (by default the tilt and the camera position are refined where
         cross-validation says the landmarks support it; ``tilt``, deprecated, is ``tilt_deg``'s old spelling).
     models_cover_annulus : bool

@@ -438,7 +438,6 @@ def _fit_lines(
         options=options,
         camera_height=camera_height,
         overlay=overlay,
-        find_circles=line_circles_in,
         use_boards=use_boards,
     )
 
@@ -505,17 +504,6 @@ def find_image_circles_in(path: Path, image: Any) -> ImageCircles:
     """Find the image circles, naming the file in any error."""
     try:
         return find_image_circles(image)
-    except PanomapError as exc:
-        raise PanomapError(exc.detail, path) from None
-
-
-def line_circles_in(path: Path, image: Any) -> ImageCircles:
-    """The image circles the line fit starts from (stand-ins where the image shows no rim: a mirror image that
-    overfills the frame, a full-frame fisheye), naming the file in any error."""
-    from ..calibrate.lines.frame_circles import line_circles
-
-    try:
-        return line_circles(image)
     except PanomapError as exc:
         raise PanomapError(exc.detail, path) from None
 

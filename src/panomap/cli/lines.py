@@ -5,18 +5,14 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
-from typing import Any
 
 import click
 import numpy as np
 
-from ..calibrate.boards.choice import learn_camera
-from ..calibrate.boards.detect import Board, find_boards
 from ..calibrate.circles import ImageCircles
-from ..calibrate.lines.arcs import EdgeArc, find_arcs
-from ..calibrate.lines.fit import LineFit, LineFitOptions
-from ..calibrate.lines.table import create_line_table
-from ..errors import PanomapError, printable
+from ..calibrate.lines.fit import LineFitOptions
+from ..calibrate.pictures import learn_from_images
+from ..errors import printable
 from ..files import all_or_none
 from ..io.images import write_image
 from ..table.file import save_table
@@ -33,97 +29,55 @@ def fit_from_lines(
     options: LineFitOptions,
     camera_height: float | None,
     overlay: Path | None,
-    find_circles: Any,
     use_boards: bool = True,
 ) -> None:
     """Learn the camera from the lines of ``images``, write its table (and ``overlay``), say what the fit saw.
 
     Checkerboards in the images (``use_boards``) and the edge arcs both count
-    (:func:`panomap.calibrate.boards.choice.learn_camera`): a board's corners are evenly spaced on straight
-    lines at right angles, which fixes the scale that straightness alone leaves loose; with few boards the
-    line fit is made too and the camera that explains both is kept.
-
-    ``find_circles(path, image)`` finds the image circles, naming the file in its errors.
+    (:func:`panomap.calibrate.pictures.learn_from_images`, which does the work): a board's corners are evenly
+    spaced on straight lines at right angles, which fixes the scale that straightness alone leaves loose; with
+    few boards the line fit is made too and the camera that explains both is kept.
     """
     started = time.monotonic()
     bar = ProgressBar(enabled=sys.stderr.isatty())
     try:
         omnis = _read_all(images, frame_time)
-        circles = find_circles(images[0], omnis[0])
-        steps = 2 * len(images) + 1
-        edges: list[EdgeArc] = []
-        for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
-            bar.update(k, steps, f"edges of {path.name}")
-            edges += find_arcs(omni, circles, image_index=k)
-        boards: list[Board] = []
-        if use_boards:
-            for k, (path, omni) in enumerate(zip(images, omnis, strict=True)):
-                bar.update(len(images) + k, steps, f"checkerboards in {path.name}")
-                boards += find_boards(omni, image_index=k)
-        try:
-            learned = learn_camera(
-                boards, edges, circles, options, progress=lambda step: bar.update(steps - 1, steps, step)
-            )
-        except PanomapError as exc:
-            raise PanomapError(exc.detail, images[0] if len(images) == 1 else None) from None
-        table = _table(learned.fit, circles, omnis, camera_height, images, learned.source)
+        learned = learn_from_images(
+            omnis,
+            names=images,
+            camera_height=camera_height,
+            model=options.model,
+            axis=options.axis,
+            handedness=options.s,
+            azimuth_zero=options.azimuth_zero,
+            boards=use_boards,
+            progress=bar.update,
+        )
     finally:
         bar.close()
+    table = learned.table
     with all_or_none():
         save_table(table, output)
         if overlay is not None:
             from ..io.line_overlay import draw_line_overlay
 
             write_image(overlay, draw_line_overlay(omnis[0], table, learned.arcs))
-    click.echo(printable(describe_line_fit(table, circles, time.monotonic() - started), keep="\n"))
+    click.echo(printable(describe_line_fit(table, learned.circles, time.monotonic() - started), keep="\n"))
     if learned.choice is not None:
         click.echo(learned.choice)
     written = [str(path) for path in (output, overlay) if path is not None]
     click.echo("wrote " + " and ".join(written))
-    for warning in [*learned.notes, *table.info.get("warnings", [])]:
+    for warning in learned.warnings:
         click.echo(f"panomap: warning: {warning}", err=True)
 
 
-def _table(
-    fit: LineFit,
-    circles: ImageCircles,
-    omnis: list[np.ndarray],
-    camera_height: float | None,
-    images: tuple[Path, ...],
-    source: str,
-) -> PanoMappingTable:
-    """The table of a camera learned from ``source`` ("lines" or "checkerboards")."""
-    info: dict[str, Any] = {"source": source, "images": [str(path) for path in images]}
-    if source == "checkerboards":
-        info["sources"] = {
-            "camera_position": "given (--camera-height)" if camera_height is not None else "unknown (boards' size)",
-            "centre": "fitted to the checkerboards' corners",
-            "cutoff_radius": "detected",
-            "outer_radius": "detected",
-        }
-    return create_line_table(
-        fit,
-        cutoff_radius=circles.cutoff_radius or 0.0,
-        outer_radius=circles.outer_radius,
-        image_size=(omnis[0].shape[1], omnis[0].shape[0]),
-        camera_height=camera_height,
-        info=info,
-    )
-
-
 def _read_all(images: tuple[Path, ...], frame_time: float | None) -> list[np.ndarray]:
-    """Every image (a video's frame at ``frame_time``), all of the first one's size."""
+    """Every image (a video's frame at ``frame_time``), read and checked for its orientation (the sizes are
+    checked by :func:`panomap.calibrate.pictures.learn_from_images`)."""
     omnis: list[np.ndarray] = []
     for path in images:
-        omni = read_omni(path, frame_time)
+        omnis.append(read_omni(path, frame_time))
         warn_orientation(path)
-        if omnis and omni.shape[:2] != omnis[0].shape[:2]:
-            raise PanomapError(
-                f"is {omni.shape[1]} x {omni.shape[0]}, but {images[0]} is {omnis[0].shape[1]} x "
-                f"{omnis[0].shape[0]}: the images of one camera have one size",
-                path,
-            )
-        omnis.append(omni)
     return omnis
 
 

@@ -237,6 +237,16 @@ def export_calibration(table: PanoMappingTable, path: str | Path, format: str) -
     Returns the fitted model and the largest distance (px) between it and the table on a check grid
     twice as fine as the fit's.
 
+    Parameters
+    ----------
+    table : PanoMappingTable
+        The camera's table.
+    path : str or path
+        The file to write.
+    format : {"ocam", "opencv-fisheye", "opencv-omnidir", "kalibr-omni", "kalibr-ds", "kalibr-eucm", \
+"kalibr-equidistant"}
+        The other tool's model and file (the manual's "Calibrations in and out" page).
+
     Raises
     ------
     PanomapError

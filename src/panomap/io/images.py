@@ -47,6 +47,20 @@ def read_image(
     image beyond :data:`MAX_IMAGE_PIXELS`, or not of ``expected_size``
     (width, height) when one is given, is refused without decoding it.
 
+    Parameters
+    ----------
+    path : str or path
+        The image file (PNG, JPEG, TIFF, ... as OpenCV reads them).
+    expected_size : (width, height), optional
+        The size the image must have (px), e.g. the one a table was made for.
+    expected_by : str
+        What expects that size, named in the error.
+
+    Returns
+    -------
+    (H, W[, C]) ndarray
+        The pixels, uint8 or uint16, BGR (or BGRA) where in colour.
+
     Raises
     ------
     PanomapError
@@ -235,7 +249,22 @@ def _check_size(path: Path, size: tuple[int, int], expected_size: tuple[int, int
 
 
 def write_image(path: str | Path, image: NDArray[Any]) -> None:
-    """Write an image, choosing the format by suffix; refuses to lose depth or alpha."""
+    """Write an image, choosing the format by suffix; refuses to lose depth or alpha.
+
+    The file is written whole or not at all (a temporary file renamed into place).
+
+    Parameters
+    ----------
+    path : str or path
+        The file to write; its suffix chooses the format (``.png``, ``.jpg``, ``.tif``, ...).
+    image : (H, W[, C]) ndarray
+        uint8 or uint16 pixels, BGR (or BGRA) where in colour.
+
+    Raises
+    ------
+    PanomapError
+        Where the format cannot hold the image's depth or alpha, or the file cannot be written.
+    """
     path = Path(path)
     suffix = path.suffix.lower()
     if image.dtype == np.uint16 and suffix not in SIXTEEN_BIT_SUFFIXES:

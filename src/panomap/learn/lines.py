@@ -3,7 +3,7 @@
 Convention: pixel (u, v) = (column, row), the centre of the top-left pixel at (0, 0); residuals in px.
 
 The same fit and table as ``panomap fit -o T --image IMG [--azimuth-zero U V]``
-(:func:`panomap.calibrate.lines.fit.fit_lines`, :func:`panomap.calibrate.lines.table.create_line_table`), on
+(:func:`panomap.calibrate.pictures.learn_from_images`, which both call), on
 the arcs of the page's image found once (:class:`panomap.calibrate.joint.ImageLines`, shared with the landmark
 fit, which the same lines join). Lines know no azimuth origin: a click on the image sets the pixel that sees
 world azimuth 0 (:func:`panomap.calibrate.lines.orientation.zero_azimuth`, what ``--azimuth-zero U V`` does).
@@ -13,16 +13,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..calibrate.joint import ImageLines
 from ..calibrate.lines.arcs import EdgeArc
-from ..calibrate.lines.fit import LineFit, LineFitOptions
-from ..calibrate.lines.orientation import zero_azimuth
-from ..calibrate.lines.table import create_line_table
+from ..calibrate.lines.fit import LineFit
+from ..calibrate.pictures import learn_from_images
 from ..calibrate.report import table_fit_report
 from ..geometry import FloatArray
 from ..table.table import PanoMappingTable
@@ -43,11 +43,11 @@ class LineLearning:
 
 
 def learn_from_lines(
-    lines: ImageLines, image_size: tuple[int, int], image_name: str, azimuth_zero: tuple[float, float] | None = None
+    image: NDArray[Any], lines: ImageLines, image_name: str, azimuth_zero: tuple[float, float] | None = None
 ) -> LineLearning:
-    """The camera of ``lines`` as the command learns it (the image's checkerboards first, else its edge arcs,
-    with the command's defaults) and its table; azimuth 0 at ``azimuth_zero`` (u, v) px when given, else at
-    image angle 0.
+    """The camera of ``image`` as the command learns it (:func:`panomap.calibrate.pictures.learn_from_images`:
+    the image's checkerboards first, else its edge arcs, with the command's defaults) from its ``lines`` found
+    beforehand, and its table; azimuth 0 at ``azimuth_zero`` (u, v) px when given, else at image angle 0.
 
     Raises
     ------
@@ -55,23 +55,14 @@ def learn_from_lines(
         As the line fit does (too few lines, no two orthogonal families), or where the camera does not see
         ``azimuth_zero``.
     """
-    learned = lines.learned(LineFitOptions())
-    fit = learned.fit
-    if azimuth_zero is not None:
-        fit = replace(
-            fit,
-            model=zero_azimuth(fit.model, azimuth_zero),
-            report=replace(fit.report, azimuth_source="given"),
-        )
-    circles = lines.circles
-    table = create_line_table(
-        fit,
-        cutoff_radius=circles.cutoff_radius or 0.0,
-        outer_radius=circles.outer_radius,
-        image_size=image_size,
-        info={"source": learned.source, "images": [image_name], "learned_with": f"panomap learn on {image_name}"},
+    learned = learn_from_images(
+        [image],
+        names=[image_name],
+        azimuth_zero=azimuth_zero,
+        info={"learned_with": f"panomap learn on {image_name}"},
+        found=lines,
     )
-    return LineLearning(fit, table, azimuth_zero, learned.arcs)
+    return LineLearning(learned.fit, learned.table, azimuth_zero, learned.arcs)
 
 
 def _shown(pixels: FloatArray) -> list[list[float]]:

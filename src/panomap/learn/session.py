@@ -453,7 +453,7 @@ class Session:
                 )
             else:
                 try:
-                    learned = learn_from_lines(lines, self.image_size, self.image_name)
+                    learned = learn_from_lines(self.image, lines, self.image_name)
                 except PanomapError as exc:
                     learned = None
                     status = {"ok": False, "revision": revision, "message": f"learning from lines failed: {exc.detail}"}
@@ -474,7 +474,7 @@ class Session:
             lines = self._lines
             if self._learned is None or lines is None:
                 raise RequestError("no camera learned from lines yet: learn from lines first", 409)
-            learned = learn_from_lines(lines, self.image_size, self.image_name, (u, v))
+            learned = learn_from_lines(self.image, lines, self.image_name, (u, v))
             with self._lock:
                 revision = self.lines_status.get("revision", 0) + 1
                 self._learned = learned

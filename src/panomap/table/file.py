@@ -72,6 +72,13 @@ def save_table(table: PanoMappingTable, path: str | Path) -> None:
     The file is first held to the checks :func:`load_table` makes of its metadata and its arrays' sizes
     (the image size within :data:`MAX_IMAGE_SIDE`, the radii, the table limits...): a table that no
     command could load is refused here, naming ``path``, and nothing is written.
+
+    Parameters
+    ----------
+    table : PanoMappingTable
+        The table; its entries, model and ``info`` are written with checksums of both.
+    path : str or path
+        The file to write (whole or not at all).
     """
     meta = table.metadata() | {"entries_sha256": _digest(table.entries)}
     meta["metadata_sha256"] = metadata_digest(meta)
@@ -295,6 +302,15 @@ def _check_declared(
 
 def load_table(path: str | Path) -> PanoMappingTable:
     """Read a table file, checking its format, version and contents.
+
+    Parameters
+    ----------
+    path : str or path
+        A table file written by :func:`save_table` (``panomap fit``, ``panomap import``, the learn page).
+
+    Returns
+    -------
+    PanoMappingTable
 
     Raises
     ------

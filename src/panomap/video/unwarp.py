@@ -120,6 +120,44 @@ def unwarp_video(
     choice, about one per core). Where several videos run at once on a machine (the local
     workers of ``panomap batch``), one each keeps the cores as busy with less switching
     between threads (docs/scaling.md). An encoder ``threads`` option in ``encoder`` wins.
+
+    Parameters
+    ----------
+    table : PanoMappingTable
+        The camera's table; the input's frames must be of its image size.
+    source : str
+        A video file, a URL (``rtsp://``, ``http://``, ``tcp://``, ...) or a capture device (``/dev/video0``).
+    outputs : sequence of ViewOutput
+        Each view and the file it is written to.
+    encoder : EncoderSettings
+        The codec, pixel format, quality and container options of every output.
+    selection : Selection
+        Which frames: a start, a duration, every n-th frame.
+    audio : bool
+        Copy the input's audio into every output.
+    sampling : {"bilinear", "nearest"}
+        How the table is read between its entries.
+    interpolation : {"linear", "nearest", "cubic"}
+        How each frame is read between its pixels.
+    fixed_point : bool
+        Keep the maps in OpenCV's fixed-point form (less memory, positions rounded to 1/32 px).
+    stop : threading.Event, optional
+        Set it to end the run cleanly.
+    progress : callable, optional
+        Called as ``progress(frames_done, frames_expected_or_None)`` after each frame.
+    warn : callable, optional
+        Called with one line for each frame skipped and each gap of a live input.
+    memory_limit : int, optional
+        Bytes the views' maps and frames may take (default: 3/4 of the machine's memory).
+    reconnect : Reconnect
+        How a live input that drops is reconnected (attempts, waits, timeout).
+    codec_threads : int, optional
+        Threads of the decoder and of each encoder.
+
+    Returns
+    -------
+    VideoReport
+        The frames read and written, the segments' files, the gaps, the time taken.
     """
     stop = stop or threading.Event()
     warn = warn or (lambda message: None)

@@ -301,6 +301,23 @@ def build_map(
     For a camera without a single viewpoint (:mod:`panomap.camera.viewpoint`), a view of a surface
     (cylinder, plane, floor) reads each point through the ray that reaches it from its own origin on the
     axis; the panoramas and the perspective view see directions, the rays at infinity.
+
+    Parameters
+    ----------
+    table : PanoMappingTable
+        The camera's table.
+    view : View
+        Any view: :class:`GenericPanorama`, :class:`CylinderPanorama`, :class:`PlaneView`,
+        :class:`PerspectiveView`, :class:`FloorView`.
+    sampling : {"bilinear", "nearest"}
+        How the table is read between its entries (``nearest``: the paper's floor indices).
+    exact : bool
+        Make the map the exact way, never the quick one.
+
+    Returns
+    -------
+    (H, W, 2) float32 ndarray
+        Each output pixel's source pixel (u, v), NaN where there is none.
     """
     if not table.model.single_viewpoint:
         # A camera without a single viewpoint sees a point along the ray through it from its own origin: the

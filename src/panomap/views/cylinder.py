@@ -57,12 +57,15 @@ class CylinderPanorama(View):
 
     @classmethod
     def from_params(cls, values: Mapping[str, Any]) -> Self:
+        """The view from its parameters, as parsed from a view SPEC (every declared name, None where not given)."""
         return cls(values["distance"], Band(*values["band"]), values["size"], values["start"])
 
     def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
+        """(W, H) of the output image: ``size``."""
         return self.size
 
     def angles(self, table: PanoMappingTable) -> tuple[FloatArray, FloatArray]:
+        """Azimuth and elevation (rad), each (H, W), of every output pixel."""
         width, height = self.size
         theta, rho = self._columns_rows()
         return np.broadcast_to(theta, (height, width)), np.broadcast_to(rho[:, None], (height, width))

@@ -142,6 +142,7 @@ class FloorView(View):
             )
 
     def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
+        """(W, H) of the output image: ``size``."""
         return self.size
 
     def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:

@@ -53,12 +53,15 @@ class GenericPanorama(View):
 
     @classmethod
     def from_params(cls, values: Mapping[str, Any]) -> Self:
+        """The view from its parameters, as parsed from a view SPEC (every declared name, None where not given)."""
         return cls(values["size"], values["start"])
 
     def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
+        """(W, H) of the output image: ``size``, or the table's (M, N) where not given."""
         return self.size if self.size is not None else table.size
 
     def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:
+        """Azimuth and elevation (rad), each (H, W), of every output pixel."""
         width, height = self.output_size(table)
         theta, rho = self._columns_rows(table)
         return np.broadcast_to(theta, (height, width)), np.broadcast_to(rho[:, None], (height, width))

@@ -90,6 +90,7 @@ class PerspectiveView(View):
 
     @classmethod
     def from_params(cls, values: Mapping[str, Any]) -> Self:
+        """The view from its parameters, as parsed from a view SPEC (every declared name, None where not given)."""
         return cls(values["yaw"], values["pitch"], values["roll"], values["fov"], values["size"])
 
     @property
@@ -136,6 +137,7 @@ class PerspectiveView(View):
         return np.where((depth > 0)[..., None], np.stack([k, l], axis=-1), np.nan)
 
     def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
+        """(W, H) of the output image: ``size``."""
         return self.size
 
     def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:

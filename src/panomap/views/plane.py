@@ -69,6 +69,7 @@ class PlaneView(View):
 
     @classmethod
     def from_params(cls, values: Mapping[str, Any]) -> Self:
+        """The view from its parameters, as parsed from a view SPEC (every declared name, None where not given)."""
         return cls(values["distance"], values["width"], Band(*values["band"]), values["azimuth"], values["size"])
 
     @property
@@ -91,7 +92,9 @@ class PlaneView(View):
         return out
 
     def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
+        """(W, H) of the output image: ``size``."""
         return self.size
 
     def angles(self, table: PanoMappingTable) -> tuple[FloatArray, FloatArray]:
+        """Azimuth and elevation (rad), each (H, W), of every output pixel."""
         return azimuth_elevation(self.points(table))

@@ -124,7 +124,28 @@ def _check_name(name: str) -> str:
 
 
 def parse_view_spec(spec: str) -> tuple[str | None, View]:
-    """``KIND:key=value,...`` to (the name it gives or None, the view)."""
+    """``KIND:key=value,...`` to (the name it gives or None, the view).
+
+    Parameters
+    ----------
+    spec : str
+        A view SPEC, as ``panomap video --view`` takes it: the view kind (``panorama``, ``cylinder``,
+        ``plane``, ``perspective``, ``floor``), then the keys of its command's options (angles in degrees,
+        pairs ``A:B``, sizes ``WxH``) and optionally ``name``, e.g.
+        ``perspective:yaw=30,pitch=-20,fov=90,size=1280x720,name=door``.
+
+    Returns
+    -------
+    name : str or None
+        The ``name`` the SPEC gives, where it gives one.
+    view : View
+        The view.
+
+    Raises
+    ------
+    PanomapError
+        Naming the SPEC and what is wrong with it: an unknown kind or key, a value out of range.
+    """
     kind, _, rest = spec.strip().partition(":")
     params: dict[str, str] = {}
     for item in filter(None, (part.strip() for part in rest.split(","))):

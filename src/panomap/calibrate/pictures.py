@@ -1,0 +1,249 @@
+"""A camera learned from pictures alone: its straight lines and checkerboards, no landmark, no tape measure.
+
+:func:`learn_from_images` is what ``panomap fit -o T --image IMG [--image IMG ...]`` does without landmarks,
+and what the learn page's "learn from lines" does on its image: it finds the image circles of the first
+picture (stand-ins where no rim shows, :func:`panomap.calibrate.lines.frame_circles.line_circles`), the edge
+arcs (:func:`panomap.calibrate.lines.arcs.find_arcs`) and the checkerboards
+(:func:`panomap.calibrate.boards.detect.find_boards`) of every picture, chooses between the camera the boards
+give and the one the lines give (:func:`panomap.calibrate.boards.choice.learn_camera`), and fills the table
+(:func:`panomap.calibrate.lines.table.create_line_table`).
+
+Convention: pixel (u, v) = (column, row), the centre of the top-left pixel at (0, 0); residuals in px.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import PanomapError
+from ..table.table import PanoMappingTable
+from .boards.choice import LearnedCamera, learn_camera
+from .boards.detect import Board, find_boards
+from .circles import ImageCircles
+from .joint import ImageLines
+from .lines.arcs import EdgeArc, find_arcs
+from .lines.fit import LineFit, LineFitOptions
+from .lines.frame_circles import line_circles
+from .lines.orientation import zero_azimuth
+from .lines.table import create_line_table
+from .report import FitReport, table_fit_report
+
+
+@dataclass(frozen=True)
+class LearnedCalibration:
+    """What :func:`learn_from_images` made: the table, the fit, and what the fit saw.
+
+    Attributes
+    ----------
+    table : PanoMappingTable
+        The table; its ``info`` holds the provenance (``source``, the images), the fit report
+        (:attr:`report`) and the table's own warnings.
+    fit : LineFit
+        The camera learned, with its line report (``fit.report``: every line used and every arc
+        set aside, the checkerboards' corners where boards were used).
+    source : {"checkerboards", "lines"}
+        What the camera was learned from.
+    circles : ImageCircles
+        The image circles of the first image the fit started from (stand-ins where it shows no rim:
+        the frame's middle or the cut-off disc, the outer circle through the frame's farthest corner).
+    arcs : sequence of EdgeArc
+        What ``fit.report`` indexes: the edge arcs, or the checkerboards' rows and columns.
+    choice : str or None
+        Which camera was kept and why, where both the boards' and the lines' were fitted.
+    warnings : tuple of str
+        What failed and what was done instead (boards that gave no camera), then the table's own
+        warnings (where it reaches beyond the fit's data).
+    """
+
+    table: PanoMappingTable
+    fit: LineFit
+    source: str
+    circles: ImageCircles
+    arcs: Sequence[EdgeArc]
+    choice: str | None
+    warnings: tuple[str, ...]
+
+    @property
+    def report(self) -> FitReport:
+        """The fit report the table holds (the one ``panomap info`` prints): the model, the centre's and the
+        radius' uncertainty, and the lines' report (``report.lines``)."""
+        report = table_fit_report(self.table)
+        if report is None:
+            raise PanomapError("the table holds no fit report")
+        return report
+
+
+def learn_from_images(
+    images: Sequence[NDArray[Any]] | NDArray[Any],
+    *,
+    names: Sequence[str | Path] | None = None,
+    camera_height: float | None = None,
+    model: str = "auto",
+    axis: str = "down",
+    handedness: int | None = None,
+    azimuth_zero: tuple[float, float] | None = None,
+    boards: bool = True,
+    info: Mapping[str, Any] | None = None,
+    found: ImageLines | None = None,
+    progress: Callable[[int, int, str], None] | None = None,
+) -> LearnedCalibration:
+    """Learn a camera from the straight lines and checkerboards of its pictures, and fill its table.
+
+    No landmark is needed: straight lines in the world (a room's edges, a door's frame) are curved in an
+    omni-image in a way only the camera explains, and a checkerboard of any size held before the camera
+    adds corners evenly spaced on straight lines at right angles, which fixes the scale straightness
+    alone leaves loose. Where boards are found they are fitted first; with fewer than 3 boards the line
+    fit is made too, and the camera that explains both is kept (:attr:`LearnedCalibration.choice` says
+    which, and why). This is ``panomap fit -o TABLE --image IMG [--image IMG ...]`` without landmarks.
+
+    Parameters
+    ----------
+    images : sequence of (H, W[, C]) ndarray, or one ndarray
+        Pictures of one camera, all of one size (:func:`panomap.read_image` reads a file); more pictures
+        give more lines and boards. One array is one picture.
+    names : sequence of str or path, optional
+        The images' files, one per image: recorded in the table's ``info["images"]`` and named in errors.
+    camera_height : float, optional
+        The camera's height above the floor (world units): lines know no distance, and the floor,
+        cylinder and plane views need one. Default: unknown (the table says so).
+    model : str
+        ``"auto"`` (chosen by cross-validation over the lines) or a radial model kind's name
+        (``"odd3"``, ``"unified"``, ...; not ``"paper"``, which takes the centre as given).
+    axis : {"down", "up"}
+        The pole the image centre sees (a ceiling camera looks down).
+    handedness : {+1, -1}, optional
+        The image's handedness ``s``. Default: from the kind of camera the image shows (a cut-off disc,
+        the camera's own reflection: a mirror, +1; none: a lens, -1 looking down, +1 looking up).
+    azimuth_zero : (u, v), optional
+        A pixel (px) that sees world azimuth 0. Default: image angle 0 (+u) is azimuth 0.
+    boards : bool
+        Look for checkerboards (True) or learn from the lines alone (False).
+    info : mapping, optional
+        More to store in the table's ``info``, after the provenance.
+    found : ImageLines, optional
+        The edge arcs, checkerboards and image circles of the one image in ``images``, found beforehand
+        (:class:`~panomap.calibrate.joint.ImageLines`), taken instead of looking again; its camera is
+        learned once and kept, and ``azimuth_zero`` turns it (the learn page, which finds the lines once
+        and sets azimuth 0 at every click). ``boards`` is then ignored: the boards it holds are used.
+    progress : callable, optional
+        Called as ``progress(step, steps, what)`` before each step (``what``: a few words), for a
+        progress bar.
+
+    Returns
+    -------
+    LearnedCalibration
+        The table, the fit, what it was learned from, and the warnings.
+
+    Raises
+    ------
+    PanomapError
+        With no image, images of different sizes, no image circle and no cut-off disc to start from,
+        too few lines (or no two orthogonal families) where the boards give no camera either, a
+        ``model`` of ``"paper"``, or a camera whose table cannot be made; naming the image where one
+        image is to blame.
+
+    Examples
+    --------
+    >>> omni = panomap.read_image("room.png")                             # doctest: +SKIP
+    >>> learned = panomap.learn_from_images([omni], camera_height=2.45)   # doctest: +SKIP
+    >>> panomap.save_table(learned.table, "cam.npz")                      # doctest: +SKIP
+    """
+    omnis = [images] if isinstance(images, np.ndarray) else list(images)
+    if not omnis:
+        raise PanomapError("no image to learn the camera from")
+    if names is not None and len(names) != len(omnis):
+        raise PanomapError(f"{len(names)} names for {len(omnis)} images: give one name per image")
+    if model == "paper":
+        raise PanomapError("the paper model takes the centre as given; learning from lines needs another model")
+    if found is not None and len(omnis) != 1:
+        raise PanomapError(f"the lines found beforehand are one image's, but {len(omnis)} images are given")
+    label: list[str | Path | None] = list(names) if names is not None else [None] * len(omnis)
+    for k, omni in enumerate(omnis):
+        if omni.shape[:2] != omnis[0].shape[:2]:
+            first = f"{label[0]}" if label[0] is not None else "the first image"
+            raise PanomapError(
+                f"is {omni.shape[1]} x {omni.shape[0]}, but {first} is {omnis[0].shape[1]} x "
+                f"{omnis[0].shape[0]}: the images of one camera have one size",
+                label[k] if label[k] is not None else f"image {k + 1}",
+            )
+    options = LineFitOptions(axis=axis, s=handedness, azimuth_zero=azimuth_zero, model=model)
+    say = progress or (lambda _step, _steps, _what: None)
+    if found is None:
+        learned, circles = _learn(omnis, label, options, boards, say)
+    else:
+        learned, circles = _learn_found(found, options), found.circles
+    table_info: dict[str, Any] = {"source": learned.source}
+    if names is not None:
+        table_info["images"] = [str(name) for name in names]
+    if learned.source == "checkerboards":
+        table_info["sources"] = {
+            "camera_position": "given (--camera-height)" if camera_height is not None else "unknown (boards' size)",
+            "centre": "fitted to the checkerboards' corners",
+            "cutoff_radius": "detected",
+            "outer_radius": "detected",
+        }
+    table_info.update(info or {})
+    table = create_line_table(
+        learned.fit,
+        cutoff_radius=circles.cutoff_radius or 0.0,
+        outer_radius=circles.outer_radius,
+        image_size=(omnis[0].shape[1], omnis[0].shape[0]),
+        camera_height=camera_height,
+        info=table_info,
+    )
+    warnings = (*learned.notes, *table.info.get("warnings", []))
+    return LearnedCalibration(table, learned.fit, learned.source, circles, learned.arcs, learned.choice, warnings)
+
+
+def _learn(
+    omnis: list[NDArray[Any]],
+    names: list[str | Path | None],
+    options: LineFitOptions,
+    use_boards: bool,
+    say: Callable[[int, int, str], None],
+) -> tuple[LearnedCamera, ImageCircles]:
+    """The camera of ``omnis`` (their circles, arcs and boards found here) and the first image's circles."""
+    try:
+        circles = line_circles(omnis[0])
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, names[0]) from None
+    steps = 2 * len(omnis) + 1
+    edges: list[EdgeArc] = []
+    for k, omni in enumerate(omnis):
+        say(k, steps, f"edges of {_called(names, k)}")
+        edges += find_arcs(omni, circles, image_index=k)
+    found_boards: list[Board] = []
+    if use_boards:
+        for k, omni in enumerate(omnis):
+            say(len(omnis) + k, steps, f"checkerboards in {_called(names, k)}")
+            found_boards += find_boards(omni, image_index=k)
+    try:
+        learned = learn_camera(found_boards, edges, circles, options, progress=lambda step: say(steps - 1, steps, step))
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, names[0] if len(omnis) == 1 else None) from None
+    return learned, circles
+
+
+def _learn_found(lines: ImageLines, options: LineFitOptions) -> LearnedCamera:
+    """The camera of one image's lines found beforehand, learned once with ``options`` less the azimuth origin
+    (kept in ``lines``), then turned so that ``options.azimuth_zero`` sees world azimuth 0."""
+    learned = lines.learned(replace(options, azimuth_zero=None))
+    if options.azimuth_zero is None:
+        return learned
+    fit = learned.fit
+    fit = replace(
+        fit, model=zero_azimuth(fit.model, options.azimuth_zero), report=replace(fit.report, azimuth_source="given")
+    )
+    return replace(learned, fit=fit)
+
+
+def _called(names: list[str | Path | None], k: int) -> str:
+    """How the progress names image ``k``: its file's name, or its number."""
+    name = names[k]
+    return Path(name).name if name is not None else f"image {k + 1}"
