@@ -65,9 +65,7 @@ def true_viewpoint(camera: Any) -> Viewpoint | None:
     return Viewpoint(tuple(rho.tolist()), tuple((z - x * dz / dx - camera.viewpoint_offset).tolist()))
 
 
-def landmarks(
-    camera: Any, rng: np.random.Generator, distances: tuple[float, float], count: int = 12
-) -> Landmarks:
+def landmarks(camera: Any, rng: np.random.Generator, distances: tuple[float, float], count: int = 12) -> Landmarks:
     """``count`` visible landmarks with 1 px and 1 cm of noise a coordinate."""
     pixels, world = [], []
     while len(pixels) < count:

@@ -176,9 +176,7 @@ def caustic_shape(radial: RadialFunction, rho: ArrayLike) -> FloatArray:
     return np.where(inside, np.interp(alpha, grid, h), np.nan)
 
 
-def caustic_viewpoint(
-    radial: RadialFunction, k0: float, k1: float, elevation_range: tuple[float, float]
-) -> Viewpoint:
+def caustic_viewpoint(radial: RadialFunction, k0: float, k1: float, elevation_range: tuple[float, float]) -> Viewpoint:
     """The :class:`Viewpoint` ``z = k0 + k1 h`` (k0 world units, k1 world units a px) of the caustic of
     ``radial`` (:func:`caustic_shape`), at ``VIEWPOINT_NODES`` nodes over camera elevations ``elevation_range``
     (rad)."""
