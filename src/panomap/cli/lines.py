@@ -46,6 +46,7 @@ def fit_from_lines(
     ``find_circles(path, image)`` finds the image circles, naming the file in its errors.
     """
     started = time.monotonic()
+    _check_memory(images)
     bar = ProgressBar(enabled=sys.stderr.isatty())
     try:
         omnis = _read_all(images, frame_time)
@@ -109,6 +110,16 @@ def _table(
         camera_height=camera_height,
         info=info,
     )
+
+
+def _check_memory(images: tuple[Path, ...]) -> None:
+    """Refuse, before reading any, images whose line and board search needs more memory than there is
+    (their sizes from their headers; a video's frame, whose size the header does not give, counts as none)."""
+    from ..calibrate.lines.budget import check_line_search_memory
+    from ..io.images import header_size
+
+    sizes = [size for size in (header_size(path) for path in images) if size is not None]
+    check_line_search_memory(sizes)
 
 
 def _read_all(images: tuple[Path, ...], frame_time: float | None) -> list[np.ndarray]:
