@@ -1,4 +1,5 @@
-"""Issue 44: learning from a picture works in bounded memory, and says so before reading one it cannot.
+"""Issue 44: learning from a picture works in bounded memory, and says so before reading one it cannot;
+a picture without straight lines, or lines beyond the circle found, gets one line saying what was found.
 
 The edges of a large image circle are searched at a bounded working resolution (its smoothing is wider
 than a pixel already), as precisely; the memory of the line and board search is estimated from the
@@ -16,11 +17,13 @@ import numpy as np
 import pytest
 
 from panomap.calibrate.circles import Circle, ImageCircles
-from panomap.calibrate.lines.arcs import find_arcs, working_factor
+from panomap.calibrate.lines.arcs import EdgeArc, find_arcs, working_factor
 from panomap.calibrate.lines.budget import check_line_search_memory, line_search_memory
+from panomap.calibrate.lines.fit import fit_lines
 from panomap.errors import PanomapError
+from test_line_fit import _scene
 
-from helpers import assert_one_line_error, run
+from helpers import assert_one_line_error, run, true_circles
 
 SIZE = 2400
 
@@ -101,3 +104,37 @@ def test_fit_refuses_images_beyond_the_memory_before_reading_them(
     result = run("fit", "--image", image, "-o", out)
     assert_one_line_error(result, "needs about 1.1 GB of memory", "give fewer or smaller images")
     assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- what the line fit says
+
+
+def curved_arcs(centre: tuple[float, float]) -> list[EdgeArc]:
+    """24 half circles of 25 px about the image: edges that no camera makes straight (a pattern of short
+    curved edges all over the frame, as a checkerboard tiled over a fisheye's frame gives)."""
+    arcs = []
+    for k in range(24):
+        a = 2 * math.pi * k / 24
+        r = 120 + 100 * (k % 3)
+        t = np.linspace(0, math.pi, 120) + a
+        x, y = centre[0] + r * math.cos(a) + 25 * np.cos(t), centre[1] + r * math.sin(a) + 25 * np.sin(t)
+        arcs.append(EdgeArc(np.stack([x, y], 1), 0, 50.0))
+    return arcs
+
+
+def test_no_straight_arc_under_any_start_is_one_clear_error() -> None:
+    centre = (399.5, 399.5)
+    # Before: a ValueError from the objective (no line left to concatenate).
+    with pytest.raises(PanomapError, match=r"only 0 of 24 edge arcs are straight .* under any starting camera"):
+        fit_lines(curved_arcs(centre), circles_of(800, 390.0))
+
+
+def test_a_camera_learned_from_lines_names_the_lines_not_landmarks() -> None:
+    camera, lines, _ = _scene("equisolid", 0.0, seed=5)
+    fit = fit_lines(lines, true_circles(camera))
+    with pytest.raises(PanomapError) as caught:
+        fit.camera_range(0.0, 100.0)  # an image circle found far inside the lines
+    message = str(caught.value)
+    assert "landmark" not in message
+    assert "the straight lines' points (under the fitted camera, about its centre (" in message
+    assert "outside the annulus 0.0..100.0 px between the cut-off disc and the image circle found" in message
