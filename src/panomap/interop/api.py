@@ -22,13 +22,11 @@ def check_image_size(imported: Imported, image_size: tuple[int, int] | None, pat
         )
 
 
-def check_size_known(
-    imported: Imported, image_size: tuple[int, int] | None, outer_radius: float | None, path: str | Path
-) -> None:
-    """Raise when neither the file nor the caller gives the images' size and no outer radius bounds the
-    table: it would span the model's whole range (an omnidir file: a 2357 px radius for 1280 x 960
-    images)."""
-    if imported.image_size is None and image_size is None and outer_radius is None:
+def check_size_known(imported: Imported, image_size: tuple[int, int] | None, path: str | Path) -> None:
+    """Raise when neither the file nor the caller gives the images' size: the table would span the model's
+    whole range, past the image (an omnidir file: a 2357 px radius for 1280 x 960 images), and have no
+    image size to check images against."""
+    if imported.image_size is None and image_size is None:
         raise PanomapError(
             "the file gives no image size, so the table would span the model's whole range: "
             "give the image (--image) or its size (--image-size WxH)",
@@ -69,8 +67,8 @@ def import_calibration(
     camera_position : (X0, Y0, Z0)
         World units.
     image_size : (width, height), optional
-        The images' size; must agree with the calibration's when both are known, and is needed (or
-        ``outer_radius``) when the file has none (an OpenCV omnidir file).
+        The images' size; must agree with the calibration's when both are known, and is needed when the
+        file has none (an OpenCV omnidir file).
     cutoff_radius, outer_radius : float, optional
         The annulus (px about the principal point); default 0 and the model's valid range within the
         image.
@@ -81,7 +79,7 @@ def import_calibration(
     """
     imported = read_calibration(path, format, camera)
     check_image_size(imported, image_size, path)
-    check_size_known(imported, image_size, outer_radius, path)
+    check_size_known(imported, image_size, path)
     size_used = imported.image_size if image_size is None else tuple(image_size)
     record: dict[str, Any] = {
         "file": Path(path).name,
