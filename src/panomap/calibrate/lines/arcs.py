@@ -364,8 +364,9 @@ def find_arcs(
     sigma : float or None
         Smoothing (px) before the gradient; default ``max(1.2, R/700)``, R the image circle's radius.
         Where it is wide, the edges are searched in the image's k x k block average
-        (:func:`working_factor`), with the smoothing that makes up ``sigma``: a 16000 x 16000 image takes
-        the memory of a 1800 x 1800 one, and its arcs are as precise (their detail is below ``sigma``).
+        (:func:`working_factor`), with the smoothing that makes up ``sigma``: a 16000 x 16000 image of an
+        8000 px circle is searched as a 3200 x 3200 one (k = 5); its points stay within a few hundredths
+        of a pixel of the full-resolution ones (``tests/test_line_bounds.py``).
     min_length_px : float or None
         Shortest arc kept (px along the curve); default ``max(24, R/25)``.
 
