@@ -368,3 +368,21 @@ def test_an_edited_table_no_camera_makes_is_refused_in_export(tmp_path: Path) ->
     with pytest.raises(PanomapError, match="entries are not a camera's"):
         export_calibration(edited, tmp_path / "calib_results.txt", "ocam")
     assert not (tmp_path / "calib_results.txt").exists()
+
+
+@pytest.mark.parametrize(
+    ("text", "fragment"),
+    [
+        ("1 FOV 640 480 300 300 320.5 240.5 3.2\n", "colmap-fov: omega must be in (-pi, pi), not 3.2"),
+        (KB_CAM.replace("equidistant", "fov").replace("[0.01, 0.0, 0.0, 0.0]", "[3.2]"), "fov: omega must be in"),
+        (KB_CAM.replace("[0.01, 0.0", "[-100000.0, 0.0"), "image radius stops growing 0.37 px from its principal"),
+    ],
+)
+def test_parameters_that_make_no_camera_get_one_line(tmp_path: Path, text: str, fragment: str) -> None:
+    # Before: a table of radii 0..0.5 px was written.
+    path = tmp_path / "calib.txt"
+    path.write_text(text)
+    out = tmp_path / "cam.npz"
+    result = run("import", path, "-o", out)
+    assert_one_line_error(result, str(path), fragment)
+    assert not out.exists()

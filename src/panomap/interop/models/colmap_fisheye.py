@@ -29,6 +29,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ...errors import PanomapError
 from ...geometry import FloatArray
 from .base import ExternalCamera, as_rays, pixels, positive
 
@@ -95,6 +96,11 @@ class FOV(_Normalised):
 
     def scales(self) -> tuple[float, float, float, float]:
         return (self.fx, self.fy, self.cx, self.cy)
+
+    def check(self) -> None:
+        super().check()
+        if not abs(self.omega) < math.pi:  # tan(omega/2) turns at pi: the radius no longer grows
+            raise PanomapError(f"{self.name}: omega must be in (-pi, pi), not {self.omega:g}")
 
     def distort(self, a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
         r = np.hypot(a, b)
