@@ -256,6 +256,13 @@ def test_opencv_omnidir_forms_need_the_image_size(tmp_path: Path, values: dict[s
     assert table.outer_radius < math.hypot(320.5, 240.5) + 1
 
 
+def test_the_calibrations_image_limit_is_the_image_readers() -> None:
+    from panomap.interop.readers import base
+    from panomap.io import images
+
+    assert base.MAX_IMAGE_PIXELS == images.MAX_IMAGE_PIXELS
+
+
 def test_image_size_option_is_checked(tmp_path: Path) -> None:
     path = tmp_path / "calib.yaml"
     path.write_text(OPENCV)

@@ -82,6 +82,7 @@ def test_a_wide_circle_is_searched_in_a_fraction_of_the_memory() -> None:
 def test_the_search_memory_is_estimated_from_the_sizes() -> None:
     assert line_search_memory([(16000, 16000)]) > 3e9
     assert check_line_search_memory([(2000, 2000)], memory_limit=8 << 30) == line_search_memory([(2000, 2000)])
+    assert check_line_search_memory([(16000, 16000)] * 100, memory_limit=None) > 3e11
     with pytest.raises(PanomapError, match=r"needs about 4\.1 GB of memory, more than the 2\.1 GB"):
         check_line_search_memory([(16000, 16000)], memory_limit=2 << 30)
 

@@ -117,9 +117,11 @@ def _check_memory(images: tuple[Path, ...]) -> None:
     (their sizes from their headers; a video's frame, whose size the header does not give, counts as none)."""
     from ..calibrate.lines.budget import check_line_search_memory
     from ..io.images import header_size
+    from ..video.unwarp import machine_memory
 
     sizes = [size for size in (header_size(path) for path in images) if size is not None]
-    check_line_search_memory(sizes)
+    total = machine_memory()
+    check_line_search_memory(sizes, None if total is None else total * 3 // 4)
 
 
 def _read_all(images: tuple[Path, ...], frame_time: float | None) -> list[np.ndarray]:

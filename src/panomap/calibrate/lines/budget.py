@@ -24,16 +24,10 @@ def line_search_memory(sizes: Sequence[tuple[int, int]]) -> int:
     return BASE_BYTES + BYTES_PER_IMAGE_PIXEL * sum(width * height for width, height in sizes)
 
 
-def check_line_search_memory(sizes: Sequence[tuple[int, int]], memory_limit: int | None = None) -> int:
-    """The estimate of :func:`line_search_memory`; PanomapError beyond ``memory_limit`` bytes (default 3/4
-    of the machine's memory, as ``panomap video`` checks its views; no limit where the system does not say).
-    """
-    from ...video.unwarp import machine_memory
-
+def check_line_search_memory(sizes: Sequence[tuple[int, int]], memory_limit: int | None) -> int:
+    """The estimate of :func:`line_search_memory`; PanomapError beyond ``memory_limit`` bytes (the command
+    line gives 3/4 of the machine's memory, as ``panomap video`` checks its views; None: no limit)."""
     needed = line_search_memory(sizes)
-    if memory_limit is None:
-        total = machine_memory()
-        memory_limit = None if total is None else total * 3 // 4
     if memory_limit is not None and needed > memory_limit:
         pixels = sum(width * height for width, height in sizes)
         raise PanomapError(

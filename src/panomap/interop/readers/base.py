@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import PanomapError
-from ...io.images import MAX_IMAGE_PIXELS
 from ...values import MAX_ABS, NotFinite, finite_number
 from ..models.base import ExternalCamera
 from .yaml_text import brief
@@ -38,6 +37,9 @@ class Imported:
 
 # The most values a list of a calibration file holds (OCam's polynomials: about 20).
 MAX_LIST = 64
+# The largest image a calibration may be for: the largest panomap reads (io.images.MAX_IMAGE_PIXELS, a
+# layer above this one; tests/test_interop_bounds.py checks that the two agree).
+MAX_IMAGE_PIXELS = 16384 * 16384
 
 
 def number(value: Any, where: str, path: str | Path) -> float:
