@@ -563,7 +563,7 @@ def test_colmap_camera_id_on_the_command_line_and_numeric_models(tmp_path: Path)
     out = tmp_path / "cam.npz"
     result = run("import", path, "-o", out, "--camera-id", "2")
     assert result.exit_code == 0, result.stderr
-    assert "colmap calibration, model eucm (camera 2)" in result.output
+    assert "colmap calibration, model colmap-eucm (camera 2)" in result.output
     assert load_table(out).info["import"]["pixel_shift_px"] == -0.5
     path.write_text("1 5 640 480 300 300 320 240 0 0 0 0\n")
     result = run("import", path, "-o", tmp_path / "other.npz", "--format", "colmap")

@@ -35,6 +35,8 @@ def valid_elevation_range(
     outer_radius: float,
     samples: int = 20001,
     slack_px: float = 0.0,
+    data: str = "landmarks",
+    annulus: str = "given by the cut-off and outer radii",
 ) -> tuple[float, float]:
     """The widest elevation interval around the landmarks where the table is valid.
 
@@ -48,6 +50,9 @@ def valid_elevation_range(
     the circle would leave the directions between uncovered: a degree on a
     lens whose law flattens at its rim (an orthographic fisheye's), where a
     pixel spans a degree.
+
+    ``data`` names what ``landmark_range`` came from in the errors (``"the lines' points"`` for a camera
+    learned from lines), ``annulus`` where the radii came from.
 
     Returns
     -------
@@ -63,15 +68,14 @@ def valid_elevation_range(
     low, high = landmark_range
     if not is_monotonic(radial, low, high):
         raise PanomapError(
-            f"the fitted radial function ({radial.kind}) is not monotonic between the "
-            f"landmarks' elevations {np.degrees(low):.2f} and {np.degrees(high):.2f} deg; "
-            "the landmarks are inconsistent or too few"
+            f"the fitted radial function ({radial.kind}) is not monotonic between the elevations of "
+            f"{data}, {np.degrees(low):.2f} and {np.degrees(high):.2f} deg; {data} are inconsistent or too few"
         )
     r_low, r_high = sorted((float(radial(low)), float(radial(high))))
     if r_low < cutoff_radius - slack_px - 1e-9 or r_high > outer_radius + slack_px + 1e-9:
         raise PanomapError(
-            f"landmarks reach radii {r_low:.1f}..{r_high:.1f} px, outside the annulus "
-            f"{cutoff_radius:.1f}..{outer_radius:.1f} px given by the cut-off and outer radii"
+            f"{data} reach radii {r_low:.1f}..{r_high:.1f} px, outside the annulus "
+            f"{cutoff_radius:.1f}..{outer_radius:.1f} px {annulus}"
         )
     beyond = [not cutoff_radius - 1e-9 <= float(radial(end)) <= outer_radius + 1e-9 for end in (low, high)]
     # The landmarks' ends join the grid; grid points within 1e-9 rad of them go, or a step of

@@ -13,6 +13,7 @@ from ..files import all_or_none, check_outputs
 from ..interop.api import check_image_size, table_of_imported
 from ..interop.export import FORMATS, export_calibration
 from ..interop.readers import READERS, read_calibration
+from ..io.images import MAX_IMAGE_PIXELS
 from ..table.file import load_table, save_table
 from .calibrate import find_image_circles_in
 from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni
@@ -55,6 +56,13 @@ from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni
     help="An image of the camera: its size is checked against the calibration's, and its image circle and "
     "cut-off disc (when found) bound the table [default: the model's valid range in the image].",
 )
+@click.option(
+    "--image-size",
+    type=SIZE,
+    metavar="WxH",
+    help="The images' size (px), where there is no --image: checked against the calibration's, and needed "
+    "for a file that gives none (an OpenCV omnidir file).",
+)
 @click.option("--cutoff-radius", type=NON_NEGATIVE, help="Radius (px) of the cut-off disc about the principal point.")
 @click.option("--outer-radius", type=NON_NEGATIVE, help="Radius (px) of the image circle about the principal point.")
 @click.option("--table-size", type=SIZE, metavar="MxN", help="Table size [default: about one entry per pixel].")
@@ -68,6 +76,7 @@ def import_(
     tilt: str | tuple[float, float],
     camera: tuple[float, float, float],
     image: Path | None,
+    image_size: tuple[int, int] | None,
     cutoff_radius: float | None,
     outer_radius: float | None,
     table_size: tuple[int, int] | None,
@@ -80,8 +89,14 @@ def import_(
         )
     if camera_name is not None and camera_id is not None:
         raise click.UsageError("give --camera-name (Kalibr) or --camera-id (COLMAP), not both")
+    if image is not None and image_size is not None:
+        raise click.UsageError("give --image or --image-size, not both")
+    if image_size is not None and not (min(image_size) > 0 and image_size[0] * image_size[1] <= MAX_IMAGE_PIXELS):
+        raise click.BadParameter(
+            f"{image_size[0]}x{image_size[1]} is not an image size (positive, at most {MAX_IMAGE_PIXELS} pixels)",
+            param_hint="'--image-size'",
+        )
     check_outputs([("the calibration", calibration), ("the image", image)], [("the output", output)])
-    image_size = None
     sources: dict[str, str] = {}
     imported = read_calibration(calibration, format_, camera_name or camera_id)
     if image is not None:

@@ -39,6 +39,7 @@ def fit_from_lines(
     few boards the line fit is made too and the camera that explains both is kept.
     """
     started = time.monotonic()
+    _check_memory(images)
     bar = ProgressBar(enabled=sys.stderr.isatty())
     try:
         omnis = _read_all(images, frame_time)
@@ -69,6 +70,18 @@ def fit_from_lines(
     click.echo("wrote " + " and ".join(written))
     for warning in learned.warnings:
         click.echo(f"panomap: warning: {warning}", err=True)
+
+
+def _check_memory(images: tuple[Path, ...]) -> None:
+    """Refuse, before reading any, images whose line and board search needs more memory than there is
+    (their sizes from their headers; a video's frame, whose size the header does not give, counts as none)."""
+    from ..calibrate.lines.budget import check_line_search_memory
+    from ..io.images import header_size
+    from ..video.unwarp import machine_memory
+
+    sizes = [size for size in (header_size(path) for path in images) if size is not None]
+    total = machine_memory()
+    check_line_search_memory(sizes, None if total is None else total * 3 // 4)
 
 
 def _read_all(images: tuple[Path, ...], frame_time: float | None) -> list[np.ndarray]:

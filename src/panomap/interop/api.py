@@ -22,6 +22,18 @@ def check_image_size(imported: Imported, image_size: tuple[int, int] | None, pat
         )
 
 
+def check_size_known(imported: Imported, image_size: tuple[int, int] | None, path: str | Path) -> None:
+    """Raise when neither the file nor the caller gives the images' size: the table would span the model's
+    whole range, past the image (an omnidir file: a 2357 px radius for 1280 x 960 images), and have no
+    image size to check images against."""
+    if imported.image_size is None and image_size is None:
+        raise PanomapError(
+            "the file gives no image size, so the table would span the model's whole range: "
+            "give the image (--image) or its size (--image-size WxH)",
+            path,
+        )
+
+
 def import_calibration(
     path: str | Path,
     *,
@@ -55,7 +67,8 @@ def import_calibration(
     camera_position : (X0, Y0, Z0)
         World units.
     image_size : (width, height), optional
-        The images' size; must agree with the calibration's when both are known.
+        The images' size; must agree with the calibration's when both are known, and is needed when the
+        file has none (an OpenCV omnidir file).
     cutoff_radius, outer_radius : float, optional
         The annulus (px about the principal point); default 0 and the model's valid range within the
         image.
@@ -94,6 +107,7 @@ def table_of_imported(
     """The table of a calibration already read from ``path`` (:func:`read_calibration`: a caller that
     needs the calibration first reads the file once); the parameters as :func:`import_calibration`'s."""
     check_image_size(imported, image_size, path)
+    check_size_known(imported, image_size, path)
     size_used = imported.image_size if image_size is None else tuple(image_size)
     record: dict[str, Any] = {
         "file": Path(path).name,

@@ -155,9 +155,16 @@ def _fit_double_sphere(table: PanoMappingTable, samples: Samples) -> ExternalCam
     return _fit_best(lambda p: DoubleSphere(*p), starts, samples)
 
 
+def _kalibr_eucm(p: FloatArray) -> EUCM:
+    """EUCM of parameters ``p`` with alpha below 1, as Kalibr takes it."""
+    if not p[0] < 1:
+        raise PanomapError(f"eucm: alpha is {p[0]:g}; Kalibr takes it below 1")
+    return EUCM(*p)
+
+
 def _fit_eucm(table: PanoMappingTable, samples: Samples) -> ExternalCamera:
     cx, cy, f = _start(table)
-    return _fit(lambda p: EUCM(*p), [0.5, 1.0, f, f, cx, cy], samples)
+    return _fit(_kalibr_eucm, [0.5, 1.0, f, f, cx, cy], samples)
 
 
 def _fit_ocam(table: PanoMappingTable, samples: Samples) -> ExternalCamera:
@@ -217,6 +224,30 @@ def _refuse_opencv_fisheye(samples: Samples) -> str | None:
     return None
 
 
+def _fitted(fit: Fitter, table: PanoMappingTable, samples: Samples, format: str) -> ExternalCamera:
+    """``fit(table, samples)``; a solver's failure on entries no camera makes (an edited imported table:
+    its entries are guarded by their checksum only) becomes one line."""
+    try:
+        return fit(table, samples)
+    except (np.linalg.LinAlgError, PanomapError, ValueError, FloatingPointError) as exc:
+        detail = exc.detail if isinstance(exc, PanomapError) else f"{exc.__class__.__name__}: {exc}"
+        raise PanomapError(
+            f"{format} cannot be fitted to this table ({' '.join(detail.split())[:120]}): "
+            "its entries are not a camera's (an edited table?)"
+        ) from None
+
+
+def _refuse_absurd(max_error_px: float, image_size: tuple[int, int] | None, format: str, name: str) -> None:
+    """Raise when the fitted model misses the table by more than the image's diagonal (px): no camera's
+    entries do that, and the file would be meaningless."""
+    diagonal = math.hypot(*image_size) if image_size is not None else math.inf
+    if not max_error_px <= diagonal:
+        raise PanomapError(
+            f"{format} cannot hold this table: the best {name} model misses its entries by {max_error_px:.3g} px, "
+            f"more than the image's diagonal ({diagonal:.0f} px); its entries are not a camera's (an edited table?)"
+        )
+
+
 Fitter = Callable[[PanoMappingTable, Samples], ExternalCamera]
 Refusal = Callable[[Samples], "str | None"]
 # Every export format: (fit, file kind, refusal).
@@ -262,7 +293,7 @@ def export_calibration(table: PanoMappingTable, path: str | Path, format: str) -
         raise PanomapError(f"{format} cannot hold this camera: {reason}")
     if kind != "ocam" and table.image_size is None:
         raise PanomapError(f"the table has no image size: a {format} file needs the image's width and height")
-    model = fit(table, samples)
+    model = _fitted(fit, table, samples, format)
     check = table_samples(table, (2 * FIT_GRID[0], 2 * FIT_GRID[1]))
     # What the file's own equations give: OCamCalib's world2cam goes through invpol.
     projected = model.world2cam(check.rays) if isinstance(model, OCam) else model.project(check.rays)
@@ -277,6 +308,7 @@ def export_calibration(table: PanoMappingTable, path: str | Path, format: str) -
             "deg); make the table's range smaller (import --outer-radius) or choose another format"
         )
     max_error = float(np.max(miss))
+    _refuse_absurd(max_error, table.image_size, format, model.name)
     notes: list[str] = []
     if format == "kalibr-equidistant" and check.max_angle_rad >= math.pi / 2:
         notes.append(

@@ -33,6 +33,8 @@ MAX_DEFAULT_SIZE = (4096, 1024)
 # Azimuths over which the radius profile is averaged, and the profile's angles.
 PROFILE_AZIMUTHS = 72
 PROFILE_ANGLES = 2001
+# A model whose image radius stops growing nearer its principal point than this (px) sees no image.
+MIN_REACH_PX = 2.0
 # Rows of the table projected at a time (bounds the scratch memory).
 BLOCK_ROWS = 512
 
@@ -94,6 +96,11 @@ def angle_range(
     """
     profile = radius_profile(camera, float(getattr(camera, "max_angle_rad", camera.max_angle_limit_rad)))
     reach = float(profile.radius[-1])
+    if reach < MIN_REACH_PX:
+        raise PanomapError(
+            f"the {camera.name} camera's image radius stops growing {reach:.2f} px from its principal point "
+            f"({math.degrees(profile.alpha[-1]):.2f} deg from the axis): its parameters make no usable camera"
+        )
     if outer_radius is None:
         outer_radius = reach
         if image_size is not None:

@@ -2,7 +2,8 @@
 
 - ``ocam``: ``calib_results.txt`` as OCamCalib's ``export_data.m`` writes it (centre row then column,
   from 0);
-- ``kalibr``: a camchain with one camera, ``cam0``;
+- ``kalibr``: a camchain with one camera, ``cam0``, on ``rostopic: /cam0/image_raw`` (the topic Kalibr's
+  camera-IMU calibration reads the camera's images from; edit it to the bag's);
 - ``opencv``: an OpenCV FileStorage YAML with ``K``, ``D`` (and ``xi``), ``image_width``, ``image_height``
   (JSON when the file name ends in ``.json``), written by ``cv2.FileStorage`` itself.
 """
@@ -72,6 +73,8 @@ def kalibr_text(model: ExternalCamera, image_size: tuple[int, int]) -> str:
             "distortion_model": distortion,
             "distortion_coeffs": [float(x) for x in coefficients],
             "resolution": [int(image_size[0]), int(image_size[1])],
+            "cam_overlaps": [],
+            "rostopic": "/cam0/image_raw",
         }
     }
     return str(yaml.safe_dump(data, sort_keys=False, default_flow_style=None))

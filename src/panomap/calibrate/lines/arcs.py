@@ -59,6 +59,12 @@ MIN_PIECE_POINTS = 4
 #: at least MIN_EDGE_GRADIENT grey levels / px; the weak one is half of it.
 EDGE_THRESHOLD_MEDIANS = 4.0
 MIN_EDGE_GRADIENT = 4.0
+#: The smoothing (px) of the working image. A large image circle is smoothed over ``R/700`` px: the
+#: edges are searched in the image averaged over blocks of k x k pixels, k as large as keeps this much
+#: smoothing at the smaller scale (its detail is below the smoothing already; the memory is k^2 less).
+WORKING_SIGMA_PX = 2.0
+#: Rows of the image averaged at a time (a multiple of k): bounds the scratch memory of the block average.
+BLOCK_ROWS = 256
 
 _NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
@@ -95,18 +101,42 @@ def _grey(image: NDArray[np.generic]) -> NDArray[np.float32]:
     return img.astype(np.float32)
 
 
-def usable_mask(shape: tuple[int, int], circles: ImageCircles, margin_px: float) -> NDArray[np.bool_]:
+def working_factor(sigma_px: float) -> int:
+    """k: the edges of an image smoothed over ``sigma_px`` are searched in its k x k block average, whose
+    box (k/sqrt(12) px) and smoothing of at least WORKING_SIGMA_PX (of its own px) make up ``sigma_px``."""
+    return max(1, math.floor(sigma_px / math.sqrt(WORKING_SIGMA_PX**2 + 1.0 / 12.0)))
+
+
+def block_grey(image: NDArray[np.generic], k: int) -> NDArray[np.float32]:
+    """(H // k, W // k) float32 grey levels: the mean of the channels over each k x k block (the last
+    ``H % k`` rows and ``W % k`` columns left out), about BLOCK_ROWS image rows at a time. k = 1: :func:`_grey`."""
+    if k == 1:
+        return _grey(image)
+    img = np.asarray(image)
+    h, w = img.shape[0] // k, img.shape[1] // k
+    out = np.empty((h, w), dtype=np.float32)
+    step = max(1, BLOCK_ROWS // k)  # working rows a band
+    for start in range(0, h, step):
+        stop = min(start + step, h)
+        band = np.asarray(img[start * k : stop * k, : w * k], dtype=np.float32)
+        band = band.reshape(stop - start, k, w, k, -1)
+        out[start:stop] = band.mean(axis=(1, 3, 4))
+    return out
+
+
+def usable_mask(shape: tuple[int, int], circles: ImageCircles, margin_px: float, factor: int = 1) -> NDArray[np.bool_]:
     """(H, W) bool: pixels between the cut-off disc and the image circle, ``margin_px`` inside both and
-    inside the frame's edges."""
+    inside the frame's edges. With ``factor`` k, the pixels of the k x k block average (:func:`block_grey`):
+    ``shape`` and ``margin_px`` in its pixels, the circles in the image's."""
     h, w = shape
-    u0, v0 = circles.centre
+    u0, v0 = ((c - (factor - 1) / 2) / factor for c in circles.centre)
     vv, uu = np.mgrid[0:h, 0:w]
     r = np.hypot(uu - u0, vv - v0)
-    inner = 0.0 if circles.cutoff is None else circles.cutoff.radius
+    inner = 0.0 if circles.cutoff is None else circles.cutoff.radius / factor
     m = math.ceil(margin_px)
     frame = np.zeros((h, w), dtype=bool)
     frame[m : h - m, m : w - m] = True
-    return np.asarray((r > inner + margin_px) & (r < circles.outer.radius - margin_px) & frame)
+    return np.asarray((r > inner + margin_px) & (r < circles.outer.radius / factor - margin_px) & frame)
 
 
 def _thin(edges: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -333,6 +363,10 @@ def find_arcs(
         Stored in each arc: which input image it came from.
     sigma : float or None
         Smoothing (px) before the gradient; default ``max(1.2, R/700)``, R the image circle's radius.
+        Where it is wide, the edges are searched in the image's k x k block average
+        (:func:`working_factor`), with the smoothing that makes up ``sigma``: a 16000 x 16000 image of an
+        8000 px circle is searched as a 3200 x 3200 one (k = 5); its points stay within a few hundredths
+        of a pixel of the full-resolution ones (``tests/test_line_bounds.py``).
     min_length_px : float or None
         Shortest arc kept (px along the curve); default ``max(24, R/25)``.
 
@@ -342,20 +376,26 @@ def find_arcs(
         Longest first. Between the cut-off disc and the image circle, a margin inside both and inside
         the frame; split at corners, joined across junctions; each at least ``min_length_px`` long.
     """
-    grey = _grey(image)
-    h, w = grey.shape
     radius = float(circles.outer.radius)
     s = max(1.2, radius / 700.0) if sigma is None else float(sigma)
     min_len = max(24.0, radius / 25.0) if min_length_px is None else float(min_length_px)
-    blur = cv2.GaussianBlur(grey, (0, 0), s)
+    k = working_factor(s)
+    grey = block_grey(image, k)
+    h, w = grey.shape
+    # In the working image's px: the smoothing left after the block's own box, the lengths.
+    s_work = math.sqrt(max(s * s - (k * k - 1) / 12.0, 0.0)) / k
+    blur = cv2.GaussianBlur(grey, (0, 0), s_work)
+    del grey
     gx = np.asarray(cv2.Sobel(blur, cv2.CV_32F, 1, 0, ksize=3, scale=0.125), dtype=np.float32)
     gy = np.asarray(cv2.Sobel(blur, cv2.CV_32F, 0, 1, ksize=3, scale=0.125), dtype=np.float32)
+    del blur
     mag = np.asarray(cv2.magnitude(gx, gy), dtype=np.float32)
-    mask = usable_mask((h, w), circles, margin_px=3.0 + 3.0 * s)
+    mask = usable_mask((h, w), circles, margin_px=(3.0 + 3.0 * s) / k, factor=k)
     if not mask.any():
         return []
     level = float(np.median(mag[mask]))
-    high = max(MIN_EDGE_GRADIENT, EDGE_THRESHOLD_MEDIANS * level)
+    # Gradients per working px are k times those per image px.
+    high = max(k * MIN_EDGE_GRADIENT, EDGE_THRESHOLD_MEDIANS * level)
     unit = 16.0  # int16 gradients at 1/16 grey level per px
     dx = np.clip(np.rint(gx * unit), -32767, 32767).astype(np.int16)
     dy = np.clip(np.rint(gy * unit), -32767, 32767).astype(np.int16)
@@ -384,13 +424,13 @@ def find_arcs(
     arcs: list[EdgeArc] = []
     for p in pieces:
         length = float(np.sum(np.hypot(*np.diff(p, axis=0).T)))
-        if length < min_len or len(p) < 8:
+        if k * length < min_len or len(p) < 8:
             continue
         contrast = float(np.median(_bilinear(mag, p[:, 0], p[:, 1])))
         if contrast < 0.5 * high:
             continue
-        arcs.append(
-            EdgeArc(pixels=np.ascontiguousarray(p, dtype=np.float64), image_index=int(image_index), contrast=contrast)
-        )
+        # Back to the image's px: a working pixel's centre is the centre of its block.
+        pixels = k * np.asarray(p, dtype=np.float64) + (k - 1) / 2.0
+        arcs.append(EdgeArc(pixels=np.ascontiguousarray(pixels), image_index=int(image_index), contrast=contrast / k))
     arcs.sort(key=lambda a: -len(a.pixels))
     return arcs

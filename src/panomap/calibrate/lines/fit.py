@@ -24,6 +24,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ...camera.model import CameraModel
 from ...camera.radial import RadialFunction, fit_radial
@@ -136,7 +137,17 @@ class LineFit:
         """
         low_deg, high_deg = self.report.elevation_range_deg
         data_range = (math.radians(low_deg), math.radians(high_deg))
-        return valid_elevation_range(self.model.radial, data_range, cutoff_radius, outer_radius, slack_px=1.0)
+        u0, v0 = self.model.centre
+        data = "the checkerboards' corners" if self.report.boards else "the straight lines' points"
+        return valid_elevation_range(
+            self.model.radial,
+            data_range,
+            cutoff_radius,
+            outer_radius,
+            slack_px=1.0,
+            data=f"{data} (under the fitted camera, about its centre ({u0:.1f}, {v0:.1f}))",
+            annulus="between the cut-off disc and the image circle found in the image",
+        )
 
 
 @dataclass
@@ -189,11 +200,18 @@ def fit_lines(
     say("starting scale")
     r_max = _r_max(state, circles)
     tried = []
+    failures: list[PanomapError] = []
     for k, start in enumerate(_starts(state, circles, axis, r_max)[:STARTS_KEPT]):
         say(f"grouping from start {k + 1} of {STARTS_KEPT}")
         trial_state = _State(state.arcs, state.images, [list(g) for g in state.groups])
-        params, families = _group(trial_state, axis, start, r_max, outer)
+        try:
+            params, families = _group(trial_state, axis, start, r_max, outer)
+        except PanomapError as exc:  # this start leaves too few straight arcs to fit: the others may not
+            failures.append(exc)
+            continue
         tried.append((_start_score(trial_state, axis, params, families, r_max), k, params, families, trial_state))
+    if not tried:
+        raise failures[0]
     _, _, params, families, state = min(tried, key=lambda t: (t[0], t[1]))
     if len(state.groups) < MIN_LINES:
         raise _too_few(len(state.groups), "straight lines")
@@ -231,6 +249,19 @@ def _orthogonality_scale(kind: str, axis: str, params: FloatArray, data: LineDat
     trial = evaluate(kind, axis, params, data)
     sigma = SIGMA_FLOOR_PX if trial is None else max(float(np.sqrt(np.mean(trial.distances_px**2))), SIGMA_FLOOR_PX)
     return sigma * math.sqrt(data.pixels.shape[0] / max(data.count, 1))
+
+
+def _not_straight(kept: int, rms: FloatArray, long_enough: NDArray[np.bool_], limit: float) -> PanomapError:
+    """What was found where a start leaves fewer than MIN_LINES straight arcs: how many arcs, how many were
+    long enough to test, and how far from straight the rest were (a pattern of many short edges, such as a
+    checkerboard tiled over the whole frame, gives edges that no camera makes straight lines)."""
+    tested = rms[long_enough]
+    spread = f", their RMS from straight {float(np.median(tested)):.2f} px (median)" if tested.size else ""
+    return PanomapError(
+        f"only {kept} of {rms.size} edge arcs are straight (within {limit:.2f} px) under any starting camera, "
+        f"{int(long_enough.sum())} of them long enough to test{spread}; at least {MIN_LINES} are needed: the "
+        "image needs long straight edges across the annulus (walls, door and window frames, shelves, a checkerboard)"
+    )
 
 
 def _too_few(found: int, what: str) -> PanomapError:
@@ -351,6 +382,8 @@ def _regroup(
             state.rejected[k] = (f"not straight under the fitted camera (RMS {rms[k]:.2f} px)", float(rms[k]))
         else:
             kept.append(k)
+    if len(kept) < MIN_LINES:
+        raise _not_straight(len(kept), rms, long_enough, limit)
     state.groups = _merge(kept, trial.normals, state.images, rms, limit)
     data = LineData.of(state.line_pixels(), r_max)
     merged = evaluate(kind, axis, params, data)

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 from ...errors import PanomapError
 from .base import ExternalCamera
-from .colmap_fisheye import ColmapFOV, ColmapRadialFisheye, ColmapThinPrismFisheye
+from .colmap_fisheye import FOV, ColmapFOV, ColmapRadialFisheye, ColmapThinPrismFisheye
 from .double_sphere import DoubleSphere
-from .eucm import EUCM
+from .eucm import EUCM, ColmapEUCM
 from .kannala_brandt import KannalaBrandt, OpenCVFisheye
 from .mei import Mei
 from .ocam import OCam
@@ -35,7 +35,9 @@ EXTERNAL_MODELS: dict[str, type[ExternalCamera]] = _registry(
     Mei,
     DoubleSphere,
     EUCM,
+    ColmapEUCM,
     PinholeRadtan,
+    FOV,
     ColmapFOV,
     ColmapRadialFisheye,
     ColmapThinPrismFisheye,

@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ...errors import PanomapError
 from ...geometry import FloatArray
+from ...values import MAX_ABS
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,8 @@ class ExternalCamera(ABC):
             for x in values:
                 if not isinstance(x, (int, float)) or not math.isfinite(float(x)):
                     raise PanomapError(f"{self.name}: parameter {f.name} is {x!r}, not a finite number")
+                if abs(float(x)) > MAX_ABS:  # a typing mistake, or a huge number a reader clamped
+                    raise PanomapError(f"{self.name}: parameter {f.name} is {x:g}, beyond {MAX_ABS:g} in size")
         self.check()
 
     @abstractmethod

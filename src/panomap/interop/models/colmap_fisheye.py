@@ -5,7 +5,9 @@ minus 0.5: its readers and writers shift it, since COLMAP puts the centre of the
 (0.5, 0.5)). Each model works on the normalised point (a, b) = (x/z, y/z), r = hypot(a, b):
 
 - ``FOV`` (Devernay & Faugeras): ``fx, fy, cx, cy, omega``;
-  ``(a, b) *= atan(2 r tan(omega/2)) / (omega r)`` (1 where omega or r is 0).
+  ``(a, b) *= atan(2 r tan(omega/2)) / (omega r)`` (1 where omega or r is 0). Below omega = 0.01 COLMAP
+  switches to its series ``1 - omega^2/12 + omega^2 r^2/3`` (``colmap-fov``; Kalibr's ``fov``
+  distortion, the same model, keeps the closed form down to omega = 0: ``fov``).
 - ``SIMPLE_RADIAL_FISHEYE``: ``f, cx, cy, k``; ``RADIAL_FISHEYE``: ``f, cx, cy, k1, k2``:
   ``theta = atan(r)``, ``(a, b) *= theta (1 + k1 theta^2 + k2 theta^4) / r``.
 - ``THIN_PRISM_FISHEYE``: ``fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, sx1, sy1``:
@@ -27,6 +29,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ...errors import PanomapError
 from ...geometry import FloatArray
 from .base import ExternalCamera, as_rays, pixels, positive
 
@@ -80,8 +83,10 @@ def _equidistant(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray, 
 
 
 @dataclass(frozen=True)
-class ColmapFOV(_Normalised):
-    name: ClassVar[str] = "colmap-fov"
+class FOV(_Normalised):
+    """The FOV model in its closed form (Kalibr's ``fov`` distortion; its ``w`` is ``omega``)."""
+
+    name: ClassVar[str] = "fov"
 
     fx: float
     fy: float
@@ -91,6 +96,11 @@ class ColmapFOV(_Normalised):
 
     def scales(self) -> tuple[float, float, float, float]:
         return (self.fx, self.fy, self.cx, self.cy)
+
+    def check(self) -> None:
+        super().check()
+        if not abs(self.omega) < math.pi:  # tan(omega/2) turns at pi: the radius no longer grows
+            raise PanomapError(f"{self.name}: omega must be in (-pi, pi), not {self.omega:g}")
 
     def distort(self, a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
         r = np.hypot(a, b)
@@ -103,6 +113,25 @@ class ColmapFOV(_Normalised):
             2 * math.tan(self.omega / 2) / self.omega,
             np.arctan(2 * safe * math.tan(self.omega / 2)) / (self.omega * safe),
         )
+        return a * factor, b * factor
+
+
+# Below this omega COLMAP's FOV uses its series (its ``omega^2 < 1e-4``).
+COLMAP_FOV_SERIES_OMEGA = 0.01
+
+
+@dataclass(frozen=True)
+class ColmapFOV(FOV):
+    """COLMAP's ``FOV``: the closed form, and COLMAP's own series below omega = 0.01 (as its
+    ``FOVCameraModel::Distortion`` writes it: ``1 - omega^2/12 + omega^2 r^2/3``)."""
+
+    name: ClassVar[str] = "colmap-fov"
+
+    def distort(self, a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
+        if abs(self.omega) >= COLMAP_FOV_SERIES_OMEGA:
+            return super().distort(a, b)
+        omega2 = self.omega * self.omega
+        factor = 1 - omega2 / 12 + omega2 * (a * a + b * b) / 3
         return a * factor, b * factor
 
 

@@ -66,3 +66,21 @@ class EUCM(PinholeIntrinsics):
             seen = (z > -self.w * d + 1e-12 * d) & (m > 0)
             m = np.where(seen, m, 1.0)
         return pixels(self.fx * x / m + self.cx, self.fy * y / m + self.cy, seen)
+
+
+@dataclass(frozen=True)
+class ColmapEUCM(EUCM):
+    """COLMAP's ``EUCM``: the same equations, but COLMAP refuses rays at or behind the image plane
+    (z <= 0), so its camera sees below 90 deg from the axis only."""
+
+    name: ClassVar[str] = "colmap-eucm"
+    max_angle_limit_rad: ClassVar[float] = math.pi / 2
+
+    @property
+    def max_angle_rad(self) -> float:
+        return min(super().max_angle_rad, math.pi / 2)
+
+    def project(self, rays: ArrayLike) -> FloatArray:
+        uv = super().project(rays)
+        _, _, z = as_rays(rays)
+        return np.where((z > 0)[..., None], uv, np.nan)

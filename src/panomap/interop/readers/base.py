@@ -14,7 +14,9 @@ from typing import Any
 
 from ...errors import PanomapError
 from ...table.file import MAX_IMAGE_SIDE
+from ...values import MAX_ABS, NotFinite, finite_number
 from ..models.base import ExternalCamera
+from .yaml_text import brief
 
 
 @dataclass(frozen=True)
@@ -34,15 +36,33 @@ class Imported:
     notes: tuple[str, ...] = field(default_factory=tuple)
 
 
+# The most values a list of a calibration file holds (OCam's polynomials: about 20).
+MAX_LIST = 64
+# The largest image a calibration may be for: the largest panomap reads (io.images.MAX_IMAGE_PIXELS, a
+# layer above this one; tests/test_interop_bounds.py checks that the two agree).
+MAX_IMAGE_PIXELS = 16384 * 16384
+
+
+def number(value: Any, where: str, path: str | Path) -> float:
+    """``value`` (a number, or its text) as a finite float at most ``MAX_ABS`` (1e9) in size: no
+    calibration parameter, size or radius is larger, and arithmetic on larger ones overflows."""
+    try:
+        return finite_number(value, bools=False)
+    except NotFinite as exc:
+        what = "not a number" if not exc.number else f"not a finite number of at most {MAX_ABS:g} in size"
+        raise PanomapError(f"{where} is {brief(value)}, {what}", path) from None
+
+
 def numbers(value: Any, where: str, path: str | Path, count: int | tuple[int, ...] | None = None) -> list[float]:
-    """``value`` as a list of finite numbers, ``count`` long (or one of the counts) when given."""
-    if not isinstance(value, (list, tuple)) or not all(
-        isinstance(x, (int, float)) and not isinstance(x, bool) for x in value
+    """``value`` as a list of finite numbers (each as :func:`number`), ``count`` long (or one of the
+    counts) when given."""
+    if (
+        not isinstance(value, (list, tuple))
+        or len(value) > MAX_LIST
+        or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)
     ):
-        raise PanomapError(f"{where} is {str(value)[:60]!r}, not a list of numbers", path)
-    values = [float(x) for x in value]
-    if not all(math.isfinite(x) for x in values):
-        raise PanomapError(f"{where} has a non-finite value", path)
+        raise PanomapError(f"{where} is {brief(value)}, not a list of numbers", path)
+    values = [number(x, f"{where}[{i}]", path) for i, x in enumerate(value)]
     counts = (count,) if isinstance(count, int) else count
     if counts is not None and len(values) not in counts:
         wanted = " or ".join(str(c) for c in counts)
@@ -51,13 +71,18 @@ def numbers(value: Any, where: str, path: str | Path, count: int | tuple[int, ..
 
 
 def image_size_of(width: float, height: float, where: str, path: str | Path) -> tuple[int, int]:
-    """(width, height) px as positive whole numbers, each side at most a table file's limit
-    (:data:`panomap.table.file.MAX_IMAGE_SIDE`: a table for a larger image could not be loaded)."""
-    if not (width == int(width) and height == int(height) and width > 0 and height > 0):
+    """(width, height) px as positive whole numbers, within the images panomap reads (MAX_IMAGE_PIXELS) and each
+    side at most a table file's limit (:data:`panomap.table.file.MAX_IMAGE_SIDE`: a table for a larger image
+    could not be loaded)."""
+    if not all(math.isfinite(x) and x == int(x) and x > 0 for x in (width, height)):
         raise PanomapError(f"{where} is {width:g} x {height:g}, not a positive whole size", path)
     if max(width, height) > MAX_IMAGE_SIDE:
         raise PanomapError(
             f"{where} is {width:g} x {height:g}: larger than any image (at most {MAX_IMAGE_SIDE} px a side)", path
+        )
+    if width * height > MAX_IMAGE_PIXELS:
+        raise PanomapError(
+            f"{where} is {width:g} x {height:g}, larger than the images panomap reads ({MAX_IMAGE_PIXELS} pixels)", path
         )
     return int(width), int(height)
 

@@ -10,7 +10,7 @@ Read, with their parameters in COLMAP's order:
 | ``SIMPLE_RADIAL_FISHEYE`` | f cx cy k | colmap-radial-fisheye |
 | ``RADIAL_FISHEYE`` | f cx cy k1 k2 | colmap-radial-fisheye |
 | ``THIN_PRISM_FISHEYE`` | fx fy cx cy k1 k2 p1 p2 k3 k4 sx1 sy1 | colmap-thin-prism-fisheye |
-| ``EUCM`` | fx fy cx cy alpha beta | eucm (Kalibr orders it alpha beta fx fy cx cy) |
+| ``EUCM`` | fx fy cx cy alpha beta | colmap-eucm (Kalibr orders it alpha beta fx fy cx cy; COLMAP sees z > 0 only) |
 | ``PINHOLE``, ``OPENCV`` | fx fy cx cy [k1 k2 p1 p2] | pinhole-radtan |
 
 COLMAP puts the centre of the top-left pixel at (0.5, 0.5): cx and cy are read **minus 0.5**.
@@ -24,10 +24,11 @@ from pathlib import Path
 from ...errors import PanomapError
 from ..models.base import ExternalCamera
 from ..models.colmap_fisheye import ColmapFOV, ColmapRadialFisheye, ColmapThinPrismFisheye
-from ..models.eucm import EUCM
+from ..models.eucm import ColmapEUCM
 from ..models.kannala_brandt import OpenCVFisheye
 from ..models.pinhole_radtan import PinholeRadtan
 from .base import Imported, built, image_size_of
+from .base import number as check_number
 
 # COLMAP's pixel centres sit at +0.5 against panomap's (and OpenCV's, Kalibr's).
 COLMAP_PIXEL_SHIFT = -0.5
@@ -81,6 +82,8 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
         raise PanomapError(
             f"line {number}: {model} takes {PARAMETER_COUNTS[model]} parameters, the line has {len(params)}", path
         )
+    for index, value in enumerate(params):
+        check_number(value, f"line {number}: parameter {index + 1}", path)
     size = image_size_of(width, height, f"line {number}: the size", path)
     return Imported(_model(model, params, path), "colmap", size, pick, COLMAP_PIXEL_SHIFT)
 
@@ -100,5 +103,5 @@ def _model(model: str, p: list[float], path: str | Path) -> ExternalCamera:
         return built(ColmapThinPrismFisheye, path, fx, fy, cx, cy, *rest)
     if model == "EUCM":
         alpha, beta = rest
-        return built(EUCM, path, alpha, beta, fx, fy, cx, cy)
+        return built(ColmapEUCM, path, alpha, beta, fx, fy, cx, cy)
     return built(PinholeRadtan, path, fx, fy, cx, cy, *rest)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ...errors import PanomapError
 from ..models.ocam import OCam
-from .base import Imported, built, image_size_of
+from .base import Imported, built, image_size_of, number
 
 FIELDS = (
     "pol (the direct polynomial)",
@@ -42,6 +42,8 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
             values.append([float(x) for x in line])
         except ValueError:
             raise PanomapError(f"{name}: {' '.join(line)[:60]!r} is not a list of numbers", path) from None
+        for value in values[-1]:
+            number(value, name, path)
     polynomials = []
     for name, row in zip(FIELDS[:2], values[:2], strict=True):
         count = row[0]
