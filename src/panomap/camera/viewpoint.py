@@ -142,14 +142,16 @@ class Viewpoint:
     def from_dict(cls, data: Any) -> Viewpoint:
         if not isinstance(data, dict):
             raise PanomapError("the camera's viewpoint is malformed (not an object)")
-        lists = [data.get(key) for key in ("elevations_rad", "offsets")]
-        for values in lists:
+        lists: list[list[Any]] = []
+        for key in ("elevations_rad", "offsets"):
+            values = data.get(key)
             if not isinstance(values, list) or len(values) > MAX_VIEWPOINT_NODES:
                 raise PanomapError(
                     f"the camera's viewpoint is malformed (its nodes are not lists of at most {MAX_VIEWPOINT_NODES})"
                 )
             if not all(isinstance(c, int | float) and not isinstance(c, bool) for c in values):
                 raise PanomapError("the camera's viewpoint is malformed (a node is not a number)")
+            lists.append(values)
         return cls(tuple(lists[0]), tuple(lists[1]))
 
 

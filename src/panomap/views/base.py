@@ -324,8 +324,8 @@ def build_map(
         # views of a surface read the table at those rays' directions; the views of directions, at infinity.
         points = view.points(table)
         if points is not None:
-            theta, rho = table.model.point_angles(points)
-            return table.sample(theta.astype(np.float32), rho.astype(np.float32), sampling, overwrite=True)
+            theta_ray, rho_ray = table.model.point_angles(points)
+            return table.sample(theta_ray.astype(np.float32), rho_ray.astype(np.float32), sampling, overwrite=True)
     if not exact:
         quick = view.quick_map(table, sampling)
         if quick is not None:
