@@ -298,6 +298,7 @@ def fit_camera(
         viewpoint. ``"caustic"``: the caustic is fitted whatever cross-validation says (a mirror known to be a
         sphere or a cone, seen from landmarks too far to show it). Lines joined to the landmarks keep the single
         viewpoint.
+
     Raises
     ------
     PanomapError
