@@ -22,7 +22,7 @@ from panomap.camera.viewpoint import Viewpoint, caustic_shape
 from panomap.errors import PanomapError
 from panomap.simulate import SphericalMirrorCamera, standard_cameras
 from panomap.table.file import metadata_digest
-from panomap.views import CylinderPanorama, FloorView, build_map
+from panomap.views import CylinderPanorama, FloorView, PerspectiveView, build_map
 from panomap.views.base import Band
 
 from helpers import run
@@ -156,6 +156,19 @@ def test_views_at_a_distance_read_each_point_along_its_own_ray(sphere_fits) -> N
         assert np.nanmax(single) > 3.0
 
 
+def test_a_perspective_view_given_a_distance_sees_along_the_rays_that_reach_it(sphere_fits) -> None:
+    """A perspective view told its scene is 1 m away lands within 2.5 px of the traced mirror; the same view
+    of directions (far away) is over 3 px off at 1 m, and equal to the single-viewpoint map far away."""
+    camera, noncentral, _ = sphere_fits
+    near = PerspectiveView(0.3, math.radians(-35), 0.0, math.radians(80), (160, 120), distance=1.0)
+    far = replace(near, distance=None)
+    truth = camera.project(near.points(noncentral.table))
+    seen = np.isfinite(truth[..., 0])
+    assert seen.mean() > 0.9
+    assert np.max(np.linalg.norm(build_map(noncentral.table, near) - truth, axis=-1)[seen]) < 2.5
+    assert np.nanmax(np.linalg.norm(build_map(noncentral.table, far) - truth, axis=-1)[seen]) > 3.0
+
+
 def test_single_viewpoint_cameras_keep_their_fit() -> None:
     """A hyperbolic mirror (single viewpoint) from 12 landmarks with 1 px / 1 cm of noise: the default fit is
     the single-viewpoint one, entry for entry, on each of three trials; a fisheye lens is not tried."""
@@ -188,7 +201,7 @@ def test_the_table_file_keeps_the_viewpoint_and_the_commands_use_it(sphere_fits,
     assert result.exit_code == 0, result.output
     rows = np.loadtxt(tmp_path / "rays.csv", delimiter=",", skiprows=1)
     assert np.max(np.linalg.norm(rows[:, -3:] - floor, axis=1)) < 0.005
-    theta, rho = loaded.unproject(pixels)
+    _, rho = loaded.unproject(pixels)
     from_centre = np.hypot(*(floor[:, :2].T)) - 1.0 / np.tan(-rho)
     assert np.max(np.abs(from_centre)) > 0.01
 

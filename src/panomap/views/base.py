@@ -160,6 +160,14 @@ class Param:
 
 # The output size, as most kinds take it.
 OUTPUT_SIZE = Param("size", Value.SIZE, "Output WxH.")
+# Where a view of directions (the panorama, the perspective view) sees things: far away unless given. Only a
+# camera without a single viewpoint (a spherical or conical mirror) sees a near point elsewhere.
+SEEN_AT = Param(
+    "distance",
+    Value.NUMBER,
+    "Distance of what the view shows, for a mirror without a single viewpoint [default: far away].",
+    optional=True,
+)
 
 
 @dataclass(frozen=True)

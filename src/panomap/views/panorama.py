@@ -9,9 +9,10 @@ from typing import Any, ClassVar, Self
 import numpy as np
 from numpy.typing import NDArray
 
-from ..geometry import FloatArray, pixel_centres
+from ..errors import PanomapError
+from ..geometry import FloatArray, pixel_centres, ray_from_angles
 from ..table.table import PanoMappingTable
-from .base import AngleArray, Param, Value, View, check_finite, check_view_size, register
+from .base import SEEN_AT, AngleArray, Param, Value, View, check_finite, check_view_size, register
 from .grid import panorama_azimuths
 
 # The left edge's azimuth, shared with the cylinder panorama.
@@ -31,6 +32,9 @@ class GenericPanorama(View):
         Azimuth (rad) at the left edge; column k sees
         ``theta_start_rad - 2*pi*(k + 0.5)/W``. Rows are evenly spaced in
         elevation over the table's range, highest at the top.
+    distance : float, optional
+        World units from O_m of what the view shows (default: far away); it changes the view only for a
+        camera without a single viewpoint.
     """
 
     kind: ClassVar[str] = "panorama"
@@ -40,21 +44,24 @@ class GenericPanorama(View):
     params: ClassVar[tuple[Param, ...]] = (
         Param("size", Value.SIZE, "Output WxH [default: the table's M x N].", optional=True),
         START,
+        SEEN_AT,
     )
     example: ClassVar[str] = "size=2048x512,start=0"
 
     size: tuple[int, int] | None = None
     theta_start_rad: float = 0.0
+    distance: float | None = None
 
     def __post_init__(self) -> None:
         if self.size is not None:
             object.__setattr__(self, "size", check_view_size(self.size))
         check_finite(theta_start_rad=self.theta_start_rad)
+        check_distance(self.distance)
 
     @classmethod
     def from_params(cls, values: Mapping[str, Any]) -> Self:
         """The view from its parameters, as parsed from a view SPEC (every declared name, None where not given)."""
-        return cls(values["size"], values["start"])
+        return cls(values["size"], values["start"], values["distance"])
 
     def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
         """(W, H) of the output image: ``size``, or the table's (M, N) where not given."""
@@ -70,9 +77,23 @@ class GenericPanorama(View):
         """The exact map, sampled from one row of azimuths and one column of elevations."""
         return table.sample_grid(*self._columns_rows(table), sampling)
 
+    def points(self, table: PanoMappingTable) -> FloatArray | None:
+        """The (H, W, 3) points at ``distance`` along the pixels' directions, relative to O_m; None (directions)
+        where no distance is given."""
+        if self.distance is None:
+            return None
+        theta, rho = self.angles(table)
+        return np.asarray(ray_from_angles(theta, rho)) * self.distance
+
     def _columns_rows(self, table: PanoMappingTable) -> tuple[FloatArray, FloatArray]:
         """Azimuth (rad) of each column, (W,), and elevation of each row, (H,)."""
         width, height = self.output_size(table)
         _, fy = pixel_centres(1, height)
         rho_s, rho_e = table.elevation_range
         return panorama_azimuths(self.theta_start_rad, width), rho_e - fy * (rho_e - rho_s)
+
+
+def check_distance(distance: float | None) -> None:
+    """Refuse a distance that is not a positive finite number (None: far away)."""
+    if distance is not None and not (np.isfinite(distance) and distance > 0):
+        raise PanomapError(f"the distance must be positive, not {distance:g}")

@@ -14,9 +14,10 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import PanomapError
 from ..geometry import HALF_PI, FloatArray
 from ..table.table import PanoMappingTable
-from .base import OUTPUT_SIZE, AngleArray, Param, Value, View, check_finite, check_view_size, register
+from .base import OUTPUT_SIZE, SEEN_AT, AngleArray, Param, Value, View, check_finite, check_view_size, register
 from .grid import grid_angles
 from .lookup import lookup_map, lookup_when_worth_it, row_sine_bounds
+from .panorama import check_distance
 
 
 @register
@@ -37,6 +38,9 @@ class PerspectiveView(View):
     fov_rad : float
         Horizontal field of view (rad), strictly between 0 and pi.
     size : (W, H)
+    distance : float, optional
+        World units from O_m of what the view shows (default: far away); it changes the view only for a
+        camera without a single viewpoint.
 
     Convention (the contract's formula): focal ``f = (W/2)/tan(fov/2)`` px;
     forward ``F = (cos tau cos psi, cos tau sin psi, sin tau)``,
@@ -66,6 +70,7 @@ class PerspectiveView(View):
         ),
         Param("fov", Value.ANGLE, "Horizontal field of view, more than 0 and less than 180.", aliases=("--fov-deg",)),
         OUTPUT_SIZE,
+        SEEN_AT,
     )
     example: ClassVar[str] = "yaw=30,pitch=-20,roll=0,fov=90,size=1280x720"
 
@@ -74,6 +79,7 @@ class PerspectiveView(View):
     roll_rad: float
     fov_rad: float
     size: tuple[int, int]
+    distance: float | None = None
 
     def __post_init__(self) -> None:
         check_finite(yaw_rad=self.yaw_rad, pitch_rad=self.pitch_rad, roll_rad=self.roll_rad, fov_rad=self.fov_rad)
@@ -87,11 +93,12 @@ class PerspectiveView(View):
                 "(turn the yaw by 180 deg instead)"
             )
         object.__setattr__(self, "size", check_view_size(self.size))
+        check_distance(self.distance)
 
     @classmethod
     def from_params(cls, values: Mapping[str, Any]) -> Self:
         """The view from its parameters, as parsed from a view SPEC (every declared name, None where not given)."""
-        return cls(values["yaw"], values["pitch"], values["roll"], values["fov"], values["size"])
+        return cls(values["yaw"], values["pitch"], values["roll"], values["fov"], values["size"], values["distance"])
 
     @property
     def focal(self) -> float:
@@ -139,6 +146,14 @@ class PerspectiveView(View):
     def output_size(self, table: PanoMappingTable) -> tuple[int, int]:
         """(W, H) of the output image: ``size``."""
         return self.size
+
+    def points(self, table: PanoMappingTable) -> FloatArray | None:
+        """The (H, W, 3) points at ``distance`` from O_m along the pixels' rays; None (directions) where no
+        distance is given."""
+        if self.distance is None:
+            return None
+        rays = self.rays()
+        return rays * (self.distance / np.linalg.norm(rays, axis=-1, keepdims=True))
 
     def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:
         """Azimuth and elevation (rad) of every pixel, each (H, W) float32 (see :func:`grid_angles`)."""
