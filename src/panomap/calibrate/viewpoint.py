@@ -11,9 +11,9 @@ radial function together with the ray origins of a mirror of revolution, ``z = k
 h the caustic that f_r itself implies (:func:`panomap.camera.viewpoint.caustic_shape`; one unknown, the
 mirror's size, with a prior; O_m is the mean ray origin), to the inlier landmarks' radii; the azimuth does
 not depend on z, so the centre, the handedness, phi0, the tilt and the position stay as fitted. Each
-residual is whitened by the noise model (:mod:`.noise`). The camera is taken as non-central only where leave-one-out
-cross-validation says so: its held-out whitened RMS is at most ``VIEWPOINT_GAIN`` times the single
-viewpoint's. A single-viewpoint camera keeps its fit unchanged.
+residual is whitened by the noise model (:mod:`.noise`). The camera is taken as non-central only where
+leave-one-out cross-validation says so: its held-out whitened RMS is at most ``VIEWPOINT_GAIN`` times the
+single viewpoint's (or always, asked for). A single-viewpoint camera keeps its fit unchanged.
 """
 
 from __future__ import annotations
@@ -69,9 +69,9 @@ class LandmarkRays:
         Pixel radius about the centre (px).
     sigma : (n,) ndarray
         Standard deviation of each radial residual (px), from the noise model (held fixed).
-    position_sigma : float
-        Standard deviation of the camera position along the axis (world units): the prior of the ray
-        origins' mean height.
+    reference_rad : (low, high) or None
+        Camera elevations (rad) over which O_m is the mean ray origin (the annulus'); the landmarks' own
+        where None.
     """
 
     horizontal: FloatArray
@@ -104,7 +104,7 @@ class ViewpointChoice:
         The non-central camera, where cross-validation chose it; None keeps the single viewpoint.
     held_out : dict of str to float
         Leave-one-out whitened RMS of the landmarks' radii of each candidate: ``"single viewpoint"`` and
-        ``"viewpoint degree k"``.
+        ``"mirror caustic (KIND)"`` for each radial kind tried.
     """
 
     fit: ViewpointFit | None
