@@ -387,10 +387,16 @@ def with_viewpoint(fitted: CameraFit, annulus: tuple[float, float] | None = None
     d = fitted.landmarks.world - np.asarray(fitted.camera_position)
     theta, rho = camera_model.point_angles(d)
     _, rho_camera = camera_model.camera_angles(theta, rho)
+    low, high = float(np.min(rho_camera[inliers])), float(np.max(rho_camera[inliers]))
+    slack = rim_slack_px(settings.pixel_sigma_px)
+    if not is_monotonic(radial, low, high) or (
+        annulus is not None and annulus_coverage_problem(radial, (low, high), *annulus, slack_px=slack) is not None
+    ):
+        # A caustic whose f_r folds or stops short of the annulus makes no table: the single viewpoint stands.
+        return replace(fitted, viewpoint=ViewpointReport(True, 0.0, 0.0, PARALLAX_DISTANCE, choice.held_out))
     predicted = camera_model.pixels(theta, rho)
     r, _ = pixel_polar(fitted.landmarks.pixels, model.centre)
     covariance = coefficient_covariance(radial, rho_camera[inliers], r[inliers], 1.0 / rays.sigma)
-    low, high = float(np.min(rho_camera[inliers])), float(np.max(rho_camera[inliers]))
     report = ViewpointReport(
         single_viewpoint=False,
         excursion=viewpoint.excursion(low, high),

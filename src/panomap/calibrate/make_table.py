@@ -162,8 +162,10 @@ def table_for(
             to_outer=not annulus.outer_source.is_default,
         )
         if problem:
+            named = problem.startswith("the fitted radial function")  # (the monotonic check names it itself)
+            what = "" if named else f"the fitted radial function ({fit.model.radial.kind}) "
             raise PanomapError(
-                f"the fitted radial function ({fit.model.radial.kind}) {problem}; it must run monotonically "
+                f"{what}{problem}; it must run monotonically "
                 "from the cut-off radius to the image circle (try another radial model, or check the radii)"
             )
     camera_range = valid_elevation_range(
