@@ -69,7 +69,9 @@ BAND_SIGMAS = 1.96
 # -- the truths: forward projections of rays in the camera's frame (+z the optical axis) ----------
 
 
-def mei_radtan(fx: float, fy: float, cx: float, cy: float, xi: float, k: tuple[float, float], t: tuple[float, float]) -> Project:
+def mei_radtan(
+    fx: float, fy: float, cx: float, cy: float, xi: float, k: tuple[float, float], t: tuple[float, float]
+) -> Project:
     """BoofCV's "omnidirectional_universal" (Mei, radial-tangential; scenes/theta_back/SOURCE.md)."""
 
     def project(rays: FloatArray) -> FloatArray:
@@ -122,7 +124,9 @@ def ring_pairs(project: Project, size: tuple[int, int]) -> tuple[FloatArray, Flo
         radius = float(np.nan_to_num(np.hypot(*(edge[0] - edge[1])), nan=100.0))
         count = max(int(2 * math.pi * radius / RING_STEP_PX), 12)
         azimuth = np.linspace(0, 2 * math.pi, count, endpoint=False)
-        d = np.stack([math.sin(a) * np.cos(azimuth), math.sin(a) * np.sin(azimuth), np.full(count, math.cos(a))], axis=1)
+        d = np.stack(
+            [math.sin(a) * np.cos(azimuth), math.sin(a) * np.sin(azimuth), np.full(count, math.cos(a))], axis=1
+        )
         p = project(d)
         with np.errstate(invalid="ignore"):
             inside = (
@@ -165,7 +169,9 @@ class Agreement:
     covered: float  # share of the rings where the true error lies within the reported 95% band (NaN: none reported)
 
 
-def ring_agreement(project: Project, size: tuple[int, int], model: CameraModel, band: Callable[[FloatArray], FloatArray] | None) -> Agreement:
+def ring_agreement(
+    project: Project, size: tuple[int, int], model: CameraModel, band: Callable[[FloatArray], FloatArray] | None
+) -> Agreement:
     """The outside checks' measure (module doc), and the reported band's coverage."""
     pixels, truth, alpha_deg = ring_pairs(project, size)
     mine, rho = learned_rays(model, pixels)
@@ -207,8 +213,13 @@ def real_pictures(data: Path) -> list[Picture]:
     theta = data / "scenes" / "theta_back"
     if theta.is_dir():
         truth = mei_radtan(
-            620.298809979, 620.399434447, 478.483148536, 480.318274837, 1.19807286909,
-            (-0.257089970771, 0.0128307442205), (-9.1179697419e-4, 3.91862130427e-4),
+            620.298809979,
+            620.399434447,
+            478.483148536,
+            480.318274837,
+            1.19807286909,
+            (-0.257089970771, 0.0128307442205),
+            (-9.1179697419e-4, 3.91862130427e-4),
         )
         for path in sorted((theta / "images").glob("*.jpg")):
             out.append(Picture(f"theta {path.stem}", path, None, truth, (960, 1080)))
@@ -247,8 +258,13 @@ def reproject(panorama: NDArray[np.uint8], camera: TiltedCamera, supersample: in
             col = ((lon + math.pi) / (2 * math.pi) * w_p - 0.5).astype(np.float32)
             row = ((math.pi / 2 - lat) / math.pi * h_p - 0.5).astype(np.float32)
             seen = np.isfinite(col) & np.isfinite(row)
-            sample = cv2.remap(panorama, np.where(seen, col, -10), np.where(seen, row, -10), cv2.INTER_LINEAR,
-                               borderMode=cv2.BORDER_WRAP)
+            sample = cv2.remap(
+                panorama,
+                np.where(seen, col, -10),
+                np.where(seen, row, -10),
+                cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_WRAP,
+            )
             acc += np.where(seen[..., None], sample, 0.0)
     return np.asarray(np.clip(acc / n**2 + 0.5, 0, 255), dtype=np.uint8)
 
@@ -284,8 +300,16 @@ def panorama_camera(spec: tuple, seed: int) -> TiltedCamera:
         scale = outer * (xi + math.cos(a_max)) / math.sin(a_max)
     centre = ((size[0] - 1) / 2 + rng.uniform(-6, 6), (size[1] - 1) / 2 + rng.uniform(-6, 6))
     inner = RadialCamera(
-        name=name, law=law, scale=scale, xi=xi, distortion=distortion, image_size=size, centre=centre,
-        s=int(rng.choice([-1, 1])), phi0=float(rng.uniform(0, 2 * math.pi)), alpha_min=math.radians(cut_deg),
+        name=name,
+        law=law,
+        scale=scale,
+        xi=xi,
+        distortion=distortion,
+        image_size=size,
+        centre=centre,
+        s=int(rng.choice([-1, 1])),
+        phi0=float(rng.uniform(0, 2 * math.pi)),
+        alpha_min=math.radians(cut_deg),
         alpha_max=a_max,
     )
     tilt = math.radians(rng.uniform(1.0, 3.0))
@@ -310,11 +334,20 @@ def panorama_pictures(data: Path, quick: bool) -> list[Picture]:
                 r = np.hypot(u - camera.centre[0], v - camera.centre[1])
                 image[r < camera.cutoff_radius] = (25, 25, 30)
                 image[r < 0.4 * camera.cutoff_radius] = (5, 5, 5)
-            image = vignette(image, camera.centre, camera.outer_radius, falloff=float(rng.uniform(0.2, 0.5)),
-                             dim=float(rng.uniform(0.0, 0.2)), dim_angle=float(rng.uniform(0, 2 * math.pi)))
+            image = vignette(
+                image,
+                camera.centre,
+                camera.outer_radius,
+                falloff=float(rng.uniform(0.2, 0.5)),
+                dim=float(rng.uniform(0.0, 0.2)),
+                dim_angle=float(rng.uniform(0, 2 * math.pi)),
+            )
             image = noisy_jpeg(image, rng, noise=4.0, quality=80)
-            out.append(Picture(f"{file.split('.')[0][:22]} / {spec[0]}", None, image, simulated(camera.camera),
-                               camera.image_size))
+            out.append(
+                Picture(
+                    f"{file.split('.')[0][:22]} / {spec[0]}", None, image, simulated(camera.camera), camera.image_size
+                )
+            )
     return out
 
 
@@ -343,7 +376,10 @@ def run_fit(picture: Picture, workdir: Path) -> Outcome:
     start = time.perf_counter()
     done = subprocess.run(
         ["nice", "-n", "5", sys.executable, "-m", "panomap", "fit", "-o", str(output), "--image", str(image)],
-        capture_output=True, text=True, env=env, check=False,
+        capture_output=True,
+        text=True,
+        env=env,
+        check=False,
     )
     seconds = time.perf_counter() - start
     if done.returncode != 0 or not output.is_file():
@@ -402,7 +438,9 @@ def main() -> None:
             outcomes.append(outcome)
             print(table_row(outcome), flush=True)
     accepted = [o for o in outcomes if o.accepted]
-    good = [o for o in accepted if o.agreement and o.agreement.p90_px <= GOAL_P90_PX and o.agreement.max_px <= GOAL_MAX_PX]
+    good = [
+        o for o in accepted if o.agreement and o.agreement.p90_px <= GOAL_P90_PX and o.agreement.max_px <= GOAL_MAX_PX
+    ]
     print(
         f"\n{len(accepted)} of {len(outcomes)} accepted, {len(good)} of them within the goal "
         f"({len(accepted) - len(good)} accepted beyond it); time median {np.median([o.seconds for o in outcomes]):.1f} s, "
