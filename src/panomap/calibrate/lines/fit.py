@@ -222,7 +222,8 @@ def fit_lines(
         raise PanomapError(
             f"{len(state.groups)} straight lines were found, but no two families of parallel lines at right "
             "angles (a room's vertical and horizontal edges, a checkerboard's rows and columns): they fix the "
-            "scale of the elevations, which straightness alone leaves free"
+            "scale of the elevations, which straightness alone leaves free: a picture of a built scene (a room, a "
+            "corridor, a building) showing edges of its three directions would"
         )
     say("choosing the radial model")
     chosen, scores, final, others, folds = _choose(state, families, axis, params, r_max, outer, options, circles)
