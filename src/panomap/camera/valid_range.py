@@ -35,8 +35,12 @@ def valid_elevation_range(
     outer_radius: float,
     samples: int = 20001,
     slack_px: float = 0.0,
+    data: str = "landmarks",
 ) -> tuple[float, float]:
     """The widest elevation interval around the landmarks where the table is valid.
+
+    ``data`` names what ``landmark_range`` spans in the errors ("landmarks", or "lines" for a camera learned
+    from straight lines).
 
     Grows ``landmark_range`` in both directions while f_r stays finite,
     strictly monotonic in the axis's sense, and within
@@ -64,13 +68,13 @@ def valid_elevation_range(
     if not is_monotonic(radial, low, high):
         raise PanomapError(
             f"the fitted radial function ({radial.kind}) is not monotonic between the "
-            f"landmarks' elevations {np.degrees(low):.2f} and {np.degrees(high):.2f} deg; "
-            "the landmarks are inconsistent or too few"
+            f"{data}' elevations {np.degrees(low):.2f} and {np.degrees(high):.2f} deg; "
+            f"the {data} are inconsistent or too few"
         )
     r_low, r_high = sorted((float(radial(low)), float(radial(high))))
     if r_low < cutoff_radius - slack_px - 1e-9 or r_high > outer_radius + slack_px + 1e-9:
         raise PanomapError(
-            f"landmarks reach radii {r_low:.1f}..{r_high:.1f} px, outside the annulus "
+            f"{data} reach radii {r_low:.1f}..{r_high:.1f} px, outside the annulus "
             f"{cutoff_radius:.1f}..{outer_radius:.1f} px given by the cut-off and outer radii"
         )
     beyond = [not cutoff_radius - 1e-9 <= float(radial(end)) <= outer_radius + 1e-9 for end in (low, high)]

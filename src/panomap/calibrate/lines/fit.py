@@ -156,7 +156,9 @@ class LineFit:
         """
         low_deg, high_deg = self.report.elevation_range_deg
         data_range = (math.radians(low_deg), math.radians(high_deg))
-        return valid_elevation_range(self.model.radial, data_range, cutoff_radius, outer_radius, slack_px=1.0)
+        return valid_elevation_range(
+            self.model.radial, data_range, cutoff_radius, outer_radius, slack_px=1.0, data="lines"
+        )
 
 
 @dataclass
