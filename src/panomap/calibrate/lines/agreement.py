@@ -47,8 +47,9 @@ MAX_BAND_PX = 2.0
 # ... or at this share of the rings, this many px (the goal of a table: p90 1 px, max 2 px).
 P90_BAND_PX = 1.0
 BAND_QUANTILE = 90.0
-# The rings the refusal looks at: from this angle off the axis (near the axis a px of error is a large angle
-# nobody uses; the outside checks start at 15 deg) to the farthest the lines reach, at most this angle.
+# The rings: from this angle off the axis (near the axis a px of error is a large angle nobody uses; the outside
+# checks start at 15 deg) to the image circle's rim (or the farthest line); the refusal judges them up to this
+# angle (the outside checks' last ring), the reported band covers them all.
 RING_FROM_DEG = 15.0
 RING_TO_DEG = 85.0
 RING_STEP_DEG = 2.5
@@ -95,7 +96,8 @@ class PinnedBand:
 
     def refusal(self, jacobian_se_px: FloatArray, lines: int) -> str | None:
         """One sentence saying what is missing where the band is too wide for a table; None where it is not."""
-        band = Z95 * self.se_px(jacobian_se_px)
+        judged = self.alpha_deg <= RING_TO_DEG + 1e-9
+        band = Z95 * self.se_px(jacobian_se_px)[judged]
         if not band.size:
             return None
         worst = int(np.argmax(band))
@@ -105,7 +107,7 @@ class PinnedBand:
         return (
             f"the picture does not pin the camera: cameras that explain its {lines} straight lines about equally "
             f"well ({self.farthest}, the lines in folds) differ by up to {band[worst]:.1f} px at "
-            f"{self.alpha_deg[worst]:.0f} deg from the axis (a table needs its 95% band within {P90_BAND_PX:.0f} px "
+            f"{self.alpha_deg[judged][worst]:.0f} deg from the axis (a table needs its 95% band within {P90_BAND_PX:.0f} px "
             f"at {BAND_QUANTILE:.0f}% of the rings and {MAX_BAND_PX:.0f} px at all): give more pictures (--image "
             "repeated) or one with long straight edges of the room's three directions (walls' corners, floor and "
             "ceiling edges, door and window frames) across the whole image circle, or a checkerboard"
@@ -129,8 +131,9 @@ def ruled_out(theirs: FloatArray, mine: FloatArray) -> bool:
 
 
 def ring_alphas(reach_alpha: float) -> FloatArray:
-    """The rings' angles (rad) from ``RING_FROM_DEG`` to ``min(reach_alpha, RING_TO_DEG)``."""
-    top = min(math.degrees(reach_alpha), RING_TO_DEG)
+    """The rings' angles (rad) from ``RING_FROM_DEG`` to ``reach_alpha`` (the refusal judges those up to
+    ``RING_TO_DEG``; the reported band covers them all)."""
+    top = math.degrees(reach_alpha)
     return np.radians(np.arange(RING_FROM_DEG, max(top, RING_FROM_DEG) + 1e-9, RING_STEP_DEG))
 
 
