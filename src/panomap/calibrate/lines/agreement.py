@@ -108,9 +108,10 @@ class PinnedBand:
             f"the picture does not pin the camera: cameras that explain its {lines} straight lines about equally "
             f"well ({self.farthest}, the lines in folds) differ by up to {band[worst]:.1f} px at "
             f"{self.alpha_deg[judged][worst]:.0f} deg from the axis (a table needs its 95% band within "
-            f"{P90_BAND_PX:.0f} px at {BAND_QUANTILE:.0f}% of the rings and {MAX_BAND_PX:.0f} px at all): give more pictures (--image "
-            "repeated) or one with long straight edges of the room's three directions (walls' corners, floor and "
-            "ceiling edges, door and window frames) across the whole image circle, or a checkerboard"
+            f"{P90_BAND_PX:.0f} px at {BAND_QUANTILE:.0f}% of the rings and {MAX_BAND_PX:.0f} px at all): give "
+            "more pictures (--image repeated) or one with long straight edges of the room's three directions "
+            "(walls' corners, floor and ceiling edges, door and window frames) across the whole image circle, or "
+            "a checkerboard"
         )
 
 
