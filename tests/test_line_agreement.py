@@ -46,7 +46,10 @@ def test_the_band_adds_the_farthest_alternative_to_the_jackknife() -> None:
     np.testing.assert_allclose(band.jackknife_se_px, jackknife, rtol=0.05)
     se = band.se_px(np.zeros(alpha.size))
     np.testing.assert_allclose(se, jackknife + 2.0 * alpha / 1.96, rtol=0.05)
-    assert band.refusal(np.zeros(alpha.size), lines=40) is not None  # 2 px at 1 rad: too wide
+    refusal = band.refusal(np.zeros(alpha.size), lines=40)  # 2 px at 1 rad: too wide
+    assert refusal is not None and refusal.startswith("the picture does not pin the camera")
+    pooled = band.refusal(np.zeros(alpha.size), lines=40, pictures=2)
+    assert pooled is not None and pooled.startswith("the 2 pictures do not pin the camera")
     tight = pinned_band(chosen, [], folds[:4], "down", alpha)
     assert tight.refusal(np.zeros(alpha.size), lines=40) is None
 

@@ -94,7 +94,7 @@ class PinnedBand:
             np.sqrt(jacobian_se_px**2 + self.jackknife_se_px**2) + self.alternative_px / Z95, dtype=np.float64
         )
 
-    def refusal(self, jacobian_se_px: FloatArray, lines: int) -> str | None:
+    def refusal(self, jacobian_se_px: FloatArray, lines: int, pictures: int = 1) -> str | None:
         """One sentence saying what is missing where the band is too wide for a table; None where it is not."""
         judged = self.alpha_deg <= RING_TO_DEG + 1e-9
         band = Z95 * self.se_px(jacobian_se_px)[judged]
@@ -105,7 +105,8 @@ class PinnedBand:
         if band[worst] <= MAX_BAND_PX and p90 <= P90_BAND_PX:
             return None
         return (
-            f"the picture does not pin the camera: cameras that explain its {lines} straight lines about equally "
+            f"{'the picture does' if pictures == 1 else f'the {pictures} pictures do'} not pin the camera: cameras "
+            f"that explain {'its' if pictures == 1 else 'their'} {lines} straight lines about equally "
             f"well ({self.farthest}, the lines in folds) differ by up to {band[worst]:.1f} px at "
             f"{self.alpha_deg[judged][worst]:.0f} deg from the axis (a table needs its 95% band within "
             f"{P90_BAND_PX:.0f} px at {BAND_QUANTILE:.0f}% of the rings and {MAX_BAND_PX:.0f} px at all): give "

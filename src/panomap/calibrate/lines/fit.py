@@ -143,7 +143,8 @@ class LineFit:
         """Why the picture cannot stand behind this camera (:mod:`.agreement`), in one sentence; None where it can."""
         if self.band is None:
             return None
-        return self.band.refusal(self.jacobian_se_px(), len(self.report.lines))
+        pictures = len({line.image_index for line in self.report.lines})
+        return self.band.refusal(self.jacobian_se_px(), len(self.report.lines), max(pictures, 1))
 
     def camera_range(self, cutoff_radius: float, outer_radius: float) -> tuple[float, float]:
         """The elevations (rad, camera axes) a table of this camera spans over the annulus ``[cutoff_radius,
