@@ -15,8 +15,10 @@ itself gives 0; the true model with its centre moved by 0.5 px is reported besid
    (1600 x 1200), the axis tilted 1-3 deg, vignetting, sensor noise, JPEG; several seeds. The
    image circle is found in the image (``find_image_circles``), the arcs by ``find_arcs``, the
    camera by ``fit_lines``; compared with the true camera over the whole annulus (inside the frame).
-   Beside it, the **oracle of an ideal line fit** (the floor): ``fit_lines`` given the true pixels
-   of every visible true line (noise-free, complete, correctly grouped) and the true circles.
+   Beside it, whether the command would accept the camera (:meth:`LineFit.refusal`: the picture pins it,
+   its 95% band within 1 px at 90% of the rings and 2 px at all), and the **oracle of an ideal line fit**
+   (the floor): ``fit_lines`` given the true pixels of every visible true line (noise-free, complete,
+   correctly grouped) and the true circles.
 2. **Real cameras** (``--data``; each folder's SOURCE.md): all the images of a set pooled, then one
    image (the first with corners); compared with the established calibration (OCamCalib's
    ``ocam_model.json``, the Mei set's ``omnidir_calibration.json``) over the radii where it has
@@ -267,8 +269,16 @@ def simulated(quick: bool) -> None:
         t_arcs = time.perf_counter() - start
         start = time.perf_counter()
         try:
-            learned = ray_agreement(reference, grid, line_fit(arcs, circles))
-            verdict = learned.line()
+            from panomap.calibrate.lines.fit import fit_lines
+
+            fitted = fit_lines(arcs, circles)
+            learned = ray_agreement(reference, grid, fitted.model)
+            refusal = fitted.refusal()
+            verdict = learned.line() + (
+                "; the command accepts it"
+                if refusal is None
+                else "; the command refuses it (" + refusal.split("differ by ")[-1].split(" (")[0] + ")"
+            )
         except PanomapError as exc:
             verdict = f"no fit: {exc.detail if hasattr(exc, 'detail') else exc}"
         t_fit = time.perf_counter() - start

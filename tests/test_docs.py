@@ -153,9 +153,9 @@ def test_the_getting_started_scripts_run_on_the_demo(tmp_path: Path, monkeypatch
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
         exec(compile(learn, "getting-started.md", "exec"), {"__name__": "__main__"})
-    assert printed.getvalue().startswith("learned from lines: model unified, ")
+    assert printed.getvalue().startswith("learned from checkerboards: model unified, ")
     table = panomap.load_table(tmp_path / "learned.npz")
-    assert table.info["source"] == "lines" and table.info["images"] == ["demo-out/omni.png"]
+    assert table.info["source"] == "checkerboards" and table.info["images"] == ["demo-out/boards.png"]
     assert table.image_size == (1024, 1024) and table.model.s == -1
 
 

@@ -40,6 +40,9 @@ def valid_elevation_range(
 ) -> tuple[float, float]:
     """The widest elevation interval around the landmarks where the table is valid.
 
+    ``data`` names what ``landmark_range`` spans in the errors ("landmarks", or "lines" for a camera learned
+    from straight lines).
+
     Grows ``landmark_range`` in both directions while f_r stays finite,
     strictly monotonic in the axis's sense, and within
     ``[cutoff_radius, outer_radius]``; ends that stop at a radius are refined

@@ -24,6 +24,7 @@ from ..io.overlay import draw_fit_overlay
 from ..io.plot import save_fit_plot
 from ..remap import Remapper
 from ..simulate import load_room, render, standard_cameras
+from ..simulate.board_scenes import board_poses, render_board_scene
 from ..table.file import save_table
 from ..views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
 from .options import FOLDER
@@ -33,7 +34,7 @@ LANDMARK_COUNT = 12
 VIEWS = ("panorama", "cylinder", "plane")  # (the views written below, in this order)
 # Every file the demo writes into its folder.
 OUTPUTS = (
-    "omni.png", "landmarks.csv", "table.npz", "fit.png", "fit-overlay.png",
+    "omni.png", "landmarks.csv", "table.npz", "fit.png", "fit-overlay.png", "boards.png",
     *(f"{name}{end}" for name in VIEWS for end in (".png", "_map.npy")),
 )  # fmt: skip
 
@@ -119,6 +120,10 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
                 f"p95 {np.nanpercentile(errors, 95):.3f} px"
             )
         yield line
+    # A picture to learn the camera from without landmarks (getting-started): checkerboards held before it.
+    boards = render_board_scene(camera, board_poses(camera, 3, seed=3), seed=3, supersample=2)
+    write_image(out / "boards.png", boards.image)
+    yield f"rendered three checkerboards held before the same camera, to learn it from: {out / 'boards.png'}"
     yield f"done in {time.perf_counter() - start:.1f} s"
 
 

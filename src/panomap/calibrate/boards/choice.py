@@ -95,6 +95,9 @@ def learn_camera(
     say("fitting the camera to the lines")
     try:
         line_fit = fit_lines(arcs, circles, options, progress=say)
+        refusal = line_fit.refusal()
+        if refusal is not None:  # the picture cannot stand behind the lines' camera (lines.agreement)
+            raise PanomapError(refusal)
     except PanomapError:
         if board_fit is None:
             raise

@@ -30,6 +30,10 @@ RNG_SEED = 20071
 MAX_BOARDS = 6
 # Fewest inner corners a board must show to be used.
 MIN_CORNERS = 20
+# The search stops after this many searches in a row that find only grids under MIN_CORNERS: a scene's texture
+# (foliage, a patterned rug) shows the detector 3 x 3 to 3 x 5 grids again and again (16 on a 960 x 1080 picture of
+# trees, 17 s), while a real board, the largest grid in the image, is found first and grows past it.
+MAX_SMALL_FINDS = 3
 # Images larger than this (px, the longer side) are searched downscaled, and the corners refined in full.
 SEARCH_SIZE_PX = 1400
 # The half-width (px) of the window a corner is refined in: a quarter of the way to its nearest corner, at
@@ -82,7 +86,8 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
     )
     boards: list[Board] = []
     searched = 0
-    while len(boards) < max_boards:
+    small = 0
+    while len(boards) < max_boards and small < MAX_SMALL_FINDS:
         # every seed on the first search; after a board, fewer (a search that finds nothing costs all of them)
         found = _largest(search, SEEDS if searched == 0 else SEEDS[:LATER_SEEDS])
         searched += 1
@@ -91,7 +96,9 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
         pixels, (rows, columns) = found
         search = _painted_over(search, pixels, columns, rows)
         if len(pixels) < MIN_CORNERS or len(pixels) != rows * columns:
+            small += 1
             continue
+        small = 0
         if scale != 1.0:
             pixels = (pixels + 0.5) / scale - 0.5
         pixels = _refine(grey, pixels, columns, rows)

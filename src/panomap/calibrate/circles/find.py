@@ -8,6 +8,7 @@ import math
 import threading
 from typing import Any
 
+import numpy as np
 from numpy.typing import NDArray
 
 from ...errors import PanomapError
@@ -21,6 +22,10 @@ from .sampling import _downscaled, to_grey
 from .starts import _coarse_circle, _concentric_centres, _concentric_circles, _outermost_edge_circle, _voted_circles
 from .thresholds import (
     CONCENTRIC_SEEDS,
+    DARK_LEVEL,
+    DARK_PERCENTILE,
+    EXPOSED_LEVEL,
+    MAX_EXPOSURE_GAIN,
     MIN_FEATURE_FRACTION,
     MIN_FEATURE_FRACTION_LAST,
     MIN_FEATURE_FRACTION_OUTSIDE,
@@ -31,6 +36,25 @@ from .thresholds import (
     WIDE_REACH,
 )
 from .types import ImageCircles, NoImageCircle, _Rim
+
+
+def exposed(grey: NDArray[np.float32]) -> NDArray[np.float32]:
+    """A dark picture ((H, W) grey levels 0..255) brightened as a well-exposed one: where its ``DARK_PERCENTILE``
+    lies under ``DARK_LEVEL``, every level times the gain that takes it to ``EXPOSED_LEVEL`` (at most
+    ``MAX_EXPOSURE_GAIN``), clipped at 255. Others unchanged.
+
+    The finder's thresholds are in grey levels (an edge's strength, a rim's step), set on pictures that use
+    their range; a dark picture (a tracking camera's, a room at dusk, a vignetted rim a quarter as bright)
+    steps across its rim by a few levels and fails them (re-projected photographs at a quarter of their
+    brightness: 4 of 8 rims lost, ``bench/bench_scenes.py --only circles``).
+    """
+    level = float(
+        np.percentile(grey[:: max(1, grey.shape[0] // 400), :: max(1, grey.shape[1] // 400)], DARK_PERCENTILE)
+    )
+    if level >= DARK_LEVEL or level <= 0:
+        return grey
+    gain = min(EXPOSED_LEVEL / level, MAX_EXPOSURE_GAIN)
+    return np.minimum(grey * np.float32(gain), np.float32(255.0))
 
 
 def find_image_circles(image: NDArray[Any]) -> ImageCircles:
@@ -50,7 +74,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         When no rim is visible (a full-frame fisheye, an ordinary photo, a blank
         image); it carries the frame centre as a starting value.
     """
-    grey = to_grey(image)
+    grey = exposed(to_grey(image))
     height, width = grey.shape
     frame_centre = ((width - 1) / 2, (height - 1) / 2)
     if min(height, width) < 32:

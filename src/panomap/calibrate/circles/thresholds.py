@@ -116,3 +116,9 @@ CONCENTRIC_PROMINENCE = 3.0
 # (or 2 px) lead to the same rim: the second is not tried.
 SAME_START_FRACTION = 0.01
 FRAME_EDGES = ("left", "top", "right", "bottom")
+# A picture whose bright end (this percentile of its levels) lies under DARK_LEVEL of 255 uses under 40% of its
+# range: it is brightened so that its bright end reaches EXPOSED_LEVEL, by at most MAX_EXPOSURE_GAIN (find.exposed).
+DARK_PERCENTILE = 99.0
+DARK_LEVEL = 100.0
+EXPOSED_LEVEL = 200.0
+MAX_EXPOSURE_GAIN = 8.0

@@ -33,6 +33,7 @@ from ...camera.valid_range import valid_elevation_range
 from ...errors import PanomapError
 from ...geometry import HALF_PI, FloatArray
 from ..circles import ImageCircles
+from .agreement import Camera, PinnedBand, pinned_band, ring_alphas, ruled_out
 from .arcs import EdgeArc
 from .families import Family, find_families, orthogonal_pairs
 from .objective import LineData, evaluate, orthogonality_residuals, residuals
@@ -125,6 +126,25 @@ class LineFit:
     model: CameraModel
     covariance: FloatArray
     report: LineFitReport
+    band: PinnedBand | None = None
+
+    def jacobian_se_px(self) -> FloatArray:
+        """The Jacobian's standard error (px) of the radius at the band's rings (empty without a band)."""
+        from ...camera.uncertainty import radius_standard_error
+
+        if self.band is None:
+            return np.zeros(0)
+        alpha = np.radians(self.band.alpha_deg)
+        return radius_standard_error(
+            self.model.radial, self.covariance, camera_elevations_of_alpha(alpha, self.model.axis)
+        )
+
+    def refusal(self) -> str | None:
+        """Why the picture cannot stand behind this camera (:mod:`.agreement`), in one sentence; None where it can."""
+        if self.band is None:
+            return None
+        pictures = len({line.image_index for line in self.report.lines})
+        return self.band.refusal(self.jacobian_se_px(), len(self.report.lines), max(pictures, 1))
 
     def camera_range(self, cutoff_radius: float, outer_radius: float) -> tuple[float, float]:
         """The elevations (rad, camera axes) a table of this camera spans over the annulus ``[cutoff_radius,
@@ -212,18 +232,52 @@ def fit_lines(
         tried.append((_start_score(trial_state, axis, params, families, r_max), k, params, families, trial_state))
     if not tried:
         raise failures[0]
-    _, _, params, families, state = min(tried, key=lambda t: (t[0], t[1]))
+    _, best_k, params, families, state = min(tried, key=lambda t: (t[0], t[1]))
+    start_ends = [Camera(GROUPING_KIND, p, f"start {k + 1} of {len(tried)}") for _, k, p, _, _ in tried if k != best_k]
     if len(state.groups) < MIN_LINES:
         raise _too_few(len(state.groups), "straight lines")
     if not orthogonal_pairs(families):
         raise PanomapError(
             f"{len(state.groups)} straight lines were found, but no two families of parallel lines at right "
             "angles (a room's vertical and horizontal edges, a checkerboard's rows and columns): they fix the "
-            "scale of the elevations, which straightness alone leaves free"
+            "scale of the elevations, which straightness alone leaves free: a picture of a built scene (a room, a "
+            "corridor, a building) showing edges of its three directions would"
         )
     say("choosing the radial model")
-    chosen, scores, final = _choose(state, families, axis, params, r_max, outer, options, circles)
-    return _result(chosen, axis, final, state, families, r_max, outer, scores, options, circles)
+    chosen, scores, final, others, folds = _choose(state, families, axis, params, r_max, outer, options, circles)
+    alternatives = _not_ruled_out(start_ends, Camera(chosen, final, "chosen"), axis, state, families, r_max)
+    return _result(
+        chosen, axis, final, state, families, r_max, outer, scores, options, circles, [*alternatives, *others], folds
+    )
+
+
+def _units(camera: Camera, axis: str, data: LineData, families: list[Family]) -> FloatArray | None:
+    """What ``camera`` leaves unexplained, unit by unit (L + P,): each line's sum of squared point distances (px^2)
+    and each orthogonal pair's squared residual (scaled as the fit weighs it: one pair as much as one line)."""
+    trial = evaluate(camera.kind, axis, camera.params, data)
+    if trial is None:
+        return None
+    per_line = np.bincount(data.line_index, trial.distances_px**2, minlength=data.count)
+    scale = _orthogonality_scale(camera.kind, axis, camera.params, data)
+    square = orthogonality_residuals(trial.normals, families, orthogonal_pairs(families), scale)
+    return np.concatenate([per_line, square**2 * data.pixels.shape[0] / max(data.count, 1)])
+
+
+def _not_ruled_out(
+    others: Sequence[Camera], chosen: Camera, axis: str, state: _State, families: list[Family], r_max: float
+) -> list[Camera]:
+    """The ``others`` (other starts' ends) that explain the chosen grouping's lines and right angles about as well
+    as the chosen camera (:func:`.agreement.ruled_out` over :func:`_units`)."""
+    data = LineData.of(state.line_pixels(), r_max)
+    mine = _units(chosen, axis, data, families)
+    if mine is None:
+        return list(others)
+    out = []
+    for other in others:
+        theirs = _units(other, axis, data, families)
+        if theirs is not None and not ruled_out(theirs, mine):
+            out.append(other)
+    return out
 
 
 def _thin(pixels: FloatArray, count: int) -> FloatArray:
@@ -458,12 +512,15 @@ def _restrict(families: list[Family], groups: list[int]) -> list[Family]:
 
 def _held_out_rms(
     kind: str, axis: str, params: FloatArray, state: _State, families: list[Family], r_max: float, outer: float
-) -> float:
-    """RMS distance (px) of every line's points from its plane under a fit without the line's fold."""
+) -> tuple[float, list[FloatArray], FloatArray]:
+    """RMS distance (px) of every line's points from its plane under a fit without the line's fold, those
+    fits' parameters (one per fold) and each line's held-out sum of squared distances (L,) px^2."""
     count = len(state.groups)
     folds = np.arange(count) % CV_FOLDS
     lines = state.line_pixels()
     total, points = 0.0, 0
+    fits: list[FloatArray] = []
+    per_line = np.full(count, math.inf)
     for fold in range(CV_FOLDS):
         train = [g for g in range(count) if folds[g] != fold]
         test = [g for g in range(count) if folds[g] == fold]
@@ -472,10 +529,17 @@ def _held_out_rms(
         fitted = _refit(kind, axis, params, state, families, r_max, outer, groups=train)
         trial = evaluate(kind, axis, fitted, LineData.of([lines[g] for g in test], r_max))
         if trial is None:
-            return math.inf
+            return math.inf, fits, per_line
+        fits.append(fitted)
+        per_line[test] = np.bincount(_index_of(test, lines), trial.distances_px**2, minlength=len(test))
         total += float(np.sum(trial.distances_px**2))
         points += trial.distances_px.size
-    return math.sqrt(total / max(points, 1))
+    return math.sqrt(total / max(points, 1)), fits, per_line
+
+
+def _index_of(test: list[int], lines: list[FloatArray]) -> NDArray[np.intp]:
+    """Which of the ``test`` lines each of their concatenated points belongs to (0..len(test)-1)."""
+    return np.concatenate([np.full(len(lines[g]), k, dtype=np.intp) for k, g in enumerate(test)])
 
 
 def _choose(
@@ -487,9 +551,10 @@ def _choose(
     outer: float,
     options: LineFitOptions,
     circles: ImageCircles,
-) -> tuple[str, dict[str, float | None], FloatArray]:
-    """The radial kind with the best held-out score (fewer parameters win ties), every kind's score, and the
-    chosen kind's parameters fitted to all lines.
+) -> tuple[str, dict[str, float | None], FloatArray, list[Camera], list[FloatArray]]:
+    """The radial kind with the best held-out score (fewer parameters win ties), every kind's score, the
+    chosen kind's parameters fitted to all lines, the other kinds the held-out lines cannot rule out (within
+    ``ALTERNATIVE_MARGIN`` of the best score) and the chosen kind's fits without each fold.
 
     Every kind is fitted to all lines first; only those whose RMS there is within ``CONTENDER_MARGIN`` of
     the best are cross-validated (the others score None): they cannot win, and skipping them halves the time.
@@ -518,12 +583,17 @@ def _choose(
     if not fitted:
         raise PanomapError("no radial model fits the lines")
     if options.model != "auto":
-        return options.model, {}, fitted[options.model][0]
+        _, folds, _ = _held_out_rms(options.model, axis, fitted[options.model][0], state, families, r_max, outer)
+        return options.model, {}, fitted[options.model][0], [], folds
     best_in = min(rms for _, rms in fitted.values())
     scores: dict[str, float | None] = {}
+    fold_fits: dict[str, list[FloatArray]] = {}
+    held_out: dict[str, FloatArray] = {}
     for kind in kinds:
         if kind in fitted and fitted[kind][1] <= best_in * (1.0 + CONTENDER_MARGIN):
-            scores[kind] = _held_out_rms(kind, axis, fitted[kind][0], state, families, r_max, outer)
+            scores[kind], fold_fits[kind], held_out[kind] = _held_out_rms(
+                kind, axis, fitted[kind][0], state, families, r_max, outer
+            )
         else:
             scores[kind] = None
     valid = {k: v for k, v in scores.items() if v is not None and math.isfinite(v)}
@@ -537,7 +607,21 @@ def _choose(
         return valid[kind] <= best * (1.0 + (CAMERA_LAW_MARGIN if law else CV_MARGIN))
 
     chosen = next(k for k in valid if wins(k))
-    return chosen, scores, fitted[chosen][0]
+    # a kind the held-out lines, line by line, find less straight is ruled out; so is one that explains the lines
+    # and their right angles less well
+    others = _not_ruled_out(
+        [
+            Camera(k, fitted[k][0], f"the {k} law")
+            for k in valid
+            if k != chosen and not ruled_out(held_out[k], held_out[chosen])
+        ],
+        Camera(chosen, fitted[chosen][0], "chosen"),
+        axis,
+        state,
+        families,
+        r_max,
+    )
+    return chosen, scores, fitted[chosen][0], others, fold_fits[chosen]
 
 
 def _result(
@@ -551,8 +635,11 @@ def _result(
     scores: dict[str, float | None],
     options: LineFitOptions,
     circles: ImageCircles,
+    alternatives: Sequence[Camera] = (),
+    folds: Sequence[FloatArray] = (),
 ) -> LineFit:
-    """The camera model, its covariance and the report of the final fit."""
+    """The camera model, its covariance, how well the picture pins it (:mod:`.agreement`, from the
+    ``alternatives`` and the chosen kind's ``folds``) and the report of the final fit."""
     lines = state.line_pixels()
     data = LineData.of(lines, r_max)
     trial = evaluate(kind, axis, params, data)
@@ -612,7 +699,21 @@ def _result(
         azimuth_source="given" if options.azimuth_zero is not None else "image angle 0",
         handedness_source="given" if options.s is not None else ("mirror" if circles.cutoff is not None else "lens"),
     )
-    return LineFit(model, covariance, report)
+    reach_alpha = _reach_alpha(radial, circles, r_max, float(np.max(np.arccos(np.clip(trial.rays.d[:, 2], -1.0, 1.0)))))
+    band = pinned_band(Camera(kind, params, "chosen"), alternatives, folds, axis, ring_alphas(reach_alpha))
+    return LineFit(model, covariance, report, band)
+
+
+def _reach_alpha(radial: RadialFunction, circles: ImageCircles, r_max: float, lines_alpha: float) -> float:
+    """The angle (rad) from the axis up to which a table of this camera is judged: its image circle's rim (the
+    table covers it, lines or none), else (no rim in the frame) the farthest line."""
+    if circles.rim_in_frame <= 0:
+        return lines_alpha
+    try:
+        alpha, _ = InverseRadial.of(radial, circles.outer_radius)(np.array([circles.outer_radius]))
+    except PanomapError:
+        return lines_alpha
+    return max(float(alpha[0]), lines_alpha) if np.isfinite(alpha[0]) else lines_alpha
 
 
 def vertical_under(
@@ -677,7 +778,7 @@ def _vertical(families: list[Family], normals: FloatArray) -> tuple[FloatArray, 
 
 def _camera_elevations(rays: FloatArray, axis: str) -> FloatArray:
     """Elevation (rad) in the camera's axes of rays in this package's axes (alpha from the axis)."""
-    return _camera_elevations_of_alpha(np.arccos(np.clip(rays[:, 2], -1.0, 1.0)), axis)
+    return camera_elevations_of_alpha(np.arccos(np.clip(rays[:, 2], -1.0, 1.0)), axis)
 
 
 def annulus_deg(radial: RadialFunction, circles: ImageCircles, r_max: float) -> tuple[float, float]:
@@ -685,11 +786,11 @@ def annulus_deg(radial: RadialFunction, circles: ImageCircles, r_max: float) -> 
     inverse = InverseRadial.of(radial, r_max)
     radii = np.array([circles.cutoff_radius or 0.0, min(circles.outer_radius, r_max)])
     alpha, _ = inverse(radii)
-    rho = np.degrees(_camera_elevations_of_alpha(alpha, radial.axis))
+    rho = np.degrees(camera_elevations_of_alpha(alpha, radial.axis))
     return float(rho.min()), float(rho.max())
 
 
-def _camera_elevations_of_alpha(alpha: FloatArray, axis: str) -> FloatArray:
+def camera_elevations_of_alpha(alpha: FloatArray, axis: str) -> FloatArray:
     return np.asarray(alpha - HALF_PI if axis == "down" else HALF_PI - alpha, dtype=np.float64)
 
 

@@ -18,7 +18,7 @@ from ...geometry import TWO_PI
 from ...table.table import PanoMappingTable, check_table_size, fill_entries
 from ..make_table import DEFAULT_MAX_SIZE, world_range
 from ..report import FitReport, FitSettings, RadiusUncertainty
-from .fit import LineFit
+from .fit import LineFit, camera_elevations_of_alpha
 
 # A standard error of the radius beyond this (px) anywhere in the table is said: on one image of the real sets,
 # every fit worse than 20 px had one over 3 px (several better ones too).
@@ -107,6 +107,13 @@ def line_fit_report(fit: LineFit, elevation_range: tuple[float, float]) -> FitRe
     report = fit.report
     rho = np.linspace(*elevation_range, 91)
     se = radius_standard_error(model.radial, fit.covariance, rho)
+    if fit.band is not None and fit.band.alpha_deg.size:
+        # the picture's own evidence (:mod:`.agreement`): the jackknife over folds of lines and the cameras it
+        # cannot rule out, at the rings; the Jacobian's alone where none lies (the rings' ends held beyond them)
+        rings_rho = np.degrees(camera_elevations_of_alpha(np.radians(fit.band.alpha_deg), model.axis))
+        order = np.argsort(rings_rho)
+        honest = np.nan_to_num(fit.band.se_px(fit.jacobian_se_px()), posinf=1e6)
+        se = np.maximum(se, np.interp(np.degrees(rho), rings_rho[order], honest[order]))
     low, high = report.elevation_range_deg
     inside = (np.degrees(rho) >= low) & (np.degrees(rho) <= high)
     return FitReport(
