@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.refine import MountOptions, MountProblem, MountSolution, refine
+from panomap.calibrate.core.refine import MountOptions, MountProblem, MountSolution, refine
+from panomap.calibrate.landmarks.fit import fit_camera
 from panomap.simulate.cameras import standard_cameras
 
 from helpers import spread_landmarks

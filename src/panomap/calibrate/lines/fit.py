@@ -33,12 +33,12 @@ from ...camera.valid_range import valid_elevation_range
 from ...errors import PanomapError
 from ...geometry import HALF_PI, FloatArray
 from ..circles import ImageCircles
+from ..core.line_report import FittedLine, LineFitReport, RejectedArc, empty_bands
 from .arcs import EdgeArc
 from .families import Family, find_families, orthogonal_pairs
 from .objective import LineData, evaluate, orthogonality_residuals, residuals
 from .orientation import level_rotation, zero_azimuth
 from .rays import InverseRadial
-from .report import FittedLine, LineFitReport, RejectedArc, empty_bands
 
 # Fewest lines a fit needs, and fewest of them with a family orthogonal to another (the scale).
 MIN_LINES = 8

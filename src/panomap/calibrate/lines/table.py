@@ -16,8 +16,8 @@ from ...camera.uncertainty import radius_standard_error
 from ...errors import PanomapError
 from ...geometry import TWO_PI
 from ...table.table import PanoMappingTable, check_table_size, fill_entries
-from ..make_table import DEFAULT_MAX_SIZE, world_range
-from ..report import FitReport, FitSettings, RadiusUncertainty
+from ..core.report import FitReport, FitSettings, RadiusUncertainty
+from ..core.table_range import DEFAULT_MAX_SIZE, world_range
 from .fit import LineFit
 
 # A standard error of the radius beyond this (px) anywhere in the table is said: on one image of the real sets,

@@ -2,8 +2,8 @@
 
 :func:`calibrate_camera` finds the image circles when something is missing and an
 omni-image is given, chooses the centre and the radii recording where each
-came from (a :class:`~panomap.calibrate.sources.Source`), fits the camera
-(:func:`panomap.fit_camera`) and fills its table (:mod:`panomap.calibrate.make_table`).
+came from (a :class:`~panomap.calibrate.core.sources.Source`), fits the camera
+(:func:`panomap.fit_camera`) and fills its table (:mod:`panomap.calibrate.landmarks.table`).
 A table saved from the browser is the table ``panomap fit`` makes from the same
 landmarks, camera position, centre and radii.
 """
@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera.radial_models import radial_kind
-from ..camera.valid_range import annulus_coverage_problem
-from ..errors import PanomapError
-from ..table.table import PanoMappingTable
-from .circles import (
+from ...camera.radial_models import radial_kind
+from ...camera.valid_range import annulus_coverage_problem
+from ...errors import PanomapError
+from ...table.table import PanoMappingTable
+from ..circles import (
     Circle,
     ImageCircles,
     NoImageCircle,
@@ -31,12 +31,12 @@ from .circles import (
     find_cutoff_without_rim,
     find_image_circles,
 )
+from ..core.noise import rim_slack_px
+from ..core.sources import QUANTITIES, Origin, Source, source_texts
 from .fit import CameraFit, fit_camera, renamed_keyword
 from .joint import ImageLines
-from .landmarks import Landmarks
-from .make_table import choose_annulus, table_for
-from .noise import rim_slack_px
-from .sources import QUANTITIES, Origin, Source, source_texts
+from .pairs import Landmarks
+from .table import choose_annulus, table_for
 
 
 @dataclass(frozen=True)
@@ -146,7 +146,7 @@ RIM_CONTRADICTED_FRACTION = 0.05
 
 def landmarks_past_rim(rim: Circle, pixels: NDArray[np.float64], pixel_sigma: float) -> int:
     """How many of the landmarks' ``pixels`` ((n, 2), px) lie well outside ``rim``: by RIM_CONTRADICTED_FRACTION
-    of its radius beyond the noise (:func:`panomap.calibrate.fit.rim_slack_px`)."""
+    of its radius beyond the noise (:func:`panomap.calibrate.landmarks.fit.rim_slack_px`)."""
     distance = np.hypot(*(np.asarray(pixels, dtype=float).reshape(-1, 2) - np.asarray(rim.centre)).T)
     return int(np.sum(distance > rim.radius * (1 + RIM_CONTRADICTED_FRACTION) + rim_slack_px(pixel_sigma)))
 
@@ -401,10 +401,10 @@ def calibrate_camera(
         page finds the circles once, when it opens, and fits as this function
         does with them.
     lines : bool or ImageLines
-        True: the straight lines of ``omni`` join the landmarks in the fit (:mod:`panomap.calibrate.joint`),
+        True: the straight lines of ``omni`` join the landmarks in the fit (:mod:`panomap.calibrate.landmarks.joint`),
         each weighted by its measured noise; where they cannot (no image circle found, too few lines, lines
         that disagree with the landmarks) the landmark fit stands, with a warning saying why. An
-        :class:`~panomap.calibrate.joint.ImageLines` of ``omni`` found beforehand (its arcs, and its line fit
+        :class:`~panomap.calibrate.landmarks.joint.ImageLines` of ``omni`` found beforehand (its arcs, and its line fit
         once made) is taken instead of looking again: the learn page refits at every change.
 
     Raises
@@ -471,7 +471,7 @@ def _image_lines(
 
 def image_lines(omni: NDArray[Any], circles: ImageCircles) -> ImageLines:
     """The edge arcs of ``omni`` inside ``circles``, for the lines to join a fit."""
-    from .lines.arcs import find_arcs
+    from ..lines.arcs import find_arcs
 
     return ImageLines(find_arcs(omni, circles), circles)
 

@@ -35,24 +35,24 @@ from typing import TypeVar
 
 import numpy as np
 
-from ..camera.model import CameraModel
-from ..camera.orientation import tilt_rotation, to_camera
-from ..camera.radial import RadialFunction
-from ..camera.radial_models import AUTO_CANDIDATES, AXES, MIRROR_CANDIDATES, MODELS, RadialKind, radial_kind
-from ..camera.uncertainty import coefficient_covariance
-from ..camera.valid_range import annulus_coverage_problem, is_monotonic
-from ..errors import PanomapError
-from ..geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
-from . import selection as selection_module
+from ...camera.model import CameraModel
+from ...camera.orientation import tilt_rotation, to_camera
+from ...camera.radial import RadialFunction
+from ...camera.radial_models import AUTO_CANDIDATES, AXES, MIRROR_CANDIDATES, MODELS, RadialKind, radial_kind
+from ...camera.uncertainty import coefficient_covariance
+from ...camera.valid_range import annulus_coverage_problem, is_monotonic
+from ...errors import PanomapError
+from ...geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
+from ..core import selection as selection_module
+from ..core.line_report import LineFitReport
+from ..core.noise import DEFAULT_WORLD_SIGMA_FRACTION, Observations, radial_weights, rim_slack_px, world_sigmas
+from ..core.refine import MountOptions, MountProblem, MountSolution, camera_rays, refine
+from ..core.report import FitReport, FitSettings, LandmarkResidual, MountReport, ViewpointReport
+from ..core.start import consistency, detect_axis, handedness, pixels_hint, separable_fit
 from .joint import ImageLines, JointResult, refine_with_lines
-from .landmarks import MIN_LANDMARKS, Landmarks
-from .lines.report import LineFitReport
 from .mount import DEFAULT_CAMERA_SIGMA_FRACTION, MountChoice, choose_mount, given_tilt, mount_options, mount_report
-from .noise import DEFAULT_WORLD_SIGMA_FRACTION, Observations, radial_weights, rim_slack_px, world_sigmas
 from .outliers import choose, choose_start
-from .refine import MountOptions, MountProblem, MountSolution, camera_rays, refine
-from .report import FitReport, FitSettings, LandmarkResidual, MountReport, ViewpointReport
-from .start import consistency, detect_axis, handedness, pixels_hint, separable_fit
+from .pairs import MIN_LANDMARKS, Landmarks
 from .viewpoint import (
     PARALLAX_DISTANCE,
     VIEWPOINT_MODES,
@@ -603,7 +603,7 @@ def _refine_level(
     refine_centre: bool,
     annulus: tuple[float, float] | None = None,
 ) -> tuple[RadialFunction, float, tuple[float, float]]:
-    """f_r, phi0 and (optionally) the centre refined (:func:`panomap.calibrate.refine.refine`) from the
+    """f_r, phi0 and (optionally) the centre refined (:func:`panomap.calibrate.core.refine.refine`) from the
     separable solution given, on the level camera.
 
     The separable solution is kept where the refined f_r folds over the landmarks, or no
