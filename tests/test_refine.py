@@ -1,4 +1,4 @@
-"""The refinement's residual blocks (calibrate/refine.py): a block adds its own unknowns and residuals.
+"""The refinement's residual blocks (calibrate/core/refine.py): a block adds its own unknowns and residuals.
 
 Ground truth: a block whose residuals are written here in closed form, ``(a - A) / SIGMA`` for its one
 unknown ``a``: its least-squares value is A, its variance SIGMA^2 (it shares no residual with the camera's
