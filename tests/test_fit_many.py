@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from panomap.calibrate import noise, selection, start
+from panomap.calibrate.core import noise, selection, start
 from panomap.calibrate.core.selection import CV_FOLDS, EXACT_LOO_MAX
 from panomap.calibrate.landmarks.fit import fit_camera
 from panomap.calibrate.landmarks.pairs import Landmarks
