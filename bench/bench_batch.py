@@ -39,9 +39,9 @@ import av
 import cv2
 import numpy as np
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.make_table import create_table
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.table import create_table
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.simulate.cameras import RadialCamera
 from panomap.simulate.sampling import spread_landmarks

@@ -36,9 +36,9 @@ from pathlib import Path
 
 import numpy as np
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.make_table import create_table
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.table import create_table
 from panomap.errors import PanomapError
 from panomap.simulate.scenarios import (
     CAMERA_POSITION,

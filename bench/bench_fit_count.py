@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from panomap.calibrate import fit as fit_module
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
+from panomap.calibrate.landmarks import fit as fit_module
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
 from panomap.simulate.sampling import LandmarkPairs
 from panomap.simulate.scenarios import (
     CAMERA_POSITION,

@@ -40,8 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.pipeline import calibrate_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.pipeline import calibrate_camera
 from panomap.errors import PanomapError
 from panomap.geometry import ray_from_angles
 from panomap.simulate import (

@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.make_table import create_table
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.table import create_table
 from panomap.interop.api import import_calibration
 from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras
 

@@ -34,11 +34,11 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from panomap.calibrate.circles import find_image_circles
-from panomap.calibrate.fit import CameraFit, fit_camera
-from panomap.calibrate.joint import ImageLines
-from panomap.calibrate.landmarks import Landmarks
+from panomap.calibrate.landmarks.fit import CameraFit, fit_camera
+from panomap.calibrate.landmarks.joint import ImageLines
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.pipeline import calibrate_camera
 from panomap.calibrate.lines.arcs import find_arcs
-from panomap.calibrate.pipeline import calibrate_camera
 from panomap.errors import PanomapError
 from panomap.geometry import FloatArray, azimuth_elevation
 from panomap.simulate.cameras import TiltedCamera

@@ -35,9 +35,9 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.make_table import create_table
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.table import create_table
 from panomap.errors import PanomapError
 from panomap.simulate.cameras import TiltedCamera, mount_rotation
 from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, make_landmarks, scenario_cameras, test_points

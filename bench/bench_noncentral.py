@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from panomap import calibrate_camera
-from panomap.calibrate.landmarks import Landmarks
+from panomap.calibrate.landmarks.pairs import Landmarks
 from panomap.camera.radial import fit_radial
 from panomap.camera.viewpoint import Viewpoint
 from panomap.simulate import SphericalMirrorCamera, standard_cameras

@@ -25,7 +25,7 @@ folder; each with its checkerboard corners; see each folder's ``SOURCE.md``):
   every image but in miniomni, 11 of 15); the median image circle then gives
   the annulus, as ``panomap fit --image`` would. Where the rim is found in
   fewer than half, the calibration's centre is used, and the output says so.
-- **fit --image**: :func:`panomap.calibrate.pipeline.calibrate_camera` with
+- **fit --image**: :func:`panomap.calibrate.landmarks.pipeline.calibrate_camera` with
   the 10 corners and each of the folder's images in turn, no other option
   (what ``panomap fit --image`` does): the RMS on all other corners; where
   the fit puts the calibration's optical axis (our world's -Z: its centre
@@ -60,9 +60,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from panomap.calibrate.circles import find_image_circles
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.pipeline import calibrate_camera
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.pipeline import calibrate_camera
 from panomap.errors import PanomapError
 from panomap.geometry import azimuth_elevation
 from panomap.io.images import read_image

@@ -19,9 +19,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.make_table import create_table
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.table import create_table
 from panomap.remap import Remapper
 from panomap.simulate import standard_cameras
 from panomap.simulate.sampling import spread_landmarks

@@ -27,9 +27,9 @@ from click.testing import CliRunner, Result
 from numpy.typing import NDArray
 
 from panomap.calibrate.circles import Circle, ImageCircles
-from panomap.calibrate.fit import CameraFit, fit_camera
-from panomap.calibrate.landmarks import Landmarks, landmarks_to_csv
-from panomap.calibrate.make_table import create_table
+from panomap.calibrate.landmarks.fit import CameraFit, fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks, landmarks_to_csv
+from panomap.calibrate.landmarks.table import create_table
 from panomap.cli.app import main
 from panomap.io.local_web import LocalServer, serve_in_thread
 from panomap.simulate import sampling

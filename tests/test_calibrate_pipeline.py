@@ -10,10 +10,10 @@ import cv2
 import numpy as np
 import pytest
 
-from panomap.calibrate.diagnosis import diagnose
-from panomap.calibrate.landmarks import Landmarks, landmarks_to_csv
-from panomap.calibrate.pipeline import calibrate_camera, choose_circles
-from panomap.calibrate.sources import Origin, Source
+from panomap.calibrate.core.sources import Origin, Source
+from panomap.calibrate.landmarks.diagnosis import diagnose
+from panomap.calibrate.landmarks.pairs import Landmarks, landmarks_to_csv
+from panomap.calibrate.landmarks.pipeline import calibrate_camera, choose_circles
 from panomap.errors import PanomapError
 from panomap.geometry import inside_image, pixel_polar
 from panomap.simulate import standard_cameras
@@ -276,7 +276,7 @@ def test_a_detected_cut_off_disc_asks_f_r_to_reach_a_default_outer_radius_no_fur
     overfills the frame), the table runs from the disc to where f_r ends; a given outer radius f_r does not
     reach is refused. (On three real miniomni images, whose fitted f_r ends at 277 px of the corners' 465,
     the table was refused.)"""
-    from panomap.calibrate.make_table import Annulus, table_for
+    from panomap.calibrate.landmarks.table import Annulus, table_for
     from panomap.camera.valid_range import valid_elevation_range
 
     image, landmarks, position, _, _ = full_frame_fisheye((1280, 960), (9.0, -10.5), 6, name="hyperbolic")
@@ -297,7 +297,7 @@ def test_a_circle_found_with_landmarks_well_outside_it_is_not_the_image_circle(m
     checkerboard floor's edge, 67 px off the axis, passed as a rim; every fit failed, the axis given too:
     "no radial model covers the annulus"; now 3.37 px). The circle search is made to return such a circle
     here; the fit starts from the cut-off disc found without a rim instead, and says why."""
-    import panomap.calibrate.pipeline as pipeline
+    import panomap.calibrate.landmarks.pipeline as pipeline
     from panomap.calibrate.circles import Circle, ImageCircles
 
     image, landmarks, position, points, truth = full_frame_fisheye((1280, 960), (9.0, -10.5), 6, name="hyperbolic")
@@ -332,7 +332,7 @@ def test_the_cut_off_disc_is_looked_for_again_about_the_fitted_centre(
     its distance to the fit's centre) let a ring of the camera's reflection into the view (MiniOmni: 13.9 and
     16.1 px against 26.6-28.6 on the other images, and none). About the fit's centre the disc is found again:
     the table's cut-off radius within 0.5 px of the camera's (measured 0.11 px below it, both ways)."""
-    import panomap.calibrate.pipeline as pipeline
+    import panomap.calibrate.landmarks.pipeline as pipeline
     from panomap.calibrate.circles import Circle, ImageCircles
     from panomap.simulate import load_room, noisy_jpeg, render
 
@@ -367,7 +367,7 @@ def test_the_learn_page_looks_for_the_cut_off_disc_about_the_fitted_centre_too(
     """The page fits with the circles it found as ``fit --image`` does: the rim found 8 px off the axis, the disc
     missed or off, the table's cut-off radius within 0.5 px of the camera's (before: 22.7 px short of it, no disc;
     2.0 px short, the disc found 2 px small about the rim's centre kept as it was)."""
-    import panomap.calibrate.pipeline as pipeline
+    import panomap.calibrate.landmarks.pipeline as pipeline
     from panomap.calibrate.circles import Circle, ImageCircles
     from panomap.learn.session import Session
     from panomap.simulate import load_room, noisy_jpeg, render
@@ -457,7 +457,7 @@ def test_the_learn_page_drops_a_rim_that_landmarks_lie_well_outside(
     back to the rim found when those landmarks are taken away (before, the rim stayed and the fit failed: "no
     radial model covers the annulus"). The circle search is made to return such a circle, as in the test of
     ``calibrate_camera`` above; the same fit, worst 4.25 px."""
-    import panomap.calibrate.pipeline as pipeline
+    import panomap.calibrate.landmarks.pipeline as pipeline
     from panomap.calibrate.circles import Circle, ImageCircles
     from panomap.learn.session import Session
 
@@ -552,7 +552,7 @@ def test_the_table_keeps_the_view_next_to_a_cut_off_disc_off_its_centre() -> Non
 def test_a_model_that_turns_back_inside_the_disc_keeps_the_discs_radius(monkeypatch: pytest.MonkeyPatch) -> None:
     """Where f_r would not run monotonically down to the smaller cut-off radius, the table keeps the disc's
     own radius (the table is made, as before, rather than refused)."""
-    import panomap.calibrate.pipeline as pipeline
+    import panomap.calibrate.landmarks.pipeline as pipeline
 
     camera, image, _, centre = housed_mirror_off_centre()
     landmarks = spread_landmarks(camera, POSITION, 12, np.random.default_rng(5))

@@ -22,7 +22,7 @@ import pytest
 from click.testing import CliRunner
 
 from panomap.calibrate.circles import NoImageCircle, find_image_circles
-from panomap.calibrate.landmarks import landmarks_to_csv
+from panomap.calibrate.landmarks.pairs import landmarks_to_csv
 from panomap.cli.app import main
 from panomap.errors import PanomapError
 from panomap.simulate import field_stop, housed_mirror, load_room, noisy_jpeg, render, standard_cameras, vignette

@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 import pytest
 
-from panomap.calibrate.landmarks import Landmarks, landmarks_to_csv
+from panomap.calibrate.landmarks.pairs import Landmarks, landmarks_to_csv
 from panomap.simulate import standard_cameras
 from panomap.table.file import load_table
 
@@ -218,7 +218,7 @@ def test_project_writes_pixels_and_leaves_invisible_points_empty(work: Path) -> 
 
 
 def test_a_json_files_camera_is_used_and_a_different_camera_option_replaces_it_with_a_warning(work: Path) -> None:
-    from panomap.calibrate.landmarks import landmarks_to_json, read_landmarks
+    from panomap.calibrate.landmarks.pairs import landmarks_to_json, read_landmarks
 
     pairs = read_landmarks(work / "lm.csv")
     (work / "lm.json").write_text(
@@ -294,7 +294,7 @@ def test_a_video_serves_where_one_omni_image_is_taken_and_views_point_to_panomap
     ],
 )
 def test_landmarks_given_in_another_frame_or_scale_get_a_hint(work: Path, mistake: str, hint: str) -> None:
-    from panomap.calibrate.landmarks import read_landmarks
+    from panomap.calibrate.landmarks.pairs import read_landmarks
 
     pairs = read_landmarks(work / "lm.csv")
     pixels, world, camera = pairs.pixels, pairs.world, POSITION

@@ -6,11 +6,11 @@ import math
 
 import numpy as np
 
-from panomap.calibrate.diagnosis import diagnose, noise_ratio
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.pipeline import calibrate_camera
-from panomap.calibrate.report import CENTRE_AS_FOUND
+from panomap.calibrate.core.report import CENTRE_AS_FOUND
+from panomap.calibrate.landmarks.diagnosis import diagnose, noise_ratio
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.pipeline import calibrate_camera
 from panomap.cli.demo import pick_landmarks
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.simulate.example import make_example

@@ -11,10 +11,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from panomap.calibrate import noise, selection, start
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.selection import CV_FOLDS, EXACT_LOO_MAX
+from panomap.calibrate.core import noise, selection, start
+from panomap.calibrate.core.selection import CV_FOLDS, EXACT_LOO_MAX
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
 from panomap.camera.radial import fit_radial
 from panomap.camera.radial_models import radial_kind
 from panomap.geometry import azimuth_elevation, pixel_polar

@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 import pytest
 
-from panomap.calibrate.landmarks import Landmarks, landmarks_to_csv
+from panomap.calibrate.landmarks.pairs import Landmarks, landmarks_to_csv
 from panomap.geometry import ray_from_angles
 from panomap.io.overlay import HORIZON, OUTLIER, residual_magnification
 from panomap.simulate.cameras import TiltedCamera, mount_rotation, standard_cameras

@@ -10,9 +10,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.make_table import create_table
-from panomap.calibrate.report import FitReport, LandmarkResidual, RadiusUncertainty, table_fit_report
+from panomap.calibrate.core.report import FitReport, LandmarkResidual, RadiusUncertainty, table_fit_report
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.table import create_table
 from panomap.errors import PanomapError
 from panomap.simulate import standard_cameras
 from panomap.table.file import load_table, save_table

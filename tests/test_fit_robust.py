@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.make_table import create_table
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.table import create_table
 from panomap.simulate.cameras import RadialCamera
 from panomap.simulate.scenarios import (
     CAMERA_POSITION,

@@ -1,4 +1,4 @@
-"""Lines and landmarks in one fit (panomap.calibrate.joint), against simulated cameras whose rays are known.
+"""Lines and landmarks in one fit (panomap.calibrate.landmarks.joint), against simulated cameras whose rays are known.
 
 Ground truth: a tilted equidistant fisheye and a tilted hyperbolic mirror of :mod:`panomap.simulate`
 (their projection written here again for the fisheye: r = scale * alpha about the true centre), a few
@@ -18,11 +18,11 @@ import pytest
 from click.testing import CliRunner
 
 from panomap.calibrate.circles import Circle, ImageCircles
-from panomap.calibrate.fit import CameraFit, fit_camera
-from panomap.calibrate.joint import ImageLines, LineBlock, VerticalLines
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.refine import MountSolution
-from panomap.calibrate.report import table_fit_report
+from panomap.calibrate.core.refine import MountSolution
+from panomap.calibrate.core.report import table_fit_report
+from panomap.calibrate.landmarks.fit import CameraFit, fit_camera
+from panomap.calibrate.landmarks.joint import ImageLines, LineBlock, VerticalLines
+from panomap.calibrate.landmarks.pairs import Landmarks
 from panomap.camera.orientation import rotation_from_vector
 from panomap.camera.radial import RadialFunction
 from panomap.cli.app import main

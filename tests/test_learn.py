@@ -31,7 +31,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from panomap.calibrate.landmarks import Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
+from panomap.calibrate.landmarks.pairs import Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
 from panomap.cli.app import main
 from panomap.errors import PanomapError
 from panomap.learn import session as session_module

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from panomap.calibrate.landmarks import Landmarks, read_landmarks
+from panomap.calibrate.landmarks.pairs import Landmarks, read_landmarks
 from panomap.cli.app import main
 from panomap.learn.server import LearnServer, make_server
 from panomap.learn.session import Session

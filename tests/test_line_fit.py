@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from panomap.calibrate.circles import Circle, ImageCircles
+from panomap.calibrate.core.line_report import LineFitReport
 from panomap.calibrate.lines.arcs import EdgeArc
 from panomap.calibrate.lines.fit import LineFitOptions, fit_lines
-from panomap.calibrate.lines.report import LineFitReport
 from panomap.errors import PanomapError
 from panomap.simulate.cameras import TiltedCamera, mount_rotation, standard_cameras
 

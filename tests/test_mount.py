@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from panomap.calibrate.diagnosis import diagnose
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.make_table import create_table
-from panomap.calibrate.pipeline import calibrate_camera
+from panomap.calibrate.landmarks.diagnosis import diagnose
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.pipeline import calibrate_camera
+from panomap.calibrate.landmarks.table import create_table
 from panomap.camera.orientation import tilt_angles, tilt_rotation
 from panomap.errors import PanomapError
 from panomap.geometry import azimuth_elevation
@@ -209,7 +209,7 @@ def test_noise_alone_does_not_make_a_level_camera_tilted() -> None:
 
 
 def _pairs(trial: object) -> tuple[object]:
-    from panomap.calibrate.landmarks import Landmarks
+    from panomap.calibrate.landmarks.pairs import Landmarks
 
     return (Landmarks(*trial.landmarks),)  # type: ignore[attr-defined]
 
@@ -229,7 +229,7 @@ def test_a_tape_error_is_refined_away_when_the_landmarks_show_it() -> None:
 
 def test_fit_tilt_on_the_command_line(tmp_path: Path) -> None:
     """``fit --tilt`` (default fit) says the tilt it found; a given one is used; bad values are usage errors."""
-    from panomap.calibrate.landmarks import landmarks_to_csv
+    from panomap.calibrate.landmarks.pairs import landmarks_to_csv
 
     base = standard_cameras(seed=3)["equidistant"]
     camera = TiltedCamera(base, mount_rotation(math.radians(TILT_DEG), math.radians(TOWARD_DEG)))

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from panomap import calibrate_camera, load_table, save_table
-from panomap.calibrate.landmarks import Landmarks
+from panomap.calibrate.landmarks.pairs import Landmarks
 from panomap.camera.radial import fit_radial
 from panomap.camera.viewpoint import Viewpoint, caustic_shape
 from panomap.errors import PanomapError

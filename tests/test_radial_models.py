@@ -11,8 +11,8 @@ import pytest
 from click.testing import CliRunner
 from numpy.polynomial import polynomial
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import landmarks_to_csv
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import landmarks_to_csv
 from panomap.camera.radial import RadialFunction, fit_radial
 from panomap.camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, MODELS, RADIAL_KINDS
 from panomap.cli.app import main

@@ -134,8 +134,8 @@ def test_miniomni_tables_keep_the_cameras_reflection_out_where_the_rim_is_found_
     for about it, was missed (none) or found off the axis: their tables cut off at 0, 13.9 and 16.1 px, where
     the other images' cut off at 26.6-28.6 px, letting a ring of the camera into the view. Looked for again
     about the fitted centre: 24.4-28.6 px on every image with a rim (measured)."""
-    from panomap.calibrate.landmarks import Landmarks
-    from panomap.calibrate.pipeline import calibrate_camera
+    from panomap.calibrate.landmarks.pairs import Landmarks
+    from panomap.calibrate.landmarks.pipeline import calibrate_camera
 
     bench = _bench_real()
     folder = REAL / "ocam_miniomni_catadioptric"
@@ -154,8 +154,8 @@ def test_miniomni_tables_keep_the_cameras_reflection_out_where_the_rim_is_found_
 def test_a_fit_whose_radius_does_not_reach_the_image_circle_is_one_clear_error() -> None:
     """Five MiniOmni corners spread in elevation on its first image: the fisheye law fitted to them gives no radius
     at the image circle's elevation (NaN); that was a ValueError from the table's size, now one line saying so."""
-    from panomap.calibrate.landmarks import Landmarks
-    from panomap.calibrate.pipeline import calibrate_camera
+    from panomap.calibrate.landmarks.pairs import Landmarks
+    from panomap.calibrate.landmarks.pipeline import calibrate_camera
     from panomap.errors import PanomapError
 
     bench = _bench_real()

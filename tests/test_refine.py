@@ -1,4 +1,4 @@
-"""The refinement's residual blocks (calibrate/refine.py): a block adds its own unknowns and residuals.
+"""The refinement's residual blocks (calibrate/core/refine.py): a block adds its own unknowns and residuals.
 
 Ground truth: a block whose residuals are written here in closed form, ``(a - A) / SIGMA`` for its one
 unknown ``a``: its least-squares value is A, its variance SIGMA^2 (it shares no residual with the camera's
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.refine import MountOptions, MountProblem, MountSolution, refine
+from panomap.calibrate.core.refine import MountOptions, MountProblem, MountSolution, refine
+from panomap.calibrate.landmarks.fit import fit_camera
 from panomap.simulate.cameras import standard_cameras
 
 from helpers import spread_landmarks

@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from panomap.calibrate.fit import fit_camera
-from panomap.calibrate.landmarks import Landmarks
-from panomap.calibrate.noise import RIM_SLACK_SIGMAS
-from panomap.calibrate.pipeline import calibrate_camera
+from panomap.calibrate.core.noise import RIM_SLACK_SIGMAS
+from panomap.calibrate.landmarks.fit import fit_camera
+from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.pipeline import calibrate_camera
 from panomap.camera.radial import RadialFunction
 from panomap.camera.valid_range import valid_elevation_range
 from panomap.errors import PanomapError

@@ -1,17 +1,16 @@
-"""Landmark learning (paper 2.1, Algorithm 1 and beyond): from an omni-image and landmarks to a camera.
+"""Learning the camera: from an omni-image and its evidence (landmarks, straight lines, checkerboards) to a table.
 
-In the order :func:`calibrate_camera` takes its steps (``docs/architecture.md`` draws the chain):
+A package per method over one shared core; every import points down (``docs/architecture.md`` draws it,
+``tests/test_layers.py`` checks it), lowest first:
 
-- :mod:`.landmarks`: landmark pairs and their files;
-- :mod:`.sources`: where the camera position, centre and radii came from (:class:`Source`);
-- :mod:`.circles`: the image centre, cut-off disc and image circle found in an omni-image (a package, one
-  idea a file);
-- :mod:`.fit`: :func:`fit_camera`, the fit of the camera model to the landmarks, as its steps:
-  :mod:`.noise` (observations and the whitened residuals), :mod:`.start` (axis, handedness, first values),
-  :mod:`.selection` (model choice by cross-validation), :mod:`.outliers`, :mod:`.refine` (the one least
-  squares, built from residual blocks), :mod:`.mount` (tilt and position);
-- :mod:`.report`: :class:`FitReport`, the fit's typed report, as a table stores it; :mod:`.diagnosis`;
-- :mod:`.make_table`: :func:`create_table`, a fitted camera's pano-mapping table (radii, range, size, checks);
-- :mod:`.pipeline`: :func:`calibrate_camera`, landmarks (and an omni-image) to a table: the path ``panomap fit``,
-  the learn page and the demo share.
+- :mod:`.core`: what the methods share: where values came from (:class:`Source`), the noise model, the
+  refiner built from residual blocks, the starting values and model choice by cross-validation, the typed
+  reports (:class:`FitReport`, the line fit's), the table's range;
+- :mod:`.circles`: the image centre, cut-off disc and image circle found in an omni-image;
+- :mod:`.lines`: the camera learned from the straight lines in its images;
+- :mod:`.boards`: the camera learned from checkerboards (or from lines, where boards are too few);
+- :mod:`.landmarks`: the camera fitted to landmarks (paper 2.1, Algorithm 1): :func:`fit_camera`, the table
+  made from it, and :func:`calibrate_camera`, the path ``panomap fit``, the learn page and the demo share;
+  with an image, its lines join the fit;
+- :mod:`.pictures`: :func:`learn_from_images`, pictures' lines and checkerboards to a table.
 """

@@ -26,13 +26,13 @@ from ..table.table import PanoMappingTable
 from .boards.choice import LearnedCamera, learn_camera
 from .boards.detect import Board, find_boards
 from .circles import ImageCircles
-from .joint import ImageLines
+from .core.report import FitReport, table_fit_report
+from .landmarks.joint import ImageLines
 from .lines.arcs import EdgeArc, find_arcs
 from .lines.fit import LineFit, LineFitOptions
 from .lines.frame_circles import line_circles
 from .lines.orientation import zero_azimuth
 from .lines.table import create_line_table
-from .report import FitReport, table_fit_report
 
 
 @dataclass(frozen=True)
@@ -128,7 +128,7 @@ def learn_from_images(
         More to store in the table's ``info``, after the provenance.
     found : ImageLines, optional
         The edge arcs, checkerboards and image circles of the one image in ``images``, found beforehand
-        (:class:`~panomap.calibrate.joint.ImageLines`), taken instead of looking again; its camera is
+        (:class:`~panomap.calibrate.landmarks.joint.ImageLines`), taken instead of looking again; its camera is
         learned once and kept, and ``azimuth_zero`` turns it (the learn page, which finds the lines once
         and sets azimuth 0 at every click). ``boards`` is then ignored: the boards it holds are used.
     progress : callable, optional

@@ -12,11 +12,11 @@ import click
 from click.core import ParameterSource
 
 from ..calibrate.circles import ImageCircles, NoImageCircle, find_image_circles
-from ..calibrate.diagnosis import diagnose
-from ..calibrate.landmarks import read_landmarks
-from ..calibrate.pipeline import calibrate_camera
-from ..calibrate.report import FitReport, table_fit_report
-from ..calibrate.sources import Source
+from ..calibrate.core.report import FitReport, table_fit_report
+from ..calibrate.core.sources import Source
+from ..calibrate.landmarks.diagnosis import diagnose
+from ..calibrate.landmarks.pairs import read_landmarks
+from ..calibrate.landmarks.pipeline import calibrate_camera
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, same_input

@@ -15,9 +15,9 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..calibrate.landmarks import Landmarks, landmarks_to_csv
-from ..calibrate.pipeline import calibrate_camera, choose_circles
-from ..calibrate.sources import Source
+from ..calibrate.core.sources import Source
+from ..calibrate.landmarks.pairs import Landmarks, landmarks_to_csv
+from ..calibrate.landmarks.pipeline import calibrate_camera, choose_circles
 from ..files import check_outputs, write_text_atomic
 from ..io.images import save_map, write_image
 from ..io.overlay import draw_fit_overlay

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from ..calibrate.landmarks import read_landmarks
+from ..calibrate.landmarks.pairs import read_landmarks
 from ..errors import PanomapError
 from .local_page import serve_until_interrupted, server_options, warn_unless_loopback
 from .options import FINITE, FOLDER, PATH, frame_time_option, read_omni, warn_orientation

@@ -96,7 +96,7 @@ def _read_all(images: tuple[Path, ...], frame_time: float | None) -> list[np.nda
 
 def describe_line_fit(table: PanoMappingTable, circles: ImageCircles, seconds: float) -> str:
     """What the fit learned and saw, in a few lines."""
-    from ..calibrate.report import table_fit_report
+    from ..calibrate.core.report import table_fit_report
 
     report = table_fit_report(table)
     assert report is not None and report.lines is not None

@@ -11,7 +11,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..calibrate.landmarks import read_points
+from ..calibrate.landmarks.pairs import read_points
 from ..errors import printable
 from ..files import check_outputs, write_text_atomic
 from ..geometry import ray_plane_points

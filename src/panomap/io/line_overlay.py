@@ -13,8 +13,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from ..calibrate.core.report import table_fit_report
 from ..calibrate.lines.arcs import EdgeArc
-from ..calibrate.report import table_fit_report
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
 from .overlay import SHIFT, SUBPIXEL, at_subpixel, overlay_canvas

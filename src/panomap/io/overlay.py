@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..calibrate.circles import Circle, ImageCircles, NoImageCircle
-from ..calibrate.report import FitReport, table_fit_report
+from ..calibrate.core.report import FitReport, table_fit_report
 from ..table.table import PanoMappingTable
 
 SHIFT = 4  # fractional bits of the drawn coordinates: 1/16 px

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..calibrate.report import table_fit_report
+from ..calibrate.core.report import table_fit_report
 from ..files import write_bytes_atomic
 from ..table.table import PanoMappingTable
 

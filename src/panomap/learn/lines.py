@@ -4,7 +4,7 @@ Convention: pixel (u, v) = (column, row), the centre of the top-left pixel at (0
 
 The same fit and table as ``panomap fit -o T --image IMG [--azimuth-zero U V]``
 (:func:`panomap.calibrate.pictures.learn_from_images`, which both call), on
-the arcs of the page's image found once (:class:`panomap.calibrate.joint.ImageLines`, shared with the landmark
+the arcs of the page's image found once (:class:`panomap.calibrate.landmarks.joint.ImageLines`, shared with the landmark
 fit, which the same lines join). Lines know no azimuth origin: a click on the image sets the pixel that sees
 world azimuth 0 (:func:`panomap.calibrate.lines.orientation.zero_azimuth`, what ``--azimuth-zero U V`` does).
 """
@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..calibrate.joint import ImageLines
+from ..calibrate.core.report import table_fit_report
+from ..calibrate.landmarks.joint import ImageLines
 from ..calibrate.lines.arcs import EdgeArc
 from ..calibrate.lines.fit import LineFit
 from ..calibrate.pictures import learn_from_images
-from ..calibrate.report import table_fit_report
 from ..geometry import FloatArray
 from ..table.table import PanoMappingTable
 

@@ -28,10 +28,12 @@ from numpy.typing import NDArray
 
 from ..calibrate.boards.detect import find_boards
 from ..calibrate.circles import ImageCircles
-from ..calibrate.diagnosis import diagnose
-from ..calibrate.joint import ImageLines
-from ..calibrate.landmarks import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
-from ..calibrate.pipeline import (
+from ..calibrate.core.report import table_fit_report
+from ..calibrate.core.sources import Source
+from ..calibrate.landmarks.diagnosis import diagnose
+from ..calibrate.landmarks.joint import ImageLines
+from ..calibrate.landmarks.pairs import MIN_LANDMARKS, Landmarks, landmarks_to_csv, landmarks_to_json, read_landmarks
+from ..calibrate.landmarks.pipeline import (
     CircleChoice,
     calibrate_camera,
     choose_circles,
@@ -39,8 +41,6 @@ from ..calibrate.pipeline import (
     landmarks_past_rim,
     rim_without_landmarks_past_it,
 )
-from ..calibrate.report import table_fit_report
-from ..calibrate.sources import Source
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError
 from ..files import write_text_atomic

@@ -5,5 +5,5 @@
 - :mod:`.sampling`: reading the table at any rays through ``cv2.remap``;
 - :mod:`.file`: the ``.npz`` file (save, load and its checks).
 
-Tables are made from a fitted camera in :mod:`panomap.calibrate.make_table`.
+Tables are made from a fitted camera in :mod:`panomap.calibrate.landmarks.table`.
 """

@@ -151,7 +151,7 @@ def _shown(value: Any) -> str:
 
 def _check_info(info: Any) -> dict[str, Any]:
     """``info``'s structure where the table's users rely on it (the fit report's own fields
-    are checked by :class:`panomap.calibrate.report.FitReport` when it is read)."""
+    are checked by :class:`panomap.calibrate.core.report.FitReport` when it is read)."""
     if info is None:
         return {}
     if not isinstance(info, dict):

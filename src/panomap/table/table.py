@@ -13,7 +13,7 @@ elevation, holds the pixel (u_ij, v_ij) of the ray with
   builds on the table (the table never imports it).
 
 Tables are made from a fitted camera by :func:`panomap.create_table`
-(:mod:`panomap.calibrate.make_table`).
+(:mod:`panomap.calibrate.landmarks.table`).
 """
 
 from __future__ import annotations

@@ -171,6 +171,40 @@ def unwarp_video(
         check_segment_names(paths)
     report = VideoReport()
     started = time.perf_counter()
+    try:
+        _unwarp_segments(
+            current, table, source, outputs, paths, can_drop, encoder, selection, audio, sampling, interpolation,
+            fixed_point, stop, progress, warn, memory_limit, reconnect, codec_threads, report,
+        )  # fmt: skip
+    finally:
+        report.seconds = time.perf_counter() - started
+    return report
+
+
+def _unwarp_segments(
+    current: SharedInput,
+    table: PanoMappingTable,
+    source: str,
+    outputs: Sequence[ViewOutput],
+    paths: list[Path],
+    can_drop: bool,
+    encoder: EncoderSettings,
+    selection: Selection,
+    audio: bool,
+    sampling: str,
+    interpolation: str,
+    fixed_point: bool,
+    stop: threading.Event,
+    progress: Callable[[int, int | None], None] | None,
+    warn: Callable[[str], None],
+    memory_limit: int | None,
+    reconnect: Reconnect,
+    codec_threads: int | None,
+    report: VideoReport,
+) -> None:
+    """The run of :func:`unwarp_video` from its opened input ``current`` on (its outputs ``paths`` checked): the
+    input and the views checked, then one segment after another (a live input that drops reconnected) into
+    ``report``. The input open at the end, or at an error, is closed."""
     live = is_live(source)
     try:
         size = _check_input(current.container, table, source)  # (first: it refuses an input with no video)
@@ -220,8 +254,6 @@ def unwarp_video(
         _say_what_came(report, source, selection, state, stop.is_set(), declared_end, rate, warn)
     finally:
         current.close()  # (on an abort while the reader still waits in a read: once it returns)
-        report.seconds = time.perf_counter() - started
-    return report
 
 
 def _say_what_came(

@@ -40,11 +40,12 @@ from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_k
 from ...errors import PanomapError
 from ...geometry import HALF_PI, FloatArray
 from ..circles import ImageCircles
+from ..core.line_report import FittedLine, LineFitReport, RejectedArc, empty_bands
+from ..lines.angles import annulus_deg, default_handedness
 from ..lines.arcs import EdgeArc
-from ..lines.fit import LineFit, LineFitOptions, annulus_deg, default_handedness, vertical_under
+from ..lines.fit import LineFit, LineFitOptions, vertical_under
 from ..lines.orientation import level_rotation, zero_azimuth
 from ..lines.rays import ALPHA_LIMIT, InverseRadial, pixel_rays
-from ..lines.report import FittedLine, LineFitReport, RejectedArc, empty_bands
 from .detect import Board
 
 # Fewest corners, over all boards, a fit needs.

@@ -33,13 +33,14 @@ from ...camera.valid_range import valid_elevation_range
 from ...errors import PanomapError
 from ...geometry import HALF_PI, FloatArray
 from ..circles import ImageCircles
+from ..core.line_report import FittedLine, LineFitReport, RejectedArc, empty_bands
 from .agreement import Camera, PinnedBand, pinned_band, ring_alphas, ruled_out
+from .angles import annulus_deg, camera_elevations_of_alpha, default_handedness
 from .arcs import EdgeArc
 from .families import Family, find_families, orthogonal_pairs
 from .objective import LineData, evaluate, orthogonality_residuals, residuals
 from .orientation import level_rotation, zero_azimuth
 from .rays import InverseRadial
-from .report import FittedLine, LineFitReport, RejectedArc, empty_bands
 
 # Fewest lines a fit needs, and fewest of them with a family orthogonal to another (the scale).
 MIN_LINES = 8
@@ -779,26 +780,3 @@ def _vertical(families: list[Family], normals: FloatArray) -> tuple[FloatArray, 
 def _camera_elevations(rays: FloatArray, axis: str) -> FloatArray:
     """Elevation (rad) in the camera's axes of rays in this package's axes (alpha from the axis)."""
     return camera_elevations_of_alpha(np.arccos(np.clip(rays[:, 2], -1.0, 1.0)), axis)
-
-
-def annulus_deg(radial: RadialFunction, circles: ImageCircles, r_max: float) -> tuple[float, float]:
-    """Camera elevations (deg, low to high) from the cut-off disc (or the axis) to the farthest line radius."""
-    inverse = InverseRadial.of(radial, r_max)
-    radii = np.array([circles.cutoff_radius or 0.0, min(circles.outer_radius, r_max)])
-    alpha, _ = inverse(radii)
-    rho = np.degrees(camera_elevations_of_alpha(alpha, radial.axis))
-    return float(rho.min()), float(rho.max())
-
-
-def camera_elevations_of_alpha(alpha: FloatArray, axis: str) -> FloatArray:
-    return np.asarray(alpha - HALF_PI if axis == "down" else HALF_PI - alpha, dtype=np.float64)
-
-
-def default_handedness(mirror: bool, axis: str) -> int:
-    """The handedness s an image has when nothing says otherwise, from the kind of camera.
-
-    A lens looking down sees east at +u and north at -v (a map seen from above): s = -1; looking up,
-    s = +1. A mirror camera (its camera looking at the mirror, the mirror's azimuth theta showing the
-    world's theta) flips that: +1 when its image centre sees down (the paper's case), -1 up.
-    """
-    return 1 if mirror != (axis == "up") else -1

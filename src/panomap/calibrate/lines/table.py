@@ -1,4 +1,4 @@
-"""The pano-mapping table of a camera learned from lines: as :func:`panomap.calibrate.make_table.create_table`
+"""The pano-mapping table of a camera learned from lines: as :func:`panomap.calibrate.landmarks.table.create_table`
 makes it for landmarks, with the line fit's report in place of the landmarks'.
 
 Convention: radii px, elevations rad (deg in the report); the table spans the annulus from the cut-off
@@ -16,9 +16,10 @@ from ...camera.uncertainty import radius_standard_error
 from ...errors import PanomapError
 from ...geometry import TWO_PI
 from ...table.table import PanoMappingTable, check_table_size, fill_entries
-from ..make_table import DEFAULT_MAX_SIZE, world_range
-from ..report import FitReport, FitSettings, RadiusUncertainty
-from .fit import LineFit, camera_elevations_of_alpha
+from ..core.report import FitReport, FitSettings, RadiusUncertainty
+from ..core.table_range import DEFAULT_MAX_SIZE, world_range
+from .angles import camera_elevations_of_alpha
+from .fit import LineFit
 
 # A standard error of the radius beyond this (px) anywhere in the table is said: on one image of the real sets,
 # every fit worse than 20 px had one over 3 px (several better ones too).

@@ -1,4 +1,4 @@
-"""The fit report: what :func:`panomap.calibrate.fit.fit_camera` chose and how well it fits, typed.
+"""The fit report: what :func:`panomap.calibrate.landmarks.fit.fit_camera` chose and how well it fits, typed.
 
 A table stores it in ``info["fit"]`` as :meth:`FitReport.to_dict` writes it
 (angles in degrees, residuals in px), with the radius's standard error over
@@ -16,16 +16,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import PanomapError
-from ..geometry import FloatArray
-from .lines.report import LineFitReport
+from ...errors import PanomapError
+from ...geometry import FloatArray
+from .line_report import LineFitReport
 
 CENTRE_AS_FOUND = ", centre as found"  # ends the name of a mount that held the centre where it was found
 # A fitted tilt is told from level where it is this many of its standard errors or more.
 TILT_SHOWS_SE = 2.0
 
 if TYPE_CHECKING:
-    from ..table.table import PanoMappingTable
+    from ...table.table import PanoMappingTable
 
 
 @dataclass(frozen=True)
@@ -160,7 +160,7 @@ def tilt_standard_errors(w: FloatArray, covariance: FloatArray) -> tuple[float, 
 
 @dataclass(frozen=True)
 class ViewpointReport:
-    """Whether the camera has a single viewpoint, as the landmarks say (:mod:`panomap.calibrate.viewpoint`).
+    """Whether the camera has a single viewpoint, as the landmarks say (:mod:`panomap.calibrate.landmarks.viewpoint`).
 
     Attributes
     ----------

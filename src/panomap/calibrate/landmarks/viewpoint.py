@@ -6,7 +6,7 @@ without a single viewpoint (a sphere, a cone) sends each elevation's ray from it
 at a metre. Landmarks at several distances show it: the elevation a landmark is seen at depends on its
 distance as well as its direction.
 
-:func:`choose_viewpoint` fits, after the landmark fit (:func:`panomap.calibrate.fit.fit_camera`), the
+:func:`choose_viewpoint` fits, after the landmark fit (:func:`panomap.calibrate.landmarks.fit.fit_camera`), the
 radial function together with the ray origins of a mirror of revolution, ``z = k_1 (h(rho) - h_mean)`` with
 h the caustic that f_r itself implies (:func:`panomap.camera.viewpoint.caustic_shape`; one unknown, the
 mirror's size, with a prior; O_m is the mean ray origin), to the inlier landmarks' radii; the azimuth does
@@ -25,13 +25,13 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..camera.orientation import to_camera
-from ..camera.radial import RadialFunction, fit_radial
-from ..camera.radial_models import MODELS, radial_kind
-from ..camera.viewpoint import Viewpoint, caustic_viewpoint
-from ..errors import PanomapError
-from ..geometry import HALF_PI, FloatArray, pixel_polar
-from .noise import radial_sigma, world_sigmas
+from ...camera.orientation import to_camera
+from ...camera.radial import RadialFunction, fit_radial
+from ...camera.radial_models import MODELS, radial_kind
+from ...camera.viewpoint import Viewpoint, caustic_viewpoint
+from ...errors import PanomapError
+from ...geometry import HALF_PI, FloatArray, pixel_polar
+from ..core.noise import radial_sigma, world_sigmas
 
 # What ``fit_camera(viewpoint=...)`` takes: choose by cross-validation, keep O_m, or fit the caustic.
 VIEWPOINT_MODES = ("auto", "single", "caustic")

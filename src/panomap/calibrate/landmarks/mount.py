@@ -1,13 +1,13 @@
 """How the camera is mounted: its tilt and its position, chosen and refined with the radial model (beyond the
 paper).
 
-Convention: as in :mod:`panomap.calibrate.refine`.
+Convention: as in :mod:`panomap.calibrate.core.refine`.
 
 The paper takes the camera's axis as exactly vertical and its position O_m as exact. A real mount is a
 degree or three off the vertical, and O_m is measured with a tape. Each mount (level, tilted, position
 refined, both; with the centre held where it was found as a twin of the level fit) is refined
-(:func:`panomap.calibrate.refine.refine`), the model and outliers chosen again in its frame, and kept
-where its held-out errors (:func:`panomap.calibrate.selection.held_out_errors`) clearly beat the simpler
+(:func:`panomap.calibrate.core.refine.refine`), the model and outliers chosen again in its frame, and kept
+where its held-out errors (:func:`panomap.calibrate.core.selection.held_out_errors`) clearly beat the simpler
 mounts'.
 """
 
@@ -18,17 +18,17 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..camera.model import CameraModel
-from ..camera.radial_models import RadialKind
-from ..camera.valid_range import annulus_coverage_problem
-from ..errors import PanomapError
-from ..geometry import FloatArray, azimuth_elevation, pixel_polar
-from .noise import Observations, rim_slack_px, world_sigmas
+from ...camera.model import CameraModel
+from ...camera.radial_models import RadialKind
+from ...camera.valid_range import annulus_coverage_problem
+from ...errors import PanomapError
+from ...geometry import FloatArray, azimuth_elevation, pixel_polar
+from ..core.noise import Observations, rim_slack_px, world_sigmas
+from ..core.refine import MountOptions, MountProblem, MountSolution, camera_rays, joint_fit, residual_parts
+from ..core.report import MountReport, tilt_standard_errors
+from ..core.selection import LANDMARKS_PER_PARAMETER, acceptable, held_out_errors, held_out_folds
+from ..core.start import separable_fit
 from .outliers import choose
-from .refine import MountOptions, MountProblem, MountSolution, camera_rays, joint_fit, residual_parts
-from .report import MountReport, tilt_standard_errors
-from .selection import LANDMARKS_PER_PARAMETER, acceptable, held_out_errors, held_out_folds
-from .start import separable_fit
 
 # The tape's default standard deviation on each coordinate of the camera position: this fraction of the
 # median landmark distance (2 cm at 2 m).

@@ -49,10 +49,10 @@ from typing import Protocol
 
 import numpy as np
 
-from ..camera.orientation import rotation_from_vector, to_camera
-from ..camera.radial import RadialFunction
-from ..errors import PanomapError
-from ..geometry import FloatArray, azimuth_elevation, pixel_polar
+from ...camera.orientation import rotation_from_vector, to_camera
+from ...camera.radial import RadialFunction
+from ...errors import PanomapError
+from ...geometry import FloatArray, azimuth_elevation, pixel_polar
 from .noise import Residuals, landmark_residuals, radial_sigma, world_sigmas
 from .report import CENTRE_AS_FOUND
 
@@ -172,7 +172,7 @@ def camera_rays(problem: MountProblem, w: FloatArray, delta: FloatArray) -> Floa
 
 
 def residual_parts(problem: MountProblem, solution: MountSolution, index: IndexArray) -> Residuals:
-    """The noise model's residuals (:class:`panomap.calibrate.noise.Residuals`) of the landmarks at ``index``
+    """The noise model's residuals (:class:`panomap.calibrate.core.noise.Residuals`) of the landmarks at ``index``
     under ``solution``, the radial sigma that of its own f_r."""
     d = camera_rays(problem, solution.w, solution.delta)[index]
     theta, rho = azimuth_elevation(d)

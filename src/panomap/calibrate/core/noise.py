@@ -19,11 +19,11 @@ from typing import Any
 
 import numpy as np
 
-from ..camera.radial import RadialFunction
-from ..camera.radial_models import RadialKind
-from ..camera.uncertainty import coefficient_covariance, radius_standard_error
-from ..errors import PanomapError
-from ..geometry import FloatArray
+from ...camera.radial import RadialFunction
+from ...camera.radial_models import RadialKind
+from ...camera.uncertainty import coefficient_covariance, radius_standard_error
+from ...errors import PanomapError
+from ...geometry import FloatArray
 
 DEFAULT_WORLD_SIGMA_FRACTION = 0.004
 # A landmark this many pixel sigmas beyond the cut-off disc or the image circle is measurement noise: kept.

@@ -1,6 +1,6 @@
 """Lines and landmarks in one refinement: the straight lines of an image join a landmark fit (beyond the paper).
 
-Convention: as in :mod:`panomap.calibrate.refine` (landmark rays in the camera's axes, pixel radius r about the
+Convention: as in :mod:`panomap.calibrate.core.refine` (landmark rays in the camera's axes, pixel radius r about the
 centre, ``r = f_r(rho)``); a line's points in px.
 
 A landmark fits f_r, the centre, phi0, the tilt and the position at once, and a few landmarks leave them
@@ -8,7 +8,7 @@ entangled: near the nadir a tilt of the axis and a shift of the centre move the 
 landmarks hold a flexible f_r loosely. The straight lines of an image of the same camera fix f_r and the centre
 on their own (:mod:`panomap.calibrate.lines`), but neither the azimuth, nor the tilt against the world's
 vertical where no vertical edge shows, nor any distance. Together, in the one refinement of
-:func:`panomap.calibrate.refine.refine`, each line is a residual block (:class:`LineBlock`): every point's
+:func:`panomap.calibrate.core.refine.refine`, each line is a residual block (:class:`LineBlock`): every point's
 distance (px) from the image of its line's plane through the viewpoint, over that line's measured noise (so that
 the lines' residuals are in standard deviations, as the landmarks' are). The plane of each line is solved in
 closed form for every trial camera (variable projection, as the line fit does), so a block adds no unknowns of
@@ -29,7 +29,7 @@ The steps (:func:`refine_with_lines`):
    and the landmark fit's mount (its tilt and position as it chose them, the tilt also where vertical edges
    show; the centre refined unless it was given and held); the one with the lower chi-square plus Akaike's
    penalty (2 per coefficient) is kept. Then, where no tilt was refined, the tilt is tried and kept where the
-   chi-square falls by more than chance would for two unknowns (:data:`panomap.calibrate.mount.CHI2_95`):
+   chi-square falls by more than chance would for two unknowns (:data:`panomap.calibrate.landmarks.mount.CHI2_95`):
    with f_r and the centre held by the lines, a tilt no longer trades against a shift of the centre.
 5. **Agreement**: the lines join only where they agree with the landmarks (:func:`_disagreement`: the
    landmarks' chi-square, from the landmark fit to the joint one, rises by no more than chance would for
@@ -49,22 +49,16 @@ from typing import TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera.orientation import rotation_from_vector
-from ..camera.radial_models import radial_kind
-from ..camera.valid_range import is_monotonic
-from ..errors import PanomapError
-from ..geometry import FloatArray, azimuth_elevation
-from .boards.choice import LearnedCamera, learn_camera
-from .boards.detect import Board
-from .circles import ImageCircles
-from .lines.arcs import EdgeArc
-from .lines.families import common_direction
-from .lines.fit import VERTICAL_WITHIN_DEG, LineFit, LineFitOptions, fit_lines
-from .lines.objective import LineData, evaluate
-from .lines.rays import InverseRadial, PixelRays, best_planes, pixel_rays, plane_distances_px
-from .lines.report import FittedLine, LineFitReport
-from .mount import CHI2_95, MOUNT_SCORE_CAP_SIGMAS, _mount_misses_annulus
-from .refine import (
+from ...camera.orientation import rotation_from_vector
+from ...camera.radial_models import radial_kind
+from ...camera.valid_range import is_monotonic
+from ...errors import PanomapError
+from ...geometry import FloatArray, azimuth_elevation
+from ..boards.choice import LearnedCamera, learn_camera
+from ..boards.detect import Board
+from ..circles import ImageCircles
+from ..core.line_report import FittedLine, LineFitReport
+from ..core.refine import (
     LandmarkBlock,
     MountOptions,
     MountProblem,
@@ -74,6 +68,12 @@ from .refine import (
     refine,
     residual_parts,
 )
+from ..lines.arcs import EdgeArc
+from ..lines.families import common_direction
+from ..lines.fit import VERTICAL_WITHIN_DEG, LineFit, LineFitOptions, fit_lines
+from ..lines.objective import LineData, evaluate
+from ..lines.rays import InverseRadial, PixelRays, best_planes, pixel_rays, plane_distances_px
+from .mount import CHI2_95, MOUNT_SCORE_CAP_SIGMAS, _mount_misses_annulus
 
 T = TypeVar("T")
 
@@ -182,7 +182,7 @@ class VerticalLines:
 
 
 class LineBlock:
-    """The straight lines as one residual block of :func:`panomap.calibrate.refine.refine`; no unknowns.
+    """The straight lines as one residual block of :func:`panomap.calibrate.core.refine.refine`; no unknowns.
 
     Each line's plane is the one its rays lie closest to; a vertical edge's (``vertical``) is the closest that
     holds the world's vertical as the camera being tried places it (its tilt ``w``, phi0 and ``s``), so that the

@@ -15,18 +15,17 @@ from typing import Any
 
 import numpy as np
 
-from ..camera.uncertainty import radius_standard_error
-from ..camera.valid_range import annulus_coverage_problem, valid_elevation_range
-from ..errors import PanomapError
-from ..geometry import TWO_PI, pixel_polar
-from ..table.table import PanoMappingTable, check_table_size, fill_entries
+from ...camera.uncertainty import radius_standard_error
+from ...camera.valid_range import annulus_coverage_problem, valid_elevation_range
+from ...errors import PanomapError
+from ...geometry import TWO_PI, pixel_polar
+from ...table.table import PanoMappingTable, check_table_size, fill_entries
+from ..core.noise import rim_slack_px
+from ..core.report import RadiusUncertainty
+from ..core.sources import Source
+from ..core.table_range import DEFAULT_MAX_SIZE, world_range
 from .fit import CameraFit
-from .noise import rim_slack_px
-from .report import RadiusUncertainty
-from .sources import Source
 
-# Default sizes stop here: bilinear sampling is then within 1e-3 px of the model.
-DEFAULT_MAX_SIZE = (4096, 1024)
 # The table may reach this far beyond the landmarks' elevations before a warning says so.
 EXTRAPOLATION_WARNING_DEG = 3.0
 
@@ -205,15 +204,6 @@ def table_for(
     )
 
 
-def world_range(camera_range: tuple[float, float], tilt_rad: float) -> tuple[float, float]:
-    """The world elevations (rad) seen at some azimuth by a camera ``tilt_rad`` off the vertical that sees
-    ``camera_range`` in its own axes: each end moves outward by the tilt, up to the poles. (Where the camera
-    does not see a world ray of that band, the table's entry is NaN.)
-    """
-    low, high = camera_range
-    return max(low - tilt_rad, -math.pi / 2), min(high + tilt_rad, math.pi / 2)
-
-
 def _uncertainty(fit: CameraFit, elevation_range: tuple[float, float]) -> RadiusUncertainty:
     """Standard error of f_r (px) on a grid over the table's range, and its summary."""
     rho = np.linspace(*elevation_range, 91)
@@ -249,7 +239,7 @@ def _rim_notes(fit: CameraFit, cutoff_radius: float, outer_radius: float) -> lis
 
 def _data_range(fit: CameraFit) -> tuple[tuple[float, float], str]:
     """The elevations (rad, camera axes) the fit's data span, and what they are: the landmarks', with the
-    image's lines where they joined the fit (:mod:`panomap.calibrate.joint`)."""
+    image's lines where they joined the fit (:mod:`panomap.calibrate.landmarks.joint`)."""
     low, high = fit.landmark_range
     if fit.lines is None:
         return (low, high), "landmark"

@@ -2,8 +2,8 @@
 
 :func:`calibrate_camera` finds the image circles when something is missing and an
 omni-image is given, chooses the centre and the radii recording where each
-came from (a :class:`~panomap.calibrate.sources.Source`), fits the camera
-(:func:`panomap.fit_camera`) and fills its table (:mod:`panomap.calibrate.make_table`).
+came from (a :class:`~panomap.calibrate.core.sources.Source`), fits the camera
+(:func:`panomap.fit_camera`) and fills its table (:mod:`panomap.calibrate.landmarks.table`).
 A table saved from the browser is the table ``panomap fit`` makes from the same
 landmarks, camera position, centre and radii.
 """
@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera.radial_models import radial_kind
-from ..camera.valid_range import annulus_coverage_problem
-from ..errors import PanomapError
-from ..table.table import PanoMappingTable
-from .circles import (
+from ...camera.radial_models import radial_kind
+from ...camera.valid_range import annulus_coverage_problem
+from ...errors import PanomapError
+from ...table.table import PanoMappingTable
+from ..circles import (
     Circle,
     ImageCircles,
     NoImageCircle,
@@ -31,12 +31,12 @@ from .circles import (
     find_cutoff_without_rim,
     find_image_circles,
 )
+from ..core.noise import rim_slack_px
+from ..core.sources import QUANTITIES, Origin, Source, source_texts
 from .fit import CameraFit, fit_camera, renamed_keyword
 from .joint import ImageLines
-from .landmarks import Landmarks
-from .make_table import choose_annulus, table_for
-from .noise import rim_slack_px
-from .sources import QUANTITIES, Origin, Source, source_texts
+from .pairs import Landmarks
+from .table import choose_annulus, table_for
 
 
 @dataclass(frozen=True)
@@ -146,7 +146,7 @@ RIM_CONTRADICTED_FRACTION = 0.05
 
 def landmarks_past_rim(rim: Circle, pixels: NDArray[np.float64], pixel_sigma: float) -> int:
     """How many of the landmarks' ``pixels`` ((n, 2), px) lie well outside ``rim``: by RIM_CONTRADICTED_FRACTION
-    of its radius beyond the noise (:func:`panomap.calibrate.fit.rim_slack_px`)."""
+    of its radius beyond the noise (:func:`panomap.calibrate.landmarks.fit.rim_slack_px`)."""
     distance = np.hypot(*(np.asarray(pixels, dtype=float).reshape(-1, 2) - np.asarray(rim.centre)).T)
     return int(np.sum(distance > rim.radius * (1 + RIM_CONTRADICTED_FRACTION) + rim_slack_px(pixel_sigma)))
 
@@ -401,10 +401,10 @@ def calibrate_camera(
         page finds the circles once, when it opens, and fits as this function
         does with them.
     lines : bool or ImageLines
-        True: the straight lines of ``omni`` join the landmarks in the fit (:mod:`panomap.calibrate.joint`),
+        True: the straight lines of ``omni`` join the landmarks in the fit (:mod:`panomap.calibrate.landmarks.joint`),
         each weighted by its measured noise; where they cannot (no image circle found, too few lines, lines
         that disagree with the landmarks) the landmark fit stands, with a warning saying why. An
-        :class:`~panomap.calibrate.joint.ImageLines` of ``omni`` found beforehand (its arcs, and its line fit
+        :class:`~panomap.calibrate.landmarks.joint.ImageLines` of ``omni`` found beforehand (its arcs, and its line fit
         once made) is taken instead of looking again: the learn page refits at every change.
 
     Raises
@@ -429,13 +429,51 @@ def calibrate_camera(
     if choice.centre is None:
         raise PanomapError("no image centre: give one, or an omni-image to find it in")
     # 3. Fit: the camera model from the landmarks (the centre refined where it was not given).
+    camera_fit, line_warnings = _fit(
+        landmarks, position, choice, choice.centre, recorded, omni, image_size, lines, refine_centre,
+        models_cover_annulus, model=model, azimuth=azimuth, axis=axis, pixel_sigma=pixel_sigma,
+        world_sigma=world_sigma, reject_outliers=reject_outliers, tilt_deg=tilt_deg, camera_sigma=camera_sigma,
+        viewpoint=viewpoint,
+    )  # fmt: skip
+    cutoff, outer = choice.cutoff_radius, choice.outer_radius
+    # 4. The cut-off settled against the fit: the disc measured again about the fitted centre.
+    cutoff = _cutoff_settled(omni, choice, camera_fit, cutoff, recorded)
+    # 5. Annulus and 6. table.
+    table = _table(camera_fit, choice, (cutoff, outer), recorded, size=table_size, image_size=image_size, info=info)
+    return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings + line_warnings)
+
+
+def _fit(
+    landmarks: Landmarks,
+    position: tuple[float, float, float],
+    choice: CircleChoice,
+    centre: tuple[float, float],
+    recorded: dict[str, Origin],
+    omni: NDArray[Any] | None,
+    image_size: tuple[int, int] | None,
+    lines: bool | ImageLines,
+    refine_centre: bool | None,
+    models_cover_annulus: bool,
+    *,
+    model: str,
+    azimuth: str,
+    axis: str | None,
+    pixel_sigma: float,
+    world_sigma: float | None,
+    reject_outliers: bool,
+    tilt_deg: str | tuple[float, float],
+    camera_sigma: float | None,
+    viewpoint: str,
+) -> tuple[CameraFit, tuple[str, ...]]:
+    """The camera fitted to the landmarks about ``centre`` (refined where it was not given: ``recorded`` says
+    so), with the image's lines where ``lines`` asks for them; and the warnings about the lines."""
     refine_centre = _refines_centre(refine_centre, recorded["centre"], model)
     if refine_centre:
         recorded["centre"] = Origin(recorded["centre"].source, refined=True)
     cutoff, outer = choice.cutoff_radius, choice.outer_radius
     image_lines, line_warnings = (lines, ()) if isinstance(lines, ImageLines) else _image_lines(omni, choice, lines)
     camera_fit = fit_camera(
-        landmarks, position, choice.centre, model=model, azimuth=azimuth, axis=axis, image_size=image_size,
+        landmarks, position, centre, model=model, azimuth=azimuth, axis=axis, image_size=image_size,
         annulus=None if cutoff is None or outer is None or not models_cover_annulus else (cutoff, outer),
         refine_centre=refine_centre, centre_is_guess=recorded["centre"].source is Source.FRAME_CENTRE,
         pixel_sigma=pixel_sigma, world_sigma=world_sigma, reject_outliers=reject_outliers, tilt_deg=tilt_deg,
@@ -443,17 +481,29 @@ def calibrate_camera(
     )  # fmt: skip
     if camera_fit.lines_note is not None:
         line_warnings += (camera_fit.lines_note,)
-    # 4. The cut-off settled against the fit: the disc measured again about the fitted centre.
-    cutoff = _cutoff_settled(omni, choice, camera_fit, cutoff, recorded)
+    return camera_fit, line_warnings
+
+
+def _table(
+    camera_fit: CameraFit,
+    choice: CircleChoice,
+    radii: tuple[float | None, float | None],
+    recorded: dict[str, Origin],
+    *,
+    size: tuple[int, int] | None,
+    image_size: tuple[int, int] | None,
+    info: Mapping[str, Any] | None,
+) -> PanoMappingTable:
+    """The table of ``camera_fit``: the annulus it spans (``radii`` where known), each radius with where it came
+    from (recorded in ``recorded`` where it was not), and the table over it, ``info`` after the provenance."""
     # 5. Annulus: the radii the table spans, each with where it came from.
-    annulus = choose_annulus(camera_fit, image_size, cutoff, outer, whole_frame=choice.whole_frame)
+    annulus = choose_annulus(camera_fit, image_size, *radii, whole_frame=choice.whole_frame)
     recorded.setdefault("cutoff_radius", Origin(annulus.cutoff_source))
     recorded.setdefault("outer_radius", Origin(annulus.outer_source))
     # 6. Table.
     table_info: dict[str, Any] = {} if choice.circles is None else {"image_circles": choice.circles.to_dict()}
     table_info["sources"] = source_texts(recorded)
-    table = table_for(camera_fit, annulus, size=table_size, image_size=image_size, info=table_info | dict(info or {}))
-    return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings + line_warnings)
+    return table_for(camera_fit, annulus, size=size, image_size=image_size, info=table_info | dict(info or {}))
 
 
 def _image_lines(
@@ -471,7 +521,7 @@ def _image_lines(
 
 def image_lines(omni: NDArray[Any], circles: ImageCircles) -> ImageLines:
     """The edge arcs of ``omni`` inside ``circles``, for the lines to join a fit."""
-    from .lines.arcs import find_arcs
+    from ..lines.arcs import find_arcs
 
     return ImageLines(find_arcs(omni, circles), circles)
 

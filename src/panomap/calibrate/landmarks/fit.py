@@ -35,24 +35,24 @@ from typing import TypeVar
 
 import numpy as np
 
-from ..camera.model import CameraModel
-from ..camera.orientation import tilt_rotation, to_camera
-from ..camera.radial import RadialFunction
-from ..camera.radial_models import AUTO_CANDIDATES, AXES, MIRROR_CANDIDATES, MODELS, RadialKind, radial_kind
-from ..camera.uncertainty import coefficient_covariance
-from ..camera.valid_range import annulus_coverage_problem, is_monotonic
-from ..errors import PanomapError
-from ..geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
-from . import selection as selection_module
-from .joint import ImageLines, JointResult, refine_with_lines
-from .landmarks import MIN_LANDMARKS, Landmarks
-from .lines.report import LineFitReport
+from ...camera.model import CameraModel
+from ...camera.orientation import tilt_rotation, to_camera
+from ...camera.radial import RadialFunction
+from ...camera.radial_models import AUTO_CANDIDATES, AXES, MIRROR_CANDIDATES, MODELS, RadialKind, radial_kind
+from ...camera.uncertainty import coefficient_covariance
+from ...camera.valid_range import annulus_coverage_problem, is_monotonic
+from ...errors import PanomapError
+from ...geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
+from ..core import selection as selection_module
+from ..core.line_report import LineFitReport
+from ..core.noise import DEFAULT_WORLD_SIGMA_FRACTION, Observations, radial_weights, rim_slack_px, world_sigmas
+from ..core.refine import MountOptions, MountProblem, MountSolution, camera_rays, refine
+from ..core.report import FitReport, FitSettings, LandmarkResidual, MountReport, ViewpointReport
+from ..core.start import consistency, detect_axis, handedness, pixels_hint, separable_fit
+from .joint import ImageLines, JointLines, JointResult, refine_with_lines
 from .mount import DEFAULT_CAMERA_SIGMA_FRACTION, MountChoice, choose_mount, given_tilt, mount_options, mount_report
-from .noise import DEFAULT_WORLD_SIGMA_FRACTION, Observations, radial_weights, rim_slack_px, world_sigmas
 from .outliers import choose, choose_start
-from .refine import MountOptions, MountProblem, MountSolution, camera_rays, refine
-from .report import FitReport, FitSettings, LandmarkResidual, MountReport, ViewpointReport
-from .start import consistency, detect_axis, handedness, pixels_hint, separable_fit
+from .pairs import MIN_LANDMARKS, Landmarks
 from .viewpoint import (
     PARALLAX_DISTANCE,
     VIEWPOINT_MODES,
@@ -63,6 +63,8 @@ from .viewpoint import (
 )
 
 _T = TypeVar("_T")
+# The choice of a fit: inliers (bool), radial kind, every candidate's held-out RMS, the refined camera.
+_Chosen = tuple[FloatArray, RadialKind, dict[str, float], MountSolution]
 
 MIN_ELEVATION_SPREAD = math.radians(1.0)
 
@@ -314,6 +316,34 @@ def fit_camera(
     )  # fmt: skip
     setup = _observe(landmarks, camera, start_centre, azimuth, axis, pixel_sigma, world_sigma, camera_sigma, tilt_given)
     data, problem = setup.data, replace(setup.problem, centre_found=None if centre_is_guess else start_centre)
+    candidates, robust = _candidates(requested, annulus, refine_centre, reject_outliers)
+    # A tilted camera can put landmarks near the rim beyond it under a level model: where a tilt may be
+    # fitted, the level fit then only starts the mount's search and cannot be the answer (level_covers).
+    may_tilt = tilt == "fit" and azimuth == "fit" and annulus is not None
+    chosen, level_covers, data = _level_fit(
+        problem, data, start_centre, candidates, annulus, robust, reject_outliers, may_tilt, refine_centre
+    )
+    chosen, mount_choice, problem = _mount(
+        problem, data, chosen, candidates, annulus, robust, level_covers, tilt, refine_centre,
+        # (No tilt about the centre as found where it was not found but guessed.)
+        twin=len(landmarks) <= selection_module.EXACT_LOO_MAX and not centre_is_guess,
+        search=azimuth == "fit" and (requested is None or requested.weighted),
+    )  # fmt: skip
+    joint, chosen, mount_choice, problem = _join_lines(
+        problem, chosen, mount_choice, lines, model, refine_centre, tilt == "fit" and azimuth == "fit", annulus
+    )
+    fitted = _camera_fit(
+        landmarks, problem, data, chosen, mount_choice, tilt, start_centre, setup.axis_source, model, refine_centre,
+        reject_outliers,
+    )  # fmt: skip
+    return _finished(fitted, joint, viewpoint, azimuth, annulus)
+
+
+def _candidates(
+    requested: RadialKind | None, annulus: tuple[float, float] | None, refine_centre: bool, reject_outliers: bool
+) -> tuple[tuple[RadialKind, ...], bool]:
+    """The radial kinds the fit chooses among (the one asked for, or the automatic choice's candidates), and
+    whether landmarks that disagree are searched for (``robust``)."""
     # A cut-off disc (the camera's own reflection) shows a mirror camera: its law is preferred among ties.
     preference = MIRROR_CANDIDATES if annulus is not None and annulus[0] > 0 else AUTO_CANDIDATES
     candidates = tuple(map(radial_kind, preference)) if requested is None else (requested,)
@@ -322,40 +352,82 @@ def fit_camera(
         candidates = tuple(k for k in candidates if not k.centre_given)
     # A kind asked for by name that does not follow the noise model is fitted as printed: no outlier search.
     robust = reject_outliers and (requested is None or requested.weighted)
-    # A tilted camera can put landmarks near the rim beyond it under a level model: where a tilt may be
-    # fitted, the level fit then only starts the mount's search and cannot be the answer (level_covers).
-    may_tilt = tilt == "fit" and azimuth == "fit" and annulus is not None
-    chosen, level_covers, data = _level_fit(
-        problem, data, start_centre, candidates, annulus, robust, reject_outliers, may_tilt, refine_centre
-    )
+    return candidates, robust
+
+
+def _mount(
+    problem: MountProblem,
+    data: Observations,
+    chosen: _Chosen,
+    candidates: tuple[RadialKind, ...],
+    annulus: tuple[float, float] | None,
+    robust: bool,
+    level_covers: bool,
+    tilt: str | tuple[float, float],
+    refine_centre: bool,
+    *,
+    twin: bool,
+    search: bool,
+) -> tuple[_Chosen, MountChoice | None, MountProblem]:
+    """The mount (tilt, position) chosen from the level fit ``chosen`` where ``search`` allows more than the
+    level one; the choice, the mounts' choice (None where none was searched) and the problem of its kind.
+
+    (The mount is searched whatever kind the automatic choice made; a kind asked for by name that does not
+    follow the noise model, Algorithm 1's, is fitted as printed: ``search`` is then False.)
+
+    Raises
+    ------
+    PanomapError
+        No model covers the annulus, and no tilt was tried.
+    """
     problem = replace(problem, kind=chosen[1].name)
     mount_choice = None
-    # (No tilt about the centre as found where it was not found but guessed.)
-    twin = len(landmarks) <= selection_module.EXACT_LOO_MAX and not centre_is_guess
     options = mount_options(tilt, problem.camera_sigma, refine_centre, twin)
-    # (The mount is searched whatever kind the automatic choice made; a kind asked for by name that does not
-    # follow the noise model, Algorithm 1's, is fitted as printed.)
-    if len(options) > 1 and azimuth == "fit" and (requested is None or requested.weighted):
+    if len(options) > 1 and search:
         mount_choice = choose_mount(problem, options, chosen, data, candidates, annulus, robust, level_covers)
         chosen = mount_choice.chosen
         problem = replace(problem, kind=chosen[1].name)
     if not level_covers and mount_choice is None:
         choose(candidates, data, annulus, robust)  # raises: no model covers the annulus, and no tilt was tried
-    joint = None
-    if lines is not None:
-        landmark_options = mount_choice.chosen_options if mount_choice is not None else MountOptions(refine_centre)
-        joint = refine_with_lines(
-            problem, chosen[3], chosen[0], landmark_options, lines, model=model, refine_centre=refine_centre,
-            tilt=tilt == "fit" and azimuth == "fit", annulus=annulus,
-        )  # fmt: skip
-        if isinstance(joint, JointResult):
-            chosen = (chosen[0], radial_kind(joint.kind), chosen[2], joint.solution)
-            mount_choice = MountChoice(chosen, joint.options, {})
-            problem = replace(problem, kind=joint.kind)
-    fitted = _camera_fit(
-        landmarks, problem, data, chosen, mount_choice, tilt, start_centre, setup.axis_source, model, refine_centre,
-        reject_outliers,
+    return chosen, mount_choice, problem
+
+
+def _join_lines(
+    problem: MountProblem,
+    chosen: _Chosen,
+    mount_choice: MountChoice | None,
+    lines: ImageLines | None,
+    model: str,
+    refine_centre: bool,
+    tilt: bool,
+    annulus: tuple[float, float] | None,
+) -> tuple[JointResult | JointLines | None, _Chosen, MountChoice | None, MountProblem]:
+    """The landmark fit ``chosen`` refined with the image's straight lines (:func:`.joint.refine_with_lines`):
+    the joint result (or why the lines could not join; None without ``lines``), and the choice, mounts and
+    problem it leaves."""
+    if lines is None:
+        return None, chosen, mount_choice, problem
+    landmark_options = mount_choice.chosen_options if mount_choice is not None else MountOptions(refine_centre)
+    joint = refine_with_lines(
+        problem, chosen[3], chosen[0], landmark_options, lines, model=model, refine_centre=refine_centre,
+        tilt=tilt, annulus=annulus,
     )  # fmt: skip
+    if isinstance(joint, JointResult):
+        chosen = (chosen[0], radial_kind(joint.kind), chosen[2], joint.solution)
+        mount_choice = MountChoice(chosen, joint.options, {})
+        problem = replace(problem, kind=joint.kind)
+    return joint, chosen, mount_choice, problem
+
+
+def _finished(
+    fitted: CameraFit,
+    joint: JointResult | JointLines | None,
+    viewpoint: str,
+    azimuth: str,
+    annulus: tuple[float, float] | None,
+) -> CameraFit:
+    """The fit with what the lines joined to it say (their covariance and report, or why they did not join),
+    or, without lines, with its viewpoint chosen (:func:`with_viewpoint`) where ``viewpoint`` asks for it."""
     if isinstance(joint, JointResult):
         count = len(joint.solution.radial.coefficients)
         covariance = joint.refinement.covariance[:count, :count]
@@ -609,7 +681,7 @@ def _refine_level(
     refine_centre: bool,
     annulus: tuple[float, float] | None = None,
 ) -> tuple[RadialFunction, float, tuple[float, float]]:
-    """f_r, phi0 and (optionally) the centre refined (:func:`panomap.calibrate.refine.refine`) from the
+    """f_r, phi0 and (optionally) the centre refined (:func:`panomap.calibrate.core.refine.refine`) from the
     separable solution given, on the level camera.
 
     The separable solution is kept where the refined f_r folds over the landmarks, or no

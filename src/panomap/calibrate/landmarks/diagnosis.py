@@ -32,9 +32,9 @@ import math
 
 import numpy as np
 
-from ..geometry import pixel_polar
+from ...geometry import pixel_polar
+from ..core.report import CENTRE_AS_FOUND
 from .fit import CameraFit
-from .report import CENTRE_AS_FOUND
 
 PATTERN_SIGMAS = 2.0
 EXPLAINED_FRACTION = 0.5

@@ -1,7 +1,7 @@
 """Outliers (beyond the paper): landmarks that disagree with the rest, found by their held-out errors, and the
 choice of model and inliers made together.
 
-Convention: as in :mod:`panomap.calibrate.noise`.
+Convention: as in :mod:`panomap.calibrate.core.noise`.
 
 With the model chosen robustly (its score trimmed of the largest fifth of the errors), the landmark whose
 leave-one-out residual is largest (studentized: whitened by its noise and the others' prediction error
@@ -16,12 +16,12 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera.radial_models import RadialKind
-from ..errors import PanomapError
-from ..geometry import FloatArray
-from . import selection
-from .noise import Observations
-from .selection import LANDMARKS_PER_PARAMETER, acceptable, leave_one_out, select_model
+from ...camera.radial_models import RadialKind
+from ...errors import PanomapError
+from ...geometry import FloatArray
+from ..core import selection
+from ..core.noise import Observations
+from ..core.selection import LANDMARKS_PER_PARAMETER, acceptable, leave_one_out, select_model
 
 # A landmark is an outlier where its held-out error exceeds this many robust sigmas, the error whitened by
 # its own noise and the standard error of the others' prediction together (studentized). Whitened by its

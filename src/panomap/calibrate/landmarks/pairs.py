@@ -29,10 +29,10 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import PanomapError
-from ..files import read_text
-from ..geometry import FloatArray
-from ..values import NotFinite, TooLarge, finite_number
+from ...errors import PanomapError
+from ...files import read_text
+from ...geometry import FloatArray
+from ...values import NotFinite, TooLarge, finite_number
 
 COLUMNS = ("u", "v", "X", "Y", "Z")
 MIN_LANDMARKS = 5

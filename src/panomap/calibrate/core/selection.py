@@ -1,7 +1,7 @@
 """Model choice by cross-validation (paper 2.1 fits one model; beyond it): which radial model the landmarks
 support, and the held-out errors of a refined mount.
 
-Convention: as in :mod:`panomap.calibrate.noise`; errors are whitened (standard deviations) or px.
+Convention: as in :mod:`panomap.calibrate.core.noise`; errors are whitened (standard deviations) or px.
 
 The choice is among the radial models of :mod:`panomap.camera.radial_models` that are monotonic over the
 landmarks, cover the annulus (cut-off to image circle) when it is known, and have at least 2.5 landmarks
@@ -18,10 +18,10 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera.radial_models import RadialKind
-from ..camera.valid_range import annulus_coverage_problem, is_monotonic
-from ..errors import PanomapError
-from ..geometry import FloatArray
+from ...camera.radial_models import RadialKind
+from ...camera.valid_range import annulus_coverage_problem, is_monotonic
+from ...errors import PanomapError
+from ...geometry import FloatArray
 from .noise import Observations, observation_residuals, prediction_se, rim_slack_px
 from .refine import MountOptions, MountProblem, MountSolution, joint_fit, residual_parts
 from .start import separable_fit

@@ -1,7 +1,7 @@
 """Where the fit starts (paper 2.1, beyond Algorithm 1): the camera's axis, its handedness, and the first
 values of f_r and phi0 with the centre fixed.
 
-Convention: as in :mod:`panomap.calibrate.noise`. The axis is ``"down"`` where the image radius grows with
+Convention: as in :mod:`panomap.calibrate.core.noise`. The axis is ``"down"`` where the image radius grows with
 elevation; the handedness ``s`` is the sign under which the landmarks agree best on one phi0; f_r and phi0
 then separate while the centre is fixed: f_r by (weighted) least squares on (rho, r), phi0 as the weighted
 circular mean of ``phi - s*theta``.
@@ -13,10 +13,10 @@ import math
 
 import numpy as np
 
-from ..camera.radial import RadialFunction, fit_radial
-from ..camera.radial_models import RadialKind
-from ..errors import PanomapError
-from ..geometry import FloatArray, pixel_polar
+from ...camera.radial import RadialFunction, fit_radial
+from ...camera.radial_models import RadialKind
+from ...errors import PanomapError
+from ...geometry import FloatArray, pixel_polar
 from .noise import Observations, radial_weights, tangential_sigma
 
 WEIGHT_ITERATIONS = 3
