@@ -59,6 +59,13 @@ def alpha_of_rho(rho: ArrayLike, axis: str) -> FloatArray:
     return rho + HALF_PI if axis == "down" else HALF_PI - rho
 
 
+def rho_of_alpha(alpha: ArrayLike, axis: str) -> FloatArray:
+    """Elevation (rad) in the camera's axes of a ray at ``alpha`` (rad) from the pole the image centre sees:
+    the inverse of :func:`alpha_of_rho`."""
+    alpha = np.asarray(alpha, dtype=np.float64)
+    return alpha - HALF_PI if axis == "down" else HALF_PI - alpha
+
+
 @dataclass(frozen=True)
 class RadialKind(ABC):
     """One radial model kind: its parameters, its evaluation and its fit.

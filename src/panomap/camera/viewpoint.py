@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike
 from ..errors import PanomapError
 from ..geometry import HALF_PI, FloatArray
 from .radial import RadialFunction
-from .radial_models import alpha_of_rho
+from .radial_models import alpha_of_rho, rho_of_alpha
 
 # Newton steps of :meth:`Viewpoint.elevation_of_point`: z moves by centimetres over a radian, so each step
 # gains a factor of about |z'| / distance (1e-2 at a centimetre's spread seen from a metre); six are rounding.
@@ -168,8 +168,7 @@ def caustic_shape(radial: RadialFunction, rho: ArrayLike) -> FloatArray:
     if not 0.0 < top < math.pi:
         top = min(max(top, 1e-3), math.pi - 1e-3)
     grid = np.linspace(top / CAUSTIC_GRID, top, CAUSTIC_GRID)
-    rho_grid = grid - HALF_PI if radial.axis == "down" else HALF_PI - grid
-    r = np.abs(radial(rho_grid))
+    r = np.abs(radial(rho_of_alpha(grid, radial.axis)))
     slopes = np.tan(grid / 2)
     integral = np.concatenate([[0.0], np.cumsum(0.5 * (slopes[1:] + slopes[:-1]) * np.diff(r))])
     h = integral + r / np.tan(grid)

@@ -36,9 +36,9 @@ from scipy.spatial.transform import Rotation
 
 from ...camera.model import CameraModel
 from ...camera.radial import RadialFunction, fit_radial
-from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_kind
+from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_kind, rho_of_alpha
 from ...errors import PanomapError
-from ...geometry import HALF_PI, FloatArray
+from ...geometry import FloatArray
 from ..circles import ImageCircles
 from ..core.line_report import FittedLine, LineFitReport, RejectedArc, empty_bands
 from ..lines.angles import annulus_deg, default_handedness
@@ -231,7 +231,7 @@ def elevations(points: FloatArray, axis: str) -> FloatArray:
     """Elevations rho (n,) rad of points (n, 3) in the camera's axes (alpha from the pole the centre sees)."""
     length = np.maximum(np.linalg.norm(points, axis=1), 1e-300)
     alpha = np.arccos(np.clip(points[:, 2] / length, -1.0, 1.0))
-    return np.asarray(alpha - HALF_PI if axis == "down" else HALF_PI - alpha, dtype=np.float64)
+    return rho_of_alpha(alpha, axis)
 
 
 def board_points(poses: FloatArray, boards: Sequence[Board]) -> FloatArray:

@@ -451,9 +451,9 @@ def with_viewpoint(fitted: CameraFit, annulus: tuple[float, float] | None = None
         settings.pixel_sigma_px, settings.world_sigma, annulus_elevations(model.radial, annulus),
     )  # fmt: skip
     choice = choose_viewpoint(rays, model.radial, forced)
+    single = replace(fitted, viewpoint=ViewpointReport(True, 0.0, 0.0, PARALLAX_DISTANCE, choice.held_out))
     if choice.fit is None or choice.fit.viewpoint is None:
-        report = ViewpointReport(True, 0.0, 0.0, PARALLAX_DISTANCE, choice.held_out)
-        return replace(fitted, viewpoint=report) if choice.held_out else fitted
+        return single if choice.held_out else fitted
     radial, viewpoint = choice.fit.radial, choice.fit.viewpoint
     camera_model = replace(model, radial=radial, viewpoint=viewpoint)
     d = fitted.landmarks.world - np.asarray(fitted.camera_position)
@@ -465,7 +465,7 @@ def with_viewpoint(fitted: CameraFit, annulus: tuple[float, float] | None = None
         annulus is not None and annulus_coverage_problem(radial, (low, high), *annulus, slack_px=slack) is not None
     ):
         # A caustic whose f_r folds or stops short of the annulus makes no table: the single viewpoint stands.
-        return replace(fitted, viewpoint=ViewpointReport(True, 0.0, 0.0, PARALLAX_DISTANCE, choice.held_out))
+        return single
     predicted = camera_model.pixels(theta, rho)
     r, _ = pixel_polar(fitted.landmarks.pixels, model.centre)
     covariance = coefficient_covariance(radial, rho_camera[inliers], r[inliers], 1.0 / rays.sigma)

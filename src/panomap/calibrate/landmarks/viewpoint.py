@@ -27,7 +27,7 @@ from scipy.optimize import least_squares
 
 from ...camera.orientation import to_camera
 from ...camera.radial import RadialFunction, fit_radial
-from ...camera.radial_models import MODELS, radial_kind
+from ...camera.radial_models import MODELS, radial_kind, rho_of_alpha
 from ...camera.viewpoint import Viewpoint, caustic_viewpoint
 from ...errors import PanomapError
 from ...geometry import HALF_PI, FloatArray, pixel_polar
@@ -142,7 +142,7 @@ def annulus_elevations(radial: RadialFunction, annulus: tuple[float, float] | No
     if annulus is None:
         return None
     alpha = np.linspace(NODE_LIMIT_RAD, np.pi - NODE_LIMIT_RAD, 2001)
-    rho = alpha - HALF_PI if radial.axis == "down" else HALF_PI - alpha
+    rho = rho_of_alpha(alpha, radial.axis)
     with np.errstate(invalid="ignore"):
         r = np.abs(radial(rho))
     reached = np.flatnonzero(r >= annulus[0])
@@ -157,7 +157,7 @@ def annulus_elevations(radial: RadialFunction, annulus: tuple[float, float] | No
     return (min(ends), max(ends))
 
 
-def node_range(rays: LandmarkRays, axis: str) -> tuple[float, float]:
+def node_range(rays: LandmarkRays) -> tuple[float, float]:
     """Camera elevations (rad) a fitted viewpoint's nodes span: the landmarks' and ``NODE_MARGIN_RAD`` beyond,
     within alpha ``NODE_LIMIT_RAD``..180 deg less that (the caustic is not defined at the poles)."""
     rho = np.arctan2(rays.height, rays.horizontal)
@@ -185,57 +185,59 @@ def fit_viewpoint(
     """
     spec = start.spec
     count = len(start.coefficients)
-    span = node_range(rays, start.axis)
     straight = np.arctan2(rays.height, rays.horizontal)
-    landmark_span = (float(np.min(straight)), float(np.max(straight)))
+    x0 = np.asarray(start.coefficients, dtype=np.float64)
 
+    def radial_of(x: FloatArray) -> RadialFunction:
+        return RadialFunction(start.kind, tuple(float(c) for c in x[:count]), start.axis)
+
+    def whitened(x: FloatArray, rho: FloatArray) -> FloatArray:
+        predicted = spec.evaluate(tuple(float(c) for c in x[:count]), rho, start.axis)
+        return np.nan_to_num((predicted - rays.r) / rays.sigma, nan=1e6, posinf=1e6, neginf=-1e6)
+
+    if not caustic:
+        solution = least_squares(lambda x: whitened(x, straight), x0, x_scale="jac", max_nfev=100 * x0.size)
+        try:
+            return ViewpointFit(radial_of(solution.x), None)
+        except PanomapError as exc:
+            raise PanomapError(f"the viewpoint fit failed ({exc.detail})") from None
+
+    landmark_span = (float(np.min(straight)), float(np.max(straight)))
     # The caustic's shape h from the starting f_r, held: a radial kind that bends near the rim would otherwise
     # trade its shape against the caustic's size (2-3 times the true spread, on simulated spheres).
     mirror = start if shape_from is None else shape_from
-    shape = caustic_viewpoint(mirror, 0.0, 1.0, span)
+    shape = caustic_viewpoint(mirror, 0.0, 1.0, node_range(rays))
     rho_nodes = np.asarray(shape.elevations_rad)
     reference = landmark_span if rays.reference_rad is None else rays.reference_rad
     inside = (rho_nodes >= reference[0]) & (rho_nodes <= reference[1])
     area = np.abs(mirror(rho_nodes) * mirror.slope(rho_nodes))[inside]
     h = np.asarray(shape.offsets)
     mean = float(np.sum(area * h[inside]) / np.sum(area)) if np.sum(area) > 0 else float(np.mean(h[inside]))
-
     unit_spread = float(np.ptp(h[inside])) if np.any(inside) else float(np.ptp(h))
     distance = float(np.median(np.hypot(rays.horizontal, rays.height)))
     spread_sigma = SPREAD_PRIOR_FRACTION * distance
 
     def camera(x: FloatArray) -> ViewpointFit:
-        radial = RadialFunction(start.kind, tuple(float(c) for c in x[:count]), start.axis)
-        if not caustic:
-            return ViewpointFit(radial, None)
-        return ViewpointFit(radial, Viewpoint(shape.elevations_rad, tuple((float(x[count]) * (h - mean)).tolist())))
+        offsets = float(x[count]) * (h - mean)
+        return ViewpointFit(radial_of(x), Viewpoint(shape.elevations_rad, tuple(offsets.tolist())))
 
     def residuals(x: FloatArray) -> FloatArray:
-        coefficients = tuple(float(c) for c in x[:count])
-        rho = straight
-        if caustic:
-            try:
-                fitted = camera(x)
-            except PanomapError:
-                return np.full(rays.r.size, 1e6)
-            assert fitted.viewpoint is not None
-            rho = fitted.viewpoint.elevation_of_point(rays.horizontal, rays.height)
-        predicted = spec.evaluate(coefficients, rho, start.axis)
-        whitened = np.nan_to_num((predicted - rays.r) / rays.sigma, nan=1e6, posinf=1e6, neginf=-1e6)
-        if not caustic:
-            return whitened
-        return np.append(whitened, x[count] * unit_spread / spread_sigma)
+        try:
+            viewpoint = camera(x).viewpoint
+        except PanomapError:
+            return np.full(rays.r.size + 1, 1e6)
+        assert viewpoint is not None
+        rho = viewpoint.elevation_of_point(rays.horizontal, rays.height)
+        return np.append(whitened(x, rho), x[count] * unit_spread / spread_sigma)
 
-    x0 = np.asarray(start.coefficients, dtype=np.float64)
-    if caustic:
-        # The ray origins' spread is weakly pinned by a dozen landmarks: the least squares starts from the best
-        # of a profile over spreads of 0 to 4% of the landmarks' distance, each way (or it can stop short).
-        unit = camera(np.append(x0, 1.0)).viewpoint
-        assert unit is not None
-        spread = max(unit.excursion(*landmark_span), 1e-12)
-        starts = [np.append(x0, f * distance / spread) for f in START_SPREADS]
-        x0 = min(starts, key=lambda x: float(np.sum(residuals(x) ** 2)))
-    solution = least_squares(residuals, x0, x_scale="jac", max_nfev=100 * x0.size)
+    # The ray origins' spread is weakly pinned by a dozen landmarks: the least squares starts from the best of a
+    # profile over spreads of 0 to 4% of the landmarks' distance, each way (or it can stop short).
+    unit = camera(np.append(x0, 1.0)).viewpoint
+    assert unit is not None
+    spread = max(unit.excursion(*landmark_span), 1e-12)
+    starts = [np.append(x0, f * distance / spread) for f in START_SPREADS]
+    start_x = min(starts, key=lambda x: float(np.sum(residuals(x) ** 2)))
+    solution = least_squares(residuals, start_x, x_scale="jac", max_nfev=100 * start_x.size)
     try:
         return camera(solution.x)
     except PanomapError as exc:

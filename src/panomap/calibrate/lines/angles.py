@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...camera.radial import RadialFunction
-from ...geometry import HALF_PI, FloatArray
+from ...camera.radial_models import rho_of_alpha
 from ..circles import ImageCircles
 from .rays import InverseRadial
 
@@ -19,13 +19,8 @@ def annulus_deg(radial: RadialFunction, circles: ImageCircles, r_max: float) -> 
     inverse = InverseRadial.of(radial, r_max)
     radii = np.array([circles.cutoff_radius or 0.0, min(circles.outer_radius, r_max)])
     alpha, _ = inverse(radii)
-    rho = np.degrees(camera_elevations_of_alpha(alpha, radial.axis))
+    rho = np.degrees(rho_of_alpha(alpha, radial.axis))
     return float(rho.min()), float(rho.max())
-
-
-def camera_elevations_of_alpha(alpha: FloatArray, axis: str) -> FloatArray:
-    """Camera elevations (rad) of rays at ``alpha`` (rad) from the pole the image centre sees."""
-    return np.asarray(alpha - HALF_PI if axis == "down" else HALF_PI - alpha, dtype=np.float64)
 
 
 def default_handedness(mirror: bool, axis: str) -> int:

@@ -28,14 +28,14 @@ from numpy.typing import NDArray
 
 from ...camera.model import CameraModel
 from ...camera.radial import RadialFunction, fit_radial
-from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_kind
+from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_kind, rho_of_alpha
 from ...camera.valid_range import valid_elevation_range
 from ...errors import PanomapError
-from ...geometry import HALF_PI, FloatArray
+from ...geometry import FloatArray
 from ..circles import ImageCircles
 from ..core.line_report import FittedLine, LineFitReport, RejectedArc, empty_bands
 from .agreement import Camera, PinnedBand, pinned_band, ring_alphas, ruled_out
-from .angles import annulus_deg, camera_elevations_of_alpha, default_handedness
+from .angles import annulus_deg, default_handedness
 from .arcs import EdgeArc
 from .families import Family, find_families, orthogonal_pairs
 from .objective import LineData, evaluate, orthogonality_residuals, residuals
@@ -136,9 +136,7 @@ class LineFit:
         if self.band is None:
             return np.zeros(0)
         alpha = np.radians(self.band.alpha_deg)
-        return radius_standard_error(
-            self.model.radial, self.covariance, camera_elevations_of_alpha(alpha, self.model.axis)
-        )
+        return radius_standard_error(self.model.radial, self.covariance, rho_of_alpha(alpha, self.model.axis))
 
     def refusal(self) -> str | None:
         """Why the picture cannot stand behind this camera (:mod:`.agreement`), in one sentence; None where it can."""
@@ -395,7 +393,7 @@ def _convert(kind: str, to_kind: str, axis: str, params: FloatArray, r_max: floa
 
 def _rho_grid(radial: RadialFunction, r_max: float) -> FloatArray:
     alpha = np.linspace(0.02, math.radians(150.0), 400)
-    rho = alpha - HALF_PI if radial.axis == "down" else HALF_PI - alpha
+    rho = rho_of_alpha(alpha, radial.axis)
     r = np.abs(radial(rho))
     inside = np.isfinite(r) & (r <= r_max)
     return rho[inside] if inside.sum() >= 8 else rho[:8]
@@ -779,4 +777,4 @@ def _vertical(families: list[Family], normals: FloatArray) -> tuple[FloatArray, 
 
 def _camera_elevations(rays: FloatArray, axis: str) -> FloatArray:
     """Elevation (rad) in the camera's axes of rays in this package's axes (alpha from the axis)."""
-    return camera_elevations_of_alpha(np.arccos(np.clip(rays[:, 2], -1.0, 1.0)), axis)
+    return rho_of_alpha(np.arccos(np.clip(rays[:, 2], -1.0, 1.0)), axis)

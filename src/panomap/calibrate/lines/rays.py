@@ -21,8 +21,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...camera.radial import RadialFunction
+from ...camera.radial_models import rho_of_alpha
 from ...errors import PanomapError
-from ...geometry import HALF_PI, FloatArray
+from ...geometry import FloatArray
 
 # The inverse of f_r is tabulated on this many alphas, from the axis to the largest angle tried.
 INVERSE_SAMPLES = 2048
@@ -55,7 +56,7 @@ class InverseRadial:
             If f_r does not rise monotonically from the axis to ``r_max``.
         """
         alpha = np.linspace(0.0, ALPHA_LIMIT, INVERSE_SAMPLES)
-        rho = alpha - HALF_PI if radial.axis == "down" else HALF_PI - alpha
+        rho = rho_of_alpha(alpha, radial.axis)
         r = np.abs(radial(rho))
         finite = np.isfinite(r)
         steps = np.diff(np.where(finite, r, 0.0))

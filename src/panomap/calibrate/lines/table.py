@@ -12,13 +12,13 @@ from typing import Any
 
 import numpy as np
 
+from ...camera.radial_models import rho_of_alpha
 from ...camera.uncertainty import radius_standard_error
 from ...errors import PanomapError
 from ...geometry import TWO_PI
 from ...table.table import PanoMappingTable, check_table_size, fill_entries
 from ..core.report import FitReport, FitSettings, RadiusUncertainty
 from ..core.table_range import DEFAULT_MAX_SIZE, world_range
-from .angles import camera_elevations_of_alpha
 from .fit import LineFit
 
 # A standard error of the radius beyond this (px) anywhere in the table is said: on one image of the real sets,
@@ -111,7 +111,7 @@ def line_fit_report(fit: LineFit, elevation_range: tuple[float, float]) -> FitRe
     if fit.band is not None and fit.band.alpha_deg.size:
         # the picture's own evidence (:mod:`.agreement`): the jackknife over folds of lines and the cameras it
         # cannot rule out, at the rings; the Jacobian's alone where none lies (the rings' ends held beyond them)
-        rings_rho = np.degrees(camera_elevations_of_alpha(np.radians(fit.band.alpha_deg), model.axis))
+        rings_rho = np.degrees(rho_of_alpha(np.radians(fit.band.alpha_deg), model.axis))
         order = np.argsort(rings_rho)
         honest = np.nan_to_num(fit.band.se_px(fit.jacobian_se_px()), posinf=1e6)
         se = np.maximum(se, np.interp(np.degrees(rho), rings_rho[order], honest[order]))
