@@ -347,6 +347,7 @@ def test_one_picture_given_twice_to_learn_from_is_refused(inputs: Path, tmp_path
         (["--size", "360x90"], "--size"),
         (["--no-refine-centre"], "--refine-centre/--no-refine-centre"),
         (["--keep-outliers", "--pixel-sigma", 2], "--pixel-sigma, --keep-outliers"),
+        (["--viewpoint", "caustic"], "--viewpoint"),
     ],
 )
 def test_learning_from_pictures_refuses_the_options_it_would_ignore(

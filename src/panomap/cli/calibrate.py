@@ -17,6 +17,7 @@ from ..calibrate.core.sources import Source
 from ..calibrate.landmarks.diagnosis import diagnose
 from ..calibrate.landmarks.pairs import read_landmarks
 from ..calibrate.landmarks.pipeline import calibrate_camera
+from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, same_input
@@ -142,7 +143,7 @@ from .options import (
 )
 @click.option(
     "--viewpoint",
-    type=click.Choice(["auto", "single", "caustic"]),
+    type=click.Choice(VIEWPOINT_MODES),
     default="auto",
     show_default=True,
     help="A mirror without a single viewpoint (a sphere, a cone): 'auto' gives a mirror camera (a cut-off disc "
@@ -302,7 +303,7 @@ def fit(
 # the annulus, the tilt and the table's size themselves, and know no position.
 LANDMARK_ONLY = (
     "camera", "centre", "image_size", "table_size", "cutoff_radius", "outer_radius", "azimuth", "refine_centre",
-    "pixel_sigma", "world_sigma", "tilt", "camera_sigma", "keep_outliers",
+    "pixel_sigma", "world_sigma", "tilt", "camera_sigma", "viewpoint", "keep_outliers",
 )  # fmt: skip
 
 
