@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from panomap.calibrate.landmarks import fit as fit_module
+from panomap.calibrate.core import selection
 from panomap.calibrate.landmarks.fit import fit_camera
 from panomap.calibrate.landmarks.pairs import Landmarks
 from panomap.simulate.sampling import LandmarkPairs
@@ -77,12 +77,12 @@ def main() -> None:
         default, outliers = timed(landmarks, camera.centre, args.repeat)
         exact = math.nan
         if count <= args.exact_up_to:
-            saved = fit_module.EXACT_LOO_MAX
-            fit_module.EXACT_LOO_MAX = 10**9
+            saved = selection.EXACT_LOO_MAX
+            selection.EXACT_LOO_MAX = 10**9
             try:
                 exact, _ = timed(landmarks, camera.centre, args.repeat)
             finally:
-                fit_module.EXACT_LOO_MAX = saved
+                selection.EXACT_LOO_MAX = saved
         moved = Trial(LandmarkPairs(pixels, trial.landmarks.world, trial.landmarks.names))
         error = worst_error(camera, moved, points)
         flagged = len({landmarks.names[k] for k in bad} & set(outliers))

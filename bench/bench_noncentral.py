@@ -15,8 +15,10 @@ and the largest over the trials of:
   same landmarks along them (what the landmarks' noise leaves, with the ray origins known).
 
 Cameras: ``sphere-big`` (a spherical mirror of radius 0.3 m, lens 0.3 m below it, 1600 px: its ray origins
-spread over 53 mm), ``sphere`` (the simulator's standard one, 5 cm, 1200 px: 14 mm) and two single-viewpoint
-cameras (``hyperbolic``, ``equidistant``), whose figures the default must leave as they are.
+spread over 53 mm), ``sphere-wide`` (radius 0.15 m, lens 0.3 m below, seen to 15 deg off its axis, 1200 px:
+its rim near the grazing ray, where no law of a single-viewpoint camera follows it), ``sphere`` (the
+simulator's standard one, 5 cm, 1200 px: 14 mm) and two single-viewpoint cameras (``hyperbolic``,
+``equidistant``), whose figures the default must leave as they are.
 
     python bench/bench_noncentral.py [--trials 20] [--near]
 """
@@ -39,7 +41,7 @@ from panomap.simulate import SphericalMirrorCamera, standard_cameras
 
 CAMERA = np.array([0.0, 0.0, 2.0])
 DISTANCES_M = (1.0, 2.0, 4.0)
-CAMERAS = ("sphere-big", "sphere", "hyperbolic", "equidistant")
+CAMERAS = ("sphere-big", "sphere-wide", "sphere", "hyperbolic", "equidistant")
 
 
 def make_camera(name: str, seed: int) -> Any:
@@ -49,6 +51,13 @@ def make_camera(name: str, seed: int) -> Any:
         beta_max = math.radians(25.0)
         return replace(
             base, mirror_radius=0.3, camera_distance=0.3, beta_max=beta_max,
+            focal_px=base.outer_radius / math.tan(beta_max),
+        )  # fmt: skip
+    if name == "sphere-wide":
+        base = standard_cameras(size=(1200, 1200), seed=seed)["spherical"]
+        beta_max = math.radians(15.0)
+        return replace(
+            base, mirror_radius=0.15, camera_distance=0.3, beta_max=beta_max,
             focal_px=base.outer_radius / math.tan(beta_max),
         )  # fmt: skip
     cameras = standard_cameras(size=(1200, 1200), seed=seed)

@@ -30,6 +30,14 @@ order the command line lists them; a new model is one class and one line in
   projections in one family (k = 1 orthographic, 1/2 equisolid, 0 equidistant,
   -1/2 stereographic, -1 perspective), ``-1 <= k <= 1``; NaN where
   ``|k| alpha > pi/2`` (beyond it the radius would turn back or diverge).
+- ``sphere``: ``(f, c)``, a pinhole of focal length f (px) on the axis of a
+  spherical mirror, c sphere radii below its apex: ``r = f tan(beta)`` with
+  beta the camera ray whose reflection leaves at alpha from the pole
+  (:func:`sphere_alpha`). A mirror without a single viewpoint
+  (:mod:`panomap.camera.viewpoint`): never chosen by the automatic selection of
+  a single-viewpoint fit, tried with its caustic by the landmark fit
+  (:mod:`panomap.calibrate.landmarks.viewpoint`); NaN beyond the mirror's rim
+  (where alpha stops growing with beta).
 """
 
 from __future__ import annotations
@@ -37,6 +45,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import ClassVar
 
 import numpy as np
@@ -94,6 +103,10 @@ class RadialKind(ABC):
         lens law where the image shows no cut-off disc, and the mirror law where
         it does, against a more flexible kind whose held-out score is better by
         less than a wider margin than among curves.
+    auto_candidate : bool (class)
+        Automatic selection of a single-viewpoint fit tries the kind. False for a
+        law of a mirror without a single viewpoint, which the fit tries with its
+        ray origins instead.
     """
 
     name: str
@@ -103,6 +116,7 @@ class RadialKind(ABC):
     weighted: ClassVar[bool] = True
     mirror_law: ClassVar[bool] = False
     lens_law: ClassVar[bool] = False
+    auto_candidate: ClassVar[bool] = True
 
     @property
     @abstractmethod
@@ -294,6 +308,113 @@ class Fisheye(RadialKind):
         return profile(k)[1], k
 
 
+# Camera rays (beta) a spherical mirror's law is tabulated on, from the axis to its rim, and the ratios c (lens
+# distance over sphere radius) its fit profiles: c -> infinity is an orthographic view of the sphere (equisolid).
+SPHERE_BETA_NODES = 8192
+SPHERE_C_RANGE = (0.02, 200.0)
+
+
+def sphere_alpha(beta: FloatArray, c: float) -> FloatArray:
+    """Angle (rad) from the pole (straight back at the lens) of the reflection of the camera ray at ``beta``
+    (rad from the axis) off a sphere of radius 1 whose apex is ``c`` above the pinhole; NaN beyond the grazing
+    ray. The sphere's centre is at height ``1 + c`` above the pinhole: the ray meets it at
+    ``t = (1 + c) cos(beta) - sqrt(1 - ((1 + c) sin(beta))^2)``, the normal is the radius there."""
+    big = 1.0 + c
+    sb, cb = np.sin(beta), np.cos(beta)
+    with np.errstate(invalid="ignore"):
+        t = big * cb - np.sqrt(1.0 - (big * sb) ** 2)
+    nx, nz = t * sb, t * cb - big  # the unit normal: the hit point less the centre
+    dn = sb * nx + cb * nz
+    return np.asarray(np.arctan2(cb - 2.0 * dn * nz, sb - 2.0 * dn * nx) + HALF_PI, dtype=np.float64)
+
+
+def sphere_axis_height(beta: FloatArray, c: float) -> FloatArray:
+    """Height (sphere radii, above the apex, along the axis away from the lens) where the reflection of the
+    camera ray at ``beta`` (rad, > 0) off the sphere of :func:`sphere_alpha` meets the axis: the mirror's exact
+    ray origin, which :mod:`panomap.camera.viewpoint` holds for the ``sphere`` law."""
+    big = 1.0 + c
+    sb, cb = np.sin(beta), np.cos(beta)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = big * cb - np.sqrt(1.0 - (big * sb) ** 2)
+        x, z = t * sb, t * cb - c
+        nx, nz = x, z - 1.0
+        dn = sb * nx + cb * nz
+        dx, dz = sb - 2.0 * dn * nx, cb - 2.0 * dn * nz
+        return np.asarray(z - x * dz / dx, dtype=np.float64)
+
+
+@lru_cache(maxsize=64)
+def sphere_branch(c: float) -> tuple[FloatArray, FloatArray]:
+    """(alpha, beta) of a spherical mirror of ratio ``c`` (:func:`sphere_alpha`), each (k,), from the axis to
+    where alpha stops growing (the grazing ray or a fold before it): the part of the mirror a camera sees."""
+    grazing = math.asin(1.0 / (1.0 + c))
+    beta = np.linspace(0.0, grazing * (1.0 - 1e-9), SPHERE_BETA_NODES)
+    alpha = sphere_alpha(beta, c)
+    stop = np.flatnonzero(~(np.diff(alpha) > 0))
+    end = int(stop[0]) + 1 if stop.size else alpha.size
+    return alpha[:end], beta[:end]
+
+
+def sphere_beta(alpha: FloatArray, c: float) -> FloatArray:
+    """The camera ray (rad from the axis) whose reflection leaves at ``alpha`` (rad), for ratio ``c``; NaN where
+    the mirror reflects no ray there (everywhere where ``c`` is not > 0)."""
+    alpha = np.asarray(alpha, dtype=np.float64)
+    if not (math.isfinite(c) and c > 0):
+        return np.full(alpha.shape, np.nan)
+    table_alpha, table_beta = sphere_branch(float(c))
+    inside = (alpha >= 0.0) & (alpha <= table_alpha[-1])
+    return np.asarray(np.where(inside, np.interp(np.where(inside, alpha, 0.0), table_alpha, table_beta), np.nan))
+
+
+def sphere_basis(alpha: FloatArray, c: float) -> FloatArray:
+    """``tan(beta)`` of the camera ray that sees the reflection at ``alpha`` (rad), for ratio ``c``; NaN
+    where the mirror reflects no ray there."""
+    return np.asarray(np.tan(sphere_beta(alpha, c)), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Sphere(RadialKind):
+    """A pinhole on the axis of a spherical mirror, ``r = f tan(beta(alpha; c))`` (:func:`sphere_alpha`)."""
+
+    auto_candidate: ClassVar[bool] = False
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        return ("f", "c")
+
+    def evaluate(self, coefficients: tuple[float, ...], rho: FloatArray, axis: str) -> FloatArray:
+        f, c = coefficients
+        return np.asarray(f * sphere_basis(alpha_of_rho(rho, axis), float(c)), dtype=np.float64)
+
+    def fit(self, rho: FloatArray, r: FloatArray, axis: str, weights: FloatArray | None) -> tuple[float, ...]:
+        """(f, c) minimising the weighted radial residual; f is solved in closed form for each c, c profiled
+        over ``SPHERE_C_RANGE`` on a log scale and refined."""
+        from scipy import optimize  # here, not at the top: importing SciPy is slow
+
+        alpha = alpha_of_rho(rho, axis)
+        w = np.ones_like(r) if weights is None else np.asarray(weights, dtype=np.float64)
+        wr = w * r
+
+        def profile(log_c: float) -> tuple[float, float]:
+            g = w * sphere_basis(alpha, math.exp(log_c))
+            if not np.all(np.isfinite(g)) or g @ g <= 0:
+                return math.inf, math.nan
+            f = float(g @ wr / (g @ g))
+            return float(np.sum((f * g - wr) ** 2)), f
+
+        grid = np.linspace(math.log(SPHERE_C_RANGE[0]), math.log(SPHERE_C_RANGE[1]), 121)
+        costs = np.array([profile(x)[0] for x in grid])
+        if not np.any(np.isfinite(costs)):
+            raise PanomapError("no spherical mirror reflects rays at these landmarks' angles")
+        best = int(np.argmin(costs))
+        lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+        result = optimize.minimize_scalar(
+            lambda x: profile(x)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-10}
+        )
+        log_c = float(result.x) if result.fun <= costs[best] else float(grid[best])
+        return profile(log_c)[1], math.exp(log_c)
+
+
 def with_centre_pair(rho: FloatArray, r: FloatArray, axis: str) -> tuple[FloatArray, FloatArray]:
     """The paper's (O_c, O_m) pair first, then the landmarks: ``r = 0`` at the pole the centre sees."""
     return np.concatenate([[axis_elevation(axis)], rho]), np.concatenate([[0.0], r])
@@ -318,18 +439,21 @@ RADIAL_KINDS: dict[str, RadialKind] = _registry(
     AxisPolynomial("poly2", selection_rank=2, powers=(1, 2)),
     AxisPolynomial("poly3", selection_rank=2, powers=(1, 2, 3)),
     Unified("unified", selection_rank=1),
+    Sphere("sphere", selection_rank=3),
 )
 MODELS = tuple(RADIAL_KINDS)
+# The kinds automatic selection of a single-viewpoint fit tries.
+AUTO_KINDS = tuple(name for name in MODELS if RADIAL_KINDS[name].auto_candidate)
 # The order in which automatic selection prefers models that tie: fewer parameters first.
 AUTO_CANDIDATES = tuple(
-    sorted(MODELS, key=lambda name: (RADIAL_KINDS[name].parameter_count, RADIAL_KINDS[name].selection_rank))
+    sorted(AUTO_KINDS, key=lambda name: (RADIAL_KINDS[name].parameter_count, RADIAL_KINDS[name].selection_rank))
 )
 # The same for an image that shows a cut-off disc (the camera's reflection: a mirror camera): the mirrors'
 # own law first among kinds with as many parameters. A fisheye polynomial with two terms bends as a conic
 # mirror's profile does over a few landmarks, and ties with it; beyond them it does not.
 MIRROR_CANDIDATES = tuple(
     sorted(
-        MODELS,
+        AUTO_KINDS,
         key=lambda name: (
             RADIAL_KINDS[name].parameter_count,
             not RADIAL_KINDS[name].mirror_law,
