@@ -11,8 +11,8 @@ and the largest over the trials of:
 - ``default``: the fit as ``panomap fit`` makes it (the ray origins where cross-validation chooses them);
 - ``caustic``: the caustic fitted whatever cross-validation says (``--viewpoint caustic``);
 - ``central``: the fit held to a single viewpoint (``--viewpoint single``), the figures before it;
-- ``floor``: a fit told the true mirror: the true ray origins, and f_r of the default's kind fitted to the
-  same landmarks along them (what the landmarks' noise leaves, with the ray origins known).
+- ``floor``: a fit told the true mirror: the true ray origins, and the spherical mirror's law (its f and c)
+  fitted to the same landmarks along them (what the landmarks' noise leaves, with the mirror known).
 
 Cameras: ``sphere-big`` (a spherical mirror of radius 0.3 m, lens 0.3 m below it, 1600 px: its ray origins
 spread over 53 mm), ``sphere-wide`` (radius 0.15 m, lens 0.3 m below, seen to 15 deg off its axis, 1200 px:
@@ -35,8 +35,8 @@ import numpy as np
 
 from panomap import calibrate_camera
 from panomap.calibrate.landmarks.pairs import Landmarks
-from panomap.camera.radial import fit_radial
-from panomap.camera.viewpoint import Viewpoint
+from panomap.camera.radial import RadialFunction, fit_radial
+from panomap.camera.viewpoint import Viewpoint, caustic_shape
 from panomap.simulate import SphericalMirrorCamera, standard_cameras
 
 CAMERA = np.array([0.0, 0.0, 2.0])
@@ -118,13 +118,44 @@ def floor_projection(calibration: Any, camera: Any, marks: Landmarks) -> Any:
     d = marks.world - CAMERA
     rho = truth.elevation_of_point(np.hypot(d[:, 0], d[:, 1]), d[:, 2])
     r = np.hypot(*(marks.pixels - np.asarray(model.centre)).T)
-    radial = fit_radial(model.radial.kind, rho, r, model.axis)
+    radial = fit_radial("sphere", rho, r, model.axis)
     known = replace(model, radial=radial, viewpoint=truth, rotation=None)
 
     def project(points: np.ndarray) -> np.ndarray:
         return known.pixels(*known.point_angles(points))
 
     return project
+
+
+def size_bound(camera: Any, marks: Landmarks) -> float:
+    """The Cramer-Rao bound of the sphere's radius from these landmarks, as a fraction of it: the standard
+    deviation of R that no unbiased fit of the true law (f, c and R free, the ray origins exact, 1 px and 1 cm
+    of noise a coordinate) can beat."""
+    r = np.linspace(camera.cutoff_radius, camera.outer_radius, 200)
+    _, direction = camera.trace(np.stack([camera.centre[0] + r, np.full_like(r, camera.centre[1])], axis=1))
+    rho = np.arctan2(direction[:, 2], np.hypot(direction[:, 0], direction[:, 1]))
+    seen = np.isfinite(rho)
+    law = fit_radial("sphere", rho[seen], r[seen], "down")
+    truth = true_viewpoint(camera)
+    assert truth is not None
+    nodes = np.linspace(-1.5, 0.3, 181)
+    d = marks.world - CAMERA
+    horizontal, height = np.hypot(d[:, 0], d[:, 1]), d[:, 2]
+    sigma = np.hypot(1.0, law.slope(np.arctan2(height, horizontal)) * 0.01 / np.hypot(horizontal, height))
+    mean = float(np.mean(truth.offset(nodes)))
+
+    def whitened(p: np.ndarray) -> np.ndarray:
+        radial = RadialFunction("sphere", (float(p[0]), float(p[1])), "down")
+        h = caustic_shape(radial, nodes)
+        origins = Viewpoint(tuple(nodes.tolist()), tuple((p[2] * (h - np.mean(h)) + mean).tolist()))
+        return np.asarray(radial(origins.elevation_of_point(horizontal, height)) / sigma)
+
+    p0 = np.array([*law.coefficients, camera.mirror_radius])
+    steps = np.array([1e-3 * p0[0], 1e-5, 1e-4])
+    jacobian = np.stack(
+        [(whitened(p0 + e) - whitened(p0 - e)) / (2 * e[k]) for k, e in enumerate(np.diag(steps))], axis=1
+    )
+    return float(math.sqrt(np.linalg.inv(jacobian.T @ jacobian)[2, 2]) / camera.mirror_radius)
 
 
 def main() -> None:
@@ -141,7 +172,7 @@ def main() -> None:
     print(f"{'camera':12s} {'fit':8s} {'chosen':>7s}  " + "  ".join(f"{d:g} m p90 / max" for d in DISTANCES_M))
     for name in args.cameras:
         rows: dict[str, list[list[float]]] = {"default": [], "caustic": [], "central": [], "floor": []}
-        chosen, start = 0, time.perf_counter()
+        chosen, start, bounds = 0, time.perf_counter(), []
         for seed in range(args.trials):
             camera = make_camera(name, seed)
             marks = landmarks(camera, np.random.default_rng(1000 + seed), distances)
@@ -158,6 +189,7 @@ def main() -> None:
             rows["caustic"].append(worst(lambda p, t=forced.table: t.project(p + CAMERA), camera))
             if true_viewpoint(camera) is not None:
                 rows["floor"].append(worst(floor_projection(central, camera, marks), camera))
+                bounds.append(size_bound(camera, marks))
         seconds = (time.perf_counter() - start) / args.trials
         for fit, values in rows.items():
             if not values:
@@ -169,6 +201,11 @@ def main() -> None:
             count = f"{chosen}/{args.trials}" if fit == "default" else ""
             print(f"{name:12s} {fit:8s} {count:>7s}  {cells}")
         print(f"{name:12s} ({seconds:.1f} s a trial for the three fits)")
+        if bounds:
+            print(
+                f"{name:12s} the sphere's radius from these landmarks: Cramer-Rao bound {np.median(bounds):.0%} of it "
+                f"(median; {min(bounds):.0%}-{max(bounds):.0%})"
+            )
 
 
 if __name__ == "__main__":

@@ -267,6 +267,7 @@ CALIBRATE_ORDER = [
     "core.refine",
     "core.start",
     "core.selection",
+    "core.distinct",
     "circles.thresholds",
     "circles.types",
     "circles.frame",

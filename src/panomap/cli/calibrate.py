@@ -67,6 +67,21 @@ from .options import (
     "not given. Without LANDMARKS the camera is learned from the straight lines in it (repeat --image to pool "
     "several images of the same camera).",
 )
+@click.option(
+    "--video",
+    "videos",
+    type=PATH,
+    multiple=True,
+    help="Learning from lines: a video of this camera; --video-frames frames taken apart in time pool their lines "
+    "(a robot's camera that moves sees new edges in each; a fixed camera's frames that show one view count once).",
+)
+@click.option(
+    "--video-frames",
+    type=click.IntRange(1, 64),
+    default=8,
+    show_default=True,
+    help="Learning from lines: how many frames of each --video, evenly spread over it.",
+)
 @click.option("--image-size", type=SIZE, help="Image size WxH when no --image is given.")
 @click.option(
     "--size",
@@ -205,6 +220,8 @@ def fit(
     camera: tuple[float, float, float] | None,
     centre: tuple[float, float] | None,
     images: tuple[Path, ...],
+    videos: tuple[Path, ...],
+    video_frames: int,
     image_size: tuple[int, int] | None,
     table_size: tuple[int, int] | None,
     cutoff_radius: float | None,
@@ -235,14 +252,20 @@ def fit(
     know neither the azimuth origin (--azimuth-zero), the handedness (--handedness) nor any distance (--camera-height).
     """
     # Options missing or out of range are usage errors (exit 2); the files' problems are failures (1).
+    if not videos and click.get_current_context().get_parameter_source("video_frames") is ParameterSource.COMMANDLINE:
+        raise click.UsageError("--video-frames is how many frames of --video to take: give --video FILE too")
     if landmarks is None:
         if not use_lines:
             raise click.UsageError("--no-lines leaves nothing to learn from without LANDMARKS")
         _refuse_landmark_options(click.get_current_context())
         _fit_lines(
-            output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time, use_boards
-        )
+            output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time, use_boards,
+            videos, video_frames,
+        )  # fmt: skip
         return
+    if videos:
+        raise click.UsageError("--video pools frames to learn from lines (no LANDMARKS); a landmark fit takes --image "
+                               "VIDEO --frame-time SECONDS")  # fmt: skip
     size = _image_size(image_size)
     image = _check_landmark_fit_options(
         landmarks, output, images, centre, table_size, model, refine_centre, plot, overlay,
@@ -403,25 +426,31 @@ def _fit_lines(
     camera_height: float | None,
     frame_time: float | None,
     use_boards: bool,
+    videos: tuple[Path, ...] = (),
+    video_frames: int = 8,
 ) -> None:
-    """``fit`` without landmarks: the camera learned from the lines (and checkerboards) of ``images``."""
+    """``fit`` without landmarks: the camera learned from the lines (and checkerboards) of ``images`` and the
+    frames of ``videos``."""
     from ..calibrate.lines.fit import LineFitOptions
     from .lines import fit_from_lines
 
-    if not images:
+    if not images and not videos:
         raise click.UsageError("give LANDMARKS, or --image OMNI to learn the camera from its straight lines")
     if plot is not None:
         raise click.UsageError("--plot draws landmarks; learning from lines draws with --overlay")
     if model == "paper":
         raise click.UsageError("the paper model takes the centre as given; learning from lines needs another model")
-    twice = same_input(images)
+    twice = same_input((*images, *videos))
     if twice is not None:
         first, second, how = twice
         raise click.BadParameter(
             f"{first} and {second} are one picture ({how}): give each picture once (its lines twice add nothing)",
-            param_hint="'--image'",
+            param_hint="'--image'" if second in images else "'--video'",
         )
-    check_outputs([("the image", path) for path in images], [("the output", output), ("--overlay", overlay)])
+    check_outputs(
+        [*(("the image", path) for path in images), *(("the video", path) for path in videos)],
+        [("the output", output), ("--overlay", overlay)],
+    )
     if output.suffix.lower() != ".npz":
         raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
     if overlay is not None and overlay.suffix.lower() != ".png":
@@ -440,6 +469,8 @@ def _fit_lines(
         camera_height=camera_height,
         overlay=overlay,
         use_boards=use_boards,
+        videos=videos,
+        video_frames=video_frames,
     )
 
 

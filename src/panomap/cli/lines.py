@@ -30,8 +30,11 @@ def fit_from_lines(
     camera_height: float | None,
     overlay: Path | None,
     use_boards: bool = True,
+    videos: tuple[Path, ...] = (),
+    video_frames: int = 8,
 ) -> None:
-    """Learn the camera from the lines of ``images``, write its table (and ``overlay``), say what the fit saw.
+    """Learn the camera from the lines of ``images`` and of ``video_frames`` frames of each of ``videos`` (those
+    that show a view no earlier picture shows), write its table (and ``overlay``), say what the fit saw.
 
     Checkerboards in the images (``use_boards``) and the edge arcs both count
     (:func:`panomap.calibrate.pictures.learn_from_images`, which does the work): a board's corners are evenly
@@ -43,9 +46,12 @@ def fit_from_lines(
     bar = ProgressBar(enabled=sys.stderr.isatty())
     try:
         omnis = _read_all(images, frame_time)
+        names: list[str | Path] = list(images)
+        if videos:
+            omnis, names = _with_frames(omnis, names, videos, video_frames)
         learned = learn_from_images(
             omnis,
-            names=images,
+            names=names,
             camera_height=camera_height,
             model=options.model,
             axis=options.axis,
@@ -70,6 +76,38 @@ def fit_from_lines(
     click.echo("wrote " + " and ".join(written))
     for warning in learned.warnings:
         click.echo(f"panomap: warning: {warning}", err=True)
+
+
+def _with_frames(
+    omnis: list[np.ndarray], names: list[str | Path], videos: tuple[Path, ...], count: int
+) -> tuple[list[np.ndarray], list[str | Path]]:
+    """The pictures and their names, with ``count`` frames of each video (:func:`panomap.video.sample.sample_frames`)
+    after them, less the pictures that show a view an earlier one shows (:mod:`panomap.calibrate.core.distinct`),
+    saying on stderr what was taken; the frames' memory checked before their lines are searched."""
+    from ..calibrate.core.distinct import distinct_views
+    from ..calibrate.lines.budget import check_line_search_memory
+    from ..io.images import MAX_IMAGE_PIXELS
+    from ..video.sample import sample_frames
+    from ..video.unwarp import machine_memory
+
+    pictures, labels = list(omnis), list(names)
+    for video in videos:
+        for at_s, frame in sample_frames(video, count, MAX_IMAGE_PIXELS):
+            pictures.append(frame)
+            labels.append(f"{video} at {at_s:.2f} s")
+    kept = distinct_views(pictures)
+    for video in videos:
+        taken = [k for k, label in enumerate(labels) if str(label).startswith(f"{video} at ")]
+        views = sum(k in kept for k in taken)
+        click.echo(
+            f"panomap: note: {video}: {len(taken)} frames taken, {views} showing a view no earlier picture shows "
+            "(the others' lines would count twice)",
+            err=True,
+        )
+    total = machine_memory()
+    sizes = [(picture.shape[1], picture.shape[0]) for picture in (pictures[k] for k in kept)]
+    check_line_search_memory(sizes, None if total is None else total * 3 // 4)
+    return [pictures[k] for k in kept], [labels[k] for k in kept]
 
 
 def _check_memory(images: tuple[Path, ...]) -> None:

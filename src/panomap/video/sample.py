@@ -1,0 +1,46 @@
+"""Frames taken apart in time from a video file: the pictures ``panomap fit --video`` learns a camera from."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import av
+
+from ..errors import PanomapError
+from .source import declared_duration_s, first_frame
+
+
+def frame_times(duration_s: float, count: int) -> list[float]:
+    """``count`` times (s from the start) evenly spread over ``duration_s``: the middle of each of ``count``
+    equal spans, so that neither the first nor the last frame, often a fade, is taken."""
+    return [duration_s * (k + 0.5) / count for k in range(count)]
+
+
+def sample_frames(path: str | Path, count: int, max_pixels: int) -> list[tuple[float, Any]]:
+    """``count`` frames of the video at ``path``, each an 8-bit BGR image (H, W, 3) with its time (s), at
+    :func:`frame_times` over its declared duration.
+
+    Raises
+    ------
+    PanomapError
+        Naming the file, where it is not a video PyAV decodes, its header gives no duration, or its frames are
+        larger than ``max_pixels``.
+    """
+    try:
+        with av.open(str(path)) as container:
+            if not container.streams.video:
+                raise PanomapError("has no video stream", path)
+            duration = declared_duration_s(container)
+    except (av.error.FFmpegError, OSError, ValueError):
+        raise PanomapError("is not a video panomap can decode", path) from None
+    if duration is None or not duration > 0:
+        raise PanomapError("its header gives no duration: give its frames with --image and --frame-time", path)
+    frames = []
+    for at_s in frame_times(duration, count):
+        frame = first_frame(path, max_pixels, at_s)
+        if frame is not None:
+            frames.append((at_s, frame))
+    if not frames:
+        raise PanomapError("no frame of it could be decoded", path)
+    return frames
