@@ -11,6 +11,7 @@ and the largest over the trials of:
 - ``default``: the fit as ``panomap fit`` makes it (the ray origins where cross-validation chooses them);
 - ``caustic``: the caustic fitted whatever cross-validation says (``--viewpoint caustic``);
 - ``central``: the fit held to a single viewpoint (``--viewpoint single``), the figures before it;
+- ``radius``: the sphere's radius given (``--sphere-radius``): its law and the ray origins the radius gives;
 - ``floor``: a fit told the true mirror: the true ray origins, and the spherical mirror's law (its f and c)
   fitted to the same landmarks along them (what the landmarks' noise leaves, with the mirror known).
 
@@ -35,6 +36,7 @@ import numpy as np
 
 from panomap import calibrate_camera
 from panomap.calibrate.landmarks.pairs import Landmarks
+from panomap.calibrate.landmarks.viewpoint import SphericalMirror
 from panomap.camera.radial import RadialFunction, fit_radial
 from panomap.camera.viewpoint import Viewpoint, caustic_shape
 from panomap.simulate import SphericalMirrorCamera, standard_cameras
@@ -171,7 +173,7 @@ def main() -> None:
     )
     print(f"{'camera':12s} {'fit':8s} {'chosen':>7s}  " + "  ".join(f"{d:g} m p90 / max" for d in DISTANCES_M))
     for name in args.cameras:
-        rows: dict[str, list[list[float]]] = {"default": [], "caustic": [], "central": [], "floor": []}
+        rows: dict[str, list[list[float]]] = {"default": [], "caustic": [], "central": [], "radius": [], "floor": []}
         chosen, start, bounds = 0, time.perf_counter(), []
         for seed in range(args.trials):
             camera = make_camera(name, seed)
@@ -188,6 +190,8 @@ def main() -> None:
             rows["central"].append(worst(lambda p, t=central.table: t.project(p + CAMERA), camera))
             rows["caustic"].append(worst(lambda p, t=forced.table: t.project(p + CAMERA), camera))
             if true_viewpoint(camera) is not None:
+                known = calibrate_camera(marks, tuple(CAMERA), **given, viewpoint=SphericalMirror(camera.mirror_radius))
+                rows["radius"].append(worst(lambda p, t=known.table: t.project(p + CAMERA), camera))
                 rows["floor"].append(worst(floor_projection(central, camera, marks), camera))
                 bounds.append(size_bound(camera, marks))
         seconds = (time.perf_counter() - start) / args.trials

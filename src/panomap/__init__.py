@@ -56,6 +56,7 @@ _EXPORTS = {
     "FitReport": "calibrate.core.report",
     "fit_camera": "calibrate.landmarks.fit",
     "Source": "calibrate.core.sources",
+    "SphericalMirror": "calibrate.landmarks.viewpoint",
     "CircleChoice": "calibrate.landmarks.pipeline",
     "choose_circles": "calibrate.landmarks.pipeline",
     "Calibration": "calibrate.landmarks.pipeline",

@@ -17,7 +17,7 @@ from ..calibrate.core.sources import Source
 from ..calibrate.landmarks.diagnosis import diagnose
 from ..calibrate.landmarks.pairs import read_landmarks
 from ..calibrate.landmarks.pipeline import calibrate_camera
-from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES
+from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, same_input
@@ -167,6 +167,14 @@ from .options import (
     "cross-validation says (a mirror known to be a sphere or a cone).",
 )
 @click.option(
+    "--sphere-radius",
+    type=POSITIVE,
+    metavar="R",
+    help="The mirror is a sphere of this radius (world units, as the landmarks'): its own law and the ray "
+    "origins it gives are fitted (a dozen landmarks at room distances pin the sphere's size only within about "
+    "its own size; a ruler pins it).",
+)
+@click.option(
     "--lines/--no-lines",
     "use_lines",
     default=True,
@@ -235,6 +243,7 @@ def fit(
     tilt: str | tuple[float, float],
     camera_sigma: float | None,
     viewpoint: str,
+    sphere_radius: float | None,
     use_lines: bool,
     use_boards: bool,
     keep_outliers: bool,
@@ -281,7 +290,10 @@ def fit(
         click.echo(f"panomap: warning: --camera ({given}) is used, not the camera in {landmarks} ({filed})", err=True)
     if frame_time is not None and image is None:
         raise click.UsageError("--frame-time picks a frame of --image: give --image VIDEO too")
+    mirror = _mirror_kind(viewpoint, sphere_radius)
     omni = None if image is None else read_omni(image, frame_time)
+    if omni is not None and use_lines and mirror != "single viewpoint":
+        click.echo(f"panomap: note: the image's lines do not join {mirror}: the landmarks alone fit it", err=True)
     if image is not None:
         warn_orientation(image)
     if omni is not None and size is not None and size != (omni.shape[1], omni.shape[0]):
@@ -309,8 +321,8 @@ def fit(
             reject_outliers=not keep_outliers,
             tilt_deg=tilt,
             camera_sigma=camera_sigma,
-            lines=use_lines and omni is not None,
-            viewpoint=viewpoint,
+            lines=use_lines and omni is not None and mirror == "single viewpoint",
+            viewpoint=viewpoint if sphere_radius is None else SphericalMirror(sphere_radius),
         )
     except PanomapError as exc:
         raise PanomapError(exc.detail, exc.source or landmarks) from None
@@ -326,8 +338,20 @@ def fit(
 # the annulus, the tilt and the table's size themselves, and know no position.
 LANDMARK_ONLY = (
     "camera", "centre", "image_size", "table_size", "cutoff_radius", "outer_radius", "azimuth", "refine_centre",
-    "pixel_sigma", "world_sigma", "tilt", "camera_sigma", "viewpoint", "keep_outliers",
+    "pixel_sigma", "world_sigma", "tilt", "camera_sigma", "viewpoint", "sphere_radius", "keep_outliers",
 )  # fmt: skip
+
+
+def _mirror_kind(viewpoint: str, sphere_radius: float | None) -> str:
+    """What the landmark fit is asked to fit, in words: "single viewpoint" unless the ray origins are (usage
+    error, exit 2, where --sphere-radius and a --viewpoint other than auto are both given)."""
+    if sphere_radius is not None:
+        if viewpoint != "auto":
+            raise click.UsageError(
+                f"--sphere-radius fits the sphere's ray origins: --viewpoint {viewpoint} does not go with it"
+            )
+        return "a spherical mirror's ray origins (--sphere-radius)"
+    return "the fitted ray origins (--viewpoint caustic)" if viewpoint == "caustic" else "single viewpoint"
 
 
 def _refuse_landmark_options(context: click.Context) -> None:

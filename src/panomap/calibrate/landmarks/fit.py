@@ -56,6 +56,7 @@ from .pairs import MIN_LANDMARKS, Landmarks
 from .viewpoint import (
     PARALLAX_DISTANCE,
     VIEWPOINT_MODES,
+    SphericalMirror,
     annulus_elevations,
     choose_viewpoint,
     landmark_rays,
@@ -237,7 +238,7 @@ def fit_camera(
     centre_is_guess: bool = False,
     tilt: str | tuple[float, float] | None = None,
     lines: ImageLines | None = None,
-    viewpoint: str = "auto",
+    viewpoint: str | SphericalMirror = "auto",
 ) -> CameraFit:
     """Fit the camera model to landmark pairs.
 
@@ -293,13 +294,13 @@ def fit_camera(
         (:mod:`.joint`), each weighted by its measured noise; the radial kind is then the lines'
         cross-validated choice. Where they cannot join, the landmark fit stands and ``CameraFit.lines_note``
         says why.
-    viewpoint : {"auto", "single", "caustic"}
+    viewpoint : {"auto", "single", "caustic"} or SphericalMirror
         ``"single"``: every ray from O_m (the paper's model). ``"auto"``: a mirror camera (one with a cut-off
         disc in ``annulus``) gets each elevation's ray origin on the axis, as a mirror of revolution's caustic,
         where cross-validation over the landmarks chooses it (:mod:`.viewpoint`); a lens keeps the single
         viewpoint. ``"caustic"``: the caustic is fitted whatever cross-validation says (a mirror known to be a
-        sphere or a cone, seen from landmarks too far to show it). Lines joined to the landmarks keep the single
-        viewpoint.
+        sphere or a cone, seen from landmarks too far to show it); a :class:`.viewpoint.SphericalMirror`: its law
+        with the ray origins its radius gives. Lines joined to the landmarks keep the single viewpoint.
 
     Raises
     ------
@@ -308,7 +309,7 @@ def fit_camera(
         landmarks at one elevation, or no model that fits monotonically.
     """
     tilt = renamed_keyword("fit_camera", "tilt", tilt, "tilt_deg", tilt_deg)
-    if viewpoint not in VIEWPOINT_MODES:
+    if not isinstance(viewpoint, SphericalMirror) and viewpoint not in VIEWPOINT_MODES:
         raise PanomapError(f"viewpoint must be one of {', '.join(VIEWPOINT_MODES)}, not {viewpoint!r}")
     requested, camera, start_centre, tilt_given = _checked(
         landmarks, camera_position, centre, model, azimuth, axis, image_size, refine_centre, pixel_sigma,
@@ -422,7 +423,7 @@ def _join_lines(
 def _finished(
     fitted: CameraFit,
     joint: JointResult | JointLines | None,
-    viewpoint: str,
+    viewpoint: str | SphericalMirror,
     azimuth: str,
     annulus: tuple[float, float] | None,
 ) -> CameraFit:
@@ -434,12 +435,19 @@ def _finished(
         return replace(fitted, covariance=covariance, lines=joint.lines.report)
     if joint is not None:
         return replace(fitted, lines_note=joint.note)
+    if isinstance(viewpoint, SphericalMirror):
+        return with_viewpoint(fitted, annulus, sphere=viewpoint)
     if viewpoint == "single" or azimuth != "fit" or (viewpoint == "auto" and (annulus is None or annulus[0] <= 0)):
         return fitted
     return with_viewpoint(fitted, annulus, forced=viewpoint == "caustic")
 
 
-def with_viewpoint(fitted: CameraFit, annulus: tuple[float, float] | None = None, forced: bool = False) -> CameraFit:
+def with_viewpoint(
+    fitted: CameraFit,
+    annulus: tuple[float, float] | None = None,
+    forced: bool = False,
+    sphere: SphericalMirror | None = None,
+) -> CameraFit:
     """The fit with each elevation's ray origin on the axis, where cross-validation over the inlier landmarks
     chooses it (:func:`.viewpoint.choose_viewpoint`), its residuals and covariance made again; else the fit
     as it is, with the report of the choice."""
@@ -450,7 +458,7 @@ def with_viewpoint(fitted: CameraFit, annulus: tuple[float, float] | None = None
         world, pixels, fitted.camera_position, model.rotation, model.centre, model.radial,
         settings.pixel_sigma_px, settings.world_sigma, annulus_elevations(model.radial, annulus),
     )  # fmt: skip
-    choice = choose_viewpoint(rays, model.radial, forced)
+    choice = choose_viewpoint(rays, model.radial, forced, sphere)
     single = replace(fitted, viewpoint=ViewpointReport(True, 0.0, 0.0, PARALLAX_DISTANCE, choice.held_out))
     if choice.fit is None or choice.fit.viewpoint is None:
         return single if choice.held_out else fitted
@@ -465,6 +473,11 @@ def with_viewpoint(fitted: CameraFit, annulus: tuple[float, float] | None = None
         annulus is not None and annulus_coverage_problem(radial, (low, high), *annulus, slack_px=slack) is not None
     ):
         # A caustic whose f_r folds or stops short of the annulus makes no table: the single viewpoint stands.
+        if sphere is not None:
+            raise PanomapError(
+                f"a spherical mirror of radius {sphere.radius:g} does not explain these landmarks across the annulus "
+                "(its law folds or stops short of the image circle): is the camera's mirror a sphere?"
+            )
         return single
     predicted = camera_model.pixels(theta, rho)
     r, _ = pixel_polar(fitted.landmarks.pixels, model.centre)

@@ -37,6 +37,7 @@ from .fit import CameraFit, fit_camera, renamed_keyword
 from .joint import ImageLines
 from .pairs import Landmarks
 from .table import choose_annulus, table_for
+from .viewpoint import SphericalMirror
 
 
 @dataclass(frozen=True)
@@ -349,7 +350,7 @@ def calibrate_camera(
     found: CircleChoice | None = None,
     tilt: str | tuple[float, float] | None = None,
     lines: bool | ImageLines = False,
-    viewpoint: str = "auto",
+    viewpoint: str | SphericalMirror = "auto",
 ) -> Calibration:
     """Landmarks (and an omni-image) to a fitted camera and its pano-mapping table.
 
@@ -463,7 +464,7 @@ def _fit(
     reject_outliers: bool,
     tilt_deg: str | tuple[float, float],
     camera_sigma: float | None,
-    viewpoint: str,
+    viewpoint: str | SphericalMirror,
 ) -> tuple[CameraFit, tuple[str, ...]]:
     """The camera fitted to the landmarks about ``centre`` (refined where it was not given: ``recorded`` says
     so), with the image's lines where ``lines`` asks for them; and the warnings about the lines."""

@@ -9,7 +9,7 @@ distance as well as its direction.
 :func:`choose_viewpoint` fits, after the landmark fit (:func:`panomap.calibrate.landmarks.fit.fit_camera`), the
 radial function together with the ray origins of a mirror of revolution, ``z = k_1 (h(rho) - h_mean)`` with
 h the caustic that f_r itself implies (:func:`panomap.camera.viewpoint.caustic_shape`; one unknown, the
-mirror's size, with a prior; O_m is the mean ray origin), to the inlier landmarks' radii; the azimuth does
+mirror's size, with a prior; O_m the axis point nearest the rays), to the inlier landmarks' radii; the azimuth does
 not depend on z, so the centre, the handedness, phi0, the tilt and the position stay as fitted. Each
 residual is whitened by the noise model (:mod:`.noise`). The camera is taken as non-central only where
 leave-one-out cross-validation says so: its held-out whitened RMS is at most ``VIEWPOINT_GAIN`` times the
@@ -43,7 +43,7 @@ VIEWPOINT_GAIN = 0.75
 # The spherical mirror's law (camera/radial_models), tried with its caustic whatever kind the single viewpoint
 # chose, and the fraction of the single viewpoint's held-out RMS its own must reach to be chosen: nearer 1 than
 # VIEWPOINT_GAIN, as the law fits no single-viewpoint mirror (held out on simulated parabolic and hyperbolic
-# mirrors, its RMS was 1.8-7 times the single viewpoint's), but not 1: the caustic's size is loosely pinned, and
+# mirrors, its RMS was 1.4-7 times the single viewpoint's), but not 1: the caustic's size is loosely pinned, and
 # where the two tie, the single viewpoint is as often the better (bench/bench_noncentral.py).
 SPHERE_KIND = "sphere"
 SPHERE_GAIN = 0.9
@@ -67,6 +67,25 @@ START_SPREADS = (0.0, -0.04, -0.02, -0.01, -0.005, 0.005, 0.01, 0.02, 0.04)
 
 
 @dataclass(frozen=True)
+class SphericalMirror:
+    """A spherical mirror of known radius (``fit_camera(viewpoint=SphericalMirror(r))``): its law
+    (``sphere``) and its exact ray origins, whose size the radius gives, where a dozen landmarks pin it
+    loosely (within about its own size, at room distances: bench/bench_noncentral.py).
+
+    Attributes
+    ----------
+    radius : float
+        The sphere's radius, in the landmarks' world units (> 0).
+    """
+
+    radius: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.radius) and self.radius > 0):
+            raise PanomapError(f"the spherical mirror's radius must be finite and > 0, not {self.radius!r}")
+
+
+@dataclass(frozen=True)
 class LandmarkRays:
     """The inlier landmarks in the camera's axes, what a viewpoint fit needs, each (n,).
 
@@ -79,7 +98,7 @@ class LandmarkRays:
     sigma : (n,) ndarray
         Standard deviation of each radial residual (px), from the noise model (held fixed).
     reference_rad : (low, high) or None
-        Camera elevations (rad) over which O_m is the mean ray origin (the annulus'); the landmarks' own
+        Camera elevations (rad) whose rays O_m is the axis point nearest (the annulus'); the landmarks' own
         where None.
     """
 
@@ -133,7 +152,7 @@ def landmark_rays(
 ) -> LandmarkRays:
     """Landmarks (world (n, 3), pixels (n, 2)) as :class:`LandmarkRays` of a camera at ``camera`` turned by
     ``rotation`` (camera to world, or None), centred at ``centre``; sigmas from the noise model with the
-    slope of ``radial``; ``reference_rad``, the camera elevations (rad) over which O_m is the mean ray origin
+    slope of ``radial``; ``reference_rad``, the camera elevations (rad) whose rays O_m is the axis point nearest
     (:func:`annulus_elevations`; the landmarks' own where None)."""
     d = to_camera(np.asarray(world, dtype=np.float64) - np.asarray(camera), rotation)
     horizontal = np.hypot(d[:, 0], d[:, 1])
@@ -175,16 +194,22 @@ def node_range(rays: LandmarkRays) -> tuple[float, float]:
 
 
 def fit_viewpoint(
-    rays: LandmarkRays, start: RadialFunction, caustic: bool, shape_from: RadialFunction | None = None
+    rays: LandmarkRays,
+    start: RadialFunction,
+    caustic: bool,
+    shape_from: RadialFunction | None = None,
+    size: float | None = None,
 ) -> ViewpointFit:
     """f_r and, with ``caustic``, the mirror's ray origins, by least squares of the whitened radial residuals
-    from ``start`` and z = 0; without, f_r alone about O_m.
+    from ``start`` and z = 0; without, f_r alone about O_m. ``size`` holds k_1 (no prior then): the radius
+    of a known sphere, signed as its origins run along the camera's axis.
 
     The ray origins are ``z = k_1 (h - h_mean)``: h the caustic of ``shape_from`` (default ``start``;
-    :func:`caustic_viewpoint`), held while f_r moves, and h_mean its mean over the image area of the reference
-    elevations (``rays.reference_rad``), so that O_m is the mean ray origin, as the position given for a
-    mirror camera (its mirror's centre) means. The mirror's size k_1 has a prior: the origins' spread over the
-    reference elevations has a standard deviation of ``SPREAD_PRIOR_FRACTION`` of the landmarks' distance.
+    :func:`caustic_viewpoint`), held while f_r moves (the ``sphere`` law's follows it), and h_mean the axis
+    point nearest the rays of the reference elevations (``rays.reference_rad``, each weighted by its image
+    area), so that O_m is that point, as the position given for a mirror camera (its mirror's centre) means.
+    Unless ``size`` holds it, the mirror's size k_1 has a prior: the origins' spread over the reference
+    elevations has a standard deviation of ``SPREAD_PRIOR_FRACTION`` of the landmarks' distance.
 
     Raises
     ------
@@ -217,14 +242,17 @@ def fit_viewpoint(
     spread_sigma = SPREAD_PRIOR_FRACTION * distance
 
     def caustic_of(mirror: RadialFunction) -> tuple[Viewpoint, FloatArray, float, float]:
-        """The caustic's unit shape at its nodes, h (nodes,), its mean over the reference's image area (O_m)
-        and its spread over the reference."""
+        """The caustic's unit shape at its nodes, h (nodes,), the axis point nearest its rays over the
+        reference (O_m), and its spread over the reference."""
         shape = caustic_viewpoint(mirror, 0.0, 1.0, nodes)
         rho_nodes = np.asarray(shape.elevations_rad)
         inside = (rho_nodes >= reference[0]) & (rho_nodes <= reference[1])
-        area = np.abs(mirror(rho_nodes) * mirror.slope(rho_nodes))[inside]
+        # O_m: the axis point nearest the rays in least squares, each ray weighted by the image area it covers
+        # (r dr); an axis point dz from a ray's origin is dz cos(rho) from the ray.
+        weight = np.abs(mirror(rho_nodes) * mirror.slope(rho_nodes) * np.cos(rho_nodes) ** 2)[inside]
         h = np.asarray(shape.offsets)
-        mean = float(np.sum(area * h[inside]) / np.sum(area)) if np.sum(area) > 0 else float(np.mean(h[inside]))
+        total = float(np.sum(weight))
+        mean = float(np.sum(weight * h[inside]) / total) if total > 0 else float(np.mean(h[inside]))
         return shape, h, mean, float(np.ptp(h[inside])) if np.any(inside) else float(np.ptp(h))
 
     # The caustic's shape h from the starting f_r, held: a radial kind that bends near the rim would otherwise
@@ -235,9 +263,10 @@ def fit_viewpoint(
 
     def camera_and_spread(x: FloatArray) -> tuple[ViewpointFit, float]:
         shape, h, mean, unit_spread = caustic_of(radial_of(x)) if own_shape else held
-        offsets = float(x[count]) * (h - mean)
+        k = float(x[count]) if size is None else size
+        offsets = k * (h - mean)
         fitted = ViewpointFit(radial_of(x), Viewpoint(shape.elevations_rad, tuple(offsets.tolist())))
-        return fitted, float(x[count]) * unit_spread
+        return fitted, k * unit_spread
 
     def camera(x: FloatArray) -> ViewpointFit:
         return camera_and_spread(x)[0]
@@ -249,7 +278,14 @@ def fit_viewpoint(
             return np.full(rays.r.size + 1, 1e6)
         assert fitted.viewpoint is not None
         rho = fitted.viewpoint.elevation_of_point(rays.horizontal, rays.height)
-        return np.append(whitened(x, rho), spread / spread_sigma)
+        return np.append(whitened(x, rho), spread / spread_sigma) if size is None else whitened(x, rho)
+
+    if size is not None:
+        solution = least_squares(lambda x: residuals(x)[: rays.r.size], x0, x_scale="jac", max_nfev=100 * x0.size)
+        try:
+            return camera(solution.x)
+        except PanomapError as exc:
+            raise PanomapError(f"the viewpoint fit failed ({exc.detail})") from None
 
     # The ray origins' spread is weakly pinned by a dozen landmarks: the least squares starts from the best of a
     # profile over spreads of 0 to 4% of the landmarks' distance, each way (or it can stop short).
@@ -266,7 +302,11 @@ def fit_viewpoint(
 
 
 def held_out_rms(
-    rays: LandmarkRays, start: RadialFunction, caustic: bool, shape_from: RadialFunction | None = None
+    rays: LandmarkRays,
+    start: RadialFunction,
+    caustic: bool,
+    shape_from: RadialFunction | None = None,
+    size: float | None = None,
 ) -> float:
     """Held-out RMS of the whitened radial residuals of :func:`fit_viewpoint` (inf where a fold fails): exact
     leave-one-out up to ``EXACT_LOO_MAX`` landmarks, else ``CV_FOLDS`` folds dealt in elevation order, as the
@@ -282,7 +322,7 @@ def held_out_rms(
         keep = np.ones(n, dtype=bool)
         keep[fold] = False
         try:
-            fitted = fit_viewpoint(rays.subset(keep), start, caustic, shape_from)
+            fitted = fit_viewpoint(rays.subset(keep), start, caustic, shape_from, size)
         except PanomapError:
             return math.inf
         one = rays.subset(~keep)
@@ -300,7 +340,9 @@ SINGLE = "single viewpoint"
 CAUSTIC = "mirror caustic"
 
 
-def choose_viewpoint(rays: LandmarkRays, start: RadialFunction, forced: bool = False) -> ViewpointChoice:
+def choose_viewpoint(
+    rays: LandmarkRays, start: RadialFunction, forced: bool = False, sphere: SphericalMirror | None = None
+) -> ViewpointChoice:
     """The single viewpoint, or the mirror's caustic where its held-out RMS is at most ``VIEWPOINT_GAIN`` times
     the single viewpoint's (``SPHERE_GAIN`` with the spherical mirror's law; see the module's docstring), the
     best held out of those that are; with ``forced``, the caustic of the best kind whatever their scores.
@@ -309,12 +351,27 @@ def choose_viewpoint(rays: LandmarkRays, start: RadialFunction, forced: bool = F
     (``sphere``, its caustic shaped by its own law: the law of no single-viewpoint mirror, so it fits none);
     forced, with every weighted kind of at most ``CAUSTIC_KIND_PARAMETERS`` too (each started about O_m): the
     kind a single-viewpoint fit chose may bend to stand in for the ray origins at the landmarks' distances, and
-    then trade its shape against the caustic's size.
+    then trade its shape against the caustic's size. A known ``sphere``: its law with the ray origins its
+    radius gives, whatever the scores.
+
+    Raises
+    ------
+    PanomapError
+        Where a known sphere's law cannot be fitted to the landmarks.
     """
+    straight = np.arctan2(rays.height, rays.horizontal)
+    if sphere is not None:
+        law = fit_radial(SPHERE_KIND, straight, rays.r, start.axis, 1.0 / rays.sigma)
+        size = sphere.radius if start.axis == "down" else -sphere.radius  # the origins run away from the lens
+        scores = {
+            SINGLE: held_out_rms(rays, start, False),
+            f"{CAUSTIC} (sphere of the radius given)": held_out_rms(rays, law, True, law, size),
+        }
+        finite = {name: score for name, score in scores.items() if math.isfinite(score)}
+        return ViewpointChoice(fit_viewpoint(rays, law, True, law, size), finite)
     if not start.spec.weighted or rays.r.size < len(start.coefficients) + 2 + SPARE_LANDMARKS:
         return ViewpointChoice(None, {})
     held_out = {SINGLE: held_out_rms(rays, start, False)}
-    straight = np.arctan2(rays.height, rays.horizontal)
     candidates: dict[str, RadialFunction] = {}
     for name in MODELS:
         kind = radial_kind(name)
