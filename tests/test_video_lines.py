@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -82,4 +83,24 @@ def test_video_options_that_would_be_ignored_are_refused(tmp_path: Path, picture
     not_video.write_bytes(b"not a video at all")
     result = run("fit", "-o", tmp_path / "cam.npz", "--video", not_video)
     assert_one_line_error(result, f"{not_video}", "is not a video panomap can decode")
+    cv2.imwrite(str(tmp_path / "still.png"), pictures[0])
+    result = run("fit", "-o", tmp_path / "cam.npz", "--video", tmp_path / "still.png")
+    assert_one_line_error(result, "still.png", "is a picture, not a video: give it with --image")
+    write_clip(tmp_path / "raw.h264", [pictures[0]] * 4, rate=4, container_format="h264")
+    result = run("fit", "-o", tmp_path / "cam.npz", "--video", tmp_path / "raw.h264")
+    assert_one_line_error(result, "raw.h264", "its header gives no duration")
+    result = run("fit", "-o", tmp_path / "cam.npz", "--video", clip, "--frame-time", "1")
+    assert_one_line_error(result, "--frame-time picks a frame of --image VIDEO", exit_code=2)
     assert not (tmp_path / "cam.npz").exists()
+
+
+def test_frames_are_taken_up_to_the_last_frames_start(tmp_path: Path, pictures: list[np.ndarray]) -> None:
+    """A one-second clip of 4 frames: 8 frames asked for, each decoded (the spans end at the last frame's
+    start, 0.75 s, not at the declared end, 1 s, where no frame starts)."""
+    from panomap.io.images import MAX_IMAGE_PIXELS
+    from panomap.video.sample import sample_frames
+
+    clip = tmp_path / "short.mp4"
+    write_clip(clip, pictures[:1] * 4, rate=4)
+    frames = sample_frames(clip, 8, MAX_IMAGE_PIXELS)
+    assert len(frames) == 8 and max(t for t, _ in frames) < 0.75

@@ -460,6 +460,10 @@ def _fit_lines(
 
     if not images and not videos:
         raise click.UsageError("give LANDMARKS, or --image OMNI to learn the camera from its straight lines")
+    if frame_time is not None and not images:
+        raise click.UsageError(
+            "--frame-time picks a frame of --image VIDEO; --video takes its frames apart in time (--video-frames)"
+        )
     if plot is not None:
         raise click.UsageError("--plot draws landmarks; learning from lines draws with --overlay")
     if model == "paper":

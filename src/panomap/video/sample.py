@@ -8,7 +8,7 @@ from typing import Any
 import av
 
 from ..errors import PanomapError
-from .source import declared_duration_s, first_frame
+from .source import declared_duration_s, first_frame, frame_rate
 
 
 def frame_times(duration_s: float, count: int) -> list[float]:
@@ -29,16 +29,27 @@ def sample_frames(path: str | Path, count: int, max_pixels: int) -> list[tuple[f
     """
     try:
         with av.open(str(path)) as container:
-            if not container.streams.video:
-                raise PanomapError("has no video stream", path)
-            duration = declared_duration_s(container)
+            streams = len(container.streams.video)
+            formats = container.format.name.split(",")
+            duration = declared_duration_s(container) if streams else None
+            rate = frame_rate(container) if streams else 0.0
     except (av.error.FFmpegError, OSError, ValueError):
         raise PanomapError("is not a video panomap can decode", path) from None
+    if not streams:
+        raise PanomapError("has no video stream", path)
+    if any(name.startswith("image") or name.endswith("_pipe") for name in formats):
+        raise PanomapError("is a picture, not a video: give it with --image", path)
     if duration is None or not duration > 0:
         raise PanomapError("its header gives no duration: give its frames with --image and --frame-time", path)
     frames = []
-    for at_s in frame_times(duration, count):
-        frame = first_frame(path, max_pixels, at_s)
+    # The spans cover the frames' start times: the last frame starts one frame before the declared end.
+    for at_s in frame_times(max(duration - 1.0 / rate, 0.0), count):
+        try:
+            frame = first_frame(path, max_pixels, at_s)
+        except PanomapError as exc:
+            if "larger than panomap reads" in exc.detail:
+                raise
+            continue  # a frame the file declares but does not hold (a cut-short file): the others serve
         if frame is not None:
             frames.append((at_s, frame))
     if not frames:
