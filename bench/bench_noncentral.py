@@ -50,18 +50,10 @@ def make_camera(name: str, seed: int) -> Any:
     """The camera ``name`` of the trial ``seed`` (see the module's docstring)."""
     if name == "sphere-big":
         base = standard_cameras(size=(1600, 1600), seed=seed)["spherical"]
-        beta_max = math.radians(25.0)
-        return replace(
-            base, mirror_radius=0.3, camera_distance=0.3, beta_max=beta_max,
-            focal_px=base.outer_radius / math.tan(beta_max),
-        )  # fmt: skip
+        return base.with_mirror(0.3, 0.3, math.radians(25.0))
     if name == "sphere-wide":
         base = standard_cameras(size=(1200, 1200), seed=seed)["spherical"]
-        beta_max = math.radians(15.0)
-        return replace(
-            base, mirror_radius=0.15, camera_distance=0.3, beta_max=beta_max,
-            focal_px=base.outer_radius / math.tan(beta_max),
-        )  # fmt: skip
+        return base.with_mirror(0.15, 0.3, math.radians(15.0))
     cameras = standard_cameras(size=(1200, 1200), seed=seed)
     return cameras["spherical" if name == "sphere" else name]
 

@@ -34,15 +34,8 @@ def big_sphere() -> SphericalMirrorCamera:
     """A spherical mirror of radius 0.3 m, the lens 0.3 m below its apex, 1600 px: its rays leave the axis
     over 53 mm, and a single-viewpoint table is 5-6 px off at a metre."""
     base = standard_cameras(size=(1600, 1600), seed=0)["spherical"]
-    beta_max = math.radians(25.0)
     assert isinstance(base, SphericalMirrorCamera)
-    return replace(
-        base,
-        mirror_radius=0.3,
-        camera_distance=0.3,
-        beta_max=beta_max,
-        focal_px=base.outer_radius / math.tan(beta_max),
-    )
+    return base.with_mirror(0.3, 0.3, math.radians(25.0))
 
 
 def landmarks_of(camera, count: int, distances: tuple[float, float], seed: int, pixel_sigma: float = 0.0,
@@ -192,12 +185,7 @@ def test_a_sphere_seen_to_near_its_grazing_ray_is_fitted_with_its_own_law() -> N
     19.5 deg), from 12 near-exact landmarks at 2-6 m: on these (seed 12; on seed 11 the fisheye law's single
     viewpoint ties and is kept) the default takes the spherical mirror's law with its caustic, within 1.2 px
     at 1, 2 and 4 m (measured 0.97 / 0.41 / 0.14); the single viewpoint is 2.11 / 0.47 / 0.32 px off."""
-    base = standard_cameras(size=(1200, 1200), seed=3)["spherical"]
-    beta_max = math.radians(15.0)
-    camera = replace(
-        base, mirror_radius=0.15, camera_distance=0.3, beta_max=beta_max,
-        focal_px=base.outer_radius / math.tan(beta_max),
-    )  # fmt: skip
+    camera = standard_cameras(size=(1200, 1200), seed=3)["spherical"].with_mirror(0.15, 0.3, math.radians(15.0))
     marks = landmarks_of(camera, 12, (2.0, 6.0), seed=12, pixel_sigma=0.1, world_sigma=0.001)
     sigmas = dict(pixel_sigma=0.1, world_sigma=0.001)
     default, single = fit(camera, marks, "auto", **sigmas), fit(camera, marks, "single", **sigmas)
@@ -249,12 +237,7 @@ def test_a_sphere_of_known_radius_is_fitted_with_its_own_ray_origins(tmp_path: P
     (measured 0.94 / 0.78 / 0.70 px); the single viewpoint, whose laws do not follow this sphere's rim, is
     12.2 / 10.6 / 9.8 px off. A --viewpoint other than auto does not go with it; learning from lines refuses
     it."""
-    base = standard_cameras(size=(1200, 1200), seed=4)["spherical"]
-    beta_max = math.radians(15.0)
-    camera = replace(
-        base, mirror_radius=0.15, camera_distance=0.3, beta_max=beta_max,
-        focal_px=base.outer_radius / math.tan(beta_max),
-    )  # fmt: skip
+    camera = standard_cameras(size=(1200, 1200), seed=4)["spherical"].with_mirror(0.15, 0.3, math.radians(15.0))
     marks = landmarks_of(camera, 12, (2.0, 6.0), seed=21, pixel_sigma=1.0, world_sigma=0.01)
     lines = ["u,v,X,Y,Z"] + [
         f"{u},{v},{x},{y},{z}" for (u, v), (x, y, z) in zip(marks.pixels, marks.world, strict=True)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -150,11 +149,7 @@ def test_the_sphere_law_is_a_traced_spherical_mirror(radius: float, distance: fl
     and follows every ray to 1e-3 px; no law of a single-viewpoint camera follows it that closely."""
     base = standard_cameras((1200, 1200))["spherical"]
     grazing = math.asin(radius / (radius + distance))
-    beta_max = 0.85 * grazing
-    camera = replace(
-        base, mirror_radius=radius, camera_distance=distance, beta_max=beta_max,
-        focal_px=base.outer_radius / math.tan(beta_max),
-    )  # fmt: skip
+    camera = base.with_mirror(radius, distance, 0.85 * grazing)
     r = np.linspace(camera.cutoff_radius, camera.outer_radius, 150)
     _, direction = camera.trace(np.stack([camera.centre[0] + r, np.full_like(r, camera.centre[1])], axis=1))
     rho = np.arctan2(direction[:, 2], np.hypot(direction[:, 0], direction[:, 1]))

@@ -107,6 +107,10 @@ class RadialKind(ABC):
         Automatic selection of a single-viewpoint fit tries the kind. False for a
         law of a mirror without a single viewpoint, which the fit tries with its
         ray origins instead.
+    exact_origins : bool (class)
+        The kind knows its mirror's ray origins (:meth:`axis_heights`): a
+        non-central fit takes them from its coefficients, not from the caustic
+        that f_r implies to first order (:mod:`panomap.camera.viewpoint`).
     """
 
     name: str
@@ -117,6 +121,7 @@ class RadialKind(ABC):
     mirror_law: ClassVar[bool] = False
     lens_law: ClassVar[bool] = False
     auto_candidate: ClassVar[bool] = True
+    exact_origins: ClassVar[bool] = False
 
     @property
     @abstractmethod
@@ -139,6 +144,11 @@ class RadialKind(ABC):
     @abstractmethod
     def fit(self, rho: FloatArray, r: FloatArray, axis: str, weights: FloatArray | None) -> tuple[float, ...]:
         """Least-squares coefficients from landmark (rho, r) pairs, weighted by ``weights`` (1/px) if ``weighted``."""
+
+    def axis_heights(self, coefficients: tuple[float, ...], alpha: FloatArray) -> FloatArray:
+        """Where the rays at ``alpha`` (rad from the pole) meet the axis, in the mirror's own unit, along the
+        axis away from the lens: only for a kind with ``exact_origins``."""
+        raise NotImplementedError(f"radial model {self.name!r} does not know its ray origins")
 
 
 @dataclass(frozen=True)
@@ -312,34 +322,39 @@ class Fisheye(RadialKind):
 # distance over sphere radius) its fit profiles: c -> infinity is an orthographic view of the sphere (equisolid).
 SPHERE_BETA_NODES = 8192
 SPHERE_C_RANGE = (0.02, 200.0)
+# The sphere's ray along its axis meets the axis at its paraxial focus: taken at this small angle (rad).
+SPHERE_PARAXIAL_RAD = 1e-4
 
 
-def sphere_alpha(beta: FloatArray, c: float) -> FloatArray:
-    """Angle (rad) from the pole (straight back at the lens) of the reflection of the camera ray at ``beta``
-    (rad from the axis) off a sphere of radius 1 whose apex is ``c`` above the pinhole; NaN beyond the grazing
-    ray. The sphere's centre is at height ``1 + c`` above the pinhole: the ray meets it at
-    ``t = (1 + c) cos(beta) - sqrt(1 - ((1 + c) sin(beta))^2)``, the normal is the radius there."""
+def sphere_reflection(beta: FloatArray, c: float) -> tuple[FloatArray, ...]:
+    """The camera ray at ``beta`` (rad from the axis) reflected off a sphere of radius 1 whose apex is ``c``
+    above the pinhole, in the ray's half-plane: the hit point ``x`` (from the axis) and ``z`` (above the apex)
+    and the reflected unit direction ``dx, dz``; NaN beyond the grazing ray. The ray meets the sphere (centre
+    ``1 + c`` above the pinhole) at ``t = (1 + c) cos(beta) - sqrt(1 - ((1 + c) sin(beta))^2)``; the normal
+    is the radius there."""
     big = 1.0 + c
     sb, cb = np.sin(beta), np.cos(beta)
     with np.errstate(invalid="ignore"):
         t = big * cb - np.sqrt(1.0 - (big * sb) ** 2)
-    nx, nz = t * sb, t * cb - big  # the unit normal: the hit point less the centre
+    x, z = t * sb, t * cb - c
+    nx, nz = x, z - 1.0  # the unit normal: the hit point less the centre
     dn = sb * nx + cb * nz
-    return np.asarray(np.arctan2(cb - 2.0 * dn * nz, sb - 2.0 * dn * nx) + HALF_PI, dtype=np.float64)
+    return x, z, sb - 2.0 * dn * nx, cb - 2.0 * dn * nz
+
+
+def sphere_alpha(beta: FloatArray, c: float) -> FloatArray:
+    """Angle (rad) from the pole (straight back at the lens) of the reflection of the camera ray at ``beta``
+    (rad from the axis) off the sphere of :func:`sphere_reflection`; NaN beyond the grazing ray."""
+    _, _, dx, dz = sphere_reflection(beta, c)
+    return np.asarray(np.arctan2(dz, dx) + HALF_PI, dtype=np.float64)
 
 
 def sphere_axis_height(beta: FloatArray, c: float) -> FloatArray:
     """Height (sphere radii, above the apex, along the axis away from the lens) where the reflection of the
-    camera ray at ``beta`` (rad, > 0) off the sphere of :func:`sphere_alpha` meets the axis: the mirror's exact
-    ray origin, which :mod:`panomap.camera.viewpoint` holds for the ``sphere`` law."""
-    big = 1.0 + c
-    sb, cb = np.sin(beta), np.cos(beta)
+    camera ray at ``beta`` (rad, > 0) off the sphere of :func:`sphere_reflection` meets the axis: the mirror's
+    exact ray origin (:meth:`Sphere.axis_heights`)."""
+    x, z, dx, dz = sphere_reflection(beta, c)
     with np.errstate(invalid="ignore", divide="ignore"):
-        t = big * cb - np.sqrt(1.0 - (big * sb) ** 2)
-        x, z = t * sb, t * cb - c
-        nx, nz = x, z - 1.0
-        dn = sb * nx + cb * nz
-        dx, dz = sb - 2.0 * dn * nx, cb - 2.0 * dn * nz
         return np.asarray(z - x * dz / dx, dtype=np.float64)
 
 
@@ -377,10 +392,17 @@ class Sphere(RadialKind):
     """A pinhole on the axis of a spherical mirror, ``r = f tan(beta(alpha; c))`` (:func:`sphere_alpha`)."""
 
     auto_candidate: ClassVar[bool] = False
+    exact_origins: ClassVar[bool] = True
 
     @property
     def parameters(self) -> tuple[str, ...]:
         return ("f", "c")
+
+    def axis_heights(self, coefficients: tuple[float, ...], alpha: FloatArray) -> FloatArray:
+        """Sphere radii above the apex (:func:`sphere_axis_height`); the ray along the axis at its paraxial
+        limit (``SPHERE_PARAXIAL_RAD``)."""
+        c = coefficients[1]
+        return sphere_axis_height(np.maximum(sphere_beta(alpha, c), SPHERE_PARAXIAL_RAD), c)
 
     def evaluate(self, coefficients: tuple[float, ...], rho: FloatArray, axis: str) -> FloatArray:
         f, c = coefficients

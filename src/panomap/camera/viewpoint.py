@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike
 from ..errors import PanomapError
 from ..geometry import HALF_PI, FloatArray
 from .radial import RadialFunction
-from .radial_models import alpha_of_rho, rho_of_alpha, sphere_axis_height, sphere_beta
+from .radial_models import alpha_of_rho, rho_of_alpha
 
 # Newton steps of :meth:`Viewpoint.elevation_of_point`: z moves by centimetres over a radian, so each step
 # gains a factor of about |z'| / distance (1e-2 at a centimetre's spread seen from a metre); six are rounding.
@@ -46,8 +46,6 @@ NEWTON_STEPS = 6
 # Nodes of a viewpoint's z(rho), and of the grid the caustic's integral is taken on.
 VIEWPOINT_NODES = 181
 CAUSTIC_GRID = 1024
-# The sphere's ray along its axis meets the axis at its paraxial focus: taken at this small angle (rad).
-SPHERE_PARAXIAL_RAD = 1e-4
 # Most nodes a table file's viewpoint may hold.
 MAX_VIEWPOINT_NODES = 4096
 
@@ -159,17 +157,16 @@ class Viewpoint:
 
 def caustic_shape(radial: RadialFunction, rho: ArrayLike) -> FloatArray:
     """h (px) of the caustic of a mirror of revolution with radial function ``radial`` (see the module's
-    docstring), at camera elevations ``rho`` (rad, (...)): ``z = k_0 + k_1 h`` are its ray origins. For the
-    spherical mirror's law (``sphere``) h is exact, in sphere radii (:func:`sphere_axis_height`).
+    docstring), at camera elevations ``rho`` (rad, (...)): ``z = k_0 + k_1 h`` are its ray origins. A kind
+    that knows its ray origins (``exact_origins``: the spherical mirror's law) gives them itself, exact, in
+    its own unit (sphere radii).
 
     The integral runs from the pole the image centre sees (alpha = 0) on ``CAUSTIC_GRID`` steps of alpha;
     NaN where alpha is not in (0, pi).
     """
     alpha = alpha_of_rho(rho, radial.axis)
-    if radial.kind == "sphere":
-        c = radial.coefficients[1]
-        beta = np.maximum(sphere_beta(alpha, c), SPHERE_PARAXIAL_RAD)
-        return np.asarray(sphere_axis_height(beta, c), dtype=np.float64)
+    if radial.spec.exact_origins:
+        return np.asarray(radial.spec.axis_heights(radial.coefficients, alpha), dtype=np.float64)
     finite = alpha[np.isfinite(alpha)]
     top = float(np.max(finite)) if finite.size else 0.0
     if not 0.0 < top < math.pi:

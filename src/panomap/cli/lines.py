@@ -91,16 +91,17 @@ def _with_frames(
     from ..video.unwarp import machine_memory
 
     pictures, labels = list(omnis), list(names)
+    taken: dict[Path, range] = {}
     for video in videos:
-        for at_s, frame in sample_frames(video, count, MAX_IMAGE_PIXELS):
-            pictures.append(frame)
-            labels.append(f"{video} at {at_s:.2f} s")
+        frames = sample_frames(video, count, MAX_IMAGE_PIXELS)
+        taken[video] = range(len(pictures), len(pictures) + len(frames))
+        pictures += [frame for _, frame in frames]
+        labels += [f"{video} at {at_s:.2f} s" for at_s, _ in frames]
     kept = distinct_views(pictures)
-    for video in videos:
-        taken = [k for k, label in enumerate(labels) if str(label).startswith(f"{video} at ")]
-        views = sum(k in kept for k in taken)
+    for video, indices in taken.items():
+        views = len(set(indices) & set(kept))
         click.echo(
-            f"panomap: note: {video}: {len(taken)} frames taken, {views} showing a view no earlier picture shows "
+            f"panomap: note: {video}: {len(indices)} frames taken, {views} showing a view no earlier picture shows "
             "(the others' lines would count twice)",
             err=True,
         )

@@ -22,7 +22,7 @@ results (a pixel outside the visible annulus, a point the camera does not see) a
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -594,6 +594,15 @@ class SphericalMirrorCamera:
         if not np.all(np.diff(self.elevation_of_beta(betas)) > 0):
             raise PanomapError("reflected elevation is not increasing over [beta_min, beta_max]")
         object.__setattr__(self, "viewpoint_offset", self._fit_viewpoint(betas))
+
+    def with_mirror(self, mirror_radius: float, camera_distance: float, beta_max: float) -> SphericalMirrorCamera:
+        """The same camera (image, centre, handedness, cut-off) with another sphere ``mirror_radius`` (m),
+        ``camera_distance`` (m) below the lens, seen to ``beta_max`` (rad) off the axis: the focal length set so
+        that the mirror's rim stays on the image circle (``outer_radius``)."""
+        return replace(
+            self, mirror_radius=mirror_radius, camera_distance=camera_distance, beta_max=beta_max,
+            focal_px=self.outer_radius / math.tan(beta_max),
+        )  # fmt: skip
 
     # -- ray geometry in the vertical plane through the axis -----------------------------
 

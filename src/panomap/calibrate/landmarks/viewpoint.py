@@ -40,11 +40,11 @@ VIEWPOINT_MODES = ("auto", "single", "caustic")
 # A non-central camera is kept where its held-out RMS is at most this fraction of the single viewpoint's: at 0.9,
 # random landmark layouts of single-viewpoint mirrors chose it by chance (bench_fit: parabolic 1.89 -> 3.14 px).
 VIEWPOINT_GAIN = 0.75
-# The spherical mirror's law (camera/radial_models), tried with its caustic whatever kind the single viewpoint
-# chose, and the fraction of the single viewpoint's held-out RMS its own must reach to be chosen: nearer 1 than
-# VIEWPOINT_GAIN, as the law fits no single-viewpoint mirror (held out on simulated parabolic and hyperbolic
-# mirrors, its RMS was 1.4-7 times the single viewpoint's), but not 1: the caustic's size is loosely pinned, and
-# where the two tie, the single viewpoint is as often the better (bench/bench_noncentral.py).
+# The spherical mirror's law (camera/radial_models), which knows its ray origins and is tried with them whatever
+# kind the single viewpoint chose; and the fraction of the single viewpoint's held-out RMS such a law's must reach
+# to be chosen: nearer 1 than VIEWPOINT_GAIN, as the law fits no single-viewpoint mirror (held out on simulated
+# parabolic and hyperbolic mirrors, its RMS was 1.4-7 times the single viewpoint's), but not 1: the caustic's size
+# is loosely pinned, and where the two tie, the single viewpoint is as often the better (bench/bench_noncentral.py).
 SPHERE_KIND = "sphere"
 SPHERE_GAIN = 0.9
 # Fewer inliers than the unknowns plus this leave too little to hold out: the camera stays single-viewpoint.
@@ -256,13 +256,12 @@ def fit_viewpoint(
         return shape, h, mean, float(np.ptp(h[inside])) if np.any(inside) else float(np.ptp(h))
 
     # The caustic's shape h from the starting f_r, held: a radial kind that bends near the rim would otherwise
-    # trade its shape against the caustic's size (2-3 times the true spread, on simulated spheres). The
-    # spherical mirror's law is the mirror itself: its shape follows its coefficients.
-    own_shape = start.kind == SPHERE_KIND
-    held = caustic_of(start if shape_from is None else shape_from)
+    # trade its shape against the caustic's size (2-3 times the true spread, on simulated spheres). A kind that
+    # knows its ray origins (the spherical mirror's law) is the mirror itself: its shape follows its coefficients.
+    held = None if spec.exact_origins else caustic_of(start if shape_from is None else shape_from)
 
     def camera_and_spread(x: FloatArray) -> tuple[ViewpointFit, float]:
-        shape, h, mean, unit_spread = caustic_of(radial_of(x)) if own_shape else held
+        shape, h, mean, unit_spread = caustic_of(radial_of(x)) if held is None else held
         k = float(x[count]) if size is None else size
         offsets = k * (h - mean)
         fitted = ViewpointFit(radial_of(x), Viewpoint(shape.elevations_rad, tuple(offsets.tolist())))
@@ -275,13 +274,13 @@ def fit_viewpoint(
         try:
             fitted, spread = camera_and_spread(x)
         except PanomapError:
-            return np.full(rays.r.size + 1, 1e6)
+            return np.full(rays.r.size + (size is None), 1e6)
         assert fitted.viewpoint is not None
         rho = fitted.viewpoint.elevation_of_point(rays.horizontal, rays.height)
         return np.append(whitened(x, rho), spread / spread_sigma) if size is None else whitened(x, rho)
 
     if size is not None:
-        solution = least_squares(lambda x: residuals(x)[: rays.r.size], x0, x_scale="jac", max_nfev=100 * x0.size)
+        solution = least_squares(residuals, x0, x_scale="jac", max_nfev=100 * x0.size)
         try:
             return camera(solution.x)
         except PanomapError as exc:
@@ -365,10 +364,10 @@ def choose_viewpoint(
         size = sphere.radius if start.axis == "down" else -sphere.radius  # the origins run away from the lens
         scores = {
             SINGLE: held_out_rms(rays, start, False),
-            f"{CAUSTIC} (sphere of the radius given)": held_out_rms(rays, law, True, law, size),
+            f"{CAUSTIC} (sphere of the radius given)": held_out_rms(rays, law, True, size=size),
         }
         finite = {name: score for name, score in scores.items() if math.isfinite(score)}
-        return ViewpointChoice(fit_viewpoint(rays, law, True, law, size), finite)
+        return ViewpointChoice(fit_viewpoint(rays, law, True, size=size), finite)
     if not start.spec.weighted or rays.r.size < len(start.coefficients) + 2 + SPARE_LANDMARKS:
         return ViewpointChoice(None, {})
     held_out = {SINGLE: held_out_rms(rays, start, False)}
@@ -377,14 +376,13 @@ def choose_viewpoint(
         kind = radial_kind(name)
         own = name == start.kind
         forced_kind = forced and kind.weighted and kind.parameter_count <= CAUSTIC_KIND_PARAMETERS
-        if not (own or name == SPHERE_KIND or forced_kind):
+        if not (own or kind.exact_origins or forced_kind):
             continue
         try:
             candidates[name] = start if own else fit_radial(name, straight, rays.r, start.axis, 1.0 / rays.sigma)
         except PanomapError:
             continue
-        shape = candidates[name] if name == SPHERE_KIND else start
-        score = held_out_rms(rays, candidates[name], True, shape)
+        score = held_out_rms(rays, candidates[name], True, start)
         if math.isfinite(score):
             held_out[f"{CAUSTIC} ({name})"] = score
         else:  # a fold it could not fit: not a candidate (the report holds finite scores only)
@@ -392,7 +390,7 @@ def choose_viewpoint(
 
     def gain(name: str) -> float:
         """The candidate's held-out RMS over what it must reach to be chosen (at most 1)."""
-        needed = SPHERE_GAIN if name == SPHERE_KIND else VIEWPOINT_GAIN
+        needed = SPHERE_GAIN if radial_kind(name).exact_origins else VIEWPOINT_GAIN
         return held_out[f"{CAUSTIC} ({name})"] / (needed * held_out[SINGLE])
 
     eligible = [name for name in candidates if forced or gain(name) <= 1.0]
@@ -400,8 +398,7 @@ def choose_viewpoint(
     if best is None:
         return ViewpointChoice(None, held_out)
     try:
-        shape = candidates[best] if best == SPHERE_KIND else start
-        return ViewpointChoice(fit_viewpoint(rays, candidates[best], True, shape), held_out)
+        return ViewpointChoice(fit_viewpoint(rays, candidates[best], True, start), held_out)
     except PanomapError:
         return ViewpointChoice(None, held_out)
 
