@@ -292,7 +292,7 @@ def fit(
         raise click.UsageError("--frame-time picks a frame of --image: give --image VIDEO too")
     mirror = _mirror_kind(viewpoint, sphere_radius)
     omni = None if image is None else read_omni(image, frame_time)
-    if omni is not None and use_lines and mirror != "single viewpoint":
+    if omni is not None and use_lines and mirror is not None:
         click.echo(f"panomap: note: the image's lines do not join {mirror}: the landmarks alone fit it", err=True)
     if image is not None:
         warn_orientation(image)
@@ -321,7 +321,7 @@ def fit(
             reject_outliers=not keep_outliers,
             tilt_deg=tilt,
             camera_sigma=camera_sigma,
-            lines=use_lines and omni is not None and mirror == "single viewpoint",
+            lines=use_lines and omni is not None and mirror is None,
             viewpoint=viewpoint if sphere_radius is None else SphericalMirror(sphere_radius),
         )
     except PanomapError as exc:
@@ -342,16 +342,16 @@ LANDMARK_ONLY = (
 )  # fmt: skip
 
 
-def _mirror_kind(viewpoint: str, sphere_radius: float | None) -> str:
-    """What the landmark fit is asked to fit, in words: "single viewpoint" unless the ray origins are (usage
-    error, exit 2, where --sphere-radius and a --viewpoint other than auto are both given)."""
+def _mirror_kind(viewpoint: str, sphere_radius: float | None) -> str | None:
+    """The ray origins the landmark fit is asked to fit, in words; None for a single viewpoint or its automatic
+    choice (usage error, exit 2, where --sphere-radius and a --viewpoint other than auto are both given)."""
     if sphere_radius is not None:
         if viewpoint != "auto":
             raise click.UsageError(
                 f"--sphere-radius fits the sphere's ray origins: --viewpoint {viewpoint} does not go with it"
             )
         return "a spherical mirror's ray origins (--sphere-radius)"
-    return "the fitted ray origins (--viewpoint caustic)" if viewpoint == "caustic" else "single viewpoint"
+    return "the fitted ray origins (--viewpoint caustic)" if viewpoint == "caustic" else None
 
 
 def _refuse_landmark_options(context: click.Context) -> None:
