@@ -36,6 +36,7 @@ from ...camera.radial import RadialFunction
 from ...errors import PanomapError
 from ...geometry import FloatArray
 from .rays import InverseRadial
+from .stretch import OBLIQUE_MIN_DEG, obliqueness_deg
 
 # Another camera is ruled out when it leaves the lines (and right angles), unit by unit, less explained than the
 # chosen one at this one-sided significance.
@@ -80,12 +81,16 @@ class PinnedBand:
         The farthest alternative's distance there (px).
     farthest : str
         Which alternative that is, at the ring where the band is widest.
+    oblique_deg : float
+        The most oblique family of lines at right angles to another (:func:`.stretch.obliqueness_deg`, deg); NaN
+        without such families.
     """
 
     alpha_deg: FloatArray
     jackknife_se_px: FloatArray
     alternative_px: FloatArray
     farthest: str
+    oblique_deg: float = math.nan
 
     def se_px(self, jacobian_se_px: FloatArray) -> FloatArray:
         """The honest standard error (px) at the rings, with the Jacobian's ``jacobian_se_px`` (m,): the 95% band
@@ -101,18 +106,34 @@ class PinnedBand:
         if not band.size:
             return None
         worst = int(np.argmax(band))
-        p90 = float(np.percentile(band, BAND_QUANTILE))
+        with np.errstate(invalid="ignore"):  # a ring an alternative does not reach is inf: so is the percentile
+            p90 = float(np.percentile(band, BAND_QUANTILE))
         if band[worst] <= MAX_BAND_PX and p90 <= P90_BAND_PX:
             return None
-        return (
+        at_deg = float(self.alpha_deg[judged][worst])
+        spread = (
+            f"differ by up to {band[worst]:.1f} px at {at_deg:.0f} deg from the axis"
+            if np.isfinite(band[worst])
+            else f"disagree at {at_deg:.0f} deg from the axis, where one of them sees no ray at all"
+        )
+        head = (
             f"{'the picture does' if pictures == 1 else f'the {pictures} pictures do'} not pin the camera: cameras "
             f"that explain {'its' if pictures == 1 else 'their'} {lines} straight lines about equally "
-            f"well ({self.farthest}, the lines in folds) differ by up to {band[worst]:.1f} px at "
-            f"{self.alpha_deg[judged][worst]:.0f} deg from the axis (a table needs its 95% band within "
-            f"{P90_BAND_PX:.0f} px at {BAND_QUANTILE:.0f}% of the rings and {MAX_BAND_PX:.0f} px at all): give "
-            "more pictures (--image repeated) or one with long straight edges of the room's three directions "
-            "(walls' corners, floor and ceiling edges, door and window frames) across the whole image circle, or "
-            "a checkerboard"
+            f"well ({self.farthest}, the lines in folds) {spread} (a table needs its 95% band within "
+            f"{P90_BAND_PX:.0f} px at {BAND_QUANTILE:.0f}% of the rings and {MAX_BAND_PX:.0f} px at all)"
+        )
+        if self.oblique_deg < OBLIQUE_MIN_DEG:
+            return (
+                f"{head}; {'its' if pictures == 1 else 'their'} lines run along and across the camera's axis (every "
+                f"direction within {self.oblique_deg:.0f} deg), where a camera stretched along its axis keeps them "
+                "straight and their right angles square, so more such pictures cannot pin it: give a checkerboard "
+                "(a few pictures, near and far) or pictures with the camera turned 30-60 deg from the room's "
+                "vertical"
+            )
+        return (
+            f"{head}: give more pictures (--image repeated) or one with long straight edges of the room's three "
+            "directions (walls' corners, floor and ceiling edges, door and window frames) across the whole image "
+            "circle, or a checkerboard"
         )
 
 
@@ -185,10 +206,16 @@ def _rays(centre: FloatArray, alpha: FloatArray, pixels: FloatArray) -> FloatArr
 
 
 def pinned_band(
-    chosen: Camera, alternatives: Sequence[Camera], folds: Sequence[FloatArray], axis: str, alpha: FloatArray
+    chosen: Camera,
+    alternatives: Sequence[Camera],
+    folds: Sequence[FloatArray],
+    axis: str,
+    alpha: FloatArray,
+    directions: FloatArray | None = None,
 ) -> PinnedBand:
     """The band's parts at rings ``alpha`` (rad): the folds' grouped jackknife (``folds``: the chosen kind's
-    parameters fitted without each fold) and the farthest of ``alternatives``."""
+    parameters fitted without each fold) and the farthest of ``alternatives``; with the ``directions`` (k, 3) of
+    the families at right angles to another, under the chosen camera, how oblique the most oblique is."""
     if folds:
         d = np.array([displacement_px(chosen, Camera(chosen.kind, f, "fold"), axis, alpha) for f in folds])
         k = len(folds)
@@ -201,4 +228,5 @@ def pinned_band(
         distances = np.array([displacement_px(chosen, other, axis, alpha) for other in alternatives])
         far = distances.max(axis=0)
         farthest = alternatives[int(np.argmax(distances.max(axis=1)))].source
-    return PinnedBand(np.degrees(alpha), jackknife, far, farthest)
+    oblique = float(obliqueness_deg(directions).max()) if directions is not None and len(directions) else math.nan
+    return PinnedBand(np.degrees(alpha), jackknife, far, farthest, oblique)

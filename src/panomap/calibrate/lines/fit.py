@@ -37,7 +37,7 @@ from ..core.line_report import FittedLine, LineFitReport, RejectedArc, empty_ban
 from .agreement import Camera, PinnedBand, pinned_band, ring_alphas, ruled_out
 from .angles import annulus_deg, default_handedness
 from .arcs import EdgeArc
-from .families import Family, find_families, orthogonal_pairs
+from .families import Family, common_direction, find_families, orthogonal_pairs
 from .objective import LineData, evaluate, orthogonality_residuals, residuals
 from .orientation import level_rotation, zero_azimuth
 from .rays import InverseRadial
@@ -699,7 +699,11 @@ def _result(
         handedness_source="given" if options.s is not None else ("mirror" if circles.cutoff is not None else "lens"),
     )
     reach_alpha = _reach_alpha(radial, circles, r_max, float(np.max(np.arccos(np.clip(trial.rays.d[:, 2], -1.0, 1.0)))))
-    band = pinned_band(Camera(kind, params, "chosen"), alternatives, folds, axis, ring_alphas(reach_alpha))
+    # The right angles' families, as this camera sees them: only they can measure the stretch (:mod:`.stretch`).
+    seen = [Family(f.members, f.image_index, common_direction(trial.normals[f.members])) for f in families]
+    squared = sorted({k for pair in orthogonal_pairs(seen) for k in pair})
+    directions = np.array([seen[k].direction for k in squared]).reshape(-1, 3)
+    band = pinned_band(Camera(kind, params, "chosen"), alternatives, folds, axis, ring_alphas(reach_alpha), directions)
     return LineFit(model, covariance, report, band)
 
 
@@ -763,8 +767,6 @@ def _covariance(
 
 def _vertical(families: list[Family], normals: FloatArray) -> tuple[FloatArray, int] | None:
     """The direction of the most-populated family within ``VERTICAL_WITHIN_DEG`` of the axis, and its line count."""
-    from .families import common_direction
-
     best: tuple[FloatArray, int] | None = None
     for family in families:
         direction = common_direction(normals[family.members])
