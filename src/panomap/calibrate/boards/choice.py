@@ -11,7 +11,9 @@ camera (each line's plane refitted, the camera held); each RMS over that fit's o
 summed: ``(corners RMS / corner noise)^2 + (lines RMS / line noise)^2`` (lines beyond the radius the boards'
 camera reaches are not tested). The boards' camera is kept unless the lines' sum is ``LINES_MARGIN`` times
 lower. With ``TRUSTED_BOARDS`` boards or more the boards are kept without the line fit: spread boards
-pin the radius everywhere they are held, and the line fit of many images is slow.
+pin the radius everywhere they are held, and the line fit of many images is slow. Boards that all face the
+camera's axis pin no scale (:mod:`..lines.stretch`): their camera is not taken, and where the lines cannot
+pin it either, the command says what the boards lack.
 """
 
 from __future__ import annotations
@@ -90,6 +92,10 @@ def learn_camera(
         except PanomapError as exc:
             board_fit = None
             notes.append(f"the checkerboards gave no camera ({exc.detail}); learning from the lines instead")
+    flat = board_fit.refusal() if board_fit is not None else None  # boards that all face the axis
+    if flat is not None:
+        notes.append(f"{flat}; learning from the lines instead")
+        board_fit = None
     if board_fit is not None and (board_fit.report.boards >= TRUSTED_BOARDS or not arcs):
         return LearnedCamera(board_fit, "checkerboards", board_arcs(boards), notes)
     say("fitting the camera to the lines")
@@ -99,6 +105,8 @@ def learn_camera(
         if refusal is not None:  # the picture cannot stand behind the lines' camera (lines.agreement)
             raise PanomapError(refusal)
     except PanomapError:
+        if flat is not None:  # what the user's boards lack says more than what the lines lack
+            raise PanomapError(flat) from None
         if board_fit is None:
             raise
         return LearnedCamera(board_fit, "checkerboards", board_arcs(boards), notes)

@@ -243,6 +243,12 @@ def board_points(poses: FloatArray, boards: Sequence[Board]) -> FloatArray:
     return np.concatenate(out)
 
 
+def board_axis_deg(poses: FloatArray) -> FloatArray:
+    """Each board's (poses (B, 6)) normal's angle (deg) from the camera's axis, 0-90."""
+    normals = Rotation.from_rotvec(np.asarray(poses)[:, :3]).apply([0.0, 0.0, 1.0])
+    return np.asarray(np.degrees(np.arccos(np.clip(np.abs(normals[:, 2]), 0.0, 1.0))), dtype=np.float64)
+
+
 def residuals_under(kind: str, axis: str, params: FloatArray, poses: FloatArray, boards: Sequence[Board]) -> FloatArray:
     """The corners' residuals (2N,) px, u and v interleaved, under the camera ``params`` with ``poses`` (6B,)."""
     observed = np.concatenate([b.pixels for b in boards])
@@ -511,6 +517,7 @@ def _result(
         boards=len(boards),
         corners=int(n),
         corner_rms_px=float(np.sqrt(np.mean(fit.residuals_px**2))),
+        board_axis_deg=tuple(float(a) for a in board_axis_deg(fit.poses)),
     )
     return LineFit(model, np.asarray(covariance[2:count, 2:count], dtype=np.float64), report)
 

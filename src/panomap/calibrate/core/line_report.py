@@ -124,6 +124,9 @@ class LineFitReport:
         ``lines`` are then the boards' rows and columns, each with its corners' residuals.
     corner_rms_px : float
         RMS distance (px) of the corners from their projection (boards only).
+    board_axis_deg : tuple of float
+        Each board's face: the angle (deg) of its normal from the camera's axis (boards only; 0: flat under a
+        camera looking down or up, square before one looking ahead).
     """
 
     model: str
@@ -140,6 +143,7 @@ class LineFitReport:
     boards: int = 0
     corners: int = 0
     corner_rms_px: float = 0.0
+    board_axis_deg: tuple[float, ...] = ()
 
     @property
     def rms_px(self) -> float:
@@ -188,6 +192,7 @@ class LineFitReport:
             "boards": self.boards,
             "corners": self.corners,
             "corner_rms_px": self.corner_rms_px,
+            "board_axis_deg": list(self.board_axis_deg),
             "model": self.model,
             "sigma_px": self.sigma_px,
             "lines": [line.to_dict() for line in self.lines],
@@ -222,6 +227,7 @@ class LineFitReport:
                 boards=int(data.get("boards", 0)),
                 corners=int(data.get("corners", 0)),
                 corner_rms_px=float(data.get("corner_rms_px", 0.0)),
+                board_axis_deg=tuple(float(a) for a in data.get("board_axis_deg", ())),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise PanomapError(f"the line fit report is malformed ({exc})") from None

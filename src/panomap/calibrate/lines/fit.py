@@ -41,6 +41,7 @@ from .families import Family, common_direction, find_families, orthogonal_pairs
 from .objective import LineData, evaluate, orthogonality_residuals, residuals
 from .orientation import level_rotation, zero_azimuth
 from .rays import InverseRadial
+from .stretch import FLAT_BOARD_DEG
 
 # Fewest lines a fit needs, and fewest of them with a family orthogonal to another (the scale).
 MIN_LINES = 8
@@ -139,7 +140,17 @@ class LineFit:
         return radius_standard_error(self.model.radial, self.covariance, rho_of_alpha(alpha, self.model.axis))
 
     def refusal(self) -> str | None:
-        """Why the picture cannot stand behind this camera (:mod:`.agreement`), in one sentence; None where it can."""
+        """Why the picture cannot stand behind this camera (:mod:`.agreement`; boards that all face the axis,
+        :mod:`.stretch`), in one sentence; None where it can."""
+        facing = self.report.board_axis_deg
+        if self.report.boards and facing and max(facing) < FLAT_BOARD_DEG:
+            return (
+                f"the {'checkerboard faces' if len(facing) == 1 else 'checkerboards all face'} the camera's axis "
+                f"(within {max(facing):.0f} deg: flat under a camera looking down or up, or square before one "
+                "looking ahead), and a camera stretched along its axis sees such boards as the same squares, so "
+                "they cannot pin the scale of its elevations: hold the board tilted 30-60 deg from that in some "
+                "of the pictures"
+            )
         if self.band is None:
             return None
         pictures = len({line.image_index for line in self.report.lines})
