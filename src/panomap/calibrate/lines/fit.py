@@ -146,7 +146,7 @@ class LineFit:
         if self.report.boards and facing and max(facing) < FLAT_BOARD_DEG:
             return (
                 f"the {'checkerboard faces' if len(facing) == 1 else 'checkerboards all face'} the camera's axis "
-                f"(within {max(facing):.0f} deg: flat under a camera looking down or up, or square before one "
+                f"(within {max(facing):.1f} deg: flat under a camera looking down or up, or square before one "
                 "looking ahead), and a camera stretched along its axis sees such boards as the same squares, so "
                 "they cannot pin the scale of its elevations: hold the board tilted 30-60 deg from that in some "
                 "of the pictures"

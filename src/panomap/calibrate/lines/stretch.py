@@ -30,10 +30,10 @@ import numpy as np
 
 from ...geometry import FloatArray
 
-#: A family of lines whose direction is within this of the axis or of square to it (deg) says almost nothing
-#: about the stretch: a pair's angle turns by ``sin(2 a) / 2 (1 - s^2)`` rad, a tenth of its oblique value at 3 deg.
+#: A family of lines whose direction is within this of the axis or of square to it (deg) says little about the
+#: stretch: a pair's angle turns by about ``sin(2 a) (1 - s^2) / 2`` rad, half its value at 45 deg here, a tenth at
+#: 3 deg (a level camera's room).
 OBLIQUE_MIN_DEG = 15.0
-
 
 #: Boards that all face the axis within this (deg) cannot pin the stretch: a mount's tilt of 1-3 deg and a hand's
 #: wobble, where a 5% stretch changes a square's sides by under 0.04% (rendered flat boards under a fisheye tilted
