@@ -127,8 +127,7 @@ class PinnedBand:
                 f"{head}; {'its' if pictures == 1 else 'their'} lines run along and across the camera's axis (every "
                 f"direction within {self.oblique_deg:.1f} deg), where a camera stretched along its axis keeps them "
                 "straight and their right angles square, so more such pictures cannot pin it: give a checkerboard "
-                "(a few pictures, near and far) or pictures with the camera turned 30-60 deg from the room's "
-                "vertical"
+                "held tilted, in a few pictures, near and far"
             )
         return (
             f"{head}: give more pictures (--image repeated) or one with long straight edges of the room's three "
