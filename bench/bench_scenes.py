@@ -433,7 +433,10 @@ def table_row(o: Outcome) -> str:
     if not o.accepted:
         reason = re.sub(r"^panomap: error: (\S+: )?", "", o.detail)
         band = re.search(r"differ by up to ([0-9.]+ px at [0-9]+ deg)", reason)
+        along = re.search(r"along and across the camera's axis \(every direction within ([0-9.]+ deg)\)", reason)
         reason = f"does not pin the camera (band {band.group(1)})" if band else reason[:110]
+        if along:
+            reason += f"; its lines along and across the axis (within {along.group(1)})"
         if o.agreement is not None:
             reason += f"; the camera refused lay p90 {o.agreement.p90_px:.1f} / max {o.agreement.max_px:.1f} px off"
         return f"| {o.name} | refused | | | | | {o.seconds:.1f} | {reason} |"
@@ -590,6 +593,8 @@ def main() -> None:
         if not o.accepted and o.agreement and o.agreement.p90_px <= GOAL_P90_PX and o.agreement.max_px <= GOAL_MAX_PX
     ]
     print(f"\nrefused though the camera it would have written was within the goal: {len(lost)}")
+    along = [o for o in outcomes if "along and across the camera's axis" in o.detail]
+    print(f"refused with the lines along and across the camera's axis (the stretch, bench_line_floor.py): {len(along)}")
     print(
         f"\n{len(accepted)} of {len(outcomes)} accepted, {len(good)} of them within the goal "
         f"({len(accepted) - len(good)} accepted beyond it); time median "
