@@ -9,6 +9,7 @@ rotation of the frame (what boards cannot know: the azimuth origin, the handedne
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -189,6 +190,7 @@ def test_cli_learns_the_camera_from_rendered_boards(rendered_boards, tmp_path) -
     assert result.exit_code == 0, result.output
     assert "camera learned from checkerboards" in result.output
     assert "learned from 4 checkerboards" in result.output
+    assert re.search(r"boards' faces \d+-\d+ deg from the camera's axis", result.output), result.output
     model = load_table(table_path).model
     errors = pixel_errors(model, camera, step=4)
     assert np.percentile(errors, 90) < 2.0

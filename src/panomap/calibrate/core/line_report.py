@@ -183,6 +183,11 @@ class LineFitReport:
             if self.vertical_lines
             else "tilt: no vertical lines (boards do not show the vertical); the camera is taken as level",
         ]
+        if self.board_axis_deg:
+            out.append(
+                f"boards' faces {min(self.board_axis_deg):.0f}-{max(self.board_axis_deg):.0f} deg from the camera's "
+                "axis (0: flat under it or square before it; boards that all face it pin no scale)"
+            )
         out += [f"set aside: {arc.reason}" for arc in self.rejected]
         out += [band_sentence(band) for band in self.empty_bands_deg]
         return out
