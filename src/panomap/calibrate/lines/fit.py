@@ -667,7 +667,8 @@ def _result(
     )
     covariance = _covariance(kind, axis, params, data, families, outer, sigma)
     s = options.s if options.s is not None else default_handedness(circles.cutoff is not None, axis)
-    vertical = _vertical(families, trial.normals)
+    seen = _seen(families, trial.normals)
+    vertical = _vertical(seen)
     rotation = None if vertical is None else level_rotation(vertical[0], axis, s)
     model = CameraModel(
         (float(params[0]), float(params[1])), radial, s, 0.0, None if rotation is None else tuple(map(tuple, rotation))
@@ -711,7 +712,6 @@ def _result(
     )
     reach_alpha = _reach_alpha(radial, circles, r_max, float(np.max(np.arccos(np.clip(trial.rays.d[:, 2], -1.0, 1.0)))))
     # The right angles' families, as this camera sees them: only they can measure the stretch (:mod:`.stretch`).
-    seen = [Family(f.members, f.image_index, common_direction(trial.normals[f.members])) for f in families]
     squared = sorted({k for pair in orthogonal_pairs(seen) for k in pair})
     directions = np.array([seen[k].direction for k in squared]).reshape(-1, 3)
     band = pinned_band(Camera(kind, params, "chosen"), alternatives, folds, axis, ring_alphas(reach_alpha), directions)
@@ -756,7 +756,7 @@ def vertical_under(
     except PanomapError:
         return None
     trial = evaluate(kind, axis, params, LineData.of(state.line_pixels(), r_max))
-    return None if trial is None else _vertical(families, trial.normals)
+    return None if trial is None else _vertical(_seen(families, trial.normals))
 
 
 def _covariance(
@@ -776,11 +776,16 @@ def _covariance(
     return np.asarray(full[2:, 2:], dtype=np.float64)
 
 
-def _vertical(families: list[Family], normals: FloatArray) -> tuple[FloatArray, int] | None:
+def _seen(families: list[Family], normals: FloatArray) -> list[Family]:
+    """The families with their directions as the lines' plane ``normals`` (L, 3) under one camera place them."""
+    return [Family(f.members, f.image_index, common_direction(normals[f.members])) for f in families]
+
+
+def _vertical(families: list[Family]) -> tuple[FloatArray, int] | None:
     """The direction of the most-populated family within ``VERTICAL_WITHIN_DEG`` of the axis, and its line count."""
     best: tuple[FloatArray, int] | None = None
     for family in families:
-        direction = common_direction(normals[family.members])
+        direction = family.direction
         if abs(direction[2]) > math.cos(math.radians(VERTICAL_WITHIN_DEG)) and (
             best is None or family.members.size > best[1]
         ):
