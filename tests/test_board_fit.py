@@ -26,12 +26,18 @@ COLUMNS, ROWS = 8, 6
 SQUARE_M = 0.06
 
 
-def board_corners(camera, rng: np.random.Generator, image_index: int) -> tuple[np.ndarray, np.ndarray]:
-    """A board's true corner pixels (n, 2) and grid places (n, 2): a pose whose every corner the camera sees."""
-    low, high = camera.elevation_range
+def board_grid() -> tuple[np.ndarray, np.ndarray]:
+    """A board's inner-corner places (n, 2) and their points (n, 3) in its own frame, centred, in metres."""
     column, row = np.meshgrid(np.arange(COLUMNS), np.arange(ROWS))
     grid = np.stack([column.ravel(), row.ravel()], axis=1)
     plane = np.column_stack([(grid - [(COLUMNS - 1) / 2, (ROWS - 1) / 2]) * SQUARE_M, np.zeros(len(grid))])
+    return grid, plane
+
+
+def board_corners(camera, rng: np.random.Generator, image_index: int) -> tuple[np.ndarray, np.ndarray]:
+    """A board's true corner pixels (n, 2) and grid places (n, 2): a pose whose every corner the camera sees."""
+    low, high = camera.elevation_range
+    grid, plane = board_grid()
     for _ in range(500):
         azimuth = rng.uniform(0, 2 * math.pi)
         elevation = rng.uniform(low + 0.15, high - 0.15)
@@ -242,9 +248,7 @@ def flat_boards(camera, count: int, seed: int, turn_deg: float, noise_px: float 
     """Boards lying on the floor 1 m under a camera looking down (each turned ``turn_deg`` about a horizontal
     line through its centre), every corner seen."""
     rng = np.random.default_rng(seed)
-    column, row = np.meshgrid(np.arange(COLUMNS), np.arange(ROWS))
-    grid = np.stack([column.ravel(), row.ravel()], axis=1)
-    plane = np.column_stack([(grid - [(COLUMNS - 1) / 2, (ROWS - 1) / 2]) * SQUARE_M, np.zeros(len(grid))])
+    grid, plane = board_grid()
     boards: list[Board] = []
     while len(boards) < count:
         azimuth, distance = rng.uniform(0, 2 * math.pi), rng.uniform(0.3, 1.3)
