@@ -56,7 +56,7 @@ def view_from_command(kind: str, args: list[str]) -> View:
 
 
 def test_every_kind_is_one_file_registered_once_in_the_order_of_the_commands() -> None:
-    assert KINDS == tuple(view_kinds()) == ("panorama", "cylinder", "plane", "perspective", "floor")
+    assert KINDS == tuple(view_kinds()) == ("panorama", "cylinder", "plane", "perspective", "floor", "equirect")
     for kind, cls in view_kinds().items():
         assert cls.kind == kind
         assert cls.__module__ == f"panomap.views.{kind}"
@@ -144,7 +144,7 @@ def test_views_of_a_surface_give_its_points_relative_to_the_camera(kind: str) ->
     table = table_at((3.1, 2.4, 2.45))
     view = parse_view_spec(f"{kind}:{view_kinds()[kind].example}")[1]
     points = view.points(table)
-    if kind in ("panorama", "perspective"):
+    if kind in ("panorama", "perspective", "equirect"):
         assert points is None  # they see directions, not a surface
         return
     assert points is not None
@@ -168,6 +168,7 @@ def test_every_angle_in_the_python_api_says_its_unit() -> None:
         "cylinder": {"start"},
         "plane": {"azimuth"},
         "perspective": {"yaw", "pitch", "roll", "fov"},
+        "equirect": {"yaw", "pitch", "roll"},
         "floor": set(),
     }
     named = {
@@ -179,6 +180,7 @@ def test_every_angle_in_the_python_api_says_its_unit() -> None:
         "plane": ["azimuth_rad"],
         "perspective": ["yaw_rad", "pitch_rad", "roll_rad", "fov_rad"],
         "floor": [],
+        "equirect": ["yaw_rad", "pitch_rad", "roll_rad"],
     }
     band = Band(-1.0, 0.5)
     # The unitless names, and degree names, are not taken: the caller must say radians.

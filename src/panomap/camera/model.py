@@ -12,7 +12,7 @@ angles, and apply the model above to the ray in the camera's axes, ``R.T d``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -20,7 +20,13 @@ from numpy.typing import ArrayLike
 
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, ray_from_angles
-from .orientation import tilt_angles, to_camera, to_world
+from .orientation import (
+    orientation_of_rotation,
+    rotation_of_orientation,
+    tilt_angles,
+    to_camera,
+    to_world,
+)
 from .radial import RadialFunction
 from .viewpoint import Viewpoint
 
@@ -87,6 +93,26 @@ class CameraModel:
     def tilt(self) -> tuple[float, float]:
         """(tilt_rad, toward_rad): the optical axis' angle off the vertical and the azimuth it leans toward."""
         return (0.0, 0.0) if self.rotation is None else tilt_angles(self.rotation, self.axis)
+
+    @property
+    def orientation(self) -> tuple[float, float, float]:
+        """(yaw_rad, pitch_rad, roll_rad): where the camera looks, as a perspective view's yaw, pitch and roll
+        (:mod:`panomap.camera.orientation`); the paper's ceiling camera is (pi/2, -pi/2, 0)."""
+        return orientation_of_rotation(self.rotation, self.axis, self.s, self.phi0)
+
+    def with_orientation(self, yaw_rad: float, pitch_rad: float, roll_rad: float) -> CameraModel:
+        """This camera looking along yaw, pitch and roll (rad): its rotation R made anew (the image's
+        handedness and phi0 kept), every other value the same."""
+        for name, value in (("yaw", yaw_rad), ("pitch", pitch_rad), ("roll", roll_rad)):
+            if not math.isfinite(value):
+                raise PanomapError(f"the orientation's {name} is not finite")
+        if abs(pitch_rad) > math.pi / 2 + 1e-12:
+            raise PanomapError(
+                f"the pitch must be between -90 and 90 deg, not {math.degrees(pitch_rad):g} deg "
+                "(turn the yaw by 180 deg and the roll by 180 deg instead)"
+            )
+        rotation = rotation_of_orientation(yaw_rad, pitch_rad, roll_rad, self.axis, self.s, self.phi0)
+        return replace(self, rotation=tuple(tuple(float(x) for x in row) for row in rotation))
 
     def camera_angles(self, theta: ArrayLike, rho: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Azimuth and elevation (rad) in the camera's axes of world rays at ``theta``, ``rho`` (rad)."""

@@ -717,6 +717,12 @@ def info(table: Path, as_json: bool) -> None:
         else f"camera axis: {math.degrees(tilt_rad):.3f} deg off the vertical, leaning toward azimuth "
         f"{math.degrees(toward_rad):.2f} deg (the table is in world angles)"
     )
+    yaw, pitch, roll = (math.degrees(a) for a in model.orientation)
+    lines.append(
+        f"orientation: yaw {yaw:.3f}, pitch {pitch:.3f}, roll {roll:.3f} deg (as a perspective view's; "
+        f"the table spans elevations {math.degrees(loaded.elevation_range[0]):.2f}.."
+        f"{math.degrees(loaded.elevation_range[1]):.2f} deg)"
+    )
     report = table_fit_report(loaded, table)
     if report is not None and report.mount is not None and report.mount.position_refined:
         lines.append(f"camera position refined from {tuple(round(c, 6) for c in report.mount.camera_given)}")

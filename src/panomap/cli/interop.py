@@ -12,11 +12,12 @@ from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs
 from ..interop.api import check_image_size, table_of_imported
 from ..interop.export import FORMATS, export_calibration
+from ..interop.orient import orient_table
 from ..interop.readers import READERS, read_calibration
 from ..io.images import MAX_IMAGE_PIXELS
 from ..table.file import load_table, save_table
 from .calibrate import find_image_circles_in
-from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni
+from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, orientation_option, orientation_rad, read_omni
 
 
 @click.command("import")
@@ -27,12 +28,16 @@ from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni
 )
 @click.option("--camera-name", help="The camera of a Kalibr camchain [default: cam0].")
 @click.option("--camera-id", help="The camera of a COLMAP cameras.txt [default: the first].")
+@orientation_option(
+    "Where the camera looks, in degrees, as a perspective view's yaw (azimuth of the optical axis, "
+    "counter-clockwise from +X), pitch (0 ahead, -90 straight down, 90 up) and roll (the image's right dipped): "
+    "'0 0 0' for a fisheye looking ahead along +X [default: straight down, as '90 -90 0', unless --axis or --tilt]."
+)
 @click.option(
     "--axis",
     type=click.Choice(["down", "up"]),
-    default="down",
-    show_default=True,
-    help="Where the optical axis points: it becomes the table's vertical (azimuth 0 along the image's columns).",
+    help="Straight down or up: the optical axis becomes the table's vertical (azimuth 0 along the image's "
+    "columns) [default: down].",
 )
 @click.option(
     "--tilt",
@@ -72,7 +77,8 @@ def import_(
     format_: str | None,
     camera_name: str | None,
     camera_id: str | None,
-    axis: str,
+    orientation: tuple[float, float, float] | None,
+    axis: str | None,
     tilt: str | tuple[float, float],
     camera: tuple[float, float, float],
     image: Path | None,
@@ -87,6 +93,9 @@ def import_(
         raise click.BadParameter(
             "an imported camera's tilt is given, not fitted: 'none' or 'DEG AZ_DEG'", param_hint="'--tilt'"
         )
+    if orientation is not None and (axis is not None or tilt != "none"):
+        raise click.UsageError("give --orientation, or --axis and --tilt, not both")
+    axis = axis or "down"
     if camera_name is not None and camera_id is not None:
         raise click.UsageError("give --camera-name (Kalibr) or --camera-id (COLMAP), not both")
     if image is not None and image_size is not None:
@@ -116,6 +125,7 @@ def import_(
         calibration,
         axis=axis,
         tilt_rad=(0.0, 0.0) if isinstance(tilt, str) else (math.radians(tilt[0]), math.radians(tilt[1])),
+        orientation_rad=orientation_rad(orientation),
         camera_position=camera,
         image_size=image_size,
         cutoff_radius=cutoff_radius,
@@ -158,6 +168,36 @@ def _circle_radii(
         cutoff_radius = circles.cutoff.radius + offset
         sources["cutoff_radius"] = f"cut-off disc found in {image.name}"
     return cutoff_radius, outer_radius
+
+
+@click.command("orient")
+@click.argument("table", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="Table file to write (.npz).")
+@orientation_option(
+    "Where the camera looks, in degrees, as a perspective view's yaw (azimuth of the optical axis, "
+    "counter-clockwise from +X), pitch (0 ahead, -90 straight down, 90 up) and roll (the image's right dipped).",
+    required=True,
+)
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors and warnings.")
+def orient(table: Path, output: Path, orientation: tuple[float, float, float], quiet: bool) -> None:
+    """Turn a table's camera to look another way, without a new fit: its entries made anew from its model (or
+    its calibration's), over every world direction it then sees."""
+    check_outputs([("the table", table)], [("the output", output)])
+    loaded = load_table(table)
+    yaw, pitch, roll = orientation_rad(orientation)  # type: ignore[misc]
+    try:
+        turned = orient_table(loaded, yaw, pitch, roll)
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, exc.source or table) from None
+    with all_or_none():
+        save_table(turned, output)
+    if not quiet:
+        rho_s, rho_e = (math.degrees(x) for x in turned.elevation_range)
+        click.echo(
+            f"{printable(str(table))}: looking yaw {orientation[0]:g}, pitch {orientation[1]:g}, roll "
+            f"{orientation[2]:g} deg; table {turned.size[0]} x {turned.size[1]}, elevation {rho_s:.2f}..{rho_e:.2f} deg"
+        )
+        click.echo(f"wrote {printable(str(output))}")
 
 
 @click.command("export")

@@ -74,6 +74,32 @@ class Tilt(click.ParamType):
         return (tilt_deg, toward_deg)
 
 
+def orientation_option(help_text: str, required: bool = False) -> Any:
+    """``--orientation YAW PITCH ROLL`` (deg): where a camera looks, as a perspective view's yaw, pitch and roll."""
+    return click.option(
+        "--orientation",
+        nargs=3,
+        type=FINITE,
+        required=required,
+        metavar="YAW PITCH ROLL",
+        help=help_text,
+    )
+
+
+def orientation_rad(orientation: tuple[float, float, float] | None) -> tuple[float, float, float] | None:
+    """Degrees from the command line to (yaw, pitch, roll) rad, the pitch checked (a usage error, exit 2)."""
+    if orientation is None:
+        return None
+    yaw, pitch, roll = orientation
+    if not -90.0 <= pitch <= 90.0:
+        raise click.BadParameter(
+            f"a pitch of {pitch:g} deg: give -90 (straight down) to 90 (straight up); turn the yaw and the roll "
+            "by 180 deg instead",
+            param_hint="'--orientation'",
+        )
+    return (float(np.radians(yaw)), float(np.radians(pitch)), float(np.radians(roll)))
+
+
 def usage_error(exc: PanomapError, option: str | None = None) -> click.UsageError:
     """A library error about an option's value, or about options given together, as a usage error (exit 2),
     in the library's words (under ``option``'s name when given)."""

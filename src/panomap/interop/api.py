@@ -41,6 +41,7 @@ def import_calibration(
     camera: str | None = None,
     axis: str = "down",
     tilt_rad: tuple[float, float] = (0.0, 0.0),
+    orientation_rad: tuple[float, float, float] | None = None,
     camera_position: tuple[float, float, float] = (0.0, 0.0, 0.0),
     image_size: tuple[int, int] | None = None,
     cutoff_radius: float | None = None,
@@ -64,6 +65,10 @@ def import_calibration(
         along the calibration's x axis (the image's columns).
     tilt_rad : (tilt, toward)
         The mount: the optical axis ``tilt`` rad off the vertical, toward world azimuth ``toward`` rad.
+    orientation_rad : (yaw, pitch, roll), optional
+        A camera looking any way (rad): the optical axis along yaw and pitch (0 ahead, -pi/2 straight down),
+        the image's right turned by roll, as a perspective view's (docs/conventions.md). Replaces ``axis``
+        and ``tilt_rad``.
     camera_position : (X0, Y0, Z0)
         World units.
     image_size : (width, height), optional
@@ -82,6 +87,7 @@ def import_calibration(
         path,
         axis=axis,
         tilt_rad=tilt_rad,
+        orientation_rad=orientation_rad,
         camera_position=camera_position,
         image_size=image_size,
         cutoff_radius=cutoff_radius,
@@ -97,6 +103,7 @@ def table_of_imported(
     *,
     axis: str = "down",
     tilt_rad: tuple[float, float] = (0.0, 0.0),
+    orientation_rad: tuple[float, float, float] | None = None,
     camera_position: tuple[float, float, float] = (0.0, 0.0, 0.0),
     image_size: tuple[int, int] | None = None,
     cutoff_radius: float | None = None,
@@ -127,6 +134,7 @@ def table_of_imported(
             imported.model,
             axis=axis,
             tilt_rad=tilt_rad,
+            orientation_rad=orientation_rad,
             camera_position=camera_position,
             image_size=size_used,  # type: ignore[arg-type]
             cutoff_radius=cutoff_radius,

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..camera.model import CameraModel
-from ..camera.orientation import tilt_rotation
+from ..camera.orientation import tilt_rotation, world_elevation_range
 from ..camera.radial import RadialFunction, fit_radial
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError
@@ -182,6 +182,7 @@ def table_of_camera(
     *,
     axis: str = "down",
     tilt_rad: tuple[float, float] = (0.0, 0.0),
+    orientation_rad: tuple[float, float, float] | None = None,
     camera_position: tuple[float, float, float] = (0.0, 0.0, 0.0),
     image_size: tuple[int, int] | None = None,
     cutoff_radius: float | None = None,
@@ -199,6 +200,9 @@ def table_of_camera(
         Where the optical axis points in the world (default down: a ceiling camera).
     tilt_rad : (tilt, toward)
         The mount: the optical axis ``tilt`` rad off the vertical, leaning toward world azimuth ``toward``.
+    orientation_rad : (yaw, pitch, roll), optional
+        Where the camera looks, any way (rad; :mod:`panomap.camera.orientation`): the optical axis along
+        yaw and pitch, the image's right turned by roll. Replaces ``axis`` and ``tilt_rad`` (give neither).
     camera_position : (X0, Y0, Z0)
         The lens centre, world units.
     image_size : (width, height), optional
@@ -222,12 +226,12 @@ def table_of_camera(
         matrix = tilt_rotation(tilt, toward, axis)
         rotation = tuple((float(row[0]), float(row[1]), float(row[2])) for row in matrix)
     model = CameraModel(camera.principal_point, radial, HANDEDNESS[axis], 0.0, rotation)
+    if orientation_rad is not None:
+        if tilt != 0 or axis != "down":
+            raise PanomapError("give the orientation, or the axis and tilt, not both")
+        model = model.with_orientation(*orientation_rad)
     tilted = model.rotation is not None
-    world_range = (
-        (max(camera_range[0] - tilt, -math.pi / 2), min(camera_range[1] + tilt, math.pi / 2))
-        if tilted
-        else camera_range
-    )
+    world_range = world_elevation_range(camera_range, model.rotation, axis)
     if size is None:
         m = min(8 * math.ceil(TWO_PI * max(outer, 1.0) / 8), MAX_DEFAULT_SIZE[0])
         size = (max(m, 16), min(max(math.ceil(outer - cutoff), 16), MAX_DEFAULT_SIZE[1]))

@@ -1,7 +1,7 @@
 """Views (paper 2.3 and beyond): what ray each output pixel sees, the maps that follow, and view specs.
 
 One file per kind: :mod:`.panorama`, :mod:`.cylinder`, :mod:`.plane`,
-:mod:`.perspective`, :mod:`.floor`; :mod:`.base` holds what they share and the
+:mod:`.perspective`, :mod:`.floor`, :mod:`.equirect`; :mod:`.base` holds what they share and the
 one registry of kinds, which importing this package fills (in this order).
 """
 
@@ -14,12 +14,14 @@ from .cylinder import CylinderPanorama
 from .plane import PlaneView
 from .perspective import PerspectiveView
 from .floor import FloorView
+from .equirect import EquirectView
 
 # isort: on
 
 __all__ = [
     "Band",
     "CylinderPanorama",
+    "EquirectView",
     "FloorView",
     "GenericPanorama",
     "PerspectiveView",

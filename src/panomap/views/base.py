@@ -227,6 +227,11 @@ class View(ABC):
     def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:
         """Azimuth and elevation (rad), each (H, W), of every output pixel."""
 
+    def resolved(self, table: PanoMappingTable) -> View:
+        """This view with the values it takes from the table filled in (a perspective view's default axis is
+        the camera's); the view itself where it takes none. :func:`build_map` calls it first."""
+        return self
+
     def points(self, table: PanoMappingTable) -> FloatArray | None:
         """The (H, W, 3) points the pixels see, relative to O_m (world axes); None for a view of directions.
 
@@ -327,6 +332,7 @@ def build_map(
     (H, W, 2) float32 ndarray
         Each output pixel's source pixel (u, v), NaN where there is none.
     """
+    view = view.resolved(table)
     if not table.model.single_viewpoint:
         # A camera without a single viewpoint sees a point along the ray through it from its own origin: the
         # views of a surface read the table at those rays' directions; the views of directions, at infinity.

@@ -4,20 +4,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import Any, ClassVar, Self
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..camera.orientation import view_axes
 from ..errors import PanomapError
 from ..geometry import HALF_PI, FloatArray
 from ..table.table import PanoMappingTable
-from .base import OUTPUT_SIZE, SEEN_AT, AngleArray, Param, Value, View, check_finite, check_view_size, register
+from .base import SEEN_AT, AngleArray, Param, Value, View, check_finite, check_view_size, register
 from .grid import grid_angles
 from .lookup import lookup_map, lookup_when_worth_it, row_sine_bounds
 from .panorama import check_distance
+
+# The default output size: 1280 x 720.
+DEFAULT_SIZE = (1280, 720)
 
 
 @register
@@ -27,17 +31,18 @@ class PerspectiveView(View):
 
     Parameters
     ----------
-    yaw_rad : float
-        psi, the azimuth (rad) of the optical axis.
-    pitch_rad : float
+    yaw_rad : float, optional
+        psi, the azimuth (rad) of the optical axis; None: the camera's (:meth:`resolved`).
+    pitch_rad : float, optional
         tau, its elevation (rad), in [-pi/2, pi/2]; negative looks down,
-        -pi/2 straight down.
+        -pi/2 straight down; None: the camera's.
     roll_rad : float
         omega (rad), about the optical axis: positive tips the camera's right
         side down, which turns the scene counter-clockwise in the image.
     fov_rad : float
-        Horizontal field of view (rad), strictly between 0 and pi.
+        Horizontal field of view (rad), strictly between 0 and pi; default 90 deg.
     size : (W, H)
+        Default 1280 x 720.
     distance : float, optional
         World units from O_m of what the view shows (default: far away); it changes the view only for a
         camera without a single viewpoint.
@@ -54,11 +59,18 @@ class PerspectiveView(View):
     kind: ClassVar[str] = "perspective"
     summary: ClassVar[str] = "Virtual pan-tilt-zoom camera: a pinhole at the camera position looking anywhere."
     params: ClassVar[tuple[Param, ...]] = (
-        Param("yaw", Value.ANGLE, "Azimuth of the optical axis (counter-clockwise from +X).", aliases=("--yaw-deg",)),
+        Param(
+            "yaw",
+            Value.ANGLE,
+            "Azimuth of the optical axis (counter-clockwise from +X) [default: the camera's].",
+            optional=True,
+            aliases=("--yaw-deg",),
+        ),
         Param(
             "pitch",
             Value.ANGLE,
-            "Elevation of the optical axis, -90..90 (negative looks down).",
+            "Elevation of the optical axis, -90..90 (negative looks down) [default: the camera's].",
+            optional=True,
             aliases=("--pitch-deg",),
         ),
         Param(
@@ -68,26 +80,35 @@ class PerspectiveView(View):
             default=0.0,
             aliases=("--roll-deg",),
         ),
-        Param("fov", Value.ANGLE, "Horizontal field of view, more than 0 and less than 180.", aliases=("--fov-deg",)),
-        OUTPUT_SIZE,
+        Param(
+            "fov",
+            Value.ANGLE,
+            "Horizontal field of view, more than 0 and less than 180.",
+            default=90.0,
+            aliases=("--fov-deg",),
+        ),
+        Param("size", Value.SIZE, "Output WxH [default: 1280x720].", optional=True),
         SEEN_AT,
     )
     example: ClassVar[str] = "yaw=30,pitch=-20,roll=0,fov=90,size=1280x720"
 
-    yaw_rad: float
-    pitch_rad: float
-    roll_rad: float
-    fov_rad: float
-    size: tuple[int, int]
+    yaw_rad: float | None = None
+    pitch_rad: float | None = None
+    roll_rad: float = 0.0
+    fov_rad: float = math.radians(90.0)
+    size: tuple[int, int] = DEFAULT_SIZE
     distance: float | None = None
 
     def __post_init__(self) -> None:
-        check_finite(yaw_rad=self.yaw_rad, pitch_rad=self.pitch_rad, roll_rad=self.roll_rad, fov_rad=self.fov_rad)
+        check_finite(roll_rad=self.roll_rad, fov_rad=self.fov_rad)
+        for name, value in (("yaw_rad", self.yaw_rad), ("pitch_rad", self.pitch_rad)):
+            if value is not None:
+                check_finite(**{name: value})
         if not 0.0 < self.fov_rad < math.pi:
             raise PanomapError(
                 f"the field of view must be more than 0 and less than 180 deg, not {math.degrees(self.fov_rad):g} deg"
             )
-        if abs(self.pitch_rad) > HALF_PI + 1e-12:
+        if self.pitch_rad is not None and abs(self.pitch_rad) > HALF_PI + 1e-12:
             raise PanomapError(
                 f"the pitch must be between -90 and 90 deg, not {math.degrees(self.pitch_rad):g} deg "
                 "(turn the yaw by 180 deg instead)"
@@ -98,7 +119,19 @@ class PerspectiveView(View):
     @classmethod
     def from_params(cls, values: Mapping[str, Any]) -> Self:
         """The view from its parameters, as parsed from a view SPEC (every declared name, None where not given)."""
-        return cls(values["yaw"], values["pitch"], values["roll"], values["fov"], values["size"], values["distance"])
+        size = DEFAULT_SIZE if values["size"] is None else values["size"]
+        return cls(values["yaw"], values["pitch"], values["roll"], values["fov"], size, values["distance"])
+
+    def resolved(self, table: PanoMappingTable) -> PerspectiveView:
+        """The view with a yaw or pitch not given taken from the camera's optical axis (its orientation)."""
+        if self.yaw_rad is not None and self.pitch_rad is not None:
+            return self
+        yaw, pitch, _ = table.model.orientation
+        return replace(
+            self,
+            yaw_rad=yaw if self.yaw_rad is None else self.yaw_rad,
+            pitch_rad=pitch if self.pitch_rad is None else self.pitch_rad,
+        )
 
     @property
     def focal(self) -> float:
@@ -107,14 +140,9 @@ class PerspectiveView(View):
 
     def axes(self) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Forward F, right R and down Dn, each (3,) unit vectors in world axes."""
-        psi, tau, omega = self.yaw_rad, self.pitch_rad, self.roll_rad
-        cos_tau, sin_tau, cos_psi, sin_psi = math.cos(tau), math.sin(tau), math.cos(psi), math.sin(psi)
-        forward = np.array([cos_tau * cos_psi, cos_tau * sin_psi, sin_tau])
-        right0 = np.array([sin_psi, -cos_psi, 0.0])
-        down0 = np.array([sin_tau * cos_psi, sin_tau * sin_psi, -cos_tau])  # F x R0
-        right = math.cos(omega) * right0 + math.sin(omega) * down0
-        down = math.cos(omega) * down0 - math.sin(omega) * right0
-        return forward, right, down
+        if self.yaw_rad is None or self.pitch_rad is None:
+            raise PanomapError("this perspective view takes its yaw or pitch from a table: use view.resolved(table)")
+        return view_axes(self.yaw_rad, self.pitch_rad, self.roll_rad)
 
     def _offsets(self) -> tuple[FloatArray, FloatArray]:
         """x (W,) and y (H,): ``(k + 0.5 - W/2)/f`` and ``(l + 0.5 - H/2)/f``."""

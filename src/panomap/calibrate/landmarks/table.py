@@ -170,7 +170,7 @@ def table_for(
     camera_range = valid_elevation_range(
         fit.model.radial, fit.landmark_range, cutoff_radius, outer_radius, slack_px=slack
     )
-    rho_s, rho_e = world_range(camera_range, fit.model.tilt[0])
+    rho_s, rho_e = world_range(camera_range, fit.model)
     tilted = fit.model.rotation is not None
     ends = np.asarray(fit.model.radial(np.array([rho_s, rho_e])), dtype=np.float64)
     if not (math.isfinite(rho_s) and math.isfinite(rho_e) and np.isfinite(ends).all()):

@@ -49,7 +49,7 @@ def create_line_table(
     """
     model = fit.model
     camera_range = fit.camera_range(cutoff_radius, outer_radius)
-    rho_s, rho_e = world_range(camera_range, model.tilt[0])
+    rho_s, rho_e = world_range(camera_range, model)
     tilted = model.rotation is not None
     reach = max(float(np.nanmax(np.abs(model.radial(np.array(camera_range))))), 1.0)
     r_span = abs(float(model.radial(camera_range[1]) - model.radial(camera_range[0])))

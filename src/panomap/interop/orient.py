@@ -1,0 +1,68 @@
+"""A table turned to look another way, without a new fit: ``panomap orient``.
+
+Convention: orientation as a perspective view's yaw, pitch and roll (rad; :mod:`panomap.camera.orientation`);
+the table's entries stay in the world frame, over every world elevation the camera sees.
+
+The camera's own rays do not change, only where they point in the world: the model gets the rotation
+of the new orientation (its handedness and phi0 kept), and the entries are made anew, exactly as the
+first table's were: from the model (a fitted table, Algorithm 2) or through the calibration's own
+projection (an imported table, :mod:`.table_of_camera`), over the world elevations the turned camera sees.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+from ..camera.orientation import world_elevation_range
+from ..errors import PanomapError
+from ..table.table import PanoMappingTable, fill_entries
+from .models import external_model
+from .table_of_camera import project_grid
+
+
+def camera_range_of(table: PanoMappingTable) -> tuple[float, float]:
+    """The camera's own elevation range (rad): stored for a turned camera, the table's range for a level one."""
+    return table.camera_elevation_range if table.camera_elevation_range is not None else table.elevation_range
+
+
+def orient_table(table: PanoMappingTable, yaw_rad: float, pitch_rad: float, roll_rad: float) -> PanoMappingTable:
+    """``table``'s camera looking along yaw, pitch and roll (rad), its entries made anew.
+
+    The table keeps its size (M, N), its annulus, its image size and its information (the orientation
+    given is recorded in ``info["orientation"]``). A camera without a single viewpoint keeps its ray
+    origins along its (turned) axis.
+
+    Raises
+    ------
+    PanomapError
+        If the pitch is outside [-90, 90] deg, or an imported table's calibration cannot be rebuilt.
+    """
+    model = table.model.with_orientation(yaw_rad, pitch_rad, roll_rad)
+    camera_range = camera_range_of(table)
+    elevation_range = world_elevation_range(camera_range, model.rotation, model.axis)
+    turned = model.rotation is not None
+    if table.entries_from_model:
+        entries = fill_entries(model, table.size, elevation_range, camera_range=camera_range if turned else None)
+    else:
+        record = table.info["import"]
+        try:
+            camera = external_model(str(record["model"]), dict(record["parameters"]))
+        except (KeyError, TypeError, ValueError):
+            raise PanomapError("the table's import record does not give its calibration's model") from None
+        entries = project_grid(camera, model, table.size, elevation_range, camera_range if turned else None)
+    info = dict(table.info)
+    info["orientation"] = {
+        "yaw_deg": math.degrees(yaw_rad),
+        "pitch_deg": math.degrees(pitch_rad),
+        "roll_deg": math.degrees(roll_rad),
+        "source": "given",
+    }
+    return replace(
+        table,
+        entries=entries,
+        elevation_range=elevation_range,
+        model=model,
+        info=info,
+        camera_elevation_range=camera_range if turned else None,
+    )
