@@ -33,6 +33,8 @@ from .options import (
     SIZE,
     TILT,
     frame_time_option,
+    orientation_option,
+    orientation_rad,
     read_omni,
     usage_error,
     warn_orientation,
@@ -138,6 +140,11 @@ from .options import (
     help="Standard deviation of the landmarks' world coordinates (world units) [default: 0.4% of their "
     "median distance].",
 )
+@orientation_option(
+    "A camera looking any way (deg, as a perspective view's: pitch 0 ahead, -90 straight down): the fit starts "
+    "from it and --tilt fit refines its axis from there. Replaces --axis and a --tilt pair. (Learning from "
+    "pictures finds no world direction: turn its table with panomap orient.)"
+)
 @click.option(
     "--tilt",
     "tilt",
@@ -240,6 +247,7 @@ def fit(
     refine_centre: bool | None,
     pixel_sigma: float,
     world_sigma: float | None,
+    orientation: tuple[float, float, float] | None,
     tilt: str | tuple[float, float],
     camera_sigma: float | None,
     viewpoint: str,
@@ -291,6 +299,9 @@ def fit(
     if frame_time is not None and image is None:
         raise click.UsageError("--frame-time picks a frame of --image: give --image VIDEO too")
     mirror = _mirror_kind(viewpoint, sphere_radius)
+    if orientation is not None and (axis is not None or not isinstance(tilt, str)):
+        raise click.UsageError("give --orientation, or --axis and a --tilt pair, not both")
+    oriented = orientation_rad(orientation)  # (checks the pitch)
     omni = None if image is None else read_omni(image, frame_time)
     if omni is not None and use_lines and mirror is not None:
         click.echo(f"panomap: note: the image's lines do not join {mirror}: the landmarks alone fit it", err=True)
@@ -323,6 +334,7 @@ def fit(
             camera_sigma=camera_sigma,
             lines=use_lines and omni is not None and mirror is None,
             viewpoint=viewpoint if sphere_radius is None else SphericalMirror(sphere_radius),
+            orientation_deg=None if oriented is None else orientation,
         )
     except PanomapError as exc:
         raise PanomapError(exc.detail, exc.source or landmarks) from None
@@ -339,6 +351,7 @@ def fit(
 LANDMARK_ONLY = (
     "camera", "centre", "image_size", "table_size", "cutoff_radius", "outer_radius", "azimuth", "refine_centre",
     "pixel_sigma", "world_sigma", "tilt", "camera_sigma", "viewpoint", "sphere_radius", "keep_outliers",
+    "orientation",
 )  # fmt: skip
 
 

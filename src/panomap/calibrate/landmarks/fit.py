@@ -36,7 +36,7 @@ from typing import TypeVar
 import numpy as np
 
 from ...camera.model import CameraModel
-from ...camera.orientation import tilt_rotation, to_camera
+from ...camera.orientation import rotation_of_orientation, tilt_rotation, to_camera
 from ...camera.radial import RadialFunction
 from ...camera.radial_models import AUTO_CANDIDATES, AXES, MIRROR_CANDIDATES, MODELS, RadialKind, radial_kind
 from ...camera.uncertainty import coefficient_covariance
@@ -239,6 +239,7 @@ def fit_camera(
     tilt: str | tuple[float, float] | None = None,
     lines: ImageLines | None = None,
     viewpoint: str | SphericalMirror = "auto",
+    orientation_deg: tuple[float, float, float] | None = None,
 ) -> CameraFit:
     """Fit the camera model to landmark pairs.
 
@@ -301,6 +302,11 @@ def fit_camera(
         viewpoint. ``"caustic"``: the caustic is fitted whatever cross-validation says (a mirror known to be a
         sphere or a cone, seen from landmarks too far to show it); a :class:`.viewpoint.SphericalMirror`: its law
         with the ray origins its radius gives. Lines joined to the landmarks keep the single viewpoint.
+    orientation_deg : (yaw, pitch, roll), optional
+        Where the camera looks, any way (deg, as a perspective view's: pitch 0 ahead, -90 straight down;
+        :mod:`panomap.camera.orientation`): the fit starts from it, and ``tilt_deg="fit"`` refines the optical
+        axis from there as it refines a ceiling camera's tilt (the roll is the fitted phi0's). Replaces ``axis``
+        and a ``tilt_deg`` pair.
 
     Raises
     ------
@@ -315,7 +321,11 @@ def fit_camera(
         landmarks, camera_position, centre, model, azimuth, axis, image_size, refine_centre, pixel_sigma,
         world_sigma, camera_sigma, tilt,
     )  # fmt: skip
-    setup = _observe(landmarks, camera, start_centre, azimuth, axis, pixel_sigma, world_sigma, camera_sigma, tilt_given)
+    oriented = _orientation_rotation(tilt_given, orientation_deg, axis)
+    setup = _observe(
+        landmarks, camera, start_centre, azimuth, "down" if oriented is not None else axis, pixel_sigma,
+        world_sigma, camera_sigma, tilt_given, oriented,
+    )  # fmt: skip
     data, problem = setup.data, replace(setup.problem, centre_found=None if centre_is_guess else start_centre)
     candidates, robust = _candidates(requested, annulus, refine_centre, reject_outliers)
     # A tilted camera can put landmarks near the rim beyond it under a level model: where a tilt may be
@@ -576,6 +586,25 @@ def _checked(
     return requested, camera, (u0, v0), tilt_given
 
 
+def _orientation_rotation(
+    tilt_given: tuple[float, float] | None, orientation_deg: tuple[float, float, float] | None, axis: str | None
+) -> FloatArray | None:
+    """R (3, 3), camera to world, of the orientation given (the model looking down in its own axes; with
+    phi0 = 0 both handednesses give the same R, so the handedness is found after), or None."""
+    if orientation_deg is None:
+        return None
+    if tilt_given is not None or axis is not None:
+        raise PanomapError("give the camera's orientation, or its axis and tilt, not both")
+    try:
+        values = tuple(float(x) for x in orientation_deg)
+    except (TypeError, ValueError):
+        raise PanomapError("the orientation must be three numbers (yaw, pitch, roll) deg") from None
+    if len(values) != 3 or not all(math.isfinite(x) for x in values) or abs(values[1]) > 90:
+        raise PanomapError(f"the orientation must be (yaw, pitch, roll) deg with the pitch in -90..90, not {values}")
+    yaw, pitch, roll = (math.radians(x) for x in values)
+    return rotation_of_orientation(yaw, pitch, roll, "down", -1, 0.0)
+
+
 def _observe(
     landmarks: Landmarks,
     camera: tuple[float, ...],
@@ -586,6 +615,7 @@ def _observe(
     world_sigma: float | None,
     camera_sigma: float | None,
     tilt_given: tuple[float, float] | None,
+    oriented: FloatArray | None,
 ) -> _Setup:
     """The landmarks' rays from ``camera``, their elevations checked, the axis and handedness found, the noise
     model's defaults filled in: the observations about ``centre`` in the frame of the tilt given."""
@@ -595,7 +625,9 @@ def _observe(
     at_camera = np.flatnonzero(distance < 1e-9)
     if at_camera.size:
         raise PanomapError(f"landmark {landmarks.names[at_camera[0]]!r} is at the camera position")
-    _, rho = azimuth_elevation(d)
+    # (In the camera's own axes where its orientation is given: a camera looking ahead sees its landmarks at
+    # world elevations that say nothing of its radial function.)
+    _, rho = azimuth_elevation(to_camera(d, oriented))
     if float(np.ptp(rho)) < MIN_ELEVATION_SPREAD:
         raise PanomapError(
             f"all landmarks are at one elevation ({math.degrees(float(np.mean(rho))):.2f} deg, "
@@ -613,7 +645,7 @@ def _observe(
         world_sigma = DEFAULT_WORLD_SIGMA_FRACTION * float(np.median(distance))
     if camera_sigma is None:
         camera_sigma = DEFAULT_CAMERA_SIGMA_FRACTION * float(np.median(distance))
-    rotation_given = None
+    rotation_given = oriented
     if tilt_given is not None:
         rotation_given = tilt_rotation(math.radians(tilt_given[0]), math.radians(tilt_given[1]), axis)
     d = to_camera(d, rotation_given)

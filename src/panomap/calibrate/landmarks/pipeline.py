@@ -351,6 +351,7 @@ def calibrate_camera(
     tilt: str | tuple[float, float] | None = None,
     lines: bool | ImageLines = False,
     viewpoint: str | SphericalMirror = "auto",
+    orientation_deg: tuple[float, float, float] | None = None,
 ) -> Calibration:
     """Landmarks (and an omni-image) to a fitted camera and its pano-mapping table.
 
@@ -434,7 +435,7 @@ def calibrate_camera(
         landmarks, position, choice, choice.centre, recorded, omni, image_size, lines, refine_centre,
         models_cover_annulus, model=model, azimuth=azimuth, axis=axis, pixel_sigma=pixel_sigma,
         world_sigma=world_sigma, reject_outliers=reject_outliers, tilt_deg=tilt_deg, camera_sigma=camera_sigma,
-        viewpoint=viewpoint,
+        viewpoint=viewpoint, orientation_deg=orientation_deg,
     )  # fmt: skip
     cutoff, outer = choice.cutoff_radius, choice.outer_radius
     # 4. The cut-off settled against the fit: the disc measured again about the fitted centre.
@@ -465,6 +466,7 @@ def _fit(
     tilt_deg: str | tuple[float, float],
     camera_sigma: float | None,
     viewpoint: str | SphericalMirror,
+    orientation_deg: tuple[float, float, float] | None,
 ) -> tuple[CameraFit, tuple[str, ...]]:
     """The camera fitted to the landmarks about ``centre`` (refined where it was not given: ``recorded`` says
     so), with the image's lines where ``lines`` asks for them; and the warnings about the lines."""
@@ -478,7 +480,7 @@ def _fit(
         annulus=None if cutoff is None or outer is None or not models_cover_annulus else (cutoff, outer),
         refine_centre=refine_centre, centre_is_guess=recorded["centre"].source is Source.FRAME_CENTRE,
         pixel_sigma=pixel_sigma, world_sigma=world_sigma, reject_outliers=reject_outliers, tilt_deg=tilt_deg,
-        camera_sigma=camera_sigma, lines=image_lines, viewpoint=viewpoint,
+        camera_sigma=camera_sigma, lines=image_lines, viewpoint=viewpoint, orientation_deg=orientation_deg,
     )  # fmt: skip
     if camera_fit.lines_note is not None:
         line_warnings += (camera_fit.lines_note,)
