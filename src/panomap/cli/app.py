@@ -19,7 +19,7 @@ from ..errors import PanomapError, printable
 from .batch import batch
 from .calibrate import centre, fit, info
 from .demo import demo
-from .interop import export, import_, orient
+from .interop import export, import_, level, orient
 from .learn import learn
 from .points import project, unproject
 from .video import video
@@ -33,7 +33,7 @@ COMMANDS += (import_, export)
 # The live viewer (issue 37).
 COMMANDS += (view,)
 # Cameras that look any way (issue 51).
-COMMANDS += (orient,)
+COMMANDS += (orient, level)
 
 
 # Click 8.2 raises this for a group called without a command (8.1 printed the help itself).

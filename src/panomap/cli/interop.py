@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from ..calibrate.circles import ImageCircles
+from ..calibrate.level import level_table
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs
 from ..interop.api import check_image_size, table_of_imported
@@ -196,6 +197,42 @@ def orient(table: Path, output: Path, orientation: tuple[float, float, float], q
         click.echo(
             f"{printable(str(table))}: looking yaw {orientation[0]:g}, pitch {orientation[1]:g}, roll "
             f"{orientation[2]:g} deg; table {turned.size[0]} x {turned.size[1]}, elevation {rho_s:.2f}..{rho_e:.2f} deg"
+        )
+        click.echo(f"wrote {printable(str(output))}")
+
+
+@click.command("level")
+@click.argument("table", type=PATH)
+@click.argument("images", type=PATH, nargs=-1, required=True)
+@click.option("-o", "--output", type=PATH, required=True, help="Table file to write (.npz).")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors and warnings.")
+def level(table: Path, images: tuple[Path, ...], output: Path, quiet: bool) -> None:
+    """Level a table from the vertical lines of pictures of its camera (door and window frames, wall corners,
+    poles): the camera's pitch and roll found, its yaw kept. The table's orientation must be within 20 deg of
+    the truth (give it with panomap orient or import --orientation); several pictures are pooled."""
+    check_outputs([("the table", table), *(("an image", image) for image in images)], [("the output", output)])
+    loaded = load_table(table)
+    pictures = []
+    for image in images:
+        picture = read_omni(image)
+        if loaded.image_size is not None and (picture.shape[1], picture.shape[0]) != tuple(loaded.image_size):
+            raise PanomapError(
+                f"it is {picture.shape[1]} x {picture.shape[0]}, the table is for "
+                f"{loaded.image_size[0]} x {loaded.image_size[1]} images",
+                image,
+            )
+        pictures.append(picture)
+    result = level_table(loaded, pictures, [image.name for image in images])
+    with all_or_none():
+        save_table(result.table, output)
+    if not quiet:
+        yaw, pitch, roll = result.orientation_deg
+        click.echo(
+            printable(
+                f"levelled from {result.vertical_lines} vertical lines (of {result.straight_lines} straight edges): "
+                f"yaw {yaw:.2f} (kept), pitch {pitch:.2f}, roll {roll:.2f} deg; the axis turned "
+                f"{result.turned_deg:.2f} deg, sure within {result.uncertainty_deg:.2f} deg (95%)"
+            )
         )
         click.echo(f"wrote {printable(str(output))}")
 
