@@ -25,7 +25,9 @@ from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni
 @click.option(
     "--format", "format_", type=click.Choice(list(READERS)), help="The file's format [default: from its content]."
 )
-@click.option("--camera-name", help="The camera of a Kalibr camchain [default: cam0].")
+@click.option(
+    "--camera-name", help="The camera of a Kalibr camchain or a Basalt calibration (name or index) [default: the first]."
+)
 @click.option("--camera-id", help="The camera of a COLMAP cameras.txt [default: the first].")
 @click.option(
     "--axis",
@@ -82,13 +84,15 @@ def import_(
     table_size: tuple[int, int] | None,
 ) -> None:
     """Make a table from a calibration: OCamCalib calib_results.txt, a Kalibr camchain, an OpenCV
-    cv::fisheye or cv::omnidir FileStorage file, or COLMAP cameras.txt."""
+    cv::fisheye or cv::omnidir FileStorage file, COLMAP cameras.txt, a BoofCV calibration YAML
+    (omnidirectional_universal, kannala_brandt), a Basalt calibration JSON (ds, eucm, ucm, kb4,
+    pinhole-radtan8, pinhole) or a gyroflow lens profile (opencv_fisheye)."""
     if tilt == "fit":
         raise click.BadParameter(
             "an imported camera's tilt is given, not fitted: 'none' or 'DEG AZ_DEG'", param_hint="'--tilt'"
         )
     if camera_name is not None and camera_id is not None:
-        raise click.UsageError("give --camera-name (Kalibr) or --camera-id (COLMAP), not both")
+        raise click.UsageError("give --camera-name (Kalibr, Basalt) or --camera-id (COLMAP), not both")
     if image is not None and image_size is not None:
         raise click.UsageError("give --image or --image-size, not both")
     if image_size is not None and not (min(image_size) > 0 and image_size[0] * image_size[1] <= MAX_IMAGE_PIXELS):
@@ -99,6 +103,8 @@ def import_(
     check_outputs([("the calibration", calibration), ("the image", image)], [("the output", output)])
     sources: dict[str, str] = {}
     imported = read_calibration(calibration, format_, camera_name or camera_id)
+    for note in imported.notes:
+        click.echo(f"panomap: note: {printable(note)}", err=True)
     if image is not None:
         omni = read_omni(image)
         image_size = (int(omni.shape[1]), int(omni.shape[0]))

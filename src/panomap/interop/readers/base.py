@@ -20,12 +20,27 @@ from .yaml_text import brief
 
 
 @dataclass(frozen=True)
+class RigPose:
+    """A camera's pose in its rig, as the file gives it (Basalt's ``T_imu_cam``: camera frame to the IMU's).
+
+    ``translation_m`` (px, py, pz) is the camera's centre in the IMU frame (m); ``quaternion_xyzw`` the
+    rotation of camera to IMU coordinates, a unit quaternion (qx, qy, qz, qw). Kept, not yet used.
+    """
+
+    camera: str
+    translation_m: tuple[float, float, float]
+    quaternion_xyzw: tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
 class Imported:
     """A calibration as read: the model, the format it came in, and what else the file says.
 
     ``image_size`` is (width, height) px when the file gives it; ``camera`` names the camera picked
     in a file of several (None otherwise); ``pixel_shift_px`` is what was added to the file's pixel
-    coordinates to reach panomap's (-0.5 for COLMAP).
+    coordinates to reach panomap's (-0.5 for COLMAP); ``rig_poses`` every camera's pose in a rig, in the
+    file's order, where the file gives them (Basalt's); ``notes`` what the reader decided that the user
+    should hear.
     """
 
     model: ExternalCamera
@@ -34,6 +49,7 @@ class Imported:
     camera: str | None = None
     pixel_shift_px: float = 0.0
     notes: tuple[str, ...] = field(default_factory=tuple)
+    rig_poses: tuple[RigPose, ...] = field(default_factory=tuple)
 
 
 # The most values a list of a calibration file holds (OCam's polynomials: about 20).
