@@ -26,7 +26,8 @@ from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni
     "--format", "format_", type=click.Choice(list(READERS)), help="The file's format [default: from its content]."
 )
 @click.option(
-    "--camera-name", help="The camera of a Kalibr camchain or a Basalt calibration (name or index) [default: the first]."
+    "--camera-name",
+    help="The camera of a Kalibr camchain or a Basalt calibration (a name, or a Basalt index) [default: the first].",
 )
 @click.option("--camera-id", help="The camera of a COLMAP cameras.txt [default: the first].")
 @click.option(

@@ -36,7 +36,10 @@ from .yaml_text import brief
 
 # Each camera_type: its intrinsics' names in Basalt's order, and the model built from them (in that order).
 CAMERA_TYPES: dict[str, tuple[tuple[str, ...], Any]] = {
-    "ds": (("fx", "fy", "cx", "cy", "xi", "alpha"), lambda fx, fy, cx, cy, xi, a: (DoubleSphere, xi, a, fx, fy, cx, cy)),
+    "ds": (
+        ("fx", "fy", "cx", "cy", "xi", "alpha"),
+        lambda fx, fy, cx, cy, xi, a: (DoubleSphere, xi, a, fx, fy, cx, cy),
+    ),
     "eucm": (("fx", "fy", "cx", "cy", "alpha", "beta"), lambda fx, fy, cx, cy, a, b: (EUCM, a, b, fx, fy, cx, cy)),
     "ucm": (("fx", "fy", "cx", "cy", "alpha"), lambda fx, fy, cx, cy, a: (EUCM, a, 1.0, fx, fy, cx, cy)),
     "kb4": (("fx", "fy", "cx", "cy", "k1", "k2", "k3", "k4"), lambda *p: (KannalaBrandt, *p)),

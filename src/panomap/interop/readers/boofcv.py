@@ -1,11 +1,12 @@
 """BoofCV's calibration YAML (``CalibrationIO.save``): one camera, its ``model`` named at the top level.
 
-Read, as BoofCV's ``CalibrationIO.load`` reads them:
+Read, as BoofCV's ``CalibrationIO.load`` reads them: ``model``, ``pinhole`` {fx, fy, cx, cy, skew, width,
+height}, and
 
-| model | keys | panomap model |
-| --- | --- | --- |
-| ``omnidirectional_universal`` | ``pinhole`` {fx, fy, cx, cy, skew, width, height}, ``mirror_offset`` (xi), ``radial_tangential`` {``radial`` [any count], ``t1``, ``t2``} | mei (radial past the second: ``k_more``) |
-| ``kannala_brandt`` | ``pinhole`` {...}, ``symmetric``, ``radial``, ``radial_trig``, ``tangent``, ``tangent_trig`` | kannala-brandt-full |
+- ``omnidirectional_universal``: ``mirror_offset`` (xi), ``radial_tangential`` {``radial`` [any count],
+  ``t1``, ``t2``}: model mei (k1, k2, p1 = t1, p2 = t2; radial past the second as ``k_more``);
+- ``kannala_brandt``: ``symmetric``, ``radial``, ``radial_trig``, ``tangent``, ``tangent_trig``: model
+  kannala-brandt-full.
 
 ``radial`` and ``t1``/``t2`` may be absent (0, as BoofCV loads them); a Kannala-Brandt coefficient list
 absent is empty, and its ``radial_trig``/``tangent_trig`` hold four values or none. BoofCV's frame
@@ -65,7 +66,7 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
         radial = distortion.get("radial")
         k = numbers([] if radial is None else radial, "radial_tangential.radial", path)
         t1, t2 = (number(distortion.get(t, 0.0), f"radial_tangential.{t}", path) for t in ("t1", "t2"))
-        k1, k2 = (k + [0.0, 0.0])[:2]
+        k1, k2 = [*k, 0.0, 0.0][:2]
         model = built(Mei, path, xi, fx, fy, cx, cy, k1, k2, t1, t2, skew, tuple(k[2:]))
     else:
         lists = {name: tuple(numbers(data.get(name) or [], name, path)) for name in KB_LISTS}
