@@ -30,7 +30,7 @@ from ..models.double_sphere import DoubleSphere
 from ..models.eucm import EUCM
 from ..models.kannala_brandt import KannalaBrandt
 from ..models.pinhole_radtan import PinholeRadtan
-from .base import Imported, RigPose, built, image_size_of, number, numbers
+from .base import Imported, RigPose, built, image_size_of, numbers, typed_number
 from .json_text import load_json
 from .yaml_text import brief
 
@@ -92,7 +92,7 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     for key in keys:
         if key not in intrinsics:
             raise PanomapError(f"{where}.intrinsics.{key} is missing ({kind} takes {', '.join(keys)})", path)
-    values = [number(intrinsics[key], f"{where}.intrinsics.{key}", path) for key in keys]
+    values = [typed_number(intrinsics[key], f"{where}.intrinsics.{key}", path) for key in keys]
     cls, *parameters = build(*values)
     model: ExternalCamera = built(cls, path, *parameters)
     width, height = numbers(resolutions[index], f"value0.resolution[{index}]", path, 2)
@@ -132,6 +132,6 @@ def _poses(root: dict[str, Any], count: int, path: str | Path) -> tuple[RigPose,
         where = f"value0.T_imu_cam[{i}]"
         if not isinstance(pose, dict) or any(key not in pose for key in POSE_KEYS):
             raise PanomapError(f"{where} is {brief(pose)}, not a pose ({', '.join(POSE_KEYS)})", path)
-        px, py, pz, qx, qy, qz, qw = (number(pose[key], f"{where}.{key}", path) for key in POSE_KEYS)
+        px, py, pz, qx, qy, qz, qw = (typed_number(pose[key], f"{where}.{key}", path) for key in POSE_KEYS)
         out.append(RigPose(f"cam{i}", (px, py, pz), (qx, qy, qz, qw)))
     return tuple(out)

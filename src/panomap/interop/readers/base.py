@@ -59,14 +59,23 @@ MAX_LIST = 64
 MAX_IMAGE_PIXELS = 16384 * 16384
 
 
-def number(value: Any, where: str, path: str | Path) -> float:
-    """``value`` (a number, or its text) as a finite float at most ``MAX_ABS`` (1e9) in size: no
-    calibration parameter, size or radius is larger, and arithmetic on larger ones overflows."""
+def number(value: Any, where: str, path: str | Path, text: bool = True) -> float:
+    """``value`` (a number, or its text unless ``text`` is False: JSON's and YAML's typed numbers) as a
+    finite float at most ``MAX_ABS`` (1e9) in size: no calibration parameter, size or radius is larger,
+    and arithmetic on larger ones overflows."""
+    if not text and (isinstance(value, bool) or not isinstance(value, (int, float))):
+        raise PanomapError(f"{where} is {brief(value)}, not a number", path)
     try:
         return finite_number(value, bools=False)
     except NotFinite as exc:
         what = "not a number" if not exc.number else f"not a finite number of at most {MAX_ABS:g} in size"
         raise PanomapError(f"{where} is {brief(value)}, {what}", path) from None
+
+
+def typed_number(value: Any, where: str, path: str | Path) -> float:
+    """:func:`number` of a value a JSON or YAML file writes as a number (text such as ``"250"`` is refused,
+    as BoofCV's, Basalt's and gyroflow's own loaders refuse it)."""
+    return number(value, where, path, text=False)
 
 
 def numbers(value: Any, where: str, path: str | Path, count: int | tuple[int, ...] | None = None) -> list[float]:

@@ -25,7 +25,7 @@ from ...errors import PanomapError
 from ..models.base import ExternalCamera
 from ..models.kannala_brandt_full import KannalaBrandtFull
 from ..models.mei import Mei
-from .base import Imported, built, image_size_of, number, numbers
+from .base import Imported, built, image_size_of, numbers, typed_number
 from .yaml_text import brief, load_yaml
 
 MODELS = ("omnidirectional_universal", "kannala_brandt")
@@ -55,17 +55,17 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     for key in PINHOLE_KEYS:
         if key not in pinhole:
             raise PanomapError(f"pinhole.{key} is missing", path)
-    fx, fy, cx, cy, skew, width, height = (number(pinhole[k], f"pinhole.{k}", path) for k in PINHOLE_KEYS)
+    fx, fy, cx, cy, skew, width, height = (typed_number(pinhole[k], f"pinhole.{k}", path) for k in PINHOLE_KEYS)
     size = image_size_of(width, height, "pinhole.width x height", path)
     model: ExternalCamera
     if kind == "omnidirectional_universal":
         if "mirror_offset" not in data:
             raise PanomapError("mirror_offset is missing", path)
-        xi = number(data["mirror_offset"], "mirror_offset", path)
+        xi = typed_number(data["mirror_offset"], "mirror_offset", path)
         distortion = _section(data, "radial_tangential", path)
         radial = distortion.get("radial")
         k = numbers([] if radial is None else radial, "radial_tangential.radial", path)
-        t1, t2 = (number(distortion.get(t, 0.0), f"radial_tangential.{t}", path) for t in ("t1", "t2"))
+        t1, t2 = (typed_number(distortion.get(t, 0.0), f"radial_tangential.{t}", path) for t in ("t1", "t2"))
         k1, k2 = [*k, 0.0, 0.0][:2]
         model = built(Mei, path, xi, fx, fy, cx, cy, k1, k2, t1, t2, skew, tuple(k[2:]))
     else:

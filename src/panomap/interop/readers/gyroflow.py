@@ -21,7 +21,7 @@ from typing import Any
 
 from ...errors import PanomapError
 from ..models.kannala_brandt import OpenCVFisheye
-from .base import Imported, built, image_size_of, number, numbers
+from .base import Imported, built, image_size_of, numbers, typed_number
 from .json_text import load_json
 from .yaml_text import brief
 
@@ -52,7 +52,7 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     for key in ("input_horizontal_stretch", "input_vertical_stretch"):
         if data.get(key) is None:
             continue
-        stretch = number(data[key], key, path)
+        stretch = typed_number(data[key], key, path)
         if stretch > 0.01 and stretch != 1:  # gyroflow takes 0.01 or less as unset (1)
             raise PanomapError(f"{key} is {stretch:g}: an anamorphic profile is not read", path)
     params = _object(data, "fisheye_params", path)
@@ -60,7 +60,7 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     for key in ("w", "h"):
         if key not in dimension:
             raise PanomapError(f"calib_dimension.{key} is missing", path)
-    width, height = (number(dimension[key], f"calib_dimension.{key}", path) for key in ("w", "h"))
+    width, height = (typed_number(dimension[key], f"calib_dimension.{key}", path) for key in ("w", "h"))
     size = image_size_of(width, height, "calib_dimension", path)
     for key in ("camera_matrix", "distortion_coeffs"):
         if key not in params:
@@ -92,7 +92,7 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
         cx, cy = centre
     crop = data.get("crop")
     if crop is not None:
-        crop = number(crop, "crop", path)
+        crop = typed_number(crop, "crop", path)
         if not crop > 0:
             raise PanomapError(f"crop is {crop:g}, not > 0", path)
         fx, fy = fx / crop, fy / crop
