@@ -271,7 +271,7 @@ def test_boofcv_universal_omni_with_three_radial_terms_skew_and_tangential(tmp_p
     expected = boofcv_universal_omni(
         rays, *(OMNI[k] for k in ("fx", "fy", "cx", "cy", "skew", "xi", "radial")), OMNI["t1"], OMNI["t2"]
     )
-    assert table_error(table, rays, expected, 100.0) < TOLERANCE_PX  # measured: 1e-3 px
+    assert table_error(table, rays, expected, 100.0) < TOLERANCE_PX  # measured: <= 1.3e-3 px
 
 
 @pytest.mark.parametrize("asymmetric", [False, True], ids=["symmetric", "asymmetric"])
@@ -286,7 +286,7 @@ def test_boofcv_kannala_brandt_symmetric_and_asymmetric(tmp_path: Path, asymmetr
     if asymmetric:  # the terms move pixels by whole pixels: the check sees them
         plain = boofcv_kannala_brandt(rays, 280.0, 279.0, 500.2, 449.7, skew, KB_SYMMETRIC)
         assert np.max(np.hypot(*(expected - plain).T)) > 2.0
-    assert table_error(table, rays, expected, 100.0) < TOLERANCE_PX  # measured: 1e-3 px
+    assert table_error(table, rays, expected, 100.0) < TOLERANCE_PX  # measured: <= 1.3e-3 px
 
 
 @needs_scenes
@@ -306,7 +306,7 @@ def test_real_boofcv_theta_back(tmp_path: Path) -> None:
     side = project(np.array([[1.0, 0.0, 0.0]]))[0]
     assert abs(math.hypot(side[0] - p["cx"], side[1] - p["cy"]) - 428) < 1
     rays = fan(100.0)  # the lens's field: about 200 deg
-    assert table_error(table, rays, project(rays), 100.0) < TOLERANCE_PX  # measured: 1e-3 px
+    assert table_error(table, rays, project(rays), 100.0) < TOLERANCE_PX  # measured: <= 1.3e-3 px
 
 
 # ----------------------------------------------------------------------------- Basalt
@@ -319,7 +319,7 @@ def test_basalt_cameras_match_basalts_equations(tmp_path: Path, kind: str) -> No
     assert table.info["import"]["format"] == "basalt" and table.image_size == (1024, 768)
     rays = fan(BASALT_FIELD_DEG[kind])
     expected = BASALT_EQUATIONS[kind](rays, *BASALT_CAMERAS[kind].values())
-    assert table_error(table, rays, expected, BASALT_FIELD_DEG[kind]) < TOLERANCE_PX  # measured: 1e-3 px
+    assert table_error(table, rays, expected, BASALT_FIELD_DEG[kind]) < TOLERANCE_PX  # measured: <= 1.3e-3 px
 
 
 @pytest.mark.parametrize("choice", [None, "cam1", "1", "cam2"])
@@ -365,7 +365,7 @@ def test_real_basalt_ds_building(tmp_path: Path) -> None:
         uv = project(np.array([[math.sin(a), 0.0, math.cos(a)]]))[0]
         assert abs(uv[0] - c["cx"] - radius) < 0.1
     rays = fan(100.0)
-    assert table_error(table, rays, project(rays), 100.0) < TOLERANCE_PX  # measured: 1e-3 px
+    assert table_error(table, rays, project(rays), 100.0) < TOLERANCE_PX  # measured: <= 1.3e-3 px
 
 
 # ----------------------------------------------------------------------------- gyroflow
@@ -384,7 +384,7 @@ def test_gyroflow_profile_as_gyroflow_reads_it(tmp_path: Path, asymmetrical: boo
     opencv, _ = cv2.fisheye.projectPoints(rays[None], np.zeros(3), np.zeros(3), k, np.array(GYRO["k"]))
     assert np.max(np.hypot(*(opencv[0] - expected).T)) < 1e-6
     # The 1920 x 1080 frame sees to about 68 deg from the axis (its corners); the model reaches 90 deg.
-    assert table_error(table, rays, expected, 66.0) < TOLERANCE_PX  # measured: 1e-3 px
+    assert table_error(table, rays, expected, 66.0) < TOLERANCE_PX  # measured: <= 1.3e-3 px
     notes = table.info["import"]["notes"]
     assert notes[0] == "lens profile 'Brand_Model_Lens_1080p_16by9_1920x1080-60.00fps'"
     assert any("principal point is the image centre (960, 540)" in n for n in notes) != asymmetrical
