@@ -64,12 +64,12 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
         xi = typed_number(data["mirror_offset"], "mirror_offset", path)
         distortion = _section(data, "radial_tangential", path)
         radial = distortion.get("radial")
-        k = numbers([] if radial is None else radial, "radial_tangential.radial", path)
+        k = numbers(_or_empty(radial), "radial_tangential.radial", path)
         t1, t2 = (typed_number(distortion.get(t, 0.0), f"radial_tangential.{t}", path) for t in ("t1", "t2"))
         k1, k2 = [*k, 0.0, 0.0][:2]
         model = built(Mei, path, xi, fx, fy, cx, cy, k1, k2, t1, t2, skew, tuple(k[2:]))
     else:
-        lists = {name: tuple(numbers(data.get(name) or [], name, path)) for name in KB_LISTS}
+        lists = {name: tuple(numbers(_or_empty(data.get(name)), name, path)) for name in KB_LISTS}
         for name in ("radial_trig", "tangent_trig"):
             if len(lists[name]) not in (0, 4):
                 raise PanomapError(f"{name} has {len(lists[name])} values, expected 4 (or none)", path)
@@ -99,3 +99,8 @@ def _section(data: dict[str, Any], key: str, path: str | Path) -> dict[str, Any]
     if not isinstance(value, dict):
         raise PanomapError(f"{key} is {brief(value)}, not a mapping", path)
     return value
+
+
+def _or_empty(value: Any) -> Any:
+    """An absent (None) coefficient list as BoofCV loads it: empty."""
+    return [] if value is None else value
