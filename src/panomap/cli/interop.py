@@ -27,7 +27,10 @@ from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, orientation_option,
 @click.option(
     "--format", "format_", type=click.Choice(list(READERS)), help="The file's format [default: from its content]."
 )
-@click.option("--camera-name", help="The camera of a Kalibr camchain [default: cam0].")
+@click.option(
+    "--camera-name",
+    help="The camera of a Kalibr camchain or a Basalt calibration (a name, or a Basalt index) [default: the first].",
+)
 @click.option("--camera-id", help="The camera of a COLMAP cameras.txt [default: the first].")
 @orientation_option(
     "Where the camera looks, in degrees, as a perspective view's yaw (azimuth of the optical axis, "
@@ -89,7 +92,9 @@ def import_(
     table_size: tuple[int, int] | None,
 ) -> None:
     """Make a table from a calibration: OCamCalib calib_results.txt, a Kalibr camchain, an OpenCV
-    cv::fisheye or cv::omnidir FileStorage file, or COLMAP cameras.txt."""
+    cv::fisheye or cv::omnidir FileStorage file, COLMAP cameras.txt, a BoofCV calibration YAML
+    (omnidirectional_universal, kannala_brandt), a Basalt calibration JSON (ds, eucm, ucm, kb4,
+    pinhole-radtan8, pinhole) or a gyroflow lens profile (opencv_fisheye)."""
     if tilt == "fit":
         raise click.BadParameter(
             "an imported camera's tilt is given, not fitted: 'none' or 'DEG AZ_DEG'", param_hint="'--tilt'"
@@ -98,7 +103,7 @@ def import_(
         raise click.UsageError("give --orientation, or --axis and --tilt, not both")
     axis = axis or "down"
     if camera_name is not None and camera_id is not None:
-        raise click.UsageError("give --camera-name (Kalibr) or --camera-id (COLMAP), not both")
+        raise click.UsageError("give --camera-name (Kalibr, Basalt) or --camera-id (COLMAP), not both")
     if image is not None and image_size is not None:
         raise click.UsageError("give --image or --image-size, not both")
     if image_size is not None and not (min(image_size) > 0 and image_size[0] * image_size[1] <= MAX_IMAGE_PIXELS):
@@ -109,6 +114,8 @@ def import_(
     check_outputs([("the calibration", calibration), ("the image", image)], [("the output", output)])
     sources: dict[str, str] = {}
     imported = read_calibration(calibration, format_, camera_name or camera_id)
+    for note in imported.notes:
+        click.echo(f"panomap: note: {printable(note)}", err=True)
     if image is not None:
         omni = read_omni(image)
         image_size = (int(omni.shape[1]), int(omni.shape[0]))

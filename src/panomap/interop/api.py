@@ -55,11 +55,13 @@ def import_calibration(
     ----------
     path : path
         OCamCalib ``calib_results.txt``, a Kalibr camchain, an OpenCV FileStorage file of cv::fisheye or
-        cv::omnidir, or COLMAP ``cameras.txt`` (see ``docs/calibration-formats.md``).
-    format : {"ocam", "kalibr", "opencv", "colmap"}, optional
+        cv::omnidir, COLMAP ``cameras.txt``, a BoofCV calibration YAML, a Basalt calibration JSON or a
+        gyroflow lens profile (see ``docs/calibration-formats.md``).
+    format : {"ocam", "gyroflow", "opencv", "kalibr", "colmap", "boofcv", "basalt"}, optional
         Default: recognised from the content.
     camera : str, optional
-        A Kalibr camera name (default ``cam0``) or a COLMAP camera id (default the first).
+        A Kalibr camera name (default ``cam0``), a Basalt camera (``cam1`` or ``1``; default the first)
+        or a COLMAP camera id (default the first).
     axis : {"down", "up"}
         The optical axis becomes the table's vertical, looking down (default) or up; azimuth 0 lies
         along the calibration's x axis (the image's columns).
@@ -124,6 +126,8 @@ def table_of_imported(
     }
     if imported.camera is not None:
         record["camera"] = imported.camera
+    if imported.notes:
+        record["notes"] = list(imported.notes)
     info_sources = {"centre": f"imported from {Path(path).name}"} | dict(sources or {})
     info_sources.setdefault("cutoff_radius", "given" if cutoff_radius is not None else "default: none")
     info_sources.setdefault(

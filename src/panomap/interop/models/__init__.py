@@ -13,6 +13,7 @@ from .colmap_fisheye import FOV, ColmapFOV, ColmapRadialFisheye, ColmapThinPrism
 from .double_sphere import DoubleSphere
 from .eucm import EUCM, ColmapEUCM
 from .kannala_brandt import KannalaBrandt, OpenCVFisheye
+from .kannala_brandt_full import KannalaBrandtFull
 from .mei import Mei
 from .ocam import OCam
 from .pinhole_radtan import PinholeRadtan
@@ -32,6 +33,7 @@ EXTERNAL_MODELS: dict[str, type[ExternalCamera]] = _registry(
     OCam,
     KannalaBrandt,
     OpenCVFisheye,
+    KannalaBrandtFull,
     Mei,
     DoubleSphere,
     EUCM,

@@ -4,37 +4,52 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import NamedTuple
 
 from ...errors import PanomapError
 from ...files import read_text
-from . import colmap_cameras, kalibr, ocam_txt, opencv_storage
-from .base import Imported
+from . import basalt, boofcv, colmap_cameras, gyroflow, kalibr, ocam_txt, opencv_storage
+from .base import Imported, RigPose
 
 Reader = Callable[[str, "str | Path", "str | None"], Imported]
 
-# Every format: name -> (does the text look like it, read it). Detection tries them in this order.
-READERS: dict[str, tuple[Callable[[str], bool], Reader]] = {
-    "ocam": (ocam_txt.looks_like, ocam_txt.read),
-    "opencv": (opencv_storage.looks_like, opencv_storage.read),
-    "kalibr": (kalibr.looks_like, kalibr.read),
-    "colmap": (colmap_cameras.looks_like, colmap_cameras.read),
+
+class Format(NamedTuple):
+    """A format: does the text look like it, read it, and whether a file of it may hold several cameras
+    (picked by ``--camera-name``/``--camera-id``)."""
+
+    looks_like: Callable[[str], bool]
+    read: Reader
+    many_cameras: bool = False
+
+
+# Every format by name. Detection tries them in this order: gyroflow's JSON before OpenCV's, whose JSON
+# detection (a ``"camera_matrix":`` line) a profile's nested ``fisheye_params`` would also meet.
+READERS: dict[str, Format] = {
+    "ocam": Format(ocam_txt.looks_like, ocam_txt.read),
+    "gyroflow": Format(gyroflow.looks_like, gyroflow.read),
+    "opencv": Format(opencv_storage.looks_like, opencv_storage.read),
+    "kalibr": Format(kalibr.looks_like, kalibr.read, many_cameras=True),
+    "colmap": Format(colmap_cameras.looks_like, colmap_cameras.read, many_cameras=True),
+    "boofcv": Format(boofcv.looks_like, boofcv.read),
+    "basalt": Format(basalt.looks_like, basalt.read, many_cameras=True),
 }
 
 
 def read_calibration(path: str | Path, format: str | None = None, camera: str | None = None) -> Imported:
     """The calibration in ``path``: its format from the content unless ``format`` (a key of READERS)
-    forces it; ``camera`` picks a Kalibr camera name or a COLMAP camera id."""
+    forces it; ``camera`` picks a Kalibr or Basalt camera (name or index) or a COLMAP camera id."""
     text = read_text(path)
     if format is None:
-        found = [name for name, (looks_like, _) in READERS.items() if looks_like(text)]
+        found = [name for name, entry in READERS.items() if entry.looks_like(text)]
         if not found:
             raise PanomapError(f"not a calibration this reads ({', '.join(READERS)}); give --format to force one", path)
         format = found[0]
     if format not in READERS:
         raise PanomapError(f"unknown calibration format {format!r} (known: {', '.join(READERS)})")
-    if camera is not None and format not in ("kalibr", "colmap"):
+    if camera is not None and not READERS[format].many_cameras:
         raise PanomapError(f"a {format} file holds one camera: --camera-name/--camera-id do not apply", path)
-    return READERS[format][1](text, path, camera)
+    return READERS[format].read(text, path, camera)
 
 
-__all__ = ["READERS", "Imported", "read_calibration"]
+__all__ = ["READERS", "Format", "Imported", "RigPose", "read_calibration"]

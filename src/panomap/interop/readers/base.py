@@ -20,12 +20,27 @@ from .yaml_text import brief
 
 
 @dataclass(frozen=True)
+class RigPose:
+    """A camera's pose in its rig, as the file gives it (Basalt's ``T_imu_cam``: camera frame to the IMU's).
+
+    ``translation_m`` (px, py, pz) is the camera's centre in the IMU frame (m); ``quaternion_xyzw`` the
+    rotation of camera to IMU coordinates, a unit quaternion (qx, qy, qz, qw). Kept, not yet used.
+    """
+
+    camera: str
+    translation_m: tuple[float, float, float]
+    quaternion_xyzw: tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
 class Imported:
     """A calibration as read: the model, the format it came in, and what else the file says.
 
     ``image_size`` is (width, height) px when the file gives it; ``camera`` names the camera picked
     in a file of several (None otherwise); ``pixel_shift_px`` is what was added to the file's pixel
-    coordinates to reach panomap's (-0.5 for COLMAP).
+    coordinates to reach panomap's (-0.5 for COLMAP); ``rig_poses`` every camera's pose in a rig, in the
+    file's order, where the file gives them (Basalt's); ``notes`` what the reader decided that the user
+    should hear.
     """
 
     model: ExternalCamera
@@ -34,6 +49,7 @@ class Imported:
     camera: str | None = None
     pixel_shift_px: float = 0.0
     notes: tuple[str, ...] = field(default_factory=tuple)
+    rig_poses: tuple[RigPose, ...] = field(default_factory=tuple)
 
 
 # The most values a list of a calibration file holds (OCam's polynomials: about 20).
@@ -43,14 +59,23 @@ MAX_LIST = 64
 MAX_IMAGE_PIXELS = 16384 * 16384
 
 
-def number(value: Any, where: str, path: str | Path) -> float:
-    """``value`` (a number, or its text) as a finite float at most ``MAX_ABS`` (1e9) in size: no
-    calibration parameter, size or radius is larger, and arithmetic on larger ones overflows."""
+def number(value: Any, where: str, path: str | Path, text: bool = True) -> float:
+    """``value`` (a number, or its text unless ``text`` is False: JSON's and YAML's typed numbers) as a
+    finite float at most ``MAX_ABS`` (1e9) in size: no calibration parameter, size or radius is larger,
+    and arithmetic on larger ones overflows."""
+    if not text and (isinstance(value, bool) or not isinstance(value, (int, float))):
+        raise PanomapError(f"{where} is {brief(value)}, not a number", path)
     try:
         return finite_number(value, bools=False)
     except NotFinite as exc:
         what = "not a number" if not exc.number else f"not a finite number of at most {MAX_ABS:g} in size"
         raise PanomapError(f"{where} is {brief(value)}, {what}", path) from None
+
+
+def typed_number(value: Any, where: str, path: str | Path) -> float:
+    """:func:`number` of a value a JSON or YAML file writes as a number (text such as ``"250"`` is refused,
+    as BoofCV's, Basalt's and gyroflow's own loaders refuse it)."""
+    return number(value, where, path, text=False)
 
 
 def numbers(value: Any, where: str, path: str | Path, count: int | tuple[int, ...] | None = None) -> list[float]:
