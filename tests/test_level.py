@@ -19,9 +19,9 @@ import pytest
 from panomap import import_calibration
 from panomap.calibrate.level import level_table
 from panomap.errors import PanomapError
+from test_orientation import CX, CY, F_PX, HALF_FOV_DEG, HEIGHT, WIDTH, conventions_axes
 
 from helpers import assert_one_line_error, run
-from test_orientation import CX, CY, F_PX, HALF_FOV_DEG, HEIGHT, WIDTH, conventions_axes
 
 PANORAMAS = Path(__file__).resolve().parents[2] / "shared" / "data" / "panoramas"
 
@@ -69,7 +69,8 @@ def camchain(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("level") / "camchain.yaml"
     path.write_text(
         f"cam0:\n  camera_model: pinhole\n  intrinsics: [{F_PX}, {F_PX}, {CX}, {CY}]\n"
-        f"  distortion_model: equidistant\n  distortion_coeffs: [0.0, 0.0, 0.0, 0.0]\n  resolution: [{WIDTH}, {HEIGHT}]\n"
+        "  distortion_model: equidistant\n  distortion_coeffs: [0.0, 0.0, 0.0, 0.0]\n"
+        f"  resolution: [{WIDTH}, {HEIGHT}]\n"
     )
     return path
 
