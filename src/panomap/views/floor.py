@@ -45,7 +45,8 @@ class FloorView(View):
     ``X = x_min + (k + 0.5)(x_max - x_min)/W``,
     ``Y = y_max - (l + 0.5)(y_max - y_min)/H``, ``Z = z_plane``: a map seen
     from above, +X to the right, +Y up. A camera looking down sees only planes
-    below O_m, one looking up only planes above; :meth:`angles` refuses the
+    below O_m, one looking up only planes above (one turned any way, the side its
+    table's elevations reach); :meth:`angles` refuses the
     others.
     """
 
@@ -128,8 +129,17 @@ class FloorView(View):
         return self.world_points() - np.asarray(table.camera_position)
 
     def check_plane(self, table: PanoMappingTable) -> None:
-        """Refuse a plane the table's camera cannot see: at or above O_m looking down, at or below looking up."""
+        """Refuse a plane the table's camera cannot see: at or above O_m looking down, at or below looking up; for
+        a camera turned any way, through O_m, or on a side of it that its table's elevations do not reach."""
         z0 = table.camera_position[2]
+        if table.model.rotation is not None:
+            rho_s, rho_e = table.elevation_range
+            if self.z_plane == z0 or (self.z_plane < z0 and rho_s >= 0) or (self.z_plane > z0 and rho_e <= 0):
+                raise PanomapError(
+                    f"the plane Z = {self.z_plane:g} is not seen by the camera (Z0 = {z0:g}, which sees elevations "
+                    f"{np.degrees(rho_s):.1f}..{np.degrees(rho_e):.1f} deg)"
+                )
+            return
         if table.model.axis == "down" and self.z_plane >= z0:
             raise PanomapError(
                 f"the plane Z = {self.z_plane:g} is at or above the camera (Z0 = {z0:g}); "
