@@ -392,6 +392,8 @@ def calibrate_camera(
     model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers, tilt_deg, camera_sigma, viewpoint, tilt
         As :func:`panomap.fit_camera` (by default the tilt and the camera position are refined where
         cross-validation says the landmarks support it; ``tilt``, deprecated, is ``tilt_deg``'s old spelling).
+    orientation_deg : (yaw, pitch, roll), optional
+        A camera looking any way (deg), as :func:`panomap.fit_camera` takes it: the fit starts from it.
     models_cover_annulus : bool
         When both radii are known before the fit, automatic model choice
         only takes models that run monotonically across the annulus (its
