@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import PanomapError
 from ..geometry import HALF_PI, FloatArray
+from ..values import MAX_ABS
 from .radial import RadialFunction
 from .radial_models import alpha_of_rho, rho_of_alpha
 
@@ -76,6 +77,11 @@ class Viewpoint:
             )
         if not all(math.isfinite(x) for x in rho + z):
             raise PanomapError("the viewpoint's elevations or offsets are not finite")
+        if not all(abs(x) <= MAX_ABS for x in z):
+            raise PanomapError(
+                f"the viewpoint's offsets reach {max(abs(x) for x in z):g} world units: beyond {MAX_ABS:g} in size "
+                "(no mirror is that large; the views' arithmetic would overflow)"
+            )
         if not all(-HALF_PI - 1e-9 <= x <= HALF_PI + 1e-9 for x in rho) or not all(np.diff(rho) > 0):
             raise PanomapError("the viewpoint's elevations are not increasing within -90..90 deg")
         object.__setattr__(self, "elevations_rad", rho)

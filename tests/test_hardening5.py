@@ -1,0 +1,136 @@
+"""Issue 55, section 2 (hardening 5): the fuzz classes an outside check found, each pinned.
+
+A table's metadata of numbers no float holds or no camera has (D, E); a named pipe given to ``fit`` (B);
+a non-central table exported to a single-viewpoint format (F); forced fit options kept or refused (G);
+streams without an index seeked as ffmpeg seeks them (C); the Python API's wrong inputs (I); repeated
+pictures counted once (H).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+
+from panomap.errors import PanomapError
+from panomap.simulate import standard_cameras
+from panomap.table.file import load_table, metadata_digest, save_table
+
+from helpers import assert_one_line_error, learn_table, run, spread_landmarks
+
+SIZE = (400, 400)
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder with a table fitted to a simulated hyperbolic camera (fit.npz), the same table with ray
+    origins 30 mm apart (vp.npz, format version 4) and an image of its size (omni.png)."""
+    folder = tmp_path_factory.mktemp("hardening5")
+    camera = standard_cameras(SIZE, centre=(201.3, 196.2))["hyperbolic"]
+    position = (0.3, -0.2, 2.5)
+    marks = spread_landmarks(camera, position, 40, np.random.default_rng(3))
+    table, _ = learn_table(camera, position, marks, SIZE)
+    save_table(table, folder / "fit.npz")
+    tamper(folder / "fit.npz", folder / "vp.npz", with_viewpoint)
+    image = np.random.default_rng(0).integers(0, 255, (*SIZE, 3), dtype=np.uint8)
+    cv2.imwrite(str(folder / "omni.png"), image)
+    return folder
+
+
+def tamper(source: Path, target: Path, edit: Callable[[dict[str, Any]], None]) -> Path:
+    """``source``'s table with its metadata edited by ``edit`` and its checksum recomputed, as ``target``."""
+    with np.load(source) as archive:
+        entries, meta = archive["entries"], json.loads(str(archive["meta"][()]))
+    edit(meta)
+    meta["metadata_sha256"] = metadata_digest(meta)
+    np.savez(target, entries=entries, meta=np.array(json.dumps(meta)))
+    return target
+
+
+def with_viewpoint(meta: dict[str, Any], spread: float = 0.03) -> None:
+    """Ray origins ``spread`` world units apart over the table's elevations (format version 4); the entries
+    (f_r) stay what they are."""
+    low, high = meta["elevation_range_rad"]
+    meta["version"] = 4
+    meta["model"]["viewpoint"] = {"elevations_rad": [low, high], "offsets": [0.0, spread]}
+
+
+def view_commands(folder: Path, table: Path) -> dict[str, list[object]]:
+    return {
+        "info": ["info", table],
+        "panorama": ["panorama", table, folder / "omni.png", "-o", folder / "out" / "p.png", "--size", "64x16"],
+        "video": ["video", table, folder / "omni.png", "-o", folder / "out" / "v.mp4", "--view", "panorama:size=64x16"],
+    }
+
+
+# ----------------------------------------------------------------------------- D: numbers no float holds
+
+HUGE = 10**400
+
+
+def set_at(path: str) -> Callable[[dict[str, Any]], None]:
+    """An edit that puts a 400-digit integer at ``path`` (``model.centre.0``: keys and list indices)."""
+
+    def edit(meta: dict[str, Any]) -> None:
+        if path.startswith("model.viewpoint"):
+            with_viewpoint(meta)
+        *parents, last = path.split(".")
+        node: Any = meta
+        for key in parents:
+            node = node[int(key)] if isinstance(node, list) else node[key]
+        node[int(last) if isinstance(node, list) else last] = HUGE
+
+    return edit
+
+
+FIELDS = ["model.viewpoint.offsets.1", "camera_position.0", "model.centre.1", "info.fit.rms_px", "model.phi0_rad"]
+
+
+@pytest.mark.parametrize("command", ["info", "panorama", "video"])
+@pytest.mark.parametrize("field", FIELDS)
+def test_a_400_digit_integer_in_a_tables_metadata_is_named(
+    inputs: Path, tmp_path: Path, field: str, command: str
+) -> None:
+    # An OverflowError traceback in info, video and view: JSON reads the integer, no float holds it.
+    table = tamper(inputs / "fit.npz", tmp_path / "cam.npz", set_at(field))
+    (inputs / "out").mkdir(exist_ok=True)
+    result = run(*view_commands(inputs, table)[command])
+    named = re.sub(r"\.(\d+)", r"[\1]", field)  # (as the error names it: model.centre[1])
+    assert_one_line_error(result, str(table), named, "not a finite number", exit_code=1)
+    assert not list((inputs / "out").iterdir())
+
+
+# ----------------------------------------------------------------------------- E: ray origins no mirror has
+
+
+@pytest.mark.parametrize("offsets", [[0.0, 1e300], [-1e300, 0.0], [0.0, 2e9]])
+def test_ray_origins_beyond_any_mirror_are_refused_on_load(inputs: Path, tmp_path: Path, offsets: list[float]) -> None:
+    # 1e300 loaded: views exited 0 with 0% of their pixels filled and NumPy overflow warnings.
+    table = tamper(inputs / "vp.npz", tmp_path / "cam.npz", lambda m: m["model"]["viewpoint"].update(offsets=offsets))
+    (tmp_path / "out").mkdir()
+    for command in ("info", "panorama"):
+        result = run(*view_commands(tmp_path, table)[command])
+        assert_one_line_error(result, str(table), "viewpoint's offsets", "beyond 1e+09", exit_code=1)
+    with pytest.raises(PanomapError, match="viewpoint's offsets"):
+        load_table(table)
+
+
+def test_a_camera_position_or_centre_beyond_any_room_is_refused_on_load(inputs: Path, tmp_path: Path) -> None:
+    for key, edit in (
+        ("camera_position", lambda m: m.update(camera_position=[1e300, 0.0, 0.0])),
+        ("model.centre", lambda m: m["model"].update(centre=[200.0, -1e12])),
+    ):
+        table = tamper(inputs / "fit.npz", tmp_path / "cam.npz", edit)
+        assert_one_line_error(run("info", table), str(table), key, "beyond 1e+09", exit_code=1)
+
+
+def test_a_table_with_ray_origins_within_the_limits_still_loads(inputs: Path) -> None:
+    result = run("info", inputs / "vp.npz")
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "0.03 world units" in result.output
