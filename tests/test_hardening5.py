@@ -9,8 +9,12 @@ pictures counted once (H).
 from __future__ import annotations
 
 import json
+import os
 import re
-from collections.abc import Callable
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -134,3 +138,51 @@ def test_a_table_with_ray_origins_within_the_limits_still_loads(inputs: Path) ->
     result = run("info", inputs / "vp.npz")
     assert result.exit_code == 0, result.output + result.stderr
     assert "0.03 world units" in result.output
+
+
+# ----------------------------------------------------------------------------- B: a named pipe as an input
+
+
+@contextmanager
+def unblocked_after(fifo: Path, seconds: float) -> Iterator[None]:
+    """Open ``fifo``'s writing end after ``seconds`` (and close it: end of file), so that a reader blocked on
+    it, the fault pinned, fails the test instead of hanging it."""
+    done = threading.Event()
+
+    def writer() -> None:
+        if done.wait(seconds):
+            return
+        while not done.is_set():
+            try:
+                os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+            except OSError:  # (no reader yet: ENXIO)
+                pass
+            time.sleep(0.05)
+
+    thread = threading.Thread(target=writer, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+        thread.join()
+
+
+@pytest.mark.parametrize("option", ["--image", "--video"])
+def test_a_named_pipe_given_to_fit_is_not_a_file(inputs: Path, tmp_path: Path, option: str) -> None:
+    # fit --video and fit --image opened it (the memory check reads the pictures' headers) and waited for a
+    # writer for ever; every other command answers "not a file".
+    fifo = tmp_path / ("pipe.mp4" if option == "--video" else "pipe.png")
+    os.mkfifo(fifo)
+    started = time.monotonic()
+    with unblocked_after(fifo, 3.0):
+        result = run("fit", "-o", tmp_path / "cam.npz", "--image", inputs / "omni.png", option, fifo)
+    assert_one_line_error(result, str(fifo), "not a file", exit_code=1)
+    assert time.monotonic() - started < 3
+    assert not (tmp_path / "cam.npz").exists()
+
+
+def test_a_missing_video_given_to_fit_is_no_such_file(tmp_path: Path) -> None:
+    # It was "is not a video panomap can decode".
+    result = run("fit", "-o", tmp_path / "cam.npz", "--video", tmp_path / "missing.mp4")
+    assert_one_line_error(result, str(tmp_path / "missing.mp4"), "no such file", exit_code=1)

@@ -20,7 +20,7 @@ from ..calibrate.landmarks.pipeline import calibrate_camera
 from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, same_input
+from ..files import all_or_none, check_outputs, input_file, same_input
 from ..io.images import write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table, save_table
@@ -468,6 +468,8 @@ def _fit_lines(
         raise click.UsageError("--plot draws landmarks; learning from lines draws with --overlay")
     if model == "paper":
         raise click.UsageError("the paper model takes the centre as given; learning from lines needs another model")
+    for path in (*images, *videos):
+        input_file(path)  # (before the memory check reads their headers: a FIFO would block it)
     twice = same_input((*images, *videos))
     if twice is not None:
         first, second, how = twice

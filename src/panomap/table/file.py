@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from ..camera.model import CameraModel
 from ..errors import PanomapError
-from ..files import write_with
+from ..files import input_file, write_with
 from ..values import MAX_ABS
 from .sampling import MAX_TABLE_SIDE
 from .table import MAX_TABLE_ENTRIES, TABLE_FORMAT, PanoMappingTable, fill_entries
@@ -353,9 +353,7 @@ def load_table(path: str | Path) -> PanoMappingTable:
         a malformed or edited metadata field, or its entries disagree with
         its checksum or its model.
     """
-    path = Path(path)
-    if path.exists() and not path.is_file():  # (a FIFO would block the read)
-        raise PanomapError("not a file", path)
+    path = input_file(path, missing="no such table file")  # (a FIFO would block the read)
     try:
         file = path.open("rb")
     except FileNotFoundError:
