@@ -186,3 +186,25 @@ def test_a_missing_video_given_to_fit_is_no_such_file(tmp_path: Path) -> None:
     # It was "is not a video panomap can decode".
     result = run("fit", "-o", tmp_path / "cam.npz", "--video", tmp_path / "missing.mp4")
     assert_one_line_error(result, str(tmp_path / "missing.mp4"), "no such file", exit_code=1)
+
+
+# ----------------------------------------------------------------------------- F: export of a non-central table
+
+
+@pytest.mark.parametrize("format_", ["ocam", "kalibr-ds", "opencv-omnidir"])
+def test_exporting_ray_origins_to_a_single_viewpoint_format_is_refused(
+    inputs: Path, tmp_path: Path, format_: str
+) -> None:
+    # It wrote a single-viewpoint model, "largest difference 1.17 px", with no word of the 30 mm dropped.
+    out = tmp_path / "calib.txt"
+    result = run("export", inputs / "vp.npz", "-o", out, "--format", format_)
+    assert_one_line_error(result, str(inputs / "vp.npz"), f"{format_} has a single viewpoint", "0.03 world units",
+                          "30.0 mm", exit_code=1)  # fmt: skip
+    assert not out.exists()
+
+
+def test_a_negligible_spread_of_ray_origins_is_exported(inputs: Path, tmp_path: Path) -> None:
+    table = tamper(inputs / "fit.npz", tmp_path / "cam.npz", lambda m: with_viewpoint(m, spread=1e-9))
+    result = run("export", table, "-o", tmp_path / "calib.txt", "--format", "ocam")
+    assert result.exit_code == 0, result.output + result.stderr
+    assert (tmp_path / "calib.txt").exists()

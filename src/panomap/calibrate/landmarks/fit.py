@@ -41,6 +41,7 @@ from ...camera.radial import RadialFunction
 from ...camera.radial_models import AUTO_CANDIDATES, AXES, MIRROR_CANDIDATES, MODELS, RadialKind, radial_kind
 from ...camera.uncertainty import coefficient_covariance
 from ...camera.valid_range import annulus_coverage_problem, is_monotonic
+from ...camera.viewpoint import PARALLAX_DISTANCE, parallax_px
 from ...errors import PanomapError
 from ...geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
 from ..core import selection as selection_module
@@ -54,13 +55,11 @@ from .mount import DEFAULT_CAMERA_SIGMA_FRACTION, MountChoice, choose_mount, giv
 from .outliers import choose, choose_start
 from .pairs import MIN_LANDMARKS, Landmarks
 from .viewpoint import (
-    PARALLAX_DISTANCE,
     VIEWPOINT_MODES,
     SphericalMirror,
     annulus_elevations,
     choose_viewpoint,
     landmark_rays,
-    parallax_px,
 )
 
 _T = TypeVar("_T")

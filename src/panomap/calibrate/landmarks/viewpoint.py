@@ -49,8 +49,6 @@ SPHERE_KIND = "sphere"
 SPHERE_GAIN = 0.9
 # Fewer inliers than the unknowns plus this leave too little to hold out: the camera stays single-viewpoint.
 SPARE_LANDMARKS = 3
-# Distance (world units) at which the report states the parallax a single-viewpoint table would make.
-PARALLAX_DISTANCE = 1.0
 # The viewpoint's nodes reach this far (rad) beyond the landmarks' elevations, within alpha 1..179 deg.
 NODE_MARGIN_RAD = math.radians(20.0)
 NODE_LIMIT_RAD = math.radians(1.0)
@@ -401,13 +399,3 @@ def choose_viewpoint(
         return ViewpointChoice(fit_viewpoint(rays, candidates[best], True, start), held_out)
     except PanomapError:
         return ViewpointChoice(None, held_out)
-
-
-def parallax_px(radial: RadialFunction, viewpoint: Viewpoint, elevation_range: tuple[float, float]) -> float:
-    """The largest error (px) a single-viewpoint table of this camera would make for points at horizontal
-    distance ``PARALLAX_DISTANCE`` from the axis, over camera elevations ``elevation_range`` (rad): the
-    point on each ray at that distance, seen from O_m instead of from the ray's origin."""
-    rho = np.linspace(*elevation_range, 181)
-    height = viewpoint.offset(rho) + PARALLAX_DISTANCE * np.tan(rho)
-    seen = np.arctan2(height, PARALLAX_DISTANCE)
-    return float(np.nanmax(np.abs(radial(seen) - radial(rho))))
