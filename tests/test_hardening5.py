@@ -9,6 +9,7 @@ pictures counted once (H).
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import threading
@@ -208,3 +209,71 @@ def test_a_negligible_spread_of_ray_origins_is_exported(inputs: Path, tmp_path: 
     result = run("export", table, "-o", tmp_path / "calib.txt", "--format", "ocam")
     assert result.exit_code == 0, result.output + result.stderr
     assert (tmp_path / "calib.txt").exists()
+
+
+# ----------------------------------------------------------------------------- G: forced options kept or refused
+
+
+@pytest.fixture(scope="module")
+def sphere_landmarks(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[object]]:
+    """Landmarks (lm.csv) of a spherical mirror camera whose rays leave the axis over 53 mm (20, at 1-6 m, as
+    tests/test_noncentral.py's), and the options that place them (camera, centre, radii, image size)."""
+    folder = tmp_path_factory.mktemp("sphere")
+    base = standard_cameras(size=(1600, 1600), seed=0)["spherical"]
+    camera = base.with_mirror(0.3, 0.3, math.radians(25.0))
+    rng, position = np.random.default_rng(5), np.array([0.0, 0.0, 2.0])
+    rows = ["u,v,X,Y,Z"]
+    while len(rows) <= 20:
+        distance, rho, theta = rng.uniform(1.0, 6.0), math.radians(rng.uniform(-70, 5)), rng.uniform(0, 2 * math.pi)
+        d = distance * np.array([math.cos(theta), math.sin(theta), math.tan(rho)])
+        uv = camera.project(d)
+        if np.all(np.isfinite(uv)):
+            rows.append(",".join(map(str, [*uv, *(position + d)])))
+    (folder / "lm.csv").write_text("\n".join(rows) + "\n")
+    options = ["--camera", *position, "--centre", *camera.centre, "--cutoff-radius", camera.cutoff_radius,
+               "--outer-radius", camera.outer_radius, "--image-size", "1600x1600"]  # fmt: skip
+    return folder / "lm.csv", options
+
+
+@pytest.mark.slow
+def test_a_forced_model_is_kept_with_forced_ray_origins(sphere_landmarks, tmp_path: Path) -> None:
+    # --model odd1 --viewpoint caustic was reported "odd3 (forced)": the caustic's search replaced the model.
+    landmarks, options = sphere_landmarks
+    out = tmp_path / "cam.npz"
+    result = run("fit", landmarks, *options, "-o", out, "--model", "odd1", "--viewpoint", "caustic")
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "radial model: odd1 (forced)" in result.output
+    table = load_table(out)
+    assert table.model.radial.kind == "odd1" and not table.model.single_viewpoint
+
+
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        (
+            ["--sphere-radius", 0.3, "--model", "fisheye"],
+            "--model fisheye does not go with it",
+        ),  # was "sphere (forced)"
+        (["--viewpoint", "caustic", "--model", "paper"], "does not go with --model paper"),  # was single-viewpoint
+        (["--viewpoint", "caustic", "--azimuth", "paper"], "does not go with --azimuth paper"),
+        (["--sphere-radius", 0.3, "--azimuth", "paper"], "does not go with --azimuth paper"),
+    ],
+)
+def test_ray_origins_with_options_that_replace_them_are_refused(
+    sphere_landmarks, tmp_path: Path, options: list[object], named: str
+) -> None:
+    landmarks, placing = sphere_landmarks
+    result = run("fit", landmarks, *placing, "-o", tmp_path / "cam.npz", *options)
+    assert_one_line_error(result, named, exit_code=2)
+    assert not (tmp_path / "cam.npz").exists()
+
+
+def test_the_python_fit_refuses_them_too(sphere_landmarks) -> None:
+    from panomap import calibrate_camera
+    from panomap.calibrate.landmarks.pairs import read_landmarks
+
+    landmarks, _ = sphere_landmarks
+    with pytest.raises(PanomapError, match="does not go with --model paper"):
+        calibrate_camera(
+            read_landmarks(landmarks), (0.0, 0.0, 2.0), centre=(800.0, 800.0), model="paper", viewpoint="caustic"
+        )

@@ -17,7 +17,7 @@ from ..calibrate.core.sources import Source
 from ..calibrate.landmarks.diagnosis import diagnose
 from ..calibrate.landmarks.pairs import read_landmarks
 from ..calibrate.landmarks.pipeline import calibrate_camera
-from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror
+from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror, viewpoint_conflict
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, input_file, same_input
@@ -291,6 +291,11 @@ def fit(
     if frame_time is not None and image is None:
         raise click.UsageError("--frame-time picks a frame of --image: give --image VIDEO too")
     mirror = _mirror_kind(viewpoint, sphere_radius)
+    conflict = viewpoint_conflict(
+        model, azimuth, viewpoint if sphere_radius is None else SphericalMirror(sphere_radius)
+    )
+    if conflict is not None:
+        raise click.UsageError(conflict)
     omni = None if image is None else read_omni(image, frame_time)
     if omni is not None and use_lines and mirror is not None:
         click.echo(f"panomap: note: the image's lines do not join {mirror}: the landmarks alone fit it", err=True)

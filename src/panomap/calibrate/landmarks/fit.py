@@ -60,6 +60,7 @@ from .viewpoint import (
     annulus_elevations,
     choose_viewpoint,
     landmark_rays,
+    viewpoint_conflict,
 )
 
 _T = TypeVar("_T")
@@ -310,6 +311,9 @@ def fit_camera(
     tilt = renamed_keyword("fit_camera", "tilt", tilt, "tilt_deg", tilt_deg)
     if not isinstance(viewpoint, SphericalMirror) and viewpoint not in VIEWPOINT_MODES:
         raise PanomapError(f"viewpoint must be one of {', '.join(VIEWPOINT_MODES)}, not {viewpoint!r}")
+    conflict = viewpoint_conflict(model, azimuth, viewpoint)
+    if conflict is not None:
+        raise PanomapError(conflict.replace("--sphere-radius", "viewpoint=SphericalMirror(...)"))
     requested, camera, start_centre, tilt_given = _checked(
         landmarks, camera_position, centre, model, azimuth, axis, image_size, refine_centre, pixel_sigma,
         world_sigma, camera_sigma, tilt,
@@ -336,7 +340,7 @@ def fit_camera(
         landmarks, problem, data, chosen, mount_choice, tilt, start_centre, setup.axis_source, model, refine_centre,
         reject_outliers,
     )  # fmt: skip
-    return _finished(fitted, joint, viewpoint, azimuth, annulus)
+    return _finished(fitted, joint, viewpoint, azimuth, annulus, None if model == "auto" else model)
 
 
 def _candidates(
@@ -425,9 +429,11 @@ def _finished(
     viewpoint: str | SphericalMirror,
     azimuth: str,
     annulus: tuple[float, float] | None,
+    model: str | None = None,
 ) -> CameraFit:
     """The fit with what the lines joined to it say (their covariance and report, or why they did not join),
-    or, without lines, with its viewpoint chosen (:func:`with_viewpoint`) where ``viewpoint`` asks for it."""
+    or, without lines, with its viewpoint chosen (:func:`with_viewpoint`) where ``viewpoint`` asks for it: the
+    caustic forced (``"caustic"``) of the radial ``model`` forced, where one is, or refused with the reason."""
     if isinstance(joint, JointResult):
         count = len(joint.solution.radial.coefficients)
         covariance = joint.refinement.covariance[:count, :count]
@@ -438,7 +444,15 @@ def _finished(
         return with_viewpoint(fitted, annulus, sphere=viewpoint)
     if viewpoint == "single" or azimuth != "fit" or (viewpoint == "auto" and (annulus is None or annulus[0] <= 0)):
         return fitted
-    return with_viewpoint(fitted, annulus, forced=viewpoint == "caustic")
+    forced = viewpoint == "caustic"
+    result = with_viewpoint(fitted, annulus, forced=forced, only=model)
+    if forced and result.model.viewpoint is None:
+        raise PanomapError(
+            "the ray origins asked for (viewpoint caustic) cannot be fitted to these landmarks"
+            + (f" with model {model}" if model is not None else "")
+            + " (too few of them, or a caustic that folds or stops short of the image circle); nothing is written"
+        )
+    return result
 
 
 def with_viewpoint(
@@ -446,6 +460,7 @@ def with_viewpoint(
     annulus: tuple[float, float] | None = None,
     forced: bool = False,
     sphere: SphericalMirror | None = None,
+    only: str | None = None,
 ) -> CameraFit:
     """The fit with each elevation's ray origin on the axis, where cross-validation over the inlier landmarks
     chooses it (:func:`.viewpoint.choose_viewpoint`), its residuals and covariance made again; else the fit
@@ -457,7 +472,7 @@ def with_viewpoint(
         world, pixels, fitted.camera_position, model.rotation, model.centre, model.radial,
         settings.pixel_sigma_px, settings.world_sigma, annulus_elevations(model.radial, annulus),
     )  # fmt: skip
-    choice = choose_viewpoint(rays, model.radial, forced, sphere)
+    choice = choose_viewpoint(rays, model.radial, forced, sphere, only)
     single = replace(fitted, viewpoint=ViewpointReport(True, 0.0, 0.0, PARALLAX_DISTANCE, choice.held_out))
     if choice.fit is None or choice.fit.viewpoint is None:
         return single if choice.held_out else fitted

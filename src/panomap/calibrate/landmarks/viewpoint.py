@@ -337,8 +337,33 @@ SINGLE = "single viewpoint"
 CAUSTIC = "mirror caustic"
 
 
+def viewpoint_conflict(model: str, azimuth: str, viewpoint: str | SphericalMirror) -> str | None:
+    """Why ray origins asked for (``viewpoint`` "caustic", or a :class:`SphericalMirror`) cannot be fitted with
+    the ``model`` and ``azimuth`` asked for, in words naming the options; None where they go together.
+
+    The paper's azimuth and its model (Algorithm 1, unweighted) are the paper's single-viewpoint camera: its
+    fit is not cross-validated, and neither is its caustic. A sphere of known radius is fitted with its own law
+    (``sphere``), and no other kind.
+    """
+    sphere = isinstance(viewpoint, SphericalMirror)
+    if not sphere and viewpoint != "caustic":
+        return None
+    asked = "--sphere-radius (the sphere's ray origins)" if sphere else "--viewpoint caustic (ray origins)"
+    if azimuth != "fit":
+        return f"{asked} does not go with --azimuth {azimuth} (the paper's single-viewpoint camera)"
+    if sphere and model not in ("auto", SPHERE_KIND):
+        return f"{asked} fits the sphere's own law: --model {model} does not go with it (leave --model out)"
+    if model in MODELS and not radial_kind(model).weighted:
+        return f"{asked} does not go with --model {model} (the paper's single-viewpoint fit, unweighted)"
+    return None
+
+
 def choose_viewpoint(
-    rays: LandmarkRays, start: RadialFunction, forced: bool = False, sphere: SphericalMirror | None = None
+    rays: LandmarkRays,
+    start: RadialFunction,
+    forced: bool = False,
+    sphere: SphericalMirror | None = None,
+    only: str | None = None,
 ) -> ViewpointChoice:
     """The single viewpoint, or the mirror's caustic where its held-out RMS is at most ``VIEWPOINT_GAIN`` times
     the single viewpoint's (``SPHERE_GAIN`` with the spherical mirror's law; see the module's docstring), the
@@ -349,7 +374,7 @@ def choose_viewpoint(
     forced, with every weighted kind of at most ``CAUSTIC_KIND_PARAMETERS`` too (each started about O_m): the
     kind a single-viewpoint fit chose may bend to stand in for the ray origins at the landmarks' distances, and
     then trade its shape against the caustic's size. A known ``sphere``: its law with the ray origins its
-    radius gives, whatever the scores.
+    radius gives, whatever the scores. ``only`` (the kind the user forced): the caustic of that kind alone.
 
     Raises
     ------
@@ -374,7 +399,7 @@ def choose_viewpoint(
         kind = radial_kind(name)
         own = name == start.kind
         forced_kind = forced and kind.weighted and kind.parameter_count <= CAUSTIC_KIND_PARAMETERS
-        if not (own or kind.exact_origins or forced_kind):
+        if not (own or kind.exact_origins or forced_kind) or (only is not None and name != only):
             continue
         try:
             candidates[name] = start if own else fit_radial(name, straight, rays.r, start.axis, 1.0 / rays.sigma)
