@@ -19,6 +19,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import av
 import cv2
 import numpy as np
 import pytest
@@ -277,3 +278,55 @@ def test_the_python_fit_refuses_them_too(sphere_landmarks) -> None:
         calibrate_camera(
             read_landmarks(landmarks), (0.0, 0.0, 2.0), centre=(800.0, 800.0), model="paper", viewpoint="caustic"
         )
+
+
+# ----------------------------------------------------------------------------- one-liners
+
+
+def small_video(path: Path, rotation_deg: int = 0, frames: int = 5, size: tuple[int, int] = (64, 48)) -> Path:
+    """A short H.264 video (``frames`` frames at 10 fps, grey levels), its display matrix turning it by
+    ``rotation_deg``."""
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream("libx264", rate=10)
+        stream.width, stream.height, stream.pix_fmt = size[0], size[1], "yuv420p"
+        if rotation_deg:
+            stream.set_display_rotation(rotation_deg)
+        for k in range(frames):
+            frame = av.VideoFrame.from_ndarray(np.full((size[1], size[0], 3), 40 * k % 256, np.uint8), format="bgr24")
+            for packet in stream.encode(frame):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    return path
+
+
+def test_a_videos_rotation_metadata_is_warned_of(inputs: Path, tmp_path: Path) -> None:
+    # Pictures got a warning for their EXIF orientation; a video's display matrix was ignored without a word.
+    turned = small_video(tmp_path / "turned.mp4", rotation_deg=90)
+    video = ["video", inputs / "fit.npz", turned, "-o", tmp_path / "out.mp4", "--view", "panorama:size=64x16"]
+    for args in (["centre", turned], ["fit", "-o", tmp_path / "cam.npz", "--image", turned], video):
+        result = run(*args)
+        assert f"panomap: warning: {turned}: it asks players to turn its frames by 90 deg" in result.stderr, args
+    plain = small_video(tmp_path / "plain.mp4")
+    assert "turn its frames" not in run("centre", plain).stderr
+
+
+def test_the_video_note_escapes_the_files_name(tmp_path: Path) -> None:
+    # The note named the file as it is: an escape sequence in the name reached the terminal.
+    video = small_video(tmp_path / "a\x1b[31m.mp4")
+    result = run("fit", "-o", tmp_path / "cam.npz", "--video", video)
+    assert "note: " + str(tmp_path / "a\\x1b[31m.mp4: 8 frames taken") in result.stderr
+    assert "\x1b" not in result.stderr
+
+
+def test_kalibr_numbers_written_as_yaml_1_2_writes_them_are_read(tmp_path: Path) -> None:
+    # YAML 1.1 reads 1e-5 (no dot) as text: the file was refused as "not a list of numbers".
+    path = tmp_path / "camchain.yaml"
+    path.write_text(
+        "cam0:\n  camera_model: omni\n  intrinsics: [0.8, 300.0, 300.0, 373.5, 239.5]\n  distortion_model: radtan\n"
+        "  distortion_coeffs: [1e-5, -2E-4, 0.0, 1e-6]\n  resolution: [748, 480]\n"
+    )
+    result = run("import", path, "-o", tmp_path / "cam.npz")
+    assert result.exit_code == 0, result.output + result.stderr
+    path.write_text(path.read_text().replace("1e-6]", "1e-6x]"))
+    assert_one_line_error(run("import", path, "-o", tmp_path / "cam.npz"), "not a list of numbers", exit_code=1)

@@ -96,6 +96,34 @@ def open_input(source: str, open_timeout: float = 10.0, read_timeout: float | No
     return container
 
 
+def rotation_note(path: str | Path) -> str | None:
+    """A warning where the video file asks players to turn its frames (a display matrix, or an old ``rotate``
+    tag); None otherwise or where it cannot be read (its reader says why).
+
+    panomap takes the frames as stored, as it takes an image's pixels whatever its EXIF orientation: landmarks
+    measured in a player that turned the video would not match them.
+    """
+    try:
+        with av.open(str(path)) as container:
+            if not container.streams.video:
+                return None
+            stream = container.streams.video[0]
+            tag = stream.metadata.get("rotate")
+            degrees = float(tag) if tag is not None else None
+            if degrees is None:
+                frame = next(iter(container.decode(stream)), None)
+                degrees = float(getattr(frame, "rotation", 0) or 0) if frame is not None else 0.0
+    except (av.error.FFmpegError, OSError, ValueError, StopIteration):
+        return None
+    degrees = degrees % 360
+    if degrees == 0:
+        return None
+    return (
+        f"it asks players to turn its frames by {degrees:g} deg (its rotation metadata): panomap takes the frames "
+        "as stored, so measure landmarks in the frames as stored, not as a player shows them"
+    )
+
+
 def first_frame(path: str | Path, max_pixels: int, at_s: float | None = None) -> Any:
     """The first frame of a video file (at or after ``at_s`` seconds from its start, where given) as an 8-bit
     BGR image (H, W, 3), or None where the file is not a video PyAV decodes (for the commands that take one
