@@ -330,3 +330,54 @@ def test_kalibr_numbers_written_as_yaml_1_2_writes_them_are_read(tmp_path: Path)
     assert result.exit_code == 0, result.output + result.stderr
     path.write_text(path.read_text().replace("1e-6]", "1e-6x]"))
     assert_one_line_error(run("import", path, "-o", tmp_path / "cam.npz"), "not a list of numbers", exit_code=1)
+
+
+# ----------------------------------------------------------------------------- C: streams without an index
+
+
+def grey_video(path: Path, container_format: str, size: int = 400, frames: int = 60, gop: int | None = None) -> Path:
+    """``frames`` frames at 25 fps, frame k of grey level 4k (one keyframe only, x264's default, unless ``gop``)."""
+    with av.open(str(path), "w", format=container_format) as container:
+        stream = container.add_stream("libx264", rate=25)
+        stream.width, stream.height, stream.pix_fmt = size, size, "yuv420p"
+        if gop:
+            stream.options = {"g": str(gop)}
+        for k in range(frames):
+            frame = av.VideoFrame.from_ndarray(np.full((size, size, 3), 4 * k, np.uint8), format="bgr24")
+            frame.pts = k
+            for packet in stream.encode(frame):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    return path
+
+
+@pytest.mark.parametrize(("name", "container_format", "gop"),
+                         [("a.ts", "mpegts", None), ("b.ts", "mpegts", 10), ("c.h264", "h264", None),
+                          ("d.mp4", "mp4", None)])  # fmt: skip
+def test_a_frame_at_a_time_is_found_in_a_stream_without_an_index(
+    tmp_path: Path, name: str, container_format: str, gop: int | None
+) -> None:
+    # MPEG-TS landed a keyframe past the time or on no keyframe (nothing decoded), raw H.264 (no timestamps)
+    # failed its seek: "cannot read it as an image", "no frame of it could be decoded".
+    from panomap.video.source import first_frame
+
+    video = grey_video(tmp_path / name, container_format, size=64, gop=gop)
+    with av.open(str(video)) as container:
+        every = [frame.to_ndarray(format="bgr24") for frame in container.decode(video=0)]  # (read from the start)
+    assert len(every) == 60
+    for at_s, k in ((0.0, 0), (0.5, 12), (1.0, 25), (2.0, 50)):
+        frame = first_frame(video, 10**8, at_s)
+        assert frame is not None, at_s
+        assert np.array_equal(frame, every[k]), (at_s, float(frame.mean()), float(every[k].mean()))
+
+
+@pytest.mark.parametrize("name", ["v.ts", "v.h264"])
+def test_video_from_a_start_reads_every_frame_after_it(inputs: Path, tmp_path: Path, name: str) -> None:
+    # --start 1 lost 5 of the 35 frames of the MPEG-TS, and every frame of raw H.264; the .mp4 had all 35.
+    video = grey_video(tmp_path / name, "mpegts" if name.endswith(".ts") else "h264")
+    for start, frames in ((0, 60), (1, 35)):
+        out = tmp_path / f"out{start}.mp4"
+        result = run("video", inputs / "fit.npz", video, "-o", out, "--view", "panorama:size=64x16", "--start", start)
+        assert result.exit_code == 0, result.output + result.stderr
+        assert f"unwarped {frames} frames" in result.output
