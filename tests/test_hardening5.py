@@ -381,3 +381,24 @@ def test_video_from_a_start_reads_every_frame_after_it(inputs: Path, tmp_path: P
         result = run("video", inputs / "fit.npz", video, "-o", out, "--view", "panorama:size=64x16", "--start", start)
         assert result.exit_code == 0, result.output + result.stderr
         assert f"unwarped {frames} frames" in result.output
+
+
+# ----------------------------------------------------------------------------- H: repeated pictures counted once
+
+
+def test_repeated_pictures_given_to_learn_from_images_count_once(inputs: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # learn_from_images([img] * 100) ran past 240 s (one copy: 13 s): each copy's lines were searched again.
+    import panomap.calibrate.pictures as pictures
+
+    image = cv2.imread(str(inputs / "omni.png"))
+    other = image[::-1].copy()
+    searched: list[list[object]] = []
+
+    def stop(omnis, names, *args):  # the search, recorded and stopped (its work is not what is pinned)
+        searched.append(list(names))
+        raise PanomapError("stopped")
+
+    monkeypatch.setattr(pictures, "_learn", stop)
+    with pytest.raises(PanomapError, match="stopped"):
+        pictures.learn_from_images([image] * 50 + [other, image.copy()], names=[f"p{k}" for k in range(52)])
+    assert searched == [["p0", "p50"]]
