@@ -164,15 +164,7 @@ def learn_from_images(
     if found is not None and len(omnis) != 1:
         raise PanomapError(f"the lines found beforehand are one image's, but {len(omnis)} images are given")
     label: list[str | Path | None] = list(names) if names is not None else [None] * len(omnis)
-    for k, omni in enumerate(omnis):
-        if omni.shape[:2] != omnis[0].shape[:2]:
-            first = f"{label[0]}" if label[0] is not None else "the first image"
-            raise PanomapError(
-                f"is {omni.shape[1]} x {omni.shape[0]}, but {first} is {omnis[0].shape[1]} x "
-                f"{omnis[0].shape[0]}: the images of one camera have one size",
-                label[k] if label[k] is not None else f"image {k + 1}",
-            )
-    omnis, label, repeated = _once(omnis, label)
+    omnis, label, repeated = _once(_one_size(omnis, label), label)
     options = LineFitOptions(axis=axis, s=handedness, azimuth_zero=azimuth_zero, model=model)
     say = progress or (lambda _step, _steps, _what: None)
     if found is None:
@@ -198,9 +190,10 @@ def learn_from_images(
         camera_height=camera_height,
         info=table_info,
     )
-    warnings = (*learned.notes, *table.info.get("warnings", []))
-    if repeated:
-        warnings = (f"{repeated} of the pictures repeat an earlier one (the same pixels): each counted once", *warnings)
+    again = (
+        [f"{repeated} of the pictures repeat an earlier one (the same pixels): each counted once"] if repeated else []
+    )
+    warnings = (*again, *learned.notes, *table.info.get("warnings", []))
     return LearnedCalibration(table, learned.fit, learned.source, circles, learned.arcs, learned.choice, warnings)
 
 
@@ -250,6 +243,19 @@ def _called(names: list[str | Path | None], k: int) -> str:
     """How the progress names image ``k``: its file's name, or its number."""
     name = names[k]
     return Path(name).name if name is not None else f"image {k + 1}"
+
+
+def _one_size(omnis: list[NDArray[Any]], label: list[str | Path | None]) -> list[NDArray[Any]]:
+    """``omnis``, refused (naming the picture) where one is not the first one's size."""
+    for k, omni in enumerate(omnis):
+        if omni.shape[:2] != omnis[0].shape[:2]:
+            first = f"{label[0]}" if label[0] is not None else "the first image"
+            raise PanomapError(
+                f"is {omni.shape[1]} x {omni.shape[0]}, but {first} is {omnis[0].shape[1]} x "
+                f"{omnis[0].shape[0]}: the images of one camera have one size",
+                label[k] if label[k] is not None else f"image {k + 1}",
+            )
+    return omnis
 
 
 def _once(

@@ -55,12 +55,11 @@ from .mount import DEFAULT_CAMERA_SIGMA_FRACTION, MountChoice, choose_mount, giv
 from .outliers import choose, choose_start
 from .pairs import MIN_LANDMARKS, Landmarks
 from .viewpoint import (
-    VIEWPOINT_MODES,
     SphericalMirror,
     annulus_elevations,
+    check_viewpoint,
     choose_viewpoint,
     landmark_rays,
-    viewpoint_conflict,
 )
 
 _T = TypeVar("_T")
@@ -309,11 +308,7 @@ def fit_camera(
         landmarks at one elevation, or no model that fits monotonically.
     """
     tilt = renamed_keyword("fit_camera", "tilt", tilt, "tilt_deg", tilt_deg)
-    if not isinstance(viewpoint, SphericalMirror) and viewpoint not in VIEWPOINT_MODES:
-        raise PanomapError(f"viewpoint must be one of {', '.join(VIEWPOINT_MODES)}, not {viewpoint!r}")
-    conflict = viewpoint_conflict(model, azimuth, viewpoint)
-    if conflict is not None:
-        raise PanomapError(conflict.replace("--sphere-radius", "viewpoint=SphericalMirror(...)"))
+    check_viewpoint(model, azimuth, viewpoint)
     requested, camera, start_centre, tilt_given = _checked(
         landmarks, camera_position, centre, model, azimuth, axis, image_size, refine_centre, pixel_sigma,
         world_sigma, camera_sigma, tilt,
@@ -447,11 +442,9 @@ def _finished(
     forced = viewpoint == "caustic"
     result = with_viewpoint(fitted, annulus, forced=forced, only=model)
     if forced and result.model.viewpoint is None:
-        raise PanomapError(
-            "the ray origins asked for (viewpoint caustic) cannot be fitted to these landmarks"
-            + (f" with model {model}" if model is not None else "")
-            + " (too few of them, or a caustic that folds or stops short of the image circle); nothing is written"
-        )
+        with_model = f" with model {model}" if model is not None else ""
+        why = "too few of them, or a caustic that folds or stops short of the image circle"
+        raise PanomapError(f"viewpoint caustic: no ray origins can be fitted to the landmarks{with_model} ({why})")
     return result
 
 

@@ -337,6 +337,16 @@ SINGLE = "single viewpoint"
 CAUSTIC = "mirror caustic"
 
 
+def check_viewpoint(model: str, azimuth: str, viewpoint: str | SphericalMirror) -> None:
+    """Raise PanomapError where ``viewpoint`` is no mode, or conflicts with ``model`` or ``azimuth``
+    (:func:`viewpoint_conflict`)."""
+    if not isinstance(viewpoint, SphericalMirror) and viewpoint not in VIEWPOINT_MODES:
+        raise PanomapError(f"viewpoint must be one of {', '.join(VIEWPOINT_MODES)}, not {viewpoint!r}")
+    conflict = viewpoint_conflict(model, azimuth, viewpoint)
+    if conflict is not None:
+        raise PanomapError(conflict.replace("--sphere-radius", "viewpoint=SphericalMirror(...)"))
+
+
 def viewpoint_conflict(model: str, azimuth: str, viewpoint: str | SphericalMirror) -> str | None:
     """Why ray origins asked for (``viewpoint`` "caustic", or a :class:`SphericalMirror`) cannot be fitted with
     the ``model`` and ``azimuth`` asked for, in words naming the options; None where they go together.
