@@ -428,11 +428,31 @@ def check_output_paths(
         seen[key] = (what, str(path), False)
 
 
+def input_file(path: str | Path, missing: str = "no such file") -> Path:
+    """``path``, an input every reader may open: the one check of the files a command reads.
+
+    Raises
+    ------
+    PanomapError
+        Naming it: ``missing`` where there is no such file, "not a file" where it is a folder, a FIFO (the
+        read would block until something writes to it), a device (it would never end) or a socket.
+    """
+    path = Path(path)
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        raise PanomapError(missing, path) from None
+    except (OSError, ValueError) as exc:
+        raise PanomapError(f"cannot read it ({getattr(exc, 'strerror', None) or exc})", path) from None
+    if not stat.S_ISREG(info.st_mode):
+        raise PanomapError("not a file", path)
+    return path
+
+
 def read_text(path: str | Path, encoding: str = "utf-8-sig") -> str:
     """The text of ``path`` (a leading BOM dropped); PanomapError naming it if missing, not a regular file (a
     FIFO or a device would block or never end), or unreadable."""
-    if Path(path).exists() and not Path(path).is_file():
-        raise PanomapError("not a file", path)
+    input_file(path)
     try:
         return Path(path).read_text(encoding=encoding)
     except FileNotFoundError:

@@ -164,14 +164,7 @@ def learn_from_images(
     if found is not None and len(omnis) != 1:
         raise PanomapError(f"the lines found beforehand are one image's, but {len(omnis)} images are given")
     label: list[str | Path | None] = list(names) if names is not None else [None] * len(omnis)
-    for k, omni in enumerate(omnis):
-        if omni.shape[:2] != omnis[0].shape[:2]:
-            first = f"{label[0]}" if label[0] is not None else "the first image"
-            raise PanomapError(
-                f"is {omni.shape[1]} x {omni.shape[0]}, but {first} is {omnis[0].shape[1]} x "
-                f"{omnis[0].shape[0]}: the images of one camera have one size",
-                label[k] if label[k] is not None else f"image {k + 1}",
-            )
+    omnis, label, repeated = _once(_one_size(omnis, label), label)
     options = LineFitOptions(axis=axis, s=handedness, azimuth_zero=azimuth_zero, model=model)
     say = progress or (lambda _step, _steps, _what: None)
     if found is None:
@@ -197,7 +190,10 @@ def learn_from_images(
         camera_height=camera_height,
         info=table_info,
     )
-    warnings = (*learned.notes, *table.info.get("warnings", []))
+    again = (
+        [f"{repeated} of the pictures repeat an earlier one (the same pixels): each counted once"] if repeated else []
+    )
+    warnings = (*again, *learned.notes, *table.info.get("warnings", []))
     return LearnedCalibration(table, learned.fit, learned.source, circles, learned.arcs, learned.choice, warnings)
 
 
@@ -247,3 +243,35 @@ def _called(names: list[str | Path | None], k: int) -> str:
     """How the progress names image ``k``: its file's name, or its number."""
     name = names[k]
     return Path(name).name if name is not None else f"image {k + 1}"
+
+
+def _one_size(omnis: list[NDArray[Any]], label: list[str | Path | None]) -> list[NDArray[Any]]:
+    """``omnis``, refused (naming the picture) where one is not the first one's size."""
+    for k, omni in enumerate(omnis):
+        if omni.shape[:2] != omnis[0].shape[:2]:
+            first = f"{label[0]}" if label[0] is not None else "the first image"
+            raise PanomapError(
+                f"is {omni.shape[1]} x {omni.shape[0]}, but {first} is {omnis[0].shape[1]} x "
+                f"{omnis[0].shape[0]}: the images of one camera have one size",
+                label[k] if label[k] is not None else f"image {k + 1}",
+            )
+    return omnis
+
+
+def _once(
+    omnis: list[NDArray[Any]], names: list[str | Path | None]
+) -> tuple[list[NDArray[Any]], list[str | Path | None], int]:
+    """The pictures and their names with every repeat of an earlier picture (the same pixels) left out, and how
+    many were: a picture's lines given twice add nothing but time (the command line refuses one picture given
+    twice; here each counts once)."""
+    import hashlib
+
+    seen: set[tuple[tuple[int, ...], str, str]] = set()
+    kept: list[int] = []
+    for k, omni in enumerate(omnis):
+        array = np.ascontiguousarray(omni)
+        key = (array.shape, array.dtype.str, hashlib.sha256(array.data).hexdigest())
+        if key not in seen:
+            seen.add(key)
+            kept.append(k)
+    return [omnis[k] for k in kept], [names[k] for k in kept], len(omnis) - len(kept)

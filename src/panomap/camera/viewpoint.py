@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import PanomapError
 from ..geometry import HALF_PI, FloatArray
+from ..values import MAX_ABS
 from .radial import RadialFunction
 from .radial_models import alpha_of_rho, rho_of_alpha
 
@@ -48,6 +49,8 @@ VIEWPOINT_NODES = 181
 CAUSTIC_GRID = 1024
 # Most nodes a table file's viewpoint may hold.
 MAX_VIEWPOINT_NODES = 4096
+# Distance (world units) at which the fit report states the parallax a single-viewpoint table would make.
+PARALLAX_DISTANCE = 1.0
 
 
 @dataclass(frozen=True)
@@ -76,6 +79,11 @@ class Viewpoint:
             )
         if not all(math.isfinite(x) for x in rho + z):
             raise PanomapError("the viewpoint's elevations or offsets are not finite")
+        if not all(abs(x) <= MAX_ABS for x in z):
+            raise PanomapError(
+                f"the viewpoint's offsets reach {max(abs(x) for x in z):g} world units: beyond {MAX_ABS:g} in size "
+                "(no mirror is that large; the views' arithmetic would overflow)"
+            )
         if not all(-HALF_PI - 1e-9 <= x <= HALF_PI + 1e-9 for x in rho) or not all(np.diff(rho) > 0):
             raise PanomapError("the viewpoint's elevations are not increasing within -90..90 deg")
         object.__setattr__(self, "elevations_rad", rho)
@@ -190,3 +198,18 @@ def caustic_viewpoint(radial: RadialFunction, k0: float, k1: float, elevation_ra
     if not np.all(np.isfinite(z)):
         raise PanomapError("the mirror's caustic is not finite over the elevations (its radial function ends)")
     return Viewpoint(tuple(rho.tolist()), tuple(z.tolist()))
+
+
+def parallax_px(
+    radial: RadialFunction,
+    viewpoint: Viewpoint,
+    elevation_range: tuple[float, float],
+    distance: float = PARALLAX_DISTANCE,
+) -> float:
+    """The largest error (px) a single-viewpoint table of this camera would make for points at horizontal
+    ``distance`` (world units) from the axis, over camera elevations ``elevation_range`` (rad): the point on
+    each ray at that distance, seen from O_m instead of from the ray's origin."""
+    rho = np.linspace(*elevation_range, 181)
+    height = viewpoint.offset(rho) + distance * np.tan(rho)
+    seen = np.arctan2(height, distance)
+    return float(np.nanmax(np.abs(radial(seen) - radial(rho))))

@@ -17,10 +17,10 @@ from ..calibrate.core.sources import Source
 from ..calibrate.landmarks.diagnosis import diagnose
 from ..calibrate.landmarks.pairs import read_landmarks
 from ..calibrate.landmarks.pipeline import calibrate_camera
-from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror
+from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror, viewpoint_conflict
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, same_input
+from ..files import all_or_none, check_outputs, input_file, same_input
 from ..io.images import write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table, save_table
@@ -302,6 +302,11 @@ def fit(
     if orientation is not None and (axis is not None or not isinstance(tilt, str)):
         raise click.UsageError("give --orientation, or --axis and a --tilt pair, not both")
     oriented = orientation_rad(orientation)  # (checks the pitch)
+    conflict = viewpoint_conflict(
+        model, azimuth, viewpoint if sphere_radius is None else SphericalMirror(sphere_radius)
+    )
+    if conflict is not None:
+        raise click.UsageError(conflict)
     omni = None if image is None else read_omni(image, frame_time)
     if omni is not None and use_lines and mirror is not None:
         click.echo(f"panomap: note: the image's lines do not join {mirror}: the landmarks alone fit it", err=True)
@@ -481,6 +486,8 @@ def _fit_lines(
         raise click.UsageError("--plot draws landmarks; learning from lines draws with --overlay")
     if model == "paper":
         raise click.UsageError("the paper model takes the centre as given; learning from lines needs another model")
+    for path in (*images, *videos):
+        input_file(path)  # (before the memory check reads their headers: a FIFO would block it)
     twice = same_input((*images, *videos))
     if twice is not None:
         first, second, how = twice

@@ -17,7 +17,7 @@ from ..files import all_or_none
 from ..io.images import write_image
 from ..table.file import save_table
 from ..table.table import PanoMappingTable
-from .options import read_omni, warn_orientation
+from .options import read_omni, warn_orientation, warn_rotation
 from .progress import ProgressBar
 
 
@@ -75,7 +75,7 @@ def fit_from_lines(
     written = [str(path) for path in (output, overlay) if path is not None]
     click.echo("wrote " + " and ".join(written))
     for warning in learned.warnings:
-        click.echo(f"panomap: warning: {warning}", err=True)
+        click.echo(f"panomap: warning: {printable(warning)}", err=True)  # (they name the pictures)
 
 
 def _with_frames(
@@ -94,6 +94,7 @@ def _with_frames(
     taken: dict[Path, range] = {}
     for video in videos:
         frames = sample_frames(video, count, MAX_IMAGE_PIXELS)
+        warn_rotation(video)
         taken[video] = range(len(pictures), len(pictures) + len(frames))
         pictures += [frame for _, frame in frames]
         labels += [f"{video} at {at_s:.2f} s" for at_s, _ in frames]
@@ -101,8 +102,8 @@ def _with_frames(
     for video, indices in taken.items():
         views = len(set(indices) & set(kept))
         click.echo(
-            f"panomap: note: {video}: {len(indices)} frames taken, {views} showing a view no earlier picture shows "
-            "(the others' lines would count twice)",
+            f"panomap: note: {printable(str(video))}: {len(indices)} frames taken, {views} showing a view no earlier "
+            "picture shows (the others' lines would count twice)",
             err=True,
         )
     total = machine_memory()

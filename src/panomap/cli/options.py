@@ -13,7 +13,7 @@ import click
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import PanomapError
+from ..errors import PanomapError, printable
 from ..values import NotFinite, finite_number
 
 
@@ -134,7 +134,11 @@ def read_omni(path: Path, frame_time: float | None = None) -> NDArray[Any]:
         if frame is None:
             raise
         which = "its first frame" if not frame_time else f"its frame at {frame_time:g} s"
-        click.echo(f"panomap: note: {path} is a video: {which} is used (--frame-time SECONDS for another)", err=True)
+        click.echo(
+            f"panomap: note: {printable(str(path))} is a video: {which} is used (--frame-time SECONDS for another)",
+            err=True,
+        )
+        warn_rotation(path)
         return np.asarray(frame)
     if frame_time is not None:
         click.echo(f"panomap: warning: {path} is an image, not a video: --frame-time is ignored", err=True)
@@ -151,10 +155,19 @@ def frame_time_option(command: Any) -> Any:
     )(command)
 
 
+def warn_rotation(path: Path) -> None:
+    """Print a warning line where the video at ``path`` asks players to turn its frames (its rotation metadata)."""
+    from ..video.source import rotation_note
+
+    note = rotation_note(path)
+    if note is not None:
+        click.echo(f"panomap: warning: {printable(str(path))}: {note}", err=True)
+
+
 def warn_orientation(path: Path) -> None:
     """Print a warning line where the image at ``path`` asks viewers to turn or mirror it (its EXIF orientation)."""
     from ..io.images import orientation_note
 
     note = orientation_note(path)
     if note is not None:
-        click.echo(f"panomap: warning: {path}: {note}", err=True)
+        click.echo(f"panomap: warning: {printable(str(path))}: {note}", err=True)

@@ -28,7 +28,7 @@ from ..video.report import VideoReport
 from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video
 from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
-from .options import FINITE, PATH, usage_error
+from .options import FINITE, PATH, usage_error, warn_rotation
 from .progress import ProgressBar
 
 
@@ -260,6 +260,8 @@ def video(
         [(f"the output of view {item.name}", path) for item, path in zip(named, paths, strict=True)],
     )
     loaded = load_table(table)
+    if local_file(source) is not None:
+        warn_rotation(Path(source))
     stop = threading.Event()
     progress = _Progress(not quiet and sys.stderr.isatty())
     try:

@@ -6,7 +6,9 @@ fitted to the table's pixels of them by ``scipy.optimize.least_squares``, from a
 radial model gives (the double sphere from several, the best kept); the largest distance (px) between the
 fitted model and the table, on a grid twice as fine as the fit's that runs to both ends of the table's
 range (its outermost ring included), is returned and printed. A format whose model cannot hold the camera is refused
-with the reason (OpenCV's fisheye: rays at 90 deg or more from the axis).
+with the reason (OpenCV's fisheye: rays at 90 deg or more from the axis). Every format has a single
+viewpoint: a table whose rays leave the axis from points apart (format version 4) is refused unless
+their spread is negligible (:data:`NEGLIGIBLE_PARALLAX_PX`).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..camera.viewpoint import PARALLAX_DISTANCE, parallax_px
 from ..errors import PanomapError
 from ..files import write_text_atomic
 from ..geometry import TWO_PI, FloatArray
@@ -37,6 +40,10 @@ FIT_GRID = (180, 60)
 # Degree of OCam's direct polynomial (a1 = 0, as OCamCalib fixes it) and the largest inverse one.
 OCAM_DEGREE = 4
 OCAM_MAX_INVERSE_DEGREE = 20
+# A non-central table is exported (its ray origins dropped) only where dropping them moves a point at
+# PARALLAX_DISTANCE (1 world unit: a metre) by under this (px): below any calibration's accuracy. (In a world
+# in millimetres the test is stricter, in kilometres looser: the table knows no unit.)
+NEGLIGIBLE_PARALLAX_PX = 0.01
 
 
 @dataclass(frozen=True)
@@ -237,6 +244,24 @@ def _fitted(fit: Fitter, table: PanoMappingTable, samples: Samples, format: str)
         ) from None
 
 
+def _refuse_ray_origins(table: PanoMappingTable, format: str) -> None:
+    """Raise where ``table``'s rays leave the axis from points apart (not negligibly): ``format``, as every
+    export format, has a single viewpoint, and its file would drop them without a word."""
+    viewpoint = table.model.viewpoint
+    if viewpoint is None:
+        return
+    low, high = table.camera_elevation_range or table.elevation_range
+    spread = viewpoint.excursion(low, high)
+    parallax = parallax_px(table.model.radial, viewpoint, (low, high))
+    if parallax < NEGLIGIBLE_PARALLAX_PX:
+        return
+    raise PanomapError(
+        f"{format} has a single viewpoint, and this table's rays leave the axis over {spread:.4g} world units "
+        f"({1000 * spread:.1f} mm where the world is in metres): its model would be up to {parallax:.2f} px "
+        f"off at a distance of {PARALLAX_DISTANCE:g}; not exported (no export format holds ray origins)"
+    )
+
+
 def _refuse_absurd(max_error_px: float, image_size: tuple[int, int] | None, format: str, name: str) -> None:
     """Raise when the fitted model misses the table by more than the image's diagonal (px): no camera's
     entries do that, and the file would be meaningless."""
@@ -281,12 +306,14 @@ def export_calibration(table: PanoMappingTable, path: str | Path, format: str) -
     Raises
     ------
     PanomapError
-        For an unknown format, one that cannot hold the camera (the reason), or a table without an
-        image size where the format needs one; nothing is written then.
+        For an unknown format, one that cannot hold the camera (the reason: a table whose rays leave the
+        axis from points apart, as every format has a single viewpoint), or a table without an image size
+        where the format needs one; nothing is written then.
     """
     if format not in FORMATS:
         raise PanomapError(f"unknown export format {format!r} (known: {', '.join(FORMATS)})")
     fit, kind, refusal = FORMATS[format]
+    _refuse_ray_origins(table, format)
     samples = table_samples(table, FIT_GRID)
     reason = refusal(samples)
     if reason:

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PanomapError
-from ..files import write_bytes_atomic, write_with
+from ..files import input_file, write_bytes_atomic, write_with
 
 SIXTEEN_BIT_SUFFIXES = {".png", ".tif", ".tiff", ".pgm", ".ppm", ".pnm"}
 ALPHA_SUFFIXES = {".png", ".tif", ".tiff", ".webp"}
@@ -68,11 +68,7 @@ def read_image(
         ``expected_size`` ("the image is W x H, {expected_by} is for ..."), or
         of an unsupported depth.
     """
-    path = Path(path)
-    if not path.exists():
-        raise PanomapError("no such image file", path)
-    if not path.is_file():
-        raise PanomapError("not a file", path)
+    path = input_file(path, missing="no such image file")
     with path.open("rb") as handle:
         kind = float_format(handle.read(16))
     if kind is not None:  # (refused before decoding: a large one would take its memory first)
@@ -172,6 +168,8 @@ def header_size(path: str | Path) -> tuple[int, int] | None:
     """
     from PIL import Image, UnidentifiedImageError
 
+    if not Path(path).is_file():  # (a FIFO would block Pillow's read)
+        return None
     with _PILLOW_LOCK, warnings.catch_warnings():
         # Pillow's own bomb check would refuse a large header before telling its size: the
         # limit here is MAX_IMAGE_PIXELS, checked by the caller.
@@ -207,6 +205,8 @@ def orientation_note(path: str | Path) -> str | None:
     """
     from PIL import Image, UnidentifiedImageError
 
+    if not Path(path).is_file():  # (a FIFO would block Pillow's read)
+        return None
     with _PILLOW_LOCK, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None

@@ -33,7 +33,8 @@ from numpy.typing import NDArray
 
 from ..camera.model import CameraModel
 from ..errors import PanomapError
-from ..files import write_with
+from ..files import input_file, write_with
+from ..values import MAX_ABS
 from .sampling import MAX_TABLE_SIDE
 from .table import MAX_TABLE_ENTRIES, TABLE_FORMAT, PanoMappingTable, fill_entries
 
@@ -144,6 +145,34 @@ def _number(meta: dict[str, Any], key: str) -> float:
     return float(value)
 
 
+def _check_all_numbers(meta: dict[str, Any]) -> None:
+    """Refuse a number anywhere in the metadata (``info`` included) that is no finite float: a 400-digit
+    integer, which JSON reads but no float holds (an ``OverflowError`` deep in a command), or an infinity
+    (``1e400``); the field named as ``model.centre[0]``. (save_table writes neither.)"""
+    stack: list[tuple[str, Any]] = [("", meta)]
+    while stack:
+        where, value = stack.pop()
+        if isinstance(value, dict):
+            stack.extend((f"{where}.{key}" if where else str(key), item) for key, item in value.items())
+        elif isinstance(value, list):
+            stack.extend((f"{where}[{index}]", item) for index, item in enumerate(value))
+        elif isinstance(value, int | float) and not isinstance(value, bool):
+            try:
+                finite = math.isfinite(value)
+            except OverflowError:  # an integer beyond the floats' range
+                finite = False
+            if not finite:
+                raise _malformed(f"{where} is {_shown(value)}, not a finite number")
+
+
+def _within(values: tuple[float, ...], key: str, unit: str) -> None:
+    """Refuse a geometric field beyond :data:`~panomap.values.MAX_ABS` in size: no camera, room or image is
+    that large, and the views' arithmetic on it overflows (NumPy warnings, an empty view)."""
+    if any(abs(x) > MAX_ABS for x in values):
+        shown = ", ".join(f"{x:g}" for x in values)
+        raise _malformed(f"{key} is {shown}: beyond {MAX_ABS:g} {unit} in size")
+
+
 def _shown(value: Any) -> str:
     text = json.dumps(value, allow_nan=True) if not isinstance(value, float) else repr(value)
     return text if len(text) <= 40 else text[:37] + "..."
@@ -208,15 +237,18 @@ class TableMetadata:
         missing, unknown = sorted(required - set(meta)), sorted(set(meta) - _FIELDS)
         if missing or unknown:
             raise _malformed(", ".join([*(f"no {k}" for k in missing), *(f"unknown field {k}" for k in unknown)]))
+        _check_all_numbers(meta)
         m, n = _numbers(meta, "size", 2, integer=True)
         if not (2 <= m <= MAX_TABLE_SIDE and 2 <= n <= MAX_TABLE_SIDE) or m * n > MAX_TABLE_ENTRIES:
             raise _malformed(f"size {m}x{n}: 2 to {MAX_TABLE_SIDE} a side, {MAX_TABLE_ENTRIES:,} entries at most")
         elevation_range = _numbers(meta, "elevation_range_rad", 2)
         camera_position = _numbers(meta, "camera_position", 3)
+        _within(camera_position, "camera_position", "world units")
         image_size = None if meta["image_size"] is None else _numbers(meta, "image_size", 2, integer=True)
         if image_size is not None and not all(1 <= side <= MAX_IMAGE_SIDE for side in image_size):
             raise _malformed(f"image_size {image_size[0]}x{image_size[1]} is not a size of an image")
         cutoff, outer = _number(meta, "cutoff_radius_px"), _number(meta, "outer_radius_px")
+        _within((cutoff, outer), "the radii (cutoff_radius_px, outer_radius_px)", "px")
         if not 0 <= cutoff < outer:
             raise _malformed(f"the radii must be 0 <= cutoff_radius_px < outer_radius_px, not {cutoff:g}, {outer:g}")
         if not isinstance(meta["model"], dict):
@@ -229,6 +261,7 @@ class TableMetadata:
             model = CameraModel.from_dict(meta["model"])
         except PanomapError as exc:
             raise _malformed(exc.detail) from None
+        _within(model.centre, "model.centre", "px")
         camera_range = None
         if (model.rotation is None) != ("camera_elevation_range_rad" not in meta):
             raise _malformed("camera_elevation_range_rad is there exactly when the model has a rotation")
@@ -320,9 +353,7 @@ def load_table(path: str | Path) -> PanoMappingTable:
         a malformed or edited metadata field, or its entries disagree with
         its checksum or its model.
     """
-    path = Path(path)
-    if path.exists() and not path.is_file():  # (a FIFO would block the read)
-        raise PanomapError("not a file", path)
+    path = input_file(path, missing="no such table file")  # (a FIFO would block the read)
     try:
         file = path.open("rb")
     except FileNotFoundError:

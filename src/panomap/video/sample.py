@@ -8,6 +8,7 @@ from typing import Any
 import av
 
 from ..errors import PanomapError
+from ..files import input_file
 from .source import declared_duration_s, first_frame, frame_rate
 
 
@@ -27,6 +28,7 @@ def sample_frames(path: str | Path, count: int, max_pixels: int) -> list[tuple[f
         Naming the file, where it is not a video PyAV decodes, its header gives no duration, or its frames are
         larger than ``max_pixels``.
     """
+    input_file(path)  # (a FIFO would block the open; a missing file is no "video panomap cannot decode")
     try:
         with av.open(str(path)) as container:
             streams = len(container.streams.video)

@@ -96,6 +96,34 @@ def open_input(source: str, open_timeout: float = 10.0, read_timeout: float | No
     return container
 
 
+def rotation_note(path: str | Path) -> str | None:
+    """A warning where the video file asks players to turn its frames (a display matrix, or an old ``rotate``
+    tag); None otherwise or where it cannot be read (its reader says why).
+
+    panomap takes the frames as stored, as it takes an image's pixels whatever its EXIF orientation: landmarks
+    measured in a player that turned the video would not match them.
+    """
+    try:
+        with av.open(str(path)) as container:
+            if not container.streams.video:
+                return None
+            stream = container.streams.video[0]
+            tag = stream.metadata.get("rotate")
+            degrees = float(tag) if tag is not None else None
+            if degrees is None:
+                frame = next(iter(container.decode(stream)), None)
+                degrees = float(getattr(frame, "rotation", 0) or 0) if frame is not None else 0.0
+    except (av.error.FFmpegError, OSError, ValueError, StopIteration):
+        return None
+    degrees = degrees % 360
+    if degrees == 0:
+        return None
+    return (
+        f"it asks players to turn its frames by {degrees:g} deg (its rotation metadata): panomap takes the frames "
+        "as stored, so measure landmarks in the frames as stored, not as a player shows them"
+    )
+
+
 def first_frame(path: str | Path, max_pixels: int, at_s: float | None = None) -> Any:
     """The first frame of a video file (at or after ``at_s`` seconds from its start, where given) as an 8-bit
     BGR image (H, W, 3), or None where the file is not a video PyAV decodes (for the commands that take one
@@ -116,14 +144,13 @@ def first_frame(path: str | Path, max_pixels: int, at_s: float | None = None) ->
             if width * height > max_pixels:
                 raise PanomapError(f"its frames are {width} x {height}: larger than panomap reads", path)
             start = _stream_start(stream)
-            time_base = stream.time_base or Fraction(1, 90000)
             if at_s:
-                container.seek(int((start + at_s) / time_base), stream=stream)
+                seek_before(container, stream, at_s)
             half_frame = 0.5 / float(stream.average_rate or 25)
             decoded = False
-            for frame in container.decode(stream):
+            for count, frame in enumerate(container.decode(stream)):
                 decoded = True
-                if at_s and frame.pts is not None and float(frame.pts * time_base) - start < at_s - half_frame:
+                if at_s and frame_seconds(frame, count, stream) - start < at_s - half_frame:
                     continue
                 return frame.to_ndarray(format="bgr24")
     except (av.error.FFmpegError, OSError, ValueError):
@@ -287,7 +314,8 @@ def read_frames(
     origin: float | None = None if live else _stream_start(stream)
     if selection.start_s > 0 and not live:
         with contextlib.suppress(av.error.FFmpegError):
-            container.seek(int((selection.start_s + _stream_start(stream)) / time_base), stream=stream, backward=True)
+            seek_before(container, stream, selection.start_s)
+    untimed = 0  # frames decoded without a timestamp (raw H.264), timed by their count
     # Seconds subtracted from every timestamp: the start (from the first frame, on a live input).
     shift = 0.0 if selection.start_s == 0 else (None if origin is None else origin + selection.start_s)
     streams = [stream] + ([audio_stream] if audio_stream is not None else [])
@@ -323,7 +351,10 @@ def read_frames(
                 continue
             for frame in decoded:
                 if frame.pts is None:
-                    continue
+                    if live or not time_base:
+                        continue
+                    frame.pts = round(frame_seconds(frame, untimed, stream) / float(time_base))
+                    untimed += 1
                 seconds = float(frame.pts * time_base)
                 if origin is None:
                     origin = seconds - state.received_s
@@ -388,6 +419,48 @@ def _demux(container: Any, streams: list[Any], warn: Callable[[str], None], can_
 
 def _stream_start(stream: Any) -> float:
     return float(stream.start_time * stream.time_base) if stream.start_time is not None else 0.0
+
+
+# Seconds before a time that a seek goes back on a second try, then a third, when the first lands after the
+# time: a stream without an index (MPEG-TS, raw H.264) is seeked by byte position, which lands a keyframe or
+# more past where it was asked; failing those, the stream is read from its start.
+SEEK_RETRIES_S = (1.0, 4.0)
+
+
+def seek_before(container: Any, stream: Any, at_s: float) -> bool:
+    """Seek ``container`` to a keyframe of ``stream`` at or before ``at_s`` s from the stream's start, as
+    ffmpeg seeks a stream without an index: a try at the time, then earlier, checked against the first
+    packet read; else back to the start. Returns whether it left the start (the caller decodes forward to
+    ``at_s`` either way, dropping the frames before it).
+
+    A stream without timestamps (raw H.264) is not seeked (a failed seek leaves the demuxer at its end):
+    its frames are timed by their count (:func:`frame_seconds`).
+    """
+    if stream.start_time is None or not stream.time_base:
+        return False
+    start, time_base = _stream_start(stream), stream.time_base
+    for back in (0.0, *SEEK_RETRIES_S):
+        if at_s - back <= 0:
+            break
+        try:
+            container.seek(int((start + at_s - back) / time_base), stream=stream, backward=True)
+            first = next((packet for packet in container.demux(stream) if packet.pts is not None), None)
+        except (av.error.FFmpegError, StopIteration):
+            break
+        # (A byte seek can land on a packet that is no keyframe: nothing decodes until the next one.)
+        if first is not None and first.is_keyframe and float(first.pts * time_base) - start <= at_s + 1e-9:
+            container.seek(int((start + at_s - back) / time_base), stream=stream, backward=True)
+            return True
+    container.seek(0)  # (the container's own start: a stream's start_time, seeked in MPEG-TS, read nothing more)
+    return False
+
+
+def frame_seconds(frame: Any, count: int, stream: Any) -> float:
+    """The time (s, input's clock) of ``frame``, the ``count``-th decoded from the start: its timestamp, or for a
+    stream without timestamps (raw H.264) its place at the stream's frame rate."""
+    if frame.pts is not None:
+        return float(frame.pts * stream.time_base)
+    return count / float(stream.average_rate or stream.guessed_rate or 25)
 
 
 def _when(packet: Any, time_base: Fraction) -> str:

@@ -41,6 +41,7 @@ from ...camera.radial import RadialFunction
 from ...camera.radial_models import AUTO_CANDIDATES, AXES, MIRROR_CANDIDATES, MODELS, RadialKind, radial_kind
 from ...camera.uncertainty import coefficient_covariance
 from ...camera.valid_range import annulus_coverage_problem, is_monotonic
+from ...camera.viewpoint import PARALLAX_DISTANCE, parallax_px
 from ...errors import PanomapError
 from ...geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
 from ..core import selection as selection_module
@@ -54,13 +55,11 @@ from .mount import DEFAULT_CAMERA_SIGMA_FRACTION, MountChoice, choose_mount, giv
 from .outliers import choose, choose_start
 from .pairs import MIN_LANDMARKS, Landmarks
 from .viewpoint import (
-    PARALLAX_DISTANCE,
-    VIEWPOINT_MODES,
     SphericalMirror,
     annulus_elevations,
+    check_viewpoint,
     choose_viewpoint,
     landmark_rays,
-    parallax_px,
 )
 
 _T = TypeVar("_T")
@@ -315,8 +314,7 @@ def fit_camera(
         landmarks at one elevation, or no model that fits monotonically.
     """
     tilt = renamed_keyword("fit_camera", "tilt", tilt, "tilt_deg", tilt_deg)
-    if not isinstance(viewpoint, SphericalMirror) and viewpoint not in VIEWPOINT_MODES:
-        raise PanomapError(f"viewpoint must be one of {', '.join(VIEWPOINT_MODES)}, not {viewpoint!r}")
+    check_viewpoint(model, azimuth, viewpoint)
     requested, camera, start_centre, tilt_given = _checked(
         landmarks, camera_position, centre, model, azimuth, axis, image_size, refine_centre, pixel_sigma,
         world_sigma, camera_sigma, tilt,
@@ -347,7 +345,7 @@ def fit_camera(
         landmarks, problem, data, chosen, mount_choice, tilt, start_centre, setup.axis_source, model, refine_centre,
         reject_outliers,
     )  # fmt: skip
-    return _finished(fitted, joint, viewpoint, azimuth, annulus)
+    return _finished(fitted, joint, viewpoint, azimuth, annulus, None if model == "auto" else model)
 
 
 def _candidates(
@@ -436,9 +434,11 @@ def _finished(
     viewpoint: str | SphericalMirror,
     azimuth: str,
     annulus: tuple[float, float] | None,
+    model: str | None = None,
 ) -> CameraFit:
     """The fit with what the lines joined to it say (their covariance and report, or why they did not join),
-    or, without lines, with its viewpoint chosen (:func:`with_viewpoint`) where ``viewpoint`` asks for it."""
+    or, without lines, with its viewpoint chosen (:func:`with_viewpoint`) where ``viewpoint`` asks for it: the
+    caustic forced (``"caustic"``) of the radial ``model`` forced, where one is, or refused with the reason."""
     if isinstance(joint, JointResult):
         count = len(joint.solution.radial.coefficients)
         covariance = joint.refinement.covariance[:count, :count]
@@ -449,7 +449,13 @@ def _finished(
         return with_viewpoint(fitted, annulus, sphere=viewpoint)
     if viewpoint == "single" or azimuth != "fit" or (viewpoint == "auto" and (annulus is None or annulus[0] <= 0)):
         return fitted
-    return with_viewpoint(fitted, annulus, forced=viewpoint == "caustic")
+    forced = viewpoint == "caustic"
+    result = with_viewpoint(fitted, annulus, forced=forced, only=model)
+    if forced and result.model.viewpoint is None:
+        with_model = f" with model {model}" if model is not None else ""
+        why = "too few of them, or a caustic that folds or stops short of the image circle"
+        raise PanomapError(f"viewpoint caustic: no ray origins can be fitted to the landmarks{with_model} ({why})")
+    return result
 
 
 def with_viewpoint(
@@ -457,6 +463,7 @@ def with_viewpoint(
     annulus: tuple[float, float] | None = None,
     forced: bool = False,
     sphere: SphericalMirror | None = None,
+    only: str | None = None,
 ) -> CameraFit:
     """The fit with each elevation's ray origin on the axis, where cross-validation over the inlier landmarks
     chooses it (:func:`.viewpoint.choose_viewpoint`), its residuals and covariance made again; else the fit
@@ -468,7 +475,7 @@ def with_viewpoint(
         world, pixels, fitted.camera_position, model.rotation, model.centre, model.radial,
         settings.pixel_sigma_px, settings.world_sigma, annulus_elevations(model.radial, annulus),
     )  # fmt: skip
-    choice = choose_viewpoint(rays, model.radial, forced, sphere)
+    choice = choose_viewpoint(rays, model.radial, forced, sphere, only)
     single = replace(fitted, viewpoint=ViewpointReport(True, 0.0, 0.0, PARALLAX_DISTANCE, choice.held_out))
     if choice.fit is None or choice.fit.viewpoint is None:
         return single if choice.held_out else fitted

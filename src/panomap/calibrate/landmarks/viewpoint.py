@@ -49,8 +49,6 @@ SPHERE_KIND = "sphere"
 SPHERE_GAIN = 0.9
 # Fewer inliers than the unknowns plus this leave too little to hold out: the camera stays single-viewpoint.
 SPARE_LANDMARKS = 3
-# Distance (world units) at which the report states the parallax a single-viewpoint table would make.
-PARALLAX_DISTANCE = 1.0
 # The viewpoint's nodes reach this far (rad) beyond the landmarks' elevations, within alpha 1..179 deg.
 NODE_MARGIN_RAD = math.radians(20.0)
 NODE_LIMIT_RAD = math.radians(1.0)
@@ -339,8 +337,43 @@ SINGLE = "single viewpoint"
 CAUSTIC = "mirror caustic"
 
 
+def check_viewpoint(model: str, azimuth: str, viewpoint: str | SphericalMirror) -> None:
+    """Raise PanomapError where ``viewpoint`` is no mode, or conflicts with ``model`` or ``azimuth``
+    (:func:`viewpoint_conflict`)."""
+    if not isinstance(viewpoint, SphericalMirror) and viewpoint not in VIEWPOINT_MODES:
+        raise PanomapError(f"viewpoint must be one of {', '.join(VIEWPOINT_MODES)}, not {viewpoint!r}")
+    conflict = viewpoint_conflict(model, azimuth, viewpoint)
+    if conflict is not None:
+        raise PanomapError(conflict.replace("--sphere-radius", "viewpoint=SphericalMirror(...)"))
+
+
+def viewpoint_conflict(model: str, azimuth: str, viewpoint: str | SphericalMirror) -> str | None:
+    """Why ray origins asked for (``viewpoint`` "caustic", or a :class:`SphericalMirror`) cannot be fitted with
+    the ``model`` and ``azimuth`` asked for, in words naming the options; None where they go together.
+
+    The paper's azimuth and its model (Algorithm 1, unweighted) are the paper's single-viewpoint camera: its
+    fit is not cross-validated, and neither is its caustic. A sphere of known radius is fitted with its own law
+    (``sphere``), and no other kind.
+    """
+    sphere = isinstance(viewpoint, SphericalMirror)
+    if not sphere and viewpoint != "caustic":
+        return None
+    asked = "--sphere-radius (the sphere's ray origins)" if sphere else "--viewpoint caustic (ray origins)"
+    if azimuth != "fit":
+        return f"{asked} does not go with --azimuth {azimuth} (the paper's single-viewpoint camera)"
+    if sphere and model not in ("auto", SPHERE_KIND):
+        return f"{asked} fits the sphere's own law: --model {model} does not go with it (leave --model out)"
+    if model in MODELS and not radial_kind(model).weighted:
+        return f"{asked} does not go with --model {model} (the paper's single-viewpoint fit, unweighted)"
+    return None
+
+
 def choose_viewpoint(
-    rays: LandmarkRays, start: RadialFunction, forced: bool = False, sphere: SphericalMirror | None = None
+    rays: LandmarkRays,
+    start: RadialFunction,
+    forced: bool = False,
+    sphere: SphericalMirror | None = None,
+    only: str | None = None,
 ) -> ViewpointChoice:
     """The single viewpoint, or the mirror's caustic where its held-out RMS is at most ``VIEWPOINT_GAIN`` times
     the single viewpoint's (``SPHERE_GAIN`` with the spherical mirror's law; see the module's docstring), the
@@ -351,7 +384,7 @@ def choose_viewpoint(
     forced, with every weighted kind of at most ``CAUSTIC_KIND_PARAMETERS`` too (each started about O_m): the
     kind a single-viewpoint fit chose may bend to stand in for the ray origins at the landmarks' distances, and
     then trade its shape against the caustic's size. A known ``sphere``: its law with the ray origins its
-    radius gives, whatever the scores.
+    radius gives, whatever the scores. ``only`` (the kind the user forced): the caustic of that kind alone.
 
     Raises
     ------
@@ -376,7 +409,7 @@ def choose_viewpoint(
         kind = radial_kind(name)
         own = name == start.kind
         forced_kind = forced and kind.weighted and kind.parameter_count <= CAUSTIC_KIND_PARAMETERS
-        if not (own or kind.exact_origins or forced_kind):
+        if not (own or kind.exact_origins or forced_kind) or (only is not None and name != only):
             continue
         try:
             candidates[name] = start if own else fit_radial(name, straight, rays.r, start.axis, 1.0 / rays.sigma)
@@ -401,13 +434,3 @@ def choose_viewpoint(
         return ViewpointChoice(fit_viewpoint(rays, candidates[best], True, start), held_out)
     except PanomapError:
         return ViewpointChoice(None, held_out)
-
-
-def parallax_px(radial: RadialFunction, viewpoint: Viewpoint, elevation_range: tuple[float, float]) -> float:
-    """The largest error (px) a single-viewpoint table of this camera would make for points at horizontal
-    distance ``PARALLAX_DISTANCE`` from the axis, over camera elevations ``elevation_range`` (rad): the
-    point on each ray at that distance, seen from O_m instead of from the ray's origin."""
-    rho = np.linspace(*elevation_range, 181)
-    height = viewpoint.offset(rho) + PARALLAX_DISTANCE * np.tan(rho)
-    seen = np.arctan2(height, PARALLAX_DISTANCE)
-    return float(np.nanmax(np.abs(radial(seen) - radial(rho))))

@@ -8,6 +8,7 @@ A reader is a function ``read(text, path, choice) -> Imported``: ``choice`` is t
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -78,14 +79,21 @@ def typed_number(value: Any, where: str, path: str | Path) -> float:
     return number(value, where, path, text=False)
 
 
+# A number as YAML 1.2 writes it: YAML 1.1 (PyYAML) reads ``1e-5`` (no dot) and ``1E+3`` as text, which
+# Kalibr's own writer (and any YAML 1.2 tool) gives for small distortion coefficients.
+_NUMBER_TEXT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
+
+
 def numbers(value: Any, where: str, path: str | Path, count: int | tuple[int, ...] | None = None) -> list[float]:
-    """``value`` as a list of finite numbers (each as :func:`number`), ``count`` long (or one of the
-    counts) when given."""
-    if (
-        not isinstance(value, (list, tuple))
-        or len(value) > MAX_LIST
-        or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)
-    ):
+    """``value`` as a list of finite numbers (each as :func:`number`; a number's text as YAML 1.2 writes it,
+    ``1e-5``, which YAML 1.1 reads as text, counts), ``count`` long (or one of the counts) when given."""
+
+    def is_number(x: Any) -> bool:
+        if isinstance(x, str):
+            return len(x) <= 64 and _NUMBER_TEXT.fullmatch(x.strip()) is not None
+        return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+    if not isinstance(value, (list, tuple)) or len(value) > MAX_LIST or not all(is_number(x) for x in value):
         raise PanomapError(f"{where} is {brief(value)}, not a list of numbers", path)
     values = [number(x, f"{where}[{i}]", path) for i, x in enumerate(value)]
     counts = (count,) if isinstance(count, int) else count
