@@ -418,7 +418,7 @@ def edit_table(source: Path, target: Path, change: dict[str, Any], seal: bool = 
         ({"info.sources": 3}, "info.sources is 3, not an object of texts"),
         ({"camera_position": [1.0, 2.0]}, "camera_position is [1.0, 2.0], not a list of 3 finite numbers"),
         ({"outer_radius_px": -5}, "0 <= cutoff_radius_px < outer_radius_px, not"),
-        ({"cutoff_radius_px": 1e9, "outer_radius_px": 2e9}, "leaves no pixel of a 320 x 300 image visible"),
+        ({"cutoff_radius_px": 1e6, "outer_radius_px": 2e6}, "leaves no pixel of a 320 x 300 image visible"),
         ({"image_size": [320]}, "image_size is [320], not a list of 2 integers"),
         ({"size": [64.5, 16]}, "size is [64.5, 16], not a list of 2 integers"),
         ({"colour": "red"}, "unknown field colour"),

@@ -455,7 +455,7 @@ def test_bad_input_gets_one_line_before_any_work(work: Path, tmp_path: Path) -> 
     ]
     # Usage errors (exit 2): a --view SPEC, an encoder or its options, a selection the command line gets wrong.
     usages = [
-        (("--view", "perspective:yaw=3"), ("'--view'", "needs pitch=, fov=, size=")),
+        (("--view", "perspective:yaw=3,fov=200"), ("'--view'", "field of view must be more than 0 and less than 180")),
         (("--view", "sphere:size=2x2"), ("unknown view kind 'sphere'",)),
         (("--view", "panorama:fov=3"), ("no key fov",)),
         (("--view", "perspective:yaw=nan,pitch=0,fov=90,size=160x120"), ("not a finite number",)),

@@ -112,7 +112,8 @@ class CameraModel:
                 "(turn the yaw by 180 deg and the roll by 180 deg instead)"
             )
         rotation = rotation_of_orientation(yaw_rad, pitch_rad, roll_rad, self.axis, self.s, self.phi0)
-        return replace(self, rotation=tuple(tuple(float(x) for x in row) for row in rotation))
+        rows = tuple((float(row[0]), float(row[1]), float(row[2])) for row in rotation)
+        return replace(self, rotation=rows)
 
     def camera_angles(self, theta: ArrayLike, rho: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Azimuth and elevation (rad) in the camera's axes of world rays at ``theta``, ``rho`` (rad)."""

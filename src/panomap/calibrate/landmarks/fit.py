@@ -36,24 +36,32 @@ from typing import TypeVar
 import numpy as np
 
 from ...camera.model import CameraModel
-from ...camera.orientation import rotation_of_orientation, tilt_rotation, to_camera
+from ...camera.orientation import tilt_rotation, to_camera
 from ...camera.radial import RadialFunction
-from ...camera.radial_models import AUTO_CANDIDATES, AXES, MIRROR_CANDIDATES, MODELS, RadialKind, radial_kind
+from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, RadialKind, radial_kind
 from ...camera.uncertainty import coefficient_covariance
 from ...camera.valid_range import annulus_coverage_problem, is_monotonic
 from ...camera.viewpoint import PARALLAX_DISTANCE, parallax_px
 from ...errors import PanomapError
-from ...geometry import FloatArray, azimuth_elevation, inside_image, pixel_polar
+from ...geometry import FloatArray, azimuth_elevation, pixel_polar
 from ..core import selection as selection_module
 from ..core.line_report import LineFitReport
 from ..core.noise import DEFAULT_WORLD_SIGMA_FRACTION, Observations, radial_weights, rim_slack_px, world_sigmas
 from ..core.refine import MountOptions, MountProblem, MountSolution, camera_rays, refine
 from ..core.report import FitReport, FitSettings, LandmarkResidual, MountReport, ViewpointReport
 from ..core.start import consistency, detect_axis, handedness, pixels_hint, separable_fit
+from .arguments import checked_arguments
 from .joint import ImageLines, JointLines, JointResult, refine_with_lines
-from .mount import DEFAULT_CAMERA_SIGMA_FRACTION, MountChoice, choose_mount, given_tilt, mount_options, mount_report
+from .mount import (
+    DEFAULT_CAMERA_SIGMA_FRACTION,
+    MountChoice,
+    choose_mount,
+    mount_options,
+    mount_report,
+    orientation_rotation,
+)
 from .outliers import choose, choose_start
-from .pairs import MIN_LANDMARKS, Landmarks
+from .pairs import Landmarks
 from .viewpoint import (
     SphericalMirror,
     annulus_elevations,
@@ -67,9 +75,6 @@ _T = TypeVar("_T")
 _Chosen = tuple[FloatArray, RadialKind, dict[str, float], MountSolution]
 
 MIN_ELEVATION_SPREAD = math.radians(1.0)
-
-
-AZIMUTH_MODES = ("fit", "paper")
 
 
 @dataclass(frozen=True)
@@ -272,11 +277,9 @@ def fit_camera(
     reject_outliers : bool
         Drop landmarks that disagree with the rest (named in the report).
     tilt_deg : "fit", "none" or (tilt_deg, toward_deg)
-        ``"fit"``: estimate the tilt of the camera's axis off the vertical and
-        keep it when cross-validation says the landmarks support it;
-        ``"none"``: the camera is level (the paper's assumption); a pair fixes
-        it: the optical axis ``tilt_deg`` off the vertical, leaning toward world
-        azimuth ``toward_deg`` (:mod:`panomap.camera.orientation`).
+        ``"fit"``: estimate the tilt of the camera's axis off the vertical and keep it when cross-validation says
+        the landmarks support it; ``"none"``: the camera is level (the paper's assumption); a pair fixes it: the
+        optical axis ``tilt_deg`` off the vertical, toward world azimuth ``toward_deg`` (deg).
     camera_sigma : float, optional
         Standard deviation (world units) of each coordinate of
         ``camera_position`` (a tape measurement); the fit refines the position
@@ -295,35 +298,28 @@ def fit_camera(
         cross-validated choice. Where they cannot join, the landmark fit stands and ``CameraFit.lines_note``
         says why.
     viewpoint : {"auto", "single", "caustic"} or SphericalMirror
-        ``"single"``: every ray from O_m (the paper's model). ``"auto"``: a mirror camera (one with a cut-off
-        disc in ``annulus``) gets each elevation's ray origin on the axis, as a mirror of revolution's caustic,
-        where cross-validation over the landmarks chooses it (:mod:`.viewpoint`); a lens keeps the single
-        viewpoint. ``"caustic"``: the caustic is fitted whatever cross-validation says (a mirror known to be a
-        sphere or a cone, seen from landmarks too far to show it); a :class:`.viewpoint.SphericalMirror`: its law
-        with the ray origins its radius gives. Lines joined to the landmarks keep the single viewpoint.
+        ``"single"``: every ray from O_m (the paper's model). ``"auto"``: a mirror camera (one with a cut-off disc
+        in ``annulus``) gets each elevation's ray origin on the axis, as a mirror of revolution's caustic, where
+        cross-validation over the landmarks chooses it (:mod:`.viewpoint`); a lens keeps the single viewpoint.
+        ``"caustic"``: the caustic is fitted whatever cross-validation says (a sphere or a cone seen from landmarks
+        too far to show it); a :class:`.viewpoint.SphericalMirror`: its law with the ray origins its radius gives.
+        Lines joined to the landmarks keep the single viewpoint.
     orientation_deg : (yaw, pitch, roll), optional
-        Where the camera looks, any way (deg, as a perspective view's: pitch 0 ahead, -90 straight down;
-        :mod:`panomap.camera.orientation`): the fit starts from it, and ``tilt_deg="fit"`` refines the optical
-        axis from there as it refines a ceiling camera's tilt (the roll is the fitted phi0's). Replaces ``axis``
-        and a ``tilt_deg`` pair.
+        A camera looking any way (deg): the fit starts there (``tilt_deg="fit"`` refines it); not with ``axis``.
 
     Raises
     ------
     PanomapError
-        Too few landmarks, a landmark at the camera or outside the image, all
-        landmarks at one elevation, or no model that fits monotonically.
+        Too few landmarks, one at the camera or outside the image, all at one elevation, or no model that fits.
     """
     tilt = renamed_keyword("fit_camera", "tilt", tilt, "tilt_deg", tilt_deg)
     check_viewpoint(model, azimuth, viewpoint)
-    requested, camera, start_centre, tilt_given = _checked(
+    requested, camera, start_centre, tilt_given = checked_arguments(
         landmarks, camera_position, centre, model, azimuth, axis, image_size, refine_centre, pixel_sigma,
         world_sigma, camera_sigma, tilt,
     )  # fmt: skip
-    oriented = _orientation_rotation(tilt_given, orientation_deg, axis)
-    setup = _observe(
-        landmarks, camera, start_centre, azimuth, "down" if oriented is not None else axis, pixel_sigma,
-        world_sigma, camera_sigma, tilt_given, oriented,
-    )  # fmt: skip
+    setup = _observe(landmarks, camera, start_centre, azimuth, axis, pixel_sigma, world_sigma, camera_sigma,
+                     tilt_given, orientation_deg)  # fmt: skip
     data, problem = setup.data, replace(setup.problem, centre_found=None if centre_is_guess else start_centre)
     candidates, robust = _candidates(requested, annulus, refine_centre, reject_outliers)
     # A tilted camera can put landmarks near the rim beyond it under a level model: where a tilt may be
@@ -539,79 +535,6 @@ class _Setup:
     axis_source: str
 
 
-def _checked(
-    landmarks: Landmarks,
-    camera_position: tuple[float, float, float],
-    centre: tuple[float, float],
-    model: str,
-    azimuth: str,
-    axis: str | None,
-    image_size: tuple[int, int] | None,
-    refine_centre: bool,
-    pixel_sigma: float,
-    world_sigma: float | None,
-    camera_sigma: float | None,
-    tilt: str | tuple[float, float],
-) -> tuple[RadialKind | None, tuple[float, ...], tuple[float, float], tuple[float, float] | None]:
-    """:func:`fit_camera`'s arguments checked: the model asked for (None: automatic), the camera position, the
-    starting centre and the tilt given (None unless a pair); PanomapError naming the first that is wrong."""
-    if model != "auto" and model not in MODELS:
-        raise PanomapError(f"unknown model {model!r}; choose auto or one of {', '.join(MODELS)}")
-    if azimuth not in AZIMUTH_MODES:
-        raise PanomapError(f"azimuth must be 'fit' or 'paper', not {azimuth!r}")
-    if axis is not None and axis not in AXES:
-        raise PanomapError(f"axis must be 'down' or 'up', not {axis!r}")
-    requested = None if model == "auto" else radial_kind(model)
-    if refine_centre and requested is not None and requested.centre_given:
-        raise PanomapError(
-            f"the {model} model takes the centre as given; refining the centre needs another model than {model!r}"
-        )
-    camera = tuple(float(c) for c in camera_position)
-    if len(camera) != 3 or not all(math.isfinite(c) for c in camera):
-        raise PanomapError("the camera position must be three finite numbers X0 Y0 Z0")
-    u0, v0 = (float(c) for c in centre)
-    if not (math.isfinite(u0) and math.isfinite(v0)):
-        raise PanomapError("the image centre must be two finite numbers U0 V0")
-    if not (math.isfinite(pixel_sigma) and pixel_sigma > 0):
-        raise PanomapError(f"the pixel sigma must be positive, not {pixel_sigma}")
-    if world_sigma is not None and not (math.isfinite(world_sigma) and world_sigma >= 0):
-        raise PanomapError(f"the world sigma must be zero or positive, not {world_sigma}")
-    if camera_sigma is not None and not (math.isfinite(camera_sigma) and camera_sigma >= 0):
-        raise PanomapError(f"the camera sigma must be zero or positive, not {camera_sigma}")
-    tilt_given = given_tilt(tilt)
-    n = len(landmarks)
-    if n < MIN_LANDMARKS:
-        raise PanomapError(f"only {n} landmark(s); at least {MIN_LANDMARKS} are needed")
-    if image_size is not None:
-        _check_inside(landmarks, image_size)
-    if float(np.max(np.ptp(landmarks.pixels, axis=0))) == 0.0:
-        u, v = landmarks.pixels[0]
-        raise PanomapError(
-            f"all {n} landmarks are at one pixel ({u:g}, {v:g}); each needs the pixel where its own world point "
-            "appears in the image"
-        )
-    return requested, camera, (u0, v0), tilt_given
-
-
-def _orientation_rotation(
-    tilt_given: tuple[float, float] | None, orientation_deg: tuple[float, float, float] | None, axis: str | None
-) -> FloatArray | None:
-    """R (3, 3), camera to world, of the orientation given (the model looking down in its own axes; with
-    phi0 = 0 both handednesses give the same R, so the handedness is found after), or None."""
-    if orientation_deg is None:
-        return None
-    if tilt_given is not None or axis is not None:
-        raise PanomapError("give the camera's orientation, or its axis and tilt, not both")
-    try:
-        values = tuple(float(x) for x in orientation_deg)
-    except (TypeError, ValueError):
-        raise PanomapError("the orientation must be three numbers (yaw, pitch, roll) deg") from None
-    if len(values) != 3 or not all(math.isfinite(x) for x in values) or abs(values[1]) > 90:
-        raise PanomapError(f"the orientation must be (yaw, pitch, roll) deg with the pitch in -90..90, not {values}")
-    yaw, pitch, roll = (math.radians(x) for x in values)
-    return rotation_of_orientation(yaw, pitch, roll, "down", -1, 0.0)
-
-
 def _observe(
     landmarks: Landmarks,
     camera: tuple[float, ...],
@@ -622,11 +545,13 @@ def _observe(
     world_sigma: float | None,
     camera_sigma: float | None,
     tilt_given: tuple[float, float] | None,
-    oriented: FloatArray | None,
+    orientation_deg: tuple[float, float, float] | None,
 ) -> _Setup:
     """The landmarks' rays from ``camera``, their elevations checked, the axis and handedness found, the noise
     model's defaults filled in: the observations about ``centre`` in the frame of the tilt given."""
     u0, v0 = centre
+    oriented = orientation_rotation(tilt_given, orientation_deg, axis)
+    axis = "down" if oriented is not None else axis
     d = landmarks.world - np.asarray(camera)
     distance = np.linalg.norm(d, axis=1)
     at_camera = np.flatnonzero(distance < 1e-9)
@@ -813,17 +738,3 @@ def _camera_fit(
         ),
         centre_start=centre_start,
     )
-
-
-def _check_inside(landmarks: Landmarks, image_size: tuple[int, int]) -> None:
-    width, height = image_size
-    u, v = landmarks.pixels[:, 0], landmarks.pixels[:, 1]
-    outside = np.flatnonzero(~inside_image(u, v, image_size))  # (landmarks are finite)
-    if outside.size:
-        k = outside[0]
-        transposed = bool(np.all(inside_image(v, u, image_size)))
-        hint = " (read as (row, column) every landmark is inside it: u is the column, v the row)" if transposed else ""
-        raise PanomapError(
-            f"landmark {landmarks.names[k]!r} at pixel ({u[k]:g}, {v[k]:g}) is outside the {width} x {height} image"
-            + hint
-        )

@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...camera.model import CameraModel
+from ...camera.orientation import rotation_of_orientation
 from ...camera.radial_models import RadialKind
 from ...camera.valid_range import annulus_coverage_problem
 from ...errors import PanomapError
@@ -84,6 +85,25 @@ def given_tilt(tilt: str | tuple[float, float]) -> tuple[float, float] | None:
             f"the tilt must be 0 to {MAX_TILT_DEG:g} deg and its azimuth finite, not {tilt_deg:g}, {toward_deg:g}"
         )
     return tilt_deg, toward_deg
+
+
+def orientation_rotation(
+    tilt_given: tuple[float, float] | None, orientation_deg: tuple[float, float, float] | None, axis: str | None
+) -> FloatArray | None:
+    """R (3, 3), camera to world, of the orientation given (the model looking down in its own axes; with
+    phi0 = 0 both handednesses give the same R, so the handedness is found after), or None."""
+    if orientation_deg is None:
+        return None
+    if tilt_given is not None or axis is not None:
+        raise PanomapError("give the camera's orientation, or its axis and tilt, not both")
+    try:
+        values = tuple(float(x) for x in orientation_deg)
+    except (TypeError, ValueError):
+        raise PanomapError("the orientation must be three numbers (yaw, pitch, roll) deg") from None
+    if len(values) != 3 or not all(math.isfinite(x) for x in values) or abs(values[1]) > 90:
+        raise PanomapError(f"the orientation must be (yaw, pitch, roll) deg with the pitch in -90..90, not {values}")
+    yaw, pitch, roll = (math.radians(x) for x in values)
+    return rotation_of_orientation(yaw, pitch, roll, "down", -1, 0.0)
 
 
 def mount_options(

@@ -393,7 +393,7 @@ def calibrate_camera(
         As :func:`panomap.fit_camera` (by default the tilt and the camera position are refined where
         cross-validation says the landmarks support it; ``tilt``, deprecated, is ``tilt_deg``'s old spelling).
     orientation_deg : (yaw, pitch, roll), optional
-        A camera looking any way (deg), as :func:`panomap.fit_camera` takes it: the fit starts from it.
+        As :func:`panomap.fit_camera`'s.
     models_cover_annulus : bool
         When both radii are known before the fit, automatic model choice
         only takes models that run monotonically across the annulus (its
@@ -414,8 +414,7 @@ def calibrate_camera(
     Raises
     ------
     PanomapError
-        With no camera position or no centre at all, or from the circles, the
-        fit or the table, saying why.
+        With no camera position or no centre at all, or from the circles, the fit or the table, saying why.
     """
     tilt_deg = renamed_keyword("calibrate_camera", "tilt", tilt, "tilt_deg", tilt_deg)
     position = camera_position if camera_position is not None else landmarks.camera
