@@ -174,8 +174,10 @@ def learn_from_images(
             )
     options = LineFitOptions(axis=axis, s=handedness, azimuth_zero=azimuth_zero, model=model)
     say = progress or (lambda _step, _steps, _what: None)
+    # The steps: each image's edges, each image's boards, the fit, the table.
+    steps = 2 * len(omnis) + 2
     if found is None:
-        learned, circles = _learn(omnis, label, options, boards, say)
+        learned, circles = _learn(omnis, label, options, boards, lambda step, what: say(step, steps, what))
     else:
         learned, circles = _learn_found(found, options), found.circles
     table_info: dict[str, Any] = {"source": learned.source}
@@ -189,6 +191,7 @@ def learn_from_images(
             "outer_radius": "detected",
         }
     table_info.update(info or {})
+    say(steps - 1, steps, "filling the table")
     table = create_line_table(
         learned.fit,
         cutoff_radius=circles.cutoff_radius or 0.0,
@@ -206,25 +209,26 @@ def _learn(
     names: list[str | Path | None],
     options: LineFitOptions,
     use_boards: bool,
-    say: Callable[[int, int, str], None],
+    say: Callable[[int, str], None],
 ) -> tuple[LearnedCamera, ImageCircles]:
-    """The camera of ``omnis`` (their circles, arcs and boards found here) and the first image's circles."""
+    """The camera of ``omnis`` (their circles, arcs and boards found here) and the first image's circles;
+    ``say(step, what)`` before each step (the steps: each image's edges, each image's boards, the fit)."""
+    say(0, f"image circles of {_called(names, 0)}")
     try:
         circles = line_circles(omnis[0])
     except PanomapError as exc:
         raise PanomapError(exc.detail, names[0]) from None
-    steps = 2 * len(omnis) + 1
     edges: list[EdgeArc] = []
     for k, omni in enumerate(omnis):
-        say(k, steps, f"edges of {_called(names, k)}")
+        say(k, f"edges of {_called(names, k)}")
         edges += find_arcs(omni, circles, image_index=k)
     found_boards: list[Board] = []
     if use_boards:
         for k, omni in enumerate(omnis):
-            say(len(omnis) + k, steps, f"checkerboards in {_called(names, k)}")
+            say(len(omnis) + k, f"checkerboards in {_called(names, k)}")
             found_boards += find_boards(omni, image_index=k)
     try:
-        learned = learn_camera(found_boards, edges, circles, options, progress=lambda step: say(steps - 1, steps, step))
+        learned = learn_camera(found_boards, edges, circles, options, progress=lambda step: say(2 * len(omnis), step))
     except PanomapError as exc:
         raise PanomapError(exc.detail, names[0] if len(omnis) == 1 else None) from None
     return learned, circles

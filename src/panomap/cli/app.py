@@ -21,6 +21,7 @@ from .calibrate import centre, fit, info
 from .demo import demo
 from .interop import export, import_
 from .learn import learn
+from .options import quiet_option
 from .points import project, unproject
 from .video import video
 from .viewer import view
@@ -32,6 +33,10 @@ COMMANDS = (fit, centre, info, *VIEW_COMMANDS, project, unproject, video, batch,
 COMMANDS += (import_, export)
 # The live viewer (issue 37).
 COMMANDS += (view,)
+# -q on every command, declared once (issue 53): no progress, no report.
+for _command in COMMANDS:
+    if not any(param.name == "quiet" for param in _command.params):
+        _command.params.append(quiet_option())
 
 
 # Click 8.2 raises this for a group called without a command (8.1 printed the help itself).

@@ -33,10 +33,13 @@ from .options import (
     SIZE,
     TILT,
     frame_time_option,
+    progress_bar,
     read_omni,
+    say,
     usage_error,
     warn_orientation,
 )
+from .progress import ProgressBar
 
 
 @click.command()
@@ -301,6 +304,9 @@ def fit(
             f"{size[0]}x{size[1]}, but {image} is {omni.shape[1]} x {omni.shape[0]} (give one of them)",
             param_hint="'--image-size'",
         )
+    bar = progress_bar()
+    joined = use_lines and omni is not None and mirror is None
+    bar.stage(f"fitting the camera to {len(pairs.pixels)} landmarks" + (" and the image's lines" if joined else ""))
     try:
         result = calibrate_camera(
             pairs,
@@ -321,15 +327,16 @@ def fit(
             reject_outliers=not keep_outliers,
             tilt_deg=tilt,
             camera_sigma=camera_sigma,
-            lines=use_lines and omni is not None and mirror is None,
+            lines=joined,
             viewpoint=viewpoint if sphere_radius is None else SphericalMirror(sphere_radius),
         )
     except PanomapError as exc:
+        bar.close()
         raise PanomapError(exc.detail, exc.source or landmarks) from None
     for warning in result.warnings:
-        click.echo(f"panomap: warning: {warning}", err=True)
+        bar.write(f"panomap: warning: {warning}")
     table = result.table
-    _write_fit(table, result, output, plot, overlay, omni)
+    _write_fit(table, result, output, plot, overlay, omni, bar)
     for warning in table.info.get("warnings", []):
         click.echo(f"panomap: warning: {warning}", err=True)
 
@@ -418,24 +425,34 @@ def _check_landmark_fit_options(
 
 
 def _write_fit(
-    table: PanoMappingTable, result: Any, output: Path, plot: Path | None, overlay: Path | None, omni: Any
+    table: PanoMappingTable,
+    result: Any,
+    output: Path,
+    plot: Path | None,
+    overlay: Path | None,
+    omni: Any,
+    bar: ProgressBar,
 ) -> None:
     """Write the table and its pictures (all or none), then say what the fit found and what was written."""
-    with all_or_none():
-        save_table(table, output)
-        if plot is not None:
-            from ..io.plot import save_fit_plot
+    bar.stage("writing the table" + (" and its pictures" if plot is not None or overlay is not None else ""))
+    try:
+        with all_or_none():
+            save_table(table, output)
+            if plot is not None:
+                from ..io.plot import save_fit_plot
 
-            save_fit_plot(table, plot)
-        if overlay is not None and omni is not None:
-            from ..io.overlay import draw_fit_overlay
+                save_fit_plot(table, plot)
+            if overlay is not None and omni is not None:
+                from ..io.overlay import draw_fit_overlay
 
-            write_image(overlay, draw_fit_overlay(omni, table))
-    click.echo(printable(_describe_fit(table), keep="\n"))
+                write_image(overlay, draw_fit_overlay(omni, table))
+    finally:
+        bar.close()
+    say(printable(_describe_fit(table), keep="\n"))
     for note in diagnose(result.fit, centre_guessed=result.sources["centre"].source is Source.FRAME_CENTRE):
         click.echo(printable(f"diagnosis: {note}"), err=True)
     written = [str(path) for path in (output, plot, overlay) if path is not None]
-    click.echo("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
+    say("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
 
 
 def _fit_lines(
@@ -526,7 +543,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
     except NoImageCircle as exc:
         if overlay is not None:
             write_image(overlay, draw_no_rim_overlay(omni, exc))
-            click.echo(f"wrote {overlay}")
+            say(f"wrote {overlay}")
         raise PanomapError(exc.detail, image) from None
     except PanomapError as exc:
         raise PanomapError(exc.detail, image) from None
@@ -557,7 +574,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
             f"angle {e.angle_deg:.1f} deg"
         )
     if overlay is not None:
-        click.echo(f"wrote {overlay}")
+        say(f"wrote {overlay}")
 
 
 def find_image_circles_in(path: Path, image: Any) -> ImageCircles:

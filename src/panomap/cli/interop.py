@@ -16,7 +16,7 @@ from ..interop.readers import READERS, read_calibration
 from ..io.images import MAX_IMAGE_PIXELS
 from ..table.file import load_table, save_table
 from .calibrate import find_image_circles_in
-from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni
+from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, read_omni, say
 
 
 @click.command("import")
@@ -128,7 +128,7 @@ def import_(
     record = table.info["import"]
     m, n = table.size
     rho_s, rho_e = (math.degrees(x) for x in table.elevation_range)
-    click.echo(
+    say(
         printable(
             f"{calibration}: {record['format']} calibration, model {record['model']}"
             + (f" (camera {record['camera']})" if "camera" in record else "")
@@ -136,7 +136,7 @@ def import_(
             f"{table.outer_radius:.1f} px"
         )
     )
-    click.echo(f"wrote {output}")
+    say(f"wrote {output}")
 
 
 def _circle_radii(
@@ -179,6 +179,6 @@ def export(table: Path, output: Path, format_: str) -> None:
         f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = [{', '.join(f'{x:.6g}' for x in v)}]"
         for k, v in result.model.parameters().items()
     )
-    click.echo(f"{format_} ({result.model.name}): {parameters}")
-    click.echo(f"largest difference from the table over its valid range: {result.max_error_px:.4f} px")
-    click.echo(f"wrote {output}")
+    say(f"{format_} ({result.model.name}): {parameters}")
+    say(f"largest difference from the table over its valid range: {result.max_error_px:.4f} px")
+    say(f"wrote {output}")

@@ -132,3 +132,43 @@ def warn_orientation(path: Path) -> None:
     note = orientation_note(path)
     if note is not None:
         click.echo(f"panomap: warning: {path}: {note}", err=True)
+
+
+# ----------------------------------------------------------------------------- -q, declared once
+
+_QUIET = "panomap.quiet"
+QUIET_HELP = "No progress and no report: print nothing but the result asked for, warnings and errors."
+
+
+def _remember_quiet(context: click.Context, _param: click.Parameter, value: bool) -> bool:
+    if value:
+        context.meta[_QUIET] = True
+    return value
+
+
+def quiet_option() -> click.Option:
+    """``-q/--quiet``, one for every command (``panomap.cli.app`` adds it to each): read with :func:`quiet`."""
+    return click.Option(
+        ["-q", "--quiet"], is_flag=True, expose_value=False, is_eager=True, callback=_remember_quiet, help=QUIET_HELP
+    )
+
+
+def quiet() -> bool:
+    """Whether the running command was given ``-q`` (False outside a command)."""
+    context = click.get_current_context(silent=True)
+    return context is not None and bool(context.meta.get(_QUIET))
+
+
+def say(message: str, err: bool = False) -> None:
+    """``message`` on stdout (stderr with ``err``) unless the command was given ``-q``."""
+    if not quiet():
+        click.echo(message, err=err)
+
+
+def progress_bar(unit: str = "step") -> Any:
+    """A :class:`panomap.cli.progress.ProgressBar` drawn on a terminal without ``-q``."""
+    import sys
+
+    from .progress import ProgressBar
+
+    return ProgressBar(not quiet() and sys.stderr.isatty(), unit=unit)
