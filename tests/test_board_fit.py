@@ -211,6 +211,32 @@ def test_cli_learns_the_camera_from_rendered_boards(rendered_boards, tmp_path) -
     assert np.count_nonzero(np.any(drawn != source, axis=2)) > 1000, "the boards' rows were not drawn"
 
 
+@pytest.mark.slow
+def test_a_folder_and_a_glob_give_the_camera_of_the_pictures_one_by_one(rendered_boards, tmp_path) -> None:
+    """Issue 53: ``--image`` takes a folder (its pictures) and a quoted glob, as ``panomap batch`` does; the
+    pictures they name, in name order, give the same camera as each given with its own --image."""
+    from panomap.table.file import load_table
+
+    _, paths = rendered_boards
+    folder = paths[0].parent
+    given = {
+        "one by one": ["--image", paths[0], "--image", paths[1]],
+        "folder": ["--image", f"{folder}/"],
+        "glob": ["--image", str(folder / "boards*.png")],
+    }
+    models = {}
+    for how, images in given.items():
+        table_path = tmp_path / f"{how.replace(' ', '-')}.npz"
+        result = run("fit", "-o", table_path, *images, "-q")
+        assert result.exit_code == 0, how + ": " + result.output
+        table = load_table(table_path)
+        assert table.info["images"] == [str(path) for path in paths], how
+        models[how] = table.model
+    for how in ("folder", "glob"):
+        assert models[how].radial.coefficients == models["one by one"].radial.coefficients, how
+        assert models[how].centre == models["one by one"].centre, how
+
+
 def test_cli_without_boards_the_edges_alone_do_not_pin_the_camera(rendered_boards, tmp_path) -> None:
     """``--no-boards`` skips them: the same image goes to the edge-arc fit alone, whose lines do not pin this
     camera (the fisheye law explains them and their right angles as well as the true unified law, and lies 3.1 px

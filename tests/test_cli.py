@@ -699,3 +699,16 @@ def test_every_command_takes_the_one_quiet_option(work: Path) -> None:
     assert (work / "rays2.csv").read_text() == (work / "rays.csv").read_text()
     shown = run("info", table_path, "-q")  # the result asked for is printed all the same
     assert shown.exit_code == 0 and "radial model" in shown.stdout
+
+
+def test_a_picture_given_as_landmarks_points_to_image_and_a_glob_that_matches_none_is_refused(work: Path) -> None:
+    """Issue 53: ``fit room.jpg -o cam.npz`` read the picture as landmarks; it gets one line pointing to --image."""
+    result = run("fit", work / "omni.png", "-o", work / "cam.npz")
+    assert_one_line_error(result, "is a picture, not landmarks", f"--image {work / 'omni.png'}", exit_code=2)
+    result = run("fit", "-o", work / "cam.npz", "--image", work / "omni.png", work / "omni.png")
+    assert_one_line_error(result, "is a picture, not landmarks", exit_code=2)
+    result = run("fit", "-o", work / "cam.npz", "--image", str(work / "*.jpg"))
+    assert_one_line_error(result, "'--image'", "matches no image", exit_code=2)
+    (work / "empty").mkdir()
+    result = run("fit", "-o", work / "cam.npz", "--image", work / "empty")
+    assert_one_line_error(result, "'--image'", "the folder holds no image", exit_code=2)

@@ -180,6 +180,26 @@ def learn_from_images(
         learned, circles = _learn(omnis, label, options, boards, lambda step, what: say(step, steps, what))
     else:
         learned, circles = _learn_found(found, options), found.circles
+    say(steps - 1, steps, "filling the table")
+    table = create_line_table(
+        learned.fit,
+        cutoff_radius=circles.cutoff_radius or 0.0,
+        outer_radius=circles.outer_radius,
+        image_size=(omnis[0].shape[1], omnis[0].shape[0]),
+        camera_height=camera_height,
+        info=_table_info(learned, names, camera_height, info),
+    )
+    warnings = (*learned.notes, *table.info.get("warnings", []))
+    return LearnedCalibration(table, learned.fit, learned.source, circles, learned.arcs, learned.choice, warnings)
+
+
+def _table_info(
+    learned: LearnedCamera,
+    names: Sequence[str | Path] | None,
+    camera_height: float | None,
+    info: Mapping[str, Any] | None,
+) -> dict[str, Any]:
+    """The table's ``info``: what the camera was learned from (and the images' names), then ``info``."""
     table_info: dict[str, Any] = {"source": learned.source}
     if names is not None:
         table_info["images"] = [str(name) for name in names]
@@ -191,17 +211,7 @@ def learn_from_images(
             "outer_radius": "detected",
         }
     table_info.update(info or {})
-    say(steps - 1, steps, "filling the table")
-    table = create_line_table(
-        learned.fit,
-        cutoff_radius=circles.cutoff_radius or 0.0,
-        outer_radius=circles.outer_radius,
-        image_size=(omnis[0].shape[1], omnis[0].shape[0]),
-        camera_height=camera_height,
-        info=table_info,
-    )
-    warnings = (*learned.notes, *table.info.get("warnings", []))
-    return LearnedCalibration(table, learned.fit, learned.source, circles, learned.arcs, learned.choice, warnings)
+    return table_info
 
 
 def _learn(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import glob
 import json
 import math
 from collections.abc import Mapping
@@ -20,7 +21,7 @@ from ..calibrate.landmarks.pipeline import calibrate_camera
 from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, same_input
+from ..files import all_or_none, check_outputs, expand_input, kind_of, same_input
 from ..io.images import write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table, save_table
@@ -64,11 +65,12 @@ from .progress import ProgressBar
 @click.option(
     "--image",
     "images",
-    type=PATH,
+    type=click.Path(path_type=str),
     multiple=True,
+    metavar="FILE|FOLDER|'GLOB'",
     help="An omni-image (or video) of this camera: gives the image size, and the centre and radii when they are "
-    "not given. Without LANDMARKS the camera is learned from the straight lines in it (repeat --image to pool "
-    "several images of the same camera).",
+    "not given. Without LANDMARKS the camera is learned from the straight lines in it; repeat --image, or give "
+    "a folder (every picture in it) or a quoted glob ('shots/*.jpg'), to pool several pictures of the camera.",
 )
 @click.option(
     "--video",
@@ -230,7 +232,7 @@ def fit(
     output: Path,
     camera: tuple[float, float, float] | None,
     centre: tuple[float, float] | None,
-    images: tuple[Path, ...],
+    images: Any,
     videos: tuple[Path, ...],
     video_frames: int,
     image_size: tuple[int, int] | None,
@@ -264,6 +266,8 @@ def fit(
     know neither the azimuth origin (--azimuth-zero), the handedness (--handedness) nor any distance (--camera-height).
     """
     # Options missing or out of range are usage errors (exit 2); the files' problems are failures (1).
+    _refuse_picture_as_landmarks(landmarks)
+    images = _expand_images(images)
     if not videos and click.get_current_context().get_parameter_source("video_frames") is ParameterSource.COMMANDLINE:
         raise click.UsageError("--video-frames is how many frames of --video to take: give --video FILE too")
     if landmarks is None:
@@ -339,6 +343,30 @@ def fit(
     _write_fit(table, result, output, plot, overlay, omni, bar)
     for warning in table.info.get("warnings", []):
         click.echo(f"panomap: warning: {warning}", err=True)
+
+
+def _refuse_picture_as_landmarks(landmarks: Path | None) -> None:
+    """A picture given as LANDMARKS (``fit room.jpg``, or ``--image a.jpg b.jpg``): one line pointing to --image."""
+    if landmarks is not None and kind_of(landmarks) is not None:
+        raise click.UsageError(
+            f"{printable(str(landmarks))} is a picture, not landmarks (CSV u,v,X,Y,Z or JSON): give it as --image "
+            f"{printable(str(landmarks))} (one --image per picture, or a folder, or a quoted glob)"
+        )
+
+
+def _expand_images(patterns: tuple[str, ...]) -> tuple[Path, ...]:
+    """Each --image as the pictures it names: a file as given, a folder's pictures, a glob's matches, in order (a
+    picture named twice is refused later); a folder or a glob that names none is a usage error."""
+    found: list[Path] = []
+    for pattern in patterns:
+        if Path(pattern).is_dir() or (glob.has_magic(pattern) and not Path(pattern).exists()):
+            try:
+                found += expand_input(pattern, kinds=("image",))
+            except PanomapError as exc:
+                raise usage_error(exc, "--image") from None
+        else:
+            found.append(Path(pattern))
+    return tuple(found)
 
 
 # The options of a landmark fit that learning from lines (no LANDMARKS) does not use: the lines find the centre,
