@@ -79,6 +79,16 @@ class LearnedCalibration:
         return report
 
 
+class NotLearned(PanomapError):
+    """No camera could be learned from the pictures: the message says why; ``arcs`` (the edge arcs found, each
+    with its image's index) and ``circles`` (the first image's) are what the pictures gave, for an overlay."""
+
+    def __init__(self, message: str, source: object | None, arcs: list[EdgeArc], circles: ImageCircles) -> None:
+        super().__init__(message, source)
+        self.arcs = arcs
+        self.circles = circles
+
+
 def learn_from_images(
     images: Sequence[NDArray[Any]] | NDArray[Any],
     *,
@@ -143,7 +153,8 @@ def learn_from_images(
     Raises
     ------
     PanomapError
-        With no image, images of different sizes, no image circle and no cut-off disc to start from,
+        (:class:`NotLearned` where the pictures were searched: with what they gave) With no image, images of
+        different sizes, no image circle and no cut-off disc to start from,
         too few lines (or no two orthogonal families) where the boards give no camera either, a
         ``model`` of ``"paper"``, or a camera whose table cannot be made; naming the image where one
         image is to blame.
@@ -240,7 +251,7 @@ def _learn(
     try:
         learned = learn_camera(found_boards, edges, circles, options, progress=lambda step: say(2 * len(omnis), step))
     except PanomapError as exc:
-        raise PanomapError(exc.detail, names[0] if len(omnis) == 1 else None) from None
+        raise NotLearned(exc.detail, names[0] if len(omnis) == 1 else None, edges, circles) from None
     return learned, circles
 
 

@@ -70,7 +70,13 @@ class PanomapGroup(click.Group):
         except click.Abort:
             _fail("interrupted", 130)
         except PanomapError as exc:
-            _fail(" ".join(str(exc).split()))
+            # The first line; the figures behind it where the command was asked for them (fit --verbose).
+            verbose = getattr(exc, "verbose", None)
+            hint = " (more: --verbose)" if verbose is False and exc.figures else ""
+            click.echo(f"panomap: error: {printable(' '.join(exc.summary.split()))}{hint}", err=True)
+            if verbose and exc.figures:
+                click.echo(printable(exc.figures, keep="\n"), err=True)
+            sys.exit(1)
         except OSError as exc:
             _fail(f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": "))
         sys.exit(result if isinstance(result, int) else 0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import glob
 import json
 import math
@@ -41,6 +42,33 @@ from .options import (
     warn_orientation,
 )
 from .progress import ProgressBar
+
+# The library's refusals say what to do in the user's words; fit adds the option that does it.
+OPTION_HINTS = (
+    ("give more pictures", "--image"),
+    ("give it as a picture", "--image"),
+    ("give its frames as pictures, each at its time", "--image VIDEO --frame-time S"),
+    ("or give the axis", "--axis down|up"),
+)
+
+
+def _with_option_names(command: Any) -> Any:
+    """``fit``'s body, its refusals given the options that answer them (:data:`OPTION_HINTS`) and, with
+    ``--verbose``, the figures behind them (printed by :class:`panomap.cli.app.PanomapGroup`)."""
+
+    @functools.wraps(command)
+    def run(*args: Any, verbose: bool, **kwargs: Any) -> Any:
+        try:
+            return command(*args, **kwargs)
+        except PanomapError as exc:
+            summary, newline, figures = exc.detail.partition("\n")
+            for phrase, option in OPTION_HINTS:
+                summary = summary.replace(phrase, f"{phrase} ({option})", 1)
+            error = PanomapError(summary + newline + figures, exc.source)
+            error.verbose = verbose  # type: ignore[attr-defined]
+            raise error from None
+
+    return run
 
 
 @click.command()
@@ -226,7 +254,14 @@ from .progress import ProgressBar
     help="Learning from lines: the camera's height above the floor (world units); floor, cylinder and plane "
     "views need it, lines know no distance.",
 )
+@click.option(
+    "-v",
+    "--verbose",
+    is_flag=True,
+    help="Where the fit is refused: the figures behind the refusal (its bands, rings, folds) after its line.",
+)
 @frame_time_option
+@_with_option_names
 def fit(
     landmarks: Path | None,
     output: Path,

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..calibrate.circles import ImageCircles
 from ..calibrate.lines.fit import LineFitOptions
-from ..calibrate.pictures import learn_from_images
+from ..calibrate.pictures import NotLearned, learn_from_images
 from ..errors import printable
 from ..files import all_or_none
 from ..io.images import write_image
@@ -49,17 +49,26 @@ def fit_from_lines(
         names: list[str | Path] = list(images)
         if videos:
             omnis, names = _with_frames(omnis, names, videos, video_frames, bar)
-        learned = learn_from_images(
-            omnis,
-            names=names,
-            camera_height=camera_height,
-            model=options.model,
-            axis=options.axis,
-            handedness=options.s,
-            azimuth_zero=options.azimuth_zero,
-            boards=use_boards,
-            progress=bar.update,
-        )
+        try:
+            learned = learn_from_images(
+                omnis,
+                names=names,
+                camera_height=camera_height,
+                model=options.model,
+                axis=options.axis,
+                handedness=options.s,
+                azimuth_zero=options.azimuth_zero,
+                boards=use_boards,
+                progress=bar.update,
+            )
+        except NotLearned as exc:
+            if overlay is not None:  # what the pictures gave, so the user sees which lines were found
+                from ..io.line_overlay import draw_found_overlay
+
+                bar.close()
+                write_image(overlay, draw_found_overlay(omnis[0], exc.arcs, exc.circles, exc.detail.split("\n")[0]))
+                say(f"wrote {overlay} (the edges found; no camera)")
+            raise
         table = learned.table
         bar.stage("writing the table" + (" and the overlay" if overlay is not None else ""))
         with all_or_none():

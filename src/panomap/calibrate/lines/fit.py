@@ -30,7 +30,7 @@ from ...camera.model import CameraModel
 from ...camera.radial import RadialFunction, fit_radial
 from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_kind, rho_of_alpha
 from ...camera.valid_range import valid_elevation_range
-from ...errors import PanomapError
+from ...errors import PanomapError, refusal
 from ...geometry import FloatArray
 from ..circles import ImageCircles
 from ..core.line_report import FittedLine, LineFitReport, RejectedArc, empty_bands
@@ -144,12 +144,12 @@ class LineFit:
         :mod:`.stretch`), in one sentence; None where it can."""
         facing = self.report.board_axis_deg
         if self.report.boards and facing and max(facing) < FLAT_BOARD_DEG:
-            return (
+            return refusal(
                 f"the {'checkerboard faces' if len(facing) == 1 else 'checkerboards all face'} the camera's axis "
-                f"(within {max(facing):.1f} deg: flat under a camera looking down or up, or square before one "
-                "looking ahead), and a camera stretched along its axis sees such boards as the same squares, so "
-                "they cannot pin the scale of its elevations: hold the board tilted 30-60 deg from that in some "
-                "of the pictures"
+                f"(within {max(facing):.1f} deg): hold one tilted 30-60 deg in some pictures",
+                "boards flat under a camera looking down or up, or square before one looking ahead: a camera "
+                "stretched along its axis sees such boards as the same squares, so they cannot pin the scale of "
+                "its elevations",
             )
         if self.band is None:
             return None
@@ -248,10 +248,14 @@ def fit_lines(
         raise _too_few(len(state.groups), "straight lines")
     if not orthogonal_pairs(families):
         raise PanomapError(
-            f"{len(state.groups)} straight lines were found, but no two families of parallel lines at right "
-            "angles (a room's vertical and horizontal edges, a checkerboard's rows and columns): they fix the "
-            "scale of the elevations, which straightness alone leaves free: a picture of a built scene (a room, a "
-            "corridor, a building) showing edges of its three directions would"
+            refusal(
+                f"{len(state.groups)} straight lines but none at right angles to others: give a picture of a room's "
+                "corners, or a checkerboard",
+                "two families of parallel lines at right angles (a room's vertical and horizontal edges, a "
+                "checkerboard's rows and columns) fix the scale of the elevations, which straightness alone leaves "
+                "free: a picture of a built scene (a room, a corridor, a building) showing edges of its three "
+                "directions gives them",
+            )
         )
     say("choosing the radial model")
     chosen, scores, final, others, folds = _choose(state, families, axis, params, r_max, outer, options, circles)
@@ -322,17 +326,22 @@ def _not_straight(kept: int, rms: FloatArray, long_enough: NDArray[np.bool_], li
     tested = rms[long_enough]
     spread = f", their RMS from straight {float(np.median(tested)):.2f} px (median)" if tested.size else ""
     return PanomapError(
-        f"only {kept} of {rms.size} edge arcs are straight (within {limit:.2f} px) under any starting camera, "
-        f"{int(long_enough.sum())} of them long enough to test{spread}; at least {MIN_LINES} are needed: the "
-        "image needs long straight edges across the annulus (walls, door and window frames, shelves, a checkerboard)"
+        refusal(
+            f"only {kept} of {rms.size} edge arcs are straight under any starting camera, {MIN_LINES} needed: give "
+            "long straight edges or a checkerboard",
+            f"straight: within {limit:.2f} px; {int(long_enough.sum())} of the arcs long enough to test{spread}; "
+            "long straight edges across the annulus: walls, door and window frames, shelves, a checkerboard",
+        )
     )
 
 
 def _too_few(found: int, what: str) -> PanomapError:
     return PanomapError(
-        f"only {found} {what} found (at least {MIN_LINES} are needed): the image needs long straight edges "
-        "across the annulus (walls, door and window frames, shelves, floor tiles, a checkerboard), some "
-        "vertical and some horizontal, in light"
+        refusal(
+            f"only {found} {what} found (at least {MIN_LINES} are needed): give long straight edges, or a checkerboard",
+            "long straight edges across the annulus (walls, door and window frames, shelves, floor tiles, a "
+            "checkerboard), some vertical and some horizontal, in light",
+        )
     )
 
 
