@@ -39,6 +39,14 @@ for _command in COMMANDS:
         _command.params.append(quiet_option())
 
 
+# `panomap --help`'s order: a table (imported, learned from pictures or landmarks), what it holds, its views, then
+# the rest; a command not named here comes after these, by name.
+HELP_ORDER = (
+    "import", "fit", "centre", "info", *(command.name for command in VIEW_COMMANDS), "video", "batch", "view",
+    "learn", "project", "unproject", "export", "demo",
+)  # fmt: skip
+
+
 # Click 8.2 raises this for a group called without a command (8.1 printed the help itself).
 _NO_ARGS_IS_HELP: type[click.UsageError] = getattr(
     click.exceptions, "NoArgsIsHelpError", type("_Never", (click.UsageError,), {})
@@ -51,7 +59,12 @@ def _fail(message: str, code: int = 1) -> NoReturn:
 
 
 class PanomapGroup(click.Group):
-    """A group that reports every error in one line, without a traceback."""
+    """A group that reports every error in one line, without a traceback, and lists its commands in the order a
+    new user meets them (:data:`HELP_ORDER`)."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        listed = [name for name in HELP_ORDER if name in self.commands]
+        return listed + sorted(name for name in self.commands if name not in listed)
 
     def main(self, *args: Any, **kwargs: Any) -> NoReturn:
         kwargs["standalone_mode"] = False
@@ -92,16 +105,19 @@ def main() -> None:
     """Unwarp omni-images (mirror and fisheye cameras) with pano-mapping tables.
 
     \b
-    1. panomap fit LANDMARKS.csv -o cam.npz --camera X0 Y0 Z0 --centre U0 V0
-    2. panomap panorama cam.npz omni.png -o pano.png
-       panomap cylinder cam.npz omni.png -o cyl.png --distance 2 --band -2.4 0 --size 2048x512
-       panomap plane    cam.npz omni.png -o view.png --distance 2 --width 2 \\
-                        --band -2.4 0 --azimuth 30 --size 800x800
-       panomap perspective cam.npz omni.png -o ptz.png --yaw 270 --pitch -30 \\
-                        --fov 100 --size 1280x720
-       panomap floor    cam.npz omni.png -o floor.png --z 0 --x 0 6 --y 0 5 --resolution 0.01
-       panomap unproject cam.npz pixels.csv -o rays.csv --z 0
-    3. panomap demo   (renders a simulated room and does all of it)
+    First a table of the camera, one of three ways:
+      panomap import calib_results.txt -o cam.npz    a calibration made elsewhere (OCamCalib, Kalibr,
+                                                      OpenCV, COLMAP)
+      panomap fit -o cam.npz --image 'shots/*.jpg'   learned from pictures: their straight lines and
+                                                      checkerboards (--camera-height H for distances)
+      panomap fit landmarks.csv -o cam.npz --camera X0 Y0 Z0 --image omni.png
+                                                      fitted to landmarks (pixel u,v and world X,Y,Z)
+    Then its views, of a picture, a video or a stream:
+      panomap panorama cam.npz omni.png -o pano.png
+      panomap perspective cam.npz omni.png -o ptz.png --yaw 270 --pitch -30 --fov 100 --size 1280x720
+      panomap floor cam.npz omni.png -o floor.png --z 0 --x 0 6 --y 0 5 --resolution 0.01
+      panomap video cam.npz omni.mp4 -o 'out_{name}.mp4' --view panorama:size=2048x512
+    panomap demo renders a simulated room and does all of it.
 
     Conventions: world Z up; azimuth counter-clockwise from +X seen from above;
     elevation negative below the camera; pixel (u, v) = (column, row) with the

@@ -294,9 +294,10 @@ def fit(
     camera_height: float | None,
     frame_time: float | None,
 ) -> None:
-    """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table.
+    """Make the camera's table: learned from pictures (--image), or fitted to LANDMARKS (CSV u,v,X,Y,Z or JSON).
 
-    Without LANDMARKS, learn the camera from the straight lines in --image (walls, door and window frames,
+    With LANDMARKS, fit the camera to them and write its pano-mapping table. Without LANDMARKS, learn the
+    camera from the straight lines in --image (walls, door and window frames,
     shelves, floor tiles; a checkerboard of any size first, where one shows): no measurement needed. Lines
     know neither the azimuth origin (--azimuth-zero), the handedness (--handedness) nor any distance (--camera-height).
     """
