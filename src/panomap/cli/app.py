@@ -42,7 +42,7 @@ for _command in COMMANDS:
 # `panomap --help`'s order: a table (imported, learned from pictures or landmarks), what it holds, its views, then
 # the rest; a command not named here comes after these, by name.
 HELP_ORDER = (
-    "import", "fit", "centre", "info", *(command.name for command in VIEW_COMMANDS), "video", "batch", "view",
+    "import", "fit", "centre", "info", *(str(command.name) for command in VIEW_COMMANDS), "video", "batch", "view",
     "learn", "project", "unproject", "export", "demo",
 )  # fmt: skip
 

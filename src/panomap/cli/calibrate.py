@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import glob
 import json
 import math
@@ -40,35 +39,9 @@ from .options import (
     say,
     usage_error,
     warn_orientation,
+    with_option_names,
 )
 from .progress import ProgressBar
-
-# The library's refusals say what to do in the user's words; fit adds the option that does it.
-OPTION_HINTS = (
-    ("give more pictures", "--image"),
-    ("give it as a picture", "--image"),
-    ("give its frames as pictures, each at its time", "--image VIDEO --frame-time S"),
-    ("or give the axis", "--axis down|up"),
-)
-
-
-def _with_option_names(command: Any) -> Any:
-    """``fit``'s body, its refusals given the options that answer them (:data:`OPTION_HINTS`) and, with
-    ``--verbose``, the figures behind them (printed by :class:`panomap.cli.app.PanomapGroup`)."""
-
-    @functools.wraps(command)
-    def run(*args: Any, verbose: bool, **kwargs: Any) -> Any:
-        try:
-            return command(*args, **kwargs)
-        except PanomapError as exc:
-            summary, newline, figures = exc.detail.partition("\n")
-            for phrase, option in OPTION_HINTS:
-                summary = summary.replace(phrase, f"{phrase} ({option})", 1)
-            error = PanomapError(summary + newline + figures, exc.source)
-            error.verbose = verbose  # type: ignore[attr-defined]
-            raise error from None
-
-    return run
 
 
 @click.command()
@@ -261,7 +234,7 @@ def _with_option_names(command: Any) -> Any:
     help="Where the fit is refused: the figures behind the refusal (its bands, rings, folds) after its line.",
 )
 @frame_time_option
-@_with_option_names
+@with_option_names
 def fit(
     landmarks: Path | None,
     output: Path,

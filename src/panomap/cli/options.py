@@ -6,6 +6,7 @@ Angles on the command line are in degrees; lengths in world units; sizes as
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 from typing import Any
 
@@ -172,3 +173,33 @@ def progress_bar(unit: str = "step") -> Any:
     from .progress import ProgressBar
 
     return ProgressBar(not quiet() and sys.stderr.isatty(), unit=unit)
+
+
+# ----------------------------------------------------------------------------- refusals with option names
+
+# The library's refusals say what to do in the user's words; fit adds the option that does it.
+OPTION_HINTS = (
+    ("give more pictures", "--image"),
+    ("give it as a picture", "--image"),
+    ("give its frames as pictures, each at its time", "--image VIDEO --frame-time S"),
+    ("or give the axis", "--axis down|up"),
+)
+
+
+def with_option_names(command: Any) -> Any:
+    """A command's body (``fit``'s), its refusals given the options that answer them (:data:`OPTION_HINTS`) and, with
+    ``--verbose``, the figures behind them (printed by :class:`panomap.cli.app.PanomapGroup`)."""
+
+    @functools.wraps(command)
+    def run(*args: Any, verbose: bool, **kwargs: Any) -> Any:
+        try:
+            return command(*args, **kwargs)
+        except PanomapError as exc:
+            summary, newline, figures = exc.detail.partition("\n")
+            for phrase, option in OPTION_HINTS:
+                summary = summary.replace(phrase, f"{phrase} ({option})", 1)
+            error = PanomapError(summary + newline + figures, exc.source)
+            error.verbose = verbose  # type: ignore[attr-defined]
+            raise error from None
+
+    return run
