@@ -40,6 +40,10 @@ html_theme_options = {
     "show_toc_level": 2,
 }
 html_static_path: list[str] = []
+# Every page's sidebar lists the whole manual (docs/_templates/sidebar-nav-all.html): the theme's own lists
+# the pages under the current top-level page, and the manual's pages have none, so it was empty.
+templates_path = ["_templates"]
+html_sidebars = {"**": ["sidebar-nav-all"]}
 
 # Every documented object has a docstring, and every parameter of a public function is documented.
 numpydoc_validation_checks = {"GL08"}

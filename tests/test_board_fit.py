@@ -211,6 +211,32 @@ def test_cli_learns_the_camera_from_rendered_boards(rendered_boards, tmp_path) -
     assert np.count_nonzero(np.any(drawn != source, axis=2)) > 1000, "the boards' rows were not drawn"
 
 
+@pytest.mark.slow
+def test_a_folder_and_a_glob_give_the_camera_of_the_pictures_one_by_one(rendered_boards, tmp_path) -> None:
+    """Issue 53: ``--image`` takes a folder (its pictures) and a quoted glob, as ``panomap batch`` does; the
+    pictures they name, in name order, give the same camera as each given with its own --image."""
+    from panomap.table.file import load_table
+
+    _, paths = rendered_boards
+    folder = paths[0].parent
+    given = {
+        "one by one": ["--image", paths[0], "--image", paths[1]],
+        "folder": ["--image", f"{folder}/"],
+        "glob": ["--image", str(folder / "boards*.png")],
+    }
+    models = {}
+    for how, images in given.items():
+        table_path = tmp_path / f"{how.replace(' ', '-')}.npz"
+        result = run("fit", "-o", table_path, *images, "-q")
+        assert result.exit_code == 0, how + ": " + result.output
+        table = load_table(table_path)
+        assert table.info["images"] == [str(path) for path in paths], how
+        models[how] = table.model
+    for how in ("folder", "glob"):
+        assert models[how].radial.coefficients == models["one by one"].radial.coefficients, how
+        assert models[how].centre == models["one by one"].centre, how
+
+
 def test_cli_without_boards_the_edges_alone_do_not_pin_the_camera(rendered_boards, tmp_path) -> None:
     """``--no-boards`` skips them: the same image goes to the edge-arc fit alone, whose lines do not pin this
     camera (the fisheye law explains them and their right angles as well as the true unified law, and lies 3.1 px
@@ -218,12 +244,26 @@ def test_cli_without_boards_the_edges_alone_do_not_pin_the_camera(rendered_board
     boards it learns the camera (above).
     """
     _, paths = rendered_boards
-    result = run("fit", "-o", tmp_path / "cam.npz", "--image", paths[0], "--no-boards")
+    overlay = tmp_path / "seen.png"
+    result = run("fit", "-o", tmp_path / "cam.npz", "--image", paths[0], "--no-boards", "--overlay", overlay)
     assert result.exit_code == 1, result.output
     errors = [line for line in result.output.splitlines() if line.startswith("panomap: error")]
     assert len(errors) == 1 and "does not pin the camera" in errors[0], result.output
     assert "learned from checkerboards" not in result.output
     assert not (tmp_path / "cam.npz").exists()
+    # Issue 53: one line in the user's words (the option that answers it added by the command), the figures
+    # with --verbose; the overlay written all the same, with the edges found.
+    assert len(errors[0].replace(str(paths[0]), "room.jpg")) <= 160 and "(more: --verbose)" in errors[0]
+    assert "give a checkerboard held tilted" in errors[0]  # (this room's lines run along and across the axis)
+    assert "px" not in errors[0] and f"wrote {overlay} (the edges found; no camera)" in result.output
+    import cv2
+
+    drawn, source = cv2.imread(str(overlay)), cv2.imread(str(paths[0]))
+    assert drawn.shape == source.shape and np.count_nonzero(np.any(drawn != source, axis=2)) > 1000
+    verbose = run("fit", "-o", tmp_path / "cam.npz", "--image", paths[0], "--no-boards", "--verbose")
+    lines = verbose.stderr.splitlines()
+    assert verbose.exit_code == 1 and lines[0] == errors[0].replace(" (more: --verbose)", ""), verbose.stderr
+    assert len(lines) == 2 and "differ by up to" in lines[1] and "95% band" in lines[1], verbose.stderr
 
 
 def test_a_loosely_pinned_radius_is_said() -> None:
@@ -286,7 +326,9 @@ def test_boards_that_all_face_the_axis_are_refused_and_turned_ones_are_not(monke
     monkeypatch.setattr(choice, "fit_boards", lambda *args, **kwargs: alone)
     with pytest.raises(PanomapError, match="checkerboards all face the camera's axis") as raised:
         choice.learn_camera(flat, [], circles, LineFitOptions())
-    assert "\n" not in str(raised.value)
+    # One line saying what to do (issue 53: at most ~160 characters), the figures on the lines after it.
+    assert str(raised.value).count("\n") == 1 and len(raised.value.summary) <= 110
+    assert "a camera stretched along its axis sees such boards as the same squares" in raised.value.figures
     monkeypatch.undo()
     turned = choice.learn_camera(flat_boards(camera, 3, seed=3, turn_deg=45.0), [], circles, LineFitOptions())
     assert turned.source == "checkerboards" and turned.fit.refusal() is None

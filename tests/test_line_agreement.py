@@ -51,6 +51,11 @@ def test_the_band_adds_the_farthest_alternative_to_the_jackknife() -> None:
     assert refusal is not None and refusal.startswith("the picture does not pin the camera")
     pooled = band.refusal(np.zeros(alpha.size), lines=40, pictures=2)
     assert pooled is not None and pooled.startswith("the 2 pictures do not pin the camera")
+    # Issue 53: the first line says what is missing and what to do, short and without option names; the
+    # figures (the band, its ring, the lines in folds) follow on the next line.
+    first, figures = refusal.split("\n")
+    assert len(first) <= 110 and "--" not in first and "px" not in first, first
+    assert "differ by up to" in figures and "95% band" in figures and "lines in folds" in figures
     tight = pinned_band(chosen, [], folds[:4], "down", alpha)
     assert tight.refusal(np.zeros(alpha.size), lines=40) is None
 
@@ -121,9 +126,10 @@ def test_a_picture_whose_lines_run_along_and_across_the_axis_is_told_why_it_cann
     assert math.isnan(band.oblique_deg)
     aligned = replace(band, oblique_deg=2.5).refusal(np.zeros(alpha.size), lines=80)
     assert aligned is not None and "along and across the camera's axis (every direction within 2.5 deg)" in aligned
-    assert "checkerboard held tilted" in aligned and "--image repeated" not in aligned
+    assert "checkerboard held tilted" in aligned.split("\n")[0] and "give more pictures" not in aligned
     oblique = replace(band, oblique_deg=30.0).refusal(np.zeros(alpha.size), lines=80)
-    assert oblique is not None and "--image repeated" in oblique and "along and across" not in oblique
+    assert oblique is not None and "give more pictures" in oblique and "along and across" not in oblique
+    assert all(len(text.split("\n")[0]) <= 115 and "--" not in text for text in (aligned, oblique))
     directions = np.array([[0.02, 0.0, 1.0], [1.0, 0.03, 0.0]])
     measured = pinned_band(equidistant(200.0), [equidistant(205.0)], [], "down", alpha, directions)
     assert measured.oblique_deg == pytest.approx(math.degrees(math.atan(0.02)), rel=1e-9)  # the first

@@ -55,3 +55,45 @@ def test_a_terminal_of_known_width_gets_a_bar_that_fills_it_and_messages_are_esc
     lines = [line for line in text.replace("\r", "\n").split("\n") if "60/120" in line]
     assert lines and 0.9 * 132 <= len(lines[-1]) <= 132, text
     assert "note: \\x1b[2J a name" in text and "\x1b[2J" not in text
+
+
+def _read_all(leader: int) -> str:
+    chunks = []
+    while select.select([leader], [], [], 0.5)[0]:
+        try:
+            chunk = os.read(leader, 65536)
+        except OSError:
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    os.close(leader)
+    return b"".join(chunks).decode("utf-8", "replace")
+
+
+def test_a_stage_without_a_count_gets_a_line_whose_seconds_tick() -> None:
+    """Issue 53: a step with no count (a landmark fit) left the terminal silent; its line now ticks each second."""
+    import time
+
+    leader, follower = _terminal(100)
+    with os.fdopen(follower, "w", encoding="utf-8", closefd=True) as stream:
+        bar = ProgressBar(True, stream)
+        bar.stage("fitting the camera")
+        time.sleep(2.3)  # two ticks (TICK_S = 1 s), with room for a slow machine
+        bar.stage("writing the table")
+        bar.close()
+        stream.flush()
+    text = _read_all(leader)
+    drawn = [line for line in text.replace("\r", "\n").split("\n") if line.strip()]
+    assert "fitting the camera: 00:02" in drawn, text
+    assert drawn[-1] == "writing the table: 00:00", text
+
+
+def test_a_bar_not_enabled_draws_nothing_and_writes_messages_as_lines(capsys) -> None:  # type: ignore[no-untyped-def]
+    bar = ProgressBar(False)
+    bar.stage("fitting")
+    bar.update(1, 2)
+    bar.write("note: a")
+    bar.close()
+    captured = capsys.readouterr()
+    assert captured.err == "note: a\n" and captured.out == ""

@@ -85,7 +85,7 @@ def test_video_options_that_would_be_ignored_are_refused(tmp_path: Path, picture
     assert_one_line_error(result, f"{not_video}", "is not a video panomap can decode")
     cv2.imwrite(str(tmp_path / "still.png"), pictures[0])
     result = run("fit", "-o", tmp_path / "cam.npz", "--video", tmp_path / "still.png")
-    assert_one_line_error(result, "still.png", "is a picture, not a video: give it with --image")
+    assert_one_line_error(result, "still.png", "is a picture, not a video: give it as a picture (--image)")
     write_clip(tmp_path / "raw.h264", [pictures[0]] * 4, rate=4, container_format="h264")
     result = run("fit", "-o", tmp_path / "cam.npz", "--video", tmp_path / "raw.h264")
     assert_one_line_error(result, "raw.h264", "its header gives no duration")

@@ -483,3 +483,38 @@ def write_with(path: str | Path, writer: Callable[[BinaryIO], None]) -> None:
     """Let ``writer`` fill a temporary file, then rename it to ``path``."""
     with atomic_output(path) as handle:
         writer(handle)
+
+
+# ----------------------------------------------------------------------------- inputs named by folders and globs
+
+IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".pgm", ".ppm", ".pnm"})
+VIDEO_SUFFIXES = frozenset({".mp4", ".m4v", ".mov", ".mkv", ".webm", ".avi", ".ts", ".nut"})
+
+
+def kind_of(path: Path) -> str | None:
+    """``"image"``, ``"video"`` or None, by suffix."""
+    suffix = path.suffix.lower()
+    return "image" if suffix in IMAGE_SUFFIXES else "video" if suffix in VIDEO_SUFFIXES else None
+
+
+def expand_input(pattern: str | Path, kinds: tuple[str, ...] = ("image", "video")) -> list[Path]:
+    """The files ``pattern`` names, sorted: itself (a file), every file of ``kinds`` inside it, recursively (a
+    folder), or those a glob matches (``cams/*.jpg``, ``**`` too). Raises PanomapError naming a pattern that
+    names none (``panomap batch`` INPUT, ``panomap fit --image``)."""
+    import glob
+
+    what = " or ".join({"image": "image", "video": "video"}[kind] for kind in kinds)
+    path = Path(pattern)
+    if path.is_dir():
+        matches = sorted(p for p in path.rglob("*") if p.is_file() and kind_of(p) in kinds)
+        if not matches:
+            raise PanomapError(f"the folder holds no {what}", path)
+        return matches
+    if path.is_file():
+        if kind_of(path) is None:
+            raise PanomapError(f"not an {what} file name (unknown suffix)", path)
+        return [path]
+    matches = sorted(Path(p) for p in glob.glob(str(pattern), recursive=True) if kind_of(Path(p)) in kinds)
+    if not matches:
+        raise PanomapError(f"matches no {what}" if glob.has_magic(str(pattern)) else "no such file", pattern)
+    return matches

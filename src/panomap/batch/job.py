@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import csv
 import fnmatch
-import glob
 import hashlib
 import io
 import json
@@ -37,12 +36,19 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import PanomapError
-from ..files import file_identity, placeholder_text, placeholders, read_text
+from ..files import (  # noqa: F401  (IMAGE_SUFFIXES, VIDEO_SUFFIXES, kind_of: the batch's names, kept)
+    IMAGE_SUFFIXES,
+    VIDEO_SUFFIXES,
+    expand_input,
+    file_identity,
+    kind_of,
+    placeholder_text,
+    placeholders,
+    read_text,
+)
 from ..video.output import EncoderSettings
 from ..views.spec import NamedView
 
-IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".pgm", ".ppm", ".pnm"})
-VIDEO_SUFFIXES = frozenset({".mp4", ".m4v", ".mov", ".mkv", ".webm", ".avi", ".ts", ".nut"})
 MANIFEST_SUFFIXES = frozenset({".csv", ".json", ".yaml", ".yml"})
 TEMPLATE_KEYS = ("camera", "stem", "name", "ext")
 
@@ -101,12 +107,6 @@ class Job:
     settings: Settings = field(default_factory=Settings)
 
 
-def kind_of(path: Path) -> str | None:
-    """``"image"``, ``"video"`` or None, by suffix."""
-    suffix = path.suffix.lower()
-    return "image" if suffix in IMAGE_SUFFIXES else "video" if suffix in VIDEO_SUFFIXES else None
-
-
 def find_inputs(
     patterns: Sequence[str], table: Path | None, camera: str | None = None, exclude: Sequence[str] = ()
 ) -> list[BatchInput]:
@@ -144,20 +144,7 @@ def find_inputs(
     table = table.absolute()
     found: list[Path] = []
     for pattern in patterns:
-        path = Path(pattern)
-        if path.is_dir():
-            matches = sorted(p for p in path.rglob("*") if p.is_file() and kind_of(p) is not None)
-            if not matches:
-                raise PanomapError("the folder holds no image or video", path)
-        elif path.is_file():
-            if kind_of(path) is None:
-                raise PanomapError("not an image or video file name (unknown suffix)", path)
-            matches = [path]
-        else:
-            matches = sorted(Path(p) for p in glob.glob(pattern, recursive=True) if kind_of(Path(p)) is not None)
-            if not matches:
-                problem = "matches no image or video" if glob.has_magic(pattern) else "no such file"
-                raise PanomapError(problem, pattern)
+        matches = expand_input(pattern)
         wanted = [p for p in matches if not excluded(p, exclude)]
         if not wanted:
             raise PanomapError(f"every image and video it names is excluded ({', '.join(exclude)})", pattern)

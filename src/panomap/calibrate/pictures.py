@@ -79,6 +79,16 @@ class LearnedCalibration:
         return report
 
 
+class NotLearned(PanomapError):
+    """No camera could be learned from the pictures: the message says why; ``arcs`` (the edge arcs found, each
+    with its image's index) and ``circles`` (the first image's) are what the pictures gave, for an overlay."""
+
+    def __init__(self, message: str, source: object | None, arcs: list[EdgeArc], circles: ImageCircles) -> None:
+        super().__init__(message, source)
+        self.arcs = arcs
+        self.circles = circles
+
+
 def learn_from_images(
     images: Sequence[NDArray[Any]] | NDArray[Any],
     *,
@@ -143,7 +153,8 @@ def learn_from_images(
     Raises
     ------
     PanomapError
-        With no image, images of different sizes, no image circle and no cut-off disc to start from,
+        (:class:`NotLearned` where the pictures were searched: with what they gave) With no image, images of
+        different sizes, no image circle and no cut-off disc to start from,
         too few lines (or no two orthogonal families) where the boards give no camera either, a
         ``model`` of ``"paper"``, or a camera whose table cannot be made; naming the image where one
         image is to blame.
@@ -167,10 +178,33 @@ def learn_from_images(
     omnis, label, repeated = _once(_one_size(omnis, label), label)
     options = LineFitOptions(axis=axis, s=handedness, azimuth_zero=azimuth_zero, model=model)
     say = progress or (lambda _step, _steps, _what: None)
+    # The steps: each image's edges, each image's boards, the fit, the table.
+    steps = 2 * len(omnis) + 2
     if found is None:
-        learned, circles = _learn(omnis, label, options, boards, say)
+        learned, circles = _learn(omnis, label, options, boards, lambda step, what: say(step, steps, what))
     else:
         learned, circles = _learn_found(found, options), found.circles
+    say(steps - 1, steps, "filling the table")
+    table = create_line_table(
+        learned.fit,
+        cutoff_radius=circles.cutoff_radius or 0.0,
+        outer_radius=circles.outer_radius,
+        image_size=(omnis[0].shape[1], omnis[0].shape[0]),
+        camera_height=camera_height,
+        info=_table_info(learned, names, camera_height, info),
+    )
+    again = [f"{repeated} of the pictures repeat an earlier one (the same pixels): each counted once"] * bool(repeated)
+    warnings = (*again, *learned.notes, *table.info.get("warnings", []))
+    return LearnedCalibration(table, learned.fit, learned.source, circles, learned.arcs, learned.choice, warnings)
+
+
+def _table_info(
+    learned: LearnedCamera,
+    names: Sequence[str | Path] | None,
+    camera_height: float | None,
+    info: Mapping[str, Any] | None,
+) -> dict[str, Any]:
+    """The table's ``info``: what the camera was learned from (and the images' names), then ``info``."""
     table_info: dict[str, Any] = {"source": learned.source}
     if names is not None:
         table_info["images"] = [str(name) for name in names]
@@ -182,19 +216,7 @@ def learn_from_images(
             "outer_radius": "detected",
         }
     table_info.update(info or {})
-    table = create_line_table(
-        learned.fit,
-        cutoff_radius=circles.cutoff_radius or 0.0,
-        outer_radius=circles.outer_radius,
-        image_size=(omnis[0].shape[1], omnis[0].shape[0]),
-        camera_height=camera_height,
-        info=table_info,
-    )
-    again = (
-        [f"{repeated} of the pictures repeat an earlier one (the same pixels): each counted once"] if repeated else []
-    )
-    warnings = (*again, *learned.notes, *table.info.get("warnings", []))
-    return LearnedCalibration(table, learned.fit, learned.source, circles, learned.arcs, learned.choice, warnings)
+    return table_info
 
 
 def _learn(
@@ -202,27 +224,28 @@ def _learn(
     names: list[str | Path | None],
     options: LineFitOptions,
     use_boards: bool,
-    say: Callable[[int, int, str], None],
+    say: Callable[[int, str], None],
 ) -> tuple[LearnedCamera, ImageCircles]:
-    """The camera of ``omnis`` (their circles, arcs and boards found here) and the first image's circles."""
+    """The camera of ``omnis`` (their circles, arcs and boards found here) and the first image's circles;
+    ``say(step, what)`` before each step (the steps: each image's edges, each image's boards, the fit)."""
+    say(0, f"image circles of {_called(names, 0)}")
     try:
         circles = line_circles(omnis[0])
     except PanomapError as exc:
         raise PanomapError(exc.detail, names[0]) from None
-    steps = 2 * len(omnis) + 1
     edges: list[EdgeArc] = []
     for k, omni in enumerate(omnis):
-        say(k, steps, f"edges of {_called(names, k)}")
+        say(k, f"edges of {_called(names, k)}")
         edges += find_arcs(omni, circles, image_index=k)
     found_boards: list[Board] = []
     if use_boards:
         for k, omni in enumerate(omnis):
-            say(len(omnis) + k, steps, f"checkerboards in {_called(names, k)}")
+            say(len(omnis) + k, f"checkerboards in {_called(names, k)}")
             found_boards += find_boards(omni, image_index=k)
     try:
-        learned = learn_camera(found_boards, edges, circles, options, progress=lambda step: say(steps - 1, steps, step))
+        learned = learn_camera(found_boards, edges, circles, options, progress=lambda step: say(2 * len(omnis), step))
     except PanomapError as exc:
-        raise PanomapError(exc.detail, names[0] if len(omnis) == 1 else None) from None
+        raise NotLearned(exc.detail, names[0] if len(omnis) == 1 else None, edges, circles) from None
     return learned, circles
 
 

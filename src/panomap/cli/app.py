@@ -21,6 +21,7 @@ from .calibrate import centre, fit, info
 from .demo import demo
 from .interop import export, import_, level, orient
 from .learn import learn
+from .options import quiet_option
 from .points import project, unproject
 from .video import video
 from .viewer import view
@@ -34,6 +35,18 @@ COMMANDS += (import_, export)
 COMMANDS += (view,)
 # Cameras that look any way (issue 51).
 COMMANDS += (orient, level)
+# -q on every command, declared once (issue 53): no progress, no report.
+for _command in COMMANDS:
+    if not any(param.name == "quiet" for param in _command.params):
+        _command.params.append(quiet_option())
+
+
+# `panomap --help`'s order: a table (imported, learned from pictures or landmarks), what it holds, its views, then
+# the rest; a command not named here comes after these, by name.
+HELP_ORDER = (
+    "import", "fit", "centre", "info", "orient", "level", *(str(command.name) for command in VIEW_COMMANDS),
+    "video", "batch", "view", "learn", "project", "unproject", "export", "demo",
+)  # fmt: skip
 
 
 # Click 8.2 raises this for a group called without a command (8.1 printed the help itself).
@@ -48,7 +61,12 @@ def _fail(message: str, code: int = 1) -> NoReturn:
 
 
 class PanomapGroup(click.Group):
-    """A group that reports every error in one line, without a traceback."""
+    """A group that reports every error in one line, without a traceback, and lists its commands in the order a
+    new user meets them (:data:`HELP_ORDER`)."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        listed = [name for name in HELP_ORDER if name in self.commands]
+        return listed + sorted(name for name in self.commands if name not in listed)
 
     def main(self, *args: Any, **kwargs: Any) -> NoReturn:
         kwargs["standalone_mode"] = False
@@ -67,7 +85,13 @@ class PanomapGroup(click.Group):
         except click.Abort:
             _fail("interrupted", 130)
         except PanomapError as exc:
-            _fail(" ".join(str(exc).split()))
+            # The first line; the figures behind it where the command was asked for them (fit --verbose).
+            verbose = getattr(exc, "verbose", None)
+            hint = " (more: --verbose)" if verbose is False and exc.figures else ""
+            click.echo(f"panomap: error: {printable(' '.join(exc.summary.split()))}{hint}", err=True)
+            if verbose and exc.figures:
+                click.echo(printable(exc.figures, keep="\n"), err=True)
+            sys.exit(1)
         except OSError as exc:
             _fail(f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": "))
         sys.exit(result if isinstance(result, int) else 0)
@@ -83,16 +107,19 @@ def main() -> None:
     """Unwarp omni-images (mirror and fisheye cameras) with pano-mapping tables.
 
     \b
-    1. panomap fit LANDMARKS.csv -o cam.npz --camera X0 Y0 Z0 --centre U0 V0
-    2. panomap panorama cam.npz omni.png -o pano.png
-       panomap cylinder cam.npz omni.png -o cyl.png --distance 2 --band -2.4 0 --size 2048x512
-       panomap plane    cam.npz omni.png -o view.png --distance 2 --width 2 \\
-                        --band -2.4 0 --azimuth 30 --size 800x800
-       panomap perspective cam.npz omni.png -o ptz.png --yaw 270 --pitch -30 \\
-                        --fov 100 --size 1280x720
-       panomap floor    cam.npz omni.png -o floor.png --z 0 --x 0 6 --y 0 5 --resolution 0.01
-       panomap unproject cam.npz pixels.csv -o rays.csv --z 0
-    3. panomap demo   (renders a simulated room and does all of it)
+    First a table of the camera, one of three ways:
+      panomap import calib_results.txt -o cam.npz    a calibration made elsewhere (OCamCalib, Kalibr,
+                                                      OpenCV, COLMAP)
+      panomap fit -o cam.npz --image 'shots/*.jpg'   learned from pictures: their straight lines and
+                                                      checkerboards (--camera-height H for distances)
+      panomap fit landmarks.csv -o cam.npz --camera X0 Y0 Z0 --image omni.png
+                                                      fitted to landmarks (pixel u,v and world X,Y,Z)
+    Then its views, of a picture, a video or a stream:
+      panomap panorama cam.npz omni.png -o pano.png
+      panomap perspective cam.npz omni.png -o ptz.png --yaw 270 --pitch -30 --fov 100 --size 1280x720
+      panomap floor cam.npz omni.png -o floor.png --z 0 --x 0 6 --y 0 5 --resolution 0.01
+      panomap video cam.npz omni.mp4 -o 'out_{name}.mp4' --view panorama:size=2048x512
+    panomap demo renders a simulated room and does all of it.
 
     Conventions: world Z up; azimuth counter-clockwise from +X seen from above;
     elevation negative below the camera; pixel (u, v) = (column, row) with the

@@ -28,6 +28,7 @@ from ..remap import INTERPOLATIONS
 from ..table.sampling import SAMPLINGS
 from ..views.spec import KINDS
 from .options import PATH, usage_error, warn_orientation
+from .options import quiet as quiet_given
 from .progress import ProgressBar
 from .video import encoder_settings, stop_on_signals, views_of
 
@@ -104,7 +105,6 @@ class _Bar(ProgressBar):
 @click.option("--no-audio", is_flag=True, help="Do not copy the videos' audio.")
 @click.option("--interp", type=click.Choice(list(INTERPOLATIONS)), default="linear", show_default=True)
 @click.option("--table-sampling", type=click.Choice(SAMPLINGS), default="bilinear", show_default=True)
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary (failures are still reported).")
 def batch(
     inputs: tuple[str, ...],
     template: str,
@@ -129,7 +129,6 @@ def batch(
     no_audio: bool,
     interp: str,
     table_sampling: str,
-    quiet: bool,
 ) -> None:
     """Unwarp many images and videos (one camera or several) into views, on Dask.
 
@@ -152,6 +151,7 @@ def batch(
       panomap batch cams.csv -o 'out/{camera}/{stem}_{name}.mp4' \\
           --view panorama:size=2048x512 --view perspective:yaw=30,pitch=-20,fov=90,size=1280x720,name=door
     """
+    quiet = quiet_given()
     named = views_of(specs, views_file)
     encoder = encoder_settings(codec, pix_fmt, crf, preset, bitrate, encoder_options)
     try:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import glob
 import json
 import math
 from collections.abc import Mapping
@@ -20,7 +21,7 @@ from ..calibrate.landmarks.pipeline import calibrate_camera
 from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror, viewpoint_conflict
 from ..camera.radial_models import MODELS, radial_kind
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, input_file, same_input
+from ..files import all_or_none, check_outputs, expand_input, input_file, kind_of, same_input
 from ..io.images import write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table, save_table
@@ -35,10 +36,14 @@ from .options import (
     frame_time_option,
     orientation_option,
     orientation_rad,
+    progress_bar,
     read_omni,
+    say,
     usage_error,
     warn_orientation,
+    with_option_names,
 )
+from .progress import ProgressBar
 
 
 @click.command()
@@ -63,11 +68,12 @@ from .options import (
 @click.option(
     "--image",
     "images",
-    type=PATH,
+    type=click.Path(path_type=str),
     multiple=True,
+    metavar="FILE|FOLDER|'GLOB'",
     help="An omni-image (or video) of this camera: gives the image size, and the centre and radii when they are "
-    "not given. Without LANDMARKS the camera is learned from the straight lines in it (repeat --image to pool "
-    "several images of the same camera).",
+    "not given. Without LANDMARKS the camera is learned from the straight lines in it; repeat --image, or give "
+    "a folder (every picture in it) or a quoted glob ('shots/*.jpg'), to pool several pictures of the camera.",
 )
 @click.option(
     "--video",
@@ -228,13 +234,20 @@ from .options import (
     help="Learning from lines: the camera's height above the floor (world units); floor, cylinder and plane "
     "views need it, lines know no distance.",
 )
+@click.option(
+    "-v",
+    "--verbose",
+    is_flag=True,
+    help="Where the fit is refused: the figures behind the refusal (its bands, rings, folds) after its line.",
+)
 @frame_time_option
+@with_option_names
 def fit(
     landmarks: Path | None,
     output: Path,
     camera: tuple[float, float, float] | None,
     centre: tuple[float, float] | None,
-    images: tuple[Path, ...],
+    images: Any,
     videos: tuple[Path, ...],
     video_frames: int,
     image_size: tuple[int, int] | None,
@@ -262,13 +275,16 @@ def fit(
     camera_height: float | None,
     frame_time: float | None,
 ) -> None:
-    """Fit the camera to LANDMARKS (CSV u,v,X,Y,Z[,name] or JSON) and write its pano-mapping table.
+    """Make the camera's table: learned from pictures (--image), or fitted to LANDMARKS (CSV u,v,X,Y,Z or JSON).
 
-    Without LANDMARKS, learn the camera from the straight lines in --image (walls, door and window frames,
+    With LANDMARKS, fit the camera to them and write its pano-mapping table. Without LANDMARKS, learn the
+    camera from the straight lines in --image (walls, door and window frames,
     shelves, floor tiles; a checkerboard of any size first, where one shows): no measurement needed. Lines
     know neither the azimuth origin (--azimuth-zero), the handedness (--handedness) nor any distance (--camera-height).
     """
     # Options missing or out of range are usage errors (exit 2); the files' problems are failures (1).
+    _refuse_picture_as_landmarks(landmarks)
+    images = _expand_images(images)
     if not videos and click.get_current_context().get_parameter_source("video_frames") is ParameterSource.COMMANDLINE:
         raise click.UsageError("--video-frames is how many frames of --video to take: give --video FILE too")
     if landmarks is None:
@@ -317,6 +333,9 @@ def fit(
             f"{size[0]}x{size[1]}, but {image} is {omni.shape[1]} x {omni.shape[0]} (give one of them)",
             param_hint="'--image-size'",
         )
+    bar = progress_bar()
+    joined = use_lines and omni is not None and mirror is None
+    bar.stage(f"fitting the camera to {len(pairs.pixels)} landmarks" + (" and the image's lines" if joined else ""))
     try:
         result = calibrate_camera(
             pairs,
@@ -337,18 +356,43 @@ def fit(
             reject_outliers=not keep_outliers,
             tilt_deg=tilt,
             camera_sigma=camera_sigma,
-            lines=use_lines and omni is not None and mirror is None,
+            lines=joined,
             viewpoint=viewpoint if sphere_radius is None else SphericalMirror(sphere_radius),
             orientation_deg=None if oriented is None else orientation,
         )
     except PanomapError as exc:
+        bar.close()
         raise PanomapError(exc.detail, exc.source or landmarks) from None
     for warning in result.warnings:
-        click.echo(f"panomap: warning: {warning}", err=True)
+        bar.write(f"panomap: warning: {warning}")
     table = result.table
-    _write_fit(table, result, output, plot, overlay, omni)
+    _write_fit(table, result, output, plot, overlay, omni, bar)
     for warning in table.info.get("warnings", []):
         click.echo(f"panomap: warning: {warning}", err=True)
+
+
+def _refuse_picture_as_landmarks(landmarks: Path | None) -> None:
+    """A picture given as LANDMARKS (``fit room.jpg``, or ``--image a.jpg b.jpg``): one line pointing to --image."""
+    if landmarks is not None and kind_of(landmarks) is not None:
+        raise click.UsageError(
+            f"{printable(str(landmarks))} is a picture, not landmarks (CSV u,v,X,Y,Z or JSON): give it as --image "
+            f"{printable(str(landmarks))} (one --image per picture, or a folder, or a quoted glob)"
+        )
+
+
+def _expand_images(patterns: tuple[str, ...]) -> tuple[Path, ...]:
+    """Each --image as the pictures it names: a file as given, a folder's pictures, a glob's matches, in order (a
+    picture named twice is refused later); a folder or a glob that names none is a usage error."""
+    found: list[Path] = []
+    for pattern in patterns:
+        if Path(pattern).is_dir() or (glob.has_magic(pattern) and not Path(pattern).exists()):
+            try:
+                found += expand_input(pattern, kinds=("image",))
+            except PanomapError as exc:
+                raise usage_error(exc, "--image") from None
+        else:
+            found.append(Path(pattern))
+    return tuple(found)
 
 
 # The options of a landmark fit that learning from lines (no LANDMARKS) does not use: the lines find the centre,
@@ -436,24 +480,34 @@ def _check_landmark_fit_options(
 
 
 def _write_fit(
-    table: PanoMappingTable, result: Any, output: Path, plot: Path | None, overlay: Path | None, omni: Any
+    table: PanoMappingTable,
+    result: Any,
+    output: Path,
+    plot: Path | None,
+    overlay: Path | None,
+    omni: Any,
+    bar: ProgressBar,
 ) -> None:
     """Write the table and its pictures (all or none), then say what the fit found and what was written."""
-    with all_or_none():
-        save_table(table, output)
-        if plot is not None:
-            from ..io.plot import save_fit_plot
+    bar.stage("writing the table" + (" and its pictures" if plot is not None or overlay is not None else ""))
+    try:
+        with all_or_none():
+            save_table(table, output)
+            if plot is not None:
+                from ..io.plot import save_fit_plot
 
-            save_fit_plot(table, plot)
-        if overlay is not None and omni is not None:
-            from ..io.overlay import draw_fit_overlay
+                save_fit_plot(table, plot)
+            if overlay is not None and omni is not None:
+                from ..io.overlay import draw_fit_overlay
 
-            write_image(overlay, draw_fit_overlay(omni, table))
-    click.echo(printable(_describe_fit(table), keep="\n"))
+                write_image(overlay, draw_fit_overlay(omni, table))
+    finally:
+        bar.close()
+    say(printable(_describe_fit(table), keep="\n"))
     for note in diagnose(result.fit, centre_guessed=result.sources["centre"].source is Source.FRAME_CENTRE):
         click.echo(printable(f"diagnosis: {note}"), err=True)
     written = [str(path) for path in (output, plot, overlay) if path is not None]
-    click.echo("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
+    say("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
 
 
 def _fit_lines(
@@ -546,7 +600,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
     except NoImageCircle as exc:
         if overlay is not None:
             write_image(overlay, draw_no_rim_overlay(omni, exc))
-            click.echo(f"wrote {overlay}")
+            say(f"wrote {overlay}")
         raise PanomapError(exc.detail, image) from None
     except PanomapError as exc:
         raise PanomapError(exc.detail, image) from None
@@ -577,7 +631,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
             f"angle {e.angle_deg:.1f} deg"
         )
     if overlay is not None:
-        click.echo(f"wrote {overlay}")
+        say(f"wrote {overlay}")
 
 
 def find_image_circles_in(path: Path, image: Any) -> ImageCircles:

@@ -27,7 +27,7 @@ from ..simulate import load_room, render, standard_cameras
 from ..simulate.board_scenes import board_poses, render_board_scene
 from ..table.file import save_table
 from ..views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
-from .options import FOLDER
+from .options import FOLDER, say
 
 IMAGE_SIZE = (1024, 1024)
 LANDMARK_COUNT = 12
@@ -147,4 +147,4 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
 def demo(out: Path, camera_name: str) -> None:
     """Render the bundled room through a simulated ceiling camera, learn it, and unwarp it."""
     for line in run_demo(out, camera_name):
-        click.echo(line)
+        say(line)

@@ -18,7 +18,7 @@ from ..interop.readers import READERS, read_calibration
 from ..io.images import MAX_IMAGE_PIXELS
 from ..table.file import load_table, save_table
 from .calibrate import find_image_circles_in
-from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, orientation_option, orientation_rad, read_omni
+from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, orientation_option, orientation_rad, read_omni, say
 
 
 @click.command("import")
@@ -146,7 +146,7 @@ def import_(
     record = table.info["import"]
     m, n = table.size
     rho_s, rho_e = (math.degrees(x) for x in table.elevation_range)
-    click.echo(
+    say(
         printable(
             f"{calibration}: {record['format']} calibration, model {record['model']}"
             + (f" (camera {record['camera']})" if "camera" in record else "")
@@ -154,7 +154,7 @@ def import_(
             f"{table.outer_radius:.1f} px"
         )
     )
-    click.echo(f"wrote {output}")
+    say(f"wrote {output}")
 
 
 def _circle_radii(
@@ -186,8 +186,7 @@ def _circle_radii(
     "counter-clockwise from +X), pitch (0 ahead, -90 straight down, 90 up) and roll (the image's right dipped).",
     required=True,
 )
-@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors and warnings.")
-def orient(table: Path, output: Path, orientation: tuple[float, float, float], quiet: bool) -> None:
+def orient(table: Path, output: Path, orientation: tuple[float, float, float]) -> None:
     """Turn a table's camera to look another way, without a new fit: its entries made anew from its model (or
     its calibration's), over every world direction it then sees."""
     check_outputs([("the table", table)], [("the output", output)])
@@ -199,21 +198,19 @@ def orient(table: Path, output: Path, orientation: tuple[float, float, float], q
         raise PanomapError(exc.detail, exc.source or table) from None
     with all_or_none():
         save_table(turned, output)
-    if not quiet:
-        rho_s, rho_e = (math.degrees(x) for x in turned.elevation_range)
-        click.echo(
-            f"{printable(str(table))}: looking yaw {orientation[0]:g}, pitch {orientation[1]:g}, roll "
-            f"{orientation[2]:g} deg; table {turned.size[0]} x {turned.size[1]}, elevation {rho_s:.2f}..{rho_e:.2f} deg"
-        )
-        click.echo(f"wrote {printable(str(output))}")
+    rho_s, rho_e = (math.degrees(x) for x in turned.elevation_range)
+    say(
+        f"{printable(str(table))}: looking yaw {orientation[0]:g}, pitch {orientation[1]:g}, roll "
+        f"{orientation[2]:g} deg; table {turned.size[0]} x {turned.size[1]}, elevation {rho_s:.2f}..{rho_e:.2f} deg"
+    )
+    say(f"wrote {printable(str(output))}")
 
 
 @click.command("level")
 @click.argument("table", type=PATH)
 @click.argument("images", type=PATH, nargs=-1, required=True)
 @click.option("-o", "--output", type=PATH, required=True, help="Table file to write (.npz).")
-@click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors and warnings.")
-def level(table: Path, images: tuple[Path, ...], output: Path, quiet: bool) -> None:
+def level(table: Path, images: tuple[Path, ...], output: Path) -> None:
     """Level a table from the vertical lines of pictures of its camera (door and window frames, wall corners,
     poles): the camera's pitch and roll found, its yaw kept. The table's orientation must be within 20 deg of
     the truth (give it with panomap orient or import --orientation); several pictures are pooled."""
@@ -232,16 +229,13 @@ def level(table: Path, images: tuple[Path, ...], output: Path, quiet: bool) -> N
     result = level_table(loaded, pictures, [image.name for image in images])
     with all_or_none():
         save_table(result.table, output)
-    if not quiet:
-        yaw, pitch, roll = result.orientation_deg
-        click.echo(
-            printable(
-                f"levelled from {result.vertical_lines} vertical lines (of {result.straight_lines} straight edges): "
-                f"yaw {yaw:.2f} (kept), pitch {pitch:.2f}, roll {roll:.2f} deg; the axis turned "
-                f"{result.turned_deg:.2f} deg, sure within {result.uncertainty_deg:.2f} deg (95%)"
-            )
-        )
-        click.echo(f"wrote {printable(str(output))}")
+    yaw, pitch, roll = result.orientation_deg
+    say(
+        f"levelled from {result.vertical_lines} vertical lines (of {result.straight_lines} straight edges): "
+        f"yaw {yaw:.2f} (kept), pitch {pitch:.2f}, roll {roll:.2f} deg; the axis turned "
+        f"{result.turned_deg:.2f} deg, sure within {result.uncertainty_deg:.2f} deg (95%)"
+    )
+    say(f"wrote {printable(str(output))}")
 
 
 @click.command("export")
@@ -263,6 +257,6 @@ def export(table: Path, output: Path, format_: str) -> None:
         f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = [{', '.join(f'{x:.6g}' for x in v)}]"
         for k, v in result.model.parameters().items()
     )
-    click.echo(f"{format_} ({result.model.name}): {parameters}")
-    click.echo(f"largest difference from the table over its valid range: {result.max_error_px:.4f} px")
-    click.echo(f"wrote {output}")
+    say(f"{format_} ({result.model.name}): {parameters}")
+    say(f"largest difference from the table over its valid range: {result.max_error_px:.4f} px")
+    say(f"wrote {output}")

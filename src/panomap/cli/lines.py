@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
@@ -11,13 +10,13 @@ import numpy as np
 
 from ..calibrate.circles import ImageCircles
 from ..calibrate.lines.fit import LineFitOptions
-from ..calibrate.pictures import learn_from_images
+from ..calibrate.pictures import NotLearned, learn_from_images
 from ..errors import printable
 from ..files import all_or_none
 from ..io.images import write_image
 from ..table.file import save_table
 from ..table.table import PanoMappingTable
-from .options import read_omni, warn_orientation, warn_rotation
+from .options import progress_bar, read_omni, say, warn_orientation, warn_rotation
 from .progress import ProgressBar
 
 
@@ -43,43 +42,54 @@ def fit_from_lines(
     """
     started = time.monotonic()
     _check_memory(images)
-    bar = ProgressBar(enabled=sys.stderr.isatty())
+    bar = progress_bar("step")
     try:
+        bar.stage(f"reading {len(images)} picture{'s' if len(images) != 1 else ''}")
         omnis = _read_all(images, frame_time)
         names: list[str | Path] = list(images)
         if videos:
-            omnis, names = _with_frames(omnis, names, videos, video_frames)
-        learned = learn_from_images(
-            omnis,
-            names=names,
-            camera_height=camera_height,
-            model=options.model,
-            axis=options.axis,
-            handedness=options.s,
-            azimuth_zero=options.azimuth_zero,
-            boards=use_boards,
-            progress=bar.update,
-        )
+            omnis, names = _with_frames(omnis, names, videos, video_frames, bar)
+        try:
+            learned = learn_from_images(
+                omnis,
+                names=names,
+                camera_height=camera_height,
+                model=options.model,
+                axis=options.axis,
+                handedness=options.s,
+                azimuth_zero=options.azimuth_zero,
+                boards=use_boards,
+                progress=bar.update,
+            )
+        except NotLearned as exc:
+            if overlay is not None:  # what the pictures gave, so the user sees which lines were found
+                from ..io.line_overlay import draw_found_overlay
+
+                bar.close()
+                write_image(overlay, draw_found_overlay(omnis[0], exc.arcs, exc.circles, exc.detail.split("\n")[0]))
+                say(f"wrote {overlay} (the edges found; no camera)")
+            raise
+        table = learned.table
+        bar.stage("writing the table" + (" and the overlay" if overlay is not None else ""))
+        with all_or_none():
+            save_table(table, output)
+            if overlay is not None:
+                from ..io.line_overlay import draw_line_overlay
+
+                write_image(overlay, draw_line_overlay(omnis[0], table, learned.arcs))
     finally:
         bar.close()
-    table = learned.table
-    with all_or_none():
-        save_table(table, output)
-        if overlay is not None:
-            from ..io.line_overlay import draw_line_overlay
-
-            write_image(overlay, draw_line_overlay(omnis[0], table, learned.arcs))
-    click.echo(printable(describe_line_fit(table, learned.circles, time.monotonic() - started), keep="\n"))
+    say(printable(describe_line_fit(table, learned.circles, time.monotonic() - started), keep="\n"))
     if learned.choice is not None:
-        click.echo(learned.choice)
+        say(learned.choice)
     written = [str(path) for path in (output, overlay) if path is not None]
-    click.echo("wrote " + " and ".join(written))
+    say("wrote " + " and ".join(written))
     for warning in learned.warnings:
         click.echo(f"panomap: warning: {printable(warning)}", err=True)  # (they name the pictures)
 
 
 def _with_frames(
-    omnis: list[np.ndarray], names: list[str | Path], videos: tuple[Path, ...], count: int
+    omnis: list[np.ndarray], names: list[str | Path], videos: tuple[Path, ...], count: int, bar: ProgressBar
 ) -> tuple[list[np.ndarray], list[str | Path]]:
     """The pictures and their names, with ``count`` frames of each video (:func:`panomap.video.sample.sample_frames`)
     after them, less the pictures that show a view an earlier one shows (:mod:`panomap.calibrate.core.distinct`),
@@ -93,18 +103,19 @@ def _with_frames(
     pictures, labels = list(omnis), list(names)
     taken: dict[Path, range] = {}
     for video in videos:
+        bar.stage(f"taking {count} frames of {video.name}")
         frames = sample_frames(video, count, MAX_IMAGE_PIXELS)
         warn_rotation(video)
         taken[video] = range(len(pictures), len(pictures) + len(frames))
         pictures += [frame for _, frame in frames]
         labels += [f"{video} at {at_s:.2f} s" for at_s, _ in frames]
+    bar.stage("comparing the frames' views")
     kept = distinct_views(pictures)
     for video, indices in taken.items():
         views = len(set(indices) & set(kept))
-        click.echo(
+        bar.write(
             f"panomap: note: {printable(str(video))}: {len(indices)} frames taken, {views} showing a view no earlier "
-            "picture shows (the others' lines would count twice)",
-            err=True,
+            "picture shows (the others' lines would count twice)"
         )
     total = machine_memory()
     sizes = [(picture.shape[1], picture.shape[0]) for picture in (pictures[k] for k in kept)]

@@ -6,6 +6,7 @@ Angles on the command line are in degrees; lengths in world units; sizes as
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 from typing import Any
 
@@ -171,3 +172,73 @@ def warn_orientation(path: Path) -> None:
     note = orientation_note(path)
     if note is not None:
         click.echo(f"panomap: warning: {printable(str(path))}: {note}", err=True)
+
+
+# ----------------------------------------------------------------------------- -q, declared once
+
+_QUIET = "panomap.quiet"
+QUIET_HELP = "No progress and no report: print nothing but the result asked for, warnings and errors."
+
+
+def _remember_quiet(context: click.Context, _param: click.Parameter, value: bool) -> bool:
+    if value:
+        context.meta[_QUIET] = True
+    return value
+
+
+def quiet_option() -> click.Option:
+    """``-q/--quiet``, one for every command (``panomap.cli.app`` adds it to each): read with :func:`quiet`."""
+    return click.Option(
+        ["-q", "--quiet"], is_flag=True, expose_value=False, is_eager=True, callback=_remember_quiet, help=QUIET_HELP
+    )
+
+
+def quiet() -> bool:
+    """Whether the running command was given ``-q`` (False outside a command)."""
+    context = click.get_current_context(silent=True)
+    return context is not None and bool(context.meta.get(_QUIET))
+
+
+def say(message: str, err: bool = False) -> None:
+    """``message`` on stdout (stderr with ``err``) unless the command was given ``-q``."""
+    if not quiet():
+        click.echo(message, err=err)
+
+
+def progress_bar(unit: str = "step") -> Any:
+    """A :class:`panomap.cli.progress.ProgressBar` drawn on a terminal without ``-q``."""
+    import sys
+
+    from .progress import ProgressBar
+
+    return ProgressBar(not quiet() and sys.stderr.isatty(), unit=unit)
+
+
+# ----------------------------------------------------------------------------- refusals with option names
+
+# The library's refusals say what to do in the user's words; fit adds the option that does it.
+OPTION_HINTS = (
+    ("give more pictures", "--image"),
+    ("give it as a picture", "--image"),
+    ("give its frames as pictures, each at its time", "--image VIDEO --frame-time S"),
+    ("or give the axis", "--axis down|up"),
+)
+
+
+def with_option_names(command: Any) -> Any:
+    """A command's body (``fit``'s), its refusals given the options that answer them (:data:`OPTION_HINTS`) and, with
+    ``--verbose``, the figures behind them (printed by :class:`panomap.cli.app.PanomapGroup`)."""
+
+    @functools.wraps(command)
+    def run(*args: Any, verbose: bool, **kwargs: Any) -> Any:
+        try:
+            return command(*args, **kwargs)
+        except PanomapError as exc:
+            summary, newline, figures = exc.detail.partition("\n")
+            for phrase, option in OPTION_HINTS:
+                summary = summary.replace(phrase, f"{phrase} ({option})", 1)
+            error = PanomapError(summary + newline + figures, exc.source)
+            error.verbose = verbose  # type: ignore[attr-defined]
+            raise error from None
+
+    return run

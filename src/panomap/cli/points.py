@@ -17,7 +17,7 @@ from ..files import check_outputs, write_text_atomic
 from ..geometry import ray_plane_points
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
-from .options import FINITE, PATH
+from .options import FINITE, PATH, say
 
 STDOUT = "-"  # an output of this name is standard output, as for ffmpeg and most Unix tools
 
@@ -59,10 +59,10 @@ def _write(output: Path, text: str, summary: str) -> None:
     from the points' names are escaped (a pipe or a file gets the CSV byte for byte)."""
     if str(output) == STDOUT:
         click.echo(printable(text, keep="\n\r\t") if sys.stdout.isatty() else text, nl=False)
-        click.echo(f"wrote standard output {summary}", err=True)
+        say(f"wrote standard output {summary}", err=True)
         return
     write_text_atomic(output, text)
-    click.echo(f"wrote {output} {summary}")
+    say(f"wrote {output} {summary}")
 
 
 # ----------------------------------------------------------------------------- unproject

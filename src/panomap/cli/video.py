@@ -28,7 +28,7 @@ from ..video.report import VideoReport
 from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video
 from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
-from .options import FINITE, PATH, usage_error, warn_rotation
+from .options import FINITE, PATH, quiet, usage_error, warn_rotation
 from .progress import ProgressBar
 
 
@@ -186,7 +186,6 @@ class _Progress(ProgressBar):
     show_default=True,
     help="A live input silent this long (s) has dropped; also the limit for each connection attempt.",
 )
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary.")
 def video(
     table: Path,
     source: str,
@@ -209,7 +208,6 @@ def video(
     attempts: int | None,
     no_reconnect: bool,
     timeout_s: float,
-    quiet: bool,
 ) -> None:
     """Unwarp a video (file, RTSP/HTTP URL or V4L2 device) into one video per view.
 
@@ -263,7 +261,7 @@ def video(
     if local_file(source) is not None:
         warn_rotation(Path(source))
     stop = threading.Event()
-    progress = _Progress(not quiet and sys.stderr.isatty())
+    progress = _Progress(not quiet() and sys.stderr.isatty())
     try:
         with stop_on_signals(stop):
             report = unwarp_video(
@@ -286,7 +284,7 @@ def video(
     last = report.gaps[-1] if report.gaps else None
     if last is not None and last.outcome in ("stopped", "not reconnecting"):
         click.echo(last.describe(source), err=True)
-    if not quiet:
+    if not quiet():
         click.echo(summary(report))
     if last is not None and last.outcome == "gave up":
         raise PanomapError(last.describe(source) + " (the segments written so far are kept)")

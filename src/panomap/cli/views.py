@@ -25,6 +25,7 @@ from ..views import View, build_map, view_kinds
 from ..views.base import Param, ParameterError, Value
 from ..views.spec import view_from_params
 from .options import FINITE, PATH, SIZE, usage_error, warn_orientation
+from .options import quiet as quiet_given
 
 
 def view_options(function: Callable[..., Any]) -> Callable[..., Any]:
@@ -42,7 +43,6 @@ def view_options(function: Callable[..., Any]) -> Callable[..., Any]:
             "(16-bit, nearest pixel, 65535 where there is no source); a PREFIX that is a folder "
             "(ending in /) gets FOLDER/map_x.pgm and FOLDER/map_y.pgm.",
         ),
-        click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors and warnings."),
         click.option(
             "--interp",
             type=click.Choice(list(INTERPOLATIONS)),
@@ -110,7 +110,7 @@ def _render(
             save_map(save_map_path, map_uv)
         if pgm_prefix is not None:
             save_map_pgm(pgm_prefix, map_uv)
-    if quiet:
+    if quiet or quiet_given():
         return
     valid = float(np.mean(np.all(np.isfinite(map_uv), axis=2)))
     click.echo(
@@ -167,13 +167,12 @@ def view_command(kind: str) -> click.Command:
         output: Path,
         save_map: Path | None,
         save_map_pgm: str | None,
-        quiet: bool,
         interp: str,
         table_sampling: str,
         **values: Any,
     ) -> None:
         maps = (save_map, save_map_pgm)
-        _render(table, image, output, maps, interp, table_sampling, lambda: make_view(kind, values), quiet)
+        _render(table, image, output, maps, interp, table_sampling, lambda: make_view(kind, values))
 
     command = click.command(kind, help=cls.summary)(view_options(run))
     shared = {param.name for param in command.params}

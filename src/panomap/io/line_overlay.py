@@ -13,17 +13,19 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from ..calibrate.circles import ImageCircles
 from ..calibrate.core.report import table_fit_report
 from ..calibrate.lines.arcs import EdgeArc
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
-from .overlay import SHIFT, SUBPIXEL, at_subpixel, overlay_canvas
+from .overlay import SHIFT, SUBPIXEL, at_subpixel, draw_legend, overlay_canvas
 
 USED = (60, 220, 60)
 WORSE = (0, 200, 255)  # a line used whose RMS is over twice the noise
 REJECTED = (40, 40, 230)
 EMPTY_BAND = (255, 120, 0)
 TEXT = (255, 255, 255)
+FOUND = (0, 230, 255)  # an edge arc found, where no camera was learned
 
 
 def draw_line_overlay(
@@ -74,8 +76,26 @@ def draw_line_overlay(
         f"{len(lines.lines)} lines used (green, RMS px): RMS {lines.rms_px:.2f} px, max {lines.max_px:.2f} px",
         f"{len(lines.rejected)} arcs set aside (red); blue: bands without a line",
     ]
-    for k, text in enumerate(legend):
-        _label(canvas, text, np.array([8.0, 8.0 + 24 * thickness * (k + 1)]), TEXT, scale, thickness)
+    draw_legend(canvas, legend, thickness, TEXT)
+    return canvas
+
+
+def draw_found_overlay(
+    image: NDArray[Any], arcs: Sequence[EdgeArc], circles: ImageCircles | None, why: str, image_index: int = 0
+) -> NDArray[np.uint8]:
+    """An 8-bit BGR copy of ``image`` with the edge arcs found in it (yellow) and its image circles, where no
+    camera was learned: what the fit had to work with, and ``why`` it gave no camera (its first words)."""
+    canvas, thickness = overlay_canvas(image)
+    mine = [arc for arc in arcs if arc.image_index == image_index]
+    for arc in mine:
+        _polyline(canvas, arc.pixels, FOUND, 2 * thickness)
+    if circles is not None:
+        for radius in (circles.cutoff_radius, circles.outer_radius):
+            if radius:
+                cv2.circle(canvas, at_subpixel(circles.centre), round(radius * SUBPIXEL), EMPTY_BAND, thickness,
+                           cv2.LINE_AA, SHIFT)  # fmt: skip
+    legend = [f"no camera: {why}", f"{len(mine)} edge arcs found (yellow); blue: the image circles"]
+    draw_legend(canvas, legend, thickness, TEXT)
     return canvas
 
 

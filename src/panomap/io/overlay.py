@@ -21,6 +21,7 @@ an 8-bit BGR copy of the image, with 1/16 px precision:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import cv2
@@ -239,9 +240,41 @@ def _legend(
         if fit.mount is not None and fit.mount.tilt_deg > 0:
             lines.append(f"tilt {fit.mount.tilt_deg:.2f} deg toward azimuth {fit.mount.toward_deg:.1f} deg")
     lines.append("cyan: horizon (elevation 0); blue: every 30 deg; magenta: azimuth 0 (+X)")
-    height = _font_scale(thickness) * 30
-    for k, line in enumerate(lines):
-        _text(canvas, line, (8.0, 8.0 + height * (k + 1)), (255, 255, 255), thickness)
+    draw_legend(canvas, lines, thickness)
+
+
+# The legend's darkening of the picture behind it (the fraction of the picture kept).
+LEGEND_SHADE = 0.3
+
+
+def draw_legend(
+    canvas: NDArray[np.uint8], lines: Sequence[str], thickness: int, colour: tuple[int, int, int] = (255, 255, 255)
+) -> None:
+    """``lines`` at the top left, each wrapped to the picture's width, on a dark box (plain text on it: an
+    outline drawn around small letters fills the gaps between them), one text height apart."""
+    scale = 0.4 * thickness
+    room = max(canvas.shape[1] - 24, 40)
+    wrapped = [part for line in lines for part in _wrapped(line, scale, thickness, room)]
+    (_, height), baseline = cv2.getTextSize("Ag", cv2.FONT_HERSHEY_SIMPLEX, scale, thickness)
+    step = height + baseline + thickness
+    widest = max(cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, thickness)[0][0] for text in wrapped)
+    right, bottom = min(canvas.shape[1], 16 + widest), min(canvas.shape[0], 8 + step * len(wrapped) + 2 * thickness)
+    canvas[:bottom, :right] = (canvas[:bottom, :right] * LEGEND_SHADE).astype(np.uint8)
+    for k, text in enumerate(wrapped):
+        at = (8, 6 + height + step * k)
+        cv2.putText(canvas, text, at, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, thickness, cv2.LINE_AA)
+
+
+def _wrapped(text: str, scale: float, thickness: int, width: int) -> list[str]:
+    """``text`` cut between words into lines at most ``width`` px wide (a word wider than that on its own)."""
+    out: list[str] = []
+    for word in text.split(" "):
+        joined = f"{out[-1]} {word}" if out else word
+        if out and cv2.getTextSize(joined, cv2.FONT_HERSHEY_SIMPLEX, scale, thickness)[0][0] <= width:
+            out[-1] = joined
+        else:
+            out.append(word)
+    return out
 
 
 def _finite_runs(pixels: NDArray[np.float64], closed: bool) -> list[NDArray[np.float64]]:

@@ -40,9 +40,9 @@ def sample_frames(path: str | Path, count: int, max_pixels: int) -> list[tuple[f
     if not streams:
         raise PanomapError("has no video stream", path)
     if any(name.startswith("image") or name.endswith("_pipe") for name in formats):
-        raise PanomapError("is a picture, not a video: give it with --image", path)
+        raise PanomapError("is a picture, not a video: give it as a picture", path)
     if duration is None or not duration > 0:
-        raise PanomapError("its header gives no duration: give its frames with --image and --frame-time", path)
+        raise PanomapError("its header gives no duration: give its frames as pictures, each at its time", path)
     frames = []
     # The spans cover the frames' start times: the last frame starts one frame before the declared end.
     for at_s in frame_times(max(duration - 1.0 / rate, 0.0), count):

@@ -91,10 +91,10 @@ def learn_camera(
             board_fit.camera_range(circles.cutoff_radius or 0.0, circles.outer_radius)  # it makes a table
         except PanomapError as exc:
             board_fit = None
-            notes.append(f"the checkerboards gave no camera ({exc.detail}); learning from the lines instead")
+            notes.append(f"the checkerboards gave no camera ({exc.summary}); learning from the lines instead")
     flat = board_fit.refusal() if board_fit is not None else None  # boards that all face the axis
     if flat is not None:
-        notes.append(f"{flat}; learning from the lines instead")
+        notes.append(f"{flat.splitlines()[0]}; learning from the lines instead")
         board_fit = None
     if board_fit is not None and (board_fit.report.boards >= TRUSTED_BOARDS or not arcs):
         return LearnedCamera(board_fit, "checkerboards", board_arcs(boards), notes)

@@ -41,7 +41,7 @@ def detect_axis(rho: FloatArray, r: FloatArray) -> str:
             f"and elevation are not monotonically related, Spearman {correlation:.2f}); "
             "check that world Z is up (a Y-up frame, as CAD tools and game engines use, needs Y and Z swapped), "
             "that the world points and the camera position share units and origin, the centre, "
-            "or force the axis (--axis)"
+            "or give the axis"
         )
     return "down" if correlation > 0 else "up"
 

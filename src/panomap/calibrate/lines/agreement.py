@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...camera.radial import RadialFunction
-from ...errors import PanomapError
+from ...errors import PanomapError, refusal
 from ...geometry import FloatArray
 from .rays import InverseRadial
 from .stretch import OBLIQUE_MIN_DEG, obliqueness_deg
@@ -116,23 +116,25 @@ class PinnedBand:
             if np.isfinite(band[worst])
             else f"disagree at {at_deg:.0f} deg from the axis, where one of them sees no ray at all"
         )
-        head = (
-            f"{'the picture does' if pictures == 1 else f'the {pictures} pictures do'} not pin the camera: cameras "
-            f"that explain {'its' if pictures == 1 else 'their'} {lines} straight lines about equally "
-            f"well ({self.farthest}, the lines in folds) {spread} (a table needs its 95% band within "
-            f"{P90_BAND_PX:.0f} px at {BAND_QUANTILE:.0f}% of the rings and {MAX_BAND_PX:.0f} px at all)"
+        its = "its" if pictures == 1 else "their"
+        who = "the picture does" if pictures == 1 else f"the {pictures} pictures do"
+        figures = (
+            f"cameras that explain {its} {lines} straight lines about equally well ({self.farthest}, the lines in "
+            f"folds) {spread} (a table needs its 95% band within {P90_BAND_PX:.0f} px at {BAND_QUANTILE:.0f}% of the "
+            f"rings and {MAX_BAND_PX:.0f} px at all)"
         )
         if self.oblique_deg < OBLIQUE_MIN_DEG:
-            return (
-                f"{head}; {'its' if pictures == 1 else 'their'} lines run along and across the camera's axis (every "
-                f"direction within {self.oblique_deg:.1f} deg), where a camera stretched along its axis keeps them "
-                "straight and their right angles square, so more such pictures cannot pin it: give a checkerboard "
-                "held tilted, in a few pictures, near and far"
+            return refusal(
+                f"{who} not pin the camera, {its} lines all along or across its axis: give a checkerboard held tilted",
+                f"{figures}; {its} lines run along and across the camera's axis (every direction within "
+                f"{self.oblique_deg:.1f} deg), where a camera stretched along its axis keeps them straight and their "
+                "right angles square, so more such pictures cannot pin it: a checkerboard held tilted, in a few "
+                "pictures, near and far, can",
             )
-        return (
-            f"{head}: give more pictures (--image repeated) or one with long straight edges of the room's three "
-            "directions (walls' corners, floor and ceiling edges, door and window frames) across the whole image "
-            "circle, or a checkerboard"
+        return refusal(
+            f"{who} not pin the camera: give more pictures with long straight edges, or a checkerboard",
+            f"{figures}; long straight edges of the room's three directions (walls' corners, floor and ceiling "
+            "edges, door and window frames) across the whole image circle pin it",
         )
 
 

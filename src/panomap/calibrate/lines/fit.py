@@ -30,7 +30,7 @@ from ...camera.model import CameraModel
 from ...camera.radial import RadialFunction, fit_radial
 from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_kind, rho_of_alpha
 from ...camera.valid_range import valid_elevation_range
-from ...errors import PanomapError
+from ...errors import PanomapError, refusal
 from ...geometry import FloatArray
 from ..circles import ImageCircles
 from ..core.line_report import FittedLine, LineFitReport, RejectedArc, empty_bands
@@ -41,6 +41,7 @@ from .families import Family, common_direction, find_families, orthogonal_pairs
 from .objective import LineData, evaluate, orthogonality_residuals, residuals
 from .orientation import level_rotation, zero_azimuth
 from .rays import InverseRadial
+from .refusals import no_right_angles, not_straight, too_few
 from .stretch import FLAT_BOARD_DEG
 
 # Fewest lines a fit needs, and fewest of them with a family orthogonal to another (the scale).
@@ -144,12 +145,12 @@ class LineFit:
         :mod:`.stretch`), in one sentence; None where it can."""
         facing = self.report.board_axis_deg
         if self.report.boards and facing and max(facing) < FLAT_BOARD_DEG:
-            return (
+            return refusal(
                 f"the {'checkerboard faces' if len(facing) == 1 else 'checkerboards all face'} the camera's axis "
-                f"(within {max(facing):.1f} deg: flat under a camera looking down or up, or square before one "
-                "looking ahead), and a camera stretched along its axis sees such boards as the same squares, so "
-                "they cannot pin the scale of its elevations: hold the board tilted 30-60 deg from that in some "
-                "of the pictures"
+                f"(within {max(facing):.1f} deg): hold one tilted 30-60 deg in some pictures",
+                "boards flat under a camera looking down or up, or square before one looking ahead: a camera "
+                "stretched along its axis sees such boards as the same squares, so they cannot pin the scale of "
+                "its elevations",
             )
         if self.band is None:
             return None
@@ -226,7 +227,7 @@ def fit_lines(
     state = _State([_thin(arc.pixels, per_arc) for arc in arcs], [arc.image_index for arc in arcs])
     state.groups = [[k] for k in range(len(arcs))]
     if len(state.groups) < MIN_LINES:
-        raise _too_few(len(state.groups), "edge arcs")
+        raise too_few(len(state.groups), "edge arcs", MIN_LINES)
     say("starting scale")
     r_max = _r_max(state, circles)
     tried = []
@@ -245,14 +246,9 @@ def fit_lines(
     _, best_k, params, families, state = min(tried, key=lambda t: (t[0], t[1]))
     start_ends = [Camera(GROUPING_KIND, p, f"start {k + 1} of {len(tried)}") for _, k, p, _, _ in tried if k != best_k]
     if len(state.groups) < MIN_LINES:
-        raise _too_few(len(state.groups), "straight lines")
+        raise too_few(len(state.groups), "straight lines", MIN_LINES)
     if not orthogonal_pairs(families):
-        raise PanomapError(
-            f"{len(state.groups)} straight lines were found, but no two families of parallel lines at right "
-            "angles (a room's vertical and horizontal edges, a checkerboard's rows and columns): they fix the "
-            "scale of the elevations, which straightness alone leaves free: a picture of a built scene (a room, a "
-            "corridor, a building) showing edges of its three directions would"
-        )
+        raise no_right_angles(len(state.groups))
     say("choosing the radial model")
     chosen, scores, final, others, folds = _choose(state, families, axis, params, r_max, outer, options, circles)
     alternatives = _not_ruled_out(start_ends, Camera(chosen, final, "chosen"), axis, state, families, r_max)
@@ -313,27 +309,6 @@ def _orthogonality_scale(kind: str, axis: str, params: FloatArray, data: LineDat
     trial = evaluate(kind, axis, params, data)
     sigma = SIGMA_FLOOR_PX if trial is None else max(float(np.sqrt(np.mean(trial.distances_px**2))), SIGMA_FLOOR_PX)
     return sigma * math.sqrt(data.pixels.shape[0] / max(data.count, 1))
-
-
-def _not_straight(kept: int, rms: FloatArray, long_enough: NDArray[np.bool_], limit: float) -> PanomapError:
-    """What was found where a start leaves fewer than MIN_LINES straight arcs: how many arcs, how many were
-    long enough to test, and how far from straight the rest were (a pattern of many short edges, such as a
-    checkerboard tiled over the whole frame, gives edges that no camera makes straight lines)."""
-    tested = rms[long_enough]
-    spread = f", their RMS from straight {float(np.median(tested)):.2f} px (median)" if tested.size else ""
-    return PanomapError(
-        f"only {kept} of {rms.size} edge arcs are straight (within {limit:.2f} px) under any starting camera, "
-        f"{int(long_enough.sum())} of them long enough to test{spread}; at least {MIN_LINES} are needed: the "
-        "image needs long straight edges across the annulus (walls, door and window frames, shelves, a checkerboard)"
-    )
-
-
-def _too_few(found: int, what: str) -> PanomapError:
-    return PanomapError(
-        f"only {found} {what} found (at least {MIN_LINES} are needed): the image needs long straight edges "
-        "across the annulus (walls, door and window frames, shelves, floor tiles, a checkerboard), some "
-        "vertical and some horizontal, in light"
-    )
 
 
 def _starts(state: _State, circles: ImageCircles, axis: str, r_max: float) -> list[FloatArray]:
@@ -447,7 +422,7 @@ def _regroup(
         else:
             kept.append(k)
     if len(kept) < MIN_LINES:
-        raise _not_straight(len(kept), rms, long_enough, limit)
+        raise not_straight(len(kept), rms, long_enough, limit, MIN_LINES)
     state.groups = _merge(kept, trial.normals, state.images, rms, limit)
     data = LineData.of(state.line_pixels(), r_max)
     merged = evaluate(kind, axis, params, data)
