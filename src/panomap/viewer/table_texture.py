@@ -234,9 +234,8 @@ def _read_error(
     x, y, exact = x[inside], y[inside], exact[inside]
     x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
     tx, ty = (x - x0)[:, None], (y - y0)[:, None]
-    read = (
-        (1 - ty) * ((1 - tx) * uv[y0, x0] + tx * uv[y0, x0 + 1])
-        + ty * ((1 - tx) * uv[y0 + 1, x0] + tx * uv[y0 + 1, x0 + 1])
+    read = (1 - ty) * ((1 - tx) * uv[y0, x0] + tx * uv[y0, x0 + 1]) + ty * (
+        (1 - tx) * uv[y0 + 1, x0] + tx * uv[y0 + 1, x0 + 1]
     )
     both = np.isfinite(read).all(axis=-1) & np.isfinite(exact).all(axis=-1)
     return float(np.max(np.abs(read - exact)[both])) if both.any() else 0.0
