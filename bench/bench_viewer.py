@@ -5,7 +5,9 @@ On a simulated 1920 x 1920 fisheye (the table and clip of ``bench_video.py``, he
 
 1. **Views/s**: 1280 x 720 perspective views set one after another through ``window.panomapView.set`` (each
    resolved once drawn), against the CPU making the same views (``build_map`` + ``Remapper``, what ``panomap
-   perspective`` does per picture less the file I/O). Target: 30 views/s.
+   perspective`` does per picture less the file I/O). Target: 30 views/s. Then the same camera turned to look
+   ahead (``orient_table``: yaw, pitch and roll 0, entries over the whole sphere): perspective views, and
+   1280 x 720 equirects (upright, and turned by a pitch and a roll), each against the CPU's.
 2. **Drag to picture**: mouse drags of the view; time from each pointer event to the view drawn (ms).
 3. **Video**: the 1920 x 1920 H.264 clip played by the browser, one 1280 x 720 view: frames shown per second,
    against the clip's rate (target: its rate, up to 30 fps).
@@ -40,11 +42,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_video import make_clip
+from panomap.interop.orient import orient_table
 from panomap.remap import Remapper
 from panomap.table.file import load_table
+from panomap.table.table import PanoMappingTable
 from panomap.viewer.server import ViewerServer, make_server, serve_in_thread
 from panomap.viewer.source import open_source
-from panomap.views import PerspectiveView, build_map
+from panomap.views import PerspectiveView, View, build_map
+from panomap.views.equirect import EquirectView
 
 CHROMIUM = "/usr/bin/chromium"
 ARGS = [
@@ -69,25 +74,47 @@ def open_page(browser: Any, server: ViewerServer, fragment: str = "") -> Any:
     return page
 
 
-def views_per_second(browser: Any, server: ViewerServer, count: int) -> float:
+# The views timed, k = 0, 1, ...: (mode, yaw, pitch, roll) deg. Perspective: the bench's first (looking down);
+# "ahead": looking about the horizon, as a camera looking ahead is looked through.
+SEQUENCES = {
+    "perspective": lambda k: ("perspective", 3.0 * k, -30.0 + k % 20, 0.0),
+    "perspective ahead": lambda k: ("perspective", 3.0 * k, -10.0 + k % 20, 0.0),
+    "equirect": lambda k: ("equirect", 3.0 * k, 0.0, 0.0),
+    "equirect turned": lambda k: ("equirect", 3.0 * k, 10.0 + k % 20, 5.0),
+}
+
+
+def views_per_second(browser: Any, server: ViewerServer, count: int, sequence: str = "perspective") -> float:
+    """Views/s of ``count`` views of ``SEQUENCES[sequence]`` set one after another, each awaited until drawn."""
     page = open_page(browser, server)
-    script = """async ([count, width, height]) => {
-      await window.panomapView.set({yaw: 0, pitch: -30, fov: 90, width, height, strip: false});
+    views = []
+    for k in range(count + 1):
+        mode, yaw, pitch, roll = SEQUENCES[sequence](k)
+        views.append({"mode": mode, "yaw": yaw, "pitch": pitch, "roll": roll, "fov": 90})
+    script = """async ([views, width, height]) => {
+      await window.panomapView.set({...views[0], width, height, strip: false});
       const started = performance.now();
-      for (let k = 0; k < count; k++) await window.panomapView.set({yaw: 3 * k, pitch: -30 + (k % 20), fov: 90});
+      for (const view of views.slice(1)) await window.panomapView.set(view);
       return (performance.now() - started) / 1000;
     }"""
-    seconds = page.evaluate(script, [count, *VIEW])
+    seconds = page.evaluate(script, [views, *VIEW])
     page.close()
     return count / seconds
 
 
-def cpu_views_per_second(server: ViewerServer, image: np.ndarray, count: int) -> float:
-    table = server.table
+def cpu_view(sequence: str, k: int) -> View:
+    mode, yaw, pitch, roll = (np.radians(x) if isinstance(x, float) else x for x in SEQUENCES[sequence](k))
+    if mode == "perspective":
+        return PerspectiveView(yaw, pitch, roll, np.radians(90), VIEW)
+    return EquirectView(yaw, pitch, roll, VIEW)
+
+
+def cpu_views_per_second(
+    table: PanoMappingTable, image: np.ndarray, count: int, sequence: str = "perspective"
+) -> float:
     started = time.perf_counter()
     for k in range(count):
-        view = PerspectiveView(np.radians(3 * k), np.radians(-30 + (k % 20)), 0.0, np.radians(90), VIEW)
-        Remapper(build_map(table, view))(image)
+        Remapper(build_map(table, cpu_view(sequence, k)))(image)
     return count / (time.perf_counter() - started)
 
 
@@ -202,13 +229,68 @@ def summary(values: dict[str, float] | None) -> str:
     return f"median {values['median']:.0f}, p90 {values['p90']:.0f}, max {values['max']:.0f} (n {values['count']})"
 
 
+def views_ahead(browser: Any, table: PanoMappingTable, image: np.ndarray, folder: Path, views: int) -> None:
+    """Part 1 again, the camera turned to look ahead (its table over the whole sphere)."""
+    ahead = orient_table(table, 0.0, 0.0, 0.0)
+    image_path = folder / "omni.png"
+    server = make_server(ahead, "ahead.npz", open_source(str(image_path)))
+    serve_in_thread(server)
+    try:
+        print(f"   the camera turned to look ahead (table {ahead.size[0]} x {ahead.size[1]}, elevations -90..90 deg):")
+        for sequence in ("perspective ahead", "equirect", "equirect turned"):
+            gpu = views_per_second(browser, server, views, sequence)
+            cpu = cpu_views_per_second(ahead, image, max(5, views // 5), sequence)
+            print(
+                f"   {sequence:18} browser {gpu:5.1f} views/s (target 30), CPU {cpu:5.1f} views/s, "
+                f"ratio browser / CPU {gpu / cpu:.2f}"
+            )
+    finally:
+        server.shutdown()
+        server.server_close()
+
+
+def views_only(options: argparse.Namespace) -> None:
+    """Part 1 alone (``--views-only``)."""
+    from playwright.sync_api import sync_playwright
+
+    views = 20 if options.quick else 100
+    with tempfile.TemporaryDirectory() as temporary:
+        folder = Path(temporary)
+        clip, table_path, _ = make_clip(folder, 2, RATE)
+        table = load_table(table_path)
+        with av.open(str(clip)) as container:
+            image = next(container.decode(video=0)).to_ndarray(format="bgr24")
+        cv2.imwrite(str(folder / "omni.png"), image)
+        with sync_playwright() as playwright:
+            browser = playwright.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            server = make_server(table, table_path.name, open_source(str(folder / "omni.png")))
+            serve_in_thread(server)
+            try:
+                gpu = views_per_second(browser, server, views)
+                cpu = cpu_views_per_second(table, image, max(5, views // 5))
+                print(
+                    f"1. {VIEW[0]} x {VIEW[1]} views, looking down: browser {gpu:.1f} views/s, CPU {cpu:.1f} views/s,"
+                )
+                print(f"   ratio browser / CPU {gpu / cpu:.2f}")
+            finally:
+                server.shutdown()
+                server.server_close()
+            views_ahead(browser, table, image, folder, views)
+            browser.close()
+    print(f"(load average at the end: {', '.join(f'{x:.2f}' for x in os.getloadavg())})")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="A short clip, few views, a 20 s stream.")
     parser.add_argument("--minutes", type=float, default=10.0, help="Length of the live stream for memory (min).")
+    parser.add_argument("--views-only", action="store_true", help="Only part 1, the views/s.")
     options = parser.parse_args()
     if not Path(CHROMIUM).exists():
         raise SystemExit(f"{CHROMIUM} is missing (Debian's chromium: scripts/install-test-deps.sh)")
+    if options.views_only:
+        views_only(options)
+        return
     from playwright.sync_api import sync_playwright
 
     frames = 60 if options.quick else 300
@@ -230,13 +312,14 @@ def main() -> None:
             serve_in_thread(server)
             try:
                 gpu = views_per_second(browser, server, views)
-                cpu = cpu_views_per_second(server, image, max(5, views // 5))
+                cpu = cpu_views_per_second(table, image, max(5, views // 5))
                 print(f"\n1. views of {VIEW[0]} x {VIEW[1]} set one after another through the API:")
                 print(
                     f"   browser (SwiftShader) {gpu:.1f} views/s (target 30); "
                     f"CPU (build_map + remap) {cpu:.1f} views/s;"
                 )
                 print(f"   ratio browser / CPU {gpu / cpu:.2f}")
+                views_ahead(browser, table, image, folder, views)
                 drag = drag_to_picture(browser, server, 60 if options.quick else 240)
                 print(f"2. drag to picture (ms): {summary(drag)}")
             finally:

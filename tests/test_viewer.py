@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from panomap.errors import PanomapError
+from panomap.interop.orient import orient_table
 from panomap.io.local_web import RequestError
 from panomap.simulate import standard_cameras
 from panomap.table.table import PanoMappingTable
@@ -136,6 +137,34 @@ def test_the_lookup_texture_is_the_lookups_u_and_v(table: PanoMappingTable) -> N
     np.testing.assert_array_equal(texture[..., 0][ok], lookup.u[ok])
     np.testing.assert_array_equal(texture[..., 1][ok], lookup.v[ok])
     assert (texture[~ok] == NO_ENTRY).all()
+    assert description["frame"] == np.eye(3).tolist()
+
+
+def test_a_turned_camera_gets_a_lookup_about_its_own_axis(table: PanoMappingTable) -> None:
+    """Looking ahead (elevations -90..90 deg: no CLI lookup), the page's lookup is centred on the optical axis
+    (+X) and reads the table's own sampling of a ray (here: texels' rays, read at their centres)."""
+    ahead = orient_table(table, 0.0, 0.0, 0.0)
+    assert direction_lookup(ahead) is None
+    made = lookup_texture(ahead)
+    assert made is not None
+    texture, description = made
+    frame = np.asarray(description["frame"])
+    np.testing.assert_allclose(frame @ frame.T, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(frame[2], [-1.0, 0.0, 0.0], atol=1e-12)  # the lookup's centre: the axis
+    centre, scale = description["centre"], description["scale"]
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        x, y = (int(c) for c in rng.integers(0, description["side"], 2))
+        p = (np.array([x, y]) - centre) / scale
+        q = 1.0 + p @ p
+        ray = np.array([2 * p[0] / q, 2 * p[1] / q, (q - 2.0) / q]) @ frame  # the texel's ray, world axes
+        theta = np.arctan2(ray[1], ray[0]) % (2 * np.pi)
+        expected = ahead.sample(theta, np.arcsin(np.clip(ray[2], -1, 1)))
+        if np.isfinite(expected).all():
+            np.testing.assert_allclose(texture[y, x], expected, atol=1e-3)
+        else:
+            assert (texture[y, x] == NO_ENTRY).all()
+    assert (texture == NO_ENTRY).any() and (texture != NO_ENTRY).any()
 
 
 # ---------------------------------------------------------------------- sources

@@ -25,8 +25,9 @@ import cv2
 import numpy as np
 import pytest
 
+from panomap.interop.orient import orient_table
 from panomap.simulate import standard_cameras
-from panomap.table.file import load_table
+from panomap.table.file import load_table, save_table
 from panomap.video.live import Reconnect
 from panomap.viewer.feed import FrameFeed
 from panomap.viewer.server import ViewerServer, make_server
@@ -113,18 +114,18 @@ class Page:
 
 @pytest.fixture
 def serve(work: Path) -> Iterator[Any]:
-    def viewer(source_name: str, feed_reconnect: Reconnect | None = None) -> ViewerServer:
+    def viewer(source_name: str, feed_reconnect: Reconnect | None = None, table: str = "cam.npz") -> ViewerServer:
         source = open_source(source_name)
         feed = FrameFeed(source, feed_reconnect) if feed_reconnect is not None else None
-        return make_server(load_table(work / "cam.npz"), "cam.npz", source, port=0, feed=feed)
+        return make_server(load_table(work / table), table, source, port=0, feed=feed)
 
     with serving() as start:
         yield lambda *args: start(viewer(*args))
 
 
-def cli_picture(tmp_path: Path, kind: str, source: Path, *options: object) -> np.ndarray:
+def cli_picture(tmp_path: Path, kind: str, source: Path, *options: object, table: str = "cam.npz") -> np.ndarray:
     out = tmp_path / f"{kind}.png"
-    result = run(kind, source.parent / "cam.npz", source, "-o", out, "-q", *options)
+    result = run(kind, source.parent / table, source, "-o", out, "-q", *options)
     assert result.exit_code == 0, result.output
     image = cv2.imread(str(out), cv2.IMREAD_COLOR)
     assert image is not None
@@ -182,6 +183,84 @@ def test_the_view_is_the_command_lines_picture(browser: Any, serve: Any, work: P
         print(f"floor: mean difference {mean_difference(got, expected):.4f}")
         assert mean_difference(got, expected) <= SAME_MEAN
         assert np.abs(got.astype(np.int16) - expected).max() <= 2
+    finally:
+        page.close()
+
+
+def looking_ahead(work: Path) -> str:
+    """ahead.npz: cam.npz's fisheye (190 deg) turned to look ahead along +X (yaw, pitch and roll 0), its entries
+    over the whole sphere (elevations -90..90 deg, NaN behind the camera)."""
+    if not (work / "ahead.npz").exists():
+        save_table(orient_table(load_table(work / "cam.npz"), 0.0, 0.0, 0.0), work / "ahead.npz")
+    return "ahead.npz"
+
+
+def assert_same_where_both_see(got: np.ndarray, expected: np.ndarray, exact: bool) -> None:
+    """The page's picture is the CLI's. ``exact``: as the level camera's (mean and largest difference). Else (a turned
+    camera's lookup, a resampling of the table): the black where the camera sees nothing may start up to a lookup
+    texel sooner (at most 0.2% of the pixels differ in being black), and within the table's last cell around a pole
+    the lookup smooths the table's bilinear reading (at most 0.1% of the pixels seen both ways off by more than 2)."""
+    difference = np.abs(got.astype(np.int16) - expected).max(axis=2)
+    seen_got, seen_expected = got.max(axis=2) > 0, expected.max(axis=2) > 0
+    both = seen_got & seen_expected
+    print(
+        f"mean difference {mean_difference(got, expected):.4f}, where both see {difference[both].mean():.4f}; "
+        f"black in one only {np.mean(seen_got != seen_expected):.5f}, "
+        f"off by more than 2 where both see {np.mean(difference[both] > 2):.5f}"
+    )
+    assert expected.mean() > 20 and both.mean() > 0.3  # (a picture, not a black frame)
+    if exact:
+        assert mean_difference(got, expected) <= SAME_MEAN and difference.max() <= 2
+        return
+    assert np.mean(seen_got != seen_expected) <= 0.002
+    assert difference[both].mean() <= SAME_MEAN and np.mean(difference[both] > 2) <= 0.001
+
+
+@pytest.mark.slow
+def test_a_camera_looking_ahead_is_drawn_as_the_command_line_draws_it_the_equirect_too(
+    browser: Any, serve: Any, work: Path, tmp_path: Path
+) -> None:
+    table = looking_ahead(work)
+    page = Page(browser, serve(str(work / "omni.png"), None, table))
+    try:
+        state = page.js("window.panomapView.get()")  # the default view: along the optical axis
+        assert (state["mode"], state["yaw"], state["pitch"], state["roll"]) == ("perspective", 0, 0, 0)
+        options = ["--size", "640x480"]
+        for yaw, pitch, roll, fov, exact in ((0.0, 0.0, 0.0, 90.0, True), (60.0, 35.0, 10.0, 100.0, False)):
+            page.set(mode="perspective", yaw=yaw, pitch=pitch, roll=roll, fov=fov, width=640, height=480)
+            angles = ["--yaw", yaw, "--pitch", pitch, "--roll", roll, "--fov", fov]
+            expected = cli_picture(tmp_path, "perspective", work / "omni.png", *angles, *options, table=table)
+            assert_same_where_both_see(page.pixels(), expected, exact)
+        # The equirect: upright, the table read itself (exact); turned by a pitch and a roll, through the lookup.
+        for yaw, pitch, roll, exact in ((37.0, 0.0, 0.0, True), (-20.0, 25.0, -15.0, False)):
+            state = page.set(mode="equirect", yaw=yaw, pitch=pitch, roll=roll, width=720, height=360)
+            assert state["mode"] == "equirect"
+            words = shlex.split(page.js("window.panomapView.commands().command"))
+            assert words[:4] == ["panomap", "equirect", table, "omni.png"]
+            expected = cli_picture(tmp_path, "equirect", work / "omni.png", *words[6:], table=table)
+            got = page.pixels()
+            assert_same_where_both_see(got, expected, exact)
+            if exact:
+                assert not got[90:270, :100].any()  # (behind the camera, off the poles: black)
+    finally:
+        page.close()
+
+
+def test_the_equirect_is_picked_in_the_page_and_its_view_is_in_the_address(
+    browser: Any, serve: Any, work: Path
+) -> None:
+    page = Page(browser, serve(str(work / "omni.png")), "#view=equirect&yaw=10&pitch=-5&width=400&height=100")
+    try:
+        state = page.js("window.panomapView.get()")
+        assert (state["mode"], state["yaw"], state["pitch"], state["width"]) == ("equirect", 10, -5, 400)
+        page.page.select_option("#mode", "perspective")
+        page.page.select_option("#mode", "equirect")  # picked in the page: upright, 2:1
+        page.page.wait_for_function("location.hash.startsWith('#view=equirect&yaw=10&pitch=0&roll=0')")
+        state = page.js("window.panomapView.get()")
+        assert (state["pitch"], state["roll"], state["height"]) == (0, 0, 200)
+        assert page.js("window.panomapView.commands().spec") == "equirect:yaw=10,pitch=0,roll=0,size=400x200"
+        with pytest.raises(Exception, match="mode must be one of"):
+            page.set(mode="cube")
     finally:
         page.close()
 

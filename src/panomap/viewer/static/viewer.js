@@ -13,14 +13,18 @@
   const DEG = Math.PI / 180;
   const TWO_PI = 2 * Math.PI;
   const STRIP_HEIGHT_RATIO = 0.25; // the strip's height, of the view's width
-  const MODES = ["perspective", "panorama", "floor"];
-  const MODE_CODE = { perspective: 0, panorama: 1, floor: 2 };
+  const MODES = ["perspective", "panorama", "floor", "equirect"];
+  // The shader's ways to find an output pixel's ray: RAYS_LINEAR (perspective, floor: d affine in the pixel),
+  // ANGLES (panorama, an upright equirect: azimuth and elevation affine in the pixel), SPHERE (an equirect
+  // turned by a pitch or a roll: the ray from the pixel's angles about the view's axes).
+  const RAYS_LINEAR = 0, ANGLES = 1, SPHERE = 3;
 
   const VERTEX = `#version 300 es
 in vec2 corner;
 void main() { gl_Position = vec4(corner, 0.0, 1.0); }`;
 
-  // One program per kind of view (MODE 0 perspective, 1 panorama, 2 floor): no branch on the kind per pixel.
+  // One program per way of finding rays (RAYS): no branch on the kind of view per pixel. Every value that is the
+  // same for all pixels is worked out once per view in JavaScript (a software GPU pays for each operation per pixel).
   const FRAGMENT = `
 precision highp float;
 precision highp int;
@@ -32,79 +36,85 @@ uniform sampler2D plane_v;        // ... and V plane (I420)
 uniform mat3 yuv_to_rgb; uniform vec3 yuv_offset;
 uniform vec2 view_origin;         // the viewport's lower-left corner in the canvas (px, GL's y up)
 uniform vec2 view_size;           // W, H (px)
-uniform vec3 forward; uniform vec3 right_axis; uniform vec3 down_axis; uniform float focal;
-uniform float theta_start;        // panorama: azimuth at the left edge (rad)
-uniform vec4 floor_extent;        // floor: x_min, x_max, y_min, y_max (world)
-uniform float floor_z;
-uniform vec3 camera_position;
-uniform int table_m; uniform int table_n; uniform int block_width;
-uniform float rho_s; uniform float rho_e;
-uniform vec2 image_size;
-uniform vec4 source_window;       // the part of the image the source textures hold: x0, y0 (px), width, height
+// RAYS_LINEAR: the ray d = ray_origin + (k + 0.5) ray_k + (l + 0.5) ray_l, in the lookup's axes where there is
+// one (its world Z: ray_z . (1, k + 0.5, l + 0.5)), else in world axes.
+uniform vec3 ray_origin; uniform vec3 ray_k; uniform vec3 ray_l; uniform vec3 ray_z;
+// ANGLES: table indices fi = M fract(column_start - (k + 0.5) column_step), fj = row_top - (l + 0.5) row_step.
+uniform float column_start; uniform float column_step; uniform float row_top; uniform float row_step;
+// SPHERE: the view's axes F, R, Dn (the lookup's axes where there is one) and their world Z components.
+uniform vec3 forward; uniform vec3 right_axis; uniform vec3 down_axis; uniform vec3 axes_z;
+uniform int table_n; uniform float block_width;
+uniform vec2 image_low; uniform vec2 image_high;  // the image: -0.5 and size - 0.5 (px)
+uniform vec2 source_scale; uniform vec2 source_offset;  // the image's pixel (u, v) -> the source textures' coordinates
 uniform float no_entry;
 uniform sampler2D lookup_texels;  // RG32F: the lookup's (u, v) at texel (X, Y)
-uniform float lookup_pole; uniform float lookup_scale; uniform float lookup_centre; uniform int lookup_side;
+uniform float lookup_pole; uniform float lookup_scale; uniform float lookup_centre;  // (texture coordinates)
+uniform int lookup_side;
 uniform vec2 sine_range;
+uniform float table_m; uniform float rho_s; uniform float rho_per_row;
 uniform int outline;              // panorama: dim what the perspective view (outline_*) does not see
 uniform vec3 outline_forward; uniform vec3 outline_right; uniform vec3 outline_down;
 uniform float outline_focal; uniform vec2 outline_size;
 out vec4 colour;
 
 const float TWO_PI = 6.283185307179586;
+const float PI = 3.141592653589793;
 
 void main() {
   vec2 at = gl_FragCoord.xy - view_origin;             // (k + 0.5, H - l - 0.5)
   float k5 = at.x, l5 = view_size.y - at.y;            // k + 0.5, l + 0.5
-  float theta, rho;
-#if MODE == 1
-  theta = theta_start - TWO_PI * k5 / view_size.x;
-  rho = rho_e - l5 / view_size.y * (rho_e - rho_s);
-  vec3 d = vec3(cos(rho) * cos(theta), cos(rho) * sin(theta), sin(rho));
+#if RAYS == 1
+  float fi = table_m * fract(column_start - k5 * column_step);
+  float fj = row_top - l5 * row_step;
 #else
-#if MODE == 0
-  vec3 d = forward + (k5 - 0.5 * view_size.x) / focal * right_axis + (l5 - 0.5 * view_size.y) / focal * down_axis;
+#if RAYS == 0
+  vec3 d = ray_origin + k5 * ray_k + l5 * ray_l;
+  float z = ray_z.x + k5 * ray_z.y + l5 * ray_z.z;
 #else
-  vec3 d = vec3(floor_extent.x + k5 * (floor_extent.y - floor_extent.x) / view_size.x,
-                floor_extent.w - l5 * (floor_extent.w - floor_extent.z) / view_size.y, floor_z) - camera_position;
-#endif
+  float a = PI - TWO_PI * k5 / view_size.x, e = 0.5 * PI - PI * l5 / view_size.y;
+  float ca = cos(e) * cos(a), sa = cos(e) * sin(a), se = sin(e);
+  vec3 d = ca * forward - sa * right_axis - se * down_axis;
+  float z = ca * axes_z.x - sa * axes_z.y - se * axes_z.z;
 #endif
 #if LOOKUP
   // The table's direction lookup (as panomap perspective and floor read it): no trigonometry per pixel.
   float length_d = length(d);
   vec2 at_lookup = lookup_centre + lookup_scale * d.xy / (length_d + lookup_pole * d.z);
-  float sine = d.z / length_d;
-  bool seen = sine >= sine_range.x && sine <= sine_range.y;
+  bool seen = z >= sine_range.x * length_d && z <= sine_range.y * length_d;
 #if LINEAR_FLOAT
   // The GPU's own bilinear filter (exact float weights on SwiftShader; 1/256 steps on some GPUs, docs/viewer.md).
   // A texel without an entry (NO_ENTRY) pulls the pixel far off the image: no source, as cv2.remap's NaN.
-  vec2 uv = texture(lookup_texels, (at_lookup + 0.5) / float(lookup_side)).xy;
+  vec2 uv = texture(lookup_texels, at_lookup).xy;
 #else
-  vec2 cell = floor(at_lookup), t = at_lookup - cell;
+  vec2 texels = at_lookup * float(lookup_side) - 0.5;
+  vec2 cell = floor(texels), t = texels - cell;
   ivec2 texel = clamp(ivec2(cell), ivec2(0), ivec2(lookup_side - 2));
-  vec2 a = texelFetch(lookup_texels, texel, 0).xy, b = texelFetch(lookup_texels, texel + ivec2(1, 0), 0).xy;
-  vec2 c = texelFetch(lookup_texels, texel + ivec2(0, 1), 0).xy, e = texelFetch(lookup_texels, texel + ivec2(1, 1), 0).xy;
-  seen = seen && min(min(a.x, b.x), min(c.x, e.x)) > 0.5 * no_entry;
-  vec2 uv = mix(mix(a, b, t.x), mix(c, e, t.x), t.y);
+  vec2 a00 = texelFetch(lookup_texels, texel, 0).xy, a10 = texelFetch(lookup_texels, texel + ivec2(1, 0), 0).xy;
+  vec2 a01 = texelFetch(lookup_texels, texel + ivec2(0, 1), 0).xy, a11 = texelFetch(lookup_texels, texel + ivec2(1, 1), 0).xy;
+  seen = seen && min(min(a00.x, a10.x), min(a01.x, a11.x)) > 0.5 * no_entry;
+  vec2 uv = mix(mix(a00, a10, t.x), mix(a01, a11, t.x), t.y);
 #endif
 #else
-#if MODE != 1
-  theta = atan(d.y, d.x);
-  rho = atan(d.z, length(d.xy));
+  float fi = table_m / TWO_PI * mod(atan(d.y, d.x), TWO_PI);
+  float fj = (atan(d.z, length(d.xy)) - rho_s) / rho_per_row;
 #endif
-  theta = mod(theta, TWO_PI);
-  float fi = theta * float(table_m) / TWO_PI;
-  float fj = (rho - rho_s) * float(table_n) / (rho_e - rho_s);
-  float i_floor = floor(fi), j_floor = floor(fj);
+#endif
+#if RAYS == 1 || !LOOKUP
+  // The table itself, bilinear: the cell's two columns, each texel holding an entry and the one a row above.
+  float i_floor = min(floor(fi), table_m - 1.0), j_floor = clamp(floor(fj), 0.0, float(table_n));
   float ti = fi - i_floor, tj = fj - j_floor;
-  int i0 = min(int(i_floor), table_m - 1);
-  int block = int((float(i0) + 0.5) / float(block_width));  // (an integer division by a uniform is slow on CPUs' GL)
-  ivec2 texel = ivec2(i0 - block * block_width, block * (table_n + 1) + clamp(int(j_floor), 0, table_n));
+#if BLOCKS == 1
+  ivec2 texel = ivec2(i_floor, j_floor);
+#else
+  float block = floor((i_floor + 0.5) / block_width);
+  ivec2 texel = ivec2(i_floor - block * block_width, block * float(table_n + 1) + j_floor);
+#endif
   vec4 left = texelFetch(table_entries, texel, 0), right = texelFetch(table_entries, texel + ivec2(1, 0), 0);
   bool seen = fj >= 0.0 && fj <= float(table_n) && min(min(left.x, left.z), min(right.x, right.z)) > 0.5 * no_entry;
   vec2 uv = mix(mix(left.xy, right.xy, ti), mix(left.zw, right.zw, ti), tj);
 #endif
-  seen = seen && uv.x >= -0.5 && uv.y >= -0.5 && uv.x <= image_size.x - 0.5 && uv.y <= image_size.y - 0.5;
-  vec2 at_source = (uv + 0.5 - source_window.xy) / source_window.zw;
+  seen = seen && all(greaterThanEqual(uv, image_low)) && all(lessThanEqual(uv, image_high));
+  vec2 at_source = uv * source_scale + source_offset;
 #if PLANES == 0
   vec3 rgb = texture(source_image, at_source).rgb;
 #else
@@ -115,8 +125,10 @@ void main() {
 #endif
   vec3 rgb = clamp(yuv_to_rgb * yuv + yuv_offset, 0.0, 1.0);
 #endif
-#if MODE == 1
+#if RAYS == 1
   if (outline == 1) {
+    float theta = TWO_PI / table_m * fi, rho = rho_s + rho_per_row * fj;
+    vec3 d = vec3(cos(rho) * cos(theta), cos(rho) * sin(theta), sin(rho));
     float depth = dot(d, outline_forward);
     vec2 p = vec2(dot(d, outline_right), dot(d, outline_down)) / depth * outline_focal;
     bool inside = depth > 0.0 && abs(p.x) <= 0.5 * outline_size.x && abs(p.y) <= 0.5 * outline_size.y;
@@ -129,7 +141,7 @@ void main() {
   const $ = (id) => document.getElementById(id);
   const state = {
     mode: "perspective",
-    yaw: 0, pitch: -30, roll: 0, fov: 90,
+    yaw: 0, pitch: -30, roll: 0, fov: 90,  // (the camera's optical axis once the table is here: cameraView())
     width: 960, height: 540,
     panoramaStart: 0,       // deg, the panorama's left edge
     floorCentre: null,      // [X, Y] world
@@ -177,10 +189,18 @@ void main() {
     return [cx - h * aspect, cx + h * aspect, cy - h, cy + h];
   }
 
+  // The perspective view along the camera's optical axis (its orientation's yaw and pitch, roll 0: as the CLI's
+  // perspective view without --yaw and --pitch), field of view 90 deg.
+  function cameraView() {
+    const [yaw, pitch] = info.table.orientation_deg;
+    return { yaw: round(yaw, 4), pitch: round(pitch, 4), roll: 0, fov: 90 };
+  }
+
   function floorProblem() {
     const t = info.table;
     if (!t.camera_height_known) return "the table does not know the camera's height (fit it with --camera-height H)";
-    if (t.axis === "up") return "a camera looking up does not see the floor";
+    if (t.orientation_deg[1] > 89.9) return "a camera looking up does not see the floor";
+    if (t.rho_s >= 0) return "the camera sees nothing below the horizon: no floor";
     if (!(t.camera_position[2] > 0)) return "the camera is not above the floor Z = 0";
     return null;
   }
@@ -195,13 +215,21 @@ void main() {
     return shader;
   }
 
-  // A program per kind of view and kind of source picture (PLANES 0: RGBA; 2: NV12, Y and interleaved UV;
+  // How the shader finds the rays of ``mode``'s pixels (RAYS_LINEAR, ANGLES or SPHERE).
+  function raysOf(mode) {
+    if (mode === "panorama") return ANGLES;
+    if (mode === "equirect") return state.pitch === 0 && state.roll === 0 ? ANGLES : SPHERE;
+    return RAYS_LINEAR;
+  }
+
+  // A program per way of finding rays and kind of source picture (PLANES 0: RGBA; 2: NV12, Y and interleaved UV;
   // 3: I420, Y, U and V), made on first use with every uniform that does not change from view to view.
-  function makeProgram(mode, planes) {
+  function makeProgram(rays, planes) {
     const program = gl.createProgram();
     gl.attachShader(program, compile(gl.VERTEX_SHADER, VERTEX));
-    const lookup = mode !== "panorama" && info.table.lookup ? 1 : 0;
-    const defines = `#version 300 es\n#define MODE ${MODE_CODE[mode]}\n#define LOOKUP ${lookup}\n#define PLANES ${planes}\n`
+    const lookup = rays !== ANGLES && info.table.lookup ? 1 : 0;
+    const blocks = Math.ceil(info.table.M / info.table.block_width);
+    const defines = `#version 300 es\n#define RAYS ${rays}\n#define LOOKUP ${lookup}\n#define PLANES ${planes}\n#define BLOCKS ${blocks}\n`
       + `#define LINEAR_FLOAT ${linearFloat ? 1 : 0}\n`;
     gl.attachShader(program, compile(gl.FRAGMENT_SHADER, defines + FRAGMENT));
     gl.bindAttribLocation(program, 0, "corner");
@@ -221,19 +249,20 @@ void main() {
     gl.uniform1i(uniforms.lookup_texels, 2);
     gl.uniform1i(uniforms.plane_u, 3);
     gl.uniform1i(uniforms.plane_v, 4);
-    gl.uniform1i(uniforms.table_m, t.M);
+    gl.uniform1f(uniforms.table_m, t.M);
     gl.uniform1i(uniforms.table_n, t.N);
-    gl.uniform1i(uniforms.block_width, t.block_width);
+    gl.uniform1f(uniforms.block_width, t.block_width);
     gl.uniform1f(uniforms.rho_s, t.rho_s);
-    gl.uniform1f(uniforms.rho_e, t.rho_e);
+    gl.uniform1f(uniforms.rho_per_row, (t.rho_e - t.rho_s) / t.N);
     gl.uniform1f(uniforms.no_entry, t.no_entry);
-    gl.uniform2f(uniforms.image_size, size[0], size[1]);
-    gl.uniform3fv(uniforms.camera_position, t.camera_position);
+    gl.uniform2f(uniforms.image_low, -0.5, -0.5);
+    gl.uniform2f(uniforms.image_high, size[0] - 0.5, size[1] - 0.5);
     if (lookup) {
+      const side = t.lookup.side;
       gl.uniform1f(uniforms.lookup_pole, t.lookup.pole);
-      gl.uniform1f(uniforms.lookup_scale, t.lookup.scale);
-      gl.uniform1f(uniforms.lookup_centre, t.lookup.centre);
-      gl.uniform1i(uniforms.lookup_side, t.lookup.side);
+      gl.uniform1f(uniforms.lookup_scale, t.lookup.scale / side);
+      gl.uniform1f(uniforms.lookup_centre, (t.lookup.centre + 0.5) / side);
+      gl.uniform1i(uniforms.lookup_side, side);
       gl.uniform2f(uniforms.sine_range, Math.sin(t.rho_s), Math.sin(t.rho_e));
     }
     return { program, locations };
@@ -252,13 +281,15 @@ void main() {
     gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
   }
 
-  // Switch to the program of ``mode`` for the source's planes; its uniforms become ``uniforms``.
-  function use(mode) {
-    const key = `${mode}/${sourcePlanes}`;
-    if (!programs[key]) programs[key] = makeProgram(mode, sourcePlanes);
+  // Switch to the program of the rays ``rays`` for the source's planes; its uniforms become ``uniforms``.
+  function use(rays) {
+    const key = `${rays}/${sourcePlanes}`;
+    if (!programs[key]) programs[key] = makeProgram(rays, sourcePlanes);
     gl.useProgram(programs[key].program);
     uniforms = programs[key].locations;
-    gl.uniform4fv(uniforms.source_window, shownWindow);
+    const [x0, y0, w, h] = shownWindow;
+    gl.uniform2f(uniforms.source_scale, 1 / w, 1 / h);
+    gl.uniform2f(uniforms.source_offset, (0.5 - x0) / w, (0.5 - y0) / h);
     if (sourcePlanes) {
       gl.uniformMatrix3fv(uniforms.yuv_to_rgb, false, yuvMatrix.matrix);
       gl.uniform3fv(uniforms.yuv_offset, yuvMatrix.offset);
@@ -318,24 +349,15 @@ void main() {
     const [width, height] = info.source.size;
     const whole = [0, 0, width, height];
     const t = info.table;
-    if (!lookupData || state.mode === "panorama" || stripHeight() || (state.mode === "floor" && floorProblem())) return whole;
-    const axes = perspectiveAxes(state.yaw, state.pitch, state.roll);
-    const f = focalPx(state.width, state.fov);
-    const extent = state.mode === "floor" ? floorExtent() : null;
-    const [x0, y0, z0] = t.camera_position;
+    if (!lookupData || raysOf(state.mode) !== RAYS_LINEAR || stripHeight() || (state.mode === "floor" && floorProblem())) return whole;
+    const rays = linearRays(state.mode, state.width, state.height);
     const sines = [Math.sin(t.rho_s), Math.sin(t.rho_e)];
     let low = [Infinity, Infinity], high = [-Infinity, -Infinity];
     const steps = 32;
     for (let n = 0; n < 4 * steps; n++) {
       const side = Math.floor(n / steps), s = (n % steps) / steps;
       const k = [s, 1, 1 - s, 0][side] * state.width, l = [0, s, 1, 1 - s][side] * state.height;
-      let d;
-      if (extent) {
-        d = [extent[0] + k / state.width * (extent[1] - extent[0]) - x0, extent[3] - l / state.height * (extent[3] - extent[2]) - y0, -z0];
-      } else {
-        const x = (k - state.width / 2) / f, y = (l - state.height / 2) / f;
-        d = [0, 1, 2].map((a) => axes.forward[a] + x * axes.right[a] + y * axes.down[a]);
-      }
+      const d = [0, 1, 2].map((a) => rays.origin[a] + k * rays.alongK[a] + l * rays.alongL[a]);
       const length = Math.hypot(d[0], d[1], d[2]);
       const sine = d[2] / length;
       if (!(sine >= sines[0] && sine <= sines[1])) return whole;
@@ -363,11 +385,12 @@ void main() {
     }
   }
 
-  // The lookup read on the CPU at ray d (bilinear), as the shader reads it; null where it has no entry.
+  // The lookup read on the CPU at ray d (world axes; bilinear), as the shader reads it; null where it has no entry.
   function lookupRead(d, length) {
     const l = info.table.lookup;
-    const scale = l.scale / (length + l.pole * d[2]);
-    const X = l.centre + scale * d[0], Y = l.centre + scale * d[1];
+    const e = l.frame.map((row) => row[0] * d[0] + row[1] * d[1] + row[2] * d[2]);  // the lookup's axes
+    const scale = l.scale / (length + l.pole * e[2]);
+    const X = l.centre + scale * e[0], Y = l.centre + scale * e[1];
     const x0 = Math.floor(X), y0 = Math.floor(Y);
     if (!(x0 >= 0 && y0 >= 0 && x0 < l.side - 1 && y0 < l.side - 1)) return null;
     const tx = X - x0, ty = Y - y0;
@@ -459,28 +482,70 @@ void main() {
 
   function stripHeight() { return state.strip && state.mode === "perspective" ? Math.max(16, Math.round(state.width * STRIP_HEIGHT_RATIO)) : 0; }
 
-  function setPerspectiveUniforms(prefix, width, height) {
+  // The outline's perspective view (the strip dims what it does not see).
+  function setOutlineUniforms() {
     const axes = perspectiveAxes(state.yaw, state.pitch, state.roll);
-    gl.uniform3fv(uniforms[prefix + "forward"], axes.forward);
-    gl.uniform3fv(uniforms[prefix + (prefix ? "right" : "right_axis")], axes.right);
-    gl.uniform3fv(uniforms[prefix + (prefix ? "down" : "down_axis")], axes.down);
-    gl.uniform1f(uniforms[prefix + "focal"], focalPx(width, state.fov));
-    if (prefix) gl.uniform2f(uniforms.outline_size, width, height);
+    gl.uniform3fv(uniforms.outline_forward, axes.forward);
+    gl.uniform3fv(uniforms.outline_right, axes.right);
+    gl.uniform3fv(uniforms.outline_down, axes.down);
+    gl.uniform1f(uniforms.outline_focal, focalPx(state.width, state.fov));
+    gl.uniform2f(uniforms.outline_size, state.width, state.height);
+  }
+
+  // RAYS_LINEAR: the ray of pixel (k, l) is origin + (k + 0.5) along_k + (l + 0.5) along_l (world axes).
+  function linearRays(mode, width, height) {
+    if (mode === "floor") {
+      const [x0, x1, y0, y1] = floorExtent(), [cx, cy, cz] = info.table.camera_position;
+      return { origin: [x0 - cx, y1 - cy, -cz], alongK: [(x1 - x0) / width, 0, 0], alongL: [0, -(y1 - y0) / height, 0] };
+    }
+    const { forward, right, down } = perspectiveAxes(state.yaw, state.pitch, state.roll);
+    const f = focalPx(width, state.fov);
+    return {
+      origin: [0, 1, 2].map((a) => forward[a] - (0.5 * width / f) * right[a] - (0.5 * height / f) * down[a]),
+      alongK: right.map((x) => x / f),
+      alongL: down.map((x) => x / f),
+    };
+  }
+
+  // World vectors in the axes the shader's rays are in: the lookup's where there is one (its frame), else the world's.
+  function toRays(vectors) {
+    const l = info.table.lookup;
+    return l ? vectors.map((v) => l.frame.map((row) => row[0] * v[0] + row[1] * v[1] + row[2] * v[2])) : vectors;
   }
 
   function drawPart(mode, x, y, width, height, withOutline) {
     gl.viewport(x, y, width, height);
-    use(mode);
+    const rays = raysOf(mode);
+    use(rays);
     gl.uniform2f(uniforms.view_origin, x, y);
     gl.uniform2f(uniforms.view_size, width, height);
-    if (mode === "panorama") gl.uniform1i(uniforms.outline, withOutline ? 1 : 0);
-    if (mode === "perspective") setPerspectiveUniforms("", width, height);
-    if (mode === "panorama") gl.uniform1f(uniforms.theta_start, (withOutline ? state.yaw + 180 : state.panoramaStart) * DEG);
-    if (mode === "floor") {
-      gl.uniform4fv(uniforms.floor_extent, floorExtent());
-      gl.uniform1f(uniforms.floor_z, 0);
+    const t = info.table, rowsPerRad = t.N / (t.rho_e - t.rho_s);
+    if (rays === RAYS_LINEAR) {
+      const r = linearRays(mode, width, height);
+      const [origin, alongK, alongL] = toRays([r.origin, r.alongK, r.alongL]);
+      gl.uniform3fv(uniforms.ray_origin, origin);
+      gl.uniform3fv(uniforms.ray_k, alongK);
+      gl.uniform3fv(uniforms.ray_l, alongL);
+      gl.uniform3f(uniforms.ray_z, r.origin[2], r.alongK[2], r.alongL[2]);
+    } else if (rays === SPHERE) {
+      const axes = perspectiveAxes(state.yaw, state.pitch, state.roll);
+      const [forward, right, down] = toRays([axes.forward, axes.right, axes.down]);
+      gl.uniform3fv(uniforms.forward, forward);
+      gl.uniform3fv(uniforms.right_axis, right);
+      gl.uniform3fv(uniforms.down_axis, down);
+      gl.uniform3f(uniforms.axes_z, axes.forward[2], axes.right[2], axes.down[2]);
+    } else {
+      // ANGLES: azimuth theta_start - 2 pi (k + 0.5) / W, elevation top - (l + 0.5) (top - bottom) / H.
+      const equirect = mode === "equirect";
+      const start = equirect ? state.yaw * DEG + Math.PI : (withOutline ? state.yaw + 180 : state.panoramaStart) * DEG;
+      const [top, bottom] = equirect ? [Math.PI / 2, -Math.PI / 2] : [t.rho_e, t.rho_s];
+      gl.uniform1f(uniforms.column_start, start / TWO_PI - Math.floor(start / TWO_PI));
+      gl.uniform1f(uniforms.column_step, 1 / width);
+      gl.uniform1f(uniforms.row_top, (top - t.rho_s) * rowsPerRad);
+      gl.uniform1f(uniforms.row_step, (top - bottom) / height * rowsPerRad);
+      gl.uniform1i(uniforms.outline, withOutline ? 1 : 0);
+      if (withOutline) setOutlineUniforms();
     }
-    if (withOutline) setPerspectiveUniforms("outline_", state.width, state.height);
     gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
   }
 
@@ -562,6 +627,7 @@ void main() {
     const p = state.mode === "perspective"
       ? { view: "perspective", yaw: round(state.yaw, 2), pitch: round(state.pitch, 2), roll: round(state.roll, 2), fov: round(state.fov, 2) }
       : state.mode === "panorama" ? { view: "panorama", start: round(state.panoramaStart, 2) }
+      : state.mode === "equirect" ? { view: "equirect", yaw: round(state.yaw, 2), pitch: round(state.pitch, 2), roll: round(state.roll, 2) }
         : { view: "floor", x: round(state.floorCentre[0], 3), y: round(state.floorCentre[1], 3), half: round(state.floorHalf, 3) };
     p.strip = state.strip ? 1 : 0;
     p.width = state.width;
@@ -599,6 +665,13 @@ void main() {
         spec: `perspective:yaw=${y},pitch=${p},roll=${r},fov=${f},size=${size}`,
       };
     }
+    if (state.mode === "equirect") {
+      const [y, p, r] = [state.yaw, state.pitch, state.roll].map((x) => round(x, 2));
+      return {
+        command: `panomap equirect ${t} ${s} -o equirect.png --yaw ${y} --pitch ${p} --roll ${r} --size ${size}`,
+        spec: `equirect:yaw=${y},pitch=${p},roll=${r},size=${size}`,
+      };
+    }
     if (state.mode === "panorama") {
       const start = round(state.panoramaStart, 2);
       return { command: `panomap panorama ${t} ${s} -o pano.png --start ${start} --size ${size}`, spec: `panorama:start=${start},size=${size}` };
@@ -617,7 +690,8 @@ void main() {
       if (document.activeElement !== input) input.value = round(state[key], 2);
     }
     $("mode").value = state.mode;
-    document.querySelector(".fields").hidden = state.mode !== "perspective";
+    document.querySelector(".fields").hidden = state.mode !== "perspective" && state.mode !== "equirect";
+    $("fov-field").hidden = state.mode !== "perspective";
     $("show-strip").checked = state.strip;
     const c = commands();
     $("command").textContent = c.command;
@@ -700,6 +774,9 @@ void main() {
           state.pitch += dy * perPixel;
         } else if (state.mode === "panorama") {
           state.panoramaStart += dx * 360 / state.width;
+        } else if (state.mode === "equirect") {
+          state.yaw += dx * 360 / state.width;
+          state.pitch += dy * 180 / state.height;
         } else {
           const perPixel = 2 * state.floorHalf / state.height;
           state.floorCentre = [state.floorCentre[0] - dx * perPixel, state.floorCentre[1] + dy * perPixel];
@@ -728,7 +805,7 @@ void main() {
       if (key in steps) update = () => { state[steps[key][0]] += steps[key][1]; };
       else if (key === "+" || key === "=") update = () => { state.fov /= 1.1; };
       else if (key === "-") update = () => { state.fov *= 1.1; };
-      else if (key === "0") update = () => { Object.assign(state, { yaw: 0, pitch: -30, roll: 0, fov: 90 }); };
+      else if (key === "0") update = () => { Object.assign(state, state.mode === "equirect" ? { pitch: 0, roll: 0 } : cameraView()); };
       if (!update) return;
       if (pendingInput === null) pendingInput = event.timeStamp;
       change(update);
@@ -740,7 +817,11 @@ void main() {
         if (Number.isFinite(v)) change(() => { state[key] = v; });
       });
     }
-    $("mode").addEventListener("change", () => change(() => { state.mode = $("mode").value; }));
+    $("mode").addEventListener("change", () => change(() => {
+      state.mode = $("mode").value;
+      // The equirect picked here: the whole sphere upright, 2:1, centred on the view's yaw.
+      if (state.mode === "equirect") Object.assign(state, { pitch: 0, roll: 0, height: Math.round(state.width / 2) });
+    }));
     $("show-strip").addEventListener("change", () => change(() => { state.strip = $("show-strip").checked; }));
     window.addEventListener("hashchange", () => { readHash(); requestDraw(); });
   }
@@ -968,6 +1049,7 @@ void main() {
       $("names").textContent = `${info.table.name} \u00b7 ${info.source.name}`;
       // A video's strip is off unless asked for: it needs the whole of every frame, the view only its part.
       state.strip = info.source.kind === "image";
+      Object.assign(state, cameraView());
       readHash();
       const canvas = $("canvas");
       setUpGl(canvas);
