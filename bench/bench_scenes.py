@@ -109,10 +109,11 @@ def double_sphere(fx: float, fy: float, cx: float, cy: float, xi: float, alpha: 
 
 
 def simulated(camera: RadialCamera) -> Project:
-    """A level simulated camera looking down: +z of the truth's frame is its axis (world -Z)."""
+    """A level simulated camera: +z of the truth's frame is its axis (world -Z looking down, +Z looking up)."""
+    turn = np.array([1.0, -1.0, -1.0]) if camera.axis == "down" else np.ones(3)  # down: a rotation about x
 
     def project(rays: FloatArray) -> FloatArray:
-        world = rays * np.array([1.0, -1.0, -1.0])  # a rotation about x: +z -> -Z
+        world = rays * turn
         return np.asarray(camera.project(world), dtype=np.float64)
 
     return project
@@ -321,6 +322,86 @@ def panorama_camera(spec: tuple, seed: int) -> TiltedCamera:
     )
     tilt = math.radians(rng.uniform(1.0, 3.0))
     return TiltedCamera(inner, mount_rotation(tilt, float(rng.uniform(0, 2 * math.pi))))
+
+
+#: Mirror cameras cropped by a 16:9 frame (issue 55, item 1: a real catadioptric camera's 1920 x 1080 frame, its
+#: mirror's circle cut at the top and bottom): (name, xi, cut-off deg, image circle deg, axis, frame (W, H), circle
+#: radius px). 960 x 540 for the 1024-wide photographs (about their resolution), 1920 x 1080 for the 4000-wide one.
+MIRRORS = (
+    ("hyperbolic down 16:9", 0.8, 12.0, 100.0, "down", 300.0),
+    ("parabolic down 16:9", 1.0, 15.0, 105.0, "down", 320.0),
+    ("hyperbolic up 16:9", 0.8, 12.0, 100.0, "up", 340.0),
+    ("parabolic up 16:9", 1.0, 15.0, 105.0, "up", 300.0),
+)
+
+
+def mirror_camera(spec: tuple, size: tuple[int, int], seed: int) -> TiltedCamera:
+    """A mirror camera of ``spec`` (:data:`MIRRORS`) on a 16:9 frame of ``size``, its circle (radius scaled with the
+    frame from 960 px wide) cut at the top and bottom, tilted 1-3 deg."""
+    name, xi, cut_deg, half_deg, axis, radius = spec
+    rng = np.random.default_rng(seed)
+    outer = radius * size[0] / 960
+    a_max = math.radians(half_deg)
+    inner = RadialCamera(
+        name=name,
+        law="unified",
+        scale=outer * (xi + math.cos(a_max)) / math.sin(a_max),
+        xi=xi,
+        image_size=size,
+        centre=((size[0] - 1) / 2 + rng.uniform(-8, 8), (size[1] - 1) / 2 + rng.uniform(-6, 6)),
+        s=int(rng.choice([-1, 1])),
+        phi0=float(rng.uniform(0, 2 * math.pi)),
+        axis=axis,
+        alpha_min=math.radians(cut_deg),
+        alpha_max=a_max,
+    )
+    tilt = math.radians(rng.uniform(1.0, 3.0))
+    return TiltedCamera(inner, mount_rotation(tilt, float(rng.uniform(0, 2 * math.pi)), looking_down=axis == "down"))
+
+
+def mirror_pictures(data: Path, quick: bool) -> list[Picture]:
+    """The photographs through :data:`MIRRORS`, each as seen on a 16:9 frame: the mirror's own camera a dark disc
+    in the middle, vignetted, noise and JPEG (as :func:`panorama_pictures`)."""
+    folder = data / "panoramas"
+    if not folder.is_dir():
+        return []
+    out: list[Picture] = []
+    for k, file in enumerate(PANORAMAS[:3] if quick else PANORAMAS):
+        panorama = read_panorama(folder / file)
+        size = (1920, 1080) if panorama.shape[1] >= 4000 else (960, 540)
+        for j, spec in enumerate(MIRRORS if not quick else MIRRORS[k % 2 :: 2]):
+            seed = 5000 + 100 * k + j
+            camera = mirror_camera(spec, size, seed)
+            image = reproject(panorama, camera)
+            out.append(
+                Picture(
+                    f"{file.split('.')[0][:22]} / {spec[0]}",
+                    None,
+                    dressed(image, camera, seed),
+                    simulated(camera.camera),
+                    size,
+                )
+            )
+    return out
+
+
+def dressed(image: NDArray[np.uint8], camera: TiltedCamera, seed: int) -> NDArray[np.uint8]:
+    """``image`` with the mirror's own camera (a dark disc with a lens in it), vignetting, noise and JPEG."""
+    rng = np.random.default_rng(seed + 7)
+    if camera.cutoff_radius > 0:
+        v, u = np.mgrid[0 : image.shape[0], 0 : image.shape[1]]
+        r = np.hypot(u - camera.centre[0], v - camera.centre[1])
+        image[r < camera.cutoff_radius] = (25, 25, 30)
+        image[r < 0.4 * camera.cutoff_radius] = (5, 5, 5)
+    image = vignette(
+        image,
+        camera.centre,
+        camera.outer_radius,
+        falloff=float(rng.uniform(0.2, 0.5)),
+        dim=float(rng.uniform(0.0, 0.2)),
+        dim_angle=float(rng.uniform(0, 2 * math.pi)),
+    )
+    return noisy_jpeg(image, rng, noise=4.0, quality=80)
 
 
 def panorama_pictures(data: Path, quick: bool) -> list[Picture]:
@@ -554,7 +635,7 @@ def circles_section(data: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
-    parser.add_argument("--only", choices=("real", "pano", "speed", "circles"), default=None)
+    parser.add_argument("--only", choices=("real", "pano", "mirrors", "speed", "circles"), default=None)
     parser.add_argument("--quick", action="store_true", help="three photographs, two cameras each")
     parser.add_argument("--keep", type=Path, default=None, help="keep the re-projected pictures here")
     args = parser.parse_args()
@@ -563,6 +644,8 @@ def main() -> None:
         pictures += real_pictures(args.data)
     if args.only in (None, "pano"):
         pictures += panorama_pictures(args.data, args.quick)
+    if args.only in (None, "mirrors"):
+        pictures += mirror_pictures(args.data, args.quick)
     if args.only == "circles":
         circles_section(args.data)
         return

@@ -23,7 +23,7 @@ import panomap
 PACKAGE = Path(panomap.__file__).resolve().parent
 
 LAYERS = [
-    {"errors", "geometry", "files", "values", "strips"},
+    {"errors", "geometry", "files", "values", "inputs", "strips"},
     {"camera"},
     {"table", "remap"},
     {"views"},

@@ -139,3 +139,66 @@ def test_a_camera_learned_from_lines_names_the_lines_not_landmarks() -> None:
     assert "landmark" not in message
     assert "the straight lines' points (under the fitted camera, about its centre (" in message
     assert "outside the annulus 0.0..100.0 px between the cut-off disc and the image circle found" in message
+
+
+def large_video(path: Path, frames: int, side: int = 4000, distinct: bool = False) -> Path:
+    """A ``side`` x ``side`` H.264 video of ``frames`` black frames (a white square at another place in each
+    where ``distinct``): tens of kB on disk, 16 megapixels a frame."""
+    import av
+
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream("libx264", rate=4)
+        stream.width = stream.height = side
+        stream.pix_fmt = "yuv420p"
+        for k in range(frames):
+            image = np.zeros((side, side, 3), np.uint8)
+            if distinct:
+                image[k * side // 8 : (k + 2) * side // 8, k * side // 8 : (k + 2) * side // 8] = 255
+            for packet in stream.encode(av.VideoFrame.from_ndarray(image, format="bgr24")):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    return path
+
+
+def test_fit_refuses_a_videos_frames_beyond_the_memory_before_decoding_one(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Before: every frame asked for was decoded at full size, then the memory checked (64 frames of
+    # 4000 x 4000: 3.42 GB peak).
+    video = large_video(tmp_path / "big.mp4", 3)
+    import panomap.video.sample
+    import panomap.video.unwarp
+
+    monkeypatch.setattr(panomap.video.unwarp, "machine_memory", lambda: 1_400_000_000)  # 1.05 GB usable
+
+    def no_decode(*args: object, **kwargs: object) -> None:
+        raise AssertionError("a frame was decoded before the memory was checked")
+
+    monkeypatch.setattr(panomap.video.sample, "first_frame", no_decode)
+    out = tmp_path / "cam.npz"
+    result = run("fit", "--video", video, "--video-frames", 3, "-o", out)
+    assert_one_line_error(result, "1 image(s) of 16,000,000 pixels", "needs about 1.2 GB of memory")
+    assert not out.exists()
+
+
+def test_fit_takes_only_the_video_frames_the_memory_holds(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    video = large_video(tmp_path / "big.mp4", 4, distinct=True)
+    import panomap.cli.lines
+    import panomap.video.unwarp
+
+    # 1 GB and 12 bytes a pixel a frame (calibrate/lines/budget.py): two frames fit in 1.45 GB, not three.
+    monkeypatch.setattr(panomap.video.unwarp, "machine_memory", lambda: 1_450_000_000 * 4 // 3)
+    given: list[int] = []
+
+    def learn(images: list[np.ndarray], **kwargs: object) -> None:
+        given.append(len(images))
+        raise PanomapError("stopped here")
+
+    monkeypatch.setattr(panomap.cli.lines, "learn_from_images", learn)
+    result = run("fit", "--video", video, "--video-frames", 4, "-o", tmp_path / "cam.npz")
+    assert result.exit_code == 1 and "stopped here" in result.stderr
+    assert given == [2]
+    assert "learning from 4 frames of 4000 x 4000 would need about 1.8 GB" in result.stderr
+    assert "taking at most 2 frames showing distinct views" in result.stderr
+    assert "2 frames taken, 2 showing a view" in result.stderr

@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from . import inputs
 from .errors import PanomapError
 from .geometry import inside_image
 
@@ -99,10 +100,7 @@ class Remapper:
         ``out``, optional: an (H, W[, C]) array of the image's dtype to write
         into (any strides, such as a video frame's plane); returned.
         """
-        if image.dtype not in DTYPES:
-            raise PanomapError(f"images must be 8- or 16-bit (or float32), not {image.dtype}")
-        if (image.ndim == 3 and image.shape[2] not in (1, 3, 4)) or image.ndim not in (2, 3):
-            raise PanomapError(f"images must have 1, 3 or 4 channels, not shape {image.shape}")
+        image = inputs.image(image, "the frame", tuple(np.dtype(dtype) for dtype in DTYPES))
         if self.source_size is not None and (image.shape[1], image.shape[0]) != tuple(self.source_size):
             width, height = self.source_size
             raise PanomapError(

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import inputs
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
 from .boards.choice import LearnedCamera, learn_camera
@@ -152,8 +153,12 @@ def learn_from_images(
 
     Raises
     ------
+    TypeError
+        ``images`` a file name (a string, a path) or holding one, not arrays (:func:`panomap.read_image`
+        reads a file); ``info`` no mapping or holding what JSON cannot.
     PanomapError
-        (:class:`NotLearned` where the pictures were searched: with what they gave) With no image, images of
+        (:class:`NotLearned` where the pictures were searched: with what they gave) An image panomap cannot
+        read (a float, empty or raveled array: :func:`panomap.inputs.image`), no image, images of
         different sizes, no image circle and no cut-off disc to start from,
         too few lines (or no two orthogonal families) where the boards give no camera either, a
         ``model`` of ``"paper"``, or a camera whose table cannot be made; naming the image where one
@@ -165,7 +170,10 @@ def learn_from_images(
     >>> learned = panomap.learn_from_images([omni], camera_height=2.45)   # doctest: +SKIP
     >>> panomap.save_table(learned.table, "cam.npz")                      # doctest: +SKIP
     """
-    omnis = [images] if isinstance(images, np.ndarray) else list(images)
+    omnis = inputs.pictures(images)
+    table_extra = inputs.info(info)
+    azimuth_zero = _pair(inputs.optional_numbers(azimuth_zero, 2, "azimuth_zero (u, v)"))
+    camera_height = None if camera_height is None else inputs.number(camera_height, "the camera height")
     if not omnis:
         raise PanomapError("no image to learn the camera from")
     if names is not None and len(names) != len(omnis):
@@ -191,7 +199,7 @@ def learn_from_images(
         outer_radius=circles.outer_radius,
         image_size=(omnis[0].shape[1], omnis[0].shape[0]),
         camera_height=camera_height,
-        info=_table_info(learned, names, camera_height, info),
+        info=_table_info(learned, names, camera_height, table_extra),
     )
     again = [f"{repeated} of the pictures repeat an earlier one (the same pixels): each counted once"] * bool(repeated)
     warnings = (*again, *learned.notes, *table.info.get("warnings", []))
@@ -298,3 +306,7 @@ def _once(
             seen.add(key)
             kept.append(k)
     return [omnis[k] for k in kept], [names[k] for k in kept], len(omnis) - len(kept)
+
+
+def _pair(numbers: tuple[float, ...] | None) -> tuple[float, float] | None:
+    return None if numbers is None else (numbers[0], numbers[1])

@@ -11,7 +11,7 @@ import numpy as np
 from ..calibrate.circles import ImageCircles
 from ..calibrate.lines.fit import LineFitOptions
 from ..calibrate.pictures import NotLearned, learn_from_images
-from ..errors import printable
+from ..errors import PanomapError, printable
 from ..files import all_or_none
 from ..io.images import write_image
 from ..table.file import save_table
@@ -41,14 +41,14 @@ def fit_from_lines(
     few boards the line fit is made too and the camera that explains both is kept.
     """
     started = time.monotonic()
-    _check_memory(images)
+    limit = _check_memory(images, videos)
     bar = progress_bar("step")
     try:
         bar.stage(f"reading {len(images)} picture{'s' if len(images) != 1 else ''}")
         omnis = _read_all(images, frame_time)
         names: list[str | Path] = list(images)
         if videos:
-            omnis, names = _with_frames(omnis, names, videos, video_frames, bar)
+            omnis, names = _with_frames(omnis, names, videos, video_frames, bar, limit)
         try:
             learned = learn_from_images(
                 omnis,
@@ -89,50 +89,94 @@ def fit_from_lines(
 
 
 def _with_frames(
-    omnis: list[np.ndarray], names: list[str | Path], videos: tuple[Path, ...], count: int, bar: ProgressBar
+    omnis: list[np.ndarray],
+    names: list[str | Path],
+    videos: tuple[Path, ...],
+    count: int,
+    bar: ProgressBar,
+    limit: int | None,
 ) -> tuple[list[np.ndarray], list[str | Path]]:
-    """The pictures and their names, with ``count`` frames of each video (:func:`panomap.video.sample.sample_frames`)
-    after them, less the pictures that show a view an earlier one shows (:mod:`panomap.calibrate.core.distinct`),
-    saying on stderr what was taken; the frames' memory checked before their lines are searched."""
-    from ..calibrate.core.distinct import distinct_views
-    from ..calibrate.lines.budget import check_line_search_memory
-    from ..io.images import MAX_IMAGE_PIXELS
-    from ..video.sample import sample_frames
-    from ..video.unwarp import machine_memory
+    """The pictures and their names, with up to ``count`` frames of each video (:func:`panomap.video.sample.each_frame`)
+    after them, less those that show a view an earlier picture shows (:mod:`panomap.calibrate.core.distinct`),
+    saying on stderr what was taken.
 
-    pictures, labels = list(omnis), list(names)
-    taken: dict[Path, range] = {}
+    The frames are decoded one at a time and one showing a view already seen is dropped at once; a video takes
+    only as many frames as the line search's memory (:mod:`panomap.calibrate.lines.budget`) leaves room for
+    within ``limit`` bytes, from its header's frame size before any is decoded, saying so where that is fewer
+    than ``count``.
+    """
+    from ..calibrate.core.distinct import DistinctViews
+    from ..calibrate.lines.budget import BYTES_PER_IMAGE_PIXEL, line_search_memory
+    from ..io.images import MAX_IMAGE_PIXELS
+    from ..video.sample import each_frame, frame_size
+
+    pictures, labels, views = [], [], DistinctViews()
+    for picture, label in zip(omnis, names, strict=True):
+        if views.add(picture):
+            pictures.append(picture)
+            labels.append(label)
     for video in videos:
-        bar.stage(f"taking {count} frames of {video.name}")
-        frames = sample_frames(video, count, MAX_IMAGE_PIXELS)
+        bar.stage(f"taking up to {count} frames of {video.name}")
+        width, height = frame_size(video)
+        room = count
+        if limit is not None:
+            spare = limit - line_search_memory([(p.shape[1], p.shape[0]) for p in pictures])
+            room = min(count, max(spare, 0) // (BYTES_PER_IMAGE_PIXEL * width * height))
+            if room < count:
+                _say_fewer(video, room, count, (width, height), limit)
+        taken = kept = 0
+        for at_s, frame in each_frame(video, count, MAX_IMAGE_PIXELS) if room else ():
+            taken += 1
+            if views.add(frame):
+                pictures.append(frame)
+                labels.append(f"{video} at {at_s:.2f} s")
+                kept += 1
+                if kept == room:
+                    break
         warn_rotation(video)
-        taken[video] = range(len(pictures), len(pictures) + len(frames))
-        pictures += [frame for _, frame in frames]
-        labels += [f"{video} at {at_s:.2f} s" for at_s, _ in frames]
-    bar.stage("comparing the frames' views")
-    kept = distinct_views(pictures)
-    for video, indices in taken.items():
-        views = len(set(indices) & set(kept))
         bar.write(
-            f"panomap: note: {printable(str(video))}: {len(indices)} frames taken, {views} showing a view no earlier "
+            f"panomap: note: {printable(str(video))}: {taken} frames taken, {kept} showing a view no earlier "
             "picture shows (the others' lines would count twice)"
         )
-    total = machine_memory()
-    sizes = [(picture.shape[1], picture.shape[0]) for picture in (pictures[k] for k in kept)]
-    check_line_search_memory(sizes, None if total is None else total * 3 // 4)
-    return [pictures[k] for k in kept], [labels[k] for k in kept]
+    return pictures, labels
 
 
-def _check_memory(images: tuple[Path, ...]) -> None:
-    """Refuse, before reading any, images whose line and board search needs more memory than there is
-    (their sizes from their headers; a video's frame, whose size the header does not give, counts as none)."""
+def _say_fewer(video: Path, room: int, count: int, size: tuple[int, int], limit: int) -> None:
+    """The note (or, where not one frame fits, the refusal) for a video whose ``count`` frames of ``size`` would
+    need more than ``limit`` bytes to learn from."""
+    from ..calibrate.lines.budget import line_search_memory
+
+    needed = line_search_memory([size] * count) / 1e9
+    width, height = size
+    if room == 0:
+        raise PanomapError(
+            f"learning from a frame of {width} x {height} needs more memory than is left of the {limit / 1e9:.1f} GB "
+            "available (3/4 of this machine's) after the other pictures: give fewer or smaller pictures",
+            video,
+        )
+    click.echo(
+        f"panomap: note: {printable(str(video))}: learning from {count} frames of {width} x {height} would need "
+        f"about {needed:.1f} GB of memory, more than the {limit / 1e9:.1f} GB available (3/4 of this machine's): "
+        f"taking at most {room} frames showing distinct views",
+        err=True,
+    )
+
+
+def _check_memory(images: tuple[Path, ...], videos: tuple[Path, ...] = ()) -> int | None:
+    """The memory limit (bytes; None where unknown), after refusing, before reading any, images and one frame
+    of each video whose line and board search needs more memory than there is (the sizes from the headers;
+    an image whose header does not give it counts as none). ``_with_frames`` fits the videos' frames in."""
     from ..calibrate.lines.budget import check_line_search_memory
     from ..io.images import header_size
+    from ..video.sample import frame_size
     from ..video.unwarp import machine_memory
 
     sizes = [size for size in (header_size(path) for path in images) if size is not None]
+    sizes += [frame_size(video) for video in videos]
     total = machine_memory()
-    check_line_search_memory(sizes, None if total is None else total * 3 // 4)
+    limit = None if total is None else total * 3 // 4
+    check_line_search_memory(sizes, limit)
+    return limit
 
 
 def _read_all(images: tuple[Path, ...], frame_time: float | None) -> list[np.ndarray]:

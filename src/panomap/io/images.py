@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import inputs
 from ..errors import PanomapError
 from ..files import input_file, write_bytes_atomic, write_with
 
@@ -262,9 +263,13 @@ def write_image(path: str | Path, image: NDArray[Any]) -> None:
 
     Raises
     ------
+    TypeError
+        ``image`` is no NumPy array.
     PanomapError
-        Where the format cannot hold the image's depth or alpha, or the file cannot be written.
+        An image of another dtype or shape (:func:`panomap.inputs.image`), a format that cannot hold
+        its depth or alpha, or a file that cannot be written.
     """
+    image = inputs.image(image)
     path = Path(path)
     suffix = path.suffix.lower()
     if image.dtype == np.uint16 and suffix not in SIXTEEN_BIT_SUFFIXES:

@@ -31,6 +31,7 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import inputs
 from ..camera.model import CameraModel
 from ..errors import PanomapError
 from ..files import input_file, write_with
@@ -80,7 +81,17 @@ def save_table(table: PanoMappingTable, path: str | Path) -> None:
         The table; its entries, model and ``info`` are written with checksums of both.
     path : str or path
         The file to write (whole or not at all).
+
+    Raises
+    ------
+    TypeError
+        ``table`` no :class:`PanoMappingTable`; its ``info`` holding what JSON cannot (an object, a set, a
+        NumPy scalar), naming where.
+    PanomapError
+        ``info`` holding NaN or an infinity, a table no command could load, a file that cannot be written.
     """
+    inputs.instance(table, PanoMappingTable, "the table", " (panomap.load_table reads a file)")
+    inputs.info(table.info, "the table's info")
     meta = table.metadata() | {"entries_sha256": _digest(table.entries)}
     meta["metadata_sha256"] = metadata_digest(meta)
     text = json.dumps(meta, indent=1, allow_nan=False)

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ... import inputs
 from ...errors import PanomapError
 from ...strips import Ahead
 from .cutoff import _cutoff_circle, _disc_without_rim
@@ -74,7 +75,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         When no rim is visible (a full-frame fisheye, an ordinary photo, a blank
         image); it carries the frame centre as a starting value.
     """
-    grey = exposed(to_grey(image))
+    grey = exposed(to_grey(inputs.image(image)))
     height, width = grey.shape
     frame_centre = ((width - 1) / 2, (height - 1) / 2)
     if min(height, width) < 32:

@@ -47,16 +47,27 @@ def changed_fraction(first: FloatArray, second: FloatArray) -> float:
     return float(np.mean(np.abs(first - second) > CHANGE_SPREADS))
 
 
+class DistinctViews:
+    """The views seen so far, one picture at a time: :meth:`add` says whether a picture shows a new one, so
+    that a picture of a view already seen can be dropped as soon as it is decoded (a video's frames)."""
+
+    def __init__(self) -> None:
+        self._thumbnails: list[FloatArray] = []
+
+    def add(self, image: NDArray[Any]) -> bool:
+        """True (and the view remembered) where ``image`` shows one no earlier picture added shows."""
+        small = thumbnail(image)
+        if any(
+            other.shape == small.shape and changed_fraction(other, small) < SAME_VIEW_FRACTION
+            for other in self._thumbnails
+        ):
+            return False
+        self._thumbnails.append(small)
+        return True
+
+
 def distinct_views(images: Sequence[NDArray[Any]]) -> list[int]:
     """Indices (increasing) of the pictures to keep: each picture in turn, unless it shows one view with a
     picture already kept (see the module's docstring). The first is always kept."""
-    kept: list[int] = []
-    thumbnails: list[FloatArray] = []
-    for k, image in enumerate(images):
-        small = thumbnail(image)
-        if all(
-            other.shape != small.shape or changed_fraction(other, small) >= SAME_VIEW_FRACTION for other in thumbnails
-        ):
-            kept.append(k)
-            thumbnails.append(small)
-    return kept
+    views = DistinctViews()
+    return [k for k, image in enumerate(images) if views.add(image)]

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from ... import inputs
 from ...camera.radial_models import AXES, MODELS, RadialKind, radial_kind
 from ...errors import PanomapError
 from ...geometry import inside_image
@@ -45,12 +46,9 @@ def checked_arguments(
         raise PanomapError(
             f"the {model} model takes the centre as given; refining the centre needs another model than {model!r}"
         )
-    camera = tuple(float(c) for c in camera_position)
-    if len(camera) != 3 or not all(math.isfinite(c) for c in camera):
-        raise PanomapError("the camera position must be three finite numbers X0 Y0 Z0")
-    u0, v0 = (float(c) for c in centre)
-    if not (math.isfinite(u0) and math.isfinite(v0)):
-        raise PanomapError("the image centre must be two finite numbers U0 V0")
+    inputs.instance(landmarks, Landmarks, "landmarks", " (panomap.read_landmarks reads a file)")
+    camera = inputs.numbers(camera_position, 3, "the camera position (X0, Y0, Z0)")
+    u0, v0 = inputs.numbers(centre, 2, "the image centre (u0, v0)")
     if not (math.isfinite(pixel_sigma) and pixel_sigma > 0):
         raise PanomapError(f"the pixel sigma must be positive, not {pixel_sigma}")
     if world_sigma is not None and not (math.isfinite(world_sigma) and world_sigma >= 0):

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ... import inputs
 from ...camera.radial_models import radial_kind
 from ...camera.valid_range import annulus_coverage_problem
 from ...errors import PanomapError
@@ -274,10 +275,15 @@ def choose_circles(
 
     Raises
     ------
+    TypeError
+        ``omni`` no NumPy array, ``centre`` no pair of numbers (a string).
     PanomapError
-        When the centre is not given and the circles are not found (naming
-        the image file ``name``, when given).
+        An image panomap cannot read (:func:`panomap.inputs.image`), a centre or radius not finite, or,
+        when the centre is not given, circles not found (naming the image file ``name``, when given).
     """
+    omni = inputs.image(omni, "the omni-image")
+    centre = _pair(inputs.optional_numbers(centre, 2, "the image centre (u0, v0)"))
+    cutoff_radius, outer_radius = _radii(cutoff_radius, outer_radius)
     if centre is not None and cutoff_radius is not None and outer_radius is not None:
         return CircleChoice(centre, cutoff_radius, outer_radius, None, {})
     try:
@@ -413,10 +419,20 @@ def calibrate_camera(
 
     Raises
     ------
+    TypeError
+        ``landmarks`` no :class:`Landmarks`, ``omni`` no NumPy array, a centre or position that is no
+        sequence of numbers (a string), ``info`` no mapping or holding what JSON cannot.
     PanomapError
-        With no camera position or no centre at all, or from the circles, the fit or the table, saying why.
+        With no camera position or centre, an unreadable image, numbers not finite, or from the circles, the fit
+        or the table, saying why.
     """
     tilt_deg = renamed_keyword("calibrate_camera", "tilt", tilt, "tilt_deg", tilt_deg)
+    inputs.instance(landmarks, Landmarks, "landmarks", " (panomap.read_landmarks reads a file)")
+    camera_position = _triple(inputs.optional_numbers(camera_position, 3, "the camera position (X0, Y0, Z0)"))
+    centre = _pair(inputs.optional_numbers(centre, 2, "the image centre (u0, v0)"))
+    cutoff_radius, outer_radius = _radii(cutoff_radius, outer_radius)
+    omni = None if omni is None else inputs.image(omni, "the omni-image")
+    info = inputs.info(info)
     position = camera_position if camera_position is not None else landmarks.camera
     if position is None:
         raise PanomapError("no camera position: give one, or landmarks that hold it")
@@ -593,3 +609,18 @@ def _cutoff_settled(
         if not annulus_coverage_problem(camera_fit.model.radial, camera_fit.landmark_range, within, outer, slack):
             cutoff = within
     return cutoff
+
+
+def _pair(numbers: tuple[float, ...] | None) -> tuple[float, float] | None:
+    return None if numbers is None else (numbers[0], numbers[1])
+
+
+def _triple(numbers: tuple[float, ...] | None) -> tuple[float, float, float] | None:
+    return None if numbers is None else (numbers[0], numbers[1], numbers[2])
+
+
+def _radii(cutoff_radius: Any, outer_radius: Any) -> tuple[float | None, float | None]:
+    """The radii given (px), each a finite number or None."""
+    cutoff = None if cutoff_radius is None else inputs.number(cutoff_radius, "the cut-off radius")
+    outer = None if outer_radius is None else inputs.number(outer_radius, "the outer radius")
+    return cutoff, outer

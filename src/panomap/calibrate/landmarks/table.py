@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ... import inputs
 from ...camera.uncertainty import radius_standard_error
 from ...camera.valid_range import annulus_coverage_problem, valid_elevation_range
 from ...errors import PanomapError
@@ -129,6 +130,7 @@ def create_table(
     PanoMappingTable
     """
     annulus = choose_annulus(fit, image_size, cutoff_radius, outer_radius)
+    info = inputs.info(info)
     sources = dict(info.get("sources", {})) if info else {}
     sources.setdefault("cutoff_radius", annulus.cutoff_source.value)
     sources.setdefault("outer_radius", annulus.outer_source.value)
