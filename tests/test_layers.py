@@ -2,7 +2,7 @@
 
 The order, lowest first (STYLE.md, habit 17: layers never climb):
 
-    errors, geometry, files < camera < table, remap < views < interop < calibrate < io < video
+    errors, geometry, files < camera < table, remap < views < rig < interop < calibrate < io < video
     < learn, viewer < batch < cli
 
 A module may import its own layer and the ones below. ``simulate`` is the ground truth, outside
@@ -27,6 +27,7 @@ LAYERS = [
     {"camera"},
     {"table", "remap"},
     {"views"},
+    {"rig"},
     {"interop"},
     {"calibrate"},
     {"io"},

@@ -766,7 +766,19 @@ def _describe_import(record: object) -> list[str]:
 @click.argument("table", type=PATH)
 @click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")
 def info(table: Path, as_json: bool) -> None:
-    """Print a table's metadata: model, centre, s, phi0, range, sizes, landmarks and residuals."""
+    """Print a table's metadata: model, centre, s, phi0, range, sizes, landmarks and residuals (a rig's: its
+    cameras, where each sits and looks, what each sees, their overlaps)."""
+    from ..rig.file import is_rig_file, load_rig
+
+    if is_rig_file(table):
+        rig = load_rig(table)
+        if as_json:
+            cameras = [{"name": name} | t.metadata() for name, t in zip(rig.names, rig.tables, strict=True)]
+            click.echo(json.dumps({"format": "panomap-rig", "offsets": rig.offsets, "info": rig.info,
+                                   "cameras": cameras}, indent=2))  # fmt: skip
+            return
+        click.echo(printable("\n".join([f"{table}: panomap rig", *rig.describe()]), keep="\n"))
+        return
     loaded = load_table(table)
     meta = loaded.metadata()
     if as_json:

@@ -18,7 +18,8 @@ from ..interop.readers import READERS, read_calibration
 from ..io.images import MAX_IMAGE_PIXELS
 from ..table.file import load_table, save_table
 from .calibrate import find_image_circles_in
-from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, orientation_option, orientation_rad, read_omni, say
+from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, Finite, orientation_option, orientation_rad, read_omni, say
+from .rigs import import_rig
 
 
 @click.command("import")
@@ -75,6 +76,20 @@ from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, orientation_option,
 @click.option("--cutoff-radius", type=NON_NEGATIVE, help="Radius (px) of the cut-off disc about the principal point.")
 @click.option("--outer-radius", type=NON_NEGATIVE, help="Radius (px) of the image circle about the principal point.")
 @click.option("--table-size", type=SIZE, metavar="MxN", help="Table size [default: about one entry per pixel].")
+@click.option(
+    "--side-by-side",
+    is_flag=True,
+    help="A rig (a camchain of several cameras): their pictures come side by side in one frame, camera 0 on the "
+    "left (a dual-fisheye camera's raw frame).",
+)
+@click.option(
+    "--fov",
+    "fov_deg",
+    type=Finite(0.0, open=True),
+    metavar="DEG",
+    help="A rig: each lens's field of view across (a 360 camera's: 190-200); its table stops there, so that its "
+    "black rim does not join the blend [default: its circle in --image, else the model's range].",
+)
 def import_(
     calibration: Path,
     output: Path,
@@ -90,18 +105,21 @@ def import_(
     cutoff_radius: float | None,
     outer_radius: float | None,
     table_size: tuple[int, int] | None,
+    side_by_side: bool,
+    fov_deg: float | None,
 ) -> None:
     """Make a table from a calibration: OCamCalib calib_results.txt, a Kalibr camchain, an OpenCV
     cv::fisheye or cv::omnidir FileStorage file, COLMAP cameras.txt, a BoofCV calibration YAML
     (omnidirectional_universal, kannala_brandt), a Basalt calibration JSON (ds, eucm, ucm, kb4,
-    pinhole-radtan8, pinhole) or a gyroflow lens profile (opencv_fisheye)."""
+    pinhole-radtan8, pinhole) or a gyroflow lens profile (opencv_fisheye). A Kalibr camchain of several cameras,
+    each with its T_cn_cnm1, makes a rig (one file, every camera's table in one world: --orientation and
+    --camera place camera 0, looking ahead along +X by default); --camera-name picks one camera instead."""
     if tilt == "fit":
         raise click.BadParameter(
             "an imported camera's tilt is given, not fitted: 'none' or 'DEG AZ_DEG'", param_hint="'--tilt'"
         )
     if orientation is not None and (axis is not None or tilt != "none"):
         raise click.UsageError("give --orientation, or --axis and --tilt, not both")
-    axis = axis or "down"
     if camera_name is not None and camera_id is not None:
         raise click.UsageError("give --camera-name (Kalibr, Basalt) or --camera-id (COLMAP), not both")
     if image is not None and image_size is not None:
@@ -112,6 +130,18 @@ def import_(
             param_hint="'--image-size'",
         )
     check_outputs([("the calibration", calibration), ("the image", image)], [("the output", output)])
+    if camera_name is None and camera_id is None and format_ in (None, "kalibr") and _camchain_rig(calibration):
+        one_camera = {"--axis": axis, "--image-size": image_size, "--cutoff-radius": cutoff_radius}
+        one_camera |= {"--outer-radius": outer_radius, "--tilt": None if tilt == "none" else tilt}
+        given = [name for name, value in one_camera.items() if value is not None]
+        if given:
+            raise click.UsageError(f"{', '.join(given)}: for one camera; a rig takes --orientation, --fov, --image")
+        import_rig(calibration, output, orientation=orientation, camera=camera, side_by_side=side_by_side,
+                   fov_deg=fov_deg, image=image, table_size=table_size, find_circles=find_image_circles_in)  # fmt: skip
+        return
+    if side_by_side or fov_deg is not None:
+        raise click.UsageError("--side-by-side and --fov are for a rig (a Kalibr camchain of several cameras)")
+    axis = axis or "down"
     sources: dict[str, str] = {}
     imported = read_calibration(calibration, format_, camera_name or camera_id)
     for note in imported.notes:
@@ -176,6 +206,21 @@ def _circle_radii(
         cutoff_radius = circles.cutoff.radius + offset
         sources["cutoff_radius"] = f"cut-off disc found in {image.name}"
     return cutoff_radius, outer_radius
+
+
+def _camchain_rig(path: Path) -> bool:
+    """Whether ``path`` is a Kalibr camchain of two or more cameras, each after the first with its T_cn_cnm1."""
+    from ..files import read_text
+    from ..interop.readers.kalibr import looks_like, read_chain
+
+    try:
+        text = read_text(path)
+        if not looks_like(text):
+            return False
+        chain = read_chain(text, path)
+    except PanomapError:
+        return False  # (the single camera's import says what is wrong)
+    return len(chain) > 1
 
 
 @click.command("orient")

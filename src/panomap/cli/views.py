@@ -1,4 +1,5 @@
-"""The view commands, one per registered view kind, generated from the kind's declared parameters.
+"""The view commands, one per registered view kind, generated from the kind's declared parameters (a rig file:
+:mod:`.rigs`).
 
 Each kind's parameters become options of the same names as its spec keys
 (``--distance``, ``--band ZB ZT``, ``--yaw``...), angles in degrees, plus the
@@ -19,6 +20,7 @@ from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs
 from ..io.images import UNKNOWN_FORMAT, pgm_map_paths, read_image, save_map, save_map_pgm, write_image
 from ..remap import INTERPOLATIONS, Remapper
+from ..rig.file import is_rig_file
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
 from ..views import View, build_map, view_kinds
@@ -26,15 +28,22 @@ from ..views.base import Param, ParameterError, Value
 from ..views.spec import view_from_params
 from .options import FINITE, PATH, SIZE, usage_error, warn_orientation
 from .options import quiet as quiet_given
+from .rigs import render_rig
 
 
 def view_options(function: Callable[..., Any]) -> Callable[..., Any]:
     """Arguments and options every view command shares."""
     decorators = [
         click.argument("table", type=PATH),
-        click.argument("image", type=PATH),
+        click.argument("images", type=PATH, nargs=-1, required=True, metavar="IMAGE..."),
         click.option("-o", "--output", type=PATH, required=True, help="Output image (PNG, TIFF, JPEG...)."),
         click.option("--save-map", type=PATH, help="Also write the (H, W, 2) float32 (u, v) map as .npy."),
+        click.option(
+            "--each",
+            metavar="PATTERN",
+            help="With a rig: also write each camera's own unblended view, PATTERN with {camera} in it "
+            "(cams/{camera}.png).",
+        ),
         click.option(
             "--save-map-pgm",
             type=click.Path(path_type=str),
@@ -163,16 +172,26 @@ def view_command(kind: str) -> click.Command:
 
     def run(
         table: Path,
-        image: Path,
+        images: tuple[Path, ...],
         output: Path,
         save_map: Path | None,
+        each: str | None,
         save_map_pgm: str | None,
         interp: str,
         table_sampling: str,
         **values: Any,
     ) -> None:
         maps = (save_map, save_map_pgm)
-        _render(table, image, output, maps, interp, table_sampling, lambda: make_view(kind, values))
+        if is_rig_file(table):  # a rig: one picture per camera, or one frame holding them all
+            if save_map_pgm is not None:
+                raise click.UsageError("--save-map-pgm writes one camera's map: a rig's view blends several")
+            render_rig(table, images, output, save_map, interp, table_sampling, make_view(kind, values), each)
+            return
+        if each is not None:
+            raise click.UsageError("--each writes each camera of a rig: give a rig file")
+        if len(images) != 1:
+            raise click.UsageError(f"a table takes one picture, not {len(images)} (several cameras make a rig)")
+        _render(table, images[0], output, maps, interp, table_sampling, lambda: make_view(kind, values))
 
     command = click.command(kind, help=cls.summary)(view_options(run))
     shared = {param.name for param in command.params}

@@ -24,6 +24,7 @@ import hashlib
 import json
 import math
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -90,6 +91,12 @@ def save_table(table: PanoMappingTable, path: str | Path) -> None:
     PanomapError
         ``info`` holding NaN or an infinity, a table no command could load, a file that cannot be written.
     """
+    write_with(path, table_writer(table, path))
+
+
+def table_writer(table: PanoMappingTable, path: str | Path) -> Callable[[IO[bytes]], None]:
+    """What :func:`save_table` writes, checked as it checks it (``path`` named in its errors), as a function that
+    writes the archive to an open binary file (a rig file's part, :mod:`panomap.rig.file`)."""
     inputs.instance(table, PanoMappingTable, "the table", " (panomap.load_table reads a file)")
     inputs.info(table.info, "the table's info")
     meta = table.metadata() | {"entries_sha256": _digest(table.entries)}
@@ -100,7 +107,7 @@ def save_table(table: PanoMappingTable, path: str | Path) -> None:
     def writer(handle: Any) -> None:
         np.savez(handle, entries=table.entries, meta=np.array(text))
 
-    write_with(path, writer)
+    return writer
 
 
 def _check_loadable(text: str, entries: NDArray[np.float32], path: str | Path) -> None:

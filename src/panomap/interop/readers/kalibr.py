@@ -23,6 +23,9 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
+from numpy.typing import NDArray
+
 from ...errors import PanomapError
 from ..models.base import ExternalCamera
 from ..models.colmap_fisheye import FOV
@@ -101,3 +104,37 @@ def _model(
     if intrinsics[0] >= 1:
         raise PanomapError(f"{name}.intrinsics: eucm's alpha is {intrinsics[0]:g}; Kalibr takes it below 1", path)
     return built(EUCM, path, *intrinsics)
+
+
+def read_chain(text: str, path: str | Path) -> list[tuple[Imported, NDArray[np.float64] | None]]:
+    """Every camera of a camchain, in its order (cam0, cam1, ...), with its ``T_cn_cnm1`` (4, 4): the transform
+    taking a point in the previous camera's frame into its own, ``x_n = R x_(n-1) + t`` (None for the first).
+
+    Raises
+    ------
+    PanomapError
+        Naming the camera: a camera after the first without ``T_cn_cnm1``, or one that is not 4 x 4 numbers.
+    """
+    data = load_yaml(text, path)
+    if not isinstance(data, dict):
+        raise PanomapError("not a Kalibr camchain (no cam0, cam1, ... entries)", path)
+    names = [str(k) for k, v in data.items() if isinstance(v, dict) and "camera_model" in v]
+    if not names:
+        raise PanomapError("no camera in it has a camera_model (not a Kalibr camchain)", path)
+    out: list[tuple[Imported, NDArray[np.float64] | None]] = []
+    for k, name in enumerate(names):
+        imported = read(text, path, name)
+        entry = data[name]
+        if k == 0:
+            out.append((imported, None))
+            continue
+        if "T_cn_cnm1" not in entry:
+            raise PanomapError(
+                f"{name}.T_cn_cnm1 is missing: the rig needs each camera's pose from the one before", path
+            )
+        rows = entry["T_cn_cnm1"]
+        if not isinstance(rows, list) or len(rows) != 4:
+            raise PanomapError(f"{name}.T_cn_cnm1 is {brief(rows)}, not 4 rows of 4 numbers", path)
+        matrix = np.array([numbers(row, f"{name}.T_cn_cnm1[{i}]", path, 4) for i, row in enumerate(rows)])
+        out.append((imported, matrix))
+    return out

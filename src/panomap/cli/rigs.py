@@ -1,0 +1,148 @@
+"""Rigs at the command line: the view commands given a rig file, and ``panomap import`` of a camchain of several
+cameras (the rig's file, what ``info`` says of it)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from ..errors import PanomapError, printable
+from ..files import all_or_none, check_outputs
+from ..io.images import read_image, save_map, write_image
+from ..rig import CameraRig, RigRemapper, camera_maps, load_rig, save_rig
+from ..views import View
+from .options import say
+
+WRAPPING_KINDS = ("panorama", "equirect")
+
+
+def render_rig(
+    rig_path: Path,
+    images: tuple[Path, ...],
+    output: Path,
+    save_map_path: Path | None,
+    interp: str,
+    sampling: str,
+    view: View,
+    each: str | None,
+) -> None:
+    """A view of a rig: each camera's map, blended (gains matched over the overlaps); ``each`` (a pattern with
+    ``{camera}``) also writes each camera's own unblended view."""
+    if each is not None and "{camera}" not in each:
+        raise click.BadParameter(f"{each!r} has no {{camera}} to name each camera's file", param_hint="'--each'")
+    rig = load_rig(rig_path)
+    outputs = [("the output", output), ("--save-map", save_map_path)]
+    if each is not None:
+        outputs += [(f"--each for {name}", Path(each.format(camera=name))) for name in rig.names]
+    check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], outputs)
+    pictures = _pictures(rig, images)
+    maps = camera_maps(rig, view, sampling)
+    remapper = RigRemapper(rig, maps, interp, wrap=view.kind in WRAPPING_KINDS)
+    gains = remapper.gains(pictures)
+    blended = remapper(pictures, gains)
+    with all_or_none():
+        write_image(output, blended)
+        if save_map_path is not None:
+            save_map(save_map_path, _strongest_map(maps, remapper.weights))
+        if each is not None:
+            for name, layer in zip(rig.names, remapper.layers(pictures), strict=True):
+                write_image(Path(each.format(camera=name)), layer)
+    seen = float(np.mean(remapper.weights.sum(axis=0) > 0))
+    shown = ", ".join(f"{name} x{float(np.mean(g)):.3f}" for name, g in zip(rig.names, gains, strict=True))
+    say(
+        f"wrote {printable(str(output))} ({blended.shape[1]} x {blended.shape[0]}, {seen:.0%} of pixels seen by "
+        f"{rig.count} cameras; gains {shown})"
+    )
+
+
+def _pictures(rig: CameraRig, images: tuple[Path, ...]) -> list[Any]:
+    """The rig's pictures: one frame holding them all, or one per camera in the rig's order (sizes checked)."""
+    if rig.offsets is not None:
+        if len(images) != 1:
+            raise click.UsageError(f"the rig's cameras share one frame: give that one picture, not {len(images)}")
+        return [read_image(images[0], rig.frame_size, "the rig's frame")]
+    if len(images) != rig.count:
+        names = ", ".join(rig.names)
+        raise click.UsageError(f"give one picture per camera of the rig, in its order ({names}), not {len(images)}")
+    return [read_image(image, table.image_size, f"camera {name}") for image, table, name in
+            zip(images, rig.tables, rig.names, strict=True)]  # fmt: skip
+
+
+def _strongest_map(maps: list[Any], weights: Any) -> Any:
+    """One (H, W, 2) map: each pixel's source in the camera that counts most there (its own picture's pixels)."""
+    strongest = np.argmax(weights, axis=0)
+    out = np.full_like(maps[0], np.nan)
+    for k, map_uv in enumerate(maps):
+        mine = strongest == k
+        out[mine] = map_uv[mine]
+    out[weights.sum(axis=0) == 0] = np.nan
+    return out
+
+
+def import_rig(
+    calibration: Path,
+    output: Path,
+    *,
+    orientation: tuple[float, float, float] | None,
+    camera: tuple[float, float, float],
+    side_by_side: bool,
+    fov_deg: float | None,
+    image: Path | None,
+    table_size: tuple[int, int] | None,
+    find_circles: Callable[[Path, Any], Any],
+) -> None:
+    """``panomap import`` of a camchain of several cameras: the rig's file."""
+    from ..interop.rig_of_camchain import rig_of_camchain
+
+    yaw, pitch, roll = (math.radians(a) for a in (orientation or (0.0, 0.0, 0.0)))
+    outer_radii = None
+    if image is not None:
+        outer_radii = _circles_of_frame(calibration, image, side_by_side, find_circles)
+    rig = rig_of_camchain(
+        calibration,
+        orientation_rad=(yaw, pitch, roll),
+        camera_position=camera,
+        side_by_side=side_by_side,
+        size=table_size,
+        fov_rad=None if fov_deg is None else math.radians(fov_deg),
+        outer_radii=outer_radii,
+    )
+    with all_or_none():
+        save_rig(rig, output)
+    for line in rig.describe():
+        say(printable(line))
+    say(f"wrote {printable(str(output))}")
+
+
+def _circles_of_frame(
+    calibration: Path, image: Path, side_by_side: bool, find_circles: Callable[[Path, Any], Any]
+) -> tuple[float | None, ...]:
+    """Each camera's image circle (px about its principal point) found in its part of ``image`` (a frame holding
+    them side by side), where found; None where not."""
+    from ..files import read_text
+    from ..interop.readers.kalibr import read_chain
+
+    if not side_by_side:
+        raise click.UsageError("--image finds each camera's circle in one frame holding them: give --side-by-side")
+    frame = read_image(image)
+    radii: list[float | None] = []
+    x = 0
+    for imported, _ in read_chain(read_text(calibration), calibration):
+        width, height = imported.image_size  # type: ignore[misc]
+        part = np.ascontiguousarray(frame[:height, x : x + width])
+        x += width
+        try:
+            circles = find_circles(image, part)
+        except PanomapError as exc:
+            click.echo(f"panomap: note: {printable(str(exc))}; its table stops at the model's range", err=True)
+            radii.append(None)
+            continue
+        u0, v0 = imported.model.principal_point
+        offset = math.hypot(circles.centre[0] - u0, circles.centre[1] - v0)
+        radii.append(circles.outer.radius - offset if circles.rim_seen > 0.25 else None)
+    return tuple(radii)

@@ -1,0 +1,192 @@
+"""One view of a rig: each camera's map, the feathered weights across the overlaps, the gains, the blend.
+
+Convention: maps as :mod:`panomap.remap` ((H, W, 2) float32 source (u, v), NaN where there is no source), in
+each camera's own picture or, for a rig whose pictures share one frame, in the frame (its offset added).
+
+- **Each camera's map** (:func:`camera_maps`) is the view seen from that camera's own position: a view of
+  directions (the panoramas, the perspective view) at infinity is the same rays for every camera; given a
+  distance, or a view of a surface (cylinder, plane, floor), each output pixel's point (relative to camera 0,
+  the rig's reference) is seen along the ray from each camera's own O_m, so the floor map is exact for every
+  camera.
+- **Weights** (:func:`feather_weights`): where several cameras see a pixel, each counts in proportion to its
+  distance (output px) from the edge of what it sees, as OpenCV's feather blender weighs: the weights cross the
+  overlap linearly and sum to 1; a pixel seen by one camera is that camera's. Panoramas wrap in azimuth, and so
+  do their distances.
+- **Gains** (:func:`overlap_gains`): each camera's gain per channel, from the overlaps' means, by least squares
+  with a prior of 1 (as OpenCV's gain compensator): a lens 15% brighter than its neighbour is matched before
+  the blend, so no step shows at the seam.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import PanomapError
+from ..remap import Remapper
+from ..views import View, build_map
+from .rig import CameraRig
+
+# Views whose columns wrap around in azimuth: their weights' distances wrap too.
+WRAPPING_KINDS = ("panorama", "equirect")
+# Overlap pixels where both weights are at least this count for the gains.
+GAIN_MIN_WEIGHT = 0.1
+# The gains' prior: the overlaps' mean differences (grey levels) against a gain's distance from 1.
+GAIN_NOISE = 10.0
+GAIN_PRIOR = 1.0
+
+
+def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear") -> list[NDArray[np.float32]]:
+    """Each camera's (H, W, 2) map of ``view``, in its own picture's pixels (NaN where it does not see)."""
+    reference = rig.tables[0]
+    view = view.resolved(reference)
+    points = view.points(reference)
+    maps = []
+    for table in rig.tables:
+        if points is None:
+            maps.append(build_map(table, view, sampling))
+            continue
+        shift = rig.reference - np.asarray(table.camera_position, dtype=np.float64)
+        theta, rho = table.model.point_angles(points + shift)
+        maps.append(table.sample(theta.astype(np.float32), rho.astype(np.float32), sampling, overwrite=True))
+    return maps
+
+
+def feather_weights(maps: list[NDArray[np.float32]], wrap: bool = False) -> NDArray[np.float32]:
+    """(k, H, W) float32 weights: each camera's distance (px) from the edge of what it sees, over their sum
+    where several see a pixel; 0 where none does. ``wrap``: the columns wrap around (a panorama)."""
+    seen = np.stack([np.all(np.isfinite(m), axis=-1) for m in maps])
+    width = seen.shape[2]
+    pad = width // 4 if wrap else 0
+    distances = []
+    for mask in seen:
+        padded = np.concatenate([mask[:, width - pad :], mask, mask[:, :pad]], axis=1) if pad else mask
+        distance = cv2.distanceTransform(padded.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        distances.append(distance[:, pad : pad + width] if pad else distance)
+    weights = np.stack(distances).astype(np.float32)
+    total = weights.sum(axis=0)
+    np.divide(weights, total, out=weights, where=total > 0)
+    return weights
+
+
+def overlap_gains(layers: list[NDArray[np.float32]], weights: NDArray[np.float32]) -> NDArray[np.float64]:
+    """(k, C) gains from the overlaps' means: minimise, over every pair's overlap (its pixel count N_ij),
+    ``N_ij ((g_i m_ij - g_j m_ji)^2 / GAIN_NOISE^2 + (1 - g_i)^2 / GAIN_PRIOR^2)`` per channel, ``m_ij`` camera
+    i's mean there."""
+    count = len(layers)
+    channels = layers[0].shape[2]
+    gains = np.ones((count, channels))
+    strong = weights >= GAIN_MIN_WEIGHT
+    for c in range(channels):
+        a = np.zeros((count, count))
+        b = np.zeros(count)
+        for i in range(count):
+            for j in range(count):
+                if i == j:
+                    continue
+                both = strong[i] & strong[j]
+                n = float(both.sum())
+                if n == 0:
+                    continue
+                m_ij = float(layers[i][..., c][both].mean())
+                m_ji = float(layers[j][..., c][both].mean())
+                a[i, i] += n * (m_ij * m_ij / GAIN_NOISE**2 + 1 / GAIN_PRIOR**2)
+                a[i, j] -= n * m_ij * m_ji / GAIN_NOISE**2
+                b[i] += n / GAIN_PRIOR**2
+        for i in range(count):
+            if a[i, i] == 0:  # no overlap: no evidence
+                a[i, i], b[i] = 1.0, 1.0
+        gains[:, c] = np.linalg.solve(a, b)
+    return gains
+
+
+@dataclass(frozen=True)
+class RigRemapper:
+    """Applies one view of a rig to any number of its pictures (one per camera, or one frame holding them all).
+
+    Parameters
+    ----------
+    rig : CameraRig
+    maps : list of (H, W, 2) float32
+        Each camera's map in its own picture (:func:`camera_maps`).
+    interpolation : {"nearest", "linear", "cubic"}
+    fill : float
+        Output pixels no camera sees.
+    wrap : bool
+        The view's columns wrap around (feathering across the wrap).
+    """
+
+    rig: CameraRig
+    maps: list[NDArray[np.float32]]
+    interpolation: str = "linear"
+    fill: float = 0.0
+    wrap: bool = False
+    weights: NDArray[np.float32] = field(init=False, repr=False)
+    _remappers: tuple[Remapper, ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        remappers = []
+        for k, (table, map_uv) in enumerate(zip(self.rig.tables, self.maps, strict=True)):
+            if self.rig.offsets is None:
+                remappers.append(Remapper(map_uv, table.image_size, self.interpolation, self.fill))
+                continue
+            x, y = self.rig.offsets[k]
+            shifted = map_uv + np.array([x, y], dtype=np.float32)
+            remappers.append(Remapper(shifted, self.rig.frame_size, self.interpolation, self.fill))
+        object.__setattr__(self, "_remappers", tuple(remappers))
+        object.__setattr__(self, "weights", feather_weights(self.maps, self.wrap))
+
+    @property
+    def output_size(self) -> tuple[int, int]:
+        """(W, H) of the output."""
+        return self._remappers[0].output_size
+
+    def _sources(self, pictures: Any) -> list[NDArray[Any]]:
+        """The picture each camera reads: its own, or the one frame."""
+        if isinstance(pictures, np.ndarray):
+            if self.rig.offsets is None and self.rig.count > 1:
+                raise PanomapError(f"the rig's {self.rig.count} cameras each take their own picture: give one each")
+            return [pictures] * self.rig.count
+        pictures = list(pictures)
+        if len(pictures) == 1 and self.rig.offsets is not None:
+            return pictures * self.rig.count
+        if len(pictures) != self.rig.count or self.rig.offsets is not None:
+            wanted = "one frame holding them all" if self.rig.offsets is not None else f"{self.rig.count}"
+            raise PanomapError(f"{len(pictures)} pictures for a rig of {self.rig.count} cameras: give {wanted}")
+        return pictures
+
+    def layers(self, pictures: Any) -> list[NDArray[Any]]:
+        """Each camera's own view, unblended (the fill where it sees nothing)."""
+        return [remap(source) for remap, source in zip(self._remappers, self._sources(pictures), strict=True)]
+
+    def gains(self, pictures: Any) -> NDArray[np.float64]:
+        """(k, C) gains that match the cameras over their overlaps, in these pictures."""
+        layers = [_channels(layer).astype(np.float32) for layer in self.layers(pictures)]
+        return overlap_gains(layers, self.weights)
+
+    def __call__(self, pictures: Any, gains: NDArray[np.float64] | None = None) -> NDArray[Any]:
+        """The blended view of ``pictures`` (one per camera in the rig's order, or one frame), each camera scaled
+        by its ``gains`` ((k, C); default: found in these pictures' overlaps; ones: none)."""
+        layers = self.layers(pictures)
+        dtype = layers[0].dtype
+        floats = [_channels(layer).astype(np.float32) for layer in layers]
+        if gains is None:
+            gains = overlap_gains(floats, self.weights)
+        out = np.zeros_like(floats[0])
+        for layer, weight, gain in zip(floats, self.weights, gains, strict=True):
+            out += layer * (weight[..., None] * gain.astype(np.float32)[None, None, :])
+        out[self.weights.sum(axis=0) == 0] = self.fill
+        if np.issubdtype(dtype, np.integer):
+            info = np.iinfo(dtype)
+            out = np.clip(np.rint(out), info.min, info.max)
+        blended = out.astype(dtype)
+        return blended[..., 0] if layers[0].ndim == 2 else blended
+
+
+def _channels(image: NDArray[Any]) -> NDArray[Any]:
+    """``image`` as (H, W, C)."""
+    return image[..., None] if image.ndim == 2 else image
