@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import glob
 import json
 import math
 from collections.abc import Mapping
@@ -18,14 +17,21 @@ from ..calibrate.core.sources import Source
 from ..calibrate.landmarks.diagnosis import diagnose
 from ..calibrate.landmarks.pairs import read_landmarks
 from ..calibrate.landmarks.pipeline import calibrate_camera
-from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror, viewpoint_conflict
-from ..camera.radial_models import MODELS, radial_kind
+from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror
+from ..camera.radial_models import MODELS
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, expand_input, input_file, kind_of, same_input
+from ..files import all_or_none, check_outputs, input_file, same_input
 from ..io.images import write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table, save_table
-from ..table.table import PanoMappingTable, check_table_size
+from ..table.table import PanoMappingTable
+from .fit_checks import (
+    check_landmark_fit_options,
+    check_mount_options,
+    expand_images,
+    refuse_landmark_options,
+    refuse_picture_as_landmarks,
+)
 from .options import (
     FINITE,
     NON_NEGATIVE,
@@ -35,11 +41,9 @@ from .options import (
     TILT,
     frame_time_option,
     orientation_option,
-    orientation_rad,
     progress_bar,
     read_omni,
     say,
-    usage_error,
     warn_orientation,
     with_option_names,
 )
@@ -283,14 +287,14 @@ def fit(
     know neither the azimuth origin (--azimuth-zero), the handedness (--handedness) nor any distance (--camera-height).
     """
     # Options missing or out of range are usage errors (exit 2); the files' problems are failures (1).
-    _refuse_picture_as_landmarks(landmarks)
-    images = _expand_images(images)
+    refuse_picture_as_landmarks(landmarks)
+    images = expand_images(images)
     if not videos and click.get_current_context().get_parameter_source("video_frames") is ParameterSource.COMMANDLINE:
         raise click.UsageError("--video-frames is how many frames of --video to take: give --video FILE too")
     if landmarks is None:
         if not use_lines:
             raise click.UsageError("--no-lines leaves nothing to learn from without LANDMARKS")
-        _refuse_landmark_options(click.get_current_context())
+        refuse_landmark_options(click.get_current_context())
         _fit_lines(
             output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time, use_boards,
             videos, video_frames,
@@ -300,7 +304,7 @@ def fit(
         raise click.UsageError("--video pools frames to learn from lines (no LANDMARKS); a landmark fit takes --image "
                                "VIDEO --frame-time SECONDS")  # fmt: skip
     size = _image_size(image_size)
-    image = _check_landmark_fit_options(
+    image = check_landmark_fit_options(
         landmarks, output, images, centre, table_size, model, refine_centre, plot, overlay,
         azimuth_zero, handedness, camera_height,
     )  # fmt: skip
@@ -314,15 +318,7 @@ def fit(
         click.echo(f"panomap: warning: --camera ({given}) is used, not the camera in {landmarks} ({filed})", err=True)
     if frame_time is not None and image is None:
         raise click.UsageError("--frame-time picks a frame of --image: give --image VIDEO too")
-    mirror = _mirror_kind(viewpoint, sphere_radius)
-    if orientation is not None and (axis is not None or not isinstance(tilt, str)):
-        raise click.UsageError("give --orientation, or --axis and a --tilt pair, not both")
-    oriented = orientation_rad(orientation)  # (checks the pitch)
-    conflict = viewpoint_conflict(
-        model, azimuth, viewpoint if sphere_radius is None else SphericalMirror(sphere_radius)
-    )
-    if conflict is not None:
-        raise click.UsageError(conflict)
+    mirror = check_mount_options(model, azimuth, axis, tilt, orientation, viewpoint, sphere_radius)
     omni = None if image is None else read_omni(image, frame_time)
     if omni is not None and use_lines and mirror is not None:
         click.echo(f"panomap: note: the image's lines do not join {mirror}: the landmarks alone fit it", err=True)
@@ -358,7 +354,7 @@ def fit(
             camera_sigma=camera_sigma,
             lines=joined,
             viewpoint=viewpoint if sphere_radius is None else SphericalMirror(sphere_radius),
-            orientation_deg=None if oriented is None else orientation,
+            orientation_deg=orientation,
         )
     except PanomapError as exc:
         bar.close()
@@ -369,114 +365,6 @@ def fit(
     _write_fit(table, result, output, plot, overlay, omni, bar)
     for warning in table.info.get("warnings", []):
         click.echo(f"panomap: warning: {warning}", err=True)
-
-
-def _refuse_picture_as_landmarks(landmarks: Path | None) -> None:
-    """A picture given as LANDMARKS (``fit room.jpg``, or ``--image a.jpg b.jpg``): one line pointing to --image."""
-    if landmarks is not None and kind_of(landmarks) is not None:
-        raise click.UsageError(
-            f"{printable(str(landmarks))} is a picture, not landmarks (CSV u,v,X,Y,Z or JSON): give it as --image "
-            f"{printable(str(landmarks))} (one --image per picture, or a folder, or a quoted glob)"
-        )
-
-
-def _expand_images(patterns: tuple[str, ...]) -> tuple[Path, ...]:
-    """Each --image as the pictures it names: a file as given, a folder's pictures, a glob's matches, in order (a
-    picture named twice is refused later); a folder or a glob that names none is a usage error."""
-    found: list[Path] = []
-    for pattern in patterns:
-        if Path(pattern).is_dir() or (glob.has_magic(pattern) and not Path(pattern).exists()):
-            try:
-                found += expand_input(pattern, kinds=("image",))
-            except PanomapError as exc:
-                raise usage_error(exc, "--image") from None
-        else:
-            found.append(Path(pattern))
-    return tuple(found)
-
-
-# The options of a landmark fit that learning from lines (no LANDMARKS) does not use: the lines find the centre,
-# the annulus, the tilt and the table's size themselves, and know no position.
-LANDMARK_ONLY = (
-    "camera", "centre", "image_size", "table_size", "cutoff_radius", "outer_radius", "azimuth", "refine_centre",
-    "pixel_sigma", "world_sigma", "tilt", "camera_sigma", "viewpoint", "sphere_radius", "keep_outliers",
-    "orientation",
-)  # fmt: skip
-
-
-def _mirror_kind(viewpoint: str, sphere_radius: float | None) -> str | None:
-    """The ray origins the landmark fit is asked to fit, in words; None for a single viewpoint or its automatic
-    choice (usage error, exit 2, where --sphere-radius and a --viewpoint other than auto are both given)."""
-    if sphere_radius is not None:
-        if viewpoint != "auto":
-            raise click.UsageError(
-                f"--sphere-radius fits the sphere's ray origins: --viewpoint {viewpoint} does not go with it"
-            )
-        return "a spherical mirror's ray origins (--sphere-radius)"
-    return "the fitted ray origins (--viewpoint caustic)" if viewpoint == "caustic" else None
-
-
-def _refuse_landmark_options(context: click.Context) -> None:
-    """Refuse, as a usage error naming them, the landmark fit's options given to a fit from lines (it
-    would ignore them)."""
-    given = [
-        "/".join(param.opts[:1] + param.secondary_opts[:1])
-        for param in context.command.params
-        if param.name in LANDMARK_ONLY
-        and context.get_parameter_source(param.name) in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)
-    ]
-    if given:
-        raise click.UsageError(
-            f"{', '.join(given)}: for a fit to LANDMARKS; learning from lines (no LANDMARKS) does not use "
-            + ("it" if len(given) == 1 else "them")
-            + " (it finds the centre, the annulus and the tilt itself; --camera-height gives the camera's height)"
-        )
-
-
-def _check_landmark_fit_options(
-    landmarks: Path,
-    output: Path,
-    images: tuple[Path, ...],
-    centre: tuple[float, float] | None,
-    table_size: tuple[int, int] | None,
-    model: str,
-    refine_centre: bool | None,
-    plot: Path | None,
-    overlay: Path | None,
-    azimuth_zero: tuple[float, float] | None,
-    handedness: str,
-    camera_height: float | None,
-) -> Path | None:
-    """The checks of a landmark fit's options before any work (usage errors, exit 2; outputs that are
-    inputs, 1); returns its --image, if any."""
-    line_options = {"--azimuth-zero": azimuth_zero, "--camera-height": camera_height}
-    for name, value in (*line_options.items(), ("--handedness", None if handedness == "auto" else handedness)):
-        if value is not None:
-            raise click.UsageError(f"{name} is for learning from lines (no LANDMARKS); a landmark fit learns it")
-    if len(images) > 1:
-        raise click.UsageError("a landmark fit takes one --image (several pool their lines only without LANDMARKS)")
-    image = images[0] if images else None
-    if centre is None and image is None:
-        raise click.UsageError("no image centre: give --centre U0 V0, or --image OMNI to find it")
-    if refine_centre is True and model != "auto" and radial_kind(model).centre_given:
-        raise click.UsageError(f"the {model} model takes the centre as given; --refine-centre needs another model")
-    if table_size is not None:
-        try:
-            check_table_size(table_size, what="--size")
-        except PanomapError as exc:
-            raise usage_error(exc) from None
-    if overlay is not None and image is None:
-        raise click.UsageError("--overlay draws the fit on --image: give --image OMNI too")
-    check_outputs(
-        [("the landmarks", landmarks), ("the image", image)],
-        [("the output", output), ("--plot", plot), ("--overlay", overlay)],
-    )
-    if output.suffix.lower() != ".npz":
-        raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
-    for picture, option, what in ((plot, "--plot", "the fit plot"), (overlay, "--overlay", "the overlay")):
-        if picture is not None and picture.suffix.lower() != ".png":
-            raise click.BadParameter(f"{picture}: {what} is written as PNG (name it .png)", param_hint=f"'{option}'")
-    return image
 
 
 def _write_fit(
@@ -768,16 +656,11 @@ def _describe_import(record: object) -> list[str]:
 def info(table: Path, as_json: bool) -> None:
     """Print a table's metadata: model, centre, s, phi0, range, sizes, landmarks and residuals (a rig's: its
     cameras, where each sits and looks, what each sees, their overlaps)."""
-    from ..rig.file import is_rig_file, load_rig
+    from ..rig.file import is_rig_file
+    from .rigs import describe_rig_file
 
     if is_rig_file(table):
-        rig = load_rig(table)
-        if as_json:
-            cameras = [{"name": name} | t.metadata() for name, t in zip(rig.names, rig.tables, strict=True)]
-            click.echo(json.dumps({"format": "panomap-rig", "offsets": rig.offsets, "info": rig.info,
-                                   "cameras": cameras}, indent=2))  # fmt: skip
-            return
-        click.echo(printable("\n".join([f"{table}: panomap rig", *rig.describe()]), keep="\n"))
+        describe_rig_file(table, as_json)
         return
     loaded = load_table(table)
     meta = loaded.metadata()

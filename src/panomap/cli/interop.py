@@ -131,7 +131,7 @@ def import_(
         )
     check_outputs([("the calibration", calibration), ("the image", image)], [("the output", output)])
     if camera_name is None and camera_id is None and format_ in (None, "kalibr") and _camchain_rig(calibration):
-        one_camera = {"--axis": axis, "--image-size": image_size, "--cutoff-radius": cutoff_radius}
+        one_camera: dict[str, object] = {"--axis": axis, "--image-size": image_size, "--cutoff-radius": cutoff_radius}
         one_camera |= {"--outer-radius": outer_radius, "--tilt": None if tilt == "none" else tilt}
         given = [name for name, value in one_camera.items() if value is not None]
         if given:

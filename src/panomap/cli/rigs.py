@@ -146,3 +146,17 @@ def _circles_of_frame(
         offset = math.hypot(circles.centre[0] - u0, circles.centre[1] - v0)
         radii.append(circles.outer.radius - offset if circles.rim_seen > 0.25 else None)
     return tuple(radii)
+
+
+def describe_rig_file(path: Path, as_json: bool) -> None:
+    """``panomap info`` of a rig file: its cameras, where each sits and looks, what each sees, the overlaps (or
+    every camera's table metadata as JSON)."""
+    import json
+
+    rig = load_rig(path)
+    if as_json:
+        cameras = [{"name": name} | table.metadata() for name, table in zip(rig.names, rig.tables, strict=True)]
+        click.echo(json.dumps({"format": "panomap-rig", "offsets": rig.offsets, "info": rig.info, "cameras": cameras},
+                              indent=2))  # fmt: skip
+        return
+    click.echo(printable("\n".join([f"{path}: panomap rig", *rig.describe()]), keep="\n"))

@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -88,7 +89,10 @@ def rig_of_camchain(
     axes = np.stack([frame[1], frame[2], frame[0]], axis=1)  # [R, Dn, F]
     centre = np.asarray(camera_position, dtype=np.float64)
     digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    tables, names, offsets, x = [], [], [], 0
+    tables: list[Any] = []
+    names: list[str] = []
+    offsets: list[tuple[int, int]] = []
+    x = 0
     for imported, matrix in chain:
         name = imported.camera or f"cam{len(names)}"
         if matrix is not None:

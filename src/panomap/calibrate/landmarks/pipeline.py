@@ -370,61 +370,50 @@ def calibrate_camera(
     centre : (u0, v0), optional
         Image centre, px; found in ``omni`` when not given.
     cutoff_radius, outer_radius : float, optional
-        The visible annulus, px; found in ``omni`` when not given, else their
-        defaults (:func:`panomap.create_table`).
+        The visible annulus, px; found in ``omni`` when not given, else their defaults (:func:`panomap.create_table`).
     omni : (H, W[, C]) ndarray, optional
-        An omni-image of the camera: its size is the image size, and the
-        image circles are looked for in it when the centre or a radius is
-        missing (:func:`choose_circles`).
+        An omni-image of the camera: its size is the image size, and the image circles are looked for in it when
+        the centre or a radius is missing (:func:`choose_circles`).
     omni_name : str or path, optional
         The omni-image's file, named in errors and warnings about it.
     image_size : (width, height), optional
         When no ``omni`` is given (an omni-image's own size wins).
     sources : mapping of str to Source, optional
-        Where the given camera position, centre and radii came from, in the
-        order to record them (entries for values not given are left out).
-        The rest follow in the order camera position, centre, cut-off and
-        outer radius as :attr:`Source.GIVEN` (the camera position
-        :attr:`Source.LANDMARK_FILE` when it is the landmarks' own); then
-        those found in ``omni``, then the defaults.
+        Where the given camera position, centre and radii came from, in the order to record them (entries for
+        values not given are left out). The rest follow in the order camera position, centre, cut-off and outer
+        radius as :attr:`Source.GIVEN` (the camera position :attr:`Source.LANDMARK_FILE` when it is the landmarks'
+        own); then those found in ``omni``, then the defaults.
     info : mapping, optional
         More to store in the table's ``info``, after the provenance.
     table_size : (M, N), optional
-        Default: about one entry per pixel.
+        Default about one entry per pixel.
     refine_centre : bool, optional
-        Refine the centre with the landmarks. Default: when the centre was not
-        given (found in the image, or the frame's middle where no image circle
-        is found) and the model does not take the centre as given (``paper``).
+        Refine the centre with the landmarks. Default: when the centre was not given (found in the image, or the
+        frame's middle where no image circle is found) and the model does not take the centre as given (``paper``).
     model, azimuth, axis, pixel_sigma, world_sigma, reject_outliers, tilt_deg, camera_sigma, viewpoint, tilt
         As :func:`panomap.fit_camera` (by default the tilt and the camera position are refined where
         cross-validation says the landmarks support it; ``tilt``, deprecated, is ``tilt_deg``'s old spelling).
     orientation_deg : (yaw, pitch, roll), optional
         As :func:`panomap.fit_camera`'s.
     models_cover_annulus : bool
-        When both radii are known before the fit, automatic model choice
-        only takes models that run monotonically across the annulus (its
-        ``annulus``); False leaves the choice to the landmarks alone (the
-        table still checks the given radii).
+        When both radii are known before the fit, automatic model choice only takes models that run monotonically
+        across the annulus (its ``annulus``); False leaves the choice to the landmarks alone (the table still
+        checks the given radii).
     found : CircleChoice, optional
-        What :func:`choose_circles` found in ``omni`` (given with nothing of the
-        centre and radii) beforehand, taken instead of looking again: the learn
-        page finds the circles once, when it opens, and fits as this function
+        What :func:`choose_circles` found in ``omni`` (given with nothing of the centre and radii) beforehand, taken
+        instead of looking again: the learn page finds the circles once, when it opens, and fits as this function
         does with them.
     lines : bool or ImageLines
-        True: the straight lines of ``omni`` join the landmarks in the fit (:mod:`panomap.calibrate.landmarks.joint`),
-        each weighted by its measured noise; where they cannot (no image circle found, too few lines, lines
-        that disagree with the landmarks) the landmark fit stands, with a warning saying why. An
-        :class:`~panomap.calibrate.landmarks.joint.ImageLines` of ``omni`` found beforehand (its arcs, and its line fit
-        once made) is taken instead of looking again: the learn page refits at every change.
+        True: the lines of ``omni`` join the landmarks in the fit (:mod:`.joint`), each weighted by its noise; where
+        they cannot (no image circle, too few lines, lines that disagree) the landmark fit stands, with a warning.
+        An :class:`~.joint.ImageLines` of ``omni`` found beforehand is taken instead (the learn page refits often).
 
     Raises
     ------
     TypeError
-        ``landmarks`` no :class:`Landmarks`, ``omni`` no NumPy array, a centre or position that is no
-        sequence of numbers (a string), ``info`` no mapping or holding what JSON cannot.
+        ``landmarks`` no :class:`Landmarks`, ``omni`` no array, a centre or position no numbers, ``info`` not JSON.
     PanomapError
-        With no camera position or centre, an unreadable image, numbers not finite, or from the circles, the fit
-        or the table, saying why.
+        No camera position or centre, an unreadable image, numbers not finite; the circles', fit's or table's.
     """
     tilt_deg = renamed_keyword("calibrate_camera", "tilt", tilt, "tilt_deg", tilt_deg)
     inputs.instance(landmarks, Landmarks, "landmarks", " (panomap.read_landmarks reads a file)")
