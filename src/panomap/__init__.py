@@ -79,6 +79,7 @@ _EXPORTS = {
     "PlaneView": "views.plane",
     "PerspectiveView": "views.perspective",
     "FloorView": "views.floor",
+    "EquirectView": "views.equirect",
     "build_map": "views.base",
     "NamedView": "views.spec",
     "parse_view_spec": "views.spec",
@@ -101,6 +102,17 @@ _EXPORTS = {
     # other tools' calibrations in and out (issue 36)
     "import_calibration": "interop.api",
     "export_calibration": "interop.export",
+    # cameras that look any way (issue 51)
+    "orient_table": "interop.orient",
+    "level_table": "calibrate.level",
+    "LevelResult": "calibrate.level",
+    # rigs: several cameras in one world (issue 52)
+    "CameraRig": "rig.rig",
+    "load_rig": "rig.file",
+    "save_rig": "rig.file",
+    "camera_maps": "rig.blend",
+    "RigRemapper": "rig.blend",
+    "rig_of_camchain": "interop.rig_of_camchain",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -33,6 +33,13 @@ def orient_table(table: PanoMappingTable, yaw_rad: float, pitch_rad: float, roll
     given is recorded in ``info["orientation"]``). A camera without a single viewpoint keeps its ray
     origins along its (turned) axis.
 
+    Parameters
+    ----------
+    table : PanoMappingTable
+        Any table (fitted, learned or imported).
+    yaw_rad, pitch_rad, roll_rad : float
+        The new orientation, as a perspective view's (rad; pitch in [-pi/2, pi/2]).
+
     Raises
     ------
     PanomapError

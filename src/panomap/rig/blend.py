@@ -41,7 +41,17 @@ GAIN_PRIOR = 1.0
 
 
 def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear") -> list[NDArray[np.float32]]:
-    """Each camera's (H, W, 2) map of ``view``, in its own picture's pixels (NaN where it does not see)."""
+    """Each camera's (H, W, 2) map of ``view``, in its own picture's pixels (NaN where it does not see).
+
+    Parameters
+    ----------
+    rig : CameraRig
+    view : View
+        Any view; a view of directions at infinity (unless it has a distance), a surface's points seen from each
+        camera's own position (relative to camera 0's, the rig's reference).
+    sampling : {"bilinear", "nearest"}
+        How the tables are read.
+    """
     reference = rig.tables[0]
     view = view.resolved(reference)
     points = view.points(reference)

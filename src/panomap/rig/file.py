@@ -37,7 +37,15 @@ def is_rig_file(path: str | Path) -> bool:
 
 
 def save_rig(rig: CameraRig, path: str | Path) -> None:
-    """Write ``rig`` to ``path`` (whole or not at all): ``rig.json`` and each camera's table file."""
+    """Write ``rig`` to ``path`` (whole or not at all): ``rig.json`` and each camera's table file.
+
+    Parameters
+    ----------
+    rig : CameraRig
+        The rig; each table is held to :func:`panomap.save_table`'s checks.
+    path : str or path
+        The file to write (``.npz``).
+    """
     meta = {
         "format": RIG_FORMAT,
         "version": RIG_VERSION,
@@ -66,6 +74,11 @@ def save_rig(rig: CameraRig, path: str | Path) -> None:
 
 def load_rig(path: str | Path) -> CameraRig:
     """Read a rig file, checking its index and each camera's table as :func:`panomap.load_table` does.
+
+    Parameters
+    ----------
+    path : str or path
+        A rig file written by :func:`save_rig` (``panomap import`` of a camchain of several cameras).
 
     Raises
     ------
