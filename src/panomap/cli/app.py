@@ -23,6 +23,7 @@ from .interop import export, import_, level, orient
 from .learn import learn
 from .options import quiet_option
 from .points import project, unproject
+from .rigs import rig
 from .video import video
 from .viewer import view
 from .views import VIEW_COMMANDS
@@ -35,8 +36,10 @@ COMMANDS += (import_, export)
 COMMANDS += (view,)
 # Cameras that look any way (issue 51).
 COMMANDS += (orient, level)
+# Rigs learned from pictures (issue 52).
+COMMANDS += (rig,)
 # -q on every command, declared once (issue 53): no progress, no report.
-for _command in COMMANDS:
+for _command in (*COMMANDS, *rig.commands.values()):
     if not any(param.name == "quiet" for param in _command.params):
         _command.params.append(quiet_option())
 
@@ -45,7 +48,7 @@ for _command in COMMANDS:
 # the rest; a command not named here comes after these, by name.
 HELP_ORDER = (
     "import", "fit", "centre", "info", "orient", "level", *(str(command.name) for command in VIEW_COMMANDS),
-    "video", "batch", "view", "learn", "project", "unproject", "export", "demo",
+    "video", "batch", "view", "learn", "rig", "project", "unproject", "export", "demo",
 )  # fmt: skip
 
 

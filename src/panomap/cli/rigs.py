@@ -160,3 +160,88 @@ def describe_rig_file(path: Path, as_json: bool) -> None:
                               indent=2))  # fmt: skip
         return
     click.echo(printable("\n".join([f"{path}: panomap rig", *rig.describe()]), keep="\n"))
+
+
+@click.group("rig")
+def rig() -> None:
+    """A rig of cameras: make one of their tables, learn its rotations from pictures.
+
+    \b
+      panomap rig make front.npz back.npz -o theta.npz
+      panomap rig learn theta.npz front.jpg back.jpg -o learned.npz
+    """
+
+
+@rig.command("make")
+@click.argument("tables", type=click.Path(exists=True, dir_okay=False, path_type=Path), nargs=-1, required=True)
+@click.option(
+    "-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, help="Rig file to write (.npz)."
+)
+@click.option("--name", "names", multiple=True, help="Each camera's name, in order [default: each table's file name].")
+@click.option(
+    "--side-by-side", is_flag=True, help="Their pictures come side by side in one frame, camera 0 on the left."
+)
+def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], side_by_side: bool) -> None:
+    """A rig of TABLES (each camera's table, placed in one world: import --orientation --camera)."""
+    from ..table.file import load_table
+
+    if names and len(names) != len(tables):
+        raise click.BadParameter(f"{len(names)} names for {len(tables)} tables", param_hint="'--name'")
+    check_outputs([("a table", table) for table in tables], [("the output", output)])
+    loaded = tuple(load_table(table) for table in tables)
+    offsets = None
+    if side_by_side:
+        x, placed = 0, []
+        for table in loaded:
+            placed.append((x, 0))
+            x += table.image_size[0]  # type: ignore[index]
+        offsets = tuple(placed)
+    made = CameraRig(
+        loaded, names or tuple(table.stem for table in tables), offsets, {"made of": [t.name for t in tables]}
+    )
+    with all_or_none():
+        save_rig(made, output)
+    for line in made.describe():
+        say(printable(line))
+    say(f"wrote {printable(str(output))}")
+
+
+@rig.command("learn")
+@click.argument("rig_path", metavar="RIG", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument(
+    "images",
+    metavar="PICTURE...",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    nargs=-1,
+    required=True,
+)
+@click.option(
+    "-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, help="Rig file to write (.npz)."
+)
+def rig_learn(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
+    """The rotations between RIG's cameras, learned from the features they share in its PICTUREs (each a frame
+    holding every camera's picture, or one picture per camera in the rig's order, shot after shot); camera 0
+    stays where it is. The rig must be placed within a few degrees (a dual fisheye's lenses back to back)."""
+    from ..interop.orient import turn_table
+    from ..rig.learn import learn_rotations
+
+    loaded = load_rig(rig_path)
+    check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], [("the output", output)])
+    per_shot = 1 if loaded.offsets is not None else loaded.count
+    if len(images) % per_shot:
+        names = ", ".join(loaded.names)
+        raise click.UsageError(f"give one picture per camera of the rig ({names}), shot after shot, not {len(images)}")
+    shots: list[Any] = []
+    for start in range(0, len(images), per_shot):
+        group = images[start : start + per_shot]
+        if loaded.offsets is not None:
+            shots.append(read_image(group[0], loaded.frame_size, "the rig's frame"))
+        else:
+            shots.append([read_image(image, table.image_size, f"camera {name}") for image, table, name in
+                          zip(group, loaded.tables, loaded.names, strict=True)])  # fmt: skip
+    learned = learn_rotations(loaded, shots, turn=turn_table)
+    with all_or_none():
+        save_rig(learned.rig, output)
+    for line in learned.describe():
+        say(printable(line))
+    say(f"wrote {printable(str(output))}")

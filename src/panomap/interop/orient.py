@@ -14,7 +14,10 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from ..camera.orientation import world_elevation_range
+import numpy as np
+from numpy.typing import NDArray
+
+from ..camera.orientation import orientation_of_rotation, world_elevation_range
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable, fill_entries
 from .models import external_model
@@ -73,3 +76,15 @@ def orient_table(table: PanoMappingTable, yaw_rad: float, pitch_rad: float, roll
         info=info,
         camera_elevation_range=camera_range if turned else None,
     )
+
+
+def turn_table(table: PanoMappingTable, rotation: NDArray[np.float64]) -> PanoMappingTable:
+    """``table``'s camera with the rotation ``rotation`` (3, 3; camera to world), its entries made anew as
+    :func:`orient_table` makes them (exactly, through an imported table's calibration): what
+    :func:`panomap.rig.learn.learn_rotations` takes as its ``turn``."""
+    model = table.model
+    yaw, pitch, roll = orientation_of_rotation(rotation, model.axis, model.s, model.phi0)
+    turned = orient_table(table, yaw, pitch, roll)
+    info = dict(turned.info)
+    info["orientation"] = {**info["orientation"], "source": "learned from pictures"}
+    return replace(turned, info=info)
