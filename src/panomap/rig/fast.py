@@ -95,19 +95,19 @@ class RigPlane:
         places, buffer_width, pictures_height = _layout(self.sources)
         self.places = places
         # Each camera's entries in buffer pixels, clamped to its source; where not on it, NaN.
-        entries = []
+        us, vs = [], []
         for map_uv, source in zip(maps, reads, strict=True):
             (x, y), (w, h) = places[source], self.sources[source]
             u, v = map_uv[..., 0], map_uv[..., 1]
             with np.errstate(invalid="ignore"):
                 valid = inside_image(u, v, (w, h))
-            placed = np.stack([np.clip(u, 0, w - 1) + x, np.clip(v, 0, h - 1) + y], axis=-1).astype(np.float32)
-            placed[~valid] = np.nan
-            entries.append(placed)
+            us.append(np.where(valid, np.clip(u, 0, w - 1) + np.float32(x), np.float32(np.nan)).astype(np.float32))
+            vs.append(np.where(valid, np.clip(v, 0, h - 1) + np.float32(y), np.float32(np.nan)).astype(np.float32))
         seen = weights > 0
-        owners = seen.sum(axis=0)
+        owners = np.count_nonzero(seen, axis=0)
         band = np.flatnonzero(owners >= 2)
         self.band_size = band.size
+        self.band_is_all = band.size == height * width
         band_rows = -(-(band.size + 1) // buffer_width)  # (+1: the fill pixel, after the band)
         self.band_top = pictures_height
         buffer_height = pictures_height + band_rows
@@ -119,34 +119,29 @@ class RigPlane:
         fill_at = (band.size % buffer_width, pictures_height + band.size // buffer_width)
         self._fill_pixel(fill_at)
         # The combined map: the sole camera's entry; the band's own place in the band rows; else the fill pixel.
-        combined = np.empty((height, width, 2), dtype=np.float32)
-        combined[...] = fill_at
-        flat = combined.reshape(-1, 2)
+        self.map_u = np.full((height, width), fill_at[0], dtype=np.float32)
+        self.map_v = np.full((height, width), fill_at[1], dtype=np.float32)
         self.masks: list[tuple[tuple[slice, slice], NDArray[np.uint8]] | None] = []
-        for k, placed in enumerate(entries):
-            alone = (owners == 1) & seen[k]
-            flat[alone.ravel()] = placed.reshape(-1, 2)[alone.ravel()]
-            unplaced = alone & ~np.all(np.isfinite(placed), axis=-1)  # (seen, but off its source: the fill)
-            flat[unplaced.ravel()] = fill_at
-            self.masks.append(_masked_box(alone & ~unplaced))
+        for k in range(self.count):
+            alone = (owners == 1) & seen[k] & np.isfinite(us[k])  # (seen, but off its source: the fill)
+            np.copyto(self.map_u, us[k], where=alone)
+            np.copyto(self.map_v, vs[k], where=alone)
+            self.masks.append(_masked_box(alone))
         slot = np.arange(band.size)
-        flat[band, 0] = slot % buffer_width
-        flat[band, 1] = pictures_height + slot // buffer_width
-        self.map_u, self.map_v = np.ascontiguousarray(combined[..., 0]), np.ascontiguousarray(combined[..., 1])
+        self.map_u.reshape(-1)[band] = slot % buffer_width
+        self.map_v.reshape(-1)[band] = pictures_height + slot // buffer_width
         # The band: each camera's entries and weights, laid out as the band rows (padding: weight 0).
         self.band_maps: list[tuple[NDArray[np.float32], NDArray[np.float32]]] = []
         self.band_weights = np.zeros((self.count, band_rows, buffer_width), dtype=np.float32)
-        self.band_seen = np.zeros((self.count, band_rows, buffer_width), dtype=bool)
-        for k, placed in enumerate(entries):
-            on = placed.reshape(-1, 2)[band]
-            usable = np.all(np.isfinite(on), axis=-1)
-            laid = np.zeros((slots, 2), dtype=np.float32)
-            laid[:] = fill_at
-            laid[: band.size][usable] = on[usable]
-            rows = laid.reshape(band_rows, buffer_width, 2)
-            self.band_maps.append((np.ascontiguousarray(rows[..., 0]), np.ascontiguousarray(rows[..., 1])))
+        for k in range(self.count):
+            laid = []
+            for entries, fill in ((us[k], fill_at[0]), (vs[k], fill_at[1])):
+                on = entries.reshape(-1)[band]
+                row = np.full(slots, fill, dtype=np.float32)
+                row[: band.size] = np.where(np.isfinite(on), on, np.float32(fill))
+                laid.append(row.reshape(band_rows, buffer_width))
+            self.band_maps.append((laid[0], laid[1]))
             self.band_weights[k].reshape(-1)[: band.size] = weights[k].reshape(-1)[band]
-            self.band_seen[k].reshape(-1)[: band.size] = usable
         self._band_out = self.buffer[self.band_top :].reshape(-1, *self.buffer.shape[2:])[: band.size]
         self._band_values = [np.empty(self.band_maps[0][0].shape + self.buffer.shape[2:], np.uint8)
                              for _ in range(self.count)]  # fmt: skip
@@ -209,18 +204,31 @@ class RigPlane:
         """The blended view of the loaded pictures (into ``out``: an array of :attr:`output_shape`, any strides)."""
         values = self.band_layers()
         if self.band_size:
-            total = np.zeros(values[0].shape, dtype=np.float32)
+            # (RigRemapper's sum, from zero, in the rig's order: 0 + x is x, so the first term is written)
+            total = np.empty(values[0].shape, dtype=np.float32)
+            term = np.empty_like(total)
             black = np.float32(self.black)
-            for layer, scale in zip(values, self._scales, strict=True):
-                total += (layer.astype(np.float32) - black) * scale if self.black else layer.astype(np.float32) * scale
+            for k, (layer, scale) in enumerate(zip(values, self._scales, strict=True)):
+                into = total if k == 0 else term
+                if self.black:
+                    np.subtract(layer, black, out=into, dtype=np.float32)
+                    np.multiply(into, scale, out=into)
+                else:
+                    np.multiply(layer, scale, out=into, dtype=np.float32)
+                if k:
+                    total += term
             if self.black:
                 total += black
             band = total.reshape(-1, *self.buffer.shape[2:])[: self.band_size]
             np.clip(np.rint(band, out=band), 0, 255, out=band)
-            self._band_out[...] = band
+            if not self.band_is_all:
+                self._band_out[...] = band
         if out is None:
             out = np.empty(self.output_shape, dtype=np.uint8)
         target = out if out.ndim == self.buffer.ndim else out.reshape(self.output_shape)
+        if self.band_is_all:  # (every pixel blended: the band is the output, in order)
+            target[...] = band.reshape(target.shape)
+            return out
         written = cv2.remap(self.buffer, self.map_u, self.map_v, self.interpolation, dst=target,
                             borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
         if not np.shares_memory(written, target):  # (never seen; a guard against a binding that copies)

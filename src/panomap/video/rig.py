@@ -23,6 +23,7 @@ import queue
 import threading
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from fractions import Fraction
 from pathlib import Path
@@ -96,6 +97,7 @@ class RigFrameRemapper:
     ) -> None:
         self.work_format = work_format
         self.gains: NDArray[np.float64] | None = None
+        self._helper = ThreadPoolExecutor(1, thread_name_prefix="panomap-blend")
         height, width = maps[0].shape[:2]
         self.output_size = (width, height)
         inputs = [size for _, size in rig_inputs(rig)]
@@ -119,6 +121,10 @@ class RigFrameRemapper:
             self.planes += [RigPlane(chroma, chroma_weights, sizes, reads, 1, interpolation, fill, 128.0)
                             for fill in fills[1:]]  # fmt: skip
 
+    def close(self) -> None:
+        """End the helper thread."""
+        self._helper.shutdown()
+
     def __call__(self, frames: Sequence[Any]) -> Any:
         """Blend one decoded frame per input (already in the work format); a new frame out. The gains are found
         on the first call and kept."""
@@ -138,8 +144,12 @@ class RigFrameRemapper:
                 for plane in self.planes:
                     plane.set_gains(self.gains)
             out = av.VideoFrame(width, height, self.work_format)
-            for plane, target in zip(self.planes, out.planes, strict=True):
-                plane(out=_plane_array(target))
+            targets = [_plane_array(target) for target in out.planes]
+            # The luma on a second thread, the chroma here (OpenCV and NumPy let go of the GIL).
+            luma = self._helper.submit(self.planes[0], targets[0])
+            for plane, target in zip(self.planes[1:], targets[1:], strict=True):
+                plane(out=target)
+            luma.result()
         out.pts = frames[0].pts
         if frames[0].time_base is not None:
             out.time_base = frames[0].time_base
@@ -364,9 +374,11 @@ def _run(
                                        name=f"panomap-read-{k}", daemon=True)  # fmt: skip
         item.thread.start()
     failure: BaseException | None = None
+    closing = contextlib.ExitStack()
     try:
         maps = camera_maps(rig, view, sampling)
         blend = RigFrameRemapper(rig, maps, work, interpolation, wrap=view.kind in WRAPPING_KINDS)
+        closing.callback(blend.close)
         while not halted():
             frames = []
             for item in inputs:
@@ -392,6 +404,7 @@ def _run(
         report.problems += [problem for item in inputs for problem in item.report.problems]
         report.interrupted = stop.is_set() and writer.error is None
         halt.set()
+        closing.close()
         _end(inputs, writer, failure)
 
 
