@@ -20,11 +20,13 @@ import click
 from ..errors import PanomapError
 from ..files import check_outputs, local_file, placeholder_text, placeholders
 from ..remap import INTERPOLATIONS
+from ..rig.file import is_rig_file, load_rig
 from ..table.file import load_table
 from ..table.sampling import SAMPLINGS
 from ..video.live import Reconnect
 from ..video.output import EncoderSettings
 from ..video.report import VideoReport
+from ..video.rig import check_rig_sources, unwarp_rig_video
 from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video
 from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
@@ -125,7 +127,7 @@ class _Progress(ProgressBar):
 
 @click.command()
 @click.argument("table", type=PATH)
-@click.argument("source", metavar="INPUT")
+@click.argument("sources", metavar="INPUT...", nargs=-1, required=True)
 @click.option(
     "-o",
     "--output",
@@ -188,7 +190,7 @@ class _Progress(ProgressBar):
 )
 def video(
     table: Path,
-    source: str,
+    sources: tuple[str, ...],
     pattern: str,
     specs: tuple[str, ...],
     views_file: Path | None,
@@ -241,6 +243,10 @@ def video(
     Example:
       panomap video cam.npz omni.mp4 -o 'out_{name}.mp4' \\
           --view panorama:size=2048x512 --view perspective:yaw=30,pitch=-20,fov=90,size=1280x720
+
+    A rig file (panomap import of a camchain) in place of the table blends one view of its cameras: give the
+    one video holding them side by side (a dual-fisheye camera's), or one video per camera in the rig's order
+    (read in step, to the shortest).
     """
     named = views_of(specs, views_file)
     paths = output_paths(pattern, named)
@@ -253,6 +259,17 @@ def video(
     if no_reconnect and attempts:
         raise click.UsageError("give --reconnect N or --no-reconnect, not both")
     reconnect = Reconnect(attempts=0 if no_reconnect else (5 if attempts is None else attempts), timeout_s=timeout_s)
+    if is_rig_file(table):
+        if len(named) != 1:
+            raise click.UsageError(f"a rig's video blends one view, not {len(named)}: give one --view")
+        if fixed_point or attempts:
+            raise click.UsageError(f"{'--fixed-point' if fixed_point else '--reconnect'} is not for a rig's video")
+        rig_video(table, sources, paths[0], named[0].view, encoder, selection, not no_audio, table_sampling, interp,
+                  timeout_s)  # fmt: skip
+        return
+    if len(sources) != 1:
+        raise click.UsageError(f"a table takes one input, not {len(sources)} (several cameras make a rig)")
+    source = sources[0]
     check_outputs(
         [("the table", table), ("the input", local_file(source))],
         [(f"the output of view {item.name}", path) for item, path in zip(named, paths, strict=True)],
@@ -288,6 +305,48 @@ def video(
         click.echo(summary(report))
     if last is not None and last.outcome == "gave up":
         raise PanomapError(last.describe(source) + " (the segments written so far are kept)")
+
+
+def rig_video(
+    rig_path: Path,
+    sources: tuple[str, ...],
+    output: Path,
+    view: Any,
+    encoder: EncoderSettings,
+    selection: Selection,
+    audio: bool,
+    sampling: str,
+    interp: str,
+    timeout_s: float,
+) -> None:
+    """``panomap video RIG INPUT... --view SPEC``: the rig's blended view of its videos."""
+    if interp not in ("linear", "nearest"):
+        raise click.BadParameter("a rig's video reads linear or nearest", param_hint="'--interp'")
+    rig = load_rig(rig_path)
+    try:
+        check_rig_sources(rig, sources)
+    except PanomapError as exc:
+        raise usage_error(exc) from None
+    check_outputs(
+        [("the rig", rig_path), *((f"input {k + 1}", local_file(s)) for k, s in enumerate(sources))],
+        [("the output", output)],
+    )
+    for source in sources:
+        if local_file(source) is not None:
+            warn_rotation(Path(source))
+    stop = threading.Event()
+    progress = _Progress(not quiet() and sys.stderr.isatty())
+    try:
+        with stop_on_signals(stop):
+            report = unwarp_rig_video(
+                rig, list(sources), output, view, encoder=encoder, selection=selection, audio=audio,
+                sampling=sampling, interpolation=interp, stop=stop, progress=progress, warn=progress.write,
+                timeout_s=timeout_s,
+            )  # fmt: skip
+    finally:
+        progress.close()
+    if not quiet():
+        click.echo(summary(report).replace("unwarped", f"blended {rig.count} cameras' view:", 1))
 
 
 def summary(report: VideoReport) -> str:
