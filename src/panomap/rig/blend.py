@@ -8,10 +8,13 @@ each camera's own picture or, for a rig whose pictures share one frame, in the f
   distance, or a view of a surface (cylinder, plane, floor), each output pixel's point (relative to camera 0,
   the rig's reference) is seen along the ray from each camera's own O_m, so the floor map is exact for every
   camera.
-- **Weights** (:func:`feather_weights`): where several cameras see a pixel, each counts in proportion to its
-  distance (output px) from the edge of what it sees, as OpenCV's feather blender weighs: the weights cross the
-  overlap linearly and sum to 1; a pixel seen by one camera is that camera's. Panoramas wrap in azimuth, and so
-  do their distances.
+- **Weights** (:func:`feather_weights`): where several cameras see a pixel, each counts by its distance ``d``
+  (output px) from the edge of what it sees, as OpenCV's feather blender weighs, within a band about the seam:
+  ``w_k = max(0, d_k - d_max + 2 f)``, ``d_max`` the largest of the cameras' distances there and ``f`` the feather
+  (default 1% of the view's diagonal, at least 8 px), over their sum. The seam is where two cameras' distances
+  are equal; the weights cross it linearly over about ``2 f`` px and sum to 1; away from it the camera that sees
+  the pixel deepest takes it alone (a narrow band: less ghosting of near objects, and less to blend). Panoramas
+  wrap in azimuth, and so do their distances.
 - **Gains** (:func:`overlap_gains`): each camera's gain per channel, from the overlaps' means, by least squares
   with a prior of 1 (as OpenCV's gain compensator): a lens 15% brighter than its neighbour is matched before
   the blend, so no step shows at the seam.
@@ -66,9 +69,13 @@ def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear") -> list[
     return maps
 
 
-def feather_weights(maps: list[NDArray[np.float32]], wrap: bool = False) -> NDArray[np.float32]:
-    """(k, H, W) float32 weights: each camera's distance (px) from the edge of what it sees, over their sum
-    where several see a pixel; 0 where none does. ``wrap``: the columns wrap around (a panorama)."""
+def feather_weights(
+    maps: list[NDArray[np.float32]], wrap: bool = False, feather_px: float | None = None
+) -> NDArray[np.float32]:
+    """(k, H, W) float32 weights: each camera's distance (px) from the edge of what it sees, less the largest
+    camera's distance there and plus ``2 feather_px`` (at least 0), over their sum where several see a pixel; 0
+    where none does. ``wrap``: the columns wrap around (a panorama). ``feather_px``: default
+    :func:`default_feather_px`; ``inf`` weighs by the distances alone across the whole overlap."""
     seen = np.stack([np.all(np.isfinite(m), axis=-1) for m in maps])
     width = seen.shape[2]
     pad = width // 4 if wrap else 0
@@ -78,9 +85,19 @@ def feather_weights(maps: list[NDArray[np.float32]], wrap: bool = False) -> NDAr
         distance = cv2.distanceTransform(padded.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
         distances.append(distance[:, pad : pad + width] if pad else distance)
     weights = np.stack(distances).astype(np.float32)
+    feather = default_feather_px(seen.shape[1:]) if feather_px is None else float(feather_px)
+    if np.isfinite(feather):
+        weights -= weights.max(axis=0) - np.float32(2 * feather)
+        np.maximum(weights, 0, out=weights)
+        weights[~seen] = 0
     total = weights.sum(axis=0)
     np.divide(weights, total, out=weights, where=total > 0)
     return weights
+
+
+def default_feather_px(shape: tuple[int, ...]) -> float:
+    """The feather (output px) of a view of ``shape`` (H, W): 1% of its diagonal, at least 8 px."""
+    return max(8.0, 0.01 * float(np.hypot(shape[0], shape[1])))
 
 
 def overlap_gains(layers: list[NDArray[np.float32]], weights: NDArray[np.float32]) -> NDArray[np.float64]:
