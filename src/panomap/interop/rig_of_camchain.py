@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PanomapError
 from ..files import read_text
+from ..rig.check import PoseComparison, compare_poses
 from ..rig.rig import CameraRig
 from .readers.kalibr import looks_like, read_chain
 from .rig_of_models import RigCamera, axes_of_orientation, rig_info, rig_of_models
@@ -111,3 +113,26 @@ def rig_of_camchain(
     info = rig_info(path, digest, "kalibr", axes0, camera_position)
     return rig_of_models(cameras, path, axes0=axes0, centre0=camera_position, side_by_side=side_by_side, size=size,
                          fov_rad=fov_rad, outer_radii=outer_radii, info=info)  # fmt: skip
+
+
+# The tables of the rigs the pictures check compares (its view is 1.4 deg a pixel).
+CHECK_TABLE_SIZE = (1024, 256)
+
+
+def check_camchain_pictures(
+    path: str | Path,
+    pictures: Any,
+    *,
+    orientation_rad: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    side_by_side: bool = False,
+    fov_rad: float | None = None,
+    outer_radii: tuple[float | None, ...] | None = None,
+) -> PoseComparison:
+    """The camchain's rig measured in ``pictures`` (:func:`panomap.rig.check.compare_poses`) as given and with each
+    camera's ``T_cn_cnm1`` inverted in turn (labelled by the camera's name): an inverted pose and one whose rotation
+    block is transposed turn the camera alike (``R^T``), and the pictures (at infinity) cannot tell them apart."""
+    options: dict[str, Any] = {"orientation_rad": orientation_rad, "side_by_side": side_by_side,
+                               "fov_rad": fov_rad, "outer_radii": outer_radii, "size": CHECK_TABLE_SIZE}  # fmt: skip
+    given = rig_of_camchain(path, **options)
+    alternatives = {given.names[n]: rig_of_camchain(path, flipped=n, **options) for n in range(1, given.count)}
+    return compare_poses(given, alternatives, pictures)
