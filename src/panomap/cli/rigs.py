@@ -89,14 +89,19 @@ def rig_format(path: Path, format_: str | None) -> str | None:
     """The format of ``path`` where it holds a rig (a Kalibr camchain of two or more cameras each with its
     T_cn_cnm1, a Basalt calibration of two or more cameras with their T_imu_cam, a Hugin project of two or more
     images); None otherwise (the single camera's import says what is wrong with a file it cannot read)."""
-    from ..interop.readers import READERS
+    from ..interop.readers import READERS, basalt, hugin_pto, kalibr
 
     try:
         text = read_text(path)
         found = [name for name, entry in READERS.items() if entry.looks_like(text)] if format_ is None else [format_]
         if not found or found[0] not in ("kalibr", "basalt", "hugin"):
             return None
-        count = len(_cameras(path, found[0])[0])
+        if found[0] == "kalibr":
+            count = len(kalibr.read_chain(text, path))
+        elif found[0] == "basalt":
+            count = len(basalt.read(text, path, None).rig_poses)
+        else:
+            count = len(hugin_pto.read_images(text, path))
     except PanomapError:
         return None
     return found[0] if count > 1 else None
@@ -190,12 +195,12 @@ def _check_poses(
     flipped = comparison.alternatives[name]
     names = list(_names_of(calibration))
     k = names.index(name)
-    # The pair of that camera with the most shared pixels under the alternative.
-    mine = [(pair, value, count) for pair, (value, count) in flipped.pairs.items() if k in pair]
+    # The pair of that camera whose agreement the inversion improves most (a pair not overlapping as given: -1).
+    mine = [(pair, value) for pair, (value, _) in flipped.pairs.items() if k in pair]
     if not mine:
         where = f"the overlaps agree at {flipped.score:.2f} inverted, {shown} as given"
     else:
-        (i, j), value, _ = max(mine, key=lambda item: item[2])
+        (i, j), value = max(mine, key=lambda item: item[1] - given.pairs.get(item[0], (-1.0, 0))[0])
         before = given.pairs.get((i, j))
         as_given = f"{before[0]:.2f}" if before is not None else "no overlap"
         where = f"its overlap with {names[j if i == k else i]} agrees at {value:.2f} inverted, {as_given} as given"
