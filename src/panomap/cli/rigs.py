@@ -96,10 +96,12 @@ def rig_format(path: Path, format_: str | None) -> str | None:
         found = [name for name, entry in READERS.items() if entry.looks_like(text)] if format_ is None else [format_]
         if not found or found[0] not in ("kalibr", "basalt", "hugin"):
             return None
+        # A file naming one camera is no rig: it is not parsed here (the import parses it once).
         if found[0] == "kalibr":
-            count = len(kalibr.read_chain(text, path))
+            many = len(kalibr.CAMERA_MODEL_KEY.findall(text)) > 1
+            count = len(kalibr.read_chain(text, path)) if many else 1
         elif found[0] == "basalt":
-            count = len(basalt.read(text, path, None).rig_poses)
+            count = len(basalt.read(text, path, None).rig_poses) if text.count('"camera_type"') > 1 else 1
         else:
             count = len(hugin_pto.read_images(text, path))
     except PanomapError:
