@@ -19,7 +19,7 @@ from ..io.images import MAX_IMAGE_PIXELS
 from ..table.file import load_table, save_table
 from .calibrate import find_image_circles_in
 from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, Finite, orientation_option, orientation_rad, read_omni, say
-from .rigs import import_rig
+from .rigs import import_rig, rig_format
 
 
 @click.command("import")
@@ -62,9 +62,13 @@ from .rigs import import_rig
 )
 @click.option(
     "--image",
+    "images",
     type=PATH,
+    multiple=True,
     help="An image of the camera: its size is checked against the calibration's, and its image circle and "
-    "cut-off disc (when found) bound the table [default: the model's valid range in the image].",
+    "cut-off disc (when found) bound the table [default: the model's valid range in the image]. A rig takes its "
+    "frame (--side-by-side) or one picture per camera (--image each time): each lens's circle bounds its table, "
+    "and a camchain's poses are checked against the pictures.",
 )
 @click.option(
     "--image-size",
@@ -100,7 +104,7 @@ def import_(
     axis: str | None,
     tilt: str | tuple[float, float],
     camera: tuple[float, float, float],
-    image: Path | None,
+    images: tuple[Path, ...],
     image_size: tuple[int, int] | None,
     cutoff_radius: float | None,
     outer_radius: float | None,
@@ -111,9 +115,11 @@ def import_(
     """Make a table from a calibration: OCamCalib calib_results.txt, a Kalibr camchain, an OpenCV
     cv::fisheye or cv::omnidir FileStorage file, COLMAP cameras.txt, a BoofCV calibration YAML
     (omnidirectional_universal, kannala_brandt), a Basalt calibration JSON (ds, eucm, ucm, kb4,
-    pinhole-radtan8, pinhole) or a gyroflow lens profile (opencv_fisheye). A Kalibr camchain of several cameras,
-    each with its T_cn_cnm1, makes a rig (one file, every camera's table in one world: --orientation and
-    --camera place camera 0, looking ahead along +X by default); --camera-name picks one camera instead."""
+    pinhole-radtan8, pinhole), a gyroflow lens profile (opencv_fisheye) or a Hugin .pto project (rectilinear and
+    fisheye images). A file of several cameras makes a rig (one file, every camera's table in one world): a Kalibr
+    camchain (each camera's T_cn_cnm1) or a Basalt calibration (each camera's T_imu_cam), --orientation and
+    --camera placing camera 0, looking ahead along +X by default; a Hugin project in its own world (its yaw, pitch
+    and roll). --camera-name picks one camera instead."""
     if tilt == "fit":
         raise click.BadParameter(
             "an imported camera's tilt is given, not fitted: 'none' or 'DEG AZ_DEG'", param_hint="'--tilt'"
@@ -122,25 +128,32 @@ def import_(
         raise click.UsageError("give --orientation, or --axis and --tilt, not both")
     if camera_name is not None and camera_id is not None:
         raise click.UsageError("give --camera-name (Kalibr, Basalt) or --camera-id (COLMAP), not both")
-    if image is not None and image_size is not None:
+    if images and image_size is not None:
         raise click.UsageError("give --image or --image-size, not both")
     if image_size is not None and not (min(image_size) > 0 and image_size[0] * image_size[1] <= MAX_IMAGE_PIXELS):
         raise click.BadParameter(
             f"{image_size[0]}x{image_size[1]} is not an image size (positive, at most {MAX_IMAGE_PIXELS} pixels)",
             param_hint="'--image-size'",
         )
-    check_outputs([("the calibration", calibration), ("the image", image)], [("the output", output)])
-    if camera_name is None and camera_id is None and format_ in (None, "kalibr") and _camchain_rig(calibration):
-        one_camera: dict[str, object] = {"--axis": axis, "--image-size": image_size, "--cutoff-radius": cutoff_radius}
-        one_camera |= {"--outer-radius": outer_radius, "--tilt": None if tilt == "none" else tilt}
+    check_outputs(
+        [("the calibration", calibration), *(("the image", image) for image in images)], [("the output", output)]
+    )
+    rig = rig_format(calibration, format_) if camera_name is None and camera_id is None else None
+    if rig is not None:
+        one_camera = {"--axis": axis, "--image-size": image_size, "--cutoff-radius": cutoff_radius}
+        one_camera |= {"--outer-radius": outer_radius, "--tilt": None if tilt == "none" else str(tilt)}
         given = [name for name, value in one_camera.items() if value is not None]
         if given:
             raise click.UsageError(f"{', '.join(given)}: for one camera; a rig takes --orientation, --fov, --image")
-        import_rig(calibration, output, orientation=orientation, camera=camera, side_by_side=side_by_side,
-                   fov_deg=fov_deg, image=image, table_size=table_size, find_circles=find_image_circles_in)  # fmt: skip
+        import_rig(calibration, rig, output, orientation=orientation, camera=camera, side_by_side=side_by_side,
+                   fov_deg=fov_deg, images=images, table_size=table_size,
+                   find_circles=find_image_circles_in)  # fmt: skip
         return
     if side_by_side or fov_deg is not None:
-        raise click.UsageError("--side-by-side and --fov are for a rig (a Kalibr camchain of several cameras)")
+        raise click.UsageError("--side-by-side and --fov are for a rig (a file of several cameras)")
+    if len(images) > 1:
+        raise click.UsageError(f"one camera takes one --image, not {len(images)}")
+    image = images[0] if images else None
     axis = axis or "down"
     sources: dict[str, str] = {}
     imported = read_calibration(calibration, format_, camera_name or camera_id)
@@ -206,21 +219,6 @@ def _circle_radii(
         cutoff_radius = circles.cutoff.radius + offset
         sources["cutoff_radius"] = f"cut-off disc found in {image.name}"
     return cutoff_radius, outer_radius
-
-
-def _camchain_rig(path: Path) -> bool:
-    """Whether ``path`` is a Kalibr camchain of two or more cameras, each after the first with its T_cn_cnm1."""
-    from ..files import read_text
-    from ..interop.readers.kalibr import looks_like, read_chain
-
-    try:
-        text = read_text(path)
-        if not looks_like(text):
-            return False
-        chain = read_chain(text, path)
-    except PanomapError:
-        return False  # (the single camera's import says what is wrong)
-    return len(chain) > 1
 
 
 @click.command("orient")

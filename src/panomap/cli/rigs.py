@@ -3,6 +3,7 @@ cameras (the rig's file, what ``info`` says of it)."""
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -12,7 +13,7 @@ import click
 import numpy as np
 
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs
+from ..files import all_or_none, check_outputs, read_text
 from ..io.images import read_image, save_map, write_image
 from ..rig import CameraRig, RigRemapper, camera_maps, load_rig, save_rig
 from ..views import View
@@ -84,34 +85,83 @@ def _strongest_map(maps: list[Any], weights: Any) -> Any:
     return out
 
 
+def rig_format(path: Path, format_: str | None) -> str | None:
+    """The format of ``path`` where it holds a rig (a Kalibr camchain of two or more cameras each with its
+    T_cn_cnm1, a Basalt calibration of two or more cameras with their T_imu_cam, a Hugin project of two or more
+    images); None otherwise (the single camera's import says what is wrong with a file it cannot read)."""
+    from ..interop.readers import READERS, basalt, hugin_pto, kalibr
+
+    try:
+        text = read_text(path)
+        found = [name for name, entry in READERS.items() if entry.looks_like(text)] if format_ is None else [format_]
+        if not found or found[0] not in ("kalibr", "basalt", "hugin"):
+            return None
+        # A file naming one camera is no rig: it is not parsed here (the import parses it once).
+        if found[0] == "kalibr":
+            many = len(kalibr.CAMERA_MODEL_KEY.findall(text)) > 1
+            count = len(kalibr.read_chain(text, path)) if many else 1
+        elif found[0] == "basalt":
+            count = len(basalt.read(text, path, None).rig_poses) if text.count('"camera_type"') > 1 else 1
+        else:
+            count = len(hugin_pto.read_images(text, path))
+    except PanomapError:
+        return None
+    return found[0] if count > 1 else None
+
+
+def _cameras(path: Path, format_: str) -> tuple[list[Any], Any]:
+    """The rig's cameras (:class:`panomap.interop.rig_of_models.RigCamera`) and camera 0's axes where the file
+    gives them (Hugin's; None otherwise)."""
+    if format_ == "kalibr":
+        from ..interop.rig_of_camchain import camchain_cameras
+
+        return camchain_cameras(path), None
+    if format_ == "basalt":
+        from ..interop.rig_of_basalt import basalt_cameras
+
+        return basalt_cameras(path), None
+    from ..interop.rig_of_pto import pto_cameras
+
+    return pto_cameras(path)
+
+
 def import_rig(
     calibration: Path,
+    format_: str,
     output: Path,
     *,
     orientation: tuple[float, float, float] | None,
     camera: tuple[float, float, float],
     side_by_side: bool,
     fov_deg: float | None,
-    image: Path | None,
+    images: tuple[Path, ...],
     table_size: tuple[int, int] | None,
     find_circles: Callable[[Path, Any], Any],
 ) -> None:
-    """``panomap import`` of a camchain of several cameras: the rig's file."""
-    from ..interop.rig_of_camchain import rig_of_camchain
+    """``panomap import`` of a file of several cameras: the rig's file. With pictures of a camchain's rig, its
+    poses are checked against them (:mod:`panomap.rig.check`): one that looks inverted is refused."""
+    from ..interop.rig_of_models import axes_of_orientation, rig_info, rig_of_models
 
-    yaw, pitch, roll = (math.radians(a) for a in (orientation or (0.0, 0.0, 0.0)))
+    if format_ == "hugin" and orientation is not None:
+        raise click.UsageError(
+            "a Hugin project's cameras look as its yaw, pitch and roll say: --orientation does not apply"
+        )
+    cameras, axes0 = _cameras(calibration, format_)
+    orientation_rad = tuple(math.radians(a) for a in (orientation or (0.0, 0.0, 0.0)))
+    if axes0 is None:
+        axes0 = axes_of_orientation(orientation_rad)  # type: ignore[arg-type]
     outer_radii = None
-    if image is not None:
-        outer_radii = _circles_of_frame(calibration, image, side_by_side, find_circles)
-    rig = rig_of_camchain(
-        calibration,
-        orientation_rad=(yaw, pitch, roll),
-        camera_position=camera,
-        side_by_side=side_by_side,
-        size=table_size,
-        fov_rad=None if fov_deg is None else math.radians(fov_deg),
-        outer_radii=outer_radii,
-    )
+    pictures = None
+    if images:
+        pictures = _rig_pictures(cameras, images, side_by_side)
+        outer_radii = _circles_of_pictures(cameras, images, pictures, side_by_side, find_circles)
+    fov_rad = None if fov_deg is None else math.radians(fov_deg)
+    digest = hashlib.sha256(calibration.read_bytes()).hexdigest()
+    rig = rig_of_models(cameras, calibration, axes0=axes0, centre0=camera, side_by_side=side_by_side,
+                        size=table_size, fov_rad=fov_rad, outer_radii=outer_radii,
+                        info=rig_info(calibration, digest, format_, axes0, camera))  # fmt: skip
+    if pictures is not None and format_ == "kalibr":
+        _check_poses(calibration, pictures, orientation_rad, side_by_side, fov_rad, outer_radii)  # type: ignore[arg-type]
     with all_or_none():
         save_rig(rig, output)
     for line in rig.describe():
@@ -119,30 +169,96 @@ def import_rig(
     say(f"wrote {printable(str(output))}")
 
 
-def _circles_of_frame(
-    calibration: Path, image: Path, side_by_side: bool, find_circles: Callable[[Path, Any], Any]
-) -> tuple[float | None, ...]:
-    """Each camera's image circle (px about its principal point) found in its part of ``image`` (a frame holding
-    them side by side), where found; None where not."""
-    from ..files import read_text
-    from ..interop.readers.kalibr import read_chain
+def _check_poses(
+    calibration: Path,
+    pictures: list[Any],
+    orientation_rad: tuple[float, float, float],
+    side_by_side: bool,
+    fov_rad: float | None,
+    outer_radii: tuple[float | None, ...] | None,
+) -> None:
+    """Refuse a camchain whose pictures agree clearly better with one camera's pose inverted."""
+    from ..interop.rig_of_camchain import check_camchain_pictures
 
-    if not side_by_side:
-        raise click.UsageError("--image finds each camera's circle in one frame holding them: give --side-by-side")
-    frame = read_image(image)
+    comparison = check_camchain_pictures(
+        calibration,
+        pictures,
+        orientation_rad=orientation_rad,
+        side_by_side=side_by_side,
+        fov_rad=fov_rad,
+        outer_radii=outer_radii,
+    )
+    given = comparison.given
+    shown = f"{given.score:.2f}" if math.isfinite(given.score) else "no overlap"
+    say(f"the cameras' overlaps agree at {shown} in the pictures (zero-normalised cross-correlation)")
+    if comparison.suspect is None:
+        return
+    name = comparison.suspect
+    flipped = comparison.alternatives[name]
+    names = list(_names_of(calibration))
+    k = names.index(name)
+    # The pair of that camera whose agreement the inversion improves most (a pair not overlapping as given: -1).
+    mine = [(pair, value) for pair, (value, _) in flipped.pairs.items() if k in pair]
+    if not mine:
+        where = f"the overlaps agree at {flipped.score:.2f} inverted, {shown} as given"
+    else:
+        (i, j), value = max(mine, key=lambda item: item[1] - given.pairs.get(item[0], (-1.0, 0))[0])
+        before = given.pairs.get((i, j))
+        as_given = f"{before[0]:.2f}" if before is not None else "no overlap"
+        where = f"its overlap with {names[j if i == k else i]} agrees at {value:.2f} inverted, {as_given} as given"
+    raise PanomapError(
+        f"{name}'s T_cn_cnm1 looks inverted or transposed (its rotation the other way round): {where}", calibration
+    )
+
+
+def _names_of(calibration: Path) -> list[str]:
+    from ..interop.rig_of_camchain import camchain_cameras
+
+    return [camera.name for camera in camchain_cameras(calibration)]
+
+
+def _rig_pictures(cameras: list[Any], images: tuple[Path, ...], side_by_side: bool) -> list[Any]:
+    """The pictures of the rig: one frame holding them side by side, or one per camera (sizes checked)."""
+    sizes = [camera.imported.image_size for camera in cameras]
+    if side_by_side:
+        if len(images) != 1:
+            raise click.UsageError(
+                f"--side-by-side: give the one frame holding the cameras, not {len(images)} pictures"
+            )
+        frame_size = (sum(w for w, _ in sizes), max(h for _, h in sizes))
+        return [read_image(images[0], frame_size, "the rig's frame")]
+    if len(images) != len(cameras):
+        names = ", ".join(camera.name for camera in cameras)
+        raise click.UsageError(f"--image: give one picture per camera ({names}), or one frame with --side-by-side")
+    return [read_image(image, size, f"camera {camera.name}") for image, size, camera in
+            zip(images, sizes, cameras, strict=True)]  # fmt: skip
+
+
+def _circles_of_pictures(
+    cameras: list[Any],
+    images: tuple[Path, ...],
+    pictures: list[Any],
+    side_by_side: bool,
+    find_circles: Callable[[Path, Any], Any],
+) -> tuple[float | None, ...]:
+    """Each camera's image circle (px about its principal point) found in its picture (its part of the one frame),
+    where found; None where not."""
     radii: list[float | None] = []
     x = 0
-    for imported, _ in read_chain(read_text(calibration), calibration):
-        width, height = imported.image_size  # type: ignore[misc]
-        part = np.ascontiguousarray(frame[:height, x : x + width])
-        x += width
+    for k, camera in enumerate(cameras):
+        width, height = camera.imported.image_size
+        if side_by_side:
+            part, image = np.ascontiguousarray(pictures[0][:height, x : x + width]), images[0]
+            x += width
+        else:
+            part, image = pictures[k], images[k]
         try:
             circles = find_circles(image, part)
         except PanomapError as exc:
             click.echo(f"panomap: note: {printable(str(exc))}; its table stops at the model's range", err=True)
             radii.append(None)
             continue
-        u0, v0 = imported.model.principal_point
+        u0, v0 = camera.imported.model.principal_point
         offset = math.hypot(circles.centre[0] - u0, circles.centre[1] - v0)
         radii.append(circles.outer.radius - offset if circles.rim_seen > 0.25 else None)
     return tuple(radii)

@@ -3,9 +3,9 @@
 Convention (docs/conventions.md, "A rig"): a camchain's ``T_cn_cnm1`` takes a point from camera n-1's frame into
 camera n's, ``x_n = R x_(n-1) + t`` (OpenCV frames: x right, y down, z ahead); the rig's world is placed by
 camera 0's orientation (yaw, pitch, roll: its frame's axes ``G_0 = [R, Dn, F]``) and position ``c_0``. So
-camera n's frame has the world axes ``G_n = G_(n-1) R^T`` and its centre is at ``c_n = c_(n-1) - G_(n-1) R^T t``.
-Each camera's table is then :func:`.table_of_camera.table_of_camera` of its model looking along ``G_n`` from
-``c_n``.
+camera n's frame has the world axes ``G_n = G_(n-1) R^T`` and its centre is at ``c_n = c_(n-1) - G_(n-1) R^T t``:
+the chain gives each camera's pose relative to camera 0 (:func:`camchain_cameras`), and
+:func:`.rig_of_models.rig_of_models` makes each camera's table looking along ``G_n`` from ``c_n``.
 
 The check (:func:`check_pose`): each ``T_cn_cnm1``'s rotation block must be a rotation (orthonormal to 1e-6,
 determinant +1) and its bottom row (0, 0, 0, 1); a matrix that is not (a projection, a typo) is refused naming the
@@ -15,19 +15,18 @@ camera. An inverted or transposed pose is a rotation too: only the pictures tell
 from __future__ import annotations
 
 import hashlib
-import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera.orientation import angles_of_axes, view_axes
 from ..errors import PanomapError
 from ..files import read_text
+from ..rig.check import PoseComparison, compare_poses
 from ..rig.rig import CameraRig
 from .readers.kalibr import looks_like, read_chain
-from .table_of_camera import radius_profile, table_of_camera
+from .rig_of_models import RigCamera, axes_of_orientation, rig_info, rig_of_models
 
 # How close to a rotation a camchain's rotation block must be.
 ROTATION_TOLERANCE = 1e-6
@@ -49,6 +48,28 @@ def check_pose(
     return rotation, translation
 
 
+def camchain_cameras(path: str | Path, flipped: int | None = None) -> list[RigCamera]:
+    """Every camera of the camchain at ``path`` with its pose relative to camera 0 (:mod:`.rig_of_models`), the
+    chain's ``x_n = R x_(n-1) + t`` composed: ``A_n = A_(n-1) R^T``, ``t_n = t_(n-1) - A_(n-1) R^T t``.
+    ``flipped``: camera n's ``T_cn_cnm1`` taken inverted (``R^T``, ``-R^T t``), for the check of the pictures.
+    """
+    text = read_text(path)
+    if not looks_like(text):
+        raise PanomapError("not a Kalibr camchain (no camera_model entries): a rig is read from a camchain", path)
+    axes, centre = np.eye(3), np.zeros(3)
+    cameras = []
+    for k, (imported, matrix) in enumerate(read_chain(text, path)):
+        name = imported.camera or f"cam{k}"
+        if matrix is not None:
+            rotation, translation = check_pose(matrix, name, path)
+            if flipped == k:
+                rotation, translation = rotation.T, -rotation.T @ translation
+            centre = centre - axes @ rotation.T @ translation
+            axes = axes @ rotation.T
+        cameras.append(RigCamera(name, imported, axes, centre))
+    return cameras
+
+
 def rig_of_camchain(
     path: str | Path,
     *,
@@ -58,6 +79,7 @@ def rig_of_camchain(
     size: tuple[int, int] | None = None,
     fov_rad: float | None = None,
     outer_radii: tuple[float | None, ...] | None = None,
+    flipped: int | None = None,
 ) -> CameraRig:
     """The rig of every camera of the Kalibr camchain at ``path``.
 
@@ -80,63 +102,37 @@ def rig_of_camchain(
     outer_radii : tuple of float or None, optional
         Each camera's image circle (px about its principal point), where found in its picture; overrides
         ``fov_rad`` for that camera.
+    flipped : int, optional
+        Take camera ``flipped``'s ``T_cn_cnm1`` inverted (the check's alternative).
     """
-    text = read_text(path)
-    if not looks_like(text):
-        raise PanomapError("not a Kalibr camchain (no camera_model entries): a rig is read from a camchain", path)
-    chain = read_chain(text, path)
-    frame = view_axes(*orientation_rad)
-    axes = np.stack([frame[1], frame[2], frame[0]], axis=1)  # [R, Dn, F]
-    centre = np.asarray(camera_position, dtype=np.float64)
-    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    tables: list[Any] = []
-    names: list[str] = []
-    offsets: list[tuple[int, int]] = []
-    x = 0
-    for imported, matrix in chain:
-        name = imported.camera or f"cam{len(names)}"
-        if matrix is not None:
-            rotation, translation = check_pose(matrix, name, path)
-            centre = centre - axes @ rotation.T @ translation
-            axes = axes @ rotation.T
-        if imported.image_size is None:
-            raise PanomapError(f"{name} gives no resolution", path)
-        yaw, pitch, roll = angles_of_axes(axes[:, 2], axes[:, 0])
-        info = {
-            "import": {"file": Path(path).name, "sha256": digest, "format": "kalibr", "camera": name,
-                       "pixel_shift_px": 0.0},
-            "sources": {"centre": f"imported from {Path(path).name}", "camera_position": "the camchain's chain"},
-            "warnings": [],
-        }  # fmt: skip
-        outer = None if outer_radii is None else outer_radii[len(names)]
-        if outer is None and fov_rad is not None:
-            profile = radius_profile(imported.model, min(math.pi, fov_rad / 2 + 0.05))
-            outer = float(profile.radius_at(np.array([fov_rad / 2]))[0])
-        try:
-            table = table_of_camera(
-                imported.model,
-                outer_radius=outer,
-                orientation_rad=(yaw, pitch, roll),
-                camera_position=(float(centre[0]), float(centre[1]), float(centre[2])),
-                image_size=imported.image_size,
-                size=size,
-                info=info,
-            )
-        except PanomapError as exc:
-            raise PanomapError(f"{name}: {exc.detail}", path) from None
-        tables.append(table)
-        names.append(name)
-        offsets.append((x, 0))
-        x += imported.image_size[0]
-    if len(tables) < 2:
+    cameras = camchain_cameras(path, flipped)
+    if len(cameras) < 2:
         raise PanomapError("a rig needs two or more cameras; this camchain has one (import makes its table)", path)
-    rig_info = {
-        "source": {"file": Path(path).name, "sha256": digest, "format": "kalibr"},
-        "camera0": {
-            "yaw_deg": math.degrees(orientation_rad[0]),
-            "pitch_deg": math.degrees(orientation_rad[1]),
-            "roll_deg": math.degrees(orientation_rad[2]),
-            "position": list(camera_position),
-        },
-    }
-    return CameraRig(tuple(tables), tuple(names), tuple(offsets) if side_by_side else None, rig_info)
+    axes0 = axes_of_orientation(orientation_rad)
+    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    info = rig_info(path, digest, "kalibr", axes0, camera_position)
+    return rig_of_models(cameras, path, axes0=axes0, centre0=camera_position, side_by_side=side_by_side, size=size,
+                         fov_rad=fov_rad, outer_radii=outer_radii, info=info)  # fmt: skip
+
+
+# The tables of the rigs the pictures check compares (its view is 1.4 deg a pixel).
+CHECK_TABLE_SIZE = (1024, 256)
+
+
+def check_camchain_pictures(
+    path: str | Path,
+    pictures: Any,
+    *,
+    orientation_rad: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    side_by_side: bool = False,
+    fov_rad: float | None = None,
+    outer_radii: tuple[float | None, ...] | None = None,
+) -> PoseComparison:
+    """The camchain's rig measured in ``pictures`` (:func:`panomap.rig.check.compare_poses`) as given and with each
+    camera's ``T_cn_cnm1`` inverted in turn (labelled by the camera's name): an inverted pose and one whose rotation
+    block is transposed turn the camera alike (``R^T``), and the pictures (at infinity) cannot tell them apart."""
+    options: dict[str, Any] = {"orientation_rad": orientation_rad, "side_by_side": side_by_side,
+                               "fov_rad": fov_rad, "outer_radii": outer_radii, "size": CHECK_TABLE_SIZE}  # fmt: skip
+    given = rig_of_camchain(path, **options)
+    alternatives = {given.names[n]: rig_of_camchain(path, flipped=n, **options) for n in range(1, given.count)}
+    return compare_poses(given, alternatives, pictures)

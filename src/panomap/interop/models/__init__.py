@@ -16,6 +16,7 @@ from .kannala_brandt import KannalaBrandt, OpenCVFisheye
 from .kannala_brandt_full import KannalaBrandtFull
 from .mei import Mei
 from .ocam import OCam
+from .panotools import PanoToolsFisheye, PanoToolsRectilinear
 from .pinhole_radtan import PinholeRadtan
 
 
@@ -43,6 +44,8 @@ EXTERNAL_MODELS: dict[str, type[ExternalCamera]] = _registry(
     ColmapFOV,
     ColmapRadialFisheye,
     ColmapThinPrismFisheye,
+    PanoToolsFisheye,
+    PanoToolsRectilinear,
 )
 
 

@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 from ...errors import PanomapError
 from ...files import read_text
-from . import basalt, boofcv, colmap_cameras, gyroflow, kalibr, ocam_txt, opencv_storage
+from . import basalt, boofcv, colmap_cameras, gyroflow, hugin_pto, kalibr, ocam_txt, opencv_storage
 from .base import Imported, RigPose
 
 Reader = Callable[[str, "str | Path", "str | None"], Imported]
@@ -33,12 +33,13 @@ READERS: dict[str, Format] = {
     "colmap": Format(colmap_cameras.looks_like, colmap_cameras.read, many_cameras=True),
     "boofcv": Format(boofcv.looks_like, boofcv.read),
     "basalt": Format(basalt.looks_like, basalt.read, many_cameras=True),
+    "hugin": Format(hugin_pto.looks_like, hugin_pto.read, many_cameras=True),
 }
 
 
 def read_calibration(path: str | Path, format: str | None = None, camera: str | None = None) -> Imported:
     """The calibration in ``path``: its format from the content unless ``format`` (a key of READERS)
-    forces it; ``camera`` picks a Kalibr or Basalt camera (name or index) or a COLMAP camera id."""
+    forces it; ``camera`` picks a Kalibr, Basalt or Hugin camera (name or index) or a COLMAP camera id."""
     text = read_text(path)
     if format is None:
         found = [name for name, entry in READERS.items() if entry.looks_like(text)]

@@ -41,13 +41,13 @@ INTRINSIC_COUNTS = {"pinhole": 4, "omni": 5, "ds": 6, "eucm": 6}
 DISTORTION_COUNTS = {"equidistant": 4, "radtan": 4, "fov": 1, "none": 0}
 # A camera's entry as a camchain writes it: a ``camera_model:`` key (or one in a flow mapping). A file naming
 # it at the top level is claimed too, so that the reader says why it is not a camchain.
-_CAMERA_MODEL_KEY = re.compile(r"(^|[{,])[ \t]*[\"']?camera_model[\"']?[ \t]*:", re.MULTILINE)
+CAMERA_MODEL_KEY = re.compile(r"(^|[{,])[ \t]*[\"']?camera_model[\"']?[ \t]*:", re.MULTILINE)
 
 
 def looks_like(text: str) -> bool:
     """Whether ``text`` reads as a camchain: a ``camera_model:`` key, found in the text
     without parsing it (the reader parses it once, within bounds, and names what is wrong)."""
-    return "camera_model" in text and "opencv-matrix" not in text and _CAMERA_MODEL_KEY.search(text) is not None
+    return "camera_model" in text and "opencv-matrix" not in text and CAMERA_MODEL_KEY.search(text) is not None
 
 
 def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
