@@ -15,7 +15,7 @@ from panomap.simulate.cameras import (
     mount_rotation,
     standard_cameras,
 )
-from panomap.simulate.degrade import field_stop, housed_mirror, noisy_jpeg, vignette
+from panomap.simulate.degrade import dark_square, field_stop, housed_mirror, noisy_jpeg, vignette
 from panomap.simulate.room import (
     WALL_NAMES,
     Opening,
@@ -39,6 +39,7 @@ __all__ = [
     "SphericalMirrorCamera",
     "TiltedCamera",
     "Wall",
+    "dark_square",
     "field_stop",
     "housed_mirror",
     "load_room",

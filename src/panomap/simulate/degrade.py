@@ -1,5 +1,6 @@
-"""What a real lens, sensor and housing do to a rendered omni-image: vignetting, a dim side, a
-bright housing around a mirror with a camera board in it, a rim off the optical axis, noise, JPEG.
+"""What a real lens, sensor and housing do to a rendered omni-image: vignetting (to near black at the rim), a
+dim side, a bright housing around a mirror with a camera board in it, a rim off the optical axis, a dark
+square about the circle inside a black frame, noise, JPEG.
 
 Convention: pixel (u, v), u the column, v the row, the centre of the top-left pixel at
 (0, 0); images are (H, W[, C]) uint8.
@@ -23,12 +24,15 @@ def vignette(
     falloff: float = 0.5,
     dim: float = 0.0,
     dim_angle: float = 0.0,
+    power: float = 2.0,
 ) -> NDArray[np.uint8]:
     """Darken an image towards the rim of its image circle, more on one side.
 
     The gain at distance ``r`` from ``centre`` and image angle ``phi`` is
-    ``1 - falloff*(r/radius)**2 - dim*max(0, cos(phi - dim_angle))*(r/radius)**2``:
-    at the rim, ``1 - falloff`` all round and ``1 - falloff - dim`` on the dim side.
+    ``1 - falloff*(r/radius)**power - dim*max(0, cos(phi - dim_angle))*(r/radius)**power``:
+    at the rim, ``1 - falloff`` all round and ``1 - falloff - dim`` on the dim side. A lens whose
+    picture darkens to near black before its edge (a tracking camera's fisheye): ``falloff`` near 1,
+    ``power`` 4-6 (the middle barely dimmed, the last tenth of the radius falling steeply).
 
     Parameters
     ----------
@@ -42,17 +46,22 @@ def vignette(
     dim : float
         Extra darkening at the rim on the side ``dim_angle`` (rad), with
         ``falloff + dim < 1``.
+    power : float
+        Exponent of ``r/radius`` in the gain, > 0 (2: the cos^4 law's first term).
 
     Returns
     -------
     (H, W[, C]) uint8 ndarray
     """
-    if not (radius > 0 and 0 <= falloff and 0 <= dim and falloff + dim < 1):
-        raise PanomapError(f"need radius > 0, falloff, dim >= 0 and falloff + dim < 1; got {radius}, {falloff}, {dim}")
+    if not (radius > 0 and 0 <= falloff and 0 <= dim and falloff + dim < 1 and power > 0):
+        raise PanomapError(
+            f"need radius > 0, falloff, dim >= 0, falloff + dim < 1 and power > 0; "
+            f"got {radius}, {falloff}, {dim}, {power}"
+        )
     height, width = image.shape[:2]
     v, u = np.mgrid[0:height, 0:width].astype(np.float64)
     du, dv = u - centre[0], v - centre[1]
-    reach = (du**2 + dv**2) / radius**2
+    reach = ((du**2 + dv**2) / radius**2) ** (power / 2)
     side = np.maximum(0.0, np.cos(np.arctan2(dv, du) - dim_angle))
     gain = np.clip(1.0 - falloff * reach - dim * side * reach, 0.0, 1.0)
     if image.ndim == 3:
@@ -100,6 +109,59 @@ def field_stop(
     if image.ndim == 3:
         coverage = coverage[..., None]
     return np.clip(np.rint(image * coverage), 0, 255).astype(np.uint8)
+
+
+def dark_square(
+    image: NDArray[np.uint8],
+    centre: tuple[float, float],
+    radius: float,
+    half_side_px: float,
+    level: float = 30.0,
+    square_centre: tuple[float, float] | None = None,
+    glow: float = 0.0,
+) -> NDArray[np.uint8]:
+    """The image circle in a dark (not black) square, inside a black frame: a robot's or a tracking camera's
+    fisheye, whose sensor reads a pedestal (and the lens's flare) outside the circle, its picture then
+    placed in a larger black frame.
+
+    Outside the disc of ``radius`` about ``centre`` (the render's black, which must be there), the square of
+    half-side ``half_side_px`` about ``square_centre`` (default ``centre``) gets ``level`` grey levels, plus
+    a glow of ``glow`` levels at the rim that fades over a tenth of the radius; the frame past the square stays
+    black. The rim thus steps from the picture down to ``level``, and the square's edge from ``level`` to 0:
+    two nested edges, the outer one straight (and the square may be cut by the frame). Disc and square are
+    drawn with their exact coverage of each pixel.
+
+    Parameters
+    ----------
+    image : (H, W[, C]) uint8 ndarray
+        A render (black outside its circle).
+    centre : (u, v), px
+        Centre of the image circle.
+    radius, half_side_px : float
+        The circle's radius and the square's half-side (px), ``0 < radius``, ``half_side_px > 0``.
+    level, glow : float
+        Grey levels of the square and of the glow at the rim, each in ``[0, 255]``.
+    square_centre : (u, v), px, optional
+
+    Returns
+    -------
+    (H, W[, C]) uint8 ndarray
+    """
+    if not (radius > 0 and half_side_px > 0 and 0 <= level <= 255 and 0 <= glow <= 255):
+        raise PanomapError(
+            f"need radius, half_side_px > 0 and level, glow in [0, 255]; got {radius}, {half_side_px}, {level}, {glow}"
+        )
+    height, width = image.shape[:2]
+    v, u = np.mgrid[0:height, 0:width].astype(np.float64)
+    r = np.hypot(u - centre[0], v - centre[1])
+    middle = centre if square_centre is None else square_centre
+    chebyshev = np.maximum(np.abs(u - middle[0]), np.abs(v - middle[1]))
+    square = np.clip(half_side_px - chebyshev + 0.5, 0.0, 1.0)
+    outside = np.clip(r - radius + 0.5, 0.0, 1.0)
+    fill = square * outside * (level + glow * np.exp(-np.maximum(r - radius, 0.0) / (0.1 * radius)))
+    if image.ndim == 3:
+        fill = fill[..., None]
+    return np.clip(np.rint(image + fill), 0, 255).astype(np.uint8)
 
 
 def noisy_jpeg(

@@ -20,7 +20,14 @@ from .fitting import _ellipse
 from .frame import _arcs, _cropping_edges, _fraction_in_frame
 from .rim import _best_rim, _iterate_rim, _soft_rim, _soft_start
 from .sampling import _downscaled, to_grey
-from .starts import _coarse_circle, _concentric_centres, _concentric_circles, _outermost_edge_circle, _voted_circles
+from .starts import (
+    _coarse_circle,
+    _concentric_centres,
+    _concentric_circles,
+    _outermost_edge_circle,
+    _surround_floor,
+    _voted_circles,
+)
 from .thresholds import (
     CONCENTRIC_SEEDS,
     DARK_LEVEL,
@@ -34,6 +41,8 @@ from .thresholds import (
     NEAR_FRACTION,
     NEAR_PX,
     SOFT_RIM_RMS_PX,
+    STRETCH_BLACK_LEVEL,
+    STRETCH_LEAST_GAIN,
     WIDE_REACH,
 )
 from .types import ImageCircles, NoImageCircle, _Rim
@@ -85,13 +94,13 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         )
     small, factor = _downscaled(grey)
     reasons: list[str] = []
-    best = _search_stages(grey, small, factor, reasons)
-    if best is not None and best.polarity == 0:
-        best = _outermost_either(grey, best)
+    best = _search(grey, small, factor, reasons)
     if best is None:
-        best = _soft_start(grey, small, factor, reasons)
-    elif best.polarity != 0 and best.circle.rms_px > SOFT_RIM_RMS_PX:
-        best = _soft_rim(grey, best)
+        # A rim of low contrast: against a dark (not black) surround, or a picture dark at its edge.
+        stretched = above_floor(grey, _surround_floor(small))
+        if stretched is not None:
+            stretched_small, _ = _downscaled(stretched)
+            best = _search(stretched, stretched_small, factor, reasons)
     if best is None:
         raise _no_rim(grey, small, factor, reasons, frame_centre)
     outer = best.circle
@@ -111,6 +120,42 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         rim_polarity={1: "bright inside", -1: "dark inside"}.get(best.polarity) or _either_polarity(grey, outer),
         rim_arcs_deg=_arcs(best.points, outer),
     )
+
+
+def _search(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[str]) -> _Rim | None:
+    """The rim of the stages (:func:`_search_stages`): the outermost of either polarity, a soft rim re-measured,
+    a soft start where none passes; None where none does."""
+    best = _search_stages(grey, small, factor, reasons)
+    if best is not None and best.polarity == 0:
+        best = _outermost_either(grey, best)
+    if best is None:
+        best = _soft_start(grey, small, factor, reasons)
+    elif best.polarity != 0 and best.circle.rms_px > SOFT_RIM_RMS_PX:
+        best = _soft_rim(grey, best)
+    return best
+
+
+def above_floor(grey: NDArray[np.float32], floor: float | None) -> NDArray[np.float32] | None:
+    """A picture whose rim has little contrast, stretched over the range: ``floor`` (a dark surround's level, or
+    0) taken off, then every level times the gain that takes its ``DARK_PERCENTILE`` to 255 (at most
+    ``MAX_EXPOSURE_GAIN``), clipped to 0..255. None where that changes little (no floor and a gain under
+    ``STRETCH_LEAST_GAIN``): the search would find what it found; None too where the frame has no black
+    (its 2nd percentile over ``STRETCH_BLACK_LEVEL``: a full-frame fisheye whose corners are dim, not black).
+
+    The finder's thresholds are grey levels (a rim steps by 8): a rim against a dark (not black) square steps
+    down by the picture's level less the square's (10-15 levels, against the 30 of the square's edge), and a
+    picture that darkens to near black before its rim (strong vignetting) by 10 or so. Where no rim passed,
+    the search runs again on this picture: existing finds are unchanged.
+    """
+    sample = grey[:: max(1, grey.shape[0] // 400), :: max(1, grey.shape[1] // 400)]
+    black, level = (float(value) for value in np.percentile(sample, (2, DARK_PERCENTILE)))
+    base = 0.0 if floor is None else floor
+    if black > STRETCH_BLACK_LEVEL or level - base <= 0:
+        return None  # no black frame: a full-frame fisheye's dim corners are no rim's surround
+    gain = min(255.0 / (level - base), MAX_EXPOSURE_GAIN)
+    if floor is None and gain < STRETCH_LEAST_GAIN:
+        return None
+    return np.clip((grey - np.float32(base)) * np.float32(gain), np.float32(0.0), np.float32(255.0))
 
 
 def _search_stages(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[str]) -> _Rim | None:

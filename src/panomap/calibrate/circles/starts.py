@@ -28,6 +28,8 @@ from .thresholds import (
     FEATURE_MIN_STRENGTH,
     MIN_RIM_FRACTION,
     NEAR_PX,
+    NESTED_FLOOR_LEVELS,
+    NESTED_FLOOR_SPREAD,
     RAYS,
     STEP,
     VOTING_EDGES,
@@ -261,21 +263,83 @@ def _coarse_circle(small: NDArray[Any], factor: int) -> list[tuple[tuple[float, 
     """
     dark, bright = (float(level) for level in np.percentile(small, (2, 60)))
     if bright - dark < 10:
-        raise PanomapError("no image circle found: the image has no dark border around a brighter disc")
-    threshold = dark + 0.25 * (bright - dark)
+        # A disc covering under 40% of the frame (a small circle in a wide black frame): the bright
+        # level is taken from the pixels clearly over the border's.
+        lit = small[small > dark + 10]
+        if lit.size < 0.05 * small.size:
+            raise PanomapError("no image circle found: the image has no dark border around a brighter disc")
+        bright = float(np.percentile(lit, 60))
+    return [_blob_circle(_largest_blob(small, dark + 0.25 * (bright - dark)), small.shape, factor)]
+
+
+def _surround_floor(small: NDArray[Any]) -> float | None:
+    """The level of a dark (not black) surround within the frame's black, or None where there is none.
+
+    A robot's or tracking camera's fisheye may show its circle in a dark square (the sensor's
+    pedestal, the lens's flare: 10-40 grey levels) inside a black frame: the largest bright blob
+    of :func:`_coarse_circle` is then the square, and the rim steps down only to the square's level.
+    That blob's margin (a band 4 px wide just inside its outline, in the downscaled image) lies
+    NESTED_FLOOR_LEVELS or more over the frame's, with a brighter picture (the blob's 60th percentile
+    10 levels more) over it; the floor returned is the band's median plus 3 robust sigmas (its noise).
+    """
+    dark, bright = (float(level) for level in np.percentile(small, (2, 60)))
+    if bright - dark < 10:
+        return None
+    try:
+        contour = _largest_blob(small, dark + 0.25 * (bright - dark))
+    except PanomapError:
+        return None
+    inside = np.zeros(small.shape, np.uint8)
+    cv2.drawContours(inside, [contour], -1, 1, thickness=-1)
+    # The surround's level: a band just inside the blob's outline (the square's own margin), where the
+    # disc may touch it too: the median of its darker half and that half's spread.
+    band = (inside > 0) & (cv2.erode(inside, np.ones((9, 9), np.uint8)) == 0)
+    band[:2], band[-2:], band[:, :2], band[:, -2:] = False, False, False, False
+    if band.sum() < 50 or _round_blob(contour, small.shape):
+        return None  # (a disc's own margin, darkened by vignetting, is no surround)
+    values = small[band]
+    darker = values[values <= np.median(values)]
+    level = float(np.median(darker))
+    spread = 1.4826 * float(np.median(np.abs(darker - level)))
+    lit = float(np.percentile(small[inside > 0], 60))
+    floor = level + 3 * spread + 1
+    flat = spread <= NESTED_FLOOR_SPREAD  # a pedestal, not a textured picture
+    return floor if flat and level - dark >= NESTED_FLOOR_LEVELS and lit - floor >= 10 else None
+
+
+def _round_blob(contour: NDArray[Any], shape: tuple[int, ...]) -> bool:
+    """Whether a blob's outline away from the frame's edges lies on a circle (RMS under 2% of its radius)."""
+    points = contour.reshape(-1, 2).astype(np.float64)
+    height, width = shape[:2]
+    off = (points[:, 0] > 1) & (points[:, 1] > 1) & (points[:, 0] < width - 2) & (points[:, 1] < height - 2)
+    if off.sum() < 20:
+        return False
+    (cu, cv), radius = _algebraic_circle(points[off])
+    distance = np.hypot(points[off, 0] - cu, points[off, 1] - cv) - radius
+    return bool(np.sqrt(np.mean(distance**2)) < 0.02 * radius)
+
+
+def _largest_blob(small: NDArray[Any], threshold: float) -> NDArray[Any]:
+    """The outline (n, 1, 2) of the largest blob of ``small`` over ``threshold``, opened by 3 x 3; an error where
+    none covers 5% of the image."""
     mask: NDArray[Any] = (small > threshold).astype(np.uint8)
     mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
     contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     if not contours:
         raise PanomapError("no image circle found: nothing stands out from the border")
     contour = max(contours, key=cv2.contourArea)
-    area = cv2.contourArea(contour)
-    if area < 0.05 * small.size:
+    if cv2.contourArea(contour) < 0.05 * small.size:
         raise PanomapError("no image circle found: the largest bright region is too small")
+    return np.asarray(contour)
+
+
+def _blob_circle(contour: NDArray[Any], shape: tuple[int, ...], factor: int) -> tuple[tuple[float, float], float]:
+    """The circle (full-resolution px) through a blob's outline where it meets its convex hull, away from the
+    frame's edges (of a downscaled image of ``shape``, shrunk by ``factor``)."""
     points = contour.reshape(-1, 2).astype(np.float64)
-    height, width = small.shape
+    height, width = shape[:2]
     on_border = (points[:, 0] <= 1) | (points[:, 1] <= 1) | (points[:, 0] >= width - 2) | (points[:, 1] >= height - 2)
-    if np.sum(~on_border) < 0.3 * len(points) and _quadrants(points[~on_border], small.shape) < 3:
+    if np.sum(~on_border) < 0.3 * len(points) and _quadrants(points[~on_border], (height, width)) < 3:
         # (A round image just past the frame's sides still shows its rim about three or four corners.)
         raise PanomapError("no image circle found: the bright region fills the frame (no rim around it)")
     # Dark scene touching the rim dents the blob; the outline where it meets its convex hull is the rim.
@@ -285,4 +349,4 @@ def _coarse_circle(small: NDArray[Any], factor: int) -> list[tuple[tuple[float, 
     if len(arcs) < 20:
         arcs = points[~on_border]
     (cu, cv), radius = _algebraic_circle(arcs)
-    return [(_full_resolution((cu, cv), factor), radius * factor)]
+    return _full_resolution((cu, cv), factor), radius * factor

@@ -6,6 +6,11 @@ from __future__ import annotations
 
 RAYS = 720
 COARSE_SIDE = 400
+# A bright blob whose own floor (2nd percentile) lies this many grey levels over the frame's holds a dark surround
+# of its own (the circle in a dark square inside a black frame: squares of 10-40 levels): the disc is looked for in it.
+NESTED_FLOOR_LEVELS = 8.0
+# ... and is flat: its robust sigma (grey levels, in the smoothed downscaled image) at most this.
+NESTED_FLOOR_SPREAD = 6.0
 STEP = 0.5  # px between profile samples
 PROFILE_SIGMA_PX = 1.0  # smoothing of the profiles along their rays
 # Samples either side of an edge (4 px) that must lie in the frame, and those whose levels are compared.
@@ -122,3 +127,9 @@ DARK_PERCENTILE = 99.0
 DARK_LEVEL = 100.0
 EXPOSED_LEVEL = 200.0
 MAX_EXPOSURE_GAIN = 8.0
+# Where no rim passed, the search runs again on the picture stretched over the range (find.above_floor) where that
+# gains at least this much, or takes a dark surround's floor off.
+STRETCH_LEAST_GAIN = 1.5
+# ... and only where the frame has black in it (its 2nd percentile at most this): the real surround-view fisheyes
+# whose circles hold the frame have corners at 30-45 grey levels, and one was taken for a rim when stretched.
+STRETCH_BLACK_LEVEL = 12.0
