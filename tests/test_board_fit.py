@@ -344,3 +344,26 @@ def test_a_boards_face_is_its_normals_angle_from_the_axis() -> None:
     poses[2, :3] = [0.0, math.radians(135.0), 0.0]  # 135 deg: its back 45 deg off the axis
     poses[3, :3] = Rotation.from_euler("zx", [70.0, 90.0], degrees=True).as_rotvec()  # upright
     np.testing.assert_allclose(board_axis_deg(poses), [0.0, 30.0, 45.0, 90.0], atol=1e-9)
+
+
+@pytest.mark.parametrize(("kind", "axis"), [("odd3", "down"), ("unified", "down"), ("poly3", "up")])
+def test_the_fits_jacobian_is_the_derivative_of_its_residuals(kind: str, axis: str) -> None:
+    """The fit's closed-form Jacobian (f_r's derivatives differenced) against central differences of the
+    residuals through the whole projection: equal to 1e-6 of the largest derivative (both are differences of
+    smooth functions with steps of 1e-6; what is left is their rounding)."""
+    from scipy.optimize._numdiff import approx_derivative
+
+    from panomap.calibrate.boards.fit import _jacobian, _residuals
+    from panomap.camera.radial import fit_radial
+
+    grid = np.stack(np.meshgrid(np.arange(5), np.arange(4)), axis=-1).reshape(-1, 2)
+    boards = [Board(k, np.zeros((len(grid), 2)), grid) for k in range(3)]
+    rng = np.random.default_rng(54)
+    observed = rng.uniform(100.0, 900.0, (3 * len(grid), 2))
+    rho = np.linspace(-0.6, 0.4, 50)
+    coefficients = fit_radial(kind, rho, 150.0 * (rho + 1.6), axis).coefficients
+    poses = np.concatenate([[0.3, 0.2, 0.1, -3.0 + k, 2.0, 5.0 + k] for k in range(3)])
+    x = np.concatenate([[512.0, 384.0], coefficients, poses])
+    closed = _jacobian(x, kind, axis, boards, observed).toarray()
+    numeric = approx_derivative(_residuals, x, method="3-point", args=(kind, axis, boards, observed))
+    assert np.abs(closed - numeric).max() < 1e-6 * np.abs(numeric).max()
