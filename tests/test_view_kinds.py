@@ -19,7 +19,7 @@ from panomap.views import GenericPanorama, View, view_kinds
 from panomap.views.base import ParameterError, Value
 from panomap.views.spec import KINDS, parse_view_spec, view_from_params
 
-SHARED = {"table", "image", "output", "save_map", "save_map_pgm", "quiet", "interp", "table_sampling"}
+SHARED = {"table", "images", "output", "save_map", "each", "save_map_pgm", "quiet", "interp", "table_sampling"}
 # The flags the README and docs have always used: each must stay an alias of its parameter.
 LEGACY = {
     "--start-deg": ("panorama", "start"),

@@ -28,7 +28,10 @@ MAX_TABLE_BYTES = 1 << 31
 
 
 def is_rig_file(path: str | Path) -> bool:
-    """Whether ``path`` is a rig file (a zip holding ``rig.json``); False for a table file or anything else."""
+    """Whether ``path`` is a rig file (a zip holding ``rig.json``); False for a table file or anything else (a FIFO,
+    a folder or a missing file too: the caller's own checks then name them, and nothing blocks on a pipe)."""
+    if not Path(path).is_file():
+        return False
     try:
         with zipfile.ZipFile(Path(path)) as archive:
             return "rig.json" in archive.namelist()
