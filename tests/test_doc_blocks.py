@@ -32,7 +32,9 @@ RUN = {"python", "console"}
 SHOWN = {"text", "csv", "json", "yaml", "{toctree}", "{eval-rst}"}
 # The blocks marked not run, at most (each marked in its page with its reason): a ceiling, so that marking
 # another block is a decision seen here.
-MOST_NOT_RUN = 25  # (19-25: a camera looking ahead, a rig, learning a rig, a rig's videos: their users' own files; issues 51, 52)
+MOST_NOT_RUN = (
+    25  # (19-25: a camera looking ahead, a rig, learning a rig, a rig's videos: their users' own files; issues 51, 52)
+)
 
 
 @dataclass(frozen=True)

@@ -26,10 +26,8 @@ from panomap.cli.app import main
 from panomap.learn.server import LearnServer, make_server
 from panomap.learn.session import Session
 from panomap.simulate.example import Example
-from panomap.simulate.line_scenes import line_camera, render_line_scene
 from panomap.table.file import load_table
-from test_learn_lines import SCALE as LINES_SCALE
-from test_learn_lines import learned_pixel, true_pixel
+from test_learn_lines import learned_pixel, room_scene, true_pixel
 
 from helpers import chromium, serving
 
@@ -309,11 +307,10 @@ def test_dragging_the_circles_and_editing_landmarks(browser: Any, serve: Any, ex
 
 
 def test_learning_from_lines_in_the_browser(browser: Any, serve: Any, tmp_path: Path) -> None:
-    """ "learn from lines" on a rendered room (a tilted hyperbolic mirror): the report and the lines drawn, then
+    """ "learn from lines" on a rendered room with boards (a hyperbolic mirror): the report and the lines drawn, then
     "set azimuth 0 by a click" on the true pixel of world azimuth 0 (it adds no landmark), and the line table
     saved: its world azimuth 90 deg within 2.5 px of the truth (``tests/test_learn_lines.py`` measures 0.84)."""
-    camera = line_camera("hyperbolic", LINES_SCALE, tilt_deg=2.0, toward_deg=30.0)
-    image = render_line_scene(camera, seed=4, supersample=2).image
+    camera, image = room_scene()
     folder = tmp_path / "work"
     folder.mkdir()
     view = Page(browser, serve(Session(image, "room.png", folder)))
@@ -322,7 +319,7 @@ def test_learning_from_lines_in_the_browser(browser: Any, serve: Any, tmp_path: 
     page.click("#learn-lines")
     page.wait_for_selector("#lines-status[data-revision='1']")
     lines = view.js("window.panomap.state.lines")
-    assert lines["ok"] and lines["lines_used"] >= 30, lines["message"]
+    assert lines["ok"] and lines["boards"] == 2 and lines["lines_used"] >= 20, lines["message"]
     assert page.inner_text("#lines-status").startswith("learned from")
     assert page.locator("#lines-report li").count() >= 4
     green = view.js(
@@ -336,6 +333,9 @@ def test_learning_from_lines_in_the_browser(browser: Any, serve: Any, tmp_path: 
     u, v = (float(x) for x in true_pixel(camera, 0.0))
     view.js(f"window.panomap.zoomTo({u!r}, {v!r}, {CLICK_SCALE})")
     page.click("#lines-azimuth")
+    # The report above the image (longer with boards) can push the image's foot below the window, and a press
+    # on the image focuses it, which scrolls it into view between the press and the release: scroll first.
+    view.js("document.getElementById('image-canvas').scrollIntoView({block: 'nearest'})")
     page.mouse.click(*view.client_point(u, v))
     page.wait_for_selector("#lines-status[data-revision='2']")
     zero = view.js("window.panomap.state.lines.azimuth_zero")

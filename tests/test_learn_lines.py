@@ -1,7 +1,8 @@
 """``panomap learn``'s "learn from lines", through its JSON API (urllib against a server thread on port 0).
 
-Ground truth: a room rendered through a tilted hyperbolic-mirror camera (:mod:`panomap.simulate.line_scenes`,
-vignetting, sensor noise, JPEG), whose rays are known from the simulated camera's closed-form projection:
+Ground truth: a room (with two boards) rendered through a hyperbolic-mirror camera
+(:mod:`panomap.simulate.line_scenes`, vignetting, sensor noise, JPEG), whose rays are known from the simulated
+camera's closed-form projection:
 the camera learned from the image's lines, its azimuth set by a click, is compared with it in px.
 """
 
@@ -31,8 +32,17 @@ ELEVATION_DEG = -30.0
 
 @pytest.fixture(scope="module")
 def room() -> tuple[TiltedCamera, np.ndarray]:
-    camera = line_camera("hyperbolic", SCALE, tilt_deg=2.0, toward_deg=30.0)
-    return camera, render_line_scene(camera, seed=4, supersample=2).image
+    return room_scene()
+
+
+def room_scene() -> tuple[TiltedCamera, np.ndarray]:
+    """The rendered room with two checkerboards held in it: a room's lines alone, seen by a camera looking down,
+    cannot pin it (they run along and across its axis: docs/lines.md), and the page says so."""
+    from panomap.simulate.board_scenes import board_poses, render_board_scene
+
+    camera = line_camera("hyperbolic", SCALE, tilt_deg=0.0, toward_deg=30.0)
+    image = render_board_scene(camera, board_poses(camera, 2, seed=34), seed=4, supersample=2).image
+    return camera, image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
 
 
 def serve(image: np.ndarray, folder: Path) -> Iterator[Client]:
@@ -63,21 +73,21 @@ def learned_pixel(model: Any, azimuth_deg: float, elevation_deg: float = ELEVATI
 def test_learn_from_lines_then_a_click_sets_azimuth_zero_and_the_table_is_the_commands(
     client: Client, room: tuple[TiltedCamera, np.ndarray], tmp_path: Path
 ) -> None:
-    """The page learns the camera from the room's lines (centre within 0.6 px of the truth, measured 0.26; the
-    tilt within 0.5 deg, measured 0.1), draws every line used and set aside, and after a click at the true pixel
-    of world azimuth 0 puts world azimuth 90 deg within 2.5 px of the truth (measured 0.84 px; 38 px before the
-    click: the azimuth origin is arbitrary until then). The saved table is ``panomap fit --image
+    """The page learns the camera from the room's boards and lines (a level camera: the room's lines alone cannot
+    pin it; centre within 1 px of the truth, the camera level), draws every line used and set aside, and after a
+    click at the true pixel of world azimuth 0 puts world azimuth 90 deg within 2.5 px of the truth (the azimuth
+    origin is arbitrary until then: more than 20 px before the click). The saved table is ``panomap fit --image
     --azimuth-zero U V``'s."""
     camera, image = room
     status, state = client.post("/api/lines", {})
     assert status == 200, state
     lines = state["lines"]
     assert lines["ok"] and lines["revision"] == 1, lines
-    assert lines["lines_used"] >= 30 and lines["rms_px"] < 0.3
+    assert lines["boards"] == 2 and lines["lines_used"] >= 20 and lines["rms_px"] < 0.3
     assert len(lines["used"]) == lines["lines_used"] and all(line["points"] for line in lines["used"])
     assert len(lines["rejected"]) == lines["arcs_rejected"]
-    assert math.dist(lines["centre"], camera.centre) < 0.6
-    assert abs(lines["tilt_deg"] - 2.0) < 0.5
+    assert math.dist(lines["centre"], camera.centre) < 1.0
+    assert abs(lines["tilt_deg"]) < 0.5  # (boards know no vertical: the camera is taken as level, as it is)
     assert any(sentence.startswith("azimuth 0 is image angle 0") for sentence in lines["sentences"])
     assert client.get("/api/state")["lines"] == lines  # the state holds it
 

@@ -22,9 +22,8 @@ from ...geometry import FloatArray
 
 # Seeds (columns, rows of inner corners) the detector grows from; the largest board found is kept.
 SEEDS = ((3, 3), (4, 4), (5, 5))
-# The seed of the searches after a board was found: one (each search costs 0.1-0.3 s a seed), and not the
-# smallest, which finds 3 x 3 grids in a scene's texture.
-LATER_SEEDS = ((4, 4),)
+# Seeds tried in the searches after a board was found.
+LATER_SEEDS = 2
 # The detector draws random samples from OpenCV's global generator; it is seeded before every search.
 RNG_SEED = 20071
 # Most boards searched for in one image.
@@ -39,7 +38,7 @@ MAX_SMALL_FINDS = 3
 SEARCH_SIZE_PX = 1400
 # The half-width (px) of the window a corner is refined in: a quarter of the way to its nearest corner, at
 # least MIN (smaller squares keep the detector's estimate) and at most MAX.
-MIN_WINDOW_PX = 3
+MIN_WINDOW_PX = 4
 MAX_WINDOW_PX = 15
 
 
@@ -90,7 +89,7 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
     small = 0
     while len(boards) < max_boards and small < MAX_SMALL_FINDS:
         # every seed on the first search; after a board, fewer (a search that finds nothing costs all of them)
-        found = _largest(search, SEEDS if searched == 0 else LATER_SEEDS)
+        found = _largest(search, SEEDS if searched == 0 else SEEDS[:LATER_SEEDS])
         searched += 1
         if found is None:
             break
@@ -112,24 +111,14 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
 def _largest(
     search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...]
 ) -> tuple[FloatArray, tuple[int, int]] | None:
-    """The largest board the detector grows from any seed: corners (n, 2) px and (rows, columns).
-
-    Two seeds in a row that grow to the same board (MIN_CORNERS or more) end the search: the board has grown as
-    far as it will. Without ``CALIB_CB_ACCURACY`` (which searches the image upsampled, 3.5 times the time): the
-    corners are refined in full afterwards (:func:`_refine`), as close to the real sets' own corners.
-    """
-    flags = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER
+    """The largest board the detector grows from any seed: corners (n, 2) px and (rows, columns)."""
+    flags = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER | cv2.CALIB_CB_ACCURACY
     best: tuple[FloatArray, tuple[int, int]] | None = None
-    previous = -1
     for seed in seeds:
         cv2.setRNGSeed(RNG_SEED)  # the detector samples with OpenCV's global generator: the same image, the same boards
         found, corners, meta = cv2.findChessboardCornersSBWithMeta(search, seed, flags=flags)
-        count = len(corners) if found and corners is not None else 0
-        if count and (best is None or count > len(best[0])):
+        if found and corners is not None and (best is None or len(corners) > len(best[0])):
             best = (corners.reshape(-1, 2).astype(np.float64), (int(meta.shape[0]), int(meta.shape[1])))
-        if count >= MIN_CORNERS and count == previous:
-            break
-        previous = count
     return best
 
 
