@@ -16,10 +16,9 @@ import cv2
 import numpy as np
 import pytest
 
-from panomap import import_calibration
 from panomap.calibrate.level import level_table
 from panomap.errors import PanomapError
-from test_orientation import CX, CY, F_PX, HALF_FOV_DEG, HEIGHT, WIDTH, conventions_axes
+from test_orientation import CX, CY, F_PX, HALF_FOV_DEG, HEIGHT, WIDTH, conventions_axes, oriented_table, write_camchain
 
 from helpers import assert_one_line_error, run
 
@@ -66,21 +65,7 @@ def axis_error_deg(found: tuple[float, float, float], truth: tuple[float, float,
 
 @pytest.fixture(scope="module")
 def camchain(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("level") / "camchain.yaml"
-    path.write_text(
-        f"cam0:\n  camera_model: pinhole\n  intrinsics: [{F_PX}, {F_PX}, {CX}, {CY}]\n"
-        "  distortion_model: equidistant\n  distortion_coeffs: [0.0, 0.0, 0.0, 0.0]\n"
-        f"  resolution: [{WIDTH}, {HEIGHT}]\n"
-    )
-    return path
-
-
-def started(camchain: Path, orientation: tuple[float, float, float]):  # type: ignore[no-untyped-def]
-    return import_calibration(
-        camchain,
-        orientation_rad=tuple(math.radians(a) for a in orientation),  # type: ignore[arg-type]
-        outer_radius=F_PX * math.radians(HALF_FOV_DEG),
-    )
+    return write_camchain(tmp_path_factory.mktemp("level") / "camchain.yaml")
 
 
 @pytest.mark.parametrize(
@@ -92,7 +77,7 @@ def test_level_finds_the_vertical_of_a_world_of_vertical_edges(camchain: Path, t
     """From 8-10 deg off, the vertical is found within 0.1 deg (measured 0.01-0.03), the stated 95% bound holds
     it, and the yaw is the start's."""
     picture = render(striped_world(), truth)
-    result = level_table(started(camchain, start), [picture])
+    result = level_table(oriented_table(camchain, start), [picture])
     error = axis_error_deg(result.orientation_deg, truth)
     assert error < 0.1
     assert error <= result.uncertainty_deg
@@ -107,7 +92,7 @@ def test_a_picture_without_verticals_is_refused(camchain: Path, tmp_path: Path) 
         world[row : row + 30] = 180
     picture = render(world, (0.0, 0.0, 0.0))
     with pytest.raises(PanomapError, match="vertical lines found"):
-        level_table(started(camchain, (0.0, 5.0, 0.0)), [picture])
+        level_table(oriented_table(camchain, (0.0, 5.0, 0.0)), [picture])
     table, image = tmp_path / "t.npz", tmp_path / "flat.png"
     cv2.imwrite(str(image), picture)
     assert run("import", camchain, "-o", table, "--orientation", "0", "5", "0").exit_code == 0
@@ -124,5 +109,5 @@ def test_level_on_real_photographs(camchain: Path, name: str) -> None:
     in every view of them, which no picture of them can tell)."""
     photograph = cv2.imread(str(PANORAMAS / name))
     for truth, start in (((20.0, 5.0, -3.0), (20.0, 11.0, 2.0)), ((0.0, -60.0, 0.0), (0.0, -54.0, 4.0))):
-        result = level_table(started(camchain, start), [render(photograph, truth)])
+        result = level_table(oriented_table(camchain, start), [render(photograph, truth)])
         assert axis_error_deg(result.orientation_deg, truth) < 0.6

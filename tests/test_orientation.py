@@ -69,9 +69,8 @@ def equirect_rays(width: int, height: int, yaw_deg: float = 0.0) -> np.ndarray:
     )
 
 
-@pytest.fixture(scope="module")
-def camchain(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("orientation") / "camchain.yaml"
+def write_camchain(path: Path) -> Path:
+    """The ideal equidistant fisheye as a Kalibr camchain at ``path``."""
     path.write_text(
         "cam0:\n  camera_model: pinhole\n"
         f"  intrinsics: [{F_PX}, {F_PX}, {CX}, {CY}]\n"
@@ -79,6 +78,11 @@ def camchain(tmp_path_factory: pytest.TempPathFactory) -> Path:
         f"  resolution: [{WIDTH}, {HEIGHT}]\n"
     )
     return path
+
+
+@pytest.fixture(scope="module")
+def camchain(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_camchain(tmp_path_factory.mktemp("orientation") / "camchain.yaml")
 
 
 def oriented_table(camchain: Path, orientation: tuple[float, float, float]):  # type: ignore[no-untyped-def]
