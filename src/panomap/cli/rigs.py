@@ -3,7 +3,6 @@ cameras (the rig's file, what ``info`` says of it)."""
 
 from __future__ import annotations
 
-import hashlib
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -140,7 +139,7 @@ def import_rig(
 ) -> None:
     """``panomap import`` of a file of several cameras: the rig's file. With pictures of a camchain's rig, its
     poses are checked against them (:mod:`panomap.rig.check`): one that looks inverted is refused."""
-    from ..interop.rig_of_models import axes_of_orientation, rig_info, rig_of_models
+    from ..interop.rig_of_models import axes_of_orientation, rig_of_models
 
     if format_ == "hugin" and orientation is not None:
         raise click.UsageError(
@@ -156,10 +155,8 @@ def import_rig(
         pictures = _rig_pictures(cameras, images, side_by_side)
         outer_radii = _circles_of_pictures(cameras, images, pictures, side_by_side, find_circles)
     fov_rad = None if fov_deg is None else math.radians(fov_deg)
-    digest = hashlib.sha256(calibration.read_bytes()).hexdigest()
-    rig = rig_of_models(cameras, calibration, axes0=axes0, centre0=camera, side_by_side=side_by_side,
-                        size=table_size, fov_rad=fov_rad, outer_radii=outer_radii,
-                        info=rig_info(calibration, digest, format_, axes0, camera))  # fmt: skip
+    rig = rig_of_models(cameras, calibration, format_, axes0=axes0, centre0=camera, side_by_side=side_by_side,
+                        size=table_size, fov_rad=fov_rad, outer_radii=outer_radii)  # fmt: skip
     if pictures is not None and format_ == "kalibr":
         _check_poses(calibration, pictures, orientation_rad, side_by_side, fov_rad, outer_radii)  # type: ignore[arg-type]
     with all_or_none():

@@ -8,7 +8,6 @@ orientation and position given, as for a camchain.
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +18,7 @@ from ..geometry import FloatArray
 from ..rig.rig import CameraRig
 from .readers import basalt
 from .readers.base import RigPose
-from .rig_of_models import RigCamera, axes_of_orientation, rig_info, rig_of_models
+from .rig_of_models import RigCamera, axes_of_orientation, rig_of_models
 
 # How far from 1 a pose's quaternion's norm may be.
 QUATERNION_TOLERANCE = 1e-3
@@ -72,7 +71,5 @@ def rig_of_basalt(
     """The rig of every camera of the Basalt calibration at ``path`` (parameters as :func:`.rig_of_camchain`)."""
     cameras = basalt_cameras(path)
     axes0 = axes_of_orientation(orientation_rad)
-    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    info = rig_info(path, digest, "basalt", axes0, camera_position)
-    return rig_of_models(cameras, path, axes0=axes0, centre0=camera_position, side_by_side=side_by_side, size=size,
-                         fov_rad=fov_rad, outer_radii=outer_radii, info=info)  # fmt: skip
+    return rig_of_models(cameras, path, "basalt", axes0=axes0, centre0=camera_position, side_by_side=side_by_side,
+                         size=size, fov_rad=fov_rad, outer_radii=outer_radii)  # fmt: skip

@@ -14,7 +14,6 @@ camera. An inverted or transposed pose is a rotation too: only the pictures tell
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +25,7 @@ from ..files import read_text
 from ..rig.check import PoseComparison, compare_poses
 from ..rig.rig import CameraRig
 from .readers.kalibr import looks_like, read_chain
-from .rig_of_models import RigCamera, axes_of_orientation, rig_info, rig_of_models
+from .rig_of_models import RigCamera, axes_of_orientation, rig_of_models
 
 # How close to a rotation a camchain's rotation block must be.
 ROTATION_TOLERANCE = 1e-6
@@ -109,10 +108,8 @@ def rig_of_camchain(
     if len(cameras) < 2:
         raise PanomapError("a rig needs two or more cameras; this camchain has one (import makes its table)", path)
     axes0 = axes_of_orientation(orientation_rad)
-    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    info = rig_info(path, digest, "kalibr", axes0, camera_position)
-    return rig_of_models(cameras, path, axes0=axes0, centre0=camera_position, side_by_side=side_by_side, size=size,
-                         fov_rad=fov_rad, outer_radii=outer_radii, info=info)  # fmt: skip
+    return rig_of_models(cameras, path, "kalibr", axes0=axes0, centre0=camera_position, side_by_side=side_by_side,
+                         size=size, fov_rad=fov_rad, outer_radii=outer_radii)  # fmt: skip
 
 
 # The tables of the rigs the pictures check compares (its view is 1.4 deg a pixel).

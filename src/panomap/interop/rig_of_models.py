@@ -11,6 +11,7 @@ looks along ``G_k = G_0 A_k`` from ``c_k = c_0 + G_0 t_k``; its table is
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -46,6 +47,7 @@ def axes_of_orientation(orientation_rad: tuple[float, float, float]) -> FloatArr
 def rig_of_models(
     cameras: Sequence[RigCamera],
     path: str | Path,
+    format: str,
     *,
     axes0: FloatArray,
     centre0: tuple[float, float, float] = (0.0, 0.0, 0.0),
@@ -53,7 +55,6 @@ def rig_of_models(
     size: tuple[int, int] | None = None,
     fov_rad: float | None = None,
     outer_radii: Sequence[float | None] | None = None,
-    info: dict[str, Any] | None = None,
 ) -> CameraRig:
     """The rig of ``cameras`` (two or more, camera 0 first), camera 0 looking along ``axes0`` from ``centre0``.
 
@@ -62,7 +63,9 @@ def rig_of_models(
     cameras : sequence of RigCamera
         Each camera's calibration and pose relative to camera 0 (the module's convention).
     path : path
-        The file they came from (named in errors and each table's record).
+        The file they came from (named in errors, and in each table's record and the rig's with its SHA-256).
+    format : str
+        Its format (``kalibr``, ``basalt``, ``hugin``), in the rig's record.
     axes0 : (3, 3)
         Camera 0's frame axes in the world (columns: right, down, ahead).
     centre0 : (X0, Y0, Z0)
@@ -75,14 +78,12 @@ def rig_of_models(
         Each lens's field of view across (rad): its table stops ``fov/2`` from its axis.
     outer_radii : sequence of float or None, optional
         Each camera's image circle (px about its principal point) where known; overrides ``fov_rad``.
-    info : dict, optional
-        The rig's record (its source file, how its world was placed).
     """
     if len(cameras) < 2:
         raise PanomapError(f"a rig needs two or more cameras; this file has {len(cameras)}", path)
     g0 = np.asarray(axes0, dtype=np.float64)
     c0 = np.asarray(centre0, dtype=np.float64)
-    source = (info or {}).get("source", {})
+    info = _rig_info(path, format, g0, centre0)
     tables, offsets, x = [], [], 0
     for k, camera in enumerate(cameras):
         imported = camera.imported
@@ -91,7 +92,7 @@ def rig_of_models(
         axes = g0 @ np.asarray(camera.axes, dtype=np.float64)
         centre = c0 + g0 @ np.asarray(camera.centre, dtype=np.float64)
         yaw, pitch, roll = angles_of_axes(axes[:, 2], axes[:, 0])
-        record = {"file": Path(path).name, "sha256": source.get("sha256", ""), "format": imported.format,
+        record = {"file": Path(path).name, "sha256": info["source"]["sha256"], "format": imported.format,
                   "camera": camera.name, "pixel_shift_px": imported.pixel_shift_px}  # fmt: skip
         table_info = {
             "import": record,
@@ -118,11 +119,12 @@ def rig_of_models(
         offsets.append((x, 0))
         x += imported.image_size[0]
     names = tuple(camera.name for camera in cameras)
-    return CameraRig(tuple(tables), names, tuple(offsets) if side_by_side else None, dict(info or {}))
+    return CameraRig(tuple(tables), names, tuple(offsets) if side_by_side else None, info)
 
 
-def rig_info(path: str | Path, digest: str, format: str, axes0: FloatArray, centre0: Sequence[float]) -> dict[str, Any]:
-    """The rig's record: its file, and camera 0's orientation (deg) and position."""
+def _rig_info(path: str | Path, format: str, axes0: FloatArray, centre0: Sequence[float]) -> dict[str, Any]:
+    """The rig's record: its file (name, SHA-256, format), and camera 0's orientation (deg) and position."""
+    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     yaw, pitch, roll = (math.degrees(a) for a in angles_of_axes(axes0[:, 2], axes0[:, 0]))
     return {
         "source": {"file": Path(path).name, "sha256": digest, "format": format},

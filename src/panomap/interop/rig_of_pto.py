@@ -9,7 +9,6 @@ centre as far as a project knows): relative to camera 0, camera k's axes are ``G
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +17,7 @@ from ..errors import PanomapError
 from ..files import read_text
 from ..rig.rig import CameraRig
 from .readers.hugin_pto import axes_of_ypr, looks_like, read_images
-from .rig_of_models import RigCamera, rig_info, rig_of_models
+from .rig_of_models import RigCamera, rig_of_models
 
 
 def pto_cameras(path: str | Path) -> tuple[list[RigCamera], np.ndarray]:
@@ -47,7 +46,5 @@ def rig_of_pto(
     """The rig of every image of the Hugin project at ``path``, in Hugin's world (parameters as
     :func:`.rig_of_camchain.rig_of_camchain`; the orientations are the project's)."""
     cameras, axes0 = pto_cameras(path)
-    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    info = rig_info(path, digest, "hugin", axes0, camera_position)
-    return rig_of_models(cameras, path, axes0=axes0, centre0=camera_position, side_by_side=side_by_side, size=size,
-                         fov_rad=fov_rad, outer_radii=outer_radii, info=info)  # fmt: skip
+    return rig_of_models(cameras, path, "hugin", axes0=axes0, centre0=camera_position, side_by_side=side_by_side,
+                         size=size, fov_rad=fov_rad, outer_radii=outer_radii)  # fmt: skip
