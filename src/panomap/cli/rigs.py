@@ -43,14 +43,15 @@ def render_rig(
     pictures = _pictures(rig, images)
     maps = camera_maps(rig, view, sampling)
     remapper = RigRemapper(rig, maps, interp, wrap=view.kind in WRAPPING_KINDS)
-    gains = remapper.gains(pictures)
-    blended = remapper(pictures, gains)
+    layers = remapper.layers(pictures)  # (made once: the gains, the blend and --each read them)
+    gains = remapper.layer_gains(layers)
+    blended = remapper.blend(layers, gains)
     with all_or_none():
         write_image(output, blended)
         if save_map_path is not None:
             save_map(save_map_path, _strongest_map(maps, remapper.weights))
         if each is not None:
-            for name, layer in zip(rig.names, remapper.layers(pictures), strict=True):
+            for name, layer in zip(rig.names, layers, strict=True):
                 write_image(Path(each.format(camera=name)), layer)
     seen = float(np.mean(remapper.weights.sum(axis=0) > 0))
     shown = ", ".join(f"{name} x{float(np.mean(g)):.3f}" for name, g in zip(rig.names, gains, strict=True))

@@ -192,13 +192,19 @@ class RigRemapper:
 
     def gains(self, pictures: Any) -> NDArray[np.float64]:
         """(k, C) gains that match the cameras over their overlaps, in these pictures."""
-        layers = [_channels(layer).astype(np.float32) for layer in self.layers(pictures)]
-        return overlap_gains(layers, self.weights)
+        return self.layer_gains(self.layers(pictures))
+
+    def layer_gains(self, layers: list[NDArray[Any]]) -> NDArray[np.float64]:
+        """:meth:`gains` of the cameras' :meth:`layers` already made."""
+        return overlap_gains([_channels(layer).astype(np.float32) for layer in layers], self.weights)
 
     def __call__(self, pictures: Any, gains: NDArray[np.float64] | None = None) -> NDArray[Any]:
         """The blended view of ``pictures`` (one per camera in the rig's order, or one frame), each camera scaled
         by its ``gains`` ((k, C); default: found in these pictures' overlaps; ones: none)."""
-        layers = self.layers(pictures)
+        return self.blend(self.layers(pictures), gains)
+
+    def blend(self, layers: list[NDArray[Any]], gains: NDArray[np.float64] | None = None) -> NDArray[Any]:
+        """The blend of the cameras' :meth:`layers` already made (``gains`` as :meth:`__call__` takes them)."""
         dtype = layers[0].dtype
         floats = [_channels(layer).astype(np.float32) for layer in layers]
         if gains is None:
