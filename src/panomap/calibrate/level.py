@@ -105,7 +105,7 @@ def table_circles(table: PanoMappingTable) -> ImageCircles:
 def arc_planes(table: PanoMappingTable, arcs: Sequence[EdgeArc]) -> tuple[FloatArray, FloatArray]:
     """Unit normals (k, 3) of the straight arcs' planes (world axes, as the table stands) and their weights (k,)."""
     px_per_rad = max(float(table.outer_radius - table.cutoff_radius), 1.0) / max(
-        float(np.ptp(table.camera_elevation_range or table.elevation_range)), 1e-6
+        float(np.ptp(table.camera_range)), 1e-6
     )
     normals, weights = [], []
     for arc in arcs:

@@ -250,7 +250,7 @@ def _refuse_ray_origins(table: PanoMappingTable, format: str) -> None:
     viewpoint = table.model.viewpoint
     if viewpoint is None:
         return
-    low, high = table.camera_elevation_range or table.elevation_range
+    low, high = table.camera_range
     spread = viewpoint.excursion(low, high)
     parallax = parallax_px(table.model.radial, viewpoint, (low, high))
     if parallax < NEGLIGIBLE_PARALLAX_PX:

@@ -24,11 +24,6 @@ from .models import external_model
 from .table_of_camera import project_grid
 
 
-def camera_range_of(table: PanoMappingTable) -> tuple[float, float]:
-    """The camera's own elevation range (rad): stored for a turned camera, the table's range for a level one."""
-    return table.camera_elevation_range if table.camera_elevation_range is not None else table.elevation_range
-
-
 def orient_table(table: PanoMappingTable, yaw_rad: float, pitch_rad: float, roll_rad: float) -> PanoMappingTable:
     """``table``'s camera looking along yaw, pitch and roll (rad), its entries made anew.
 
@@ -49,7 +44,7 @@ def orient_table(table: PanoMappingTable, yaw_rad: float, pitch_rad: float, roll
         If the pitch is outside [-90, 90] deg, or an imported table's calibration cannot be rebuilt.
     """
     model = table.model.with_orientation(yaw_rad, pitch_rad, roll_rad)
-    camera_range = camera_range_of(table)
+    camera_range = table.camera_range
     elevation_range = world_elevation_range(camera_range, model.rotation, model.axis)
     turned = model.rotation is not None
     if table.entries_from_model:

@@ -153,7 +153,7 @@ def turned_table(table: PanoMappingTable, rotation: FloatArray) -> PanoMappingTa
     """
     rows = tuple((float(row[0]), float(row[1]), float(row[2])) for row in rotation)
     model = replace(table.model, rotation=rows)
-    camera_range = table.camera_elevation_range or table.elevation_range
+    camera_range = table.camera_range
     turned = model.rotation is not None
     elevation_range = world_elevation_range(camera_range, model.rotation, model.axis) if turned else camera_range
     if table.entries_from_model:

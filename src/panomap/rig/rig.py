@@ -92,7 +92,7 @@ class CameraRig:
         """Each camera's largest angle from its optical axis that it sees (deg), from its table's own range."""
         out = []
         for table in self.tables:
-            low, high = table.camera_elevation_range or table.elevation_range
+            low, high = table.camera_range
             out.append(math.degrees(high + math.pi / 2 if table.model.axis == "down" else math.pi / 2 - low))
         return np.asarray(out)
 

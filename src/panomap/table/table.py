@@ -111,6 +111,12 @@ class PanoMappingTable:
         object.__setattr__(self, "elevation_range", (rho_s, rho_e))
 
     @property
+    def camera_range(self) -> tuple[float, float]:
+        """The camera's own elevation range (rad, in its axes): ``camera_elevation_range`` for a turned camera,
+        the table's range for a level one."""
+        return self.camera_elevation_range if self.camera_elevation_range is not None else self.elevation_range
+
+    @property
     def size(self) -> tuple[int, int]:
         """(M, N): entries in azimuth and in elevation."""
         return int(self.entries.shape[0]), int(self.entries.shape[1])

@@ -94,7 +94,7 @@ class EquirectView(View):
         times pi (about one row per image pixel along the radius), within 16..4096."""
         if self.size is not None:
             return self.size
-        low, high = table.camera_elevation_range or table.elevation_range
+        low, high = table.camera_range
         rows_per_rad = table.size[1] / max(high - low, 1e-6)
         height = int(min(max(round(math.pi * rows_per_rad / 2) * 2, 16), MAX_DEFAULT_HEIGHT))
         return 2 * height, height
