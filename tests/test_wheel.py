@@ -33,6 +33,7 @@ SHIPPED = [
     "panomap/learn/static/app.css",
     "panomap/viewer/static/index.html",
     "panomap/viewer/static/viewer.js",
+    "panomap/viewer/static/viewer_rig.js",
     "panomap/viewer/static/viewer.css",
 ]
 

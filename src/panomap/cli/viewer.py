@@ -13,9 +13,9 @@ from .options import PATH
 
 @click.command("view")
 @click.argument("table_path", metavar="TABLE", type=PATH)
-@click.argument("source_name", metavar="SOURCE")
+@click.argument("source_names", metavar="SOURCE...", nargs=-1, required=True)
 @server_options(8766, "shows the source to whoever can reach this machine")
-def view(table_path: Path, source_name: str, port: int, host: str) -> None:
+def view(table_path: Path, source_names: tuple[str, ...], port: int, host: str) -> None:
     """Look around in SOURCE through TABLE in the browser: drag to pan and tilt, wheel to zoom.
 
     SOURCE is an omni-image, a video file, or a live stream or capture device (whatever
@@ -23,18 +23,30 @@ def view(table_path: Path, source_name: str, port: int, host: str) -> None:
     browser's GPU (WebGL2) with the same conventions as `panomap perspective`, keeps the
     view in its address (#yaw=30&pitch=-20&fov=90), and gives the matching command line.
 
+    A rig file (panomap import of a camchain, panomap rig make) in place of TABLE blends its cameras as
+    `panomap perspective RIG ...` does: give the one frame holding them all (a picture or a video file),
+    or one still picture per camera in the rig's order.
+
     Starts a local web server and prints its address; open it in a browser. Ctrl-C stops it.
 
     \b
     Example:
       panomap view cam.npz omni.jpg
       panomap view cam.npz rtsp://camera.local/stream --port 8080
+      panomap view dual.npz frame.jpg
     """
+    from ..rig.file import is_rig_file
     from ..table.file import load_table
     from ..video.source import is_live
     from ..viewer.server import make_server
     from ..viewer.source import open_source
 
+    if is_rig_file(table_path):
+        _view_rig(table_path, list(source_names), port, host)
+        return
+    if len(source_names) != 1:
+        raise click.UsageError(f"a table takes one source, not {len(source_names)} (several cameras make a rig)")
+    source_name = source_names[0]
     table = load_table(table_path)
     source = open_source(source_name)
     if table.image_size is not None and tuple(table.image_size) != source.size:
@@ -49,4 +61,27 @@ def view(table_path: Path, source_name: str, port: int, host: str) -> None:
     shown = source.name if source.kind == "live" else Path(source.name).name
     serve_until_interrupted(
         server, "view", f"showing {shown} ({source.kind}) through {table_path.name} at {server.url}"
+    )
+
+
+def _view_rig(rig_path: Path, names: list[str], port: int, host: str) -> None:
+    """``panomap view RIG SOURCE...``: the rig's blended view of its frame or pictures."""
+    from ..rig.file import load_rig
+    from ..viewer.rig_view import open_rig_source
+    from ..viewer.server import make_server
+
+    rig = load_rig(rig_path)
+    try:
+        rig_view, source = open_rig_source(rig, rig_path.name, names)
+    except PanomapError as exc:
+        if exc.source is None:
+            raise PanomapError(exc.detail, rig_path) from None
+        raise
+    warn_unless_loopback(host, "whoever can reach this machine sees the pictures")
+    server = make_server(rig.tables[0], rig_path.name, source, host, port, rig=rig_view)
+    shown = ", ".join(Path(name).name for name in names)
+    serve_until_interrupted(
+        server,
+        "view",
+        f"showing {shown} ({source.kind}) through the rig {rig_path.name} of {rig.count} cameras at {server.url}",
     )

@@ -17,6 +17,10 @@ API (GET unless said; errors are ``{"error": "..."}`` with their status):
   where one is given) when its index is above K, waiting up to a second for one; 204 when none came.
   Headers ``X-Frame-Index``, ``X-Frame-Time`` (s), ``X-Frame-Age`` (s since it was decoded) and
   ``X-Frame-Window`` (the window sent, clipped to the frame).
+- A rig (:mod:`panomap.viewer.rig_view`; ``info`` then has ``rig``, its cameras, and ``table`` is camera 0's):
+  ``/api/rig/lookup.bin?camera=K``, camera K's lookup; ``/api/rig/edges.bin``, every camera's edge profile;
+  ``/api/gains?view=SPEC``, JSON ``{"gains": [[...], ...]}``, each camera's gains (BGR) in the view SPEC
+  (``panomap.views.spec``) as the view commands find them.
 - ``/api/status``: the decoded frames' state (playing, paused, ended, reconnecting, failed) in words.
 - POST ``/api/playback`` ``{"paused": bool, "seek_s": s}`` (either): pause, play or seek a decoded file.
 
@@ -31,9 +35,10 @@ import dataclasses
 import re
 import time
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 from urllib.parse import parse_qs, urlsplit
 
+from ..errors import PanomapError
 from ..io.local_web import (
     IDLE_TIMEOUT_S,
     REQUEST_DEADLINE_S,
@@ -48,6 +53,7 @@ from ..io.local_web import (
 from ..table.table import PanoMappingTable
 from ..values import MAX_ABS, NotFinite, finite_number
 from .feed import FrameFeed, window_of
+from .rig_view import RigView
 from .source import HeldFile, Source
 from .table_texture import lookup_texture, table_description, texture_bytes
 
@@ -56,6 +62,8 @@ MAX_RANGE_BYTES = 8 << 20
 # The longest wait (s) for a new frame within one request.
 MAX_FRAME_WAIT_S = 1.0
 CHUNK_BYTES = 1 << 20
+# The longest view spec a page asks a rig's gains for.
+MAX_SPEC_CHARS = 400
 _RANGE = re.compile(r"^bytes=([0-9]*)-([0-9]*)$")
 # Digits read of a number in a request: more is beyond any file, frame or index (and Python refuses to convert
 # an integer of over 4300 digits).
@@ -118,10 +126,12 @@ class ViewerServer(LocalServer):
         feed: FrameFeed | None = None,
         idle_timeout_s: float = IDLE_TIMEOUT_S,
         request_deadline_s: float = REQUEST_DEADLINE_S,
+        rig: RigView | None = None,
     ) -> None:
         self.table = table
         self.source = source
-        self.info = {
+        self.rig = rig
+        self.info: dict[str, Any] = {
             "table": table_description(table) | {"name": table_name},
             "source": {
                 "name": Path(source.name).name if source.kind != "live" else source.name,
@@ -132,10 +142,15 @@ class ViewerServer(LocalServer):
                 "frame_rate": source.frame_rate,
             },
         }
-        self.table_bytes = texture_bytes(table)
-        lookup = lookup_texture(table)
-        self.lookup_bytes = None if lookup is None else lookup[0].astype("<f4", copy=False).tobytes()
-        self.info["table"]["lookup"] = None if lookup is None else lookup[1]
+        if rig is None:
+            self.table_bytes = texture_bytes(table)
+            lookup = lookup_texture(table)
+            self.lookup_bytes = None if lookup is None else lookup[0].astype("<f4", copy=False).tobytes()
+            self.info["table"]["lookup"] = None if lookup is None else lookup[1]
+        else:  # (the page reads each camera's lookup; the table is camera 0's, for the views' defaults)
+            self.table_bytes, self.lookup_bytes = b"", None
+            self.info["table"]["lookup"] = None
+            self.info["rig"] = rig.textures.description | {"pictures": list(rig.pictures)}
         # A video file is opened once, here: what is sent and decoded, whatever its name points to later.
         self.file = HeldFile(source.name) if source.kind == "video" and source.path is not None else None
         self.feed = feed
@@ -157,7 +172,9 @@ class ViewerHandler(LocalHandler):
     server: ViewerServer
     server_version = "panomap-view"
     static_package: ClassVar[str] = "panomap.viewer"
-    static_files: ClassVar[dict[str, tuple[str, str]]] = page_files("viewer.js", "viewer.css")
+    static_files: ClassVar[dict[str, tuple[str, str]]] = page_files("viewer.js", "viewer.css") | {
+        "/static/viewer_rig.js": ("viewer_rig.js", "text/javascript; charset=utf-8")
+    }
     content_security_policy = (
         "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; frame-ancestors 'none'"
     )
@@ -174,6 +191,8 @@ class ViewerHandler(LocalHandler):
             self._send(200, server.table_bytes, "application/octet-stream")
         elif path == "/api/lookup.bin" and server.lookup_bytes is not None:
             self._send(200, server.lookup_bytes, "application/octet-stream")
+        elif path.startswith("/api/rig/") or path == "/api/gains":
+            self._rig(path, parse_qs(parts.query))
         elif path == "/favicon.ico":
             self._send(204, b"", "image/x-icon")
         elif path == "/api/image" and server.source.image_png is not None:
@@ -188,6 +207,31 @@ class ViewerHandler(LocalHandler):
             raise RequestError(f"no such API for this source: GET {path[:200]}", 404)
         else:
             raise RequestError(f"no such page: {path[:200]}", 404)
+
+    def _rig(self, path: str, query: dict[str, list[str]]) -> None:
+        """A rig's lookups, edges and gains (see the module docstring)."""
+        rig = self.server.rig
+        if rig is None:
+            raise RequestError(f"no such API for a table: GET {path[:200]}", 404)
+        if path == "/api/rig/edges.bin":
+            self._send(200, rig.textures.edges, "application/octet-stream")
+        elif path == "/api/rig/lookup.bin":
+            text = query.get("camera", [""])[0]
+            count = len(rig.textures.lookups)
+            if not (0 < len(text) <= 3 and text.isascii() and text.isdigit() and int(text) < count):
+                raise RequestError(f"camera must be a camera's index, 0 to {count - 1}")
+            self._send(200, rig.textures.lookups[int(text)], "application/octet-stream")
+        elif path == "/api/gains":
+            spec = query.get("view", [""])[0]
+            if not spec or len(spec) > MAX_SPEC_CHARS:
+                raise RequestError(f"view must be a view spec of at most {MAX_SPEC_CHARS} characters")
+            try:
+                gains = rig.gains(spec)
+            except PanomapError as exc:
+                raise RequestError(f"view: {exc}") from None
+            self._json({"gains": gains})
+        else:
+            raise RequestError(f"no such API: GET {path[:200]}", 404)
 
     def _post(self) -> None:
         path = urlsplit(self.path).path
@@ -292,9 +336,12 @@ def make_server(
     host: str = "127.0.0.1",
     port: int = 0,
     feed: FrameFeed | None = None,
+    rig: RigView | None = None,
 ) -> ViewerServer:
-    """A viewer server bound to ``host:port`` (0: a free port), not yet serving (:func:`~panomap.io.local_web.bind`)."""
-    return bind(lambda address: ViewerServer(address, table, table_name, source, feed), host, port)
+    """A viewer server bound to ``host:port`` (0: a free port), not yet serving (:func:`~panomap.io.local_web.bind`);
+    with ``rig``, of that rig (``table`` its camera 0's, ``source`` its pictures:
+    :func:`~.rig_view.open_rig_source`)."""
+    return bind(lambda address: ViewerServer(address, table, table_name, source, feed, rig=rig), host, port)
 
 
 __all__ = ["ViewerHandler", "ViewerServer", "byte_range", "make_server", "serve_in_thread"]

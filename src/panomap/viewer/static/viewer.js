@@ -227,6 +227,7 @@ void main() {
   function makeProgram(rays, planes) {
     const program = gl.createProgram();
     gl.attachShader(program, compile(gl.VERTEX_SHADER, VERTEX));
+    if (info.rig) return makeRigProgram(program, rays, planes);
     const lookup = rays !== ANGLES && info.table.lookup ? 1 : 0;
     const blocks = Math.ceil(info.table.M / info.table.block_width);
     const defines = `#version 300 es\n#define RAYS ${rays}\n#define LOOKUP ${lookup}\n#define PLANES ${planes}\n#define BLOCKS ${blocks}\n`
@@ -265,6 +266,31 @@ void main() {
       gl.uniform1i(uniforms.lookup_side, side);
       gl.uniform2f(uniforms.sine_range, Math.sin(t.rho_s), Math.sin(t.rho_e));
     }
+    return { program, locations };
+  }
+
+  // A rig's program (viewer_rig.js): every camera's lookup and edge, blended as the library blends them.
+  function makeRigProgram(program, rays, planes) {
+    gl.attachShader(program, compile(gl.FRAGMENT_SHADER, window.panomapRig.fragment(info.rig.cameras.length, rays, planes, linearFloat)));
+    gl.bindAttribLocation(program, 0, "corner");
+    gl.linkProgram(program);
+    if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(program));
+    const locations = {};
+    const count = gl.getProgramParameter(program, gl.ACTIVE_UNIFORMS);
+    for (let n = 0; n < count; n++) {
+      const name = gl.getActiveUniform(program, n).name;
+      locations[name] = gl.getUniformLocation(program, name);
+    }
+    gl.useProgram(program);
+    uniforms = locations;
+    const t = info.table;
+    gl.uniform1i(uniforms.source_image, 1);
+    gl.uniform1i(uniforms.plane_u, 3);
+    gl.uniform1i(uniforms.plane_v, 4);
+    gl.uniform1f(uniforms.table_m, t.M);
+    gl.uniform1f(uniforms.rho_s, t.rho_s);
+    gl.uniform1f(uniforms.rho_per_row, (t.rho_e - t.rho_s) / t.N);
+    window.panomapRig.setCameras(gl, uniforms, info.rig, t.no_entry);
     return { program, locations };
   }
 
@@ -546,6 +572,7 @@ void main() {
       gl.uniform1i(uniforms.outline, withOutline ? 1 : 0);
       if (withOutline) setOutlineUniforms();
     }
+    if (info.rig) window.panomapRig.setView(gl, uniforms, info.rig, width, height, rigGains.values, mode === "floor");
     gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
   }
 
@@ -577,6 +604,46 @@ void main() {
     return true;
   }
 
+  // A rig's gains (panomap.viewer.rig_view.ViewGains): the library's for the view shown, as the view commands find
+  // them, asked of the server once the view stays still for GAINS_WAIT_MS (a drag draws with the last view's).
+  const GAINS_WAIT_MS = 200;
+  const rigGains = { values: null, spec: null, timer: null };
+
+  async function fetchGains(spec) {
+    const response = await fetch(`/api/gains?view=${encodeURIComponent(spec)}`);
+    const body = await response.json();
+    if (!response.ok) throw new Error(body.error || `HTTP ${response.status}`);
+    return body.gains;
+  }
+
+  function gainsSpec() { return state.mode === "floor" && floorProblem() ? null : commands().spec; }
+
+  // The gains of the view about to be drawn (the API's views, the first view).
+  async function ensureGains() {
+    const spec = info.rig ? gainsSpec() : null;
+    if (spec === null || spec === rigGains.spec) return;
+    rigGains.values = await fetchGains(spec);
+    rigGains.spec = spec;
+  }
+
+  function gainsSoon() {
+    if (!info.rig) return;
+    clearTimeout(rigGains.timer);
+    rigGains.timer = setTimeout(async () => {
+      const spec = gainsSpec();
+      if (spec === null || spec === rigGains.spec) return;
+      try {
+        const values = await fetchGains(spec);
+        if (gainsSpec() !== spec) return;  // (moved meanwhile: the next wait asks for the new view's)
+        rigGains.values = values;
+        rigGains.spec = spec;
+        requestDraw();
+      } catch (error) {
+        message(`the gains were not found: ${error.message}`);
+      }
+    }, GAINS_WAIT_MS);
+  }
+
   let drawQueued = false;
   function requestDraw() {
     if (drawQueued) return;
@@ -590,6 +657,7 @@ void main() {
         pendingInput = null;
       }
       showState();
+      gainsSoon();
     });
   }
 
@@ -656,7 +724,7 @@ void main() {
   const quote = (text) => (/^[A-Za-z0-9_./:=@%+-]+$/.test(text) ? text : "'" + text.replace(/'/g, "'\\''") + "'");
 
   function commands() {
-    const t = quote(info.table.name), s = quote(info.source.name);
+    const t = quote(info.table.name), s = info.rig ? info.rig.pictures.map(quote).join(" ") : quote(info.source.name);
     const size = `${state.width}x${state.height}`;
     if (state.mode === "perspective") {
       const [y, p, r, f] = [state.yaw, state.pitch, state.roll, state.fov].map((x) => round(x, 2));
@@ -1003,6 +1071,7 @@ void main() {
     if ("strip" in view) state.strip = Boolean(view.strip);
     clampState();
     await ensureWindow();
+    await ensureGains();
     if (!draw()) throw new Error("set: the view could not be drawn");
     showStateSoon();
     return { ...state };
@@ -1057,9 +1126,17 @@ void main() {
         if (!r.ok) throw new Error(`the table did not load (HTTP ${r.status})`);
         return r.arrayBuffer();
       });
-      uploadTable(await binary("/api/table.bin"), info.table.lookup ? await binary("/api/lookup.bin") : null);
+      if (info.rig) {
+        linearFloat = Boolean(gl.getExtension("OES_texture_float_linear"));
+        const lookups = await Promise.all(info.rig.cameras.map((_, k) => binary(`/api/rig/lookup.bin?camera=${k}`)));
+        window.panomapRig.upload(gl, info.rig, lookups, await binary("/api/rig/edges.bin"), linearFloat);
+        $("names").textContent = `${info.table.name} \u00b7 ${info.rig.pictures.join(", ")}`;
+      } else {
+        uploadTable(await binary("/api/table.bin"), info.table.lookup ? await binary("/api/lookup.bin") : null);
+      }
       setUpInput(canvas);
       await startSource();
+      await ensureGains();
       draw();
       showState();
       document.body.dataset.ready = "yes";
