@@ -13,6 +13,11 @@ On a simulated 1920 x 1920 fisheye (the table and clip of ``bench_video.py``, he
    against the clip's rate (target: its rate, up to 30 fps).
 4. **Live**: the clip served in real time over TCP by ffmpeg (a camera), decoded by the server and sent frame by
    frame: frames shown per second, and the latency from a frame decoded to it drawn (ms).
+6. **A rig** (``--rig``): two ideal equidistant lenses back to back (190 deg, 960 x 960 each, one 1920 x 960
+   frame) against camera 0 of it alone, the same 1280 x 720 views looking about the horizon and equirects: views
+   drawn per second (from the page's fastest draw, ``stats().drawMs.min``: what a drag costs, least
+   disturbed by the machine's load), and views/s through
+   ``set`` (which for a rig also waits for the server's gains of each new view).
 5. **Memory**: the server's resident memory over a live stream of ``--minutes`` (sampled every few seconds: first,
    last, largest), and the decoder freed when the page closes.
 
@@ -249,6 +254,82 @@ def views_ahead(browser: Any, table: PanoMappingTable, image: np.ndarray, folder
         server.server_close()
 
 
+def draws_per_second(browser: Any, server: ViewerServer, count: int, sequence: str) -> tuple[float, float]:
+    """(views drawn per second from the page's fastest draw, views/s through ``set``) of ``count`` views (the
+    fastest draw: what the GPU's work takes, least disturbed by other work on the machine)."""
+    page = open_page(browser, server)
+    views = []
+    for k in range(count + 1):
+        mode, yaw, pitch, roll = SEQUENCES[sequence](k)
+        views.append({"mode": mode, "yaw": yaw, "pitch": pitch, "roll": roll, "fov": 90})
+    script = """async ([views, width, height]) => {
+      await window.panomapView.set({...views[0], width, height, strip: false});
+      const before = window.panomapView.stats().views;
+      const started = performance.now();
+      for (const view of views.slice(1)) await window.panomapView.set(view);
+      const seconds = (performance.now() - started) / 1000;
+      return [window.panomapView.stats().drawMs.min, seconds];
+    }"""
+    fastest_ms, seconds = page.evaluate(script, [views, *VIEW])
+    page.close()
+    return 1000.0 / fastest_ms, count / seconds
+
+
+def dual_fisheye(folder: Path) -> tuple[Any, Path, Path]:
+    """(the rig, its frame, camera 0's picture): two ideal equidistant lenses back to back, 190 deg each, seeing a
+    smooth random world (the content does not change the GPU's work)."""
+    from panomap.interop.rig_of_camchain import rig_of_camchain
+
+    lens = (
+        "  camera_model: pinhole\n  intrinsics: [283.6, 283.6, 479.5, 479.5]\n  distortion_model: equidistant\n"
+        "  distortion_coeffs: [0, 0, 0, 0]\n  resolution: [960, 960]\n"
+    )
+    pose = "  T_cn_cnm1: [[-1, 0, 0, 0], [0, 1, 0, 0], [0, 0, -1, -0.02], [0, 0, 0, 1]]\n"
+    (folder / "dual.yaml").write_text(f"cam0:\n{lens}cam1:\n{lens}{pose}")
+    rig = rig_of_camchain(folder / "dual.yaml", side_by_side=True, fov_rad=np.radians(190))
+    rng = np.random.default_rng(0)
+    frame = cv2.GaussianBlur(rng.uniform(0, 255, (960, 1920, 3)).astype(np.float32), (0, 0), 6)
+    frame = np.clip((frame - 128) * 6 + 128, 0, 255).astype(np.uint8)
+    cv2.imwrite(str(folder / "frame.png"), frame)
+    cv2.imwrite(str(folder / "cam0.png"), frame[:, :960])
+    return rig, folder / "frame.png", folder / "cam0.png"
+
+
+def views_of_a_rig(options: argparse.Namespace) -> None:
+    """Part 6 (``--rig``): a dual fisheye's views beside its camera 0's alone."""
+    from playwright.sync_api import sync_playwright
+
+    from panomap.viewer.rig_view import open_rig_source
+
+    views = 20 if options.quick else 100
+    with tempfile.TemporaryDirectory() as temporary:
+        folder = Path(temporary)
+        rig, frame, cam0 = dual_fisheye(folder)
+        with sync_playwright() as playwright:
+            browser = playwright.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            single = make_server(rig.tables[0], "cam0.npz", open_source(str(cam0)))
+            rig_view, source = open_rig_source(rig, "dual.npz", [str(frame)])
+            both = make_server(rig.tables[0], "dual.npz", source, rig=rig_view)
+            for server in (single, both):
+                serve_in_thread(server)
+            print(f"6. a rig of two 190 deg lenses (one 1920 x 960 frame) against its camera 0 alone, {VIEW[0]} x "
+                  f"{VIEW[1]} views:")  # fmt: skip
+            try:
+                for sequence in ("perspective ahead", "equirect", "equirect turned"):
+                    one = draws_per_second(browser, single, views, sequence)
+                    two = draws_per_second(browser, both, views, sequence)
+                    print(
+                        f"   {sequence:18} drawn/s: one camera {one[0]:5.1f}, the rig {two[0]:5.1f} (ratio "
+                        f"{two[0] / one[0]:.2f}); through set: {one[1]:5.1f} and {two[1]:5.1f} views/s"
+                    )
+            finally:
+                for server in (single, both):
+                    server.shutdown()
+                    server.server_close()
+            browser.close()
+    print(f"(load average at the end: {', '.join(f'{x:.2f}' for x in os.getloadavg())})")
+
+
 def views_only(options: argparse.Namespace) -> None:
     """Part 1 alone (``--views-only``)."""
     from playwright.sync_api import sync_playwright
@@ -285,9 +366,13 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="A short clip, few views, a 20 s stream.")
     parser.add_argument("--minutes", type=float, default=10.0, help="Length of the live stream for memory (min).")
     parser.add_argument("--views-only", action="store_true", help="Only part 1, the views/s.")
+    parser.add_argument("--rig", action="store_true", help="Only part 6, a rig's views beside one camera's.")
     options = parser.parse_args()
     if not Path(CHROMIUM).exists():
         raise SystemExit(f"{CHROMIUM} is missing (Debian's chromium: scripts/install-test-deps.sh)")
+    if options.rig:
+        views_of_a_rig(options)
+        return
     if options.views_only:
         views_only(options)
         return

@@ -7,10 +7,11 @@ ray from each camera's own position) every camera is read through its lookup
 (:func:`~panomap.viewer.table_texture.lookup_texture`), and the cameras that see it are weighed as
 :func:`~panomap.rig.blend.feather_weights` weighs them, ``w_k = max(0, d_k - d_max + 2 f)`` over their sum, each
 scaled by its gain. ``d_k``, the pixel's distance (output px) from the edge of what camera k sees, is found on
-the GPU from the ray's angle ``alpha`` off the camera's axis and the edge's angle ``edge_k(psi)`` there
-(:func:`edge_profile`): ``d_k = (edge_k - alpha) / |grad (edge_k - alpha)|``, the gradient over output pixels
-(the screen's derivatives): the first-order distance to that edge, where the library measures the distance to
-the nearest pixel the camera does not see (a distance transform of the view). The two agree where the edge is
+the GPU from ``g_k = edge_k(psi) - alpha``, the ray's angle inside that edge (rad: ``alpha`` off the camera's
+axis, ``edge_k(psi)`` the edge's angle at its azimuth psi about the axis, :func:`edge_profile`), which each
+lookup texel carries beside its (u, v) (:func:`rig_lookup`): ``d_k = g_k / |grad g_k|``, the gradient over
+output pixels (the screen's derivatives), the first-order distance to that edge, where the library measures
+the distance to the nearest pixel the camera does not see (a distance transform of the view). The two agree where the edge is
 a smooth curve within the view (a perspective view across a seam: weights within 0.02); they part where the
 view cuts the edge off or stretches it (an equirect's rows near the poles), docs/viewer.md says by how much.
 
@@ -119,23 +120,53 @@ def one_picture(rig: CameraRig, pictures: list[NDArray[Any]]) -> tuple[NDArray[A
     return out, places
 
 
+def rig_lookup(table: PanoMappingTable) -> tuple[NDArray[np.float32], dict[str, Any]] | None:
+    """The camera's lookup for a rig's view: (S, S, 4) float32 texels ``(u, v, g, 0)`` and its description (as
+    :func:`~panomap.viewer.table_texture.lookup_texture`'s); None where the camera has no lookup.
+
+    ``g`` (rad) is the texel's ray's angle inside the edge of what the camera sees, ``edge(psi) - alpha``
+    (:func:`edge_profile`; negative beyond it), everywhere (where (u, v) is :data:`NO_ENTRY` too). A texel's ray:
+    ``p = ((X, Y) - centre) / scale``, ``e = (2 p, -pole (|p|^2 - 1)) / (1 + |p|^2)`` in the lookup's axes
+    (``frame``), the inverse of the page's ``p = e_xy / (|e| + pole e_z)``.
+    """
+    lookup = lookup_texture(table)
+    if lookup is None:
+        return None
+    texels, described = lookup
+    side, centre, scale, pole = described["side"], described["centre"], described["scale"], described["pole"]
+    p = (np.arange(side) - centre) / scale
+    px, py = np.meshgrid(p, p)
+    q = 1.0 + px * px + py * py
+    local = np.stack([2 * px / q, 2 * py / q, -pole * (px * px + py * py - 1.0) / q], axis=-1)
+    rays = local @ np.asarray(described["frame"], dtype=np.float64)
+    frame = lookup_frame(table)
+    edge = edge_profile(table, frame)
+    axes = rays @ frame.T
+    psi = np.arctan2(axes[..., 1], axes[..., 0])
+    alpha = np.arccos(np.clip(-axes[..., 2], -1.0, 1.0))
+    at = (psi + math.pi) / (2 * math.pi) * EDGE_AZIMUTHS
+    g = np.interp(at, np.arange(EDGE_AZIMUTHS + 1), edge) - alpha
+    out = np.zeros((side, side, 4), dtype=np.float32)
+    out[..., :2] = texels
+    out[..., 2] = g
+    return out, described
+
+
 @dataclass(frozen=True)
 class RigTextures:
-    """What the page reads of a rig: ``description`` (JSON: each camera's lookup, axes, edge, offset, image
-    size; see :func:`rig_textures`), each camera's lookup as little-endian float32 bytes, and every camera's
-    edge profile, one row each."""
+    """What the page reads of a rig: ``description`` (JSON: each camera's lookup, offset, image size; see
+    :func:`rig_textures`) and each camera's lookup (:func:`rig_lookup`) as little-endian float32 bytes."""
 
     description: dict[str, Any]
     lookups: list[bytes]
-    edges: bytes
 
 
 def rig_textures(rig: CameraRig, offsets: list[tuple[int, int]]) -> RigTextures:
     """The rig's textures for the page, each camera's picture at ``offsets`` in the one texture.
 
     The description has, per camera: ``name``, ``image_size``, ``offset``, ``lookup``
-    (:func:`~panomap.viewer.table_texture.lookup_texture`'s description), ``edge_frame`` (rows e1, e2, e3 of
-    :func:`edge_profile`), ``sine_range`` (the sines of its table's elevation range), ``position`` (world).
+    (:func:`~panomap.viewer.table_texture.lookup_texture`'s description), ``sine_range`` (the sines of its
+    table's elevation range), ``position`` (world).
 
     Raises
     ------
@@ -144,17 +175,13 @@ def rig_textures(rig: CameraRig, offsets: list[tuple[int, int]]) -> RigTextures:
     """
     if rig.count > MAX_VIEWER_CAMERAS:
         raise PanomapError(f"the viewer shows rigs of at most {MAX_VIEWER_CAMERAS} cameras, not {rig.count}")
-    cameras, lookups, edges = [], [], []
+    cameras, lookups = [], []
     for name, table, offset in zip(rig.names, rig.tables, offsets, strict=True):
-        lookup = lookup_texture(table)
+        lookup = rig_lookup(table)
         if lookup is None:
             raise PanomapError(f"the rig's camera {name} sees too far round its axis for the viewer's lookup")
         texels, described = lookup
-        texels = texels.copy()
-        texels[~np.isfinite(texels).all(axis=-1)] = NO_ENTRY
         lookups.append(texels.astype("<f4").tobytes())
-        frame = lookup_frame(table)
-        edges.append(edge_profile(table, frame))
         rho_s, rho_e = table.elevation_range
         cameras.append(
             {
@@ -162,13 +189,12 @@ def rig_textures(rig: CameraRig, offsets: list[tuple[int, int]]) -> RigTextures:
                 "image_size": list(table.image_size),  # type: ignore[arg-type]
                 "offset": list(offset),
                 "lookup": described,
-                "edge_frame": [[float(x) for x in row] for row in frame],
                 "sine_range": [math.sin(rho_s), math.sin(rho_e)],
                 "position": [float(c) for c in table.camera_position],
             }
         )
-    description = {"cameras": cameras, "edge_azimuths": EDGE_AZIMUTHS, "reference": table_description(rig.tables[0])}
-    return RigTextures(description, lookups, np.stack(edges).astype("<f4").tobytes())
+    description = {"cameras": cameras, "reference": table_description(rig.tables[0])}
+    return RigTextures(description, lookups)
 
 
 class ViewGains:

@@ -18,7 +18,7 @@ API (GET unless said; errors are ``{"error": "..."}`` with their status):
   Headers ``X-Frame-Index``, ``X-Frame-Time`` (s), ``X-Frame-Age`` (s since it was decoded) and
   ``X-Frame-Window`` (the window sent, clipped to the frame).
 - A rig (:mod:`panomap.viewer.rig_view`; ``info`` then has ``rig``, its cameras, and ``table`` is camera 0's):
-  ``/api/rig/lookup.bin?camera=K``, camera K's lookup; ``/api/rig/edges.bin``, every camera's edge profile;
+  ``/api/rig/lookup.bin?camera=K``, camera K's lookup with its edge (:func:`~.rig_view.rig_lookup`);
   ``/api/gains?view=SPEC``, JSON ``{"gains": [[...], ...]}``, each camera's gains (BGR) in the view SPEC
   (``panomap.views.spec``) as the view commands find them.
 - ``/api/status``: the decoded frames' state (playing, paused, ended, reconnecting, failed) in words.
@@ -213,9 +213,7 @@ class ViewerHandler(LocalHandler):
         rig = self.server.rig
         if rig is None:
             raise RequestError(f"no such API for a table: GET {path[:200]}", 404)
-        if path == "/api/rig/edges.bin":
-            self._send(200, rig.textures.edges, "application/octet-stream")
-        elif path == "/api/rig/lookup.bin":
+        if path == "/api/rig/lookup.bin":
             text = query.get("camera", [""])[0]
             count = len(rig.textures.lookups)
             if not (0 < len(text) <= 3 and text.isascii() and text.isdigit() and int(text) < count):

@@ -1090,7 +1090,7 @@ void main() {
     if (!values.length) return null;
     const sorted = [...values].sort((a, b) => a - b);
     const at = (q) => sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))];
-    return { count: values.length, mean: values.reduce((a, b) => a + b, 0) / values.length, median: at(0.5), p90: at(0.9), max: sorted[sorted.length - 1] };
+    return { count: values.length, mean: values.reduce((a, b) => a + b, 0) / values.length, min: sorted[0], median: at(0.5), p90: at(0.9), max: sorted[sorted.length - 1] };
   }
 
   window.panomapView = {
@@ -1129,7 +1129,7 @@ void main() {
       if (info.rig) {
         linearFloat = Boolean(gl.getExtension("OES_texture_float_linear"));
         const lookups = await Promise.all(info.rig.cameras.map((_, k) => binary(`/api/rig/lookup.bin?camera=${k}`)));
-        window.panomapRig.upload(gl, info.rig, lookups, await binary("/api/rig/edges.bin"), linearFloat);
+        window.panomapRig.upload(gl, info.rig, lookups, linearFloat);
         $("names").textContent = `${info.table.name} \u00b7 ${info.rig.pictures.join(", ")}`;
       } else {
         uploadTable(await binary("/api/table.bin"), info.table.lookup ? await binary("/api/lookup.bin") : null);
