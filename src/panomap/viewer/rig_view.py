@@ -11,9 +11,10 @@ the GPU from ``g_k = edge_k(psi) - alpha``, the ray's angle inside that edge (ra
 axis, ``edge_k(psi)`` the edge's angle at its azimuth psi about the axis, :func:`edge_profile`), which each
 lookup texel carries beside its (u, v) (:func:`rig_lookup`): ``d_k = g_k / |grad g_k|``, the gradient over
 output pixels (the screen's derivatives), the first-order distance to that edge, where the library measures
-the distance to the nearest pixel the camera does not see (a distance transform of the view). The two agree where the edge is
-a smooth curve within the view (a perspective view across a seam: weights within 0.02); they part where the
-view cuts the edge off or stretches it (an equirect's rows near the poles), docs/viewer.md says by how much.
+the distance to the nearest pixel the camera does not see (a distance transform of the view). The two agree
+where the edge is a smooth curve within the view (a perspective view across a seam: weights within 0.02); they
+part where the view cuts the edge off or stretches it (an equirect's rows near the poles), docs/viewer.md says
+by how much.
 
 The gains are the library's (:meth:`~panomap.rig.blend.RigRemapper.layer_gains`) for the view the page shows,
 from its still pictures or a video's first frame, found here on request (:func:`view_gains`).
@@ -40,7 +41,7 @@ from ..table.table import PanoMappingTable
 from ..video.source import first_frame
 from ..views.spec import parse_view_spec
 from .source import Source, display_image, open_source
-from .table_texture import NO_ENTRY, lookup_frame, lookup_texture, table_description
+from .table_texture import lookup_frame, lookup_texture, table_description
 
 # The most cameras the page draws (each takes a texture unit; WebGL2 guarantees 16, the page uses 5 more).
 MAX_VIEWER_CAMERAS = 8
