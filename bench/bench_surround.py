@@ -303,10 +303,35 @@ def held_out(rig: CameraRig, corners: list[Corners]) -> list[np.ndarray]:
     return [np.concatenate(parts) for parts in out]
 
 
-def evaluate(data: Path, say: object = print) -> SurroundResult:
-    """The set in ``data`` placed from its floor's corners (two passes), and the figures."""
-    images = [data / "images" / f"{name}.png" for name in NAMES]
-    greys = [cv2.cvtColor(cv2.imread(str(p)), cv2.COLOR_BGR2GRAY).astype(np.float32) for p in images]
+def render_pattern(table: object, samples: int = 3) -> np.ndarray:
+    """A grey picture (H, W) float32 of an ideal, flat pattern of 40 cm squares (dark 40, bright 215) on grey
+    ground (128), the lattice's frame about the car, through a placed table: each pixel the mean of
+    ``samples`` x ``samples`` rays unprojected onto Z = 0."""
+    width, height = table.image_size  # type: ignore[attr-defined]
+    offsets = (np.arange(samples) + 0.5) / samples - 0.5
+    total = np.zeros((height, width))
+    v, u = np.mgrid[0:height, 0:width].astype(np.float64)
+    for du, dv in itertools.product(offsets, offsets):
+        pixels = np.stack([u + du, v + dv], axis=-1).reshape(-1, 2)
+        value = np.full(len(pixels), 128.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            floor = floor_points(table, pixels)
+        canvas = np.column_stack([600 + 100 * floor[:, 0], 800 - 100 * floor[:, 1]])
+        i = np.floor((canvas[:, 0] - LATTICE_X_CM[0]) / SQUARE_CM)
+        j = np.floor((canvas[:, 1] - LATTICE_Y_CM[0]) / SQUARE_CM)
+        inside = (i >= 0) & (i < len(LATTICE_X_CM) - 1) & (j >= 0) & (j < len(LATTICE_Y_CM) - 1)
+        inside &= ~((canvas[:, 0] > 500) & (canvas[:, 0] < 700) & (canvas[:, 1] > 550) & (canvas[:, 1] < 1050))
+        value[inside] = np.where((i[inside] + j[inside]) % 2 == 0, 215.0, 40.0)
+        total += value.reshape(height, width)
+    return (total / samples**2).astype(np.float32)
+
+
+def evaluate(data: Path, say: object = print, greys: list[np.ndarray] | None = None) -> SurroundResult:
+    """The set in ``data`` placed from its floor's corners (two passes), and the figures; ``greys``: other
+    pictures of its four cameras (renders) instead of its own."""
+    if greys is None:
+        images = [data / "images" / f"{name}.png" for name in NAMES]
+        greys = [cv2.cvtColor(cv2.imread(str(p)), cv2.COLOR_BGR2GRAY).astype(np.float32) for p in images]
     sources = [SourceGround.read(data / "yaml" / f"{name}.yaml", name) for name in NAMES]
     tables = tuple(import_calibration(data / "yaml" / f"{name}.yaml", image_size=(960, 640)) for name in NAMES)
     rig = CameraRig(tables, NAMES, None, {"made of": [f"{n}.yaml" for n in NAMES]})
@@ -346,6 +371,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", type=Path, default=DATA / "rigs" / "neozhaoliang_surround_view")
     parser.add_argument("--floor-map", type=Path, help="write the placed rig's floor map here (panomap floor)")
+    parser.add_argument("--render", action="store_true", help="also run it on renders of an ideal, flat pattern")
     parser.add_argument("--keep", type=Path, help="keep the rig file and the landmark CSVs in this folder")
     args = parser.parse_args()
     if not (args.data / "yaml" / "front.yaml").exists():
@@ -354,6 +380,10 @@ def main() -> None:
     folder.mkdir(parents=True, exist_ok=True)
     result = evaluate(args.data)
     report(result)
+    if args.render:
+        print("\nthe same on renders of an ideal, flat pattern through the placed rig (what detection leaves):")
+        renders = [render_pattern(table) for table in result.placed.rig.tables]
+        report(evaluate(args.data, greys=renders))
     rig_path = folder / "placed.npz"
     save_rig(result.placed.rig, rig_path)
     for name, c in zip(NAMES, result.corners, strict=True):
