@@ -278,11 +278,12 @@ def describe_rig_file(path: Path, as_json: bool) -> None:
 
 @click.group("rig")
 def rig() -> None:
-    """A rig of cameras: make one of their tables, learn its rotations from pictures.
+    """A rig of cameras: make one of their tables, learn its rotations from pictures, place it from floor landmarks.
 
     \b
       panomap rig make front.npz back.npz -o theta.npz
       panomap rig learn theta.npz front.jpg back.jpg -o learned.npz
+      panomap rig place car.npz front.csv left.csv back.csv right.csv -o placed.npz
     """
 
 
@@ -357,5 +358,55 @@ def rig_learn(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
     with all_or_none():
         save_rig(learned.rig, output)
     for line in learned.describe():
+        say(printable(line))
+    say(f"wrote {printable(str(output))}")
+
+
+@rig.command("place")
+@click.argument("rig_path", metavar="RIG", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument(
+    "landmark_files",
+    metavar="LANDMARKS...",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    nargs=-1,
+    required=True,
+)
+@click.option(
+    "-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, help="Rig file to write (.npz)."
+)
+@click.option(
+    "--unit",
+    type=click.Choice(["m", "cm", "mm"]),
+    default=None,
+    help="The landmarks' world unit: the floor's residuals are then printed in cm [default: in world units].",
+)
+def rig_place(rig_path: Path, landmark_files: tuple[Path, ...], output: Path, unit: str | None) -> None:
+    """Every camera of RIG placed in one world from its floor LANDMARKS (one file per camera, in the rig's order:
+    a CSV of u,v,X,Y,Z rows with Z = 0, or JSON, as `panomap fit` reads them; every camera's X, Y in the same
+    world, Z up, from one tape measure). Each camera's lens stays as it is; its rotation and position are
+    replaced. Prints each camera's residuals (px, and on the floor)."""
+    from ..calibrate.landmarks.pairs import read_landmarks
+    from ..interop.orient import turn_table
+    from ..rig.place import place_on_floor
+
+    loaded = load_rig(rig_path)
+    check_outputs([("the rig", rig_path), *(("landmarks", path) for path in landmark_files)], [("the output", output)])
+    if len(landmark_files) != loaded.count:
+        names = ", ".join(loaded.names)
+        raise click.UsageError(f"give one landmark file per camera of the rig, in its order ({names}), not "
+                               f"{len(landmark_files)}")  # fmt: skip
+    landmarks = []
+    for path in landmark_files:
+        read = read_landmarks(path)
+        landmarks.append((read.pixels, read.world))
+    try:
+        placed = place_on_floor(loaded, landmarks, turn=lambda t, r: turn_table(t, r, "placed from floor landmarks"))
+    except PanomapError as exc:
+        # The camera the refusal names is the file's: say which file.
+        named = next((k for k, name in enumerate(loaded.names) if exc.detail.startswith(f"camera {name}:")), None)
+        raise PanomapError(exc.detail, landmark_files[named] if named is not None else None) from None
+    with all_or_none():
+        save_rig(placed.rig, output)
+    for line in placed.describe(unit):
         say(printable(line))
     say(f"wrote {printable(str(output))}")

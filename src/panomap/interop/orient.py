@@ -73,13 +73,16 @@ def orient_table(table: PanoMappingTable, yaw_rad: float, pitch_rad: float, roll
     )
 
 
-def turn_table(table: PanoMappingTable, rotation: NDArray[np.float64]) -> PanoMappingTable:
+def turn_table(
+    table: PanoMappingTable, rotation: NDArray[np.float64], source: str = "learned from pictures"
+) -> PanoMappingTable:
     """``table``'s camera with the rotation ``rotation`` (3, 3; camera to world), its entries made anew as
     :func:`orient_table` makes them (exactly, through an imported table's calibration): what
-    :func:`panomap.rig.learn.learn_rotations` takes as its ``turn``."""
+    :func:`panomap.rig.learn.learn_rotations` and :func:`panomap.rig.place.place_on_floor` take as their
+    ``turn``; ``source`` says where the rotation came from (the table's orientation record)."""
     model = table.model
     yaw, pitch, roll = orientation_of_rotation(rotation, model.axis, model.s, model.phi0)
     turned = orient_table(table, yaw, pitch, roll)
     info = dict(turned.info)
-    info["orientation"] = {**info["orientation"], "source": "learned from pictures"}
+    info["orientation"] = {**info["orientation"], "source": source}
     return replace(turned, info=info)

@@ -15,7 +15,6 @@ tolerance). Rays beyond 90 deg from the axis are as good as any: no pinhole plan
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
@@ -29,17 +28,23 @@ from ..table.table import PanoMappingTable
 from .learn import rotation_of, turned_table
 from .rig import CameraRig
 
-# Landmarks a camera needs at least (a homography: 4; more to see the residuals).
-MIN_LANDMARKS = 6
+# Landmarks a camera needs at least (a homography's four; more to see the residuals).
+MIN_LANDMARKS = 4
 MAX_STEPS = 50
 STEP_TOLERANCE = 1e-12
+# Landmarks within this fraction of their spread of one line count as on it.
+COLLINEAR_FRACTION = 1e-3
+# Rays this far (deg, median) from their landmarks at the best pose: no pose explains them, refused.
+MAX_MEDIAN_DEG = 2.0
+CM_PER_UNIT = {"m": 100.0, "cm": 1.0, "mm": 0.1}
 
 
 @dataclass(frozen=True)
 class PlacedCamera:
     """One camera's pose from its floor landmarks: ``rotation`` (3, 3, camera to world), ``centre`` (3,),
-    the landmarks used, their rays' angle to the landmarks (deg) and their rays' floor points' distance from
-    the landmarks (world units), median and p90."""
+    the landmarks used and how far the placed camera misses them: their rays' angle to the landmarks (deg),
+    the landmarks projected through the placed table against their pixels (px), and the rays' floor points'
+    distance from the landmarks (world units); each median, p90 and max."""
 
     name: str
     rotation: FloatArray
@@ -47,15 +52,23 @@ class PlacedCamera:
     landmarks: int
     residual_deg_median: float
     residual_deg_p90: float
+    residual_px_median: float
+    residual_px_p90: float
+    residual_px_max: float
     floor_median: float
     floor_p90: float
+    floor_max: float
 
-    def describe(self) -> str:
+    def describe(self, unit: str | None = None) -> str:
+        """One line; ``unit`` (``m``, ``cm`` or ``mm``: the landmarks' world unit) gives the floor's figures in
+        cm, None in world units."""
         x, y, z = self.centre
+        scale, shown = (1.0, "world units") if unit is None else (CM_PER_UNIT[unit], "cm")
+        floor = f"{self.floor_median * scale:.3g}, p90 {self.floor_p90 * scale:.3g}, max {self.floor_max * scale:.3g}"
         return (
-            f"{self.name}: at ({x:.4g}, {y:.4g}, {z:.4g}) from {self.landmarks} landmarks; ray residual median "
-            f"{self.residual_deg_median:.3f} deg, p90 {self.residual_deg_p90:.3f} deg; on the floor median "
-            f"{self.floor_median:.4g}, p90 {self.floor_p90:.4g} (world units)"
+            f"{self.name}: at ({x:.4g}, {y:.4g}, {z:.4g}) from {self.landmarks} landmarks; residual median "
+            f"{self.residual_px_median:.2f} px, p90 {self.residual_px_p90:.2f}, max {self.residual_px_max:.2f} "
+            f"({self.residual_deg_median:.3f} deg median); on the floor median {floor} {shown}"
         )
 
 
@@ -66,8 +79,8 @@ class PlacedRig:
     rig: CameraRig
     cameras: tuple[PlacedCamera, ...]
 
-    def describe(self) -> list[str]:
-        return [camera.describe() for camera in self.cameras]
+    def describe(self, unit: str | None = None) -> list[str]:
+        return [camera.describe(unit) for camera in self.cameras]
 
 
 def camera_rays(table: PanoMappingTable, pixels: ArrayLike) -> FloatArray:
@@ -87,11 +100,11 @@ def floor_pose(rays: FloatArray, points: FloatArray) -> tuple[FloatArray, FloatA
     """
     n = len(rays)
     if n < MIN_LANDMARKS:
-        raise PanomapError(f"{n} floor landmarks: a camera needs {MIN_LANDMARKS} or more")
+        raise PanomapError(f"{n} floor landmarks: a camera needs {MIN_LANDMARKS} or more, not all on one line")
     mean = points.mean(axis=0)
     spread = float(np.sqrt(np.mean(np.sum((points - mean) ** 2, axis=1))))
-    if spread == 0 or np.linalg.svd(points - mean, compute_uv=False)[1] < 1e-3 * spread * math.sqrt(n):
-        raise PanomapError("the floor landmarks lie on one line: they fix no pose")
+    if spread == 0 or off_one_line(points, COLLINEAR_FRACTION * spread) < 2:
+        raise PanomapError("the floor landmarks lie on one line (all but one at most): they fix no pose")
     q = np.column_stack([(points - mean) / spread, np.ones(n)])  # normalised floor points
     # c x (H q) = 0: two independent rows of three per point, linear in H's 9 entries (row-major).
     rows = []
@@ -124,7 +137,22 @@ def floor_pose(rays: FloatArray, points: FloatArray) -> tuple[FloatArray, FloatA
         centre = centre + delta[3:]
         if np.max(np.abs(delta[:3])) < STEP_TOLERANCE and np.max(np.abs(delta[3:])) < STEP_TOLERANCE * max(1.0, spread):
             return rotation, centre, step
-    raise PanomapError(f"the camera's pose did not converge in {MAX_STEPS} steps")
+    raise PanomapError(f"the camera's pose did not converge in {MAX_STEPS} steps: are the landmarks its own?")
+
+
+def off_one_line(points: FloatArray, tolerance: float) -> int:
+    """How many of ``points`` (n, 2), n >= 3, lie off the line through most of them, of the lines through two of
+    the first three (one of which holds every point but one where all but one lie on a line); ``tolerance``
+    (world units): the distance that counts as on it. Fewer than 2 off: the points fix no homography."""
+    fewest = len(points)
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        d = points[j] - points[i]
+        length = float(np.hypot(*d))
+        if length <= tolerance:
+            continue
+        normal = np.array([-d[1], d[0]]) / length
+        fewest = min(fewest, int(np.sum(np.abs((points - points[i]) @ normal) > tolerance)))
+    return fewest
 
 
 def _skew(v: FloatArray) -> FloatArray:
@@ -153,45 +181,89 @@ def place_on_floor(
         ``turn(table, rotation)``: the table with a new rotation (default
         :func:`panomap.rig.learn.turned_table`).
 
+    Returns
+    -------
+    PlacedRig
+        The rig, each camera turned by ``turn`` and moved to its centre, and each camera's residuals.
+
     Raises
     ------
     PanomapError
-        Naming the camera, where its landmarks are too few, off the floor, unseen by its lens or on one line.
+        Naming the camera, where its landmarks are fewer than :data:`MIN_LANDMARKS`, off the floor, unseen by
+        its lens, on one line (all but one at most), putting the camera below the floor (X, Y mirrored), or
+        missing their best pose by more than :data:`MAX_MEDIAN_DEG` (median).
     """
     if len(landmarks) != rig.count:
         raise PanomapError(f"floor landmarks for {len(landmarks)} cameras: the rig has {rig.count}")
+    # Every camera's pose first, so that a refusal comes before any table is turned.
+    poses = [_camera_pose(name, table, pixels, points) for name, table, (pixels, points) in
+             zip(rig.names, rig.tables, landmarks, strict=True)]  # fmt: skip
     tables, placed = [], []
-    for name, table, (pixels, points) in zip(rig.names, rig.tables, landmarks, strict=True):
-        uv = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-        world = np.asarray(points, dtype=np.float64)
-        if world.ndim != 2 or world.shape[1] not in (2, 3) or len(world) != len(uv):
-            raise PanomapError(f"camera {name}: one floor point (X, Y) per landmark pixel")
-        if world.shape[1] == 3 and np.any(world[:, 2] != 0):
-            raise PanomapError(f"camera {name}: floor landmarks lie at Z = 0")
-        floor = world[:, :2]
-        rays = camera_rays(table, uv)
-        seen = np.all(np.isfinite(rays), axis=1)
-        if not seen.all():
-            raise PanomapError(f"camera {name}: {int((~seen).sum())} landmark pixels are outside what its lens sees")
-        try:
-            rotation, centre, _ = floor_pose(rays, floor)
-        except PanomapError as exc:
-            raise PanomapError(f"camera {name}: {exc.detail}") from None
-        moved = turn(table, rotation)
-        tables.append(replace(moved, camera_position=(float(centre[0]), float(centre[1]), float(centre[2]))))
-        placed.append(_report(name, rotation, centre, rays, floor))
+    for name, table, (uv, floor, rays, rotation, centre) in zip(rig.names, rig.tables, poses, strict=True):
+        moved = replace(turn(table, rotation), camera_position=(float(centre[0]), float(centre[1]), float(centre[2])))
+        tables.append(moved)
+        placed.append(_report(name, moved, uv, rays, floor))
     info = {**rig.info, "poses": "placed from floor landmarks"}
     return PlacedRig(replace(rig, tables=tuple(tables), info=info), tuple(placed))
 
 
-def _report(name: str, rotation: FloatArray, centre: FloatArray, rays: FloatArray, floor: FloatArray) -> PlacedCamera:
-    world = rays @ rotation.T
+def _camera_pose(
+    name: str, table: PanoMappingTable, pixels: ArrayLike, points: ArrayLike
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """One camera's landmarks checked and its pose: pixels (n, 2), floor points (n, 2), rays (n, 3) in its axes,
+    rotation (3, 3), centre (3,); refusals name the camera."""
+    uv = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+    world = np.asarray(points, dtype=np.float64)
+    if world.ndim != 2 or world.shape[1] not in (2, 3) or len(world) != len(uv):
+        raise PanomapError(f"camera {name}: one floor point (X, Y) per landmark pixel")
+    if world.shape[1] == 3 and np.any(world[:, 2] != 0):
+        raise PanomapError(f"camera {name}: floor landmarks lie at Z = 0")
+    floor = world[:, :2]
+    rays = camera_rays(table, uv)
+    seen = np.all(np.isfinite(rays), axis=1)
+    if not seen.all():
+        raise PanomapError(f"camera {name}: {int((~seen).sum())} landmark pixels are outside what its lens sees")
+    try:
+        rotation, centre, _ = floor_pose(rays, floor)
+    except PanomapError as exc:
+        raise PanomapError(f"camera {name}: {exc.detail}") from None
+    if centre[2] <= 0:
+        raise PanomapError(
+            f"camera {name}: its landmarks put it below the floor (Z = {centre[2]:.3g}): are X, Y right-handed "
+            "with Z up? (a mirrored floor turns the camera upside down)"
+        )
+    median_deg = float(np.median(_angles_deg(rays @ rotation.T, floor, centre)))
+    if not median_deg <= MAX_MEDIAN_DEG:
+        raise PanomapError(
+            f"camera {name}: its landmarks miss their best pose by {median_deg:.1f} deg (median): wrong pixels, "
+            "another camera's, or X, Y not right-handed with Z up?"
+        )
+    return uv, floor, rays, rotation, centre
+
+
+def _angles_deg(world_rays: FloatArray, floor: FloatArray, centre: FloatArray) -> FloatArray:
+    """The angles (deg) between rays (n, 3) in world axes from ``centre`` and the floor points (n, 2)."""
     d = np.column_stack([floor, np.zeros(len(floor))]) - centre
-    angle = np.degrees(np.arccos(np.clip(np.sum(world * d, axis=1) / np.linalg.norm(d, axis=1), -1.0, 1.0)))
+    cosine = np.sum(world_rays * d, axis=1) / np.linalg.norm(d, axis=1)
+    return np.asarray(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+
+
+def _report(
+    name: str, table: PanoMappingTable, pixels: FloatArray, rays: FloatArray, floor: FloatArray
+) -> PlacedCamera:
+    """How far the placed camera (``table``) misses its landmarks: pixels (n, 2), their rays (n, 3) in its
+    axes, their floor points (n, 2)."""
+    rotation, centre = rotation_of(table), np.asarray(table.camera_position, dtype=np.float64)
+    world = rays @ rotation.T
+    points = np.column_stack([floor, np.zeros(len(floor))])
+    angle = _angles_deg(world, floor, centre)
     with np.errstate(divide="ignore", invalid="ignore"):
         reach = -centre[2] / world[:, 2]
     hit = centre[None, :2] + reach[:, None] * world[:, :2]
     miss = np.where(reach > 0, np.linalg.norm(hit - floor, axis=1), np.inf)
+    projected = np.asarray(table.project(points), dtype=np.float64)
+    px = np.hypot(*(projected - pixels).T)
+    px = np.where(np.isfinite(px), px, np.inf)  # a landmark the placed lens does not see: missed outright
     return PlacedCamera(
         name,
         rotation,
@@ -199,6 +271,10 @@ def _report(name: str, rotation: FloatArray, centre: FloatArray, rays: FloatArra
         len(floor),
         float(np.median(angle)),
         float(np.percentile(angle, 90)),
+        float(np.median(px)),
+        float(np.percentile(px, 90)),
+        float(np.max(px)),
         float(np.median(miss)),
         float(np.percentile(miss, 90)),
+        float(np.max(miss)),
     )
