@@ -163,41 +163,36 @@ def rendered_fisheye(tmp_path_factory: pytest.TempPathFactory):
 
 
 @pytest.mark.slow
-def test_cli_learns_the_camera_of_a_rendered_room(rendered_fisheye, tmp_path) -> None:
-    """``panomap fit -o T --image IMG``: the table's camera against the true one.
+def test_cli_refuses_a_level_rendered_room_that_cannot_pin_the_stretch(rendered_fisheye, tmp_path) -> None:
+    """``panomap fit -o T --image IMG`` on a room under a fisheye tilted 2 deg: the fit lands on the true camera
+    (p90 0.03 px), but the lines run along and across the axis, so the camera stretched along it keeps them
+    straight and their right angles square (:mod:`panomap.calibrate.lines.stretch`): the picture cannot tell
+    them apart and the command refuses in one line, the overlay of the lines found still written, no table.
+    (Until issue 55 it was accepted, right by the law's assumption, not by what the picture shows.)
 
-    Measured: p90 0.03 px, max 0.05 px; the reported 95% band (1.96 standard errors of the radius) 0.2-0.5 px
-    contains the true error at every elevation.
+    Measured: the right angles do not reject s = 0.77-1.44; the band p90 55.6 / max 56.3 px.
     """
     from click.testing import CliRunner
 
     from panomap.cli.app import main
-    from panomap.table.file import load_table
 
-    camera, image = rendered_fisheye
+    _, image = rendered_fisheye
     table_path = tmp_path / "cam.npz"
     overlay = tmp_path / "seen.png"
     result = CliRunner().invoke(
         main,
         ["fit", "-o", str(table_path), "--image", str(image), "--camera-height", "1.3", "--overlay", str(overlay)],
     )
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 1, result.output
+    errors = [line for line in result.output.splitlines() if line.startswith("panomap: error")]
+    assert len(errors) == 1 and "lines all along or across its axis" in errors[0], result.output
+    assert not table_path.exists()
     import cv2
 
     drawn = cv2.imread(str(overlay))
     assert drawn is not None, "no overlay written"
-    green = (drawn[..., 1] > 200) & (drawn[..., 0] < 90) & (drawn[..., 2] < 90)
-    assert green.sum() > 2000, "the lines used are not drawn"
-    assert "straight lines" in result.output
-    table = load_table(table_path)
-    errors = pixel_errors(table.model, camera, step=4)
-    assert np.percentile(errors, 90) < 0.6
-    assert errors.max() < 1.0
-    assert table.camera_position == (0.0, 0.0, 1.3)
-    assert math.degrees(table.model.tilt[0]) == pytest.approx(2.0, abs=0.6)
-    uncertainty = table.info["fit"]["uncertainty"]
-    assert max(uncertainty["radius_se_px"]) < 1.0
-    assert 1.96 * min(uncertainty["radius_se_px"]) > errors.max()  # the band contains the true error
+    yellow = (drawn[..., 1] > 200) & (drawn[..., 2] > 200) & (drawn[..., 0] < 90)  # BGR
+    assert yellow.sum() > 2000, "the edges found are not drawn"
 
 
 def _rendered_room_arcs(scale: float, seed: int = 2):

@@ -14,7 +14,13 @@ can say is how far apart the cameras lie that it cannot tell apart:
   significantly less explained. Units, not points: a line's points err alike along it;
 - **folds**: the chosen kind refitted without each fold of lines (the cross-validation's own fits): a
   grouped jackknife, whose spread counts a line's points as the one measurement they are (a line's
-  points err alike along it; the Jacobian takes them as independent).
+  points err alike along it; the Jacobian takes them as independent);
+- **the stretch**: the chosen camera stretched along its axis (:mod:`.stretch`) by the least and the largest
+  ``s`` its right angles do not reject (:func:`.stretch.stretch_range`). Every line is exactly as straight under
+  each, so no other start or kind need land there for the picture to be unable to tell them apart. Without it, a
+  picture whose lines run along and across the axis was accepted wherever the other starts and kinds happened to
+  agree: a level room through a mirror whose law is the unified one stretched 6%, 4.5 px off (issue 55, where a
+  held-out mirror camera's picture was accepted 13 px off).
 
 Each is compared with the chosen camera as the outside checks compare a camera with its calibration
 (:func:`displacement_px`): pixels on rings about the chosen camera's centre, each pixel's ray under both,
@@ -36,7 +42,7 @@ from ...camera.radial import RadialFunction
 from ...errors import PanomapError, refusal
 from ...geometry import FloatArray
 from .rays import InverseRadial
-from .stretch import OBLIQUE_MIN_DEG, obliqueness_deg
+from .stretch import OBLIQUE_MIN_DEG, StretchRange, obliqueness_deg
 
 # Another camera is ruled out when it leaves the lines (and right angles), unit by unit, less explained than the
 # chosen one at this one-sided significance.
@@ -201,6 +207,18 @@ def displacement_px(chosen: Camera, other: Camera, axis: str, alpha: FloatArray)
     return np.asarray(np.where(np.isfinite(distance), distance, math.inf).max(axis=1), dtype=np.float64)
 
 
+def stretch_displacement_px(chosen: Camera, s: float, axis: str, alpha: FloatArray) -> FloatArray:
+    """The distance (px) on each ring ``alpha`` (m,) rad between the chosen camera's pixels and where it puts the
+    rays of the camera stretched by ``s`` along its axis: ``|r(alpha') - r(alpha)|``, ``tan(alpha') = tan(alpha) /
+    s`` (the rings are symmetric about the axis, so the best orthogonal map is the identity); inf where the chosen
+    law does not reach ``alpha'``."""
+    radial = _radial(chosen, axis)
+    stretched = np.arctan2(np.sin(alpha), s * np.cos(alpha))
+    with np.errstate(invalid="ignore", over="ignore"):
+        distance = np.abs(_radius_of_alpha(radial, stretched) - _radius_of_alpha(radial, alpha))
+    return np.asarray(np.where(np.isfinite(distance), distance, math.inf), dtype=np.float64)
+
+
 def _rays(centre: FloatArray, alpha: FloatArray, pixels: FloatArray) -> FloatArray:
     phi = np.arctan2(pixels[:, 1] - centre[1], pixels[:, 0] - centre[0])
     return np.stack([np.sin(alpha) * np.cos(phi), np.sin(alpha) * np.sin(phi), np.cos(alpha)], axis=1)
@@ -213,10 +231,12 @@ def pinned_band(
     axis: str,
     alpha: FloatArray,
     directions: FloatArray | None = None,
+    stretch: StretchRange | None = None,
 ) -> PinnedBand:
     """The band's parts at rings ``alpha`` (rad): the folds' grouped jackknife (``folds``: the chosen kind's
-    parameters fitted without each fold) and the farthest of ``alternatives``; with the ``directions`` (k, 3) of
-    the families at right angles to another, under the chosen camera, how oblique the most oblique is."""
+    parameters fitted without each fold) and the farthest of ``alternatives`` and of the chosen camera stretched
+    along its axis to either end of ``stretch``; with the ``directions`` (k, 3) of the families at right angles to
+    another, under the chosen camera, how oblique the most oblique is."""
     if folds:
         d = np.array([displacement_px(chosen, Camera(chosen.kind, f, "fold"), axis, alpha) for f in folds])
         k = len(folds)
@@ -225,9 +245,14 @@ def pinned_band(
         jackknife = np.zeros(alpha.shape)
     far = np.zeros(alpha.shape)
     farthest = "no other start or kind came close"
-    if alternatives:
-        distances = np.array([displacement_px(chosen, other, axis, alpha) for other in alternatives])
+    rows = [displacement_px(chosen, other, axis, alpha) for other in alternatives]
+    names = [other.source for other in alternatives]
+    for s in () if stretch is None else sorted({stretch.low, stretch.high} - {1.0}):
+        rows.append(stretch_displacement_px(chosen, s, axis, alpha))
+        names.append(f"the camera stretched along its axis by s = {s:.3f}")
+    if rows:
+        distances = np.array(rows)
         far = distances.max(axis=0)
-        farthest = alternatives[int(np.argmax(distances.max(axis=1)))].source
+        farthest = names[int(np.argmax(distances.max(axis=1)))]
     oblique = float(obliqueness_deg(directions).max()) if directions is not None and len(directions) else math.nan
     return PinnedBand(np.degrees(alpha), jackknife, far, farthest, oblique)

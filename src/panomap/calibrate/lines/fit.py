@@ -42,7 +42,7 @@ from .objective import LineData, evaluate, orthogonality_residuals, residuals
 from .orientation import level_rotation, zero_azimuth
 from .rays import InverseRadial
 from .refusals import no_right_angles, not_straight, too_few
-from .stretch import FLAT_BOARD_DEG
+from .stretch import FLAT_BOARD_DEG, StretchRange, stretch_range, stretched_normals
 
 # Fewest lines a fit needs, and fewest of them with a family orthogonal to another (the scale).
 MIN_LINES = 8
@@ -689,8 +689,19 @@ def _result(
     # The right angles' families, as this camera sees them: only they can measure the stretch (:mod:`.stretch`).
     squared = sorted({k for pair in orthogonal_pairs(seen) for k in pair})
     directions = np.array([seen[k].direction for k in squared]).reshape(-1, 3)
-    band = pinned_band(Camera(kind, params, "chosen"), alternatives, folds, axis, ring_alphas(reach_alpha), directions)
+    stretch = _stretch(trial.normals, families)
+    band = pinned_band(
+        Camera(kind, params, "chosen"), alternatives, folds, axis, ring_alphas(reach_alpha), directions, stretch
+    )
     return LineFit(model, covariance, report, band)
+
+
+def _stretch(normals: FloatArray, families: list[Family]) -> StretchRange:
+    """The stretches along the axis that the lines' right angles (their planes' ``normals`` (L, 3) under the chosen
+    camera) do not reject (:func:`.stretch.stretch_range`): each pair's cosine over its standard error, as the fit
+    weighs it (:func:`.objective.orthogonality_residuals`), under the stretched camera's planes."""
+    pairs = orthogonal_pairs(families)
+    return stretch_range(lambda s: orthogonality_residuals(stretched_normals(normals, s), families, pairs, 1.0))
 
 
 def _reach_alpha(radial: RadialFunction, circles: ImageCircles, r_max: float, lines_alpha: float) -> float:
