@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from numpy.typing import NDArray
 from scipy.optimize import least_squares
 from scipy.sparse import csr_matrix, lil_matrix
 from scipy.spatial.transform import Rotation
@@ -236,11 +237,21 @@ def elevations(points: FloatArray, axis: str) -> FloatArray:
 
 def board_points(poses: FloatArray, boards: Sequence[Board]) -> FloatArray:
     """Corners (N, 3) of every board, in the camera's axes, from the poses (B, 6): rotation vector, translation."""
-    out = []
-    for pose, board in zip(poses, boards, strict=True):
-        plane = np.column_stack([board.grid.astype(np.float64), np.zeros(len(board.grid))])
-        out.append(Rotation.from_rotvec(pose[:3]).apply(plane) + pose[3:])
-    return np.concatenate(out)
+    poses = np.asarray(poses).reshape(-1, 6)
+    plane, owner = _planes(boards)
+    if len(poses) != len(boards):
+        raise ValueError(f"{len(poses)} poses for {len(boards)} boards")
+    rotations = Rotation.from_rotvec(poses[:, :3]).as_matrix()  # one call for every board (B, 3, 3)
+    out: FloatArray = np.einsum("nij,nj->ni", rotations[owner], plane) + poses[owner, 3:]
+    return out
+
+
+def _planes(boards: Sequence[Board]) -> tuple[FloatArray, NDArray[np.intp]]:
+    """Every board's corners on its plane (N, 3) (grid place, z = 0) and the board each is on (N,)."""
+    plane = np.zeros((sum(len(b.grid) for b in boards), 3))
+    plane[:, :2] = np.concatenate([b.grid for b in boards])
+    owner = np.repeat(np.arange(len(boards)), [len(b.grid) for b in boards])
+    return plane, owner
 
 
 def board_axis_deg(poses: FloatArray) -> FloatArray:
@@ -312,21 +323,19 @@ def _jacobian(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], obse
     radial_part = (sign * dr_drho)[:, None] * d_alpha
     du_dx = radial_part * cos_phi[:, None] - (r * sin_phi)[:, None] * d_phi
     dv_dx = radial_part * sin_phi[:, None] + (r * cos_phi)[:, None] * d_phi
-    start = 0
-    for b, (pose, board) in enumerate(zip(poses, boards, strict=True)):
-        stop = start + len(board.pixels)
-        plane = np.column_stack([board.grid.astype(np.float64), np.zeros(len(board.grid))])
-        column = count + 6 * b
-        for k in range(3):
-            up, down = pose[:3].copy(), pose[:3].copy()
-            up[k] += 1e-6
-            down[k] -= 1e-6
-            dp = (Rotation.from_rotvec(up).apply(plane) - Rotation.from_rotvec(down).apply(plane)) / 2e-6
-            jac[2 * start : 2 * stop : 2, column + k] = np.sum(du_dx[start:stop] * dp, axis=1)
-            jac[2 * start + 1 : 2 * stop : 2, column + k] = np.sum(dv_dx[start:stop] * dp, axis=1)
-        jac[2 * start : 2 * stop : 2, column + 3 : column + 6] = du_dx[start:stop]
-        jac[2 * start + 1 : 2 * stop : 2, column + 3 : column + 6] = dv_dx[start:stop]
-        start = stop
+    # the rotation's derivatives, every board's at once: R(w +- 1e-6 e_k) p (B, 3 (k), 2 (+-), 3, 3)
+    plane, owner = _planes(boards)
+    steps = np.concatenate([np.eye(3), -np.eye(3)]) * 1e-6
+    turned = Rotation.from_rotvec((poses[:, None, :3] + steps[None]).reshape(-1, 3)).as_matrix()
+    turned = turned.reshape(len(boards), 2, 3, 3, 3).transpose(0, 2, 1, 3, 4)
+    moved = np.einsum("nksij,nj->nksi", turned[owner], plane)
+    dp = (moved[:, :, 0] - moved[:, :, 1]) / 2e-6  # (n, 3 (k), 3)
+    rows = np.arange(n)
+    columns = count + 6 * owner
+    jac[2 * rows[:, None], columns[:, None] + np.arange(3)] = np.einsum("nki,ni->nk", dp, du_dx)
+    jac[2 * rows[:, None] + 1, columns[:, None] + np.arange(3)] = np.einsum("nki,ni->nk", dp, dv_dx)
+    jac[2 * rows[:, None], columns[:, None] + 3 + np.arange(3)] = du_dx
+    jac[2 * rows[:, None] + 1, columns[:, None] + 3 + np.arange(3)] = dv_dx
     residuals = (project(kind, axis, params, points) - observed).ravel()
     jac[~np.isfinite(residuals)] = 0.0
     return csr_matrix(np.where(np.isfinite(jac), jac, 0.0))
