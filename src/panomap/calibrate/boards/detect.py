@@ -8,6 +8,11 @@ fisheye lens, to a fraction of a pixel; told that the board may be larger than t
 (``CALIB_CB_LARGER``) it grows the grid to the whole board, so the board's size need not be known.
 It grows from a small seed that it may not find on every board, so several seeds are tried and the
 largest grid kept.
+
+The search runs without the detector's upsampling (``CALIB_CB_ACCURACY``, three to four times its time,
+and most searches find nothing or the same board again); once a board is found, the detector places its
+corners with the upsampling on a crop of the image around it (a tenth of a search's time), where it may
+grow the grid by a row the search missed (:func:`_accurate`), and they are refined in full (:func:`_refine`).
 """
 
 from __future__ import annotations
@@ -20,10 +25,25 @@ from numpy.typing import NDArray
 
 from ...geometry import FloatArray
 
-# Seeds (columns, rows of inner corners) the detector grows from; the largest board found is kept.
-SEEDS = ((3, 3), (4, 4), (5, 5))
-# Seeds tried in the searches after a board was found.
-LATER_SEEDS = 2
+# Seeds (columns, rows of inner corners) the detector grows from, in order; the largest board found is kept. A
+# search stops at the second seed that grows to the same board of MIN_CORNERS or more (it has grown as far as it
+# will: (4, 4) alone may grow to part of a board); (3, 3), tried last, also grows from a scene's texture.
+SEEDS = ((4, 4), (5, 5), (3, 3))
+# The seeds of the searches after a board was found: one (most images hold one board, and a search that finds
+# nothing costs every seed).
+LATER_SEEDS = ((4, 4),)
+# The search's flags; the corners of a board found are placed with CALIB_CB_ACCURACY on a crop (_accurate).
+SEARCH_FLAGS = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER
+# The crop round a board found reaches this many of its largest squares beyond its outer corners.
+CROP_SQUARES = 1.5
+# The detector grows a grid to about this many corners at most (its exhaustive search's limit): a grid this large
+# is part of a larger pattern (a board tiled over the frame), which the crop round it shows beyond it, and its
+# corners are not placed on a crop.
+PATTERN_CORNERS = 500
+# A corner placed on the crop is the search's corner where it lies within this fraction of the way to the corner's
+# nearest neighbour on the grid, and no other corner of the search's is nearest it (the search's corners, without
+# the upsampling, may lie 0.3-0.7 of the way off where a square is a few pixels: 3 px on the MiniOmni set).
+SAME_CORNER = 0.75
 # The detector draws random samples from OpenCV's global generator; it is seeded before every search.
 RNG_SEED = 20071
 # Most boards searched for in one image.
@@ -32,7 +52,8 @@ MAX_BOARDS = 6
 MIN_CORNERS = 20
 # The search stops after this many searches in a row that find only grids under MIN_CORNERS: a scene's texture
 # (foliage, a patterned rug) shows the detector 3 x 3 to 3 x 5 grids again and again (16 on a 960 x 1080 picture of
-# trees, 17 s), while a real board, the largest grid in the image, is found first and grows past it.
+# trees, 17 s), while a real board, the largest grid in the image, is found first and grows past it: once a board
+# is found, the first search that finds only such a grid ends it.
 MAX_SMALL_FINDS = 3
 # Images larger than this (px, the longer side) are searched downscaled, and the corners refined in full.
 SEARCH_SIZE_PX = 1400
@@ -87,18 +108,21 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
     boards: list[Board] = []
     searched = 0
     small = 0
-    while len(boards) < max_boards and small < MAX_SMALL_FINDS:
-        # every seed on the first search; after a board, fewer (a search that finds nothing costs all of them)
-        found = _largest(search, SEEDS if searched == 0 else SEEDS[:LATER_SEEDS])
+    while len(boards) < max_boards and small < (1 if boards else MAX_SMALL_FINDS):
+        # every seed on the first search; after it, a search that finds nothing with the first seed ends there
+        found = _largest(search, SEEDS if searched == 0 else LATER_SEEDS, give_up=searched > 0)
         searched += 1
         if found is None:
             break
         pixels, (rows, columns) = found
-        search = _painted_over(search, pixels, columns, rows)
         if len(pixels) < MIN_CORNERS or len(pixels) != rows * columns:
+            search = _painted_over(search, pixels, columns, rows)
             small += 1
             continue
         small = 0
+        if len(pixels) < PATTERN_CORNERS:
+            pixels, (rows, columns) = _accurate(search, pixels, columns, rows)
+        search = _painted_over(search, pixels, columns, rows)
         if scale != 1.0:
             pixels = (pixels + 0.5) / scale - 0.5
         pixels = _refine(grey, pixels, columns, rows)
@@ -109,28 +133,92 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
 
 
 def _largest(
-    search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...]
+    search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...], give_up: bool
 ) -> tuple[FloatArray, tuple[int, int]] | None:
-    """The largest board the detector grows from any seed: corners (n, 2) px and (rows, columns)."""
-    flags = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER | cv2.CALIB_CB_ACCURACY
+    """The largest board the detector grows from the seeds: corners (n, 2) px and (rows, columns).
+
+    The seeds are tried in order until two have grown to the same board of ``MIN_CORNERS`` or more; with
+    ``give_up``, none after a first that finds no such board.
+    """
     best: tuple[FloatArray, tuple[int, int]] | None = None
+    same = 0
     for seed in seeds:
         cv2.setRNGSeed(RNG_SEED)  # the detector samples with OpenCV's global generator: the same image, the same boards
-        found, corners, meta = cv2.findChessboardCornersSBWithMeta(search, seed, flags=flags)
-        if found and corners is not None and (best is None or len(corners) > len(best[0])):
-            best = (corners.reshape(-1, 2).astype(np.float64), (int(meta.shape[0]), int(meta.shape[1])))
+        found, corners, meta = cv2.findChessboardCornersSBWithMeta(search, seed, flags=SEARCH_FLAGS)
+        if not found or corners is None:
+            if give_up:
+                break
+            continue
+        pixels = corners.reshape(-1, 2).astype(np.float64)
+        if best is not None and len(pixels) == len(best[0]) and _same_board(pixels, best[0]):
+            same += 1
+        elif best is None or len(pixels) > len(best[0]):
+            best, same = (pixels, (int(meta.shape[0]), int(meta.shape[1]))), 1
+        if (give_up and len(best[0]) < MIN_CORNERS) or (same >= 2 and len(best[0]) >= MIN_CORNERS):
+            break
     return best
 
 
+def _same_board(pixels: FloatArray, other: FloatArray) -> bool:
+    """Whether two grids' corners (n, 2) px are the same corners, in any order (each within 2 px of one of the
+    other's)."""
+    distance = np.hypot(*(pixels[:, None, :] - other[None, :, :]).transpose(2, 0, 1))
+    return bool(np.all(distance.min(axis=1) < 2.0))
+
+
+def _accurate(
+    search: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int
+) -> tuple[FloatArray, tuple[int, int]]:
+    """A board's corners (n, 2) px as the detector places them with its upsampling, and (rows, columns).
+
+    The detector searches with ``CALIB_CB_ACCURACY`` on the board alone: the crop of ``search`` round its corners'
+    hull grown by ``CROP_SQUARES`` of its largest squares, the rest of the crop filled with its median grey (a board
+    tiled over the frame would show the detector thousands of corners), from each seed in turn (told the board's
+    size, the detector often finds nothing on a crop; grown from a seed on it, the whole board in a tenth of a
+    second), and its grid may grow past the search's: the upsampled image shows an outer row the search may miss
+    (a 10 x 7 grid of an 11 x 7 board). The first grid that holds every corner of ``pixels`` (each within
+    ``SAME_CORNER`` of the way to its nearest neighbour on the grid) is kept, the same grid's corners in the
+    order of ``pixels``; where none does, ``pixels`` are kept.
+    """
+    spacing = _neighbour_spacing(pixels, columns, rows)
+    mask = _grown_hull(search.shape, pixels, CROP_SQUARES * float(spacing.max()))
+    x, y, width, height = cv2.boundingRect(mask)
+    crop = search[y : y + height, x : x + width].copy()
+    crop[mask[y : y + height, x : x + width] == 0] = np.uint8(np.median(crop))
+    for seed in SEEDS:
+        cv2.setRNGSeed(RNG_SEED)
+        found, corners, meta = cv2.findChessboardCornersSBWithMeta(
+            crop, seed, flags=SEARCH_FLAGS | cv2.CALIB_CB_ACCURACY
+        )
+        if not found or corners is None or len(corners) < len(pixels) or len(corners) != meta.shape[0] * meta.shape[1]:
+            continue
+        placed = corners.reshape(-1, 2).astype(np.float64) + np.array([x, y], dtype=np.float64)
+        distance = np.hypot(*(pixels[:, None, :] - placed[None, :, :]).transpose(2, 0, 1))
+        nearest = np.argmin(distance, axis=1)
+        close = distance[np.arange(len(pixels)), nearest] < SAME_CORNER * spacing
+        if not np.all(close) or len(np.unique(nearest)) != len(pixels):
+            continue
+        if len(placed) == len(pixels):
+            return placed[nearest], (rows, columns)
+        return placed, (int(meta.shape[0]), int(meta.shape[1]))
+    return pixels, (rows, columns)
+
+
 def _painted_over(search: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int) -> NDArray[np.uint8]:
-    """``search`` with a board's corners' hull, grown by two of its squares, filled with its median grey."""
-    hull = np.zeros(search.shape, dtype=np.uint8)
-    cv2.fillConvexPoly(hull, cv2.convexHull(np.round(pixels).astype(np.int32)), 1)
-    grow = 2 * int(np.ceil(np.median(_neighbour_spacing(pixels, columns, rows)))) + 1
-    mask = cv2.dilate(hull, np.ones((grow, grow), np.uint8))
+    """``search`` with a board's corners' hull, grown by one of its squares (median), filled with its median grey."""
+    mask = _grown_hull(search.shape, pixels, float(np.ceil(np.median(_neighbour_spacing(pixels, columns, rows)))))
     out: NDArray[np.uint8] = search.copy()
     out[mask > 0] = np.uint8(np.median(search))
     return out
+
+
+def _grown_hull(shape: tuple[int, ...], pixels: FloatArray, grow_px: float) -> NDArray[np.uint8]:
+    """A mask (H, W) uint8 of the convex hull of ``pixels`` (n, 2) px grown by ``grow_px`` (1 inside, 0 outside)."""
+    hull = np.zeros(shape, dtype=np.uint8)
+    cv2.fillConvexPoly(hull, cv2.convexHull(np.round(pixels).astype(np.int32)), 1)
+    size = 2 * int(np.ceil(grow_px)) + 1
+    grown: NDArray[np.uint8] = np.asarray(cv2.dilate(hull, np.ones((size, size), np.uint8)), dtype=np.uint8)
+    return grown
 
 
 def _neighbour_spacing(pixels: FloatArray, columns: int, rows: int) -> FloatArray:
@@ -152,10 +240,7 @@ def _refine(grey: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int
     The window reaches a quarter of the way to the nearest corner; where that is under ``MIN_WINDOW_PX`` the
     window holds too few pixels of the four squares' edges and the detector's own estimate is kept.
     """
-    half = np.floor(_neighbour_spacing(pixels, columns, rows) / 4.0)
-    height, width = grey.shape
-    margin = np.minimum.reduce([pixels[:, 0], pixels[:, 1], width - 1 - pixels[:, 0], height - 1 - pixels[:, 1]])
-    half = np.minimum(half, np.floor(margin) - 1.0)  # the window stays inside the image
+    half = _windows(grey, pixels, columns, rows)
     out = pixels.copy()
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 40, 0.01)
     for size in np.unique(np.clip(half[half >= MIN_WINDOW_PX], MIN_WINDOW_PX, MAX_WINDOW_PX)):
@@ -164,4 +249,14 @@ def _refine(grey: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int
         corners = pixels[these].astype(np.float32).reshape(-1, 1, 2)
         refined = cv2.cornerSubPix(grey, corners, (int(size), int(size)), (-1, -1), criteria)
         out[these] = refined.reshape(-1, 2)
+    return out
+
+
+def _windows(grey: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int) -> FloatArray:
+    """The half-width (px, (n,)) of each corner's refining window: a quarter of the way to its nearest corner on the
+    grid, within the image."""
+    half = np.floor(_neighbour_spacing(pixels, columns, rows) / 4.0)
+    height, width = grey.shape
+    margin = np.minimum.reduce([pixels[:, 0], pixels[:, 1], width - 1 - pixels[:, 0], height - 1 - pixels[:, 1]])
+    out: FloatArray = np.minimum(half, np.floor(margin) - 1.0)  # the window stays inside the image
     return out
