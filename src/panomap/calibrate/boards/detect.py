@@ -13,6 +13,10 @@ The search runs without the detector's upsampling (``CALIB_CB_ACCURACY``, three 
 and most searches find nothing or the same board again); once a board is found, the detector places its
 corners with the upsampling on a crop of the image around it (a tenth of a search's time), where it may
 grow the grid by a row the search missed (:func:`_accurate`), and they are refined in full (:func:`_refine`).
+
+The detector grows a grid to about ``PATTERN_CORNERS`` corners at most: a board tiled over the whole frame
+is grown on from there corner by corner (:func:`_grown`), and its corners' places are then whatever part of
+the board the picture shows, not a rectangle.
 """
 
 from __future__ import annotations
@@ -233,9 +237,11 @@ def _grown(
     third of it). From the grid's edge, corner by corner outwards: each missing neighbour is predicted from
     the two or three corners before it in line (a parabola: the lens bends the rows), refined by the saddle of
     the grey levels (``cornerSubPix``, a quarter of the way to its neighbour) and kept where it moved less
-    than ``GROWN_MOVE`` of that way and the four squares round it are dark and light as the board's colouring
-    has them (``GROWN_CONTRAST`` of the grid's own corners' contrast). Growth stops where the squares are
-    under ``GROWN_SQUARE_PX``, at the image's edge and where no corner passes.
+    than ``GROWN_MOVE`` of that way, where the four squares round it are dark and light as the board's colouring
+    has them (``GROWN_CONTRAST`` of the grid's own corners' contrast) and the grey levels are a saddle
+    (``GROWN_SADDLE``: a point on the edge between two thin, sheared squares passes the others). Growth stops
+    where the squares' least width is under ``GROWN_SQUARE_PX``, at the image's edge and where no corner
+    passes.
     """
     height, width = search.shape
     steps = ((1, 0), (-1, 0), (0, 1), (0, -1))
