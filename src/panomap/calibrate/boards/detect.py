@@ -8,6 +8,15 @@ fisheye lens, to a fraction of a pixel; told that the board may be larger than t
 (``CALIB_CB_LARGER``) it grows the grid to the whole board, so the board's size need not be known.
 It grows from a small seed that it may not find on every board, so several seeds are tried and the
 largest grid kept.
+
+The search runs without the detector's upsampling (``CALIB_CB_ACCURACY``, three to four times its time,
+and most searches find nothing or the same board again); once a board is found, the detector places its
+corners with the upsampling on a crop of the image around it (a tenth of a search's time), where it may
+grow the grid by a row the search missed (:func:`_accurate`), and they are refined in full (:func:`_refine`).
+
+The detector grows a grid to about ``PATTERN_CORNERS`` corners at most: a board tiled over the whole frame
+is grown on from there corner by corner (:func:`_grown`), and its corners' places are then whatever part of
+the board the picture shows, not a rectangle.
 """
 
 from __future__ import annotations
@@ -20,10 +29,38 @@ from numpy.typing import NDArray
 
 from ...geometry import FloatArray
 
-# Seeds (columns, rows of inner corners) the detector grows from; the largest board found is kept.
-SEEDS = ((3, 3), (4, 4), (5, 5))
-# Seeds tried in the searches after a board was found.
-LATER_SEEDS = 2
+# Seeds (columns, rows of inner corners) the detector grows from, in order; the largest board found is kept. A
+# search stops at the first seed that grows to a board of MIN_CORNERS or more: on the 79 pictures of the real sets
+# and rendered scenes, the later seeds grew to the same board every time (a quarter of the detection's time).
+# (3, 3), tried last, also grows from a scene's texture.
+SEEDS = ((4, 4), (5, 5), (3, 3))
+# The seeds of the searches after a board was found: one (most images hold one board, and a search that finds
+# nothing costs every seed).
+LATER_SEEDS = ((4, 4),)
+# The search's flags; the corners of a board found are placed with CALIB_CB_ACCURACY on a crop (_accurate).
+SEARCH_FLAGS = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER
+# The crop round a board found reaches this many of its largest squares beyond its outer corners.
+CROP_SQUARES = 1.5
+# The detector grows a grid to about this many corners at most (its exhaustive search's limit): a grid this large
+# is part of a larger pattern (a board tiled over the frame), which the crop round it shows beyond it, and its
+# corners are not placed on a crop.
+PATTERN_CORNERS = 500
+# A pattern's grid is grown (_grown) by corners that moved less than this fraction of the way to their neighbour
+# from where the corners before them predict them, whose squares show this fraction of the grid's own corners'
+# contrast (sampled this fraction of the way along each diagonal), and whose squares are this size (px) or more.
+GROWN_MOVE = 0.25
+GROWN_CONTRAST = 0.3
+GROWN_SAMPLE = 0.3
+GROWN_SQUARE_PX = 8.0
+# ... and where the grey levels' Hessian (smoothed over GROWN_BLUR_PX) is a saddle this fraction as deep as at the
+# grid's own corners (on a board rendered through a fisheye, its corners 0.21 or more, points of an edge between
+# two sheared squares 0.15 or less).
+GROWN_BLUR_PX = 1.75
+GROWN_SADDLE = 0.18
+# A corner placed on the crop is the search's corner where it lies within this fraction of the way to the corner's
+# nearest neighbour on the grid, and no other corner of the search's is nearest it (the search's corners, without
+# the upsampling, may lie 0.3-0.7 of the way off where a square is a few pixels: 3 px on the MiniOmni set).
+SAME_CORNER = 0.75
 # The detector draws random samples from OpenCV's global generator; it is seeded before every search.
 RNG_SEED = 20071
 # Most boards searched for in one image.
@@ -32,7 +69,8 @@ MAX_BOARDS = 6
 MIN_CORNERS = 20
 # The search stops after this many searches in a row that find only grids under MIN_CORNERS: a scene's texture
 # (foliage, a patterned rug) shows the detector 3 x 3 to 3 x 5 grids again and again (16 on a 960 x 1080 picture of
-# trees, 17 s), while a real board, the largest grid in the image, is found first and grows past it.
+# trees, 17 s), while a real board, the largest grid in the image, is found first and grows past it: once a board
+# is found, the first search that finds only such a grid ends it.
 MAX_SMALL_FINDS = 3
 # Images larger than this (px, the longer side) are searched downscaled, and the corners refined in full.
 SEARCH_SIZE_PX = 1400
@@ -87,75 +125,286 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
     boards: list[Board] = []
     searched = 0
     small = 0
-    while len(boards) < max_boards and small < MAX_SMALL_FINDS:
-        # every seed on the first search; after a board, fewer (a search that finds nothing costs all of them)
-        found = _largest(search, SEEDS if searched == 0 else SEEDS[:LATER_SEEDS])
+    while len(boards) < max_boards and small < (1 if boards else MAX_SMALL_FINDS):
+        # every seed on the first search; after it, a search that finds nothing with the first seed ends there
+        found = _largest(search, SEEDS if searched == 0 else LATER_SEEDS, give_up=searched > 0)
         searched += 1
         if found is None:
             break
         pixels, (rows, columns) = found
-        search = _painted_over(search, pixels, columns, rows)
         if len(pixels) < MIN_CORNERS or len(pixels) != rows * columns:
+            search = _painted_over(search, pixels, _rectangle(columns, rows))
             small += 1
             continue
         small = 0
+        if len(pixels) < PATTERN_CORNERS:
+            pixels, (rows, columns) = _accurate(search, pixels, columns, rows)
+            grid = _rectangle(columns, rows)
+        else:
+            pixels, grid = _grown(search, pixels, _rectangle(columns, rows))
+        search = _painted_over(search, pixels, grid)
         if scale != 1.0:
             pixels = (pixels + 0.5) / scale - 0.5
-        pixels = _refine(grey, pixels, columns, rows)
-        column, row = np.meshgrid(np.arange(columns), np.arange(rows))
-        grid = np.stack([column.ravel(), row.ravel()], axis=1).astype(np.intp)
-        boards.append(Board(image_index, pixels, grid))
+        boards.append(Board(image_index, _refine(grey, pixels, grid), grid))
     return boards
 
 
+def _rectangle(columns: int, rows: int) -> NDArray[np.intp]:
+    """The grid places (n, 2) (column, row) of a whole board's corners in the detector's order (row by row)."""
+    column, row = np.meshgrid(np.arange(columns), np.arange(rows))
+    return np.stack([column.ravel(), row.ravel()], axis=1).astype(np.intp)
+
+
 def _largest(
-    search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...]
+    search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...], give_up: bool
 ) -> tuple[FloatArray, tuple[int, int]] | None:
-    """The largest board the detector grows from any seed: corners (n, 2) px and (rows, columns)."""
-    flags = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_LARGER | cv2.CALIB_CB_ACCURACY
+    """The largest board the detector grows from the seeds: corners (n, 2) px and (rows, columns).
+
+    The seeds are tried in order until one has grown to a board of ``MIN_CORNERS`` or more; with ``give_up``,
+    none after a first that finds no such board.
+    """
     best: tuple[FloatArray, tuple[int, int]] | None = None
     for seed in seeds:
         cv2.setRNGSeed(RNG_SEED)  # the detector samples with OpenCV's global generator: the same image, the same boards
-        found, corners, meta = cv2.findChessboardCornersSBWithMeta(search, seed, flags=flags)
-        if found and corners is not None and (best is None or len(corners) > len(best[0])):
+        found, corners, meta = cv2.findChessboardCornersSBWithMeta(search, seed, flags=SEARCH_FLAGS)
+        if not found or corners is None:
+            if give_up:
+                break
+            continue
+        if best is None or len(corners) > len(best[0]):
             best = (corners.reshape(-1, 2).astype(np.float64), (int(meta.shape[0]), int(meta.shape[1])))
+        if give_up or len(best[0]) >= MIN_CORNERS:
+            break
     return best
 
 
-def _painted_over(search: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int) -> NDArray[np.uint8]:
-    """``search`` with a board's corners' hull, grown by two of its squares, filled with its median grey."""
-    hull = np.zeros(search.shape, dtype=np.uint8)
-    cv2.fillConvexPoly(hull, cv2.convexHull(np.round(pixels).astype(np.int32)), 1)
-    grow = 2 * int(np.ceil(np.median(_neighbour_spacing(pixels, columns, rows)))) + 1
-    mask = cv2.dilate(hull, np.ones((grow, grow), np.uint8))
+def _accurate(
+    search: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int
+) -> tuple[FloatArray, tuple[int, int]]:
+    """A board's corners (n, 2) px as the detector places them with its upsampling, and (rows, columns).
+
+    The detector searches with ``CALIB_CB_ACCURACY`` on the board alone: the crop of ``search`` round its corners'
+    hull grown by ``CROP_SQUARES`` of its largest squares, the rest of the crop filled with its median grey (a board
+    tiled over the frame would show the detector thousands of corners), from each seed in turn (told the board's
+    size, the detector often finds nothing on a crop; grown from a seed on it, the whole board in a tenth of a
+    second), and its grid may grow past the search's: the upsampled image shows an outer row the search may miss
+    (a 10 x 7 grid of an 11 x 7 board). The first grid that holds every corner of ``pixels`` (each within
+    ``SAME_CORNER`` of the way to its nearest neighbour on the grid) is kept, the same grid's corners in the
+    order of ``pixels``; where none does, ``pixels`` are kept.
+    """
+    spacing = _neighbour_spacing(pixels, _rectangle(columns, rows))
+    mask = _grown_hull(search.shape, pixels, CROP_SQUARES * float(spacing.max()))
+    x, y, width, height = cv2.boundingRect(mask)
+    crop = search[y : y + height, x : x + width].copy()
+    crop[mask[y : y + height, x : x + width] == 0] = np.uint8(np.median(crop))
+    for seed in SEEDS:
+        cv2.setRNGSeed(RNG_SEED)
+        found, corners, meta = cv2.findChessboardCornersSBWithMeta(
+            crop, seed, flags=SEARCH_FLAGS | cv2.CALIB_CB_ACCURACY
+        )
+        if not found or corners is None or len(corners) < len(pixels) or len(corners) != meta.shape[0] * meta.shape[1]:
+            continue
+        placed = corners.reshape(-1, 2).astype(np.float64) + np.array([x, y], dtype=np.float64)
+        distance = np.hypot(*(pixels[:, None, :] - placed[None, :, :]).transpose(2, 0, 1))
+        nearest = np.argmin(distance, axis=1)
+        close = distance[np.arange(len(pixels)), nearest] < SAME_CORNER * spacing
+        if not np.all(close) or len(np.unique(nearest)) != len(pixels):
+            continue
+        if len(placed) == len(pixels):
+            return placed[nearest], (rows, columns)
+        return placed, (int(meta.shape[0]), int(meta.shape[1]))
+    return pixels, (rows, columns)
+
+
+def _grown(
+    search: NDArray[np.uint8], pixels: FloatArray, grid: NDArray[np.intp]
+) -> tuple[FloatArray, NDArray[np.intp]]:
+    """A pattern's corners (n, 2) px and grid places (n, 2), grown from the detector's part of it to all it shows.
+
+    The detector stops growing a grid at about ``PATTERN_CORNERS`` corners (a board tiled over the frame: a
+    third of it). From the grid's edge, corner by corner outwards: each missing neighbour is predicted from
+    the two or three corners before it in line (a parabola: the lens bends the rows), refined by the saddle of
+    the grey levels (``cornerSubPix``, a quarter of the way to its neighbour) and kept where it moved less
+    than ``GROWN_MOVE`` of that way, where the four squares round it are dark and light as the board's colouring
+    has them (``GROWN_CONTRAST`` of the grid's own corners' contrast) and the grey levels are a saddle
+    (``GROWN_SADDLE``: a point on the edge between two thin, sheared squares passes the others). Growth stops
+    where the squares' least width is under ``GROWN_SQUARE_PX``, at the image's edge and where no corner
+    passes.
+    """
+    height, width = search.shape
+    steps = ((1, 0), (-1, 0), (0, 1), (0, -1))
+    a, b = _steps(pixels, grid)
+    handed = 1.0 if np.median(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) > 0 else -1.0
+    known = {(int(c), int(r)): p for (c, r), p in zip(grid, pixels, strict=True)}
+    # the grid's own corners: their colouring (the sign of the squares along the columns' and rows' diagonal)
+    # and contrast
+    contrast = _saddle(search, pixels, a, b)
+    parity = (grid[:, 0] + grid[:, 1]) % 2 * 2 - 1
+    colouring = 1.0 if np.median(contrast * parity) > 0 else -1.0
+    least = GROWN_CONTRAST * float(np.median(np.abs(contrast)))
+    saddle = _hessian(search)
+    deepest = GROWN_SADDLE * float(np.median(_sampled(saddle, pixels)))
+    frontier = set(known)
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 40, 0.01)
+    while frontier:
+        targets: dict[tuple[int, int], tuple[FloatArray, FloatArray, FloatArray]] = {}
+        spread: dict[tuple[int, int], float] = {}  # the farthest apart two lines predict it (px)
+        for c, r in frontier:
+            for dc, dr in steps:
+                target, back = (c + dc, r + dr), (c - dc, r - dr)
+                if target in known or back not in known:
+                    continue
+                here, before = known[(c, r)], known[back]
+                further = known.get((c - 2 * dc, r - 2 * dr))
+                predicted = 2.0 * here - before if further is None else 3.0 * here - 3.0 * before + further
+                if target in targets:
+                    first = targets[target][0]
+                    spread[target] = max(spread.get(target, 0.0), float(np.hypot(*(predicted - first))))
+                    continue
+                step = (here - before) * (dc + dr)  # along +column or +row
+                # the steps along the columns and the rows there (the other from the corner it grows from)
+                other = _axis(known, (c, r), 1 if dr == 0 else 0)
+                if other is None:  # a quarter turn the grid's way
+                    other = handed * (np.array([-step[1], step[0]]) if dr == 0 else np.array([step[1], -step[0]]))
+                targets[target] = (predicted, step, other) if dr == 0 else (predicted, other, step)
+        if not targets:
+            break
+        places = list(targets)
+        predicted = np.array([targets[t][0] for t in places])
+        a = np.array([targets[t][1] for t in places])
+        b = np.array([targets[t][2] for t in places])
+        # the squares' least width (px): a lens that squeezes them radially shears them into thin rhombi
+        spacing = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) / np.maximum(
+            np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
+        )
+        half = np.floor(spacing / 4.0)
+        margin = np.minimum.reduce(
+            [predicted[:, 0], predicted[:, 1], width - 1 - predicted[:, 0], height - 1 - predicted[:, 1]]
+        )
+        usable = (spacing >= GROWN_SQUARE_PX) & (margin > np.minimum(half, MAX_WINDOW_PX) + 2.0)
+        refined = predicted.copy()
+        for size in np.unique(np.clip(half[usable], 2, MAX_WINDOW_PX)):
+            these = usable & (np.clip(half, 2, MAX_WINDOW_PX) == size)
+            corners = predicted[these].astype(np.float32).reshape(-1, 1, 2)
+            refined[these] = cv2.cornerSubPix(search, corners, (int(size), int(size)), (-1, -1), criteria).reshape(
+                -1, 2
+            )
+        expected = colouring * (np.array([(c + r) % 2 for c, r in places]) * 2 - 1)
+        apart = np.array([spread.get(t, 0.0) for t in places])
+        passed = usable & (np.linalg.norm(refined - predicted, axis=1) + apart < GROWN_MOVE * spacing)
+        passed &= _saddle(search, refined, a, b) * expected > least
+        passed &= _sampled(saddle, refined) < deepest  # a saddle, not a point on an edge between two
+        frontier = set()
+        for k in np.flatnonzero(passed):
+            known[places[k]] = refined[k]
+            frontier.add(places[k])
+    found = np.array(list(known), dtype=np.intp)
+    order = np.lexsort((found[:, 0], found[:, 1]))  # row by row, as the detector's
+    out = np.array([known[(int(c), int(r))] for c, r in found[order]])
+    return out, found[order] - found.min(axis=0)
+
+
+def _steps(pixels: FloatArray, grid: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
+    """The steps (px, (n, 2) each) along the columns and the rows at each corner of a whole rectangular grid."""
+    placed = pixels.reshape(int(grid[:, 1].max()) + 1, int(grid[:, 0].max()) + 1, 2)
+    along = np.asarray(np.gradient(placed, axis=1)).reshape(-1, 2)
+    across = np.asarray(np.gradient(placed, axis=0)).reshape(-1, 2)
+    return along, across
+
+
+def _axis(known: dict[tuple[int, int], FloatArray], place: tuple[int, int], which: int) -> FloatArray | None:
+    """The grid's step (px) along its columns (``which`` 0) or rows (1) at a known corner; None where neither
+    neighbour that way is known."""
+    c, r = place
+    ahead = (c + 1, r) if which == 0 else (c, r + 1)
+    behind = (c - 1, r) if which == 0 else (c, r - 1)
+    if ahead in known:
+        return known[ahead] - known[place]
+    if behind in known:
+        return known[place] - known[behind]
+    return None
+
+
+def _hessian(search: NDArray[np.uint8]) -> NDArray[np.float32]:
+    """The determinant of the grey levels' Hessian (H, W), smoothed over ``GROWN_BLUR_PX``: deeply negative at a
+    checkerboard's corner (a saddle), near 0 on an edge between two squares."""
+    smooth = cv2.GaussianBlur(search.astype(np.float32), (0, 0), GROWN_BLUR_PX)
+    xx = cv2.Sobel(smooth, cv2.CV_32F, 2, 0)
+    yy = cv2.Sobel(smooth, cv2.CV_32F, 0, 2)
+    xy = cv2.Sobel(smooth, cv2.CV_32F, 1, 1)
+    out: NDArray[np.float32] = xx * yy - xy * xy
+    return out
+
+
+def _sampled(image: NDArray[np.float32], at: FloatArray) -> FloatArray:
+    """``image`` (H, W) at points ``at`` (n, 2) px, bilinear, (n,)."""
+    point = at.astype(np.float32)
+    grey = cv2.remap(image, point[:, None, 0].copy(), point[:, None, 1].copy(), cv2.INTER_LINEAR)
+    return np.asarray(grey, dtype=np.float64).ravel()
+
+
+def _saddle(search: NDArray[np.uint8], at: FloatArray, a: FloatArray, b: FloatArray) -> FloatArray:
+    """The grey levels' checkerboard contrast (n,) at corners ``at`` (n, 2) px with grid steps ``a``, ``b`` (n, 2): the
+    lesser of the two squares on the diagonal along a + b less the greater of the two on the other diagonal, or
+    the reverse, negated, where that is larger (0 where neither diagonal is the lighter)."""
+    sampled = []
+    for sa, sb in ((1, 1), (-1, -1), (1, -1), (-1, 1)):
+        point = (at + GROWN_SAMPLE * (sa * a + sb * b)).astype(np.float32)
+        grey = cv2.remap(
+            search,
+            point[:, None, 0].copy(),
+            point[:, None, 1].copy(),
+            cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_REPLICATE,
+        )
+        sampled.append(grey.ravel().astype(np.float64))
+    pp, mm, pm, mp = sampled
+    lighter = np.minimum(pp, mm) - np.maximum(pm, mp)
+    darker = np.minimum(pm, mp) - np.maximum(pp, mm)
+    out: FloatArray = np.where(lighter > 0, lighter, np.where(darker > 0, -darker, 0.0))
+    return out
+
+
+def _painted_over(search: NDArray[np.uint8], pixels: FloatArray, grid: NDArray[np.intp]) -> NDArray[np.uint8]:
+    """``search`` with a board's corners' hull, grown by one of its squares (median), filled with its median grey."""
+    mask = _grown_hull(search.shape, pixels, float(np.ceil(np.median(_neighbour_spacing(pixels, grid)))))
     out: NDArray[np.uint8] = search.copy()
     out[mask > 0] = np.uint8(np.median(search))
     return out
 
 
-def _neighbour_spacing(pixels: FloatArray, columns: int, rows: int) -> FloatArray:
-    """Each corner's distance (px) to its nearest neighbour on the grid, (n,)."""
-    grid = pixels.reshape(rows, columns, 2)
+def _grown_hull(shape: tuple[int, ...], pixels: FloatArray, grow_px: float) -> NDArray[np.uint8]:
+    """A mask (H, W) uint8 of the convex hull of ``pixels`` (n, 2) px grown by ``grow_px`` (1 inside, 0 outside)."""
+    hull = np.zeros(shape, dtype=np.uint8)
+    cv2.fillConvexPoly(hull, cv2.convexHull(np.round(pixels).astype(np.int32)), 1)
+    size = 2 * int(np.ceil(grow_px)) + 1
+    grown: NDArray[np.uint8] = np.asarray(cv2.dilate(hull, np.ones((size, size), np.uint8)), dtype=np.uint8)
+    return grown
+
+
+def _neighbour_spacing(pixels: FloatArray, grid: NDArray[np.intp]) -> FloatArray:
+    """Each corner's distance (px) to its nearest neighbour on the grid (places ``grid`` (n, 2), from 0), (n,)."""
+    columns, rows = int(grid[:, 0].max()) + 1, int(grid[:, 1].max()) + 1
+    placed = np.full((rows, columns, 2), np.nan)
+    placed[grid[:, 1], grid[:, 0]] = pixels
     nearest = np.full((rows, columns), np.inf)
-    along = np.linalg.norm(np.diff(grid, axis=1), axis=2)
-    across = np.linalg.norm(np.diff(grid, axis=0), axis=2)
+    along = np.nan_to_num(np.linalg.norm(np.diff(placed, axis=1), axis=2), nan=np.inf)
+    across = np.nan_to_num(np.linalg.norm(np.diff(placed, axis=0), axis=2), nan=np.inf)
     nearest[:, :-1] = np.minimum(nearest[:, :-1], along)
     nearest[:, 1:] = np.minimum(nearest[:, 1:], along)
     nearest[:-1, :] = np.minimum(nearest[:-1, :], across)
     nearest[1:, :] = np.minimum(nearest[1:, :], across)
-    return nearest.ravel()
+    out: FloatArray = nearest[grid[:, 1], grid[:, 0]]
+    return out
 
 
-def _refine(grey: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int) -> FloatArray:
+def _refine(grey: NDArray[np.uint8], pixels: FloatArray, grid: NDArray[np.intp]) -> FloatArray:
     """Corners refined by the saddle of the grey levels (``cornerSubPix``) where their squares are large enough.
 
     The window reaches a quarter of the way to the nearest corner; where that is under ``MIN_WINDOW_PX`` the
     window holds too few pixels of the four squares' edges and the detector's own estimate is kept.
     """
-    half = np.floor(_neighbour_spacing(pixels, columns, rows) / 4.0)
-    height, width = grey.shape
-    margin = np.minimum.reduce([pixels[:, 0], pixels[:, 1], width - 1 - pixels[:, 0], height - 1 - pixels[:, 1]])
-    half = np.minimum(half, np.floor(margin) - 1.0)  # the window stays inside the image
+    half = _windows(grey, pixels, grid)
     out = pixels.copy()
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 40, 0.01)
     for size in np.unique(np.clip(half[half >= MIN_WINDOW_PX], MIN_WINDOW_PX, MAX_WINDOW_PX)):
@@ -164,4 +413,14 @@ def _refine(grey: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int
         corners = pixels[these].astype(np.float32).reshape(-1, 1, 2)
         refined = cv2.cornerSubPix(grey, corners, (int(size), int(size)), (-1, -1), criteria)
         out[these] = refined.reshape(-1, 2)
+    return out
+
+
+def _windows(grey: NDArray[np.uint8], pixels: FloatArray, grid: NDArray[np.intp]) -> FloatArray:
+    """The half-width (px, (n,)) of each corner's refining window: a quarter of the way to its nearest corner on the
+    grid, within the image."""
+    half = np.floor(_neighbour_spacing(pixels, grid) / 4.0)
+    height, width = grey.shape
+    margin = np.minimum.reduce([pixels[:, 0], pixels[:, 1], width - 1 - pixels[:, 0], height - 1 - pixels[:, 1]])
+    out: FloatArray = np.minimum(half, np.floor(margin) - 1.0)  # the window stays inside the image
     return out
