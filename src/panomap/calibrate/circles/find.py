@@ -4,6 +4,7 @@ diagnosis.
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 from typing import Any
@@ -18,12 +19,14 @@ from .cutoff import _cutoff_circle, _disc_without_rim
 from .evidence import _either_polarity
 from .fitting import _ellipse
 from .frame import _arcs, _cropping_edges, _fraction_in_frame
-from .rim import _best_rim, _iterate_rim, _soft_rim, _soft_start
+from .rim import _best_rim, _iterate_rim, _refine_rim, _soft_rim, _soft_start
 from .sampling import _downscaled, to_grey
+from .scales import coarser_rim
 from .starts import (
     _coarse_circle,
     _concentric_centres,
     _concentric_circles,
+    _level_circles,
     _outermost_edge_circle,
     _surround_floor,
     _voted_circles,
@@ -40,6 +43,7 @@ from .thresholds import (
     NARROW_REACH,
     NEAR_FRACTION,
     NEAR_PX,
+    SAME_START_FRACTION,
     SOFT_RIM_RMS_PX,
     STRETCH_BLACK_LEVEL,
     STRETCH_LEAST_GAIN,
@@ -102,6 +106,9 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
             stretched_small, _ = _downscaled(stretched)
             best = _search(stretched, stretched_small, factor, reasons)
     if best is None:
+        # A rim too soft for the search at full resolution: looked for where the shrunk picture makes it sharp.
+        best = coarser_rim(grey, _bright_disc)
+    if best is None:
         raise _no_rim(grey, small, factor, reasons, frame_centre)
     outer = best.circle
     centre = outer.centre
@@ -133,6 +140,42 @@ def _search(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[
     elif best.polarity != 0 and best.circle.rms_px > SOFT_RIM_RMS_PX:
         best = _soft_rim(grey, best)
     return best
+
+
+def _bright_disc(grey: NDArray[np.float32], max_rms_px: float) -> _Rim | None:
+    """A bright disc's rim in ``grey`` (H, W) whose edge points lie on a circle within ``max_rms_px`` RMS: the
+    best ranked (:attr:`_Rim.rank`) of the rims from the coarse blob, the round level lines
+    (:func:`_level_circles`) and the circle transform's bright-inside circles, in turn until one is convincing;
+    then the same in the picture stretched over its surround's floor (:func:`above_floor`). None where none
+    passes."""
+    small, factor = _downscaled(grey)
+    for picture in (grey, above_floor(grey, _surround_floor(small))):
+        if picture is None:
+            continue
+        picture_small = small if picture is grey else _downscaled(picture)[0]
+        best: _Rim | None = None
+        tried: list[tuple[tuple[float, float], float]] = []
+        for start in (_coarse_circle, _level_circles, functools.partial(_voted_circles, polarity=1)):
+            try:
+                candidates = start(picture_small, factor)
+            except PanomapError:
+                continue
+            for centre, radius in candidates:
+                near = max(2.0, SAME_START_FRACTION * radius)
+                if any(math.dist(centre, c) < near and abs(radius - r) < near for c, r in tried):
+                    continue
+                tried.append((centre, radius))
+                try:
+                    rim = _refine_rim(picture, centre, radius, 1, (NARROW_REACH, WIDE_REACH))
+                except PanomapError:
+                    continue
+                if rim.circle.rms_px <= max_rms_px and (best is None or rim.rank > best.rank):
+                    best = rim
+                if best is not None and best.convincing:
+                    return best
+        if best is not None:
+            return best
+    return None
 
 
 def above_floor(grey: NDArray[np.float32], floor: float | None) -> NDArray[np.float32] | None:

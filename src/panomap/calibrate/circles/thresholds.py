@@ -133,3 +133,14 @@ STRETCH_LEAST_GAIN = 1.5
 # ... and only where the frame has black in it (its 2nd percentile at most this): the real surround-view fisheyes
 # whose circles hold the frame have corners at 30-45 grey levels, and one was taken for a rim when stretched.
 STRETCH_BLACK_LEVEL = 12.0
+# Where no rim passes at full resolution, a bright disc's rim is looked for in the picture shrunk by each of these
+# factors (find.coarser_rim: a soft rim, sharp again when shrunk), down to pictures of this many px a side; kept
+# where its edge points lie on a circle to this RMS (px of the shrunk picture). Rendered soft rims (stops blurred by
+# 6 px, in dark squares) fit to 0.06-0.7 px there; a real full-frame fisheye's scene gave a circle of 1.95 px.
+COARSER_FACTORS = (1, 2, 4)
+COARSER_LEAST_SIDE_PX = 64
+COARSER_MAX_RMS_PX = 1.0
+# The level lines that may outline a disc (starts._level_circles): these fractions of the way from the picture's dark
+# end to its bright one; a blob is round where its outline lies on a circle to this fraction of its radius RMS.
+LEVEL_FRACTIONS = (0.1, 0.2, 0.35, 0.5)
+LEVEL_ROUND_FRACTION = 0.02
