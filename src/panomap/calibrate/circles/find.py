@@ -107,7 +107,7 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
             best = _search(stretched, stretched_small, factor, reasons)
     if best is None:
         # A rim too soft for the search at full resolution: looked for where the shrunk picture makes it sharp.
-        best = coarser_rim(grey, _bright_disc)
+        best = coarser_rim(grey, functools.partial(_bright_disc, reasons=reasons))
     if best is None:
         raise _no_rim(grey, small, factor, reasons, frame_centre)
     outer = best.circle
@@ -142,12 +142,12 @@ def _search(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[
     return best
 
 
-def _bright_disc(grey: NDArray[np.float32], max_rms_px: float) -> _Rim | None:
+def _bright_disc(grey: NDArray[np.float32], max_rms_px: float, reasons: list[str]) -> _Rim | None:
     """A bright disc's rim in ``grey`` (H, W) whose edge points lie on a circle within ``max_rms_px`` RMS: the
     best ranked (:attr:`_Rim.rank`) of the rims from the coarse blob, the round level lines
     (:func:`_level_circles`) and the circle transform's bright-inside circles, in turn until one is convincing;
     then the same in the picture stretched over its surround's floor (:func:`above_floor`). None where none
-    passes."""
+    passes; each failure's reason appended to ``reasons``."""
     small, factor = _downscaled(grey)
     for picture in (grey, above_floor(grey, _surround_floor(small))):
         if picture is None:
@@ -167,7 +167,8 @@ def _bright_disc(grey: NDArray[np.float32], max_rms_px: float) -> _Rim | None:
                 tried.append((centre, radius))
                 try:
                     rim = _refine_rim(picture, centre, radius, 1, (NARROW_REACH, WIDE_REACH))
-                except PanomapError:
+                except PanomapError as exc:
+                    reasons.append(exc.detail)
                     continue
                 if rim.circle.rms_px <= max_rms_px and (best is None or rim.rank > best.rank):
                     best = rim
@@ -292,6 +293,13 @@ def _no_rim(
 ) -> NoImageCircle:
     """The error where no rim passes: the first reason, and the cut-off disc where one shows."""
     reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
+    one_arc = next((r for r in reasons if "fix its centre" in r), None)
+    if one_arc is not None:
+        # A rim shows, on too short an arc: no full-frame fisheye, and no centre to stand behind.
+        return NoImageCircle(
+            f"{one_arc}; the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a starting value",
+            frame_centre,
+        )
     disc = _disc_without_rim(grey, small, factor)
     if disc is not None:
         return NoImageCircle(

@@ -37,6 +37,10 @@ CONVINCING_RIM_FRACTION = 0.85
 # through scene edges reach 0.53 there.
 MIN_STEPPING_FRACTION = 0.75
 MIN_STEPPING_FRACTION_DARK_INSIDE = 0.62
+# A rim darker inside than out is a mirror's in a bright housing, which frames it: the frame shows at least this
+# share of its circle (housed-mirror renders 75-100%, the real miniomni 59%). A fisheye's scene edge (a car park's
+# painted kerb, round through the lens) passed as one, 34% of it in the frame, on a full-frame fisheye.
+DARK_INSIDE_LEAST_IN_FRAME = 0.5
 # A search stops after its first circle where the levels step across it on fewer than this
 # share of the rays the final test asks for (a wrong start costs one search, not four).
 EARLY_STEPPING_SHARE = 0.5
@@ -64,6 +68,13 @@ MAX_RIM_RMS_PX = 2.0
 # is under SOFT_RIM_GAIN of the first and it is the same edge (centre and radius each within twice the
 # first's RMS: on one real fisheye image the smoothed fit took an edge 4 px further in).
 SOFT_RIM_RMS_PX = 0.5
+# A rim whose arcs fix its centre worse than this (px: the standard error along the worst direction, fitting's
+# centre_uncertainty_px) is refused: twice it would exceed the 3 px a centre is promised to. Neighbouring rays'
+# residuals count as one in RIM_CORRELATED_RAYS there. Measured: a real fisheye's one 60 deg arc (a car's
+# surround camera, the circle cut by three edges) 3.4 px, its centre 42 px off; a real T265-like rim seen on a
+# third of its circle, 120 deg, 0.3 px (1.5 px off its calibration); rims seen all round, under 0.1 px.
+MAX_CENTRE_UNCERTAINTY_PX = 1.5
+RIM_CORRELATED_RAYS = 10
 SOFT_RIM_SIGMAS_PX = (2.0, 4.0)
 SOFT_RIM_GAIN = 0.7
 MIN_CUTOFF_FRACTION = 0.5
