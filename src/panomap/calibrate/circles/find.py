@@ -293,7 +293,7 @@ def _no_rim(
 ) -> NoImageCircle:
     """The error where no rim passes: the first reason, and the cut-off disc where one shows."""
     reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
-    one_arc = next((r for r in reasons if "fix its centre" in r), None)
+    one_arc = next((r for r in reasons if "a rim shows, but" in r), None)
     if one_arc is not None:
         # A rim shows, on too short an arc: no full-frame fisheye, and no centre to stand behind.
         return NoImageCircle(

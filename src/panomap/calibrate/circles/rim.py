@@ -205,12 +205,6 @@ def _iterate_rim(
             f"no image circle found: the rim's edge points do not lie on a circle "
             f"({circle.inliers} of {RAYS} agree, in {sectors} of 12 sectors, RMS {circle.rms_px:.2f} px)"
         )
-    uncertainty = centre_uncertainty_px(points, circle)
-    if uncertainty > MAX_CENTRE_UNCERTAINTY_PX:
-        raise ShortArc(
-            f"no image circle found: a rim shows, but on so short an arc ({circle.inliers} rays, {circle.rms_px:.1f} "
-            f"px RMS) that it does not fix its centre (to {uncertainty:.1f} px)"
-        )
     if polarity < 0 and in_frame < DARK_INSIDE_LEAST_IN_FRAME * RAYS:
         raise PanomapError(
             f"no image circle found: the frame shows only {in_frame / RAYS:.0%} of the circle darker inside than "
@@ -234,4 +228,15 @@ def _iterate_rim(
                 f"no image circle found: an edge or a line stands out on the best circle on only "
                 f"{stepping} of the {in_frame:.0f} rays in the frame"
             )
+    uncertainty = centre_uncertainty_px(points, circle)
+    if uncertainty > MAX_CENTRE_UNCERTAINTY_PX:
+        # A bright disc's rim (a lens's image circle against its dark surround) shows, on too short an arc; a
+        # circle of another kind there may as well be the scene's.
+        detail = (
+            f"({circle.inliers} rays, {circle.rms_px:.1f} px RMS) that it does not fix its centre "
+            f"(to {uncertainty:.1f} px)"
+        )
+        if polarity > 0:
+            raise ShortArc(f"no image circle found: a rim shows, but on so short an arc {detail}")
+        raise PanomapError(f"no image circle found: the circle's points lie on so short an arc {detail}")
     return _Rim(circle, points, in_frame, polarity, stepping)
