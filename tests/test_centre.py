@@ -873,3 +873,23 @@ def test_a_soft_rim_in_a_dark_square_over_its_pedestal(seed: int, name: str, sof
     image, centre = soft_robot_fisheye(seed, name, softness_px, glow)
     found = find_image_circles(image)
     assert math.dist(found.centre, centre) < 2.0, (found.centre, centre)
+
+
+def test_a_soft_rim_around_a_circle_of_its_scene() -> None:
+    """A robot's fisheye (1024 x 768) in a dark square over its pedestal (34 grey levels), its stop blurred by 6 px
+    and vignetted by 85%: the rim's step falls over 20 px, while a circle of the scene inside it (the room's walls
+    meeting its floor, round through the lens, 80 px further in) is an edge on 40% of the rays. That circle passed
+    as a rim of either polarity, 15 px off the rim's centre (with one of six noise draws), before the bright disc
+    around it (stepping all round in the picture shrunk by 2) was looked for. Measured: centre 0.04-0.14 px from
+    the truth, radius 3.8 px small (the soft stop's half level read where the slope ends)."""
+    centre, radius, softness_px = (583.84, 377.11), 302.55, 6.0
+    camera = standard_cameras((1024, 768), centre=centre, phi0=3.355, outer_radius=radius + 20.0)["equidistant"]
+    image = field_stop(render(ROOM, camera, supersample=1), centre, radius, softness_px=softness_px)
+    image = vignette(image, centre, radius, falloff=0.853, power=3.0)
+    image = np.asarray(image * 0.854, np.uint8)
+    image = dark_square(image, centre, radius, 370.74, 33.6, square_centre=(586.57, 371.09), glow=1.1, under_disc=True)
+    for seed in (1, 2):  # noise seed 1 gave the scene's circle; 2 (and 0, 3-5) the rim, before too
+        found = find_image_circles(noisy_jpeg(image, np.random.default_rng(seed), noise=3.0, quality=80))
+        assert found.rim_polarity == "bright inside", seed
+        assert math.dist(found.centre, centre) < 1.0, (seed, found.centre)
+        assert found.outer_radius == pytest.approx(radius, abs=6.0)

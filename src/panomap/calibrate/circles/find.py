@@ -105,9 +105,13 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         if stretched is not None:
             stretched_small, _ = _downscaled(stretched)
             best = _search(stretched, stretched_small, factor, reasons)
-    if best is None:
+    if best is None or (best.polarity == 0 and not best.convincing):
         # A rim too soft for the search at full resolution: looked for where the shrunk picture makes it sharp.
-        best = coarser_rim(grey, functools.partial(_bright_disc, reasons=reasons))
+        # Also past a rim of either polarity that only some rays show: the rim is the outermost circle, and a
+        # bright disc's rim around it, stepping all round, is the lens's (the other a circle of its scene).
+        disc = coarser_rim(grey, functools.partial(_bright_disc, reasons=reasons))
+        if best is None or (disc is not None and _encloses(disc, best)):
+            best = disc
     if best is None:
         raise _no_rim(grey, small, factor, reasons, frame_centre)
     outer = best.circle
@@ -140,6 +144,13 @@ def _search(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[
     elif best.polarity != 0 and best.circle.rms_px > SOFT_RIM_RMS_PX:
         best = _soft_rim(grey, best)
     return best
+
+
+def _encloses(disc: _Rim, other: _Rim) -> bool:
+    """Whether ``disc`` is a bright disc's rim stepping across on CONVINCING_RIM_FRACTION of its rays in the frame
+    whose circle holds ``other``'s, NEAR_PX or more inside it."""
+    inner = math.dist(disc.circle.centre, other.circle.centre) + other.circle.radius
+    return disc.polarity > 0 and disc.convincing and inner <= disc.circle.radius - NEAR_PX
 
 
 def _bright_disc(grey: NDArray[np.float32], max_rms_px: float, reasons: list[str]) -> _Rim | None:
