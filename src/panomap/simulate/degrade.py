@@ -119,6 +119,7 @@ def dark_square(
     level: float = 30.0,
     square_centre: tuple[float, float] | None = None,
     glow: float = 0.0,
+    under_disc: bool = False,
 ) -> NDArray[np.uint8]:
     """The image circle in a dark (not black) square, inside a black frame: a robot's or a tracking camera's
     fisheye, whose sensor reads a pedestal (and the lens's flare) outside the circle, its picture then
@@ -129,7 +130,10 @@ def dark_square(
     a glow of ``glow`` levels at the rim that fades over a tenth of the radius; the frame past the square stays
     black. The rim thus steps from the picture down to ``level``, and the square's edge from ``level`` to 0:
     two nested edges, the outer one straight (and the square may be cut by the frame). Disc and square are
-    drawn with their exact coverage of each pixel.
+    drawn with their exact coverage of each pixel. With ``under_disc``, the square's level (and the glow, fading
+    either way from the rim) is added under the picture too, as a sensor's pedestal is: a soft rim (a stop
+    out of focus, a picture vignetted to near black) then falls smoothly to the square's level, with no step
+    at ``radius`` of the square's own drawing.
 
     Parameters
     ----------
@@ -142,6 +146,8 @@ def dark_square(
     level, glow : float
         Grey levels of the square and of the glow at the rim, each in ``[0, 255]``.
     square_centre : (u, v), px, optional
+    under_disc : bool
+        Add the square's level under the disc too (default False: the disc's pixels untouched).
 
     Returns
     -------
@@ -157,8 +163,9 @@ def dark_square(
     middle = centre if square_centre is None else square_centre
     chebyshev = np.maximum(np.abs(u - middle[0]), np.abs(v - middle[1]))
     square = np.clip(half_side_px - chebyshev + 0.5, 0.0, 1.0)
-    outside = np.clip(r - radius + 0.5, 0.0, 1.0)
-    fill = square * outside * (level + glow * np.exp(-np.maximum(r - radius, 0.0) / (0.1 * radius)))
+    outside = np.ones_like(r) if under_disc else np.clip(r - radius + 0.5, 0.0, 1.0)
+    beyond = np.abs(r - radius) if under_disc else np.maximum(r - radius, 0.0)
+    fill = square * outside * (level + glow * np.exp(-beyond / (0.1 * radius)))
     if image.ndim == 3:
         fill = fill[..., None]
     return np.clip(np.rint(image + fill), 0, 255).astype(np.uint8)

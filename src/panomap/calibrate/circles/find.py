@@ -4,10 +4,12 @@ diagnosis.
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 from typing import Any
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -18,21 +20,27 @@ from .cutoff import _cutoff_circle, _disc_without_rim
 from .evidence import _either_polarity
 from .fitting import _ellipse
 from .frame import _arcs, _cropping_edges, _fraction_in_frame
-from .rim import _best_rim, _iterate_rim, _soft_rim, _soft_start
+from .rim import _best_rim, _iterate_rim, _refine_rim, _soft_rim, _soft_start
 from .sampling import _downscaled, to_grey
+from .scales import coarser_rim
 from .starts import (
     _coarse_circle,
     _concentric_centres,
     _concentric_circles,
+    _level_circles,
     _outermost_edge_circle,
     _surround_floor,
     _voted_circles,
 )
 from .thresholds import (
     CONCENTRIC_SEEDS,
+    DARK_CORNER_CONTRAST,
+    DARK_CORNER_FRACTION,
     DARK_LEVEL,
     DARK_PERCENTILE,
     EXPOSED_LEVEL,
+    EXPOSED_SMOOTHING_GAIN,
+    EXPOSED_SMOOTHING_PX,
     MAX_EXPOSURE_GAIN,
     MIN_FEATURE_FRACTION,
     MIN_FEATURE_FRACTION_LAST,
@@ -40,6 +48,7 @@ from .thresholds import (
     NARROW_REACH,
     NEAR_FRACTION,
     NEAR_PX,
+    SAME_START_FRACTION,
     SOFT_RIM_RMS_PX,
     STRETCH_BLACK_LEVEL,
     STRETCH_LEAST_GAIN,
@@ -48,7 +57,7 @@ from .thresholds import (
 from .types import ImageCircles, NoImageCircle, _Rim
 
 
-def exposed(grey: NDArray[np.float32]) -> NDArray[np.float32]:
+def exposed(grey: NDArray[np.float32], smoothed: bool = False) -> NDArray[np.float32]:
     """A dark picture ((H, W) grey levels 0..255) brightened as a well-exposed one: where its ``DARK_PERCENTILE``
     lies under ``DARK_LEVEL``, every level times the gain that takes it to ``EXPOSED_LEVEL`` (at most
     ``MAX_EXPOSURE_GAIN``), clipped at 255. Others unchanged.
@@ -56,7 +65,12 @@ def exposed(grey: NDArray[np.float32]) -> NDArray[np.float32]:
     The finder's thresholds are in grey levels (an edge's strength, a rim's step), set on pictures that use
     their range; a dark picture (a tracking camera's, a room at dusk, a vignetted rim a quarter as bright)
     steps across its rim by a few levels and fails them (re-projected photographs at a quarter of their
-    brightness: 4 of 8 rims lost, ``bench/bench_scenes.py --only circles``).
+    brightness: 4 of 8 rims lost, ``bench/bench_scenes.py --only circles``). With ``smoothed``, where the gain
+    exceeds ``EXPOSED_SMOOTHING_GAIN``, the picture is smoothed first by a Gaussian of ``EXPOSED_SMOOTHING_PX``
+    times the square root of the gain over it (px): the gain brightens the noise too, and a dark rim's edge
+    points, each ray's outermost clear drop, fell on its blips past the rim; where it does not, ``grey`` itself
+    (the finder searches the smoothed picture only where no rim passed in the other: a rim in a dark square
+    steps by so few levels that the smoothing lost one of two such renders).
     """
     level = float(
         np.percentile(grey[:: max(1, grey.shape[0] // 400), :: max(1, grey.shape[1] // 400)], DARK_PERCENTILE)
@@ -64,6 +78,12 @@ def exposed(grey: NDArray[np.float32]) -> NDArray[np.float32]:
     if level >= DARK_LEVEL or level <= 0:
         return grey
     gain = min(EXPOSED_LEVEL / level, MAX_EXPOSURE_GAIN)
+    if smoothed and gain <= EXPOSED_SMOOTHING_GAIN:
+        return grey
+    if smoothed:
+        # The picture's noise brightened with it: smoothed back, as a symmetric blur leaves a rim where it is.
+        sigma_px = EXPOSED_SMOOTHING_PX * math.sqrt(gain / EXPOSED_SMOOTHING_GAIN)
+        grey = np.asarray(cv2.GaussianBlur(grey, (0, 0), sigma_px), np.float32)
     return np.minimum(grey * np.float32(gain), np.float32(255.0))
 
 
@@ -84,7 +104,8 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         When no rim is visible (a full-frame fisheye, an ordinary photo, a blank
         image); it carries the frame centre as a starting value.
     """
-    grey = exposed(to_grey(inputs.image(image)))
+    raw = to_grey(inputs.image(image))
+    grey = exposed(raw)
     height, width = grey.shape
     frame_centre = ((width - 1) / 2, (height - 1) / 2)
     if min(height, width) < 32:
@@ -94,13 +115,13 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
         )
     small, factor = _downscaled(grey)
     reasons: list[str] = []
-    best = _search(grey, small, factor, reasons)
+    best = _searches(grey, small, factor, reasons)
     if best is None:
-        # A rim of low contrast: against a dark (not black) surround, or a picture dark at its edge.
-        stretched = above_floor(grey, _surround_floor(small))
-        if stretched is not None:
-            stretched_small, _ = _downscaled(stretched)
-            best = _search(stretched, stretched_small, factor, reasons)
+        # A dark picture brightened: its noise was too; the search again with the noise smoothed back.
+        smoothed = exposed(raw, smoothed=True)
+        if smoothed is not raw:  # (brightened by more than EXPOSED_SMOOTHING_GAIN)
+            best = _searches(smoothed, _downscaled(smoothed)[0], factor, reasons)
+            grey = smoothed if best is not None else grey
     if best is None:
         raise _no_rim(grey, small, factor, reasons, frame_centre)
     outer = best.circle
@@ -122,6 +143,29 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
     )
 
 
+def _searches(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[str]) -> _Rim | None:
+    """The rim of ``grey`` (H, W; ``small`` its downscaled copy, shrunk by ``factor``): :func:`_search`'s; where
+    none passes, its search in the picture stretched over a dark surround's floor (:func:`above_floor`); then,
+    where none passes or the rim is one of either polarity that only some rays show, a bright disc's rim in the
+    picture shrunk by 1, 2 and 4 (:func:`coarser_rim`), taken where it holds the other (:func:`_encloses`).
+    None where none passes; each failure's reason appended to ``reasons``."""
+    best = _search(grey, small, factor, reasons)
+    if best is None:
+        # A rim of low contrast: against a dark (not black) surround, or a picture dark at its edge.
+        stretched = above_floor(grey, _surround_floor(small))
+        if stretched is not None:
+            stretched_small, _ = _downscaled(stretched)
+            best = _search(stretched, stretched_small, factor, reasons)
+    if best is None or (best.polarity == 0 and not best.convincing):
+        # A rim too soft for the search at full resolution: looked for where the shrunk picture makes it sharp.
+        # Also past a rim of either polarity that only some rays show: the rim is the outermost circle, and a
+        # bright disc's rim around it, stepping on more of its rays, is the lens's (the other a circle of its scene).
+        disc = coarser_rim(grey, functools.partial(_bright_disc, reasons=reasons))
+        if best is None or (disc is not None and _encloses(disc, best)):
+            best = disc
+    return best
+
+
 def _search(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[str]) -> _Rim | None:
     """The rim of the stages (:func:`_search_stages`): the outermost of either polarity, a soft rim re-measured,
     a soft start where none passes; None where none does."""
@@ -133,6 +177,52 @@ def _search(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[
     elif best.polarity != 0 and best.circle.rms_px > SOFT_RIM_RMS_PX:
         best = _soft_rim(grey, best)
     return best
+
+
+def _encloses(disc: _Rim, other: _Rim) -> bool:
+    """Whether ``disc`` is a bright disc's rim (stepping across on MIN_STEPPING_FRACTION of its rays in the frame,
+    as it passed) that shows on a larger share of its rays in the frame than ``other`` (a rim of either polarity:
+    its rays with an edge or line) and whose circle holds ``other``'s, NEAR_PX or more inside it."""
+    inner = math.dist(disc.circle.centre, other.circle.centre) + other.circle.radius
+    shown = disc.stepping / max(disc.rays_in_frame, 1.0) > other.stepping / max(other.rays_in_frame, 1.0)
+    return disc.polarity > 0 and shown and inner <= disc.circle.radius - NEAR_PX
+
+
+def _bright_disc(grey: NDArray[np.float32], max_rms_px: float, reasons: list[str]) -> _Rim | None:
+    """A bright disc's rim in ``grey`` (H, W) whose edge points lie on a circle within ``max_rms_px`` RMS: the
+    best ranked (:attr:`_Rim.rank`) of the rims from the coarse blob, the round level lines
+    (:func:`_level_circles`) and the circle transform's bright-inside circles, in turn until one is convincing;
+    then the same in the picture stretched over its surround's floor (:func:`above_floor`). None where none
+    passes; each failure's reason appended to ``reasons``."""
+    small, factor = _downscaled(grey)
+    for picture in (grey, above_floor(grey, _surround_floor(small))):
+        if picture is None:
+            continue
+        picture_small = small if picture is grey else _downscaled(picture)[0]
+        best: _Rim | None = None
+        tried: list[tuple[tuple[float, float], float]] = []
+        for start in (_coarse_circle, _level_circles, functools.partial(_voted_circles, polarity=1)):
+            try:
+                candidates = start(picture_small, factor)
+            except PanomapError:
+                continue
+            for centre, radius in candidates:
+                near = max(2.0, SAME_START_FRACTION * radius)
+                if any(math.dist(centre, c) < near and abs(radius - r) < near for c, r in tried):
+                    continue
+                tried.append((centre, radius))
+                try:
+                    rim = _refine_rim(picture, centre, radius, 1, (NARROW_REACH, WIDE_REACH))
+                except PanomapError as exc:
+                    reasons.append(exc.detail)
+                    continue
+                if rim.circle.rms_px <= max_rms_px and (best is None or rim.rank > best.rank):
+                    best = rim
+                if best is not None and best.convincing:
+                    return best
+        if best is not None:
+            return best
+    return None
 
 
 def above_floor(grey: NDArray[np.float32], floor: float | None) -> NDArray[np.float32] | None:
@@ -249,6 +339,21 @@ def _no_rim(
 ) -> NoImageCircle:
     """The error where no rim passes: the first reason, and the cut-off disc where one shows."""
     reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
+    one_arc = next((r for r in reasons if "a rim shows, but" in r), None)
+    if one_arc is not None:
+        # A rim shows, on too short an arc: no full-frame fisheye, and no centre to stand behind.
+        return NoImageCircle(
+            f"{one_arc}; the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a starting value",
+            frame_centre,
+        )
+    if _dark_corners(small):
+        # A picture in a dark border whose rim no test passed (too dark, too soft, too noisy): no full-frame
+        # fisheye (its corners show the scene) and no mirror image overfilling the frame.
+        return NoImageCircle(
+            f"{reason}; the frame's corners are dark around a picture (no full-frame fisheye), but no rim about it "
+            f"passed: the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a starting value",
+            frame_centre,
+        )
     disc = _disc_without_rim(grey, small, factor)
     if disc is not None:
         return NoImageCircle(
@@ -263,3 +368,16 @@ def _no_rim(
         f"the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a starting value",
         frame_centre,
     )
+
+
+def _dark_corners(small: NDArray[Any]) -> bool:
+    """Whether the four corners of ``small`` (the downscaled (H, W) picture: a patch DARK_CORNER_FRACTION of its
+    short side a side each) lie at most STRETCH_BLACK_LEVEL grey levels (median), and its middle half at least
+    DARK_CORNER_CONTRAST over the brightest of them: a round image's frame (its circle cut by the frame or
+    not), not a full-frame fisheye's, whose corners are scene."""
+    height, width = small.shape
+    side = max(2, round(DARK_CORNER_FRACTION * min(height, width)))
+    corners = (small[:side, :side], small[:side, -side:], small[-side:, :side], small[-side:, -side:])
+    darkest = max(float(np.median(corner)) for corner in corners)
+    middle = float(np.median(small[height // 4 : 3 * height // 4, width // 4 : 3 * width // 4]))
+    return darkest <= STRETCH_BLACK_LEVEL and middle - darkest >= DARK_CORNER_CONTRAST

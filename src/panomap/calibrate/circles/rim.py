@@ -14,11 +14,13 @@ from numpy.typing import NDArray
 from ...errors import PanomapError
 from ...strips import Ahead
 from .evidence import _feature_points, _feature_rays, _rim_points, _smooth_beyond, _stepping_rays
-from .fitting import _ellipse, _robust_circle
+from .fitting import _ellipse, _robust_circle, centre_uncertainty_px
 from .frame import _fraction_in_frame, _least_rim_rays, _sectors_in_frame, _sectors_seen
 from .starts import _coarse_circle
 from .thresholds import (
+    DARK_INSIDE_LEAST_IN_FRAME,
     EARLY_STEPPING_SHARE,
+    MAX_CENTRE_UNCERTAINTY_PX,
     MAX_RIM_RMS_PX,
     MIN_FEATURE_FRACTION,
     MIN_FEATURE_FRACTION_OUTSIDE,
@@ -33,7 +35,7 @@ from .thresholds import (
     SOFT_RIM_SIGMAS_PX,
     WIDE_REACH,
 )
-from .types import _Rim
+from .types import ShortArc, _Rim
 
 
 def _soft_rim(grey: NDArray[Any], rim: _Rim) -> _Rim:
@@ -133,7 +135,8 @@ def _refine_rim(
                 return _iterate_rim(grey, centre, radius, polarity, reach, least_smooth=MIN_FEATURE_FRACTION_OUTSIDE)
             return _iterate_rim(grey, centre, radius, polarity, reach)
         except PanomapError as exc:
-            failure = exc
+            if not isinstance(failure, ShortArc):  # (a rim seen, on one arc, is what to say)
+                failure = exc
     raise failure
 
 
@@ -202,6 +205,11 @@ def _iterate_rim(
             f"no image circle found: the rim's edge points do not lie on a circle "
             f"({circle.inliers} of {RAYS} agree, in {sectors} of 12 sectors, RMS {circle.rms_px:.2f} px)"
         )
+    if polarity < 0 and in_frame < DARK_INSIDE_LEAST_IN_FRAME * RAYS:
+        raise PanomapError(
+            f"no image circle found: the frame shows only {in_frame / RAYS:.0%} of the circle darker inside than "
+            f"out (a mirror's housing frames it)"
+        )
     if polarity:
         stepping = _stepping_rays(grey, circle, polarity)
         least = MIN_STEPPING_FRACTION if polarity > 0 else MIN_STEPPING_FRACTION_DARK_INSIDE
@@ -220,4 +228,15 @@ def _iterate_rim(
                 f"no image circle found: an edge or a line stands out on the best circle on only "
                 f"{stepping} of the {in_frame:.0f} rays in the frame"
             )
+    uncertainty = centre_uncertainty_px(points, circle)
+    if uncertainty > MAX_CENTRE_UNCERTAINTY_PX:
+        # A bright disc's rim (a lens's image circle against its dark surround) shows, on too short an arc; a
+        # circle of another kind there may as well be the scene's.
+        detail = (
+            f"({circle.inliers} rays, {circle.rms_px:.1f} px RMS) that it does not fix its centre "
+            f"(to {uncertainty:.1f} px)"
+        )
+        if polarity > 0:
+            raise ShortArc(f"no image circle found: a rim shows, but on so short an arc {detail}")
+        raise PanomapError(f"no image circle found: the circle's points lie on so short an arc {detail}")
     return _Rim(circle, points, in_frame, polarity, stepping)

@@ -26,6 +26,8 @@ from .thresholds import (
     CONCENTRIC_RAYS,
     CONCENTRIC_SHARE,
     FEATURE_MIN_STRENGTH,
+    LEVEL_FRACTIONS,
+    LEVEL_ROUND_FRACTION,
     MIN_RIM_FRACTION,
     NEAR_PX,
     NESTED_FLOOR_LEVELS,
@@ -272,6 +274,37 @@ def _coarse_circle(small: NDArray[Any], factor: int) -> list[tuple[tuple[float, 
     return [_blob_circle(_largest_blob(small, dark + 0.25 * (bright - dark)), small.shape, factor)]
 
 
+def _level_circles(small: NDArray[Any], factor: int) -> list[tuple[tuple[float, float], float]]:
+    """Circles (full-resolution px) of the round blobs of ``small`` over each of LEVEL_FRACTIONS of the way from
+    its dark end (2nd percentile) to its bright one (99th), largest first; an error where there are none.
+
+    The largest bright blob over one threshold (:func:`_coarse_circle`) is the disc only where the disc is the
+    brightest thing: in a dark square inside a black frame it is the square; with a soft rim, a lens hood's
+    ring or a glow about it, it takes in part of what lies past the rim. Over a higher level, the blob is the
+    picture itself; where its outline away from the frame's edges lies on a circle (RMS under
+    LEVEL_ROUND_FRACTION of its radius), that circle is a start: a level line of a soft rim is round, of a
+    square or a scene it is not.
+    """
+    dark, bright = (float(level) for level in np.percentile(small, (2, 99)))
+    found: list[tuple[tuple[float, float], float]] = []
+    for fraction in LEVEL_FRACTIONS:
+        try:
+            contour = _largest_blob(small, dark + fraction * (bright - dark))
+        except PanomapError:
+            continue
+        if not _round_blob(contour, small.shape, LEVEL_ROUND_FRACTION):
+            continue
+        try:
+            centre, radius = _blob_circle(contour, small.shape, factor)
+        except PanomapError:
+            continue
+        if not any(math.dist(centre, c) < NEAR_PX * factor and abs(radius - r) < NEAR_PX * factor for c, r in found):
+            found.append((centre, radius))
+    if not found:
+        raise PanomapError("no image circle found: no level of the picture outlines a round disc")
+    return sorted(found, key=lambda circle: -circle[1])
+
+
 def _surround_floor(small: NDArray[Any]) -> float | None:
     """The level of a dark (not black) surround within the frame's black, or None where there is none.
 
@@ -307,8 +340,9 @@ def _surround_floor(small: NDArray[Any]) -> float | None:
     return floor if flat and level - dark >= NESTED_FLOOR_LEVELS and lit - floor >= 10 else None
 
 
-def _round_blob(contour: NDArray[Any], shape: tuple[int, ...]) -> bool:
-    """Whether a blob's outline away from the frame's edges lies on a circle (RMS under 2% of its radius)."""
+def _round_blob(contour: NDArray[Any], shape: tuple[int, ...], fraction: float = 0.02) -> bool:
+    """Whether a blob's outline away from the frame's edges lies on a circle (RMS under ``fraction`` of its
+    radius)."""
     points = contour.reshape(-1, 2).astype(np.float64)
     height, width = shape[:2]
     off = (points[:, 0] > 1) & (points[:, 1] > 1) & (points[:, 0] < width - 2) & (points[:, 1] < height - 2)
@@ -316,7 +350,7 @@ def _round_blob(contour: NDArray[Any], shape: tuple[int, ...]) -> bool:
         return False
     (cu, cv), radius = _algebraic_circle(points[off])
     distance = np.hypot(points[off, 0] - cu, points[off, 1] - cv) - radius
-    return bool(np.sqrt(np.mean(distance**2)) < 0.02 * radius)
+    return bool(np.sqrt(np.mean(distance**2)) < fraction * radius)
 
 
 def _largest_blob(small: NDArray[Any], threshold: float) -> NDArray[Any]:

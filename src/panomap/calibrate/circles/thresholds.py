@@ -37,6 +37,10 @@ CONVINCING_RIM_FRACTION = 0.85
 # through scene edges reach 0.53 there.
 MIN_STEPPING_FRACTION = 0.75
 MIN_STEPPING_FRACTION_DARK_INSIDE = 0.62
+# A rim darker inside than out is a mirror's in a bright housing, which frames it: the frame shows at least this
+# share of its circle (housed-mirror renders 75-100%, the real miniomni 59%). A fisheye's scene edge (a car park's
+# painted kerb, round through the lens) passed as one, 34% of it in the frame, on a full-frame fisheye.
+DARK_INSIDE_LEAST_IN_FRAME = 0.5
 # A search stops after its first circle where the levels step across it on fewer than this
 # share of the rays the final test asks for (a wrong start costs one search, not four).
 EARLY_STEPPING_SHARE = 0.5
@@ -64,6 +68,13 @@ MAX_RIM_RMS_PX = 2.0
 # is under SOFT_RIM_GAIN of the first and it is the same edge (centre and radius each within twice the
 # first's RMS: on one real fisheye image the smoothed fit took an edge 4 px further in).
 SOFT_RIM_RMS_PX = 0.5
+# A rim whose arcs fix its centre worse than this (px: the standard error along the worst direction, fitting's
+# centre_uncertainty_px) is refused: twice it would exceed the 3 px a centre is promised to. Neighbouring rays'
+# residuals count as one in RIM_CORRELATED_RAYS there. Measured: a real fisheye's one 60 deg arc (a car's
+# surround camera, the circle cut by three edges) 3.4 px, its centre 42 px off; a real T265-like rim seen on a
+# third of its circle, 120 deg, 0.3 px (1.5 px off its calibration); rims seen all round, under 0.1 px.
+MAX_CENTRE_UNCERTAINTY_PX = 1.5
+RIM_CORRELATED_RAYS = 10
 SOFT_RIM_SIGMAS_PX = (2.0, 4.0)
 SOFT_RIM_GAIN = 0.7
 MIN_CUTOFF_FRACTION = 0.5
@@ -127,9 +138,30 @@ DARK_PERCENTILE = 99.0
 DARK_LEVEL = 100.0
 EXPOSED_LEVEL = 200.0
 MAX_EXPOSURE_GAIN = 8.0
+# ... and, where that gain exceeds EXPOSED_SMOOTHING_GAIN and no rim passed, searched again smoothed by a Gaussian of
+# EXPOSED_SMOOTHING_PX times the square root of the gain over it (px: 1.4 at the largest gain). Dark tracking-camera
+# frames (848 x 800, 10-35% brightness, the circle cut by the frame): 5 of 24 rims refused before, 3 after.
+EXPOSED_SMOOTHING_GAIN = 2.0
+EXPOSED_SMOOTHING_PX = 0.7
 # Where no rim passed, the search runs again on the picture stretched over the range (find.above_floor) where that
 # gains at least this much, or takes a dark surround's floor off.
 STRETCH_LEAST_GAIN = 1.5
 # ... and only where the frame has black in it (its 2nd percentile at most this): the real surround-view fisheyes
 # whose circles hold the frame have corners at 30-45 grey levels, and one was taken for a rim when stretched.
 STRETCH_BLACK_LEVEL = 12.0
+# Where no rim passes, a frame whose four corners (patches this fraction of the shrunk picture's short side) are that
+# dark, its middle half this many grey levels brighter, is said to hold a round image whose rim was not found, not to
+# be a full-frame fisheye (whose corners show the scene; the car park's, at 30-45 grey levels, stay full-frame).
+DARK_CORNER_FRACTION = 0.04
+DARK_CORNER_CONTRAST = 20.0
+# Where no rim passes at full resolution, a bright disc's rim is looked for in the picture shrunk by each of these
+# factors (find.coarser_rim: a soft rim, sharp again when shrunk), down to pictures of this many px a side; kept
+# where its edge points lie on a circle to this RMS (px of the shrunk picture). Rendered soft rims (stops blurred by
+# 6 px, in dark squares) fit to 0.06-0.7 px there; a real full-frame fisheye's scene gave a circle of 1.95 px.
+COARSER_FACTORS = (1, 2, 4)
+COARSER_LEAST_SIDE_PX = 64
+COARSER_MAX_RMS_PX = 1.0
+# The level lines that may outline a disc (starts._level_circles): these fractions of the way from the picture's dark
+# end to its bright one; a blob is round where its outline lies on a circle to this fraction of its radius RMS.
+LEVEL_FRACTIONS = (0.1, 0.2, 0.35, 0.5)
+LEVEL_ROUND_FRACTION = 0.02

@@ -38,6 +38,10 @@ class NoImageCircle(PanomapError):
         self.cutoff = cutoff
 
 
+class ShortArc(PanomapError):
+    """A rim that shows, but on so short an arc that it does not fix its centre: no full-frame fisheye."""
+
+
 @dataclass(frozen=True)
 class Circle:
     """A fitted circle.

@@ -1,0 +1,85 @@
+"""The image circle on every shared real picture with a calibration (bench/bench_circles_real.py's), skipped where
+../shared/data is absent.
+
+Each picture's answer is pinned: a rim within 3 px of its reference centre, a full-frame fisheye said to be one,
+or a refusal. The reference is the calibration's principal point, except where that is not the rim's centre,
+measured by a separate method (each ray's crossing of the level halfway between the levels 12-40 px either side
+of the rim, a soft-L1 circle through them; the Insta360 rims also checked by eye on eight 6x crops against
+both circles): the Insta360 halves' "calibration" is a hand-tuned remap 12.9-14.8 px off their rims, the Mei
+mirror's rim lies 3.3 px off its calibrated axis. Where the rim itself does not fix the reference to 3 px, the
+bound is the measured offset plus 1 px, a guard against getting worse, said in ``WHY``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from panomap.calibrate.circles import NoImageCircle, find_image_circles
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+pytestmark = [
+    pytest.mark.real_data,
+    pytest.mark.slow,
+    pytest.mark.skipif(not DATA.is_dir(), reason=f"shared data not found at {DATA} (../shared is not beside the repo)"),
+]
+
+# Rim centres measured by the separate fit above, (u, v) px, where the reference is not the rim's centre.
+RIM_CENTRES = {
+    "img_para_001.png": (641.3, 521.3),
+    "insta360 insta360-still-001 lens 0": (476.7, 473.8),
+    "insta360 insta360-still-001 lens 1": (476.8, 482.9),
+    "insta360 insta360-still-002 lens 0": (476.4, 472.8),
+    "insta360 insta360-still-002 lens 1": (477.3, 482.1),
+}
+# Bounds over 3 px (px from the calibration's centre), each the measured offset plus 1 px.
+WHY = {
+    # A soft rim (falling over 15-20 px), cut at top and bottom: its edge points scatter along the slope. The
+    # separate fits put the rim 2.6-3.3 px from the calibration, the finder 7.0 px: not met.
+    "imgBack1.jpg": 8.0,
+    # The Theta's rim is no circle about BoofCV's axis: its edge radius about that centre varies by +-5 px, not
+    # as an offset would (a sine). Found 3.5-4.7 px off.
+    "theta back back_hike.jpg": 5.7,
+    "theta back back_table.jpg": 5.0,
+    "theta front_table.jpg": 4.5,
+}
+# Refused (NoImageCircle), not found: a mirror's rim in a bright housing (miniomni: 11 of its 15 pictures are found,
+# tests/test_real_data.py), and the car's surround cameras, whose visible boundary is a housing's shadow cut by the
+# frame at top and bottom, its edge radius about the calibration's centre varying by 60 px over 70 deg of arc.
+REFUSED = {"MiniOmni1.jpg", "surround front.png", "surround back.png", "surround left.png", "surround right.png"}
+
+
+def _bench() -> ModuleType:
+    path = Path(__file__).resolve().parents[1] / "bench" / "bench_circles_real.py"
+    spec = importlib.util.spec_from_file_location("bench_circles_real", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["bench_circles_real"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_image_circle_of_every_real_picture() -> None:
+    """Measured: rims within 3 px of the reference on 8 of 17 (Kaidan 0.5, VMR 2.2, ds_building 1.5 px from
+    their calibrations; the Mei and Insta360 rims 0.3-1.4 px from their measured centres); 4 of 4 full-frame
+    fisheyes said to be full-frame (before: 3, a painted kerb taken for a rim darker inside than out)."""
+    right = 0
+    for name, image, calibration, expected in _bench().pictures():
+        try:
+            found = find_image_circles(image)
+        except NoImageCircle as exc:
+            full_frame = "no rim is visible (a full-frame" in str(exc)
+            assert (expected == "full-frame" and full_frame) or name in REFUSED, (name, str(exc))
+            right += expected == "full-frame"
+            continue
+        assert expected == "rim" and name not in REFUSED, (name, found.centre)
+        reference = RIM_CENTRES.get(name, calibration)
+        error = math.dist(found.centre, reference)
+        assert error <= WHY.get(name, 3.0), (name, found.centre, reference, error)
+        right += error <= 3.0
+    assert right == 12
