@@ -78,6 +78,13 @@ def test_the_terms_map_offsets_as_written_and_undo_them() -> None:
     centre = np.asarray(camera.camera.centre)
     np.testing.assert_allclose(terms.apply(pixels - centre) + centre, camera.move(pixels), atol=1e-9)
     np.testing.assert_allclose(terms.undo(terms.apply(pixels - centre)), pixels - centre, atol=1e-9)
+    # the field (thin prism): x moved by R (s1 rn^2 + s2 rn^4), y by R (s3 rn^2 + s4 rn^4)
+    field = ImageTerms(("field",), (0.004, -0.003, 0.002, 0.001), camera.radius)
+    offsets = pixels - centre
+    rn2 = np.sum(offsets**2, axis=1) / camera.radius**2
+    expected = offsets + camera.radius * np.stack([0.004 * rn2 - 0.003 * rn2**2, 0.002 * rn2 + 0.001 * rn2**2], axis=1)
+    np.testing.assert_allclose(field.apply(offsets), expected, atol=1e-9)
+    np.testing.assert_allclose(field.undo(field.apply(offsets)), offsets, atol=1e-9)
     assert ImageTerms.from_dict(terms.to_dict()) == terms
     with pytest.raises(PanomapError, match="beyond"):
         ImageTerms.from_dict({"kept": ["aspect"], "values": [1.5], "radius_px": 400.0})
@@ -149,7 +156,7 @@ def test_two_images_are_too_few_to_leave_one_out() -> None:
 
 
 def test_the_fits_jacobian_with_terms_is_the_derivative_of_its_residuals() -> None:
-    """As test_board_fit's, with aspect, skew and decentering freed: the terms' columns and the chain through
+    """As test_board_fit's, with aspect, skew, decentering and the field freed: the terms' columns and the chain through
     them (equal to 1e-6 of the largest derivative: both are differences of smooth functions, steps 1e-6)."""
     from scipy.optimize._numdiff import approx_derivative
 
@@ -159,9 +166,9 @@ def test_the_fits_jacobian_with_terms_is_the_derivative_of_its_residuals() -> No
     grid = np.stack(np.meshgrid(np.arange(5), np.arange(4)), axis=-1).reshape(-1, 2)
     boards = [Board(k, np.zeros((len(grid), 2)), grid) for k in range(3)]
     observed = np.random.default_rng(54).uniform(100.0, 900.0, (3 * len(grid), 2))
-    layout = TermLayout(("aspect", "skew", "decentering"), 450.0)
+    layout = TermLayout(("aspect", "skew", "decentering", "field"), 450.0)
     poses = np.concatenate([[0.3, 0.2, 0.1, -3.0 + k, 2.0, 5.0 + k] for k in range(3)])
-    x = np.concatenate([[512.0, 384.0, 300.0, 0.8], [1.02, 0.01, 0.003, -0.002], poses])
+    x = np.concatenate([[512.0, 384.0, 300.0, 0.8], [1.02, 0.01, 0.003, -0.002, 0.004, -0.003, 0.002, 0.001], poses])
     closed = _jacobian(x, "unified", "down", boards, observed, layout).toarray()
     numeric = approx_derivative(_residuals, x, method="3-point", args=("unified", "down", boards, observed, layout))
     assert np.abs(closed - numeric).max() < 1e-6 * np.abs(numeric).max()

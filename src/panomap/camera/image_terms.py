@@ -10,6 +10,14 @@ move it to the pixel's offset ``(du, dv)``:
       xt = x + R (2 p1 xn yn + p2 (rn^2 + 2 xn^2))
       yt = y + R (p1 (rn^2 + 2 yn^2) + 2 p2 xn yn)
 
+- ``field`` ``(s1, s2, s3, s4)``, dimensionless (OpenCV's thin-prism terms): a smooth field over the image
+  that is not radial, added to the decentred offset::
+
+      xt += R (s1 rn^2 + s2 rn^4),    yt += R (s3 rn^2 + s4 rn^4)
+
+  On boards that leave the image's middle empty (a mirror's annulus) it trades with the centre and the
+  boards' poses: its move within the image circle is bounded (``MAX_FIELD``) rather than its coefficients.
+
 - ``aspect`` (a ratio, 1 for square pixels, OpenCV's fx / fy) and ``skew`` (px of u per px of v), an affine
   map of the image plane as OCamCalib's ``c, d, e``::
 
@@ -43,6 +51,8 @@ UNDO_TOLERANCE = 1e-12
 MAX_ASPECT_OFFSET = 0.2
 MAX_SKEW = 0.2
 MAX_DECENTERING = 0.05
+# The field's largest move within the image circle, in units of R (its coefficients alone may be larger).
+MAX_FIELD = 0.02
 
 
 @dataclass(frozen=True)
@@ -61,6 +71,9 @@ TERM_KINDS: dict[str, TermKind] = {
         TermKind("aspect", ("aspect",), (1.0,), "pixels taller or wider than square (fx / fy)"),
         TermKind("skew", ("skew",), (0.0,), "the sensor's columns not at right angles to its rows"),
         TermKind("decentering", ("p1", "p2"), (0.0, 0.0), "a lens or mirror off the sensor's axis (p1, p2)"),
+        TermKind(
+            "field", ("s1", "s2", "s3", "s4"), (0.0,) * 4, "a smooth field over the image, not radial (thin prism)"
+        ),
     )
 }
 TERMS = tuple(TERM_KINDS)
@@ -90,7 +103,7 @@ class ImageTerms:
     kept : tuple of str
         The kinds kept, in :data:`TERMS` order (empty: the identity).
     values : tuple of float
-        Their parameters in that order (``aspect``; ``skew``; ``p1, p2``).
+        Their parameters in that order (``aspect``; ``skew``; ``p1, p2``; ``s1..s4``).
     radius_px : float
         R, px: the scale of the offsets in the decentering terms (the image circle's radius), > 0.
     """
@@ -116,7 +129,15 @@ class ImageTerms:
     def beyond_limits(self) -> str | None:
         """Which value lies beyond its limit (the map may fold within the image there), in words; None if none."""
         limits = {"aspect": MAX_ASPECT_OFFSET, "skew": MAX_SKEW, "p1": MAX_DECENTERING, "p2": MAX_DECENTERING}
-        for name, value in self.named().items():
+        named = self.named()
+        for axis, (a, b) in (("x", ("s1", "s2")), ("y", ("s3", "s4"))):
+            t = np.linspace(0.0, 1.0, 101)  # rn^2 within the image circle: the field's move there, in units of R
+            largest = float(np.max(np.abs(named[a] * t + named[b] * t * t)))
+            if largest > MAX_FIELD:
+                return f"the image field moves {axis} {largest:.3g} R within the image circle (limit {MAX_FIELD} R)"
+        for name, value in named.items():
+            if name in TERM_KINDS["field"].parameters:
+                continue
             offset = value - 1.0 if name == "aspect" else value
             if abs(offset) > limits[name]:
                 return f"the image term {name} = {value:g} is beyond {limits[name]:g} of its identity"
@@ -150,7 +171,7 @@ class ImageTerms:
         if self.is_identity:
             return xy.copy()
         p = self.named()
-        xt, yt = _decentred(xy[..., 0], xy[..., 1], p["p1"], p["p2"], self.radius_px)
+        xt, yt = _decentred(xy[..., 0], xy[..., 1], p, self.radius_px)
         return np.stack([p["aspect"] * xt + p["skew"] * yt, yt], axis=-1)
 
     def undo(self, offsets: ArrayLike) -> FloatArray:
@@ -165,16 +186,16 @@ class ImageTerms:
         p = self.named()
         yt = uv[..., 1]
         xt = (uv[..., 0] - p["skew"] * yt) / p["aspect"]
-        if p["p1"] == 0.0 and p["p2"] == 0.0:
+        if all(p[q] == 0.0 for q in ("p1", "p2", *TERM_KINDS["field"].parameters)):
             return np.stack([xt, yt], axis=-1)
         big = self.radius_px
         x, y = xt.copy(), yt.copy()
         done = np.zeros(x.shape, dtype=bool)
         with np.errstate(invalid="ignore", over="ignore"):
             for _ in range(UNDO_STEPS):
-                fx, fy = _decentred(x, y, p["p1"], p["p2"], big)
+                fx, fy = _decentred(x, y, p, big)
                 ex, ey = fx - xt, fy - yt
-                (a, b), (c, d) = _decentring_jacobian(x, y, p["p1"], p["p2"], big)
+                (a, b), (c, d) = _decentring_jacobian(x, y, p, big)
                 det = a * d - b * c
                 sx = (d * ex - b * ey) / det
                 sy = (a * ey - c * ex) / det
@@ -189,7 +210,7 @@ class ImageTerms:
         """d(pixel offset) / d(radial offset), (..., 2, 2): rows du, dv; columns d/dx, d/dy."""
         xy = np.asarray(offsets, dtype=np.float64)
         p = self.named()
-        (a, b), (c, d) = _decentring_jacobian(xy[..., 0], xy[..., 1], p["p1"], p["p2"], self.radius_px)
+        (a, b), (c, d) = _decentring_jacobian(xy[..., 0], xy[..., 1], p, self.radius_px)
         aspect, skew = p["aspect"], p["skew"]
         return np.stack(
             [np.stack([aspect * a + skew * c, aspect * b + skew * d], axis=-1), np.stack([c, d], axis=-1)], axis=-2
@@ -200,14 +221,19 @@ class ImageTerms:
         xy = np.asarray(offsets, dtype=np.float64)
         p = self.named()
         x, y, big = xy[..., 0], xy[..., 1], self.radius_px
-        xt, yt = _decentred(x, y, p["p1"], p["p2"], big)
+        xt, yt = _decentred(x, y, p, big)
         zero = np.zeros_like(x)
+        r2 = (x * x + y * y) / big  # R rn^2
+        r4 = r2 * r2 / big  # R rn^4
         columns: list[tuple[FloatArray, FloatArray]] = []
         for name in self.kept:
             if name == "aspect":
                 columns.append((xt, zero))
             elif name == "skew":
                 columns.append((yt, zero))
+            elif name == "field":  # d(xt, yt) / d s1..s4, then the affine part
+                for dxt, dyt in ((r2, zero), (r4, zero), (zero, r2), (zero, r4)):
+                    columns.append((p["aspect"] * dxt + p["skew"] * dyt, dyt))
             else:  # decentering: d(xt, yt)/d p1 and / d p2, then the affine part
                 for dxt, dyt in (
                     (2 * x * y / big, (x * x + 3 * y * y) / big),
@@ -249,19 +275,27 @@ class ImageTerms:
         return terms
 
 
-def _decentred(x: FloatArray, y: FloatArray, p1: float, p2: float, big: float) -> tuple[FloatArray, FloatArray]:
-    """The offsets (px) moved by the decentering terms (module docstring), at radial offsets x, y (px)."""
+def _decentred(x: FloatArray, y: FloatArray, p: dict[str, float], big: float) -> tuple[FloatArray, FloatArray]:
+    """The offsets (px) moved by the decentering and field terms (module docstring), at radial offsets x, y (px)
+    with every parameter ``p`` (:meth:`ImageTerms.named`)."""
+    p1, p2 = p["p1"], p["p2"]
+    r2 = (x * x + y * y) / big  # R rn^2
+    r4 = r2 * r2 / big  # R rn^4
     return (
-        x + (2 * p1 * x * y + p2 * (3 * x * x + y * y)) / big,
-        y + (p1 * (x * x + 3 * y * y) + 2 * p2 * x * y) / big,
+        x + (2 * p1 * x * y + p2 * (3 * x * x + y * y)) / big + p["s1"] * r2 + p["s2"] * r4,
+        y + (p1 * (x * x + 3 * y * y) + 2 * p2 * x * y) / big + p["s3"] * r2 + p["s4"] * r4,
     )
 
 
 def _decentring_jacobian(
-    x: FloatArray, y: FloatArray, p1: float, p2: float, big: float
+    x: FloatArray, y: FloatArray, p: dict[str, float], big: float
 ) -> tuple[tuple[FloatArray, FloatArray], tuple[FloatArray, FloatArray]]:
     """d(xt, yt) / d(x, y) of :func:`_decentred`: ((dxt/dx, dxt/dy), (dyt/dx, dyt/dy))."""
+    p1, p2 = p["p1"], p["p2"]
+    rn2 = (x * x + y * y) / (big * big)
+    fx = (2 * p["s1"] + 4 * p["s2"] * rn2) / big  # d(field's x)/dx = fx x, /dy = fx y
+    fy = (2 * p["s3"] + 4 * p["s4"] * rn2) / big
     return (
-        (1 + (2 * p1 * y + 6 * p2 * x) / big, (2 * p1 * x + 2 * p2 * y) / big),
-        ((2 * p1 * x + 2 * p2 * y) / big, 1 + (6 * p1 * y + 2 * p2 * x) / big),
+        (1 + (2 * p1 * y + 6 * p2 * x) / big + fx * x, (2 * p1 * x + 2 * p2 * y) / big + fx * y),
+        ((2 * p1 * x + 2 * p2 * y) / big + fy * x, 1 + (6 * p1 * y + 2 * p2 * x) / big + fy * y),
     )
