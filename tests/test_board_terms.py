@@ -202,3 +202,17 @@ def test_a_table_of_a_camera_with_terms_holds_them_and_unprojects_through_them(t
     plain = fit_boards(moved_boards(camera, 3, seed=3), true_circles(camera.camera), LineFitOptions(terms="none"))
     outer = camera.camera.outer_radius - 5.0
     assert create_line_table(plain, cutoff_radius=0.0, outer_radius=outer, image_size=None).metadata()["version"] == 3
+
+
+def test_the_command_line_checks_terms_before_any_work(tmp_path) -> None:
+    """``--terms``: unknown names and a landmark fit are usage errors (exit 2), in one line, before any fit."""
+    from helpers import assert_one_line_error, run
+
+    picture = tmp_path / "omni.png"
+    picture.write_bytes(b"not read")
+    result = run("fit", "-o", tmp_path / "t.npz", "--image", picture, "--terms", "aspect,tilt")
+    assert_one_line_error(result, "unknown image term 'tilt'", "aspect, skew, decentering, field", exit_code=2)
+    landmarks = tmp_path / "lm.csv"
+    landmarks.write_text("u,v,X,Y,Z\n1,2,3,4,5\n")
+    result = run("fit", landmarks, "-o", tmp_path / "t.npz", "--camera", 0, 0, 1, "--centre", 5, 5, "--terms", "none")
+    assert_one_line_error(result, "--terms is for learning from checkerboards", exit_code=2)
