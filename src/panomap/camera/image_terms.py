@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike
 from ..errors import PanomapError
 from ..geometry import FloatArray
 
-# Newton steps that undo the decentering terms, and the step (in units of radius_px) where they stop.
+# Newton steps that undo the decentering and field terms, and the step (in units of radius_px) where they stop.
 UNDO_STEPS = 30
 UNDO_TOLERANCE = 1e-12
 # The largest terms a camera may hold: beyond them the map may fold over within the image (a fit that runs
@@ -177,8 +177,8 @@ class ImageTerms:
     def undo(self, offsets: ArrayLike) -> FloatArray:
         """The radial model's offsets (..., 2) px of pixels' offsets (..., 2) px: the inverse of :meth:`apply`.
 
-        The affine part in closed form, the decentering by Newton steps (at most ``UNDO_STEPS``); NaN where
-        they do not converge (a pixel far beyond the image, where the terms fold).
+        The affine part in closed form, the decentering and the field by Newton steps (at most ``UNDO_STEPS``);
+        NaN where they do not converge (a pixel far beyond the image, where the terms fold).
         """
         uv = np.asarray(offsets, dtype=np.float64)
         if self.is_identity:
