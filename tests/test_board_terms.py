@@ -215,4 +215,4 @@ def test_the_command_line_checks_terms_before_any_work(tmp_path) -> None:
     landmarks = tmp_path / "lm.csv"
     landmarks.write_text("u,v,X,Y,Z\n1,2,3,4,5\n")
     result = run("fit", landmarks, "-o", tmp_path / "t.npz", "--camera", 0, 0, 1, "--centre", 5, 5, "--terms", "none")
-    assert_one_line_error(result, "--terms is for learning from checkerboards", exit_code=2)
+    assert_one_line_error(result, "--terms is for learning from lines (no LANDMARKS)", exit_code=2)

@@ -315,11 +315,9 @@ def fit(
         raise click.UsageError("--video pools frames to learn from lines (no LANDMARKS); a landmark fit takes --image "
                                "VIDEO --frame-time SECONDS")  # fmt: skip
     size = _image_size(image_size)
-    if terms != "auto":
-        raise click.UsageError("--terms is for learning from checkerboards (no LANDMARKS)")
     image = check_landmark_fit_options(
         landmarks, output, images, centre, table_size, model, refine_centre, plot, overlay,
-        azimuth_zero, handedness, camera_height,
+        azimuth_zero, handedness, camera_height, terms,
     )  # fmt: skip
     pairs = read_landmarks(landmarks)
     if camera is None and pairs.camera is None:
