@@ -72,9 +72,11 @@ Rays = Callable[[FloatArray], FloatArray]
 def camera_frame_rays(model: CameraModel, pixels: FloatArray) -> FloatArray:
     """Unit rays (n, 3) in the learned camera's own axes of pixels (n, 2) (NaN beyond its radial range).
 
-    The rotation of a tilted model is left out: the best rotation of the frame absorbs it.
+    The rotation of a tilted model is left out: the best rotation of the frame absorbs it. Image terms beyond
+    the radial law (aspect, skew, decentering) are undone first.
     """
     u0, v0 = model.centre
+    pixels = model.radial_pixels(pixels)
     du, dv = pixels[:, 0] - u0, pixels[:, 1] - v0
     r = np.hypot(du, dv)
     phi = np.arctan2(dv, du)
@@ -100,8 +102,7 @@ def camera_frame_pixels(model: CameraModel, rays: FloatArray) -> FloatArray:
     rho = np.arctan2(rays[:, 2], np.hypot(rays[:, 0], rays[:, 1]))
     r = np.asarray(model.radial(rho), dtype=np.float64)
     phi = model.s * theta + model.phi0
-    u0, v0 = model.centre
-    return np.stack([u0 + r * np.cos(phi), v0 + r * np.sin(phi)], axis=1)
+    return model.with_terms(np.stack([r * np.cos(phi), r * np.sin(phi)], axis=1))
 
 
 def best_orthogonal(a: FloatArray, b: FloatArray) -> FloatArray:

@@ -93,8 +93,8 @@ def test_not_a_table(tmp_path: Path) -> None:
 def test_other_version(tmp_path: Path) -> None:
     path = tmp_path / "t.npz"
     save_table(small_table(), path)
-    rewrite(path, {"version": 5})
-    with pytest.raises(PanomapError, match="version 5; this panomap reads versions 1, 2, 3 and 4"):
+    rewrite(path, {"version": 6})
+    with pytest.raises(PanomapError, match="version 6; this panomap reads versions 1, 2, 3, 4 and 5"):
         load_table(path)
 
 
@@ -115,7 +115,7 @@ def test_a_version_missing_or_not_an_integer_is_refused_in_one_line(
         meta["version"] = version
     meta["metadata_sha256"] = metadata_digest(meta)
     np.savez(path, entries=entries, meta=np.array(json.dumps(meta)))
-    message = f"table format version {shown}; this panomap reads versions 1, 2, 3 and 4"
+    message = f"table format version {shown}; this panomap reads versions 1, 2, 3, 4 and 5"
     with pytest.raises(PanomapError, match=re.escape(message)):
         load_table(path)
     assert_one_line_error(run("info", path), f"{path}: ", message, exit_code=1)

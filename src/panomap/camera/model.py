@@ -4,6 +4,9 @@ Convention: ``u = u0 + r cos(phi)``, ``v = v0 + r sin(phi)``,
 ``phi = s*theta + phi0`` and ``r = f_r(rho)``; theta, rho in rad as in
 :mod:`panomap.geometry`. The paper's assumption is ``s = +1, phi0 = 0``.
 
+Terms beyond the radial law (:mod:`panomap.camera.image_terms`: aspect, skew, decentering) move the
+offset ``(u - u0, v - v0)`` of that pixel; a camera without them is rotationally symmetric.
+
 A tilted camera (beyond the paper) has a ``rotation`` R, camera to world
 (:mod:`panomap.camera.orientation`): its methods take and give **world**
 angles, and apply the model above to the ray in the camera's axes, ``R.T d``.
@@ -20,6 +23,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, ray_from_angles
+from .image_terms import ImageTerms
 from .orientation import (
     orientation_of_rotation,
     rotation_of_orientation,
@@ -50,6 +54,9 @@ class CameraModel:
     viewpoint : Viewpoint, optional
         Where each elevation's ray leaves the optical axis, for a camera without a single viewpoint
         (:mod:`panomap.camera.viewpoint`); None for a single-viewpoint camera (every ray from O_m).
+    terms : ImageTerms, optional
+        Aspect, skew and decentering beyond the radial law (:mod:`panomap.camera.image_terms`); None (or the
+        identity) for a rotationally symmetric camera.
     """
 
     centre: tuple[float, float]
@@ -58,6 +65,7 @@ class CameraModel:
     phi0: float = 0.0
     rotation: tuple[tuple[float, float, float], ...] | None = None
     viewpoint: Viewpoint | None = None
+    terms: ImageTerms | None = None
 
     def __post_init__(self) -> None:
         u0, v0 = (float(c) for c in self.centre)
@@ -70,6 +78,8 @@ class CameraModel:
         object.__setattr__(self, "centre", (u0, v0))
         object.__setattr__(self, "s", int(self.s))
         object.__setattr__(self, "phi0", float(self.phi0))
+        if self.terms is not None and self.terms.is_identity:
+            object.__setattr__(self, "terms", None)
         if self.rotation is not None:
             matrix = np.asarray(self.rotation, dtype=np.float64)
             if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
@@ -175,11 +185,25 @@ class CameraModel:
         theta, rho = self.camera_angles(theta, rho)
         r = self.radial(rho)
         phi = self.image_angle(theta)
-        u0, v0 = self.centre
-        return np.stack([u0 + r * np.cos(phi), v0 + r * np.sin(phi)], axis=-1)
+        return self.with_terms(np.stack([r * np.cos(phi), r * np.sin(phi)], axis=-1))
+
+    def with_terms(self, offsets: ArrayLike) -> FloatArray:
+        """Pixels (..., 2) of the radial model's offsets (..., 2) px from the centre, through the terms."""
+        offsets = np.asarray(offsets, dtype=np.float64)
+        moved = offsets if self.terms is None else self.terms.apply(offsets)
+        return moved + np.asarray(self.centre)
+
+    def radial_pixels(self, uv: ArrayLike) -> FloatArray:
+        """Pixels (..., 2) with the terms undone: where the rotationally symmetric model puts each pixel's ray
+        (the pixels themselves without terms; NaN where the terms cannot be undone)."""
+        uv = np.asarray(uv, dtype=np.float64)
+        if self.terms is None:
+            return uv
+        centre = np.asarray(self.centre)
+        return self.terms.undo(uv - centre) + centre
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain data; ``rotation`` (rows of R) only for a tilted camera."""
+        """Plain data; ``rotation`` (rows of R) only for a tilted camera, ``terms`` only where kept."""
         data: dict[str, Any] = {
             "centre": list(self.centre),
             "s": self.s,
@@ -190,6 +214,8 @@ class CameraModel:
             data["rotation"] = [list(row) for row in self.rotation]
         if self.viewpoint is not None:
             data["viewpoint"] = self.viewpoint.to_dict()
+        if self.terms is not None:
+            data["terms"] = self.terms.to_dict()
         return data
 
     @classmethod
@@ -200,6 +226,7 @@ class CameraModel:
             if rotation is not None:
                 rotation = tuple(tuple(float(x) for x in row) for row in rotation)
             viewpoint = None if data.get("viewpoint") is None else Viewpoint.from_dict(data["viewpoint"])
+            terms = None if data.get("terms") is None else ImageTerms.from_dict(data["terms"])
             return cls(
                 (u0, v0),
                 RadialFunction.from_dict(data["radial"]),
@@ -207,6 +234,7 @@ class CameraModel:
                 float(data["phi0_rad"]),
                 rotation,
                 viewpoint,
+                terms,
             )
         except (KeyError, TypeError, ValueError) as exc:
             if isinstance(exc, PanomapError):

@@ -18,6 +18,7 @@ from ..calibrate.landmarks.diagnosis import diagnose
 from ..calibrate.landmarks.pairs import read_landmarks
 from ..calibrate.landmarks.pipeline import calibrate_camera
 from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror
+from ..camera.image_terms import check_term_names
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, input_file, same_input
@@ -233,6 +234,15 @@ from .progress import ProgressBar
     "(a cut-off disc shows), -1 for a lens, looking down (the opposite looking up).",
 )
 @click.option(
+    "--terms",
+    default="auto",
+    show_default=True,
+    callback=lambda _ctx, _param, value: _checked_terms(value),
+    help="Learning from checkerboards: the image terms beyond the radial law the camera may keep (aspect, skew, "
+    "decentering, field): 'auto' keeps each only where the images left out say it helps, 'none', or names "
+    "joined by commas (kept as given).",
+)
+@click.option(
     "--camera-height",
     type=POSITIVE,
     help="Learning from lines: the camera's height above the floor (world units); floor, cylinder and plane "
@@ -276,6 +286,7 @@ def fit(
     overlay: Path | None,
     azimuth_zero: tuple[float, float] | None,
     handedness: str,
+    terms: str,
     camera_height: float | None,
     frame_time: float | None,
 ) -> None:
@@ -297,7 +308,7 @@ def fit(
         refuse_landmark_options(click.get_current_context())
         _fit_lines(
             output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time, use_boards,
-            videos, video_frames,
+            videos, video_frames, terms,
         )  # fmt: skip
         return
     if videos:
@@ -306,7 +317,7 @@ def fit(
     size = _image_size(image_size)
     image = check_landmark_fit_options(
         landmarks, output, images, centre, table_size, model, refine_centre, plot, overlay,
-        azimuth_zero, handedness, camera_height,
+        azimuth_zero, handedness, camera_height, terms,
     )  # fmt: skip
     pairs = read_landmarks(landmarks)
     if camera is None and pairs.camera is None:
@@ -412,6 +423,7 @@ def _fit_lines(
     use_boards: bool,
     videos: tuple[Path, ...] = (),
     video_frames: int = 8,
+    terms: str = "auto",
 ) -> None:
     """``fit`` without landmarks: the camera learned from the lines (and checkerboards) of ``images`` and the
     frames of ``videos``."""
@@ -450,6 +462,7 @@ def _fit_lines(
         s=None if handedness == "auto" else int(handedness),
         azimuth_zero=azimuth_zero,
         model=model,
+        terms=terms,
     )
     fit_from_lines(
         images,
@@ -567,6 +580,16 @@ def _describe_fit(table: PanoMappingTable) -> str:
     if fit.viewpoint is not None:
         lines.extend(fit.viewpoint.sentences())
     return "\n".join([*lines, _describe_residuals(table, fit)])
+
+
+def _checked_terms(value: str) -> str:
+    """``--terms``: 'auto', 'none' or known terms' names joined by commas (a usage error otherwise)."""
+    if value in ("auto", "none"):
+        return value
+    try:
+        return ",".join(check_term_names([name.strip() for name in value.split(",") if name.strip()]))
+    except PanomapError as exc:
+        raise click.BadParameter(str(exc)) from None
 
 
 def _ranked(scores: Mapping[str, float | None]) -> str:

@@ -118,11 +118,14 @@ def check_landmark_fit_options(
     azimuth_zero: tuple[float, float] | None,
     handedness: str,
     camera_height: float | None,
+    terms: str = "auto",
 ) -> Path | None:
     """The checks of a landmark fit's options before any work (usage errors, exit 2; outputs that are
     inputs, 1); returns its --image, if any."""
     line_options = {"--azimuth-zero": azimuth_zero, "--camera-height": camera_height}
-    for name, value in (*line_options.items(), ("--handedness", None if handedness == "auto" else handedness)):
+    automatic = {"--handedness": handedness, "--terms": terms}
+    asked = [(name, value) for name, value in automatic.items() if value != "auto"]
+    for name, value in (*line_options.items(), *asked):
         if value is not None:
             raise click.UsageError(f"{name} is for learning from lines (no LANDMARKS); a landmark fit learns it")
     if len(images) > 1:

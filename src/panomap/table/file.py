@@ -5,7 +5,8 @@ model, the elevation range, radii, image size, camera position, the table's
 ``info`` (where the centre and radii came from, the landmarks and the fit
 report), the SHA-256 of ``entries`` and (since version 2) the SHA-256 of the
 metadata itself. Version 3 adds a tilted camera's rotation (in the model) and
-its own elevation range; versions 1 and 2 (level cameras only) still load.
+its own elevation range; versions 1 and 2 (level cameras only) still load. Version 4 adds a camera
+without a single viewpoint, version 5 the image terms beyond the radial law (aspect, skew, decentering).
 Loading checks all of it, in an order that bounds memory and time before the
 work starts:
 
@@ -38,13 +39,14 @@ from ..errors import PanomapError
 from ..files import input_file, write_with
 from ..values import MAX_ABS
 from .sampling import MAX_TABLE_SIDE
-from .table import MAX_TABLE_ENTRIES, TABLE_FORMAT, PanoMappingTable, fill_entries
+from .table import MAX_TABLE_ENTRIES, TABLE_FORMAT, TERMS_VERSION, PanoMappingTable, fill_entries
 
-READ_VERSIONS = (1, 2, 3, 4)
+READ_VERSIONS = (1, 2, 3, 4, 5)
 # Version 3 added the camera's rotation (a tilted camera) to the model; older files hold level cameras.
 ROTATION_VERSION = 3
 # Version 4 added the ray origins of a camera without a single viewpoint (``model["viewpoint"]``).
 VIEWPOINT_VERSION = 4
+# Version 5 added the image terms beyond the radial law (``model["terms"]``, :mod:`panomap.camera.image_terms`).
 # Entries are float32: about 1e-4 px at radii of 2000 px. A loaded table whose
 # entries stray further than this from its own model is corrupt.
 ENTRY_TOLERANCE_PX = 1e-2
@@ -275,6 +277,8 @@ class TableMetadata:
             raise _malformed(f"a version {version} table holds no camera rotation (version {ROTATION_VERSION} does)")
         if version < VIEWPOINT_VERSION and "viewpoint" in meta["model"]:
             raise _malformed(f"a version {version} table holds no viewpoint (version {VIEWPOINT_VERSION} does)")
+        if version < TERMS_VERSION and "terms" in meta["model"]:
+            raise _malformed(f"a version {version} table holds no image terms (version {TERMS_VERSION} does)")
         try:
             model = CameraModel.from_dict(meta["model"])
         except PanomapError as exc:

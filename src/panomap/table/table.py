@@ -39,6 +39,9 @@ MAX_TABLE_ENTRIES = 50_000_000
 TABLE_FORMAT = "panomap-table"
 TABLE_VERSION = 3
 VIEWPOINT_VERSION = 4
+# Version 5 adds the image terms beyond the radial law (``model["terms"]``: aspect, skew, decentering), which a
+# reader of version 4 would leave out of its unproject; it refuses the file by its version instead.
+TERMS_VERSION = 5
 # Pixels this close outside the annulus or the radial profile's ends (px) still unproject:
 # the ends are solved to rounding, and a pixel's radius is computed to rounding.
 PROFILE_SLACK_PX = 1e-6
@@ -237,8 +240,11 @@ class PanoMappingTable:
         return np.where(valid, theta, np.nan), np.where(valid, rho, np.nan)
 
     def _radial_angles(self, points: FloatArray) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
-        """theta, rho (rad) of pixels (..., 2) through the model's radial profile, and where they are valid."""
-        r, phi = pixel_polar(points, self.model.centre)
+        """theta, rho (rad) of pixels (..., 2) through the model's radial profile, and where they are valid.
+
+        A model with image terms has them undone first; the annulus' radii are measured on the pixels so
+        undone (the radial model's own radii)."""
+        r, phi = pixel_polar(self.model.radial_pixels(points), self.model.centre)
         theta = np.where(r == 0, 0.0, wrap_azimuth(self.model.s * (phi - self.model.phi0)))
         rho_nodes, increasing, sign = self._radial_profile
         tilted = self.model.rotation is not None
@@ -329,7 +335,9 @@ class PanoMappingTable:
         m, n = self.size
         return {
             "format": TABLE_FORMAT,
-            "version": TABLE_VERSION if self.model.viewpoint is None else VIEWPOINT_VERSION,
+            "version": TERMS_VERSION
+            if self.model.terms is not None
+            else (TABLE_VERSION if self.model.viewpoint is None else VIEWPOINT_VERSION),
             "size": [m, n],
             "elevation_range_rad": list(self.elevation_range),
             "model": self.model.to_dict(),
@@ -356,7 +364,8 @@ def fill_entries(
 
     ``u_ij = u0 + r_j cos(phi_i)``, ``v_ij = v0 + r_j sin(phi_i)`` with
     ``r_j = f_r(rho_j)`` and ``phi_i = s*theta_i + phi0`` (eqs. 5-8, plus the
-    centre and azimuth mapping of the conventions); for a tilted camera, the
+    centre and azimuth mapping of the conventions), then the model's image terms (aspect, skew,
+    decentering: :mod:`panomap.camera.image_terms`) where it keeps any; for a tilted camera, the
     world ray (theta_i, rho_j) through :meth:`CameraModel.pixels`, NaN where its
     elevation in the camera's axes is outside ``camera_range`` (rad, required
     then: the camera does not see it). ``rows`` picks azimuths
@@ -377,10 +386,12 @@ def fill_entries(
             rho_camera <= camera_range[1] + CAMERA_RANGE_SLACK_RAD
         )
         r = np.where(seen, r, np.nan)
-        u0, v0 = model.centre
-        return np.stack([u0 + r * np.cos(phi), v0 + r * np.sin(phi)], axis=-1).astype(np.float32)
+        return model.with_terms(np.stack([r * np.cos(phi), r * np.sin(phi)], axis=-1)).astype(np.float32)
     r = model.radial(rho)
     phi = model.image_angle(theta)
+    if model.terms is not None:  # aspect, skew, decentering: each entry through them (no longer separable)
+        offsets = np.stack([np.cos(phi)[:, None] * r[None, :], np.sin(phi)[:, None] * r[None, :]], axis=-1)
+        return model.with_terms(offsets).astype(np.float32)
     u0, v0 = model.centre
     entries = np.empty((theta.size, n, 2), dtype=np.float32)
     entries[..., 0] = u0 + np.cos(phi)[:, None] * r[None, :]

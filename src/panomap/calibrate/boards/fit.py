@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -35,6 +35,7 @@ from scipy.optimize import least_squares
 from scipy.sparse import csr_matrix, lil_matrix
 from scipy.spatial.transform import Rotation
 
+from ...camera.image_terms import TERM_KINDS, ImageTerms
 from ...camera.model import CameraModel
 from ...camera.radial import RadialFunction, fit_radial
 from ...camera.radial_models import AUTO_CANDIDATES, MIRROR_CANDIDATES, radial_kind, rho_of_alpha
@@ -48,6 +49,7 @@ from ..lines.fit import LineFit, LineFitOptions, vertical_under
 from ..lines.orientation import level_rotation, zero_azimuth
 from ..lines.rays import ALPHA_LIMIT, InverseRadial, pixel_rays
 from .detect import Board
+from .terms import NO_TERMS, TermChoice, TermLayout, choose_terms
 
 # Fewest corners, over all boards, a fit needs.
 MIN_CORNERS = 24
@@ -84,17 +86,27 @@ UNREACHED_PX = 1.0e3
 
 @dataclass(frozen=True)
 class _Fit:
-    """One converged joint fit: the kind, centre and coefficients, the poses, the corner residuals."""
+    """One converged joint fit: the kind, centre, coefficients and image terms, the poses, the corner residuals."""
 
     kind: str
     params: FloatArray
     poses: FloatArray
     residuals_px: FloatArray
     jacobian: FloatArray
+    layout: TermLayout = NO_TERMS
 
     @property
     def cost(self) -> float:
         return float(np.sum(self.residuals_px**2))
+
+    @property
+    def coefficients(self) -> FloatArray:
+        """f_r's coefficients (the parameters after the centre, before the terms)."""
+        return self.params[2 : 2 + radial_kind(self.kind).parameter_count]
+
+    @property
+    def terms(self) -> ImageTerms:
+        return self.layout.terms(self.params[2 + radial_kind(self.kind).parameter_count :])
 
 
 def fit_boards(
@@ -157,9 +169,40 @@ def fit_boards(
             (kept_index[worst], f"board misread (RMS {worst_rms:.1f} px, the rest {others:.2f} px)", worst_rms)
         )
     rms = {kind: (None if fit is None else float(np.sqrt(np.mean(fit.residuals_px**2)))) for kind, fit in fits.items()}
-    vertical = vertical_under(arcs, circles, final.kind, axis, final.params) if arcs else None
+    say("choosing the image terms by leaving images out")
+    final, choice = _with_terms(final, boards, axis, circles.outer_radius, options.terms)
+    radial_params = final.params[: 2 + radial_kind(final.kind).parameter_count]
+    vertical = None
+    if arcs:  # the arcs' pixels as the radial model sees them (the terms undone)
+        vertical = vertical_under(_undone(arcs, final), circles, final.kind, axis, radial_params)
     r_max = _farthest(boards, circles.centre) * 1.05
-    return _result(final, given, boards, kept_index, sorted(dropped + rejected), rms, options, circles, r_max, vertical)
+    return _result(
+        final, given, boards, kept_index, sorted(dropped + rejected), rms, options, circles, r_max, vertical, choice
+    )
+
+
+def _with_terms(fit: _Fit, boards: Sequence[Board], axis: str, radius_px: float, asked: str) -> tuple[_Fit, TermChoice]:
+    """``fit`` refitted with the image terms :func:`.terms.choose_terms` keeps (``fit`` itself without any)."""
+    kept, choice = choose_terms(fit, boards, axis, radius_px, asked, (_residuals, _jacobian))
+    if not kept:
+        return fit, choice
+    layout = TermLayout(kept, radius_px)
+    start = np.concatenate([fit.params, [v for name in kept for v in TERM_KINDS[name].identity]])
+    refit = _joint(boards, fit.kind, axis, start, fit.poses, layout=layout)
+    beyond = refit.terms.beyond_limits()
+    if beyond is not None:
+        if asked != "auto":
+            raise PanomapError(f"the boards' fit with the image terms asked for failed: {beyond}")
+        return fit, replace(choice, kept=(), reason=f"those kept ran beyond their limits on all images ({beyond})")
+    return refit, replace(choice, values=refit.terms.values)
+
+
+def _undone(arcs: Sequence[EdgeArc], fit: _Fit) -> list[EdgeArc]:
+    """``arcs`` with the fit's image terms undone from their pixels."""
+    if not fit.layout.kept:
+        return list(arcs)
+    centre, terms = fit.params[:2], fit.terms
+    return [replace(arc, pixels=terms.undo(arc.pixels - centre) + centre) for arc in arcs]
 
 
 def _fit_all(
@@ -222,13 +265,18 @@ def _candidates(options: LineFitOptions, circles: ImageCircles, boards: int) -> 
 # -- the projection and the residuals ---------------------------------------------------------------
 
 
-def project(kind: str, axis: str, params: FloatArray, points: FloatArray) -> FloatArray:
-    """Pixels (n, 2) of points (n, 3) in the camera's axes under the camera ``params`` (u0, v0, coefficients)."""
+def project(kind: str, axis: str, params: FloatArray, points: FloatArray, layout: TermLayout = NO_TERMS) -> FloatArray:
+    """Pixels (n, 2) of points (n, 3) in the camera's axes under the camera ``params`` (u0, v0, coefficients,
+    then the values of the image terms ``layout`` frees)."""
     rho = elevations(points, axis)
     phi = np.arctan2(points[:, 1], points[:, 0])
+    count = radial_kind(kind).parameter_count
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        r = radial_kind(kind).evaluate(tuple(float(c) for c in params[2:]), rho, axis)
-    return np.stack([params[0] + r * np.cos(phi), params[1] + r * np.sin(phi)], axis=1)
+        r = radial_kind(kind).evaluate(tuple(float(c) for c in params[2 : 2 + count]), rho, axis)
+        offsets = np.stack([r * np.cos(phi), r * np.sin(phi)], axis=1)
+        if layout.kept:
+            offsets = layout.terms(params[2 + count :]).apply(offsets)
+    return np.asarray(params[:2] + offsets, dtype=np.float64)
 
 
 def elevations(points: FloatArray, axis: str) -> FloatArray:
@@ -263,32 +311,46 @@ def board_axis_deg(poses: FloatArray) -> FloatArray:
     return np.asarray(np.degrees(np.arccos(np.clip(np.abs(normals[:, 2]), 0.0, 1.0))), dtype=np.float64)
 
 
-def residuals_under(kind: str, axis: str, params: FloatArray, poses: FloatArray, boards: Sequence[Board]) -> FloatArray:
+def residuals_under(
+    kind: str,
+    axis: str,
+    params: FloatArray,
+    poses: FloatArray,
+    boards: Sequence[Board],
+    layout: TermLayout = NO_TERMS,
+) -> FloatArray:
     """The corners' residuals (2N,) px, u and v interleaved, under the camera ``params`` with ``poses`` (6B,)."""
     observed = np.concatenate([b.pixels for b in boards])
-    return _residuals(np.concatenate([params, poses]), kind, axis, boards, observed)
+    return _residuals(np.concatenate([params, poses]), kind, axis, boards, observed, layout)
 
 
-def _residuals(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], observed: FloatArray) -> FloatArray:
-    count = 2 + radial_kind(kind).parameter_count
+def _residuals(
+    x: FloatArray, kind: str, axis: str, boards: Sequence[Board], observed: FloatArray, layout: TermLayout = NO_TERMS
+) -> FloatArray:
+    count = 2 + radial_kind(kind).parameter_count + layout.count
     params, poses = x[:count], x[count:].reshape(-1, 6)
-    predicted = project(kind, axis, params, board_points(poses, boards))
+    predicted = project(kind, axis, params, board_points(poses, boards), layout)
     out = (predicted - observed).ravel()
     return np.where(np.isfinite(out), out, UNREACHED_PX)
 
 
-def _jacobian(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], observed: FloatArray) -> csr_matrix:
+def _jacobian(
+    x: FloatArray, kind: str, axis: str, boards: Sequence[Board], observed: FloatArray, layout: TermLayout = NO_TERMS
+) -> csr_matrix:
     """The Jacobian (2N, count + 6B) of :func:`_residuals`, in closed form but for f_r's derivatives.
 
     ``pixel = centre + f_r(rho(X)) (cos phi, sin phi)`` with ``X = R(w) p + t``: the chain through the point's
     angle from the axis and its azimuth is exact; f_r's derivatives in its coefficients and in rho, and the
     rotation's in its vector, are central differences (steps 1e-6; f_r costs one pass over the corners, where
     differencing every parameter through the whole projection cost 90% of the fit). A residual set to
-    ``UNREACHED_PX`` has zero derivatives. Sparse (each corner sees the camera and its board's pose): the solver
-    then takes LSMR steps, where a dense Jacobian's SVD runs BLAS's threads (10-50 times slower on a busy machine).
+    ``UNREACHED_PX`` has zero derivatives. Image terms (``layout``): the radial offset's derivatives through the
+    terms' Jacobian, the terms' own in closed form (:mod:`panomap.camera.image_terms`). Sparse (each corner sees
+    the camera and its board's pose): the solver then takes LSMR steps, where a dense Jacobian's SVD runs BLAS's
+    threads (10-50 times slower on a busy machine).
     """
     spec = radial_kind(kind)
-    count = 2 + spec.parameter_count
+    radial_count = 2 + spec.parameter_count
+    count = radial_count + layout.count
     params, poses = x[:count], x[count:].reshape(-1, 6)
     points = board_points(poses, boards)
     n = len(points)
@@ -305,10 +367,22 @@ def _jacobian(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], obse
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             return np.asarray(spec.evaluate(tuple(float(c) for c in coefficients), at, axis), dtype=np.float64)
 
-    coefficients = params[2:]
+    coefficients = params[2:radial_count]
     r = f(coefficients, rho)
     dr_drho = (f(coefficients, rho + 1e-6) - f(coefficients, rho - 1e-6)) / 2e-6
     cos_phi, sin_phi = np.cos(phi), np.sin(phi)
+    # d(pixel offset) / d(radial offset) (n, 2, 2): the identity without terms
+    offsets = np.stack([r * cos_phi, r * sin_phi], axis=1)
+    terms = layout.terms(params[radial_count:]) if layout.kept else None
+    chain = terms.jacobian(offsets) if terms is not None else None
+
+    def through(du: FloatArray, dv: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Derivatives of the radial offset (n,) or (n, k) as the pixel's, through the terms."""
+        if chain is None:
+            return du, dv
+        a, b, c, d = (chain[:, i, j].reshape((-1,) + (1,) * (du.ndim - 1)) for i in (0, 1) for j in (0, 1))
+        return a * du + b * dv, c * du + d * dv
+
     jac = np.zeros((2 * n, count + 6 * len(boards)))
     jac[0::2, 0] = 1.0
     jac[1::2, 1] = 1.0
@@ -318,14 +392,20 @@ def _jacobian(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], obse
         up[k] += step
         down[k] -= step
         dr = (f(up, rho) - f(down, rho)) / (2.0 * step)
-        jac[0::2, 2 + k] = dr * cos_phi
-        jac[1::2, 2 + k] = dr * sin_phi
+        jac[0::2, 2 + k], jac[1::2, 2 + k] = through(dr * cos_phi, dr * sin_phi)
+    if terms is not None:
+        with np.errstate(invalid="ignore", over="ignore"):
+            own = terms.parameter_jacobian(offsets)
+        jac[0::2, radial_count:count] = own[:, 0, :]
+        jac[1::2, radial_count:count] = own[:, 1, :]
     # d alpha / dX and d phi / dX (n, 3)
     d_alpha = np.stack([z_ * x_ / (s * n2), z_ * y_ / (s * n2), -s / n2], axis=1)
     d_phi = np.stack([-y_ / s2, x_ / s2, np.zeros(n)], axis=1)
     radial_part = (sign * dr_drho)[:, None] * d_alpha
-    du_dx = radial_part * cos_phi[:, None] - (r * sin_phi)[:, None] * d_phi
-    dv_dx = radial_part * sin_phi[:, None] + (r * cos_phi)[:, None] * d_phi
+    du_dx, dv_dx = through(
+        radial_part * cos_phi[:, None] - (r * sin_phi)[:, None] * d_phi,
+        radial_part * sin_phi[:, None] + (r * cos_phi)[:, None] * d_phi,
+    )
     # the rotation's derivatives, every board's at once: R(w +- 1e-6 e_k) p (B, 3 (k), 2 (+-), 3, 3)
     plane, owner = _planes(boards)
     steps = np.concatenate([np.eye(3), -np.eye(3)]) * 1e-6
@@ -339,7 +419,7 @@ def _jacobian(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], obse
     jac[2 * rows[:, None] + 1, columns[:, None] + np.arange(3)] = np.einsum("nki,ni->nk", dp, dv_dx)
     jac[2 * rows[:, None], columns[:, None] + 3 + np.arange(3)] = du_dx
     jac[2 * rows[:, None] + 1, columns[:, None] + 3 + np.arange(3)] = dv_dx
-    residuals = (project(kind, axis, params, points) - observed).ravel()
+    residuals = (project(kind, axis, params, points, layout) - observed).ravel()
     jac[~np.isfinite(residuals)] = 0.0
     return csr_matrix(np.where(np.isfinite(jac), jac, 0.0))
 
@@ -364,11 +444,14 @@ def _joint(
     poses: FloatArray,
     max_nfev: int | None = None,
     robust: bool = False,
+    layout: TermLayout = NO_TERMS,
+    ftol: float = 1e-8,
 ) -> _Fit:
     """The joint least-squares fit of the camera and the poses from a start (``robust``: a misread board
-    pulls less, for the starts, before misread boards are set aside)."""
+    pulls less, for the starts, before misread boards are set aside; ``layout``: the image terms freed, their
+    values at the end of ``params``; ``ftol``: the relative drop of the cost where it stops)."""
     observed = np.concatenate([b.pixels for b in boards])
-    count = 2 + radial_kind(kind).parameter_count
+    count = 2 + radial_kind(kind).parameter_count + layout.count
     x0 = np.concatenate([params, poses.ravel()])
     solution = least_squares(
         _residuals,
@@ -379,11 +462,12 @@ def _joint(
         loss="soft_l1" if robust else "linear",
         f_scale=ROBUST_SCALE_PX,
         max_nfev=max_nfev or MAX_EVALUATIONS,
-        args=(kind, axis, boards, observed),
+        ftol=ftol,
+        args=(kind, axis, boards, observed, layout),
     )
     residuals_px = np.hypot(*solution.fun.reshape(-1, 2).T)
     jacobian = solution.jac.toarray() if hasattr(solution.jac, "toarray") else np.asarray(solution.jac)
-    return _Fit(kind, solution.x[:count], solution.x[count:].reshape(-1, 6), residuals_px, jacobian)
+    return _Fit(kind, solution.x[:count], solution.x[count:].reshape(-1, 6), residuals_px, jacobian, layout)
 
 
 # -- the starts -------------------------------------------------------------------------------------
@@ -476,7 +560,7 @@ def _refit_as(boards: Sequence[Board], fit: _Fit, kind: str, axis: str, r_max: f
     """The joint fit with radial ``kind``, started from ``fit`` (its f_r refitted as ``kind``)."""
     rho_low, rho_high = _corner_rho(fit, boards, axis)
     rho = np.linspace(rho_low, rho_high, 64)
-    start = RadialFunction(fit.kind, tuple(float(c) for c in fit.params[2:]), axis)
+    start = RadialFunction(fit.kind, tuple(float(c) for c in fit.coefficients), axis)
     try:
         converted = fit_radial(kind, rho, start(rho), axis)
         result = _joint(boards, kind, axis, np.concatenate([fit.params[:2], converted.coefficients]), fit.poses)
@@ -488,7 +572,7 @@ def _refit_as(boards: Sequence[Board], fit: _Fit, kind: str, axis: str, r_max: f
     if np.any(points[:, 2] < np.cos(ALPHA_LIMIT) * np.linalg.norm(points, axis=1)):
         return None  # corners beyond any camera's view: the fit went round the back
     try:  # a law that turns back or ends before the image circle gives no table there
-        InverseRadial.of(RadialFunction(kind, tuple(float(c) for c in result.params[2:]), axis), r_max)
+        InverseRadial.of(RadialFunction(kind, tuple(float(c) for c in result.coefficients), axis), r_max)
     except PanomapError:
         return None
     return result
@@ -532,6 +616,7 @@ def _result(
     circles: ImageCircles,
     r_max: float,
     vertical: tuple[FloatArray, int] | None,
+    choice: TermChoice,
 ) -> LineFit:
     """The camera model, the covariance of its radial coefficients and the report.
 
@@ -544,8 +629,8 @@ def _result(
     dof = max(2 * n - fit.params.size - fit.poses.size, 1)
     sigma = math.sqrt(fit.cost / dof)
     covariance = np.linalg.pinv(fit.jacobian.T @ fit.jacobian) * sigma**2
-    count = fit.params.size
-    radial = RadialFunction(fit.kind, tuple(float(c) for c in fit.params[2:]), axis)
+    count = 2 + radial_kind(fit.kind).parameter_count
+    radial = RadialFunction(fit.kind, tuple(float(c) for c in fit.coefficients), axis)
     s = options.s if options.s is not None else default_handedness(circles.cutoff is not None, axis)
     rotation = None if vertical is None else level_rotation(vertical[0], axis, s)
     model = CameraModel(
@@ -554,6 +639,7 @@ def _result(
         s,
         0.0,
         None if rotation is None else tuple(map(tuple, rotation)),
+        terms=fit.terms,
     )
     if options.azimuth_zero is not None:
         model = zero_azimuth(model, options.azimuth_zero)
@@ -603,6 +689,7 @@ def _result(
         corners=int(n),
         corner_rms_px=float(np.sqrt(np.mean(fit.residuals_px**2))),
         board_axis_deg=tuple(float(a) for a in board_axis_deg(fit.poses)),
+        terms=choice,
     )
     return LineFit(model, np.asarray(covariance[2:count, 2:count], dtype=np.float64), report)
 
@@ -633,12 +720,13 @@ def camera_project(fit: LineFit) -> Callable[[FloatArray], FloatArray]:
     """The fitted camera's pixels (n, 2) of points (n, 3) in the fit's camera axes (before any levelling), as the
     fit projects them: for a board's corners held out of the fit (its pose fitted under this camera)."""
     model = fit.model
-    params = np.array([*model.centre, *model.radial.coefficients])
-    return lambda points: project(model.radial.kind, model.axis, params, points)
+    return lambda points: model.with_terms(
+        project(model.radial.kind, model.axis, np.array([0.0, 0.0, *model.radial.coefficients]), points)
+    )
 
 
 def camera_lift(fit: LineFit) -> Callable[[FloatArray], FloatArray]:
     """The fitted camera's unit rays (n, 3) of pixels (n, 2), in the axes of :func:`camera_project`."""
     model = fit.model
     inverse = InverseRadial.of(model.radial, 0.0)
-    return lambda pixels: pixel_rays(pixels, model.centre, inverse).d
+    return lambda pixels: pixel_rays(model.radial_pixels(pixels), model.centre, inverse).d

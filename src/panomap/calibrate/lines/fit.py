@@ -106,12 +106,17 @@ class LineFitOptions:
         A pixel whose world azimuth is 0; None: the image angle 0 (+u) is azimuth 0.
     model : str
         ``"auto"`` (cross-validation over lines) or a radial kind's name.
+    terms : str
+        The image terms beyond the radial law a checkerboards' fit may keep (:mod:`..boards.terms`):
+        ``"auto"`` (those that predict images left out), ``"none"``, or names joined by commas
+        (``"aspect,skew"``). Lines learn none.
     """
 
     axis: str = "down"
     s: int | None = None
     azimuth_zero: tuple[float, float] | None = None
     model: str = "auto"
+    terms: str = "auto"
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ up to ``diag(1, s, -1)`` looking down (``rho = alpha - pi/2``, ``theta = s phi``
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -42,7 +43,8 @@ def level_rotation(vertical: FloatArray, axis: str, s: int) -> FloatArray:
 
 def pixel_world_azimuth(model: CameraModel, pixel: tuple[float, float]) -> float:
     """World azimuth (rad) of the ray that ``model`` sees at ``pixel`` (u, v) px."""
-    du, dv = pixel[0] - model.centre[0], pixel[1] - model.centre[1]
+    radial_pixel = model.radial_pixels(np.array(pixel, dtype=np.float64))  # any image terms undone
+    du, dv = float(radial_pixel[0]) - model.centre[0], float(radial_pixel[1]) - model.centre[1]
     r = math.hypot(du, dv)
     alpha, _ = InverseRadial.of(model.radial, r + 1.0)(np.array([r]))
     rho = float(alpha[0]) - math.pi / 2 if model.axis == "down" else math.pi / 2 - float(alpha[0])
@@ -55,8 +57,8 @@ def zero_azimuth(model: CameraModel, pixel: tuple[float, float]) -> CameraModel:
     """``model`` with its azimuth origin turned so that ``pixel`` (u, v) sees world azimuth 0."""
     theta0 = pixel_world_azimuth(model, pixel)
     if model.rotation is None:
-        return CameraModel(model.centre, model.radial, model.s, model.phi0 + model.s * theta0, None)
+        return replace(model, phi0=model.phi0 + model.s * theta0, rotation=None)
     c, s = math.cos(-theta0), math.sin(-theta0)
     turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     rotation = turn @ np.asarray(model.rotation)
-    return CameraModel(model.centre, model.radial, model.s, model.phi0, tuple(map(tuple, rotation)))
+    return replace(model, rotation=tuple(map(tuple, rotation)))
