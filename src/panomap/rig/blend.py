@@ -25,7 +25,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -33,6 +32,7 @@ from ..errors import PanomapError
 from ..remap import Remapper
 from ..views import View, build_map
 from .rig import CameraRig
+from .seams import SeamWeights, seam_weights
 
 # Views whose columns wrap around in azimuth: their weights' distances wrap too.
 WRAPPING_KINDS = ("panorama", "equirect")
@@ -75,29 +75,9 @@ def feather_weights(
     """(k, H, W) float32 weights: each camera's distance (px) from the edge of what it sees, less the largest
     camera's distance there and plus ``2 feather_px`` (at least 0), over their sum where several see a pixel; 0
     where none does. ``wrap``: the columns wrap around (a panorama). ``feather_px``: default
-    :func:`default_feather_px`; ``inf`` weighs by the distances alone across the whole overlap."""
-    seen = np.stack([np.all(np.isfinite(m), axis=-1) for m in maps])
-    width = seen.shape[2]
-    pad = width // 4 if wrap else 0
-    distances = []
-    for mask in seen:
-        padded = np.concatenate([mask[:, width - pad :], mask, mask[:, :pad]], axis=1) if pad else mask
-        distance = cv2.distanceTransform(padded.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-        distances.append(distance[:, pad : pad + width] if pad else distance)
-    weights = np.stack(distances).astype(np.float32)
-    feather = default_feather_px(seen.shape[1:]) if feather_px is None else float(feather_px)
-    if np.isfinite(feather):
-        weights -= weights.max(axis=0) - np.float32(2 * feather)
-        np.maximum(weights, 0, out=weights)
-        weights[~seen] = 0
-    total = weights.sum(axis=0)
-    np.divide(weights, total, out=weights, where=total > 0)
-    return weights
-
-
-def default_feather_px(shape: tuple[int, ...]) -> float:
-    """The feather (output px) of a view of ``shape`` (H, W): 1% of its diagonal, at least 8 px."""
-    return max(8.0, 0.01 * float(np.hypot(shape[0], shape[1])))
+    :func:`.seams.default_feather_px`; ``inf`` weighs by the distances alone across the whole overlap. (Computed on the
+    overlap alone, :func:`.seams.seam_weights`.)"""
+    return seam_weights(maps, wrap, feather_px).dense()
 
 
 def overlap_gains(layers: list[NDArray[np.float32]], weights: NDArray[np.float32]) -> NDArray[np.float64]:
@@ -152,6 +132,7 @@ class RigRemapper:
     interpolation: str = "linear"
     fill: float = 0.0
     wrap: bool = False
+    seams: SeamWeights = field(init=False, repr=False)
     weights: NDArray[np.float32] = field(init=False, repr=False)
     _remappers: tuple[Remapper, ...] = field(init=False, repr=False)
 
@@ -165,7 +146,8 @@ class RigRemapper:
             shifted = map_uv + np.array([x, y], dtype=np.float32)
             remappers.append(Remapper(shifted, self.rig.frame_size, self.interpolation, self.fill))
         object.__setattr__(self, "_remappers", tuple(remappers))
-        object.__setattr__(self, "weights", feather_weights(self.maps, self.wrap))
+        object.__setattr__(self, "seams", seam_weights(self.maps, self.wrap))
+        object.__setattr__(self, "weights", self.seams.dense())
 
     @property
     def output_size(self) -> tuple[int, int]:
