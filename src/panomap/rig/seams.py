@@ -17,7 +17,9 @@ computed over every pixel (``tests/test_rig_video.py`` checks it against that fo
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import cv2
@@ -144,12 +146,18 @@ def seam_weights(
     pad = width // 4 if wrap else 0
     distances = np.zeros((count, overlap.size), dtype=np.float32)
     sees = np.zeros((count, overlap.size), dtype=bool)
-    for k, mask in enumerate(seen):
+
+    def distance(k: int) -> None:
+        mask = seen[k]
         sees[k] = mask.reshape(-1)[overlap] != 0
         if not sees[k].any():  # (its distance is 0 wherever it does not see)
-            continue
+            return
         padded = cv2.copyMakeBorder(mask, 0, 0, pad, pad, cv2.BORDER_WRAP) if pad else mask
         distances[k] = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[rows, cols + pad]
+
+    # The cameras' distance transforms side by side (OpenCV lets go of the GIL; each its own, as one after another).
+    with ThreadPoolExecutor(min(count, os.cpu_count() or 1), thread_name_prefix="panomap-seams") as pool:
+        list(pool.map(distance, range(count)))
     weights = distances
     if np.isfinite(feather):
         weights -= weights.max(axis=0) - np.float32(2 * feather)

@@ -368,10 +368,11 @@ def _run(
     failure: BaseException | None = None
     closing = contextlib.ExitStack()
     try:
-        # The maps on every core (the decoder waits once its first frames are queued); the weights on one thread
-        # (OpenCV's distance transform differs in its last bits with its threads: the blend's weights as always).
+        # The maps on every core, cameras side by side (the decoder waits once its first frames are queued); the
+        # weights with OpenCV on one thread (its distance transform differs in its last bits with its threads),
+        # the cameras' distance transforms side by side.
         with opencv_threads(cv2.getNumberOfCPUs()):
-            maps = camera_maps(rig, view, sampling)
+            maps = camera_maps(rig, view, sampling, threads=cv2.getNumberOfCPUs())
         blend = RigFrameRemapper(rig, maps, work, interpolation, wrap=view.kind in WRAPPING_KINDS)
         closing.callback(blend.close)
         while not halted():

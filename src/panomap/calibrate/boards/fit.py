@@ -27,12 +27,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.sparse import csr_matrix, lil_matrix
-from scipy.spatial.transform import Rotation
 
 from ...camera.model import CameraModel
 from ...camera.radial import RadialFunction, fit_radial
@@ -47,6 +45,11 @@ from ..lines.fit import LineFit, LineFitOptions, vertical_under
 from ..lines.orientation import level_rotation, zero_azimuth
 from ..lines.rays import ALPHA_LIMIT, InverseRadial, pixel_rays
 from .detect import Board
+
+if TYPE_CHECKING:
+    from scipy.sparse import csr_matrix, lil_matrix
+
+# scipy is imported where it is used: its import would cost every command (a video's start-up too) 0.4 s.
 
 # Fewest corners, over all boards, a fit needs.
 MIN_CORNERS = 24
@@ -236,6 +239,8 @@ def elevations(points: FloatArray, axis: str) -> FloatArray:
 
 def board_points(poses: FloatArray, boards: Sequence[Board]) -> FloatArray:
     """Corners (N, 3) of every board, in the camera's axes, from the poses (B, 6): rotation vector, translation."""
+    from scipy.spatial.transform import Rotation
+
     out = []
     for pose, board in zip(poses, boards, strict=True):
         plane = np.column_stack([board.grid.astype(np.float64), np.zeros(len(board.grid))])
@@ -245,6 +250,8 @@ def board_points(poses: FloatArray, boards: Sequence[Board]) -> FloatArray:
 
 def board_axis_deg(poses: FloatArray) -> FloatArray:
     """Each board's (poses (B, 6)) normal's angle (deg) from the camera's axis, 0-90."""
+    from scipy.spatial.transform import Rotation
+
     normals = Rotation.from_rotvec(np.asarray(poses)[:, :3]).apply([0.0, 0.0, 1.0])
     return np.asarray(np.degrees(np.arccos(np.clip(np.abs(normals[:, 2]), 0.0, 1.0))), dtype=np.float64)
 
@@ -273,6 +280,9 @@ def _jacobian(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], obse
     ``UNREACHED_PX`` has zero derivatives. Sparse (each corner sees the camera and its board's pose): the solver
     then takes LSMR steps, where a dense Jacobian's SVD runs BLAS's threads (10-50 times slower on a busy machine).
     """
+    from scipy.sparse import csr_matrix
+    from scipy.spatial.transform import Rotation
+
     spec = radial_kind(kind)
     count = 2 + spec.parameter_count
     params, poses = x[:count], x[count:].reshape(-1, 6)
@@ -334,6 +344,8 @@ def _jacobian(x: FloatArray, kind: str, axis: str, boards: Sequence[Board], obse
 
 def sparsity(count: int, boards: Sequence[Board]) -> lil_matrix:
     rows = 2 * sum(len(b.pixels) for b in boards)
+    from scipy.sparse import lil_matrix
+
     pattern = lil_matrix((rows, count + 6 * len(boards)), dtype=int)
     pattern[:, :count] = 1
     row = 0
@@ -358,6 +370,8 @@ def _joint(
     observed = np.concatenate([b.pixels for b in boards])
     count = 2 + radial_kind(kind).parameter_count
     x0 = np.concatenate([params, poses.ravel()])
+    from scipy.optimize import least_squares
+
     solution = least_squares(
         _residuals,
         x0,
@@ -407,6 +421,8 @@ def pose_of(board: Board, centre: tuple[float, float], inverse: InverseRadial) -
     if not ok:
         rvec, tvec = np.zeros(3), np.array([0.0, 0.0, 10.0])
     rotation = facing.T @ cv2.Rodrigues(rvec)[0]
+    from scipy.spatial.transform import Rotation
+
     return np.concatenate([Rotation.from_matrix(rotation).as_rotvec(), facing.T @ np.ravel(tvec)])
 
 
@@ -417,6 +433,8 @@ def _facing(direction: FloatArray) -> FloatArray:
     sine, cosine = float(np.linalg.norm(axis)), float(direction @ z)
     if sine < 1e-12:
         return np.eye(3) if cosine > 0 else np.diag([1.0, -1.0, -1.0])
+    from scipy.spatial.transform import Rotation
+
     return np.asarray(Rotation.from_rotvec(axis / sine * math.atan2(sine, cosine)).as_matrix())
 
 
