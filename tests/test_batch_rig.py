@@ -17,7 +17,7 @@ from panomap.batch.job import find_inputs
 from panomap.errors import PanomapError
 from test_rig_video import LOSSLESS_BGR, dual, frames_of, noisy, surround, write_video  # noqa: F401  (its fixtures)
 
-from helpers import run
+from helpers import assert_one_line_error, run
 
 EQUIRECT = "equirect:size=256x128"
 SIDE_VIEW = "perspective:yaw=90,pitch=0,fov=100,size=160x120,name=side"  # (across the dual fisheye's seam)
@@ -34,7 +34,7 @@ def test_a_dual_fisheyes_frames_and_video_equal_the_view_commands_and_panomap_vi
 ) -> None:
     """Two side-by-side stills (a folder) and a lossless video of three frames, two views (one across the seam):
     each still output is the view command's picture of that frame bit for bit, each video's frames
-    ``panomap video``'s of that view."""
+    ``panomap video``'s of that view. A rig's video read cubic is refused in one line."""
     _, rig_path, frame = request.getfixturevalue("dual")
     (tmp_path / "frames").mkdir()
     stills = [tmp_path / "frames" / f"f{k}.png" for k in range(2)]
@@ -58,6 +58,9 @@ def test_a_dual_fisheyes_frames_and_video_equal_the_view_commands_and_panomap_vi
         made, expected = frames_of(tmp_path / "out" / f"clip_{name}.mkv"), frames_of(alone)
         assert len(made) == len(expected) == 3
         assert all(np.array_equal(a, b) for a, b in zip(made, expected, strict=True)), name
+    cubic = run("batch", tmp_path / "clip.mkv", "--table", rig_path, "-o", tmp_path / "c.mkv", "--view", EQUIRECT,
+                "--interp", "cubic")  # fmt: skip
+    assert_one_line_error(cubic, "linear or nearest", exit_code=2)  # (before any work, as panomap video)
 
 
 def test_folders_of_one_picture_per_camera_equal_the_floor_command(

@@ -189,6 +189,8 @@ def batch(
             encoder.check()
         except PanomapError as exc:
             raise usage_error(exc) from None
+    if interp not in ("linear", "nearest") and any(item.rig and item.is_video for item in found):
+        raise click.BadParameter(f"a rig's video reads linear or nearest, not {interp!r}", param_hint="'--interp'")
     job = make_job(found, named, template, Settings(encoder, interp, table_sampling, not no_audio))
     record = Record(record_path)
     stop = threading.Event()
