@@ -1,6 +1,8 @@
 """A rig's video (issue 52): ``panomap video RIG ...`` against ffmpeg, on synthetic clips, in one run.
 
-Run: ``.venv/bin/python bench/bench_rig.py [--frames N] [--surround-frames M] [--repeats R] [--keep DIR]``
+Run: ``.venv/bin/python bench/bench_rig.py [--frames N] [--surround-frames M] [--repeats R] [--keep DIR]
+[--dual-only]`` (``--keep``: the clips are kept there, and taken from there by a later run given the same folder
+and lengths, so that runs compare on one clip; ``--dual-only``: (a) and the start-up alone)
 
 Two figures, each end to end (start-up, maps, decoding, blending, encoding with libx264 preset veryfast, crf 20,
 yuv420p):
@@ -17,6 +19,10 @@ yuv420p):
     1 m offsets, camera 0 pitched 40 deg down 1.2 m above the floor), a textured floor sliding under them,
     blended into one 1024 x 1024 floor map: frames per second against real time (25), and ffmpeg decoding the
     four streams alone, the floor of what any program can do.
+
+**Start-up.** (a) again on the clip's first frame alone (panomap ``--duration`` of one frame, ffmpeg
+``-frames:v 1``): imports, reading the rig, the maps, the feathered weights and the blend's buffers, against
+v360's set-up.
 
 The run prints how far the two equirect pictures' first frames differ where both have a source (v360's turned half
 a turn to panomap's azimuth origin; grey levels;
@@ -41,7 +47,7 @@ import numpy as np
 
 from bench_video import Timing, first_frame, timed_command
 from panomap.interop.rig_of_camchain import rig_of_camchain
-from panomap.rig import save_rig
+from panomap.rig import load_rig, save_rig
 
 X264 = ["-c:v", "libx264", "-preset", "veryfast", "-crf", "20", "-pix_fmt", "yuv420p"]
 LENS = 1920
@@ -200,49 +206,80 @@ def surround_clips(folder: Path, frames: int) -> tuple[list[Path], Path, str, fl
     return clips, folder / "car.npz", spec, megabits
 
 
+def _kept(clip: Path, frames: int) -> bool:
+    """Whether ``clip`` is a clip of ``frames`` frames left by an earlier run (``--keep``)."""
+    if not clip.is_file():
+        return False
+    try:
+        with av.open(str(clip)) as container:
+            return container.streams.video[0].frames == frames
+    except av.error.FFmpegError:
+        return False
+
+
+def _floor_spec(rig_path: Path) -> str:
+    """(b)'s floor view of the kept rig: 10 x 10 m about its cameras' middle (as :func:`surround_clips` says)."""
+    rig = load_rig(rig_path)
+    middle = np.mean([table.camera_position for table in rig.tables], axis=0)
+    x0, y0 = middle[0], middle[1]
+    return f"floor:z=0,x={x0 - 5:.3f}:{x0 + 5:.3f},y={y0 - 5:.3f}:{y0 + 5:.3f},size={FLOOR[0]}x{FLOOR[1]}"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=100, help="(a)'s clip length in frames [100: 4 s]")
     parser.add_argument("--surround-frames", type=int, default=250, help="(b)'s clips' length [250: 10 s]")
-    parser.add_argument("--repeats", type=int, default=2, help="runs of each, the fastest counts [2]")
-    parser.add_argument("--keep", type=Path, help="keep the clips and outputs in this folder")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each, the fastest counts [3]")
+    parser.add_argument("--keep", type=Path, help="keep the clips and outputs in this folder (and reuse them)")
+    parser.add_argument("--dual-only", action="store_true", help="(a) and its start-up alone, not (b)")
     args = parser.parse_args()
     folder = Path(tempfile.mkdtemp(prefix="panomap-bench-rig-")) if args.keep is None else args.keep
     folder.mkdir(parents=True, exist_ok=True)
     quiet = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-loglevel", "error", "-y"]
     panomap = [sys.executable, "-m", "panomap", "video"]
     try:
-        print(f"making a {2 * LENS} x {LENS} dual-fisheye clip of {args.frames} frames ...", flush=True)
-        clip, dual_rig, megabits = dual_clip(folder, args.frames)
-        print(f"  {clip} ({megabits:.1f} Mbit/s)")
-        print(f"making four {SURROUND[0]} x {SURROUND[1]} clips of {args.surround_frames} frames ...", flush=True)
-        clips, car_rig, spec, car_megabits = surround_clips(folder, args.surround_frames)
-        print(f"  {folder}/cam0-3.mp4 ({car_megabits:.1f} Mbit/s each); floor view {spec}")
+        clip, dual_rig = folder / "dual.mp4", folder / "dual.npz"
+        if _kept(clip, args.frames) and dual_rig.is_file():
+            print(f"the {2 * LENS} x {LENS} dual-fisheye clip of {args.frames} frames: {clip} (kept)")
+        else:
+            print(f"making a {2 * LENS} x {LENS} dual-fisheye clip of {args.frames} frames ...", flush=True)
+            clip, dual_rig, megabits = dual_clip(folder, args.frames)
+            print(f"  {clip} ({megabits:.1f} Mbit/s)")
         baseline = "(a) ffmpeg v360=dfisheye:e"
         ours = "(a) panomap video RIG, equirect"
+        first_baseline = "(a) start-up: ffmpeg v360, first frame"
+        first_ours = "(a) start-up: panomap video RIG, first frame"
         floor_run = "(b) panomap video RIG, 4 cameras to a floor map"
         decode4 = "(b) decoding the four streams alone, ffmpeg"
-        decode_args = [a for k, c in enumerate(clips) for a in ("-i", str(c))]
-        maps = [a for k in range(4) for a in ("-map", f"{k}:v")]
+        equirect = ["--view", f"equirect:size={EQUIRECT[0]}x{EQUIRECT[1]}"]
+        one = str(0.5 / RATE)  # (one frame: --duration takes the frames that start before it)
         runs: dict[str, Callable[[], Timing]] = {
             baseline: timed_command([*quiet, "-i", str(clip), "-vf", V360, *X264, str(folder / "ffmpeg_e.mp4")]),
-            ours: timed_command(
-                [
-                    *panomap,
-                    str(dual_rig),
-                    str(clip),
-                    "-q",
-                    "-o",
-                    str(folder / "pm_e.mp4"),
-                    "--view",
-                    f"equirect:size={EQUIRECT[0]}x{EQUIRECT[1]}",
-                ]
+            ours: timed_command([*panomap, str(dual_rig), str(clip), "-q", "-o", str(folder / "pm_e.mp4"), *equirect]),
+            first_baseline: timed_command(
+                [*quiet, "-i", str(clip), "-vf", V360, "-frames:v", "1", *X264, str(folder / "ffmpeg_1.mp4")]
             ),
-            floor_run: timed_command(
-                [*panomap, str(car_rig), *map(str, clips), "-q", "-o", str(folder / "pm_floor.mp4"), "--view", spec]
+            first_ours: timed_command(
+                [*panomap, str(dual_rig), str(clip), "-q", "-o", str(folder / "pm_1.mp4"), *equirect, "--duration", one]
             ),
-            decode4: timed_command([*quiet, *decode_args, *maps, "-f", "null", "-"]),
         }
+        if not args.dual_only:
+            clips = [folder / f"cam{k}.mp4" for k in range(4)]
+            car_rig = folder / "car.npz"
+            if all(_kept(c, args.surround_frames) for c in clips) and car_rig.is_file():
+                spec = _floor_spec(car_rig)
+                print(f"the four {SURROUND[0]} x {SURROUND[1]} clips: {folder}/cam0-3.mp4 (kept); floor view {spec}")
+            else:
+                print(f"making four {SURROUND[0]} x {SURROUND[1]} clips of {args.surround_frames} frames ...",
+                      flush=True)  # fmt: skip
+                clips, car_rig, spec, car_megabits = surround_clips(folder, args.surround_frames)
+                print(f"  {folder}/cam0-3.mp4 ({car_megabits:.1f} Mbit/s each); floor view {spec}")
+            decode_args = [a for c in clips for a in ("-i", str(c))]
+            maps = [a for k in range(4) for a in ("-map", f"{k}:v")]
+            runs[floor_run] = timed_command(
+                [*panomap, str(car_rig), *map(str, clips), "-q", "-o", str(folder / "pm_floor.mp4"), "--view", spec]
+            )
+            runs[decode4] = timed_command([*quiet, *decode_args, *maps, "-f", "null", "-"])
         best = {name: (math.inf, math.inf) for name in runs}
         for _ in range(args.repeats):
             for name, run in runs.items():
@@ -262,20 +299,25 @@ def main() -> None:
         print(f"\nfastest of {args.repeats} runs, end to end (start-up included):\n")
         print("| run | frames | time | fps | CPU | figure |")
         print("| --- | --- | --- | --- | --- | --- |")
-        reference = best[baseline][0]
         for name, (seconds, cpu) in best.items():
-            frames = args.frames if name.startswith("(a)") else args.surround_frames
+            frames = 1 if "start-up" in name else args.frames if name.startswith("(a)") else args.surround_frames
             fps = frames / seconds
-            figure = (
-                f"{reference / seconds:.2f} x ffmpeg" if name.startswith("(a)") else f"{fps / RATE:.2f} x real time"
-            )
+            if name.startswith("(a)"):
+                reference = best[first_baseline if "start-up" in name else baseline][0]
+                figure = f"{reference / seconds:.2f} x ffmpeg"
+            else:
+                figure = f"{fps / RATE:.2f} x real time"
             print(f"| {name} | {frames} | {seconds:.2f} s | {fps:.1f} | {cpu:.2f} s | {figure} |")
-        floor_fps = args.surround_frames / best[floor_run][0]
         print(
-            f"\n(a) speed vs ffmpeg v360 dfisheye: {reference / best[ours][0]:.2f} (target >= 1.0)\n"
-            f"(b) floor map: {floor_fps:.1f} fps (target >= {RATE}: {floor_fps / RATE:.2f} x real time); "
-            f"decoding alone {args.surround_frames / best[decode4][0]:.1f} fps"
+            f"\n(a) speed vs ffmpeg v360 dfisheye: {best[baseline][0] / best[ours][0]:.2f} (target >= 1.0); "
+            f"start-up (one frame) {best[first_ours][0]:.2f} s, ffmpeg's {best[first_baseline][0]:.2f} s"
         )
+        if not args.dual_only:
+            floor_fps = args.surround_frames / best[floor_run][0]
+            print(
+                f"(b) floor map: {floor_fps:.1f} fps (target >= {RATE}: {floor_fps / RATE:.2f} x real time); "
+                f"decoding alone {args.surround_frames / best[decode4][0]:.1f} fps"
+            )
     finally:
         if args.keep is None:
             shutil.rmtree(folder, ignore_errors=True)

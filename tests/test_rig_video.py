@@ -7,6 +7,7 @@ fisheye back to back in one frame, the surround view four lenses turned by quart
 
 from __future__ import annotations
 
+import copy
 import math
 from pathlib import Path
 
@@ -18,6 +19,8 @@ import pytest
 from panomap.interop.rig_of_camchain import rig_of_camchain
 from panomap.rig import CameraRig, RigRemapper, camera_maps, save_rig
 from panomap.rig.fast import FastRigRemapper
+from panomap.rig.seams import BLENDED, seam_weights
+from panomap.video.frames import _chroma_map
 from panomap.views import EquirectView, FloorView
 from test_orientation import conventions_axes
 from test_rig import BACK_TO_BACK, HALF_FOV, SIDE, camchain, chain_truth, render_lens, textured_world
@@ -77,6 +80,55 @@ def test_the_fast_blend_equals_the_rig_remapper_on_a_dual_fisheye_frame(dual: tu
     fast_grey = FastRigRemapper(remapper, channels=1)
     assert np.abs(fast_grey(grey, gains[:, :1]).astype(int) - remapper(grey, gains[:, :1])).max() <= 1
     assert 0.05 < fast.plane.band_size / (512 * 256) < 0.3  # (the band: the 10 deg overlap, wider at the poles)
+
+
+def formula_weights(maps: list[np.ndarray], wrap: bool) -> np.ndarray:
+    """The feathered weights written out over every pixel (blend.py's formula): each camera's distance from the
+    edge of what it sees (wrapping: across the wrap), less the largest plus 2 f (f = 1% of the diagonal), at
+    least 0 and 0 where it does not see, over their sum."""
+    seen = np.stack([np.all(np.isfinite(m), axis=-1) for m in maps])
+    pad = seen.shape[2] // 4 if wrap else 0
+    distances = []
+    for mask in seen.astype(np.uint8):
+        padded = cv2.copyMakeBorder(mask, 0, 0, pad, pad, cv2.BORDER_WRAP)
+        distance = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        distances.append(distance[:, pad : pad + mask.shape[1]])
+    weights = np.stack(distances)
+    weights -= weights.max(axis=0) - 2 * max(8.0, 0.01 * float(np.hypot(*seen.shape[1:])))
+    weights = np.where(seen, np.maximum(weights, 0), 0)
+    total = weights.sum(axis=0)
+    return np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
+
+
+@pytest.mark.parametrize("wrap", [True, False])
+def test_the_seams_weights_are_the_formulas_over_every_pixel(dual: tuple, surround: tuple, wrap: bool) -> None:  # type: ignore[type-arg]
+    """The weights kept sparse (each pixel's sole camera, the band where several weigh: seams.py) are the
+    formula's over every pixel, for an equirect of the dual fisheye (wrapping) and a floor of four cameras; and a
+    chroma plane's (each 2 x 2 block's sum, 0 where the camera's chroma map has none, over their sum) likewise.
+    (Within 1e-6: OpenCV's distance transform varies in its last bits between calls.) The fast blend, copying
+    the sole camera outside the band, is the picture blended densely with the formula's weights (every camera
+    weighed at every pixel, as before the weights were kept sparse) within 1 grey level (float32 sums' rounding)."""
+    rig, pictures = (dual[0], dual[2]) if wrap else (surround[0], surround[2])
+    view = EquirectView(size=(256, 128)) if wrap else FloorView(0.0, (-3.0, 5.0), (-4.0, 4.0), (121, 97))
+    maps = camera_maps(rig, view)
+    expected = formula_weights(maps, wrap)
+    seams = seam_weights(maps, wrap)
+    assert np.abs(seams.dense() - expected).max() < 1e-6
+    assert 0 < seams.band.size < expected[0].size  # (the band: not every pixel)
+    assert np.array_equal(np.count_nonzero(expected > 1e-6, axis=0) >= 2, seams.owner == BLENDED)
+    chroma = [_chroma_map(m, 1, 1) for m in maps]
+    padded = np.pad(expected, ((0, 0), (0, expected.shape[1] % 2), (0, expected.shape[2] % 2)), mode="edge")
+    blocks = padded[:, ::2, ::2] + padded[:, ::2, 1::2] + padded[:, 1::2, ::2] + padded[:, 1::2, 1::2]
+    blocks = np.where(np.stack([np.all(np.isfinite(m), axis=-1) for m in chroma]), blocks, 0)
+    total = blocks.sum(axis=0)
+    blocks = np.divide(blocks, total, out=np.zeros_like(blocks), where=total > 0)
+    assert np.abs(seams.subsampled(chroma, 1, 1).dense() - blocks).max() < 1e-6
+    remapper = RigRemapper(rig, maps, wrap=wrap)
+    layers = remapper.layers(pictures)
+    gains = remapper.layer_gains(layers)
+    dense = copy.copy(remapper)
+    object.__setattr__(dense, "weights", expected)  # (the dense blend: every camera's weight at every pixel)
+    assert np.abs(FastRigRemapper(remapper)(pictures, gains).astype(int) - dense.blend(layers, gains)).max() <= 1
 
 
 def test_the_fast_blend_equals_the_rig_remapper_on_a_surround_floor(surround: tuple) -> None:  # type: ignore[type-arg]

@@ -12,6 +12,13 @@ several cameras run in one job::
 Relative paths in a manifest are taken from the manifest's own folder. Inputs are still
 images (by suffix: ``.png``, ``.jpg``, ``.tif``, ...) or videos (``.mp4``, ``.mkv``, ...).
 
+A table may be a rig file (``panomap import`` of several cameras): each output is the rig's blended view, as
+the view commands and ``panomap video`` make it given the rig. A rig whose pictures share one frame (a dual
+fisheye's side-by-side frame) takes each image or video as one input; a rig of separate pictures takes a
+folder of them as one input: every image or video found is grouped by its folder, and each folder must hold
+one per camera (of one kind), in the rig's order by name, or named after the cameras (``cam0.jpg``, ...); in a
+manifest its input is the folder. ``{stem}`` is then the folder's name.
+
 The output template names each output with ``{camera}``, ``{stem}`` (the input's name
 without its suffix), ``{name}`` (the view's name) and ``{ext}`` (the input's suffix, without
 the dot), as ``{camera}/{stem}_{name}.mp4``. Videos take the template's suffix; still
@@ -46,6 +53,7 @@ from ..files import (  # noqa: F401  (IMAGE_SUFFIXES, VIDEO_SUFFIXES, kind_of: t
     placeholders,
     read_text,
 )
+from ..rig.file import is_rig_file, rig_index
 from ..video.output import EncoderSettings
 from ..views.spec import NamedView
 
@@ -55,15 +63,35 @@ TEMPLATE_KEYS = ("camera", "stem", "name", "ext")
 
 @dataclass(frozen=True)
 class BatchInput:
-    """One input file, the table of its camera and the camera's name (absolute paths)."""
+    """One input file, the table of its camera and the camera's name (absolute paths).
+
+    A rig's input (``rig``: the table is a rig file): one frame holding every camera's picture (``path``), or a
+    folder (``path``) of one picture per camera, ``pictures`` in the rig's order."""
 
     path: Path
     table: Path
     camera: str
+    rig: bool = False
+    pictures: tuple[Path, ...] = ()
+
+    @property
+    def sources(self) -> tuple[Path, ...]:
+        """The files read: ``pictures``, or the one file."""
+        return self.pictures or (self.path,)
 
     @property
     def is_video(self) -> bool:
-        return self.path.suffix.lower() in VIDEO_SUFFIXES
+        return self.sources[0].suffix.lower() in VIDEO_SUFFIXES
+
+    @property
+    def stem(self) -> str:
+        """``{stem}``: the file's name less its suffix, or the folder's name."""
+        return self.path.name if self.pictures else self.path.stem
+
+    @property
+    def suffix(self) -> str:
+        """The suffix of the files read (``.jpg``)."""
+        return self.sources[0].suffix
 
 
 @dataclass(frozen=True)
@@ -153,7 +181,39 @@ def find_inputs(
     name = camera if camera is not None else table.stem
     if not is_camera_name(name):
         raise PanomapError(f"the camera name {name!r} must be a plain name (no path separators, not . or ..)")
+    if is_rig_file(table):
+        return rig_inputs(unique, table, name)
     return [BatchInput(path, table, name) for path in unique]
+
+
+def rig_inputs(files: Sequence[Path], rig: Path, camera: str) -> list[BatchInput]:
+    """The inputs of the rig file ``rig`` among ``files`` (absolute): each file, where the rig's pictures share one
+    frame; else each folder's files, one per camera (module docstring). PanomapError naming a folder that does
+    not hold one picture per camera."""
+    names, offsets = rig_index(rig)
+    if offsets is not None:
+        return [BatchInput(path, rig, camera, rig=True) for path in files]
+    folders: dict[Path, list[Path]] = {}
+    for path in files:
+        folders.setdefault(path.parent, []).append(path)
+    return [BatchInput(folder, rig, camera, True, rig_pictures(folder, held, names)) for folder, held in
+            folders.items()]  # fmt: skip
+
+
+def rig_pictures(folder: Path, files: Sequence[Path], names: Sequence[str]) -> tuple[Path, ...]:
+    """``files`` (of ``folder``) in the rig's order: by the cameras' ``names`` where they are the files' stems,
+    else by file name; PanomapError unless there is one per camera, all images or all videos."""
+    kinds = {kind_of(path) for path in files}
+    if len(files) != len(names) or len(kinds) != 1:
+        held = f"{len(files)} {'images and videos' if len(kinds) > 1 else 'files'}"
+        raise PanomapError(
+            f"a rig's folder holds one picture or video per camera ({len(names)}: {', '.join(names)}), not {held}",
+            folder,
+        )
+    by_stem = {path.stem: path for path in files}
+    if set(by_stem) == set(names):
+        return tuple(by_stem[name] for name in names)
+    return tuple(sorted(files, key=lambda path: path.name))
 
 
 def check_inputs_and_table(patterns: Sequence[str], table: Path | None) -> Path | None:
@@ -203,15 +263,22 @@ def read_manifest(path: Path) -> list[BatchInput]:
         if any(not isinstance(row[key], (str, int, float)) for key in row if row[key] is not None):
             raise PanomapError(f"row {number}: input, table and camera must be text", path)
         source, table = folder / str(row["input"]), folder / str(row["table"])
-        if kind_of(source) is None:
-            raise PanomapError(f"row {number}: {row['input']} is not an image or video file name", path)
         camera = str(row.get("camera") or table.stem)
         if not is_camera_name(camera):
             raise PanomapError(
                 f"row {number}: the camera name {camera!r} must be a plain name (no path separators, not . or ..)",
                 path,
             )
-        inputs.append(BatchInput(source, table, camera))
+        if source.is_dir() and is_rig_file(table):  # (a rig's pictures, one per camera)
+            files = sorted(p.absolute() for p in source.iterdir() if p.is_file() and kind_of(p) is not None)
+            try:
+                inputs += rig_inputs(files, table.absolute(), camera)
+            except PanomapError as exc:
+                raise PanomapError(f"row {number}: {exc}", path) from None
+            continue
+        if kind_of(source) is None:
+            raise PanomapError(f"row {number}: {row['input']} is not an image or video file name", path)
+        inputs.append(BatchInput(source, table, camera, rig=is_rig_file(table)))
     return inputs
 
 
@@ -247,9 +314,9 @@ def check_template(template: str) -> None:
 
 def output_path(template: str, item: BatchInput, view: str) -> Path:
     """The output of ``view`` for ``item`` (absolute); still images keep their own suffix."""
-    path = Path(template.format(camera=item.camera, stem=item.path.stem, name=view, ext=item.path.suffix.lstrip(".")))
+    path = Path(template.format(camera=item.camera, stem=item.stem, name=view, ext=item.suffix.lstrip(".")))
     if not item.is_video:
-        path = path.with_suffix(item.path.suffix)
+        path = path.with_suffix(item.suffix)
     return path.absolute()
 
 
@@ -342,12 +409,13 @@ def make_job(
     tables: dict[Path, str] = {}
     seen: dict[Path, str] = {}
     # The inputs and their tables, as files: through links and other spellings.
-    sources = {file_identity(item.path) for item in inputs} | {file_identity(item.table) for item in inputs}
+    sources = {file_identity(p) for item in inputs for p in item.sources} | {file_identity(i.table) for i in inputs}
     described = json.dumps([repr(view) for view in views]) + repr(settings)
     items = []
     for item in inputs:
-        if not item.path.is_file():
-            raise PanomapError("no such input file" if not item.path.exists() else "not a file", item.path)
+        for source in item.sources:
+            if not source.is_file():
+                raise PanomapError("no such input file" if not source.exists() else "not a file", source)
         if item.table not in tables:
             if not item.table.is_file():
                 raise PanomapError("no such table file", item.table)
@@ -365,9 +433,7 @@ def make_job(
                 )
             seen[path] = str(item.path)
             outputs.append(Output(name, path))
-        info = item.path.stat()
-        key = hashlib.sha256(
-            f"{item.path}\0{info.st_size}\0{info.st_mtime_ns}\0{tables[item.table]}\0{described}".encode()
-        ).hexdigest()
+        files = "".join(f"{p}\0{p.stat().st_size}\0{p.stat().st_mtime_ns}\0" for p in item.sources)
+        key = hashlib.sha256(f"{files}{tables[item.table]}\0{described}".encode()).hexdigest()
         items.append(Item(item, tuple(outputs), key, tables[item.table]))
     return Job(tuple(items), tuple(views), settings)

@@ -286,7 +286,7 @@ class _Run:
         for item in pending:
             if item.input.is_video:
                 try:
-                    probes[item] = probe(item.input.path)
+                    probes[item] = probe(item.input.sources[0])
                 except PanomapError as exc:
                     failure = Failed(str(item.input.path), item.key, describe(exc))
                     self.record.add_failed(failure)
@@ -309,7 +309,9 @@ class _Run:
             future = client.submit(unwarp_images, group, job.views, job.settings, retries=retries, pure=False)
             self.kinds[future] = ("images", group)
         for item, info in probes.items():
-            segments = plan_segments(info, self.settings.segment_s) if self.settings.segment_s is not None else []
+            # (a rig's video whole: its inputs are read in step from their starts)
+            length = None if item.input.rig else self.settings.segment_s
+            segments = plan_segments(info, length) if length is not None else []
             if len(segments) > 1:
                 parts = [
                     client.submit(

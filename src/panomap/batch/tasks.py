@@ -6,6 +6,11 @@ tables it has loaded and the maps it has built (:data:`_TABLES`, :data:`_REMAPPE
 keyed by the table's path and the SHA-256 of its file: every task of a camera after the
 first on a worker starts at once (still images reuse the maps too; a video builds its own, as
 ``panomap video`` does, see :func:`video_table`). Outputs appear atomically (:mod:`panomap.files`).
+
+A rig's input (its table a rig file) is blended as the view commands blend it (:class:`panomap.rig.RigRemapper`,
+the gains found in each picture), or as ``panomap video`` does (:func:`panomap.video.rig.unwarp_rig_video`, one
+decode per view): the rigs and their remappers are kept as the tables are (:data:`_RIGS`,
+:data:`_RIG_REMAPPERS`).
 """
 
 from __future__ import annotations
@@ -18,17 +23,20 @@ import time
 import traceback
 from collections import OrderedDict
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from pathlib import Path
 
 from ..errors import PanomapError
 from ..files import all_or_none
-from ..io.images import read_image, write_image
+from ..io.images import read_image, read_rig_pictures, write_image
 from ..remap import Remapper
+from ..rig import CameraRig, RigRemapper, camera_maps, load_rig
+from ..rig.blend import WRAPPING_KINDS
 from ..table.file import load_table
 from ..table.table import PanoMappingTable
 from ..video.frames import opencv_threads
+from ..video.rig import unwarp_rig_video
 from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video
 from ..views import build_map
@@ -41,6 +49,8 @@ from .segments import Segment, join_segments
 CACHED_TABLES = 8
 _TABLES: OrderedDict[tuple[str, str], PanoMappingTable] = OrderedDict()
 _REMAPPERS: OrderedDict[tuple[str, str, str], list[Remapper]] = OrderedDict()
+_RIGS: OrderedDict[tuple[str, str], CameraRig] = OrderedDict()
+_RIG_REMAPPERS: OrderedDict[tuple[str, str, str], list[RigRemapper]] = OrderedDict()
 
 
 @dataclass(frozen=True)
@@ -97,6 +107,38 @@ def cached_remappers(item: Item, views: Sequence[NamedView], settings: Settings)
     return remappers
 
 
+def cached_rig(path: Path, digest: str) -> CameraRig:
+    """The rig at ``path`` whose file has SHA-256 ``digest``, loaded once per worker; its tables fresh objects (their
+    arrays shared) at each call, as :func:`video_table` makes them: every view's maps as the commands make them."""
+    key = (str(path), digest)
+    rig = _RIGS.get(key)
+    if rig is None:
+        rig = load_rig(path)
+        _RIGS[key] = rig
+        while len(_RIGS) > CACHED_TABLES:
+            _RIGS.popitem(last=False)
+    _RIGS.move_to_end(key)
+    return replace(rig, tables=tuple(copy.copy(table) for table in rig.tables))
+
+
+def cached_rig_remappers(item: Item, views: Sequence[NamedView], settings: Settings) -> list[RigRemapper]:
+    """Each view's blend of ``item``'s rig (as the view commands make it: its weights wrap on a panorama), built
+    once per worker."""
+    key = (str(item.input.table), item.table_sha256, repr([*views, settings.interpolation, settings.sampling]))
+    remappers = _RIG_REMAPPERS.get(key)
+    if remappers is None:
+        remappers = []
+        for named in views:
+            rig = cached_rig(item.input.table, item.table_sha256)
+            maps = camera_maps(rig, named.view, settings.sampling)
+            remappers.append(RigRemapper(rig, maps, settings.interpolation, wrap=named.view.kind in WRAPPING_KINDS))
+        _RIG_REMAPPERS[key] = remappers
+        while len(_RIG_REMAPPERS) > CACHED_TABLES:
+            _RIG_REMAPPERS.popitem(last=False)
+    _RIG_REMAPPERS.move_to_end(key)
+    return remappers
+
+
 def describe(exc: BaseException) -> str:
     """An error in one line: a PanomapError's message, or the exception's type and message."""
     if isinstance(exc, PanomapError):
@@ -135,12 +177,19 @@ def unwarp_images(
         for item in items:
             started = time.perf_counter()
             try:
-                remappers = cached_remappers(item, views, settings)
-                table = cached_table(item.input.table, item.table_sha256)
-                image = read_image(item.input.path, table.image_size, f"the table {item.input.table}")
-                with all_or_none():
-                    for remapper, output in zip(remappers, item.outputs, strict=True):
-                        write_image(output.path, remapper(image))
+                if item.input.rig:
+                    rigs = cached_rig_remappers(item, views, settings)
+                    pictures = read_rig_pictures(rigs[0].rig, item.input.sources)
+                    with all_or_none():
+                        for blend, output in zip(rigs, item.outputs, strict=True):
+                            write_image(output.path, blend(pictures))
+                else:
+                    remappers = cached_remappers(item, views, settings)
+                    table = cached_table(item.input.table, item.table_sha256)
+                    image = read_image(item.input.path, table.image_size, f"the table {item.input.table}")
+                    with all_or_none():
+                        for remapper, output in zip(remappers, item.outputs, strict=True):
+                            write_image(output.path, remapper(image))
                 seconds = time.perf_counter() - started
                 done = tuple(finished(item, out.view, out.path, 1, seconds) for out in item.outputs)
                 results.append(ItemResult(str(item.input.path), done))
@@ -166,7 +215,18 @@ def unwarp_whole_video(
     item: Item, views: Sequence[NamedView], settings: Settings, codec_threads: int | None = None
 ) -> ItemResult:
     """Unwarp one video into every view (one decode); raises on failure (Dask retries it). ``codec_threads``:
-    the decoder's and each encoder's threads (default FFmpeg's choice, :func:`panomap.video.unwarp_video`)."""
+    the decoder's and each encoder's threads (default FFmpeg's choice, :func:`panomap.video.unwarp_video`). A rig's
+    video is blended once per view (:func:`panomap.video.rig.unwarp_rig_video` makes one view)."""
+    if item.input.rig:
+        frames, seconds = 0, 0.0
+        for named, output in zip(views, item.outputs, strict=True):
+            rig = cached_rig(item.input.table, item.table_sha256)
+            report = unwarp_rig_video(rig, [str(path) for path in item.input.sources], output.path, named.view,
+                                      encoder=settings.encoder, audio=settings.audio, sampling=settings.sampling,
+                                      interpolation=settings.interpolation, codec_threads=codec_threads)  # fmt: skip
+            frames, seconds = report.frames_written, seconds + report.seconds
+        done = tuple(finished(item, out.view, out.path, frames, seconds) for out in item.outputs)
+        return ItemResult(str(item.input.path), done)
     table = video_table(item)
     report = unwarp_video(
         table,

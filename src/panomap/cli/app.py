@@ -9,6 +9,7 @@ complete.
 
 from __future__ import annotations
 
+import importlib
 import sys
 from typing import Any, NoReturn
 
@@ -16,32 +17,62 @@ import click
 
 from .. import __version__
 from ..errors import PanomapError, printable
-from .batch import batch
-from .calibrate import centre, fit, info
-from .demo import demo
-from .interop import export, import_, level, orient
-from .learn import learn
 from .options import quiet_option
-from .points import project, unproject
-from .rigs import rig
-from .video import video
-from .viewer import view
 from .views import VIEW_COMMANDS
 
-# Every command, registered here and nowhere else.
-COMMANDS = (fit, centre, info, *VIEW_COMMANDS, project, unproject, video, batch, learn, demo)
-# Calibrations of other tools in and out (issue 36).
-COMMANDS += (import_, export)
-# The live viewer (issue 37).
-COMMANDS += (view,)
-# Cameras that look any way (issue 51).
-COMMANDS += (orient, level)
-# Rigs learned from pictures (issue 52).
-COMMANDS += (rig,)
-# -q on every command, declared once (issue 53): no progress, no report.
-for _command in (*COMMANDS, *rig.commands.values()):
-    if not any(param.name == "quiet" for param in _command.params):
-        _command.params.append(quiet_option())
+# Every command, registered here and nowhere else: its name, and the module (of this package) and attribute that
+# hold it. A command's module is imported when the command is run or listed, so that a command starts without
+# the others' imports (the calibration's SciPy, the viewer, the demo's scenes: ~0.3 CPU-s of every start).
+LAZY_COMMANDS: dict[str, tuple[str, str]] = {
+    "fit": ("calibrate", "fit"),
+    "centre": ("calibrate", "centre"),
+    "info": ("calibrate", "info"),
+    "project": ("points", "project"),
+    "unproject": ("points", "unproject"),
+    "video": ("video", "video"),
+    "batch": ("batch", "batch"),
+    "learn": ("learn", "learn"),
+    "demo": ("demo", "demo"),
+    # Calibrations of other tools in and out (issue 36).
+    "import": ("interop", "import_"),
+    "export": ("interop", "export"),
+    # The live viewer (issue 37).
+    "view": ("viewer", "view"),
+    # Cameras that look any way (issue 51).
+    "orient": ("interop", "orient"),
+    "level": ("interop", "level"),
+    # Rigs learned from pictures (issue 52).
+    "rig": ("rigs", "rig"),
+}
+
+
+def _quiet(command: click.Command) -> click.Command:
+    """``command`` (and a group's commands) with -q, declared once (issue 53)."""
+    for each in (command, *getattr(command, "commands", {}).values()):
+        if not any(param.name == "quiet" for param in each.params):
+            each.params.append(quiet_option())
+    return command
+
+
+for _command in VIEW_COMMANDS:
+    _quiet(_command)
+
+
+def load_command(name: str) -> click.Command | None:
+    """The command ``name`` (its module imported, -q added), or None for no such command."""
+    if name not in LAZY_COMMANDS:
+        return next((command for command in VIEW_COMMANDS if command.name == name), None)
+    module, attribute = LAZY_COMMANDS[name]
+    command: click.Command = getattr(importlib.import_module(f".{module}", __package__), attribute)
+    return _quiet(command)
+
+
+def __getattr__(name: str) -> Any:
+    """``COMMANDS``: every command, each module imported (what the help and the tests list)."""
+    if name == "COMMANDS":
+        lazy = [load_command(command) for command in LAZY_COMMANDS]
+        return (*VIEW_COMMANDS, *(command for command in lazy if command is not None))
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # `panomap --help`'s order: a table (imported, learned from pictures or landmarks), what it holds, its views, then
@@ -68,8 +99,17 @@ class PanomapGroup(click.Group):
     new user meets them (:data:`HELP_ORDER`)."""
 
     def list_commands(self, ctx: click.Context) -> list[str]:
-        listed = [name for name in HELP_ORDER if name in self.commands]
-        return listed + sorted(name for name in self.commands if name not in listed)
+        names = {*self.commands, *LAZY_COMMANDS}
+        listed = [name for name in HELP_ORDER if name in names]
+        return listed + sorted(name for name in names if name not in listed)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in self.commands:
+            command = load_command(cmd_name)
+            if command is None:
+                return None
+            self.add_command(command, cmd_name)
+        return self.commands[cmd_name]
 
     def main(self, *args: Any, **kwargs: Any) -> NoReturn:
         kwargs["standalone_mode"] = False
@@ -102,7 +142,7 @@ class PanomapGroup(click.Group):
 
 @click.group(
     cls=PanomapGroup,
-    commands=list(COMMANDS),
+    commands=list(VIEW_COMMANDS),
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
 )
 @click.version_option(__version__, prog_name="panomap")

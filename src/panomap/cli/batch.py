@@ -52,7 +52,12 @@ class _Bar(ProgressBar):
     help="Output path per input and view, with " + ", ".join(f"{{{k}}}" for k in TEMPLATE_KEYS) + " "
     "(e.g. '{camera}/{stem}_{name}.mp4'); still images keep their own format.",
 )
-@click.option("--table", type=PATH, help="The table of every input (without a manifest).")
+@click.option(
+    "--table",
+    type=PATH,
+    help="The table of every input (without a manifest), or a rig file: each input its one side-by-side frame "
+    "or video, or a folder of one picture or video per camera.",
+)
 @click.option(
     "--exclude",
     "excludes",
@@ -140,6 +145,10 @@ def batch(
       north/0001.jpg,north.npz,north
       south/day1.mp4,south.npz,south
 
+    A table may be a rig file (panomap import of several cameras): each input is then the
+    frame (or video) holding its cameras side by side, or a folder holding one picture (or
+    video) per camera, named after the cameras or in the rig's order by name.
+
     The job runs on a local Dask cluster (one worker per core) unless --scheduler (or
     DASK_SCHEDULER_ADDRESS) names an existing one, whose workers must see the same paths.
     Every finished output is recorded (--record); run the same command again to finish an
@@ -174,12 +183,14 @@ def batch(
     # Each camera's first still image, as the views do: an EXIF orientation asks viewers to turn it (its views
     # are of the pixels as stored, as the table is); once a camera, not once an image.
     for first in {item.camera: item for item in reversed(found) if not item.is_video}.values():
-        warn_orientation(first.path)
+        warn_orientation(first.sources[0])
     if any(item.is_video for item in found):
         try:
             encoder.check()
         except PanomapError as exc:
             raise usage_error(exc) from None
+    if interp not in ("linear", "nearest") and any(item.rig and item.is_video for item in found):
+        raise click.BadParameter(f"a rig's video reads linear or nearest, not {interp!r}", param_hint="'--interp'")
     job = make_job(found, named, template, Settings(encoder, interp, table_sampling, not no_audio))
     record = Record(record_path)
     stop = threading.Event()

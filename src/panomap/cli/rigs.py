@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, read_text
-from ..io.images import read_image, save_map, write_image
+from ..io.images import read_image, read_rig_pictures, save_map, write_image
 from ..rig import CameraRig, RigRemapper, camera_maps, load_rig, save_rig
 from ..views import View
 from .options import say
@@ -63,15 +63,12 @@ def render_rig(
 
 def _pictures(rig: CameraRig, images: tuple[Path, ...]) -> list[Any]:
     """The rig's pictures: one frame holding them all, or one per camera in the rig's order (sizes checked)."""
-    if rig.offsets is not None:
-        if len(images) != 1:
-            raise click.UsageError(f"the rig's cameras share one frame: give that one picture, not {len(images)}")
-        return [read_image(images[0], rig.frame_size, "the rig's frame")]
-    if len(images) != rig.count:
-        names = ", ".join(rig.names)
-        raise click.UsageError(f"give one picture per camera of the rig, in its order ({names}), not {len(images)}")
-    return [read_image(image, table.image_size, f"camera {name}") for image, table, name in
-            zip(images, rig.tables, rig.names, strict=True)]  # fmt: skip
+    try:
+        return read_rig_pictures(rig, images)
+    except PanomapError as exc:
+        if exc.source is None:  # (a wrong number of pictures: the command line's fault)
+            raise click.UsageError(exc.detail) from None
+        raise
 
 
 def _strongest_map(maps: list[Any], weights: Any) -> Any:
@@ -348,12 +345,8 @@ def rig_learn(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
         raise click.UsageError(f"give one picture per camera of the rig ({names}), shot after shot, not {len(images)}")
     shots: list[Any] = []
     for start in range(0, len(images), per_shot):
-        group = images[start : start + per_shot]
-        if loaded.offsets is not None:
-            shots.append(read_image(group[0], loaded.frame_size, "the rig's frame"))
-        else:
-            shots.append([read_image(image, table.image_size, f"camera {name}") for image, table, name in
-                          zip(group, loaded.tables, loaded.names, strict=True)])  # fmt: skip
+        pictures = read_rig_pictures(loaded, images[start : start + per_shot])
+        shots.append(pictures[0] if loaded.offsets is not None else pictures)
     learned = learn_rotations(loaded, shots, turn=turn_table)
     with all_or_none():
         save_rig(learned.rig, output)

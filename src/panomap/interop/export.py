@@ -19,7 +19,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..camera.viewpoint import PARALLAX_DISTANCE, parallax_px
 from ..errors import PanomapError
@@ -34,6 +33,8 @@ from .models.kannala_brandt import KannalaBrandt
 from .models.mei import Mei
 from .models.ocam import OCam
 from .writers import kalibr_text, ocam_text, opencv_text
+
+# scipy is imported where it is used: its import would cost every command (a video's start-up too) 0.4 s.
 
 # The fit's grid over the table (azimuths, elevations); the check's is twice as fine.
 FIT_GRID = (180, 60)
@@ -97,6 +98,8 @@ def _fit(build: Callable[[FloatArray], ExternalCamera], start: list[float], samp
             return np.full(samples.uv.size, 1e6)
         miss = model.project(samples.rays) - samples.uv
         return np.where(np.isfinite(miss), miss, 1e3).ravel()
+
+    from scipy.optimize import least_squares
 
     result = least_squares(residuals, np.asarray(start, dtype=np.float64), method="lm", x_scale="jac")
     return build(result.x)
@@ -198,6 +201,8 @@ def _fit_ocam(table: PanoMappingTable, samples: Samples) -> ExternalCamera:
         # The radius through pol, and the direction: (x', y') must be along (x, y) (px off that line).
         across = (xp * y - yp * x) / horizontal
         return coefficients, np.concatenate([design @ coefficients - target, across])
+
+    from scipy.optimize import least_squares
 
     p = least_squares(lambda p: solve(p)[1], [cy, cx, 1.0, 0.0, 0.0], x_scale=[1.0, 1.0, 1e-3, 1e-3, 1e-3]).x
     coefficients, _ = solve(p)

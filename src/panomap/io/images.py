@@ -15,8 +15,9 @@ from __future__ import annotations
 import os
 import threading
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
@@ -25,6 +26,9 @@ from numpy.typing import NDArray
 from .. import inputs
 from ..errors import PanomapError
 from ..files import input_file, write_bytes_atomic, write_with
+
+if TYPE_CHECKING:
+    from ..rig import CameraRig
 
 SIXTEEN_BIT_SUFFIXES = {".png", ".tif", ".tiff", ".pgm", ".ppm", ".pnm"}
 ALPHA_SUFFIXES = {".png", ".tif", ".tiff", ".webp"}
@@ -103,6 +107,24 @@ FLOAT_SIGNATURES = {
     b"PF\n": "a PFM image",
     b"Pf\n": "a PFM image",
 }
+
+
+def read_rig_pictures(rig: CameraRig, paths: Sequence[Path]) -> list[Any]:
+    """A rig's pictures from image files, as :class:`panomap.rig.RigRemapper` takes them: the one frame holding
+    every camera's picture (a rig with ``offsets``), or one picture per camera in the rig's order; each checked
+    against its size (the view commands given a rig, ``rig learn``, ``panomap batch``).
+
+    Raises PanomapError for a wrong number of files (naming what the rig takes, with no file) and, as
+    :func:`read_image`, for a file that cannot be read or is not of its camera's size."""
+    if rig.offsets is not None:
+        if len(paths) != 1:
+            raise PanomapError(f"the rig's cameras share one frame: give that one picture, not {len(paths)}")
+        return [read_image(paths[0], rig.frame_size, "the rig's frame")]
+    if len(paths) != rig.count:
+        names = ", ".join(rig.names)
+        raise PanomapError(f"give one picture per camera of the rig, in its order ({names}), not {len(paths)}")
+    return [read_image(path, table.image_size, f"camera {name}") for path, table, name in
+            zip(paths, rig.tables, rig.names, strict=True)]  # fmt: skip
 
 
 def float_format(head: bytes) -> str | None:

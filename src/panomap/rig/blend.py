@@ -22,17 +22,19 @@ each camera's own picture or, for a rig whose pictures share one frame, in the f
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PanomapError
 from ..remap import Remapper
+from ..table.table import PanoMappingTable
 from ..views import View, build_map
 from .rig import CameraRig
+from .seams import SeamWeights, seam_weights
 
 # Views whose columns wrap around in azimuth: their weights' distances wrap too.
 WRAPPING_KINDS = ("panorama", "equirect")
@@ -43,7 +45,7 @@ GAIN_NOISE = 10.0
 GAIN_PRIOR = 1.0
 
 
-def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear") -> list[NDArray[np.float32]]:
+def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear", threads: int = 1) -> list[NDArray[np.float32]]:
     """Each camera's (H, W, 2) map of ``view``, in its own picture's pixels (NaN where it does not see).
 
     Parameters
@@ -54,19 +56,25 @@ def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear") -> list[
         camera's own position (relative to camera 0's, the rig's reference).
     sampling : {"bilinear", "nearest"}
         How the tables are read.
+    threads : int
+        Cameras whose maps are made at once, each on its own thread (NumPy and OpenCV let go of the GIL; each
+        camera's map is the same either way).
     """
     reference = rig.tables[0]
     view = view.resolved(reference)
     points = view.points(reference)
-    maps = []
-    for table in rig.tables:
+
+    def camera_map(table: PanoMappingTable) -> NDArray[np.float32]:
         if points is None:
-            maps.append(build_map(table, view, sampling))
-            continue
+            return build_map(table, view, sampling)
         shift = rig.reference - np.asarray(table.camera_position, dtype=np.float64)
         theta, rho = table.model.point_angles(points + shift)
-        maps.append(table.sample(theta.astype(np.float32), rho.astype(np.float32), sampling, overwrite=True))
-    return maps
+        return table.sample(theta.astype(np.float32), rho.astype(np.float32), sampling, overwrite=True)
+
+    if threads > 1 and rig.count > 1:
+        with ThreadPoolExecutor(min(threads, rig.count), thread_name_prefix="panomap-maps") as pool:
+            return list(pool.map(camera_map, rig.tables))
+    return [camera_map(table) for table in rig.tables]
 
 
 def feather_weights(
@@ -75,29 +83,9 @@ def feather_weights(
     """(k, H, W) float32 weights: each camera's distance (px) from the edge of what it sees, less the largest
     camera's distance there and plus ``2 feather_px`` (at least 0), over their sum where several see a pixel; 0
     where none does. ``wrap``: the columns wrap around (a panorama). ``feather_px``: default
-    :func:`default_feather_px`; ``inf`` weighs by the distances alone across the whole overlap."""
-    seen = np.stack([np.all(np.isfinite(m), axis=-1) for m in maps])
-    width = seen.shape[2]
-    pad = width // 4 if wrap else 0
-    distances = []
-    for mask in seen:
-        padded = np.concatenate([mask[:, width - pad :], mask, mask[:, :pad]], axis=1) if pad else mask
-        distance = cv2.distanceTransform(padded.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-        distances.append(distance[:, pad : pad + width] if pad else distance)
-    weights = np.stack(distances).astype(np.float32)
-    feather = default_feather_px(seen.shape[1:]) if feather_px is None else float(feather_px)
-    if np.isfinite(feather):
-        weights -= weights.max(axis=0) - np.float32(2 * feather)
-        np.maximum(weights, 0, out=weights)
-        weights[~seen] = 0
-    total = weights.sum(axis=0)
-    np.divide(weights, total, out=weights, where=total > 0)
-    return weights
-
-
-def default_feather_px(shape: tuple[int, ...]) -> float:
-    """The feather (output px) of a view of ``shape`` (H, W): 1% of its diagonal, at least 8 px."""
-    return max(8.0, 0.01 * float(np.hypot(shape[0], shape[1])))
+    :func:`.seams.default_feather_px`; ``inf`` weighs by the distances alone across the whole overlap. (Computed on the
+    overlap alone, :func:`.seams.seam_weights`.)"""
+    return seam_weights(maps, wrap, feather_px).dense()
 
 
 def overlap_gains(layers: list[NDArray[np.float32]], weights: NDArray[np.float32]) -> NDArray[np.float64]:
@@ -152,6 +140,7 @@ class RigRemapper:
     interpolation: str = "linear"
     fill: float = 0.0
     wrap: bool = False
+    seams: SeamWeights = field(init=False, repr=False)
     weights: NDArray[np.float32] = field(init=False, repr=False)
     _remappers: tuple[Remapper, ...] = field(init=False, repr=False)
 
@@ -165,7 +154,8 @@ class RigRemapper:
             shifted = map_uv + np.array([x, y], dtype=np.float32)
             remappers.append(Remapper(shifted, self.rig.frame_size, self.interpolation, self.fill))
         object.__setattr__(self, "_remappers", tuple(remappers))
-        object.__setattr__(self, "weights", feather_weights(self.maps, self.wrap))
+        object.__setattr__(self, "seams", seam_weights(self.maps, self.wrap))
+        object.__setattr__(self, "weights", self.seams.dense())
 
     @property
     def output_size(self) -> tuple[int, int]:

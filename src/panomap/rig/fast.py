@@ -28,6 +28,7 @@ is refused here (:class:`RigRemapper` takes it).
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from typing import Any
 
@@ -39,6 +40,7 @@ from ..errors import PanomapError
 from ..geometry import inside_image
 from ..remap import INTERPOLATIONS
 from .blend import RigRemapper, overlap_gains
+from .seams import SeamWeights
 
 # OpenCV's remap takes sources and maps of fewer rows and columns than this.
 REMAP_LIMIT = 32767
@@ -53,8 +55,9 @@ class RigPlane:
     ----------
     maps : list of (H, W, 2) float32
         Each camera's map in its source's pixels (NaN where it does not see).
-    weights : (k, H, W) float32
-        Each camera's weight (:func:`.blend.feather_weights`), summing to 1 where any sees, 0 where none does.
+    seams : SeamWeights
+        Each camera's weight (:func:`.seams.seam_weights`): the camera that takes each pixel alone, and the band
+        where several do.
     sources : list of (width, height)
         The pictures given to each call, in order (one frame holding them all, or one per camera).
     reads : list of int
@@ -72,7 +75,7 @@ class RigPlane:
     def __init__(
         self,
         maps: Sequence[NDArray[np.float32]],
-        weights: NDArray[np.float32],
+        seams: SeamWeights,
         sources: Sequence[tuple[int, int]],
         reads: Sequence[int],
         channels: int,
@@ -85,7 +88,7 @@ class RigPlane:
                 f"the fast blend reads linear or nearest, not {interpolation!r} (a clamp is not a border for it)"
             )
         self.interpolation = INTERPOLATIONS[interpolation]
-        self.channels, self.fill, self.black = channels, float(fill), float(black)
+        self.channels, self.black = channels, float(black)
         self.count = len(maps)
         height, width = maps[0].shape[:2]
         if max(height, width) >= REMAP_LIMIT:
@@ -94,18 +97,7 @@ class RigPlane:
         self.sources = [(int(size[0]), int(size[1])) for size in sources]
         places, buffer_width, pictures_height = _layout(self.sources)
         self.places = places
-        # Each camera's entries in buffer pixels, clamped to its source; where not on it, NaN.
-        us, vs = [], []
-        for map_uv, source in zip(maps, reads, strict=True):
-            (x, y), (w, h) = places[source], self.sources[source]
-            u, v = map_uv[..., 0], map_uv[..., 1]
-            with np.errstate(invalid="ignore"):
-                valid = inside_image(u, v, (w, h))
-            us.append(np.where(valid, np.clip(u, 0, w - 1) + np.float32(x), np.float32(np.nan)).astype(np.float32))
-            vs.append(np.where(valid, np.clip(v, 0, h - 1) + np.float32(y), np.float32(np.nan)).astype(np.float32))
-        seen = weights > 0
-        owners = np.count_nonzero(seen, axis=0)
-        band = np.flatnonzero(owners >= 2)
+        band = seams.band
         self.band_size = band.size
         self.band_is_all = band.size == height * width
         band_rows = -(-(band.size + 1) // buffer_width)  # (+1: the fill pixel, after the band)
@@ -113,41 +105,78 @@ class RigPlane:
         buffer_height = pictures_height + band_rows
         if buffer_height >= REMAP_LIMIT:
             raise PanomapError(f"the rig's pictures and overlap need {buffer_height} rows, more than OpenCV remaps")
-        shape = (buffer_height, buffer_width) + (() if channels == 1 else (channels,))
-        self.buffer = np.zeros(shape, dtype=np.uint8)
-        slots = band_rows * buffer_width
-        fill_at = (band.size % buffer_width, pictures_height + band.size // buffer_width)
-        self._fill_pixel(fill_at)
+        self._buffer_shape = (buffer_height, buffer_width) + (() if channels == 1 else (channels,))
+        self._fill_at = (band.size % buffer_width, pictures_height + band.size // buffer_width)
         # The combined map: the sole camera's entry; the band's own place in the band rows; else the fill pixel.
-        self.map_u = np.full((height, width), fill_at[0], dtype=np.float32)
-        self.map_v = np.full((height, width), fill_at[1], dtype=np.float32)
+        self.map_u = np.full((height, width), self._fill_at[0], dtype=np.float32)
+        self.map_v = np.full((height, width), self._fill_at[1], dtype=np.float32)
         self.masks: list[tuple[tuple[slice, slice], NDArray[np.uint8]] | None] = []
-        for k in range(self.count):
-            alone = (owners == 1) & seen[k] & np.isfinite(us[k])  # (seen, but off its source: the fill)
-            np.copyto(self.map_u, us[k], where=alone)
-            np.copyto(self.map_v, vs[k], where=alone)
-            self.masks.append(_masked_box(alone))
+        owners = seams.owner.view(np.uint8)
+        # The band: each camera's entries and weights, laid out as the band rows (padding: the fill, weight 0).
+        self.band_maps: list[tuple[NDArray[np.float32], NDArray[np.float32]]] = []
+        self.band_weights = np.zeros((self.count, band_rows, buffer_width), dtype=np.float32)
+        for k, (map_uv, source) in enumerate(zip(maps, reads, strict=True)):
+            (x, y), (w, h) = places[source], self.sources[source]
+            self.masks.append(self._sole(k, map_uv, owners, (x, y), (w, h)))
+            u, v = map_uv.reshape(-1, 2)[band].T
+            with np.errstate(invalid="ignore"):
+                valid = inside_image(u, v, (w, h))
+            laid = []
+            for entries, low, high, at in ((u, x, w, self._fill_at[0]), (v, y, h, self._fill_at[1])):
+                row = np.full(band_rows * buffer_width, at, dtype=np.float32)
+                row[: band.size] = np.where(valid, np.clip(entries, 0, high - 1) + np.float32(low), np.float32(at))
+                laid.append(row.reshape(band_rows, buffer_width))
+            self.band_maps.append((laid[0], laid[1]))
+            self.band_weights[k].reshape(-1)[: band.size] = seams.band_weights[k]
         slot = np.arange(band.size)
         self.map_u.reshape(-1)[band] = slot % buffer_width
         self.map_v.reshape(-1)[band] = pictures_height + slot // buffer_width
-        # The band: each camera's entries and weights, laid out as the band rows (padding: weight 0).
-        self.band_maps: list[tuple[NDArray[np.float32], NDArray[np.float32]]] = []
-        self.band_weights = np.zeros((self.count, band_rows, buffer_width), dtype=np.float32)
-        for k in range(self.count):
-            laid = []
-            for entries, fill in ((us[k], fill_at[0]), (vs[k], fill_at[1])):
-                on = entries.reshape(-1)[band]
-                row = np.full(slots, fill, dtype=np.float32)
-                row[: band.size] = np.where(np.isfinite(on), on, np.float32(fill))
-                laid.append(row.reshape(band_rows, buffer_width))
-            self.band_maps.append((laid[0], laid[1]))
-            self.band_weights[k].reshape(-1)[: band.size] = weights[k].reshape(-1)[band]
-        self._band_out = self.buffer[self.band_top :].reshape(-1, *self.buffer.shape[2:])[: band.size]
+        self._buffers(fill)
+
+    def _sole(
+        self,
+        k: int,
+        map_uv: NDArray[np.float32],
+        owners: NDArray[np.uint8],
+        place: tuple[int, int],
+        size: tuple[int, int],
+    ) -> tuple[tuple[slice, slice], NDArray[np.uint8]] | None:
+        """Write camera ``k``'s entries where it takes the pixel alone (and is on its source) into the combined
+        map, clamped to its source and moved to its place in the buffer; the mask of those pixels in its bounding
+        box (None where there are none)."""
+        (x, y), (w, h) = place, size
+        alone = (owners == k).view(np.uint8)
+        cv2.bitwise_and(alone, cv2.inRange(map_uv, (-0.5, -0.5), (w - 0.5, h - 0.5)), dst=alone)  # (inside_image)
+        left, top, across, down = cv2.boundingRect(alone)
+        if across == 0:
+            return None
+        box = (slice(top, top + down), slice(left, left + across))
+        mask = np.ascontiguousarray(alone[box])
+        u, v = cv2.split(map_uv[box])
+        for entries, low, high, target in ((u, x, w, self.map_u), (v, y, h, self.map_v)):
+            np.clip(entries, 0, high - 1, out=entries)
+            entries += np.float32(low)
+            cv2.copyTo(entries, mask, target[box])
+        return box, mask
+
+    def _buffers(self, fill: float) -> None:
+        """This plane's own buffer (its fill pixel set), band values and gains."""
+        self.fill = float(fill)
+        self.buffer = np.zeros(self._buffer_shape, dtype=np.uint8)
+        self._fill_pixel(self._fill_at)
+        self._band_out = self.buffer[self.band_top :].reshape(-1, *self.buffer.shape[2:])[: self.band_size]
         self._band_values = [np.empty(self.band_maps[0][0].shape + self.buffer.shape[2:], np.uint8)
                              for _ in range(self.count)]  # fmt: skip
-        self.gains = np.ones((self.count, channels))
+        self.gains = np.ones((self.count, self.channels))
         self._scales: NDArray[np.float32] = self._scaled(self.gains)
         self._luts: list[NDArray[np.uint8] | None] = [None] * self.count
+
+    def twin(self, fill: float) -> RigPlane:
+        """A plane of the same maps and weights (shared, read only) with its own buffer and ``fill``: a video's
+        second chroma plane."""
+        other = copy.copy(self)
+        other._buffers(fill)
+        return other
 
     def _fill_pixel(self, at: tuple[int, int]) -> None:
         x, y = at
@@ -255,15 +284,6 @@ def _layout(sizes: Sequence[tuple[int, int]]) -> tuple[list[tuple[int, int]], in
     return places, max(width, 1), y + row_height
 
 
-def _masked_box(mask: NDArray[np.bool_]) -> tuple[tuple[slice, slice], NDArray[np.uint8]] | None:
-    """The bounding box of ``mask`` and the mask within it (uint8), or None where it is empty."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if rows.size == 0:
-        return None
-    box = (slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1))
-    return box, np.ascontiguousarray(mask[box]).astype(np.uint8)
-
-
 class FastRigRemapper:
     """:class:`RigRemapper`'s view, blended the fast way (:class:`RigPlane`), for uint8 pictures of C channels.
 
@@ -289,7 +309,7 @@ class FastRigRemapper:
             maps = list(remapper.maps)
             sources = [table.image_size for table in rig.tables]  # type: ignore[misc]
             reads = list(range(rig.count))
-        self.plane = RigPlane(maps, remapper.weights, sources, reads, channels, remapper.interpolation,
+        self.plane = RigPlane(maps, remapper.seams, sources, reads, channels, remapper.interpolation,
                               remapper.fill)  # fmt: skip
         self.channels = channels
 

@@ -39,6 +39,21 @@ def is_rig_file(path: str | Path) -> bool:
         return False
 
 
+def rig_index(path: str | Path) -> tuple[tuple[str, ...], tuple[tuple[int, int], ...] | None]:
+    """The cameras' names and the offsets of their pictures in one frame (None: each its own picture) of the rig
+    file ``path``, from its ``rig.json`` alone (its tables not read: ``panomap batch`` finding its inputs)."""
+    path = input_file(path, missing="no such rig file")
+    try:
+        with zipfile.ZipFile(path) as archive:
+            meta = _index(archive)
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, path) from None
+    except (zipfile.BadZipFile, OSError, EOFError) as exc:
+        raise PanomapError(f"not a readable rig file ({exc.__class__.__name__})", path) from None
+    offsets = meta["offsets"]
+    return tuple(meta["names"]), None if offsets is None else tuple((int(x), int(y)) for x, y in offsets)
+
+
 def save_rig(rig: CameraRig, path: str | Path) -> None:
     """Write ``rig`` to ``path`` (whole or not at all): ``rig.json`` and each camera's table file.
 

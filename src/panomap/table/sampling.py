@@ -41,6 +41,8 @@ SAMPLINGS = ("bilinear", "nearest")
 MAX_TABLE_SIDE = 32_000
 # A row index that reads only the NaN border of the sampling images (invalid pixels go there).
 OUTSIDE = -4.0
+# float32 NaN's bits, as an int32.
+_NAN_BITS = int(np.array(np.nan, dtype=np.float32).view(np.int32))
 
 
 class RemapImages(NamedTuple):
@@ -237,8 +239,14 @@ def _read(
     uv = cv2.merge([u, v]) if out is None else cv2.merge([u, v], dst=out)
     if not all_inside and image_size is not None:
         width, height = image_size
-        inside = cv2.inRange(uv, (-0.5, -0.5), (width - 0.5, height - 0.5))  # (inside_image, in OpenCV)
-        uv[inside == 0] = np.nan
+        outside = cv2.inRange(uv, (-0.5, -0.5), (width - 0.5, height - 0.5))  # (inside_image, in OpenCV)
+        cv2.bitwise_not(outside, dst=outside)
+        # NaN there: its bits (0x7FC00000) set in the float32s' bits, in OpenCV (NumPy's masked writes are slow)
+        bits = uv.view(np.int32)
+        none: Any = (0, 0, 0, 0)  # (a scalar, which OpenCV takes as a tuple; its stubs want an array)
+        nan: Any = (_NAN_BITS, _NAN_BITS, 0, 0)
+        cv2.bitwise_and(bits, none, dst=bits, mask=outside)
+        cv2.bitwise_or(bits, nan, dst=bits, mask=outside)
     return np.asarray(uv, dtype=np.float32)
 
 

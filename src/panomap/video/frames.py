@@ -44,11 +44,15 @@ def _chroma_map(map_uv: NDArray[np.float32], sub_x: int, sub_y: int) -> NDArray[
     """
     sx, sy = 1 << sub_x, 1 << sub_y
     height, width = map_uv.shape[:2]
-    padded = np.pad(map_uv, ((0, -height % sy), (0, -width % sx), (0, 0)), mode="edge")
-    blocks = np.zeros((padded.shape[0] // sy, padded.shape[1] // sx, 2), dtype=np.float32)
+    padded = map_uv
+    if height % sy or width % sx:
+        padded = np.pad(map_uv, ((0, -height % sy), (0, -width % sx), (0, 0)), mode="edge")
+    # (summed from the first entry in the order (0, 0), (0, 1), (1, 0), (1, 1))
+    blocks = np.array(padded[::sy, ::sx], dtype=np.float32)
     for dy in range(sy):
         for dx in range(sx):
-            blocks += padded[dy::sy, dx::sx]
+            if dy or dx:
+                blocks += padded[dy::sy, dx::sx]
     # (mean + 0.5) / s - 0.5, per axis
     blocks *= np.array([1 / (sx * sx * sy), 1 / (sy * sx * sy)], dtype=np.float32)
     blocks += np.array([0.5 / sx - 0.5, 0.5 / sy - 0.5], dtype=np.float32)

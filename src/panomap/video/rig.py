@@ -30,14 +30,16 @@ from pathlib import Path
 from typing import Any
 
 import av
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PanomapError
 from ..files import all_or_none, atomic_path, check_output_paths, local_file
 from ..rig import CameraRig, camera_maps
-from ..rig.blend import WRAPPING_KINDS, feather_weights
+from ..rig.blend import WRAPPING_KINDS
 from ..rig.fast import RigPlane
+from ..rig.seams import seam_weights
 from ..views import View
 from .frames import BGR, PLANAR_FORMATS, REMAP_THREADS, _chroma_map, _plane_array, check_output_size, opencv_threads
 from .frames import work_format as choose_work_format
@@ -75,11 +77,15 @@ def check_rig_sources(rig: CameraRig, sources: Sequence[str]) -> None:
 class RigFrameRemapper:
     """One view of a rig for decoded frames of one pixel format: each plane's :class:`RigPlane`.
 
+    The luma's plane is built here while the chroma's are built on a helper thread (OpenCV and NumPy let go of
+    the GIL), which then blends the luma of every frame.
+
     Parameters
     ----------
     rig : CameraRig
     maps : list of (H, W, 2) float32
-        Each camera's map in its own picture (:func:`panomap.rig.camera_maps`).
+        Each camera's map in its own picture (:func:`panomap.rig.camera_maps`); taken over: where the rig's
+        pictures share one frame, each camera's offset is added to its map in place.
     work_format : str
         A planar format of :data:`.frames.PLANAR_FORMATS`, or ``bgr24``.
     interpolation : {"linear", "nearest"}
@@ -101,25 +107,30 @@ class RigFrameRemapper:
         height, width = maps[0].shape[:2]
         self.output_size = (width, height)
         inputs = [size for _, size in rig_inputs(rig)]
+        reads = list(range(rig.count))
         if rig.offsets is not None:
-            maps = [m + np.array(offset, dtype=np.float32) for m, offset in zip(maps, rig.offsets, strict=True)]
+            for map_uv, offset in zip(maps, rig.offsets, strict=True):
+                map_uv += np.array(offset, dtype=np.float32)
             reads = [0] * rig.count
-        else:
-            reads = list(range(rig.count))
-        weights = feather_weights(list(maps), wrap)
+        seams = seam_weights(maps, wrap)
         if work_format == BGR:
-            self.planes = [RigPlane(maps, weights, inputs, reads, 3, interpolation)]
+            self.planes = [RigPlane(maps, seams, inputs, reads, 3, interpolation)]
             return
         check_output_size(work_format, self.output_size)
         sub_x, sub_y, fills = PLANAR_FORMATS[work_format]
-        black = 0.0 if work_format in FULL_RANGE else 16.0
-        self.planes = [RigPlane(maps, weights, inputs, reads, 1, interpolation, fills[0], black)]
-        if len(fills) > 1:
+
+        def chroma_planes() -> list[RigPlane]:
             chroma = [_chroma_map(m, sub_x, sub_y) for m in maps]
-            chroma_weights = _chroma_weights(weights, chroma, sub_x, sub_y)
             sizes = [(-(-w >> sub_x), -(-h >> sub_y)) for w, h in inputs]
-            self.planes += [RigPlane(chroma, chroma_weights, sizes, reads, 1, interpolation, fill, 128.0)
-                            for fill in fills[1:]]  # fmt: skip
+            first = RigPlane(chroma, seams.subsampled(chroma, sub_x, sub_y), sizes, reads, 1, interpolation, fills[1],
+                             128.0)  # fmt: skip
+            return [first, *(first.twin(fill) for fill in fills[2:])]
+
+        chroma = self._helper.submit(chroma_planes) if len(fills) > 1 else None
+        black = 0.0 if work_format in FULL_RANGE else 16.0
+        self.planes = [RigPlane(maps, seams, inputs, reads, 1, interpolation, fills[0], black)]
+        if chroma is not None:
+            self.planes += chroma.result()
 
     def close(self) -> None:
         """End the helper thread."""
@@ -154,25 +165,6 @@ class RigFrameRemapper:
         if frames[0].time_base is not None:
             out.time_base = frames[0].time_base
         return out
-
-
-def _chroma_weights(
-    weights: NDArray[np.float32], chroma_maps: Sequence[NDArray[np.float32]], sub_x: int, sub_y: int
-) -> NDArray[np.float32]:
-    """(k, h, w) weights of a chroma plane: each block's mean of the luma weights, 0 where the camera's chroma
-    map has no entry, over their sum (sums 1 where any camera sees)."""
-    sx, sy = 1 << sub_x, 1 << sub_y
-    count, height, width = weights.shape
-    padded = np.pad(weights, ((0, 0), (0, -height % sy), (0, -width % sx)), mode="edge")
-    blocks = np.zeros((count, padded.shape[1] // sy, padded.shape[2] // sx), dtype=np.float32)
-    for dy in range(sy):
-        for dx in range(sx):
-            blocks += padded[:, dy::sy, dx::sx]
-    for k, chroma in enumerate(chroma_maps):
-        blocks[k][~np.all(np.isfinite(chroma), axis=-1)] = 0
-    total = blocks.sum(axis=0)
-    np.divide(blocks, total, out=blocks, where=total > 0)
-    return blocks
 
 
 @dataclass
@@ -376,7 +368,11 @@ def _run(
     failure: BaseException | None = None
     closing = contextlib.ExitStack()
     try:
-        maps = camera_maps(rig, view, sampling)
+        # The maps on every core, cameras side by side (the decoder waits once its first frames are queued); the
+        # weights with OpenCV on one thread (its distance transform differs in its last bits with its threads),
+        # the cameras' distance transforms side by side.
+        with opencv_threads(cv2.getNumberOfCPUs()):
+            maps = camera_maps(rig, view, sampling, threads=cv2.getNumberOfCPUs())
         blend = RigFrameRemapper(rig, maps, work, interpolation, wrap=view.kind in WRAPPING_KINDS)
         closing.callback(blend.close)
         while not halted():

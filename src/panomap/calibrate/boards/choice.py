@@ -23,7 +23,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ...errors import PanomapError
 from ..circles import ImageCircles
@@ -33,6 +32,8 @@ from ..lines.objective import LineData, evaluate
 from ..lines.rays import InverseRadial
 from .detect import Board
 from .fit import MIN_CORNERS, board_arcs, fit_boards, pose_of, residuals_under, sparsity
+
+# scipy is imported where it is used: its import would cost every command (a video's start-up too) 0.4 s.
 
 # With this many boards or more, the boards' camera is kept without the line fit.
 TRUSTED_BOARDS = 3
@@ -148,6 +149,8 @@ def _corner_rms(fit: LineFit, boards: Sequence[Board]) -> float:
 
     def fun(x: np.ndarray) -> np.ndarray:
         return residuals_under(kind, axis, params, x, boards)
+
+    from scipy.optimize import least_squares
 
     solution = least_squares(fun, poses, jac_sparsity=sparsity(0, boards), x_scale="jac", method="trf", max_nfev=200)
     return float(np.sqrt(np.mean(solution.fun**2) * 2.0))

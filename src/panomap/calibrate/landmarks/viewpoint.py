@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ...camera.orientation import to_camera
 from ...camera.radial import RadialFunction, fit_radial
@@ -34,6 +33,8 @@ from ...geometry import HALF_PI, FloatArray, pixel_polar
 from ..core import selection
 from ..core.noise import radial_sigma, world_sigmas
 from ..core.selection import CV_FOLDS
+
+# scipy is imported where it is used: its import would cost every command (a video's start-up too) 0.4 s.
 
 # What ``fit_camera(viewpoint=...)`` takes: choose by cross-validation, keep O_m, or fit the caustic.
 VIEWPOINT_MODES = ("auto", "single", "caustic")
@@ -227,6 +228,8 @@ def fit_viewpoint(
         return np.nan_to_num((predicted - rays.r) / rays.sigma, nan=1e6, posinf=1e6, neginf=-1e6)
 
     if not caustic:
+        from scipy.optimize import least_squares
+
         solution = least_squares(lambda x: whitened(x, straight), x0, x_scale="jac", max_nfev=100 * x0.size)
         try:
             return ViewpointFit(radial_of(solution.x), None)
@@ -278,6 +281,8 @@ def fit_viewpoint(
         return np.append(whitened(x, rho), spread / spread_sigma) if size is None else whitened(x, rho)
 
     if size is not None:
+        from scipy.optimize import least_squares
+
         solution = least_squares(residuals, x0, x_scale="jac", max_nfev=100 * x0.size)
         try:
             return camera(solution.x)
@@ -291,6 +296,8 @@ def fit_viewpoint(
     spread = max(unit.excursion(*landmark_span), 1e-12)
     starts = [np.append(x0, f * distance / spread) for f in START_SPREADS]
     start_x = min(starts, key=lambda x: float(np.sum(residuals(x) ** 2)))
+    from scipy.optimize import least_squares
+
     solution = least_squares(residuals, start_x, x_scale="jac", max_nfev=100 * start_x.size)
     try:
         return camera(solution.x)

@@ -34,9 +34,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from ..circles import ImageCircles
+
+# scipy is imported where it is used: its import would cost every command (a video's start-up too) 0.4 s.
 
 #: Turning angle (deg) over CORNER_SPAN_PX on either side of a point above which a chain is cut there.
 CORNER_DEG = 10.0
@@ -283,6 +284,8 @@ def _join(pieces: list[NDArray[np.float64]], gap_px: float) -> list[NDArray[np.f
             node = 2 * i + int(at_end)
             pts[node], dirs[node] = e, d
             ends.append((i, at_end))
+    from scipy.spatial import cKDTree
+
     tree = cKDTree(pts)
     pairs = tree.query_pairs(gap_px, output_type="ndarray")
     cos_lim = math.cos(math.radians(JOIN_ANGLE_DEG))
