@@ -330,10 +330,12 @@ def test_boards_that_all_face_the_axis_are_refused_and_turned_ones_are_not(monke
     assert str(raised.value).count("\n") == 1 and len(raised.value.summary) <= 110
     assert "a camera stretched along its axis sees such boards as the same squares" in raised.value.figures
     monkeypatch.undo()
-    turned = choice.learn_camera(flat_boards(camera, 3, seed=3, turn_deg=45.0), [], circles, LineFitOptions())
-    assert turned.source == "checkerboards" and turned.fit.refusal() is None
-    assert min(turned.fit.report.board_axis_deg) == pytest.approx(45.0, abs=1.0)
-    assert np.percentile(pixel_errors(turned.fit.model, camera), 90) < 0.6 * np.percentile(errors, 90)
+    turned = fit_boards(flat_boards(camera, 3, seed=3, turn_deg=45.0), circles)
+    # not refused for facing the axis (three boards this size may still leave the camera loose: their band,
+    # test_board_uncertainty.py)
+    assert "face the camera's axis" not in (turned.refusal() or "")
+    assert min(turned.report.board_axis_deg) == pytest.approx(45.0, abs=1.0)
+    assert np.percentile(pixel_errors(turned.model, camera), 90) < 0.6 * np.percentile(errors, 90)
 
 
 def test_a_boards_face_is_its_normals_angle_from_the_axis() -> None:

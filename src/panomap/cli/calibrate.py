@@ -218,6 +218,12 @@ from .progress import ProgressBar
     "elevation (the horizon cyan), azimuth 0, and each landmark's residual (outliers red).",
 )
 @click.option(
+    "--uncertainty-plot",
+    type=PATH,
+    help="Learning from checkerboards: also write the projection uncertainty figure (PNG): each pixel's 95% band "
+    "under the corners' noise, ring by ring (panomap info --uncertainty-plot draws it from the table).",
+)
+@click.option(
     "--azimuth-zero",
     nargs=2,
     type=FINITE,
@@ -274,6 +280,7 @@ def fit(
     keep_outliers: bool,
     plot: Path | None,
     overlay: Path | None,
+    uncertainty_plot: Path | None,
     azimuth_zero: tuple[float, float] | None,
     handedness: str,
     camera_height: float | None,
@@ -297,9 +304,11 @@ def fit(
         refuse_landmark_options(click.get_current_context())
         _fit_lines(
             output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time, use_boards,
-            videos, video_frames,
+            videos, video_frames, uncertainty_plot,
         )  # fmt: skip
         return
+    if uncertainty_plot is not None:
+        raise click.UsageError("--uncertainty-plot draws a camera learned from checkerboards (--image, no LANDMARKS)")
     if videos:
         raise click.UsageError("--video pools frames to learn from lines (no LANDMARKS); a landmark fit takes --image "
                                "VIDEO --frame-time SECONDS")  # fmt: skip
@@ -412,6 +421,7 @@ def _fit_lines(
     use_boards: bool,
     videos: tuple[Path, ...] = (),
     video_frames: int = 8,
+    uncertainty_plot: Path | None = None,
 ) -> None:
     """``fit`` without landmarks: the camera learned from the lines (and checkerboards) of ``images`` and the
     frames of ``videos``."""
@@ -439,12 +449,16 @@ def _fit_lines(
         )
     check_outputs(
         [*(("the image", path) for path in images), *(("the video", path) for path in videos)],
-        [("the output", output), ("--overlay", overlay)],
+        [("the output", output), ("--overlay", overlay), ("--uncertainty-plot", uncertainty_plot)],
     )
     if output.suffix.lower() != ".npz":
         raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
     if overlay is not None and overlay.suffix.lower() != ".png":
         raise click.BadParameter(f"{overlay}: the overlay is written as PNG (name it .png)", param_hint="'--overlay'")
+    if uncertainty_plot is not None and uncertainty_plot.suffix.lower() != ".png":
+        raise click.BadParameter(
+            f"{uncertainty_plot}: the figure is written as PNG (name it .png)", param_hint="'--uncertainty-plot'"
+        )
     options = LineFitOptions(
         axis=axis or "down",
         s=None if handedness == "auto" else int(handedness),
@@ -461,6 +475,7 @@ def _fit_lines(
         use_boards=use_boards,
         videos=videos,
         video_frames=video_frames,
+        uncertainty_plot=uncertainty_plot,
     )
 
 
@@ -653,16 +668,32 @@ def _describe_import(record: object) -> list[str]:
 @click.command()
 @click.argument("table", type=PATH)
 @click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")
-def info(table: Path, as_json: bool) -> None:
+@click.option(
+    "--uncertainty-plot",
+    type=PATH,
+    help="Also write the projection uncertainty figure (PNG) of a table learned from checkerboards.",
+)
+def info(table: Path, as_json: bool, uncertainty_plot: Path | None = None) -> None:
     """Print a table's metadata: model, centre, s, phi0, range, sizes, landmarks and residuals (a rig's: its
     cameras, where each sits and looks, what each sees, their overlaps)."""
     from ..rig.file import is_rig_file
     from .rigs import describe_rig_file
 
     if is_rig_file(table):
+        if uncertainty_plot is not None:
+            raise click.UsageError("--uncertainty-plot draws a table's camera; a rig file holds several")
         describe_rig_file(table, as_json)
         return
     loaded = load_table(table)
+    if uncertainty_plot is not None:
+        from ..io.uncertainty_plot import save_uncertainty_plot
+
+        if uncertainty_plot.suffix.lower() != ".png":
+            raise click.BadParameter(
+                f"{uncertainty_plot}: the figure is written as PNG (name it .png)", param_hint="'--uncertainty-plot'"
+            )
+        check_outputs([("the table", table)], [("--uncertainty-plot", uncertainty_plot)])
+        save_uncertainty_plot(loaded, uncertainty_plot, table)
     meta = loaded.metadata()
     if as_json:
         click.echo(json.dumps(meta, indent=2))

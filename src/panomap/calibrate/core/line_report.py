@@ -14,6 +14,7 @@ import numpy as np
 
 from ...errors import PanomapError
 from ...geometry import FloatArray
+from .projection_band import ProjectionBand
 
 # Elevation bands (deg) are looked at this wide; a band with no line point is a gap.
 BAND_DEG = 5.0
@@ -127,6 +128,8 @@ class LineFitReport:
     board_axis_deg : tuple of float
         Each board's face: the angle (deg) of its normal from the camera's axis (boards only; 0: flat under a
         camera looking down or up, square before one looking ahead).
+    projection : ProjectionBand or None
+        The table's 95% band under the corners' noise, ring by ring (boards only; :mod:`.projection_band`).
     """
 
     model: str
@@ -144,6 +147,7 @@ class LineFitReport:
     corners: int = 0
     corner_rms_px: float = 0.0
     board_axis_deg: tuple[float, ...] = ()
+    projection: ProjectionBand | None = None
 
     @property
     def rms_px(self) -> float:
@@ -188,6 +192,8 @@ class LineFitReport:
                 f"boards' faces {min(self.board_axis_deg):.0f}-{max(self.board_axis_deg):.0f} deg from the camera's "
                 "axis (0: flat under it or square before it; boards that all face it pin no scale)"
             )
+        if self.projection is not None:
+            out += self.projection.sentences()
         out += [f"set aside: {arc.reason}" for arc in self.rejected]
         out += [band_sentence(band) for band in self.empty_bands_deg]
         return out
@@ -209,7 +215,7 @@ class LineFitReport:
             "empty_bands_deg": [list(band) for band in self.empty_bands_deg],
             "azimuth_source": self.azimuth_source,
             "handedness_source": self.handedness_source,
-        }
+        } | ({} if self.projection is None else {"projection": self.projection.to_dict()})
 
     @classmethod
     def from_dict(cls, data: Any) -> LineFitReport:
@@ -233,6 +239,7 @@ class LineFitReport:
                 corners=int(data.get("corners", 0)),
                 corner_rms_px=float(data.get("corner_rms_px", 0.0)),
                 board_axis_deg=tuple(float(a) for a in data.get("board_axis_deg", ())),
+                projection=None if data.get("projection") is None else ProjectionBand.from_dict(data["projection"]),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise PanomapError(f"the line fit report is malformed ({exc})") from None

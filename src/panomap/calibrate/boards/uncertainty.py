@@ -1,0 +1,212 @@
+"""The projection uncertainty of a camera learned from checkerboards: the corners' noise carried through the fit.
+
+Convention: as :mod:`.fit` (pixels px; rays in the camera's axes, alpha rad from the pole the image centre sees,
+phi the image angle); a camera is a radial kind and ``params = [u0, v0, *coefficients]``.
+
+mrcal's method, for this radial camera. The corners' noise sigma (px per coordinate) is the fit's residuals'
+over its degrees of freedom; the covariance of every parameter fitted (centre, coefficients, each board's pose)
+is ``sigma^2 (J^T J)^-1`` with J the fit's Jacobian; the camera's block of it is its covariance with the poses
+marginalised (what they absorbed is in it: a centre moved and every board turned with it explain the corners
+nearly as well, and the block says so).
+
+What is "the same ray" under two cameras? Boards pin the camera's shape, not its turn: a rotation of the whole
+frame is taken up by their poses, and the table's turn is set apart (the azimuth origin, the tilt from vertical
+edges). As the outside checks compare a camera with its calibration, and as mrcal compares in a frame the
+boards align: pixels on rings about the centre, each pixel's ray under both cameras, the other's rays turned by
+the one rotation that best aligns them (least squares on the rays, over the rings inside the boards' field),
+projected back by the camera; the distance (px). Linearised in the camera's parameters this is one linear map
+``A`` (pixels' shifts per parameter); draws of the parameters from their covariance, through ``A``, give each
+pixel's shifts: its band is their 95th percentile, the ring's band that of the largest shift along the ring
+(the true error of a camera fitted to these corners' like lies within it 95% of the time:
+``tests/test_board_uncertainty.py``).
+
+What it does not cover: a radial law that cannot follow the camera (the choice of the law is not drawn), and
+corners found off alike (a detector's bias): the band is the noise's share of the error, not all of it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ...camera.radial import RadialFunction
+from ...errors import PanomapError
+from ...geometry import FloatArray
+from ..circles import ImageCircles
+from ..core.projection_band import ProjectionBand
+from ..lines.agreement import RING_AZIMUTHS, Camera, displacement_px, ring_alphas
+from ..lines.rays import InverseRadial
+
+# Draws of the camera's parameters from their covariance (the 95th percentile's own error: about 2% of it).
+DRAWS = 2000
+# The draws' seed: the same fit reports the same band.
+SEED = 20070601
+# Relative step of the central differences (at least this, absolute).
+STEP = 1e-6
+
+
+def parameter_covariance(jacobian: FloatArray, sigma_px: float) -> FloatArray:
+    """``sigma^2 (J^T J)^-1`` (P, P) of the parameters of a least-squares fit whose Jacobian is ``jacobian``
+    (R, P), the columns scaled to unit length first (the coefficients and poses span orders of magnitude: the
+    pseudo-inverse then drops only what no residual sees)."""
+    norms = np.linalg.norm(jacobian, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    scaled = jacobian / norms
+    return np.asarray(np.linalg.pinv(scaled.T @ scaled, hermitian=True) / np.outer(norms, norms) * sigma_px**2)
+
+
+def projection_band(
+    kind: str,
+    axis: str,
+    params: FloatArray,
+    covariance: FloatArray,
+    field_alpha: tuple[float, float],
+    reach_alpha: float,
+    *,
+    sigma_px: float,
+    corners: int,
+    boards: int,
+    parameters: int,
+    alternatives: Sequence[tuple[str, FloatArray]] = (),
+) -> ProjectionBand:
+    """The 95% band of the camera ``params`` (p,) whose covariance (p, p) is ``covariance`` (the poses
+    marginalised), on the rings of :func:`..lines.agreement.ring_alphas` up to ``reach_alpha`` (rad), the
+    rotation aligned over the rings inside ``field_alpha`` (rad, the corners' angles from the axis); the
+    farthest of ``alternatives`` (kind, params: other laws' cameras the corners do not rule out) added.
+
+    ``sigma_px``, ``corners``, ``boards`` and ``parameters`` are what the band reports of the fit.
+    """
+    alpha = ring_alphas(reach_alpha)
+    field_deg = (math.degrees(field_alpha[0]), math.degrees(field_alpha[1]))
+    phi = np.linspace(0.0, 2.0 * math.pi, RING_AZIMUTHS, endpoint=False)
+    draft = ProjectionBand(
+        tuple(np.degrees(alpha).tolist()), tuple(np.degrees(phi).tolist()), (), (), field_deg, sigma_px, 0, 0, 0
+    )
+    aligned = draft.inside()
+    shifts = shift_map(kind, axis, params, alpha, phi, aligned)  # (m, k, 2, p)
+    values, vectors = np.linalg.eigh((covariance + covariance.T) / 2)
+    root = vectors * np.sqrt(np.clip(values, 0.0, None))
+    draws = root @ np.random.default_rng(SEED).standard_normal((params.size, DRAWS))  # (p, DRAWS)
+    pixel_band = np.empty((alpha.size, phi.size))
+    ring_band = np.empty(alpha.size)
+    rank = math.ceil(0.95 * DRAWS) - 1  # the 95th percentile: the draw of this rank
+    for i in range(alpha.size):
+        moved = np.hypot(*np.moveaxis(shifts[i] @ draws, 1, 0))  # (k, DRAWS)
+        pixel_band[i] = np.partition(moved, rank, axis=1)[:, rank]
+        ring_band[i] = np.partition(moved.max(axis=0), rank)[rank]
+    far, farthest = _alternatives(kind, axis, params, alternatives, alpha, aligned)
+    pixel_band = np.where(np.isfinite(pixel_band), pixel_band, np.inf) + far[:, None]
+    ring_band = np.where(np.isfinite(ring_band), ring_band, np.inf) + far
+    return ProjectionBand(
+        alpha_deg=draft.alpha_deg,
+        azimuth_deg=draft.azimuth_deg,
+        pixel_band_px=tuple(tuple(float(x) for x in row) for row in pixel_band),
+        ring_band_px=tuple(float(x) for x in ring_band),
+        field_deg=field_deg,
+        sigma_px=sigma_px,
+        corners=corners,
+        boards=boards,
+        parameters=parameters,
+        alternative_px=tuple(float(x) for x in far) if alternatives else (),
+        farthest=farthest,
+    )
+
+
+def _alternatives(
+    kind: str,
+    axis: str,
+    params: FloatArray,
+    alternatives: Sequence[tuple[str, FloatArray]],
+    alpha: FloatArray,
+    aligned: FloatArray,
+) -> tuple[FloatArray, str]:
+    """The farthest alternative's distance (m,) px per ring (:func:`..lines.agreement.displacement_px`: the rays
+    turned by the best rotation over the ``aligned`` rings for those, over all rings for the rest), and which."""
+    if not alternatives:
+        return np.zeros(alpha.size), ""
+    chosen = Camera(kind, params, "chosen")
+    inside = np.asarray(aligned, dtype=bool)
+    distances = np.zeros((len(alternatives), alpha.size))
+    for j, (other_kind, other) in enumerate(alternatives):
+        camera = Camera(other_kind, other, other_kind)
+        distances[j] = displacement_px(chosen, camera, axis, alpha)
+        if inside.any():
+            distances[j, inside] = displacement_px(chosen, camera, axis, alpha[inside])
+    widest = int(np.argmax(np.where(inside, distances.max(axis=0), -1.0)))
+    return np.asarray(distances.max(axis=0)), f"the {alternatives[int(np.argmax(distances[:, widest]))][0]} law"
+
+
+def shift_map(
+    kind: str, axis: str, params: FloatArray, alpha: FloatArray, phi: FloatArray, aligned: FloatArray
+) -> FloatArray:
+    """The linear map (m, k, 2, p) from a change of the camera's parameters (p,) to the shift (px) of its pixel
+    of each ray on rings ``alpha`` (m,) rad at azimuths ``phi`` (k,) rad, after the rotation that best aligns the
+    rays over the rings ``aligned`` (m,) bool (least squares on the rays: each pixel's shift weighed by the
+    ray's turn per px, radially ``1 / f_r'``, along the ring ``sin(alpha) / r``)."""
+    from .fit import project
+
+    sin_a, cos_a = np.sin(alpha)[:, None], np.cos(alpha)[:, None]
+    rays = np.stack(np.broadcast_arrays(sin_a * np.cos(phi), sin_a * np.sin(phi), cos_a), axis=-1).reshape(-1, 3)
+    count = params.size
+    by_param = np.empty((rays.shape[0], 2, count))
+    for j in range(count):
+        step = STEP * max(1.0, abs(float(params[j])))
+        up, down = params.copy(), params.copy()
+        up[j] += step
+        down[j] -= step
+        by_param[:, :, j] = (project(kind, axis, up, rays) - project(kind, axis, down, rays)) / (2 * step)
+    by_turn = np.empty((rays.shape[0], 2, 3))
+    for j in range(3):
+        turn = np.zeros(3)
+        turn[j] = STEP
+        by_turn[:, :, j] = (
+            project(kind, axis, params, rays + np.cross(turn, rays))
+            - project(kind, axis, params, rays - np.cross(turn, rays))
+        ) / (2 * STEP)
+    metric = _ray_metric(kind, axis, params, alpha, phi).reshape(-1, 2, 2)
+    chosen = np.repeat(np.asarray(aligned, dtype=bool), phi.size)
+    ok = chosen & np.all(np.isfinite(by_param), axis=(1, 2)) & np.all(np.isfinite(by_turn), axis=(1, 2))
+    weighed = np.einsum("nab,nbc->nac", metric[ok], by_turn[ok])  # M W
+    normal = np.einsum("nab,nac->bc", by_turn[ok], weighed)  # sum W^T M W (3, 3)
+    right = np.einsum("nab,nac->bc", weighed, by_param[ok])  # sum W^T M P (3, p)
+    if not ok.any() or np.linalg.matrix_rank(normal) < 3:
+        raise PanomapError("the boards' field holds too few rays to align the camera's frame")
+    turn_of = np.linalg.solve(normal, right)  # the best rotation per parameter (3, p)
+    shift = by_param - by_turn @ turn_of
+    return np.asarray(shift.reshape(alpha.size, phi.size, 2, count), dtype=np.float64)
+
+
+def _ray_metric(kind: str, axis: str, params: FloatArray, alpha: FloatArray, phi: FloatArray) -> FloatArray:
+    """Per pixel (m, k, 2, 2): the squared turn of the ray (rad^2) per squared shift of the pixel (px^2)."""
+    from ...camera.radial_models import rho_of_alpha
+
+    radial = RadialFunction(kind, tuple(float(c) for c in params[2:]), axis)
+    step = 1e-5
+    radius = np.abs(radial(rho_of_alpha(alpha, axis)))
+    slope = (np.abs(radial(rho_of_alpha(alpha + step, axis))) - np.abs(radial(rho_of_alpha(alpha - step, axis)))) / (
+        2 * step
+    )
+    radial_weight = 1.0 / np.maximum(slope, 1e-9) ** 2  # (m,)
+    along_weight = (np.sin(alpha) / np.maximum(radius, 1e-9)) ** 2
+    e_r = np.stack([np.cos(phi), np.sin(phi)], axis=-1)  # (k, 2)
+    e_t = np.stack([-np.sin(phi), np.cos(phi)], axis=-1)
+    outer_r = e_r[:, :, None] * e_r[:, None, :]
+    outer_t = e_t[:, :, None] * e_t[:, None, :]
+    return np.asarray(
+        radial_weight[:, None, None, None] * outer_r[None] + along_weight[:, None, None, None] * outer_t[None]
+    )
+
+
+def reach_alpha(kind: str, axis: str, params: FloatArray, circles: ImageCircles, corners_alpha: float) -> float:
+    """The angle (rad) from the axis up to which the band is told: the image circle's rim where the frame shows it
+    and the camera reaches it, else the farthest corner."""
+    if circles.rim_in_frame <= 0:
+        return corners_alpha
+    radial = RadialFunction(kind, tuple(float(c) for c in params[2:]), axis)
+    try:
+        alpha, _ = InverseRadial.of(radial, circles.outer_radius)(np.array([circles.outer_radius]))
+    except PanomapError:
+        return corners_alpha
+    return max(float(alpha[0]), corners_alpha) if np.isfinite(alpha[0]) else corners_alpha
