@@ -6,7 +6,9 @@ For each real set (each folder's SOURCE.md): the boards of every image pooled, a
 (``fit_boards``); each fit's 95% band (:mod:`panomap.calibrate.boards.uncertainty`) ring by ring inside the
 boards' field beside the true error there (the calibration's rays of the ring's pixels, turned by the best
 rotation over the field's rings, projected by the fit: the ring's largest distance), and whether the fit is
-refused (``LineFit.refusal``). The true error holds more than the corners' noise (the radial law, the
+refused (``LineFit.refusal``); and each image as ``panomap fit -o T --image IMG`` learns it (its boards and its
+lines, ``learn_camera``): refused, or which camera it kept and how far (p90 px over the field) it lies. The true
+error holds more than the corners' noise (the radial law, the
 detector's bias, the calibration's own error: the floor of ``bench_boards.py``), so the band is a lower
 bound of it here; on simulated corners it covers the error 95% of the time (tests/test_board_uncertainty.py).
 """
@@ -21,9 +23,11 @@ from pathlib import Path
 import numpy as np
 
 from bench_boards import reference_of
+from panomap.calibrate.boards.choice import learn_camera
 from panomap.calibrate.boards.detect import find_boards
 from panomap.calibrate.boards.fit import fit_boards, project
-from panomap.calibrate.lines.fit import LineFit
+from panomap.calibrate.lines.arcs import find_arcs
+from panomap.calibrate.lines.fit import LineFit, LineFitOptions
 from panomap.calibrate.lines.frame_circles import line_circles
 from panomap.errors import PanomapError
 from panomap.io.images import read_image
@@ -85,7 +89,7 @@ def main() -> None:
             print(f"  all images ({time.perf_counter() - start:.1f} s, {fit.report.model}): {line(fit, reference)}")
         except PanomapError as exc:
             print(f"  all images: no fit ({exc.summary})")
-        refused = 0
+        refused = written = 0
         for k, boards in enumerate(found):
             try:
                 one = fit_boards(boards, circles)
@@ -94,7 +98,16 @@ def main() -> None:
                 continue
             refused += one.refusal() is not None
             print(f"    {paths[k].name} ({one.report.model}, {one.report.boards} board(s)): {line(one, reference)}")
-        print(f"  one image: {refused} of {len(found)} refused")
+            try:  # as `panomap fit --image IMG` learns it: the board refused, the lines may still give a camera
+                learned = learn_camera(
+                    find_boards(images[k], 0), find_arcs(images[k], circles, image_index=0), circles, LineFitOptions()
+                )
+            except PanomapError as exc:
+                print(f"      fit --image: refused: {exc.summary}")
+                continue
+            written += 1
+            print(f"      fit --image: WRITTEN from the {learned.source}")
+        print(f"  one image: {refused} of {len(found)} boards' cameras refused; fit --image wrote {written}")
         sys.stdout.flush()
 
 

@@ -63,6 +63,41 @@ def test_the_band_holds_the_true_error_at_95_percent_of_the_rings() -> None:
 CONFIGURATIONS = [("equidistant", "odd1", 3, range(60)), ("hyperbolic", "unified", 5, range(50))]
 
 
+def test_the_noise_is_inflated_by_the_residuals_correlation_and_not_for_independent_noise() -> None:
+    """Neighbouring corners' residuals: independent noise correlates by about 0 (clipped at 0: the factor 1), a
+    smooth field of residuals (a detector's bias, a law that cannot follow the camera) by nearly 1 (clipped at
+    0.9: the factor 19)."""
+    from panomap.calibrate.boards.detect import Board
+    from panomap.calibrate.boards.uncertainty import MAX_CORRELATION, residual_correlation
+
+    grid = np.array([(c, r) for r in range(6) for c in range(8)])
+    boards = [Board(k, np.zeros((len(grid), 2)), grid) for k in range(3)]
+    noise = np.random.default_rng(5).normal(0.0, 0.3, (3 * len(grid), 2))
+    assert residual_correlation(noise, boards) < 0.08
+    smooth = np.tile(np.column_stack([np.sin(grid[:, 0] / 4.0), np.cos(grid[:, 1] / 3.0)]), (3, 1)) * 0.3
+    assert residual_correlation(smooth, boards) == MAX_CORRELATION
+    field = smooth - smooth.mean(axis=0)
+    half = field / field.std() * 0.3 + noise  # as much field as noise: about half
+    assert 0.3 < residual_correlation(half, boards) < 0.7
+
+
+def test_a_stretch_along_the_axis_moves_a_board_facing_it_as_its_distance_does() -> None:
+    """The stretch (points ``(x, y, s z)``) seen on a board facing the axis at height h is the board moved h
+    along the axis: the stretch's column equals h times its translation's (why such boards pin no stretch)."""
+    from panomap.calibrate.boards.uncertainty import stretch_column
+
+    params = np.array([480.0, 470.0, 290.0, 0.8])
+    height = 0.7
+    grid = np.array([(c, r) for r in range(5) for c in range(6)], dtype=float)
+    points = np.column_stack([0.05 * grid - 0.1, np.full(len(grid), height)])
+    step = 1e-6
+    up, down = points.copy(), points.copy()
+    up[:, 2] += step
+    down[:, 2] -= step
+    moved = ((project("unified", "down", params, up) - project("unified", "down", params, down)) / (2 * step)).ravel()
+    np.testing.assert_allclose(stretch_column("unified", "down", params, points), height * moved, rtol=1e-5, atol=1e-6)
+
+
 def test_the_band_is_the_linearised_distance_between_two_cameras() -> None:
     """The linear map the band draws through is the distance the outside checks measure between two cameras
     (``lines.agreement.displacement_px``: rays turned by the best rotation, projected back), to 3% for changes of

@@ -41,14 +41,13 @@ from ...errors import PanomapError
 from ...geometry import FloatArray
 from ..circles import ImageCircles
 from ..core.line_report import FittedLine, LineFitReport, RejectedArc, empty_bands
-from ..core.projection_band import ProjectionBand
 from ..lines.angles import annulus_deg, default_handedness
 from ..lines.arcs import EdgeArc
 from ..lines.fit import LineFit, LineFitOptions, vertical_under
 from ..lines.orientation import level_rotation, zero_azimuth
 from ..lines.rays import ALPHA_LIMIT, InverseRadial, pixel_rays
 from .detect import Board
-from .uncertainty import parameter_covariance, projection_band, reach_alpha
+from .uncertainty import board_band
 
 # Fewest corners, over all boards, a fit needs.
 MIN_CORNERS = 24
@@ -157,15 +156,7 @@ def fit_boards(
     rms = {kind: (None if fit is None else float(np.sqrt(np.mean(fit.residuals_px**2)))) for kind, fit in fits.items()}
     vertical = vertical_under(arcs, circles, final.kind, axis, final.params) if arcs else None
     r_max = _farthest(boards, circles.centre) * 1.05
-    # the other laws the choice takes as tied with the chosen one: answers the corners cannot rule out
-    tied = [
-        (k, f.params)
-        for k, f in fits.items()
-        if f is not None and k != final.kind and _bic(f) <= _bic(final) + OWN_LAW_MARGIN
-    ]
-    return _result(
-        final, given, boards, kept_index, sorted(dropped + rejected), rms, options, circles, r_max, vertical, tied
-    )
+    return _result(final, given, boards, kept_index, sorted(dropped + rejected), rms, options, circles, r_max, vertical)
 
 
 def _fit_all(
@@ -526,7 +517,6 @@ def _result(
     circles: ImageCircles,
     r_max: float,
     vertical: tuple[FloatArray, int] | None,
-    tied: Sequence[tuple[str, FloatArray]] = (),
 ) -> LineFit:
     """The camera model, the covariance of its radial coefficients and the report.
 
@@ -598,41 +588,12 @@ def _result(
         corners=int(n),
         corner_rms_px=float(np.sqrt(np.mean(fit.residuals_px**2))),
         board_axis_deg=tuple(float(a) for a in board_axis_deg(fit.poses)),
-        projection=_projection(fit, boards, circles, axis, sigma, tied),
+        # (a law chosen from the corners is not taken as known: the band leaves the camera free to stretch)
+        projection=board_band(
+            fit.kind, axis, fit.params, fit.poses, fit.jacobian, boards, circles, sigma, options.model == "auto"
+        ),
     )
     return LineFit(model, np.asarray(covariance[2:count, 2:count], dtype=np.float64), report)
-
-
-def _projection(
-    fit: _Fit,
-    boards: Sequence[Board],
-    circles: ImageCircles,
-    axis: str,
-    sigma: float,
-    tied: Sequence[tuple[str, FloatArray]],
-) -> ProjectionBand | None:
-    """The table's 95% band under the corners' noise (:mod:`.uncertainty`); None where the rays do not align."""
-    points = board_points(fit.poses, boards)
-    alpha = np.arccos(np.clip(points[:, 2] / np.linalg.norm(points, axis=1), -1.0, 1.0))
-    count = fit.params.size
-    covariance = parameter_covariance(fit.jacobian, sigma)[:count, :count]
-    reach = reach_alpha(fit.kind, axis, fit.params, circles, float(alpha.max()))
-    try:
-        return projection_band(
-            fit.kind,
-            axis,
-            fit.params,
-            covariance,
-            (float(alpha.min()), float(alpha.max())),
-            reach,
-            sigma_px=sigma,
-            corners=int(fit.residuals_px.size),
-            boards=len(boards),
-            parameters=int(fit.params.size + fit.poses.size),
-            alternatives=tied,
-        )
-    except PanomapError:
-        return None
 
 
 def _places(board: Board) -> list[tuple[int, int]]:

@@ -4,10 +4,21 @@ Convention: as :mod:`.fit` (pixels px; rays in the camera's axes, alpha rad from
 phi the image angle); a camera is a radial kind and ``params = [u0, v0, *coefficients]``.
 
 mrcal's method, for this radial camera. The corners' noise sigma (px per coordinate) is the fit's residuals'
-over its degrees of freedom; the covariance of every parameter fitted (centre, coefficients, each board's pose)
+over its degrees of freedom, never known beforehand. Residuals of neighbouring corners are correlated on real
+boards (0.1-0.7; a detector's bias and what a rotationally symmetric law cannot follow vary smoothly across a
+board), and correlated residuals hold fewer independent measurements: sigma^2 is taken ``(1 + c) / (1 - c)``
+times, c their correlation along a board's rows and columns (the long-run variance of a sequence whose
+neighbours correlate by c; simulated corners with independent noise give c = 0 and the factor 1). The
+covariance of every parameter fitted (centre, coefficients, each board's pose)
 is ``sigma^2 (J^T J)^-1`` with J the fit's Jacobian; the camera's block of it is its covariance with the poses
 marginalised (what they absorbed is in it: a centre moved and every board turned with it explain the corners
 nearly as well, and the block says so).
+
+A law chosen from the corners is not taken as known. Boards pin a camera's stretch along its axis (points
+``(x, y, s z)``: a board facing the axis is the same squares under every s) only through their perspective,
+and a two-parameter law fitted to one board pins it by its form instead; so where the law was chosen (not
+given) the stretch is fitted too, in the covariance, and drawn with the rest. Given the law (the simulator's
+true one), the band is the noise's alone.
 
 What is "the same ray" under two cameras? Boards pin the camera's shape, not its turn: a rotation of the whole
 frame is taken up by their poses, and the table's turn is set apart (the azimuth origin, the tilt from vertical
@@ -20,8 +31,12 @@ pixel's shifts: its band is their 95th percentile, the ring's band that of the l
 (the true error of a camera fitted to these corners' like lies within it 95% of the time:
 ``tests/test_board_uncertainty.py``).
 
-What it does not cover: a radial law that cannot follow the camera (the choice of the law is not drawn), and
-corners found off alike (a detector's bias): the band is the noise's share of the error, not all of it.
+The band is judged inside the boards' field: the angles from the axis between which 90% of the corners lie
+(their 5th and 95th percentiles; the outermost corners of one board do not make it).
+
+What it does not cover: a camera that is not rotationally symmetric (two focal lengths, an affine term: the
+real sets' calibrations have them, and one board lies 2-4.5 px from them where its band says 1.6-2), and
+corners found off alike: the band is the noise's share of the error, not all of it.
 """
 
 from __future__ import annotations
@@ -36,8 +51,9 @@ from ...errors import PanomapError
 from ...geometry import FloatArray
 from ..circles import ImageCircles
 from ..core.projection_band import ProjectionBand
-from ..lines.agreement import RING_AZIMUTHS, Camera, displacement_px, ring_alphas
+from ..lines.agreement import RING_AZIMUTHS, ring_alphas
 from ..lines.rays import InverseRadial
+from .detect import Board
 
 # Draws of the camera's parameters from their covariance (the 95th percentile's own error: about 2% of it).
 DRAWS = 2000
@@ -45,6 +61,95 @@ DRAWS = 2000
 SEED = 20070601
 # Relative step of the central differences (at least this, absolute).
 STEP = 1e-6
+
+
+# The boards' field: the angles from the axis where this share of the corners lie (percentiles).
+FIELD_PERCENT = (5.0, 95.0)
+# The residuals' neighbour correlation is taken up to this (a smooth field of residuals: the factor 19).
+MAX_CORRELATION = 0.9
+
+
+def board_band(
+    kind: str,
+    axis: str,
+    params: FloatArray,
+    poses: FloatArray,
+    jacobian: FloatArray,
+    boards: Sequence[Board],
+    circles: ImageCircles,
+    sigma_px: float,
+    stretch: bool,
+) -> ProjectionBand | None:
+    """The band of a board fit (:func:`.fit.fit_boards`): the camera ``params`` (p,), the boards' ``poses``
+    (B, 6), the Jacobian (2N, p + 6B) of the corners' residuals at the fit, the noise ``sigma_px`` per
+    coordinate from its residuals; ``stretch``: the camera left free to stretch along its axis (a law chosen,
+    not given). None where the rays of the boards' field do not align a frame."""
+    from .fit import board_points, project
+
+    points = board_points(poses, boards)
+    observed = np.concatenate([b.pixels for b in boards])
+    residuals = project(kind, axis, params, points) - observed
+    rho = residual_correlation(residuals, boards)
+    factor = (1.0 + rho) / (1.0 - rho)
+    count = params.size
+    if stretch:
+        jacobian = np.column_stack(
+            [jacobian[:, :count], stretch_column(kind, axis, params, points), jacobian[:, count:]]
+        )
+    covariance = parameter_covariance(jacobian, sigma_px * math.sqrt(factor))[: count + stretch, : count + stretch]
+    alpha = np.arccos(np.clip(points[:, 2] / np.linalg.norm(points, axis=1), -1.0, 1.0))
+    reach = reach_alpha(kind, axis, params, circles, float(alpha.max()))
+    try:
+        return projection_band(
+            kind,
+            axis,
+            params,
+            covariance,
+            (float(np.percentile(alpha, FIELD_PERCENT[0])), float(np.percentile(alpha, FIELD_PERCENT[1]))),
+            reach,
+            sigma_px=sigma_px,
+            corners=len(observed),
+            boards=len(boards),
+            parameters=int(params.size + poses.size),
+            stretch=stretch,
+            correlation=rho,
+        )
+    except PanomapError:
+        return None
+
+
+def residual_correlation(residuals: FloatArray, boards: Sequence[Board]) -> float:
+    """The correlation of the residuals (N, 2) px of neighbouring corners (next along a board's row or column),
+    both coordinates pooled, clipped to [0, ``MAX_CORRELATION``]."""
+    first, second = [], []
+    start = 0
+    for board in boards:
+        own = residuals[start : start + len(board.pixels)]
+        start += len(board.pixels)
+        place = {(int(c), int(r)): k for k, (c, r) in enumerate(board.grid)}
+        for (c, r), k in place.items():
+            for step in ((c + 1, r), (c, r + 1)):
+                j = place.get(step)
+                if j is not None:
+                    first.append(own[k])
+                    second.append(own[j])
+    if not first:
+        return 0.0
+    a, b = np.asarray(first), np.asarray(second)
+    a, b = a - residuals.mean(axis=0), b - residuals.mean(axis=0)
+    rho = float(np.sum(a * b) / math.sqrt(float(np.sum(a * a) * np.sum(b * b)) or 1.0))
+    return min(max(rho, 0.0), MAX_CORRELATION)
+
+
+def stretch_column(kind: str, axis: str, params: FloatArray, points: FloatArray) -> FloatArray:
+    """The corners' pixels' change (2N,) px per unit stretch of the camera along its axis (points ``(x, y, s z)``,
+    at s = 1), in the residuals' order (u, v of each corner)."""
+    from .fit import project
+
+    up, down = points.copy(), points.copy()
+    up[:, 2] *= 1.0 + STEP
+    down[:, 2] *= 1.0 - STEP
+    return np.asarray(((project(kind, axis, params, up) - project(kind, axis, params, down)) / (2 * STEP)).ravel())
 
 
 def parameter_covariance(jacobian: FloatArray, sigma_px: float) -> FloatArray:
@@ -69,14 +174,16 @@ def projection_band(
     corners: int,
     boards: int,
     parameters: int,
-    alternatives: Sequence[tuple[str, FloatArray]] = (),
+    stretch: bool = False,
+    correlation: float = 0.0,
 ) -> ProjectionBand:
     """The 95% band of the camera ``params`` (p,) whose covariance (p, p) is ``covariance`` (the poses
     marginalised), on the rings of :func:`..lines.agreement.ring_alphas` up to ``reach_alpha`` (rad), the
-    rotation aligned over the rings inside ``field_alpha`` (rad, the corners' angles from the axis); the
-    farthest of ``alternatives`` (kind, params: other laws' cameras the corners do not rule out) added.
+    rotation aligned over the rings inside ``field_alpha`` (rad, the corners' angles from the axis). With
+    ``stretch`` the last row and column of ``covariance`` are the stretch's (:func:`stretch_column`).
 
-    ``sigma_px``, ``corners``, ``boards`` and ``parameters`` are what the band reports of the fit.
+    ``sigma_px``, ``corners``, ``boards``, ``parameters`` and ``correlation`` are what the band reports of the
+    fit.
     """
     alpha = ring_alphas(reach_alpha)
     field_deg = (math.degrees(field_alpha[0]), math.degrees(field_alpha[1]))
@@ -85,10 +192,10 @@ def projection_band(
         tuple(np.degrees(alpha).tolist()), tuple(np.degrees(phi).tolist()), (), (), field_deg, sigma_px, 0, 0, 0
     )
     aligned = draft.inside()
-    shifts = shift_map(kind, axis, params, alpha, phi, aligned)  # (m, k, 2, p)
+    shifts = shift_map(kind, axis, params, alpha, phi, aligned, stretch)  # (m, k, 2, p)
     values, vectors = np.linalg.eigh((covariance + covariance.T) / 2)
     root = vectors * np.sqrt(np.clip(values, 0.0, None))
-    draws = root @ np.random.default_rng(SEED).standard_normal((params.size, DRAWS))  # (p, DRAWS)
+    draws = root @ np.random.default_rng(SEED).standard_normal((covariance.shape[0], DRAWS))  # (p, DRAWS)
     pixel_band = np.empty((alpha.size, phi.size))
     ring_band = np.empty(alpha.size)
     rank = math.ceil(0.95 * DRAWS) - 1  # the 95th percentile: the draw of this rank
@@ -96,9 +203,8 @@ def projection_band(
         moved = np.hypot(*np.moveaxis(shifts[i] @ draws, 1, 0))  # (k, DRAWS)
         pixel_band[i] = np.partition(moved, rank, axis=1)[:, rank]
         ring_band[i] = np.partition(moved.max(axis=0), rank)[rank]
-    far, farthest = _alternatives(kind, axis, params, alternatives, alpha, aligned)
-    pixel_band = np.where(np.isfinite(pixel_band), pixel_band, np.inf) + far[:, None]
-    ring_band = np.where(np.isfinite(ring_band), ring_band, np.inf) + far
+    pixel_band = np.where(np.isfinite(pixel_band), pixel_band, np.inf)
+    ring_band = np.where(np.isfinite(ring_band), ring_band, np.inf)
     return ProjectionBand(
         alpha_deg=draft.alpha_deg,
         azimuth_deg=draft.azimuth_deg,
@@ -109,49 +215,33 @@ def projection_band(
         corners=corners,
         boards=boards,
         parameters=parameters,
-        alternative_px=tuple(float(x) for x in far) if alternatives else (),
-        farthest=farthest,
+        correlation=correlation,
     )
 
 
-def _alternatives(
+def shift_map(
     kind: str,
     axis: str,
     params: FloatArray,
-    alternatives: Sequence[tuple[str, FloatArray]],
     alpha: FloatArray,
+    phi: FloatArray,
     aligned: FloatArray,
-) -> tuple[FloatArray, str]:
-    """The farthest alternative's distance (m,) px per ring (:func:`..lines.agreement.displacement_px`: the rays
-    turned by the best rotation over the ``aligned`` rings for those, over all rings for the rest), and which."""
-    if not alternatives:
-        return np.zeros(alpha.size), ""
-    chosen = Camera(kind, params, "chosen")
-    inside = np.asarray(aligned, dtype=bool)
-    distances = np.zeros((len(alternatives), alpha.size))
-    for j, (other_kind, other) in enumerate(alternatives):
-        camera = Camera(other_kind, other, other_kind)
-        distances[j] = displacement_px(chosen, camera, axis, alpha)
-        if inside.any():
-            distances[j, inside] = displacement_px(chosen, camera, axis, alpha[inside])
-    widest = int(np.argmax(np.where(inside, distances.max(axis=0), -1.0)))
-    return np.asarray(distances.max(axis=0)), f"the {alternatives[int(np.argmax(distances[:, widest]))][0]} law"
-
-
-def shift_map(
-    kind: str, axis: str, params: FloatArray, alpha: FloatArray, phi: FloatArray, aligned: FloatArray
+    stretch: bool = False,
 ) -> FloatArray:
-    """The linear map (m, k, 2, p) from a change of the camera's parameters (p,) to the shift (px) of its pixel
-    of each ray on rings ``alpha`` (m,) rad at azimuths ``phi`` (k,) rad, after the rotation that best aligns the
-    rays over the rings ``aligned`` (m,) bool (least squares on the rays: each pixel's shift weighed by the
-    ray's turn per px, radially ``1 / f_r'``, along the ring ``sin(alpha) / r``)."""
+    """The linear map (m, k, 2, p) from a change of the camera's parameters (p,; with ``stretch`` the stretch
+    along its axis last) to the shift (px) of its pixel of each ray on rings ``alpha`` (m,) rad at azimuths
+    ``phi`` (k,) rad, after the rotation that best aligns the rays over the rings ``aligned`` (m,) bool (least
+    squares on the rays: each pixel's shift weighed by the ray's turn per px, radially ``1 / f_r'``, along the
+    ring ``sin(alpha) / r``)."""
     from .fit import project
 
     sin_a, cos_a = np.sin(alpha)[:, None], np.cos(alpha)[:, None]
     rays = np.stack(np.broadcast_arrays(sin_a * np.cos(phi), sin_a * np.sin(phi), cos_a), axis=-1).reshape(-1, 3)
-    count = params.size
+    count = params.size + stretch
     by_param = np.empty((rays.shape[0], 2, count))
-    for j in range(count):
+    if stretch:
+        by_param[:, :, -1] = stretch_column(kind, axis, params, rays).reshape(-1, 2)
+    for j in range(params.size):
         step = STEP * max(1.0, abs(float(params[j])))
         up, down = params.copy(), params.copy()
         up[j] += step

@@ -5,7 +5,8 @@ Convention: rings are angles alpha (deg) of a ray from the pole the image centre
 
 What it says: where, across the image, the table's pixel of a ray would lie had the corners been found with
 other noise of the same size (:mod:`..boards.uncertainty` makes it). The band covers the corners' noise carried
-through the fit, not a radial law that cannot follow the camera, nor corners found off by the same amount.
+through the fit (and, for a law chosen from the corners, a stretch of the camera along its axis); not a camera
+that is not rotationally symmetric, nor corners found off by the same amount.
 """
 
 from __future__ import annotations
@@ -36,22 +37,22 @@ class ProjectionBand:
     azimuth_deg : (k,) tuple of float
         The azimuths sampled on each ring, deg.
     pixel_band_px : (m, k) tuple of tuples of float
-        The 95th percentile of the distance (px) a pixel there moves with the corners' noise, plus the ring's
-        ``alternative_px``.
+        The 95th percentile of the distance (px) a pixel there moves with the corners' noise.
     ring_band_px : (m,) tuple of float
-        The 95th percentile of the largest such distance along each ring (px), plus ``alternative_px``: the
-        ring's band.
-    alternative_px : (m,) tuple of float
-        The largest distance (px) on each ring from the camera of another radial law that explains the corners
-        as well (within the choice's margin): an answer the corners cannot rule out, not noise about this one.
-    farthest : str
-        Which law that is (at the widest ring inside the field); empty where none was close.
+        The 95th percentile of the largest such distance along each ring (px): the ring's band.
     field_deg : (low, high)
-        The angles from the axis (deg) the boards' corners span: where the band is judged.
+        The angles from the axis (deg) between which 90% of the boards' corners lie (their 5th and 95th
+        percentiles): where the band is judged.
     sigma_px : float
-        The corners' noise per coordinate (px) carried through the fit.
+        The corners' noise per coordinate (px): the fit's residuals over its degrees of freedom.
     corners, boards, parameters : int
         What the fit saw: the corners, the boards, and the parameters fitted (camera and poses).
+    correlation : float
+        The residuals' correlation between neighbouring corners of a board (0-0.9): the noise's variance was
+        carried through the fit ``(1 + c) / (1 - c)`` times, as correlated residuals hold fewer independent
+        measurements.
+    stretch : bool
+        Whether the camera was left free to stretch along its axis (a law chosen from the corners, not given).
     """
 
     alpha_deg: tuple[float, ...]
@@ -63,8 +64,8 @@ class ProjectionBand:
     corners: int
     boards: int
     parameters: int
-    alternative_px: tuple[float, ...] = ()
-    farthest: str = ""
+    correlation: float = 0.0
+    stretch: bool = False
 
     def inside(self) -> FloatArray:
         """Mask (m,) of the rings inside the boards' field (a ring within half a step of it counts)."""
@@ -105,21 +106,9 @@ class ProjectionBand:
             f"the corners' noise ({self.sigma_px:.2f} px per coordinate, from {self.corners} corners in {pictures} "
             f"picture(s), {self.parameters} parameters fitted) carried through the fit moves the table's pixels by "
             f"up to {worst_px:.1f} px (95%) at {at_deg:.0f} deg from the axis, inside the boards' field "
-            f"({low:.0f}-{high:.0f} deg)"
-            + (
-                f", {self._law_at(at_deg):.1f} px of it {self.farthest}'s camera, which fits them as well"
-                if self.farthest
-                else ""
-            )
-            + f"; a table needs its 95% band within {MAX_BAND_PX:.0f} px there"
+            f"({low:.0f}-{high:.0f} deg)" + f"; a table needs its 95% band within {MAX_BAND_PX:.0f} px there"
         )
         return refusal(summary, figures)
-
-    def _law_at(self, at_deg: float) -> float:
-        """The alternative law's distance (px) at the ring ``at_deg`` (0 without one)."""
-        if not self.alternative_px:
-            return 0.0
-        return float(self.alternative_px[int(np.argmin(np.abs(np.asarray(self.alpha_deg) - at_deg)))])
 
     def sentences(self) -> list[str]:
         """The band in a line, for the terminal."""
@@ -137,11 +126,6 @@ class ProjectionBand:
             f"projection uncertainty (the corners' {self.sigma_px:.2f} px of noise through the fit, 95%): within "
             f"the boards' field ({self.field_deg[0]:.0f}-{self.field_deg[1]:.0f} deg off the axis) median "
             f"{median:.2f} px, worst ring {worst_px:.2f} px at {at_deg:.0f} deg{beyond}"
-            + (
-                f" ({self._law_at(at_deg):.2f} px of it {self.farthest}, which fits the corners as well)"
-                if self.farthest
-                else ""
-            )
         ]
 
     def to_dict(self) -> dict[str, Any]:
@@ -155,8 +139,8 @@ class ProjectionBand:
             "corners": self.corners,
             "boards": self.boards,
             "parameters": self.parameters,
-            "alternative_px": list(self.alternative_px),
-            "farthest": self.farthest,
+            "correlation": self.correlation,
+            "stretch": self.stretch,
         }
 
     @classmethod
@@ -173,18 +157,13 @@ class ProjectionBand:
                 corners=int(data["corners"]),
                 boards=int(data["boards"]),
                 parameters=int(data["parameters"]),
-                alternative_px=tuple(float(x) for x in data.get("alternative_px", ())),
-                farthest=str(data.get("farthest", "")),
+                correlation=float(data.get("correlation", 0.0)),
+                stretch=bool(data.get("stretch", False)),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise PanomapError(f"the projection uncertainty of the fit report is malformed ({exc})") from None
         m, k = len(band.alpha_deg), len(band.azimuth_deg)
-        if (
-            len(band.ring_band_px) != m
-            or len(band.pixel_band_px) != m
-            or any(len(r) != k for r in band.pixel_band_px)
-            or len(band.alternative_px) not in (0, m)
-        ):
+        if len(band.ring_band_px) != m or len(band.pixel_band_px) != m or any(len(r) != k for r in band.pixel_band_px):
             raise PanomapError(
                 f"the projection uncertainty of the fit report is malformed ({m} rings, {k} azimuths, bands of "
                 "other shapes)"
