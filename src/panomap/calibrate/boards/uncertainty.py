@@ -216,6 +216,7 @@ def projection_band(
         boards=boards,
         parameters=parameters,
         correlation=correlation,
+        stretch=stretch,
     )
 
 

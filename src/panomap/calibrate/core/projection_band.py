@@ -104,11 +104,21 @@ class ProjectionBand:
         summary = f"{who} not pin the camera ({worst_px:.1f} px at 95% at {at_deg:.0f} deg off the axis): {advice}"
         figures = (
             f"the corners' noise ({self.sigma_px:.2f} px per coordinate, from {self.corners} corners in {pictures} "
-            f"picture(s), {self.parameters} parameters fitted) carried through the fit moves the table's pixels by "
-            f"up to {worst_px:.1f} px (95%) at {at_deg:.0f} deg from the axis, inside the boards' field "
-            f"({low:.0f}-{high:.0f} deg)" + f"; a table needs its 95% band within {MAX_BAND_PX:.0f} px there"
+            f"picture(s), {self.parameters} parameters fitted{self._how()}) carried through the fit moves the "
+            f"table's pixels by up to {worst_px:.1f} px (95%) at {at_deg:.0f} deg from the axis, inside the boards' "
+            f"field ({low:.0f}-{high:.0f} deg, 90% of the corners); a table needs its 95% band within "
+            f"{MAX_BAND_PX:.0f} px there"
         )
         return refusal(summary, figures)
+
+    def _how(self) -> str:
+        """What the noise was carried with: its correlation's factor, the stretch."""
+        factor = (1.0 + self.correlation) / (1.0 - self.correlation)
+        return (
+            f"; its variance x{factor:.1f} for the residuals' correlation {self.correlation:.2f}"
+            if factor > 1.005
+            else ""
+        ) + ("; the stretch along the axis free" if self.stretch else "")
 
     def sentences(self) -> list[str]:
         """The band in a line, for the terminal."""
@@ -123,7 +133,8 @@ class ProjectionBand:
             else ""
         )
         return [
-            f"projection uncertainty (the corners' {self.sigma_px:.2f} px of noise through the fit, 95%): within "
+            f"projection uncertainty (the corners' {self.sigma_px:.2f} px of noise{self._how()}, through the fit, "
+            "95%): within "
             f"the boards' field ({self.field_deg[0]:.0f}-{self.field_deg[1]:.0f} deg off the axis) median "
             f"{median:.2f} px, worst ring {worst_px:.2f} px at {at_deg:.0f} deg{beyond}"
         ]
