@@ -1,6 +1,8 @@
 """The projection uncertainty of a checkerboard fit (issue 54, item 2), against the real sets' calibrations.
 
 Run: ``PYTHONPATH=src python bench/bench_board_uncertainty.py [--data ../shared/data/real] [--only SET]``
+and ``... --simulated`` for the coverage on simulated boards (``tests/test_board_uncertainty.py``'s cameras and
+truth: each condition's share of the rings inside the boards' field whose true error lies within their band).
 
 For each real set (each folder's SOURCE.md): the boards of every image pooled, and each image alone, fitted
 (``fit_boards``); each fit's 95% band (:mod:`panomap.calibrate.boards.uncertainty`) ring by ring inside the
@@ -66,11 +68,46 @@ def line(fit: LineFit, reference) -> str:
     )
 
 
+# Simulated conditions: camera, law (given), boards, noise px per coordinate, sets.
+SIMULATED = [
+    ("equidistant", "odd1", 3, 0.3, 200),
+    ("hyperbolic", "unified", 5, 0.3, 100),
+    ("equidistant", "odd1", 6, 0.5, 30),
+    ("parabolic", "unified", 8, 0.2, 30),
+]
+
+
+def simulated() -> None:
+    """Coverage per condition (the sets seeded 0, 1, ...; a set's rings share its fit's error)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from test_board_fit import boards_of, level
+    from test_board_uncertainty import ring_errors as true_ring_errors
+
+    from helpers import true_circles
+
+    for name, law, count, noise_px, sets in SIMULATED:
+        camera = level(name)
+        covered: list[bool] = []
+        start = time.perf_counter()
+        for seed in range(sets):
+            boards = boards_of(camera, count, seed=seed, noise_px=noise_px)
+            fit = fit_boards(boards, true_circles(camera), LineFitOptions(model=law))
+            error, band = true_ring_errors(fit, camera)
+            covered += list(error <= band)
+        seconds = time.perf_counter() - start
+        print(f"{name}, {count} boards, {noise_px} px, {sets} sets: {np.mean(covered):.1%} ({seconds:.0f} s)")
+        sys.stdout.flush()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[1].parent / "shared/data/real")
     parser.add_argument("--only", help="one set (its folder's name)")
+    parser.add_argument("--simulated", action="store_true", help="the coverage on simulated boards instead")
     args = parser.parse_args()
+    if args.simulated:
+        simulated()
+        return
     if not args.data.is_dir():
         print(f"no real data at {args.data}: nothing to measure")
         return

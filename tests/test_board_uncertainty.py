@@ -42,16 +42,18 @@ def ring_errors(fit, camera) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1500)  # 200 fits: 3-4 min on two free cores, 11 on a busy machine
 def test_the_band_holds_the_true_error_at_95_percent_of_the_rings() -> None:
     """Coverage on many seeded sets of boards (their poses and noise drawn afresh): 95% +- 3%.
 
     The rings of one set share its fit's error, so a set is about one sample: 40 sets of the fisheye gave 99.8%,
     200 give 94.1%. Measured (the noise read from the residuals; the correlation of independent noise 0, so its
     factor 1; the law given, so no stretch): a fisheye (the equidistant law) before three boards, 200 sets:
-    94.1% of the rings (the worst ring's error 1.66 times its band); a hyperbolic mirror before five, 30 sets:
-    96.0%. Elsewhere (not run here): the fisheye before six boards with 0.5 px of noise, 30 sets,
-    95.0%; a parabolic mirror before eight with 0.2 px, 30 sets, 87.4% (the unified law's curvature in xi near
-    the parabola's 1, which the linearised band leaves out: the worst condition measured).
+    94.1% of the rings (the worst ring's error 1.66 times its band). Elsewhere (``bench/bench_board_uncertainty.py
+    --simulated``, not run here): a hyperbolic mirror before five boards, 100 sets, 94.2% (30 sets: 96.0%); the
+    fisheye before six with 0.5 px of noise, 30 sets, 95.0%; a parabolic mirror before eight with 0.2 px, 30
+    sets, 87.4% (the worst condition measured, not yet explained: only 30 sets, and the linearised band leaves
+    out the fit's curvature).
     """
     covered: list[bool] = []
     for name, law, count, seeds in CONFIGURATIONS:
@@ -63,7 +65,7 @@ def test_the_band_holds_the_true_error_at_95_percent_of_the_rings() -> None:
     assert 0.92 <= np.mean(covered) <= 0.98, np.mean(covered)
 
 
-CONFIGURATIONS = [("equidistant", "odd1", 3, range(200)), ("hyperbolic", "unified", 5, range(30))]
+CONFIGURATIONS = [("equidistant", "odd1", 3, range(200))]
 
 
 def test_the_noise_is_inflated_by_the_residuals_correlation_and_not_for_independent_noise() -> None:
