@@ -189,3 +189,29 @@ def test_the_band_travels_with_the_table_and_info_draws_it(tmp_path) -> None:
     refused = run("info", tmp_path / "bare.npz", "--uncertainty-plot", tmp_path / "none.png")
     assert_one_line_error(refused, "bare.npz", "holds no projection uncertainty")
     assert not (tmp_path / "none.png").exists()
+
+
+def test_the_refusal_names_the_pictures_to_add_by_where_the_band_is_wide() -> None:
+    """A band over 2 px inside the boards' field refuses in one line of at most 160 characters, asking for a
+    board nearer the rim where the widest ring is the field's outer end, elsewhere for one board; at 2 px or
+    under, none. The figures (the noise, its correlation's factor, the stretch) on the next line."""
+    alpha = tuple(float(a) for a in range(20, 101, 5))
+
+    def band(ring: list[float], boards: int) -> ProjectionBand:
+        return ProjectionBand(
+            alpha, (0.0, 180.0), tuple((x, x) for x in ring), tuple(ring), (30.0, 90.0), 0.3, 300, boards, 40,
+            correlation=0.3, stretch=True,
+        )  # fmt: skip
+
+    rising = [0.03 * (a - 20.0) for a in alpha]  # 2.1 px at 90 deg, the field's outer end
+    first, figures = (band(rising, 5).refusal(3) or "").split("\n")
+    assert first == (
+        "the 5 checkerboards do not pin the camera (2.1 px at 95% at 90 deg off the axis): add pictures with a board "
+        "nearer the image circle's rim, tilted"
+    )
+    assert "variance x1.9 for the residuals' correlation 0.30; the stretch along the axis free" in figures
+    assert "inside the boards' field (30-90 deg, 90% of the corners)" in figures
+    one = band([2.04] * len(alpha), 1).refusal(1) or ""
+    assert one.startswith("the checkerboard does not pin the camera (2.04 px at 95%") and len(one.split("\n")[0]) <= 160
+    assert band([2.0] * len(alpha), 1).refusal(1) is None
+    assert band([3.0 if a > 95 else 1.0 for a in alpha], 1).refusal(1) is None  # beyond the field: not judged

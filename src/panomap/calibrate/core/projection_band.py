@@ -101,7 +101,8 @@ class ProjectionBand:
         else:
             advice = "add pictures with the boards tilted 30-60 deg, near and far"
         who = "the checkerboard does" if self.boards == 1 else f"the {self.boards} checkerboards do"
-        summary = f"{who} not pin the camera ({worst_px:.1f} px at 95% at {at_deg:.0f} deg off the axis): {advice}"
+        shown = f"{worst_px:.1f}" if round(worst_px, 1) > MAX_BAND_PX else f"{worst_px:.2f}"  # (not "2.0 px" over 2)
+        summary = f"{who} not pin the camera ({shown} px at 95% at {at_deg:.0f} deg off the axis): {advice}"
         figures = (
             f"the corners' noise ({self.sigma_px:.2f} px per coordinate, from {self.corners} corners in {pictures} "
             f"picture(s), {self.parameters} parameters fitted{self._how()}) carried through the fit moves the "
