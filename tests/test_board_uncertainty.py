@@ -100,7 +100,8 @@ def test_a_stretch_along_the_axis_moves_a_board_facing_it_as_its_distance_does()
     up[:, 2] += step
     down[:, 2] -= step
     moved = ((project("unified", "down", params, up) - project("unified", "down", params, down)) / (2 * step)).ravel()
-    np.testing.assert_allclose(stretch_column("unified", "down", params, points), height * moved, rtol=1e-5, atol=1e-6)
+    stretched = stretch_column(project, "unified", "down", params, points)
+    np.testing.assert_allclose(stretched, height * moved, rtol=1e-5, atol=1e-6)
 
 
 def test_the_band_is_the_linearised_distance_between_two_cameras() -> None:
@@ -117,7 +118,7 @@ def test_the_band_is_the_linearised_distance_between_two_cameras() -> None:
         ("odd1", np.array([480.0, 470.0, 270.0]), np.array([3.0, -2.0, 2.7])),
         ("unified", np.array([480.0, 470.0, 290.0, 0.8]), np.array([1.0, 2.0, -0.8, 0.01])),
     ):
-        shifts = shift_map(kind, "down", params, alpha, phi, np.ones(alpha.size, dtype=bool))
+        shifts = shift_map(project, kind, "down", params, alpha, phi, np.ones(alpha.size, dtype=bool))
         linear = np.hypot(*np.moveaxis(shifts @ change, -1, 0)).max(axis=1)
         measured = displacement_px(Camera(kind, params, "a"), Camera(kind, params + change, "b"), "down", alpha)
         assert np.all(measured > 0.5), measured
@@ -189,6 +190,9 @@ def test_the_band_travels_with_the_table_and_info_draws_it(tmp_path) -> None:
     refused = run("info", tmp_path / "bare.npz", "--uncertainty-plot", tmp_path / "none.png")
     assert_one_line_error(refused, "bare.npz", "holds no projection uncertainty")
     assert not (tmp_path / "none.png").exists()
+    (tmp_path / "lm.csv").write_text("u,v,X,Y,Z\n")
+    landmarks = run("fit", tmp_path / "lm.csv", "-o", tmp_path / "lm.npz", "--uncertainty-plot", tmp_path / "lm.png")
+    assert_one_line_error(landmarks, "--uncertainty-plot draws a camera learned from checkerboards", exit_code=2)
 
 
 def test_the_refusal_names_the_pictures_to_add_by_where_the_band_is_wide() -> None:

@@ -307,15 +307,13 @@ def fit(
             videos, video_frames, uncertainty_plot,
         )  # fmt: skip
         return
-    if uncertainty_plot is not None:
-        raise click.UsageError("--uncertainty-plot draws a camera learned from checkerboards (--image, no LANDMARKS)")
     if videos:
         raise click.UsageError("--video pools frames to learn from lines (no LANDMARKS); a landmark fit takes --image "
                                "VIDEO --frame-time SECONDS")  # fmt: skip
     size = _image_size(image_size)
     image = check_landmark_fit_options(
         landmarks, output, images, centre, table_size, model, refine_centre, plot, overlay,
-        azimuth_zero, handedness, camera_height,
+        azimuth_zero, handedness, camera_height, uncertainty_plot,
     )  # fmt: skip
     pairs = read_landmarks(landmarks)
     if camera is None and pairs.camera is None:

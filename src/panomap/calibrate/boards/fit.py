@@ -590,7 +590,17 @@ def _result(
         board_axis_deg=tuple(float(a) for a in board_axis_deg(fit.poses)),
         # (a law chosen from the corners is not taken as known: the band leaves the camera free to stretch)
         projection=board_band(
-            fit.kind, axis, fit.params, fit.poses, fit.jacobian, boards, circles, sigma, options.model == "auto"
+            project,
+            fit.kind,
+            axis,
+            fit.params,
+            fit.poses,
+            board_points(fit.poses, boards),
+            fit.jacobian,
+            boards,
+            circles,
+            sigma,
+            options.model == "auto",
         ),
     )
     return LineFit(model, np.asarray(covariance[2:count, 2:count], dtype=np.float64), report)

@@ -42,7 +42,7 @@ corners found off alike: the band is the noise's share of the error, not all of 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -54,6 +54,10 @@ from ..core.projection_band import ProjectionBand
 from ..lines.agreement import RING_AZIMUTHS, ring_alphas
 from ..lines.rays import InverseRadial
 from .detect import Board
+
+#: The camera's projection: pixels (n, 2) of points (n, 3) under ``(kind, axis, params)`` (:func:`.fit.project`,
+#: handed in: this module is below the fit).
+Project = Callable[[str, str, FloatArray, FloatArray], FloatArray]
 
 # Draws of the camera's parameters from their covariance (the 95th percentile's own error: about 2% of it).
 DRAWS = 2000
@@ -70,23 +74,23 @@ MAX_CORRELATION = 0.9
 
 
 def board_band(
+    project: Project,
     kind: str,
     axis: str,
     params: FloatArray,
     poses: FloatArray,
+    points: FloatArray,
     jacobian: FloatArray,
     boards: Sequence[Board],
     circles: ImageCircles,
     sigma_px: float,
     stretch: bool,
 ) -> ProjectionBand | None:
-    """The band of a board fit (:func:`.fit.fit_boards`): the camera ``params`` (p,), the boards' ``poses``
-    (B, 6), the Jacobian (2N, p + 6B) of the corners' residuals at the fit, the noise ``sigma_px`` per
-    coordinate from its residuals; ``stretch``: the camera left free to stretch along its axis (a law chosen,
-    not given). None where the rays of the boards' field do not align a frame."""
-    from .fit import board_points, project
-
-    points = board_points(poses, boards)
+    """The band of a board fit (:func:`.fit.fit_boards`): the camera ``params`` (p,) under ``project``, the
+    boards' ``poses`` (B, 6) and their corners ``points`` (N, 3) in the camera's axes, the Jacobian (2N, p + 6B)
+    of the corners' residuals at the fit, the noise ``sigma_px`` per coordinate from its residuals;
+    ``stretch``: the camera left free to stretch along its axis (a law chosen, not given). None where the rays
+    of the boards' field do not align a frame."""
     observed = np.concatenate([b.pixels for b in boards])
     residuals = project(kind, axis, params, points) - observed
     rho = residual_correlation(residuals, boards)
@@ -94,13 +98,14 @@ def board_band(
     count = params.size
     if stretch:
         jacobian = np.column_stack(
-            [jacobian[:, :count], stretch_column(kind, axis, params, points), jacobian[:, count:]]
+            [jacobian[:, :count], stretch_column(project, kind, axis, params, points), jacobian[:, count:]]
         )
     covariance = parameter_covariance(jacobian, sigma_px * math.sqrt(factor))[: count + stretch, : count + stretch]
     alpha = np.arccos(np.clip(points[:, 2] / np.linalg.norm(points, axis=1), -1.0, 1.0))
     reach = reach_alpha(kind, axis, params, circles, float(alpha.max()))
     try:
         return projection_band(
+            project,
             kind,
             axis,
             params,
@@ -141,11 +146,9 @@ def residual_correlation(residuals: FloatArray, boards: Sequence[Board]) -> floa
     return min(max(rho, 0.0), MAX_CORRELATION)
 
 
-def stretch_column(kind: str, axis: str, params: FloatArray, points: FloatArray) -> FloatArray:
+def stretch_column(project: Project, kind: str, axis: str, params: FloatArray, points: FloatArray) -> FloatArray:
     """The corners' pixels' change (2N,) px per unit stretch of the camera along its axis (points ``(x, y, s z)``,
     at s = 1), in the residuals' order (u, v of each corner)."""
-    from .fit import project
-
     up, down = points.copy(), points.copy()
     up[:, 2] *= 1.0 + STEP
     down[:, 2] *= 1.0 - STEP
@@ -163,6 +166,7 @@ def parameter_covariance(jacobian: FloatArray, sigma_px: float) -> FloatArray:
 
 
 def projection_band(
+    project: Project,
     kind: str,
     axis: str,
     params: FloatArray,
@@ -177,8 +181,8 @@ def projection_band(
     stretch: bool = False,
     correlation: float = 0.0,
 ) -> ProjectionBand:
-    """The 95% band of the camera ``params`` (p,) whose covariance (p, p) is ``covariance`` (the poses
-    marginalised), on the rings of :func:`..lines.agreement.ring_alphas` up to ``reach_alpha`` (rad), the
+    """The 95% band of the camera ``params`` (p,) under ``project``, whose covariance (p, p) is ``covariance``
+    (the poses marginalised), on the rings of :func:`..lines.agreement.ring_alphas` up to ``reach_alpha`` (rad), the
     rotation aligned over the rings inside ``field_alpha`` (rad, the corners' angles from the axis). With
     ``stretch`` the last row and column of ``covariance`` are the stretch's (:func:`stretch_column`).
 
@@ -192,7 +196,7 @@ def projection_band(
         tuple(np.degrees(alpha).tolist()), tuple(np.degrees(phi).tolist()), (), (), field_deg, sigma_px, 0, 0, 0
     )
     aligned = draft.inside()
-    shifts = shift_map(kind, axis, params, alpha, phi, aligned, stretch)  # (m, k, 2, p)
+    shifts = shift_map(project, kind, axis, params, alpha, phi, aligned, stretch)  # (m, k, 2, p)
     values, vectors = np.linalg.eigh((covariance + covariance.T) / 2)
     root = vectors * np.sqrt(np.clip(values, 0.0, None))
     draws = root @ np.random.default_rng(SEED).standard_normal((covariance.shape[0], DRAWS))  # (p, DRAWS)
@@ -221,6 +225,7 @@ def projection_band(
 
 
 def shift_map(
+    project: Project,
     kind: str,
     axis: str,
     params: FloatArray,
@@ -234,14 +239,12 @@ def shift_map(
     ``phi`` (k,) rad, after the rotation that best aligns the rays over the rings ``aligned`` (m,) bool (least
     squares on the rays: each pixel's shift weighed by the ray's turn per px, radially ``1 / f_r'``, along the
     ring ``sin(alpha) / r``)."""
-    from .fit import project
-
     sin_a, cos_a = np.sin(alpha)[:, None], np.cos(alpha)[:, None]
     rays = np.stack(np.broadcast_arrays(sin_a * np.cos(phi), sin_a * np.sin(phi), cos_a), axis=-1).reshape(-1, 3)
     count = params.size + stretch
     by_param = np.empty((rays.shape[0], 2, count))
     if stretch:
-        by_param[:, :, -1] = stretch_column(kind, axis, params, rays).reshape(-1, 2)
+        by_param[:, :, -1] = stretch_column(project, kind, axis, params, rays).reshape(-1, 2)
     for j in range(params.size):
         step = STEP * max(1.0, abs(float(params[j])))
         up, down = params.copy(), params.copy()
