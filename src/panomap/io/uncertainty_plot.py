@@ -84,7 +84,7 @@ def uncertainty_plot_png(table: PanoMappingTable, band: ProjectionBand) -> bytes
     rings.axhline(MAX_BAND_PX, color="tab:red", ls=":", label=f"refused beyond {MAX_BAND_PX:.0f} px in the field")
     worst, at_deg = band.worst_inside()
     rings.set_title(
-        f"corner noise {band.sigma_px:.2f} px, {band.corners} corners on {band.boards} board(s): worst ring in the "
+        f"corner noise {band.sigma_px:.2f} px, {band.corners} corners on {band.boards} board(s)\nworst ring in the "
         f"field {worst:.2f} px at {at_deg:.0f} deg",
         fontsize=9,
     )
