@@ -72,8 +72,8 @@ def line(fit: LineFit, reference) -> str:
 SIMULATED = [
     ("equidistant", "odd1", 3, 0.3, 200),
     ("hyperbolic", "unified", 5, 0.3, 100),
-    ("equidistant", "odd1", 6, 0.5, 30),
-    ("parabolic", "unified", 8, 0.2, 30),
+    ("equidistant", "odd1", 6, 0.5, 100),
+    ("parabolic", "unified", 8, 0.2, 100),
 ]
 
 

@@ -51,9 +51,8 @@ def test_the_band_holds_the_true_error_at_95_percent_of_the_rings() -> None:
     factor 1; the law given, so no stretch): a fisheye (the equidistant law) before three boards, 200 sets:
     94.1% of the rings (the worst ring's error 1.66 times its band). Elsewhere (``bench/bench_board_uncertainty.py
     --simulated``, not run here): a hyperbolic mirror before five boards, 100 sets, 94.2% (30 sets: 96.0%); the
-    fisheye before six with 0.5 px of noise, 30 sets, 95.0%; a parabolic mirror before eight with 0.2 px, 30
-    sets, 87.4% (the worst condition measured, not yet explained: only 30 sets, and the linearised band leaves
-    out the fit's curvature).
+    fisheye before six with 0.5 px of noise, 100 sets, 93.6% (30 sets: 95.0%); a parabolic mirror before eight
+    with 0.2 px, 100 sets, 93.6% (30 sets: 87.4%).
     """
     covered: list[bool] = []
     for name, law, count, seeds in CONFIGURATIONS:
