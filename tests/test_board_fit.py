@@ -172,7 +172,7 @@ def rendered_boards(tmp_path_factory: pytest.TempPathFactory):
     camera = line_camera("hyperbolic", 0.5, tilt_deg=2.0)
     folder = tmp_path_factory.mktemp("boards")
     paths = []
-    for k in range(2):
+    for k in range(3):  # (two pictures' four boards leave the mirror's rim loose: 2.1 px at 95% at 92 deg, refused)
         scene = render_board_scene(camera, board_poses(camera, 2, seed=30 + k), seed=k, supersample=2)
         paths.append(folder / f"boards{k}.png")
         cv2.imwrite(str(paths[-1]), scene.image)
@@ -181,21 +181,28 @@ def rendered_boards(tmp_path_factory: pytest.TempPathFactory):
 
 @pytest.mark.slow
 def test_cli_learns_the_camera_from_rendered_boards(rendered_boards, tmp_path) -> None:
-    """``panomap fit -o T --image A --image B``: the boards are found and the table's camera is the true one.
+    """``panomap fit -o T --image A --image B --image C``: the boards are found and the table's camera is the true
+    one; its projection uncertainty told and drawn (``--uncertainty-plot``: 1.27 px at 95% at 90 deg, measured).
 
-    Measured: 4 boards found, corner RMS 0.07 px, p90 1.11 / max 1.59 px over the whole annulus (the true
-    corners with the true law give 0: the rest is the detected corners' 0.05-0.1 px, magnified by the
-    scale that boards this size pin only through their perspective); the tilt from the room's 9 vertical
-    lines under that camera 1.88 deg (true 2.0).
+    Measured with the first two pictures: 4 boards found, corner RMS 0.07 px, p90 1.11 / max 1.59 px over the
+    whole annulus (the true corners with the true law give 0: the rest is the detected corners' 0.05-0.1 px,
+    magnified by the scale that boards this size pin only through their perspective); the tilt from the room's
+    9 vertical lines under that camera 1.88 deg (true 2.0).
     """
     from panomap.table.file import load_table
 
     camera, paths = rendered_boards
-    table_path, overlay = tmp_path / "cam.npz", tmp_path / "seen.png"
-    result = run("fit", "-o", table_path, "--image", paths[0], "--image", paths[1], "--overlay", overlay)
+    table_path, overlay, band = tmp_path / "cam.npz", tmp_path / "seen.png", tmp_path / "band.png"
+    result = run(
+        "fit", "-o", table_path, "--image", paths[0], "--image", paths[1], "--image", paths[2], "--overlay", overlay,
+        "--uncertainty-plot", band,
+    )  # fmt: skip
     assert result.exit_code == 0, result.output
+    assert f"and {band}" in result.output and band.stat().st_size > 10_000  # (the figure: test_board_uncertainty)
+    assert "projection uncertainty (the corners'" in result.output
     assert "camera learned from checkerboards" in result.output
-    assert "learned from 4 checkerboards" in result.output
+    found = re.search(r"learned from (\d+) checkerboards", result.output)
+    assert found is not None and int(found[1]) >= 6, result.output  # (two boards in each picture)
     assert re.search(r"boards' faces \d+-\d+ deg from the camera's axis", result.output), result.output
     model = load_table(table_path).model
     errors = pixel_errors(model, camera, step=4)
@@ -220,7 +227,7 @@ def test_a_folder_and_a_glob_give_the_camera_of_the_pictures_one_by_one(rendered
     _, paths = rendered_boards
     folder = paths[0].parent
     given = {
-        "one by one": ["--image", paths[0], "--image", paths[1]],
+        "one by one": [arg for path in paths for arg in ("--image", path)],
         "folder": ["--image", f"{folder}/"],
         "glob": ["--image", str(folder / "boards*.png")],
     }
@@ -330,10 +337,12 @@ def test_boards_that_all_face_the_axis_are_refused_and_turned_ones_are_not(monke
     assert str(raised.value).count("\n") == 1 and len(raised.value.summary) <= 110
     assert "a camera stretched along its axis sees such boards as the same squares" in raised.value.figures
     monkeypatch.undo()
-    turned = choice.learn_camera(flat_boards(camera, 3, seed=3, turn_deg=45.0), [], circles, LineFitOptions())
-    assert turned.source == "checkerboards" and turned.fit.refusal() is None
-    assert min(turned.fit.report.board_axis_deg) == pytest.approx(45.0, abs=1.0)
-    assert np.percentile(pixel_errors(turned.fit.model, camera), 90) < 0.6 * np.percentile(errors, 90)
+    turned = fit_boards(flat_boards(camera, 3, seed=3, turn_deg=45.0), circles)
+    # not refused for facing the axis (three boards this size may still leave the camera loose: their band,
+    # test_board_uncertainty.py)
+    assert "face the camera's axis" not in (turned.refusal() or "")
+    assert min(turned.report.board_axis_deg) == pytest.approx(45.0, abs=1.0)
+    assert np.percentile(pixel_errors(turned.model, camera), 90) < 0.6 * np.percentile(errors, 90)
 
 
 def test_a_boards_face_is_its_normals_angle_from_the_axis() -> None:

@@ -160,19 +160,21 @@ def test_a_room_without_lines_is_the_status_not_an_error(tmp_path: Path) -> None
 
 @pytest.mark.slow
 def test_learn_from_lines_takes_the_checkerboards_first(tmp_path: Path) -> None:
-    """An image with two boards held before the camera: the page learns from them, as ``panomap fit --image``
-    does (a third grid read off the image, 7 x 3, is set aside as misread), draws their rows and columns, and
-    its camera is the command's.
+    """An image with three boards held before the camera: the page learns from them, as ``panomap fit --image``
+    does (four grids found, three kept), draws their rows and columns, and its camera is the command's.
 
-    Measured: 2 boards kept, p90 0.39 / max 0.46 px over the whole annulus against the true camera; the saved
-    table's model equals the command's.
+    Measured: 3 boards kept, their band 1.25 px at 95% at 90 deg; p90 1.12 / max 1.36 px over the whole annulus
+    against the true camera (the field they span is 53-89 deg off the axis; the rest is extrapolated). Two boards
+    in it (this test's until their projection uncertainty was told) are refused, 2.7 px at 95% at 90 deg, though
+    their camera lay p90 0.39 / max 0.46 px from the true one: the band says what the corners pin, not how lucky
+    one draw of them was; four (seed 30) are 1.89 px and p90 1.94 px off.
     """
     from panomap.simulate.board_scenes import board_poses, render_board_scene
 
     from helpers import pixel_errors
 
     camera = line_camera("hyperbolic", 0.5, tilt_deg=2.0)
-    image = render_board_scene(camera, board_poses(camera, 2, seed=30), seed=1, supersample=2).image
+    image = render_board_scene(camera, board_poses(camera, 3, seed=30), seed=1, supersample=2).image
     if image.ndim == 2:
         image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
     for client in serve(image, tmp_path):
@@ -180,14 +182,14 @@ def test_learn_from_lines_takes_the_checkerboards_first(tmp_path: Path) -> None:
         assert status == 200, state
         lines = state["lines"]
         assert lines["ok"], lines
-        assert lines["boards"] == 2 and "checkerboard" in lines["message"]
+        assert lines["boards"] == 3 and "checkerboard" in lines["message"]
         assert all(len(line["points"]) == 1 and len(line["points"][0]) >= 2 for line in lines["used"])
         status, saved = client.post("/api/lines/save", {"name": "boards.npz"})
         assert status == 200, saved
     learned = load_table(tmp_path / "boards.npz").model
     errors = pixel_errors(learned, camera, step=4)
-    assert np.percentile(errors, 90) < 1.0
-    assert errors.max() < 1.5
+    assert np.percentile(errors, 90) < 1.5
+    assert errors.max() < 2.0
     cv2.imwrite(str(tmp_path / "boards.png"), image)
     result = CliRunner().invoke(main, ["fit", "-o", str(tmp_path / "cli.npz"), "--image", str(tmp_path / "boards.png")])
     assert result.exit_code == 0, result.output

@@ -219,6 +219,12 @@ from .progress import ProgressBar
     "elevation (the horizon cyan), azimuth 0, and each landmark's residual (outliers red).",
 )
 @click.option(
+    "--uncertainty-plot",
+    type=PATH,
+    help="Learning from checkerboards: also write the projection uncertainty figure (PNG): each pixel's 95% band "
+    "under the corners' noise, ring by ring (panomap info --uncertainty-plot draws it from the table).",
+)
+@click.option(
     "--azimuth-zero",
     nargs=2,
     type=FINITE,
@@ -284,6 +290,7 @@ def fit(
     keep_outliers: bool,
     plot: Path | None,
     overlay: Path | None,
+    uncertainty_plot: Path | None,
     azimuth_zero: tuple[float, float] | None,
     handedness: str,
     terms: str,
@@ -308,7 +315,7 @@ def fit(
         refuse_landmark_options(click.get_current_context())
         _fit_lines(
             output, images, overlay, plot, model, axis, azimuth_zero, handedness, camera_height, frame_time, use_boards,
-            videos, video_frames, terms,
+            videos, video_frames, terms, uncertainty_plot,
         )  # fmt: skip
         return
     if videos:
@@ -317,7 +324,7 @@ def fit(
     size = _image_size(image_size)
     image = check_landmark_fit_options(
         landmarks, output, images, centre, table_size, model, refine_centre, plot, overlay,
-        azimuth_zero, handedness, camera_height, terms,
+        azimuth_zero, handedness, camera_height, terms, uncertainty_plot,
     )  # fmt: skip
     pairs = read_landmarks(landmarks)
     if camera is None and pairs.camera is None:
@@ -424,6 +431,7 @@ def _fit_lines(
     videos: tuple[Path, ...] = (),
     video_frames: int = 8,
     terms: str = "auto",
+    uncertainty_plot: Path | None = None,
 ) -> None:
     """``fit`` without landmarks: the camera learned from the lines (and checkerboards) of ``images`` and the
     frames of ``videos``."""
@@ -451,12 +459,16 @@ def _fit_lines(
         )
     check_outputs(
         [*(("the image", path) for path in images), *(("the video", path) for path in videos)],
-        [("the output", output), ("--overlay", overlay)],
+        [("the output", output), ("--overlay", overlay), ("--uncertainty-plot", uncertainty_plot)],
     )
     if output.suffix.lower() != ".npz":
         raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
     if overlay is not None and overlay.suffix.lower() != ".png":
         raise click.BadParameter(f"{overlay}: the overlay is written as PNG (name it .png)", param_hint="'--overlay'")
+    if uncertainty_plot is not None and uncertainty_plot.suffix.lower() != ".png":
+        raise click.BadParameter(
+            f"{uncertainty_plot}: the figure is written as PNG (name it .png)", param_hint="'--uncertainty-plot'"
+        )
     options = LineFitOptions(
         axis=axis or "down",
         s=None if handedness == "auto" else int(handedness),
@@ -474,6 +486,7 @@ def _fit_lines(
         use_boards=use_boards,
         videos=videos,
         video_frames=video_frames,
+        uncertainty_plot=uncertainty_plot,
     )
 
 
@@ -676,16 +689,32 @@ def _describe_import(record: object) -> list[str]:
 @click.command()
 @click.argument("table", type=PATH)
 @click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")
-def info(table: Path, as_json: bool) -> None:
+@click.option(
+    "--uncertainty-plot",
+    type=PATH,
+    help="Also write the projection uncertainty figure (PNG) of a table learned from checkerboards.",
+)
+def info(table: Path, as_json: bool, uncertainty_plot: Path | None = None) -> None:
     """Print a table's metadata: model, centre, s, phi0, range, sizes, landmarks and residuals (a rig's: its
     cameras, where each sits and looks, what each sees, their overlaps)."""
     from ..rig.file import is_rig_file
     from .rigs import describe_rig_file
 
     if is_rig_file(table):
+        if uncertainty_plot is not None:
+            raise click.UsageError("--uncertainty-plot draws a table's camera; a rig file holds several")
         describe_rig_file(table, as_json)
         return
     loaded = load_table(table)
+    if uncertainty_plot is not None:
+        from ..io.uncertainty_plot import save_uncertainty_plot
+
+        if uncertainty_plot.suffix.lower() != ".png":
+            raise click.BadParameter(
+                f"{uncertainty_plot}: the figure is written as PNG (name it .png)", param_hint="'--uncertainty-plot'"
+            )
+        check_outputs([("the table", table)], [("--uncertainty-plot", uncertainty_plot)])
+        save_uncertainty_plot(loaded, uncertainty_plot, table)
     meta = loaded.metadata()
     if as_json:
         click.echo(json.dumps(meta, indent=2))

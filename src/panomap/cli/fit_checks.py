@@ -119,9 +119,12 @@ def check_landmark_fit_options(
     handedness: str,
     camera_height: float | None,
     terms: str = "auto",
+    uncertainty_plot: Path | None = None,
 ) -> Path | None:
     """The checks of a landmark fit's options before any work (usage errors, exit 2; outputs that are
     inputs, 1); returns its --image, if any."""
+    if uncertainty_plot is not None:
+        raise click.UsageError("--uncertainty-plot draws a camera learned from checkerboards (--image, no LANDMARKS)")
     line_options = {"--azimuth-zero": azimuth_zero, "--camera-height": camera_height}
     automatic = {"--handedness": handedness, "--terms": terms}
     asked = [(name, value) for name, value in automatic.items() if value != "auto"]

@@ -31,9 +31,11 @@ def fit_from_lines(
     use_boards: bool = True,
     videos: tuple[Path, ...] = (),
     video_frames: int = 8,
+    uncertainty_plot: Path | None = None,
 ) -> None:
     """Learn the camera from the lines of ``images`` and of ``video_frames`` frames of each of ``videos`` (those
-    that show a view no earlier picture shows), write its table (and ``overlay``), say what the fit saw.
+    that show a view no earlier picture shows), write its table (and ``overlay``, and the projection uncertainty
+    figure ``uncertainty_plot`` of a camera learned from checkerboards), say what the fit saw.
 
     Checkerboards in the images (``use_boards``) and the edge arcs both count
     (:func:`panomap.calibrate.pictures.learn_from_images`, which does the work): a board's corners are evenly
@@ -70,22 +72,41 @@ def fit_from_lines(
                 say(f"wrote {overlay} (the edges found; no camera)")
             raise
         table = learned.table
-        bar.stage("writing the table" + (" and the overlay" if overlay is not None else ""))
+        if uncertainty_plot is not None:
+            _check_band(table)
+        bar.stage("writing the table" + (" and its pictures" if overlay or uncertainty_plot else ""))
         with all_or_none():
             save_table(table, output)
             if overlay is not None:
                 from ..io.line_overlay import draw_line_overlay
 
                 write_image(overlay, draw_line_overlay(omnis[0], table, learned.arcs))
+            if uncertainty_plot is not None:
+                from ..io.uncertainty_plot import save_uncertainty_plot
+
+                save_uncertainty_plot(table, uncertainty_plot, output)
     finally:
         bar.close()
     say(printable(describe_line_fit(table, learned.circles, time.monotonic() - started), keep="\n"))
     if learned.choice is not None:
         say(learned.choice)
-    written = [str(path) for path in (output, overlay) if path is not None]
-    say("wrote " + " and ".join(written))
+    written = [str(path) for path in (output, overlay, uncertainty_plot) if path is not None]
+    say("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
     for warning in learned.warnings:
         click.echo(f"panomap: warning: {printable(warning)}", err=True)  # (they name the pictures)
+
+
+def _check_band(table: PanoMappingTable) -> None:
+    """Refuse ``--uncertainty-plot`` before anything is written where the camera kept is not the boards'."""
+    from ..io.uncertainty_plot import table_projection_band
+
+    try:
+        table_projection_band(table)
+    except PanomapError:
+        raise PanomapError(
+            "--uncertainty-plot draws a camera learned from checkerboards; the pictures' lines gave this one (no "
+            "board kept): leave it out"
+        ) from None
 
 
 def _with_frames(

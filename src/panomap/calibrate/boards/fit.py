@@ -24,6 +24,7 @@ them the camera is taken as level.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -50,6 +51,7 @@ from ..lines.orientation import level_rotation, zero_azimuth
 from ..lines.rays import ALPHA_LIMIT, InverseRadial, pixel_rays
 from .detect import Board
 from .terms import NO_TERMS, TermChoice, TermLayout, choose_terms
+from .uncertainty import board_band
 
 # Fewest corners, over all boards, a fit needs.
 MIN_CORNERS = 24
@@ -690,6 +692,20 @@ def _result(
         corner_rms_px=float(np.sqrt(np.mean(fit.residuals_px**2))),
         board_axis_deg=tuple(float(a) for a in board_axis_deg(fit.poses)),
         terms=choice,
+        # (a law chosen from the corners is not taken as known: the band leaves the camera free to stretch)
+        projection=board_band(
+            functools.partial(project, layout=fit.layout),
+            fit.kind,
+            axis,
+            fit.params,
+            fit.poses,
+            board_points(fit.poses, boards),
+            fit.jacobian,
+            boards,
+            circles,
+            sigma,
+            options.model == "auto",
+        ),
     )
     return LineFit(model, np.asarray(covariance[2:count, 2:count], dtype=np.float64), report)
 

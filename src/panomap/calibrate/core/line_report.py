@@ -14,6 +14,7 @@ import numpy as np
 
 from ...errors import PanomapError
 from ...geometry import FloatArray
+from .projection_band import ProjectionBand
 from .term_choice import TermChoice
 
 # Elevation bands (deg) are looked at this wide; a band with no line point is a gap.
@@ -130,6 +131,8 @@ class LineFitReport:
         camera looking down or up, square before one looking ahead).
     terms : TermChoice or None
         The image terms beyond the radial law the boards' camera kept and why (boards only).
+    projection : ProjectionBand or None
+        The table's 95% band under the corners' noise, ring by ring (boards only; :mod:`.projection_band`).
     """
 
     model: str
@@ -148,6 +151,7 @@ class LineFitReport:
     corner_rms_px: float = 0.0
     board_axis_deg: tuple[float, ...] = ()
     terms: TermChoice | None = None
+    projection: ProjectionBand | None = None
 
     @property
     def rms_px(self) -> float:
@@ -194,28 +198,34 @@ class LineFitReport:
             )
         if self.terms is not None:
             out.append(self.terms.sentence())
+        if self.projection is not None:
+            out += self.projection.sentences()
         out += [f"set aside: {arc.reason}" for arc in self.rejected]
         out += [band_sentence(band) for band in self.empty_bands_deg]
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "boards": self.boards,
-            "corners": self.corners,
-            "corner_rms_px": self.corner_rms_px,
-            "board_axis_deg": list(self.board_axis_deg),
-            "model": self.model,
-            "sigma_px": self.sigma_px,
-            "lines": [line.to_dict() for line in self.lines],
-            "rejected": [arc.to_dict() for arc in self.rejected],
-            "families": self.families,
-            "vertical_lines": self.vertical_lines,
-            "model_selection_cv_rms_px": dict(self.model_selection_cv_rms_px),
-            "elevation_range_deg": list(self.elevation_range_deg),
-            "empty_bands_deg": [list(band) for band in self.empty_bands_deg],
-            "azimuth_source": self.azimuth_source,
-            "handedness_source": self.handedness_source,
-        } | ({} if self.terms is None else {"terms": self.terms.to_dict()})
+        return (
+            {
+                "boards": self.boards,
+                "corners": self.corners,
+                "corner_rms_px": self.corner_rms_px,
+                "board_axis_deg": list(self.board_axis_deg),
+                "model": self.model,
+                "sigma_px": self.sigma_px,
+                "lines": [line.to_dict() for line in self.lines],
+                "rejected": [arc.to_dict() for arc in self.rejected],
+                "families": self.families,
+                "vertical_lines": self.vertical_lines,
+                "model_selection_cv_rms_px": dict(self.model_selection_cv_rms_px),
+                "elevation_range_deg": list(self.elevation_range_deg),
+                "empty_bands_deg": [list(band) for band in self.empty_bands_deg],
+                "azimuth_source": self.azimuth_source,
+                "handedness_source": self.handedness_source,
+            }
+            | ({} if self.terms is None else {"terms": self.terms.to_dict()})
+            | ({} if self.projection is None else {"projection": self.projection.to_dict()})
+        )
 
     @classmethod
     def from_dict(cls, data: Any) -> LineFitReport:
@@ -240,6 +250,7 @@ class LineFitReport:
                 corner_rms_px=float(data.get("corner_rms_px", 0.0)),
                 board_axis_deg=tuple(float(a) for a in data.get("board_axis_deg", ())),
                 terms=None if data.get("terms") is None else TermChoice.from_dict(data["terms"]),
+                projection=None if data.get("projection") is None else ProjectionBand.from_dict(data["projection"]),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise PanomapError(f"the line fit report is malformed ({exc})") from None

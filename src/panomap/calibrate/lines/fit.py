@@ -157,9 +157,11 @@ class LineFit:
                 "stretched along its axis sees such boards as the same squares, so they cannot pin the scale of "
                 "its elevations",
             )
+        pictures = len({line.image_index for line in self.report.lines})
+        if self.report.projection is not None:  # boards: their corners' noise through the fit (boards.uncertainty)
+            return self.report.projection.refusal(max(pictures, 1))
         if self.band is None:
             return None
-        pictures = len({line.image_index for line in self.report.lines})
         return self.band.refusal(self.jacobian_se_px(), len(self.report.lines), max(pictures, 1))
 
     def camera_range(self, cutoff_radius: float, outer_radius: float) -> tuple[float, float]:
