@@ -15,7 +15,7 @@ from ..calibrate.circles import ImageCircles, NoImageCircle, find_image_circles
 from ..calibrate.core.report import FitReport, table_fit_report
 from ..calibrate.core.sources import Source
 from ..calibrate.landmarks.diagnosis import diagnose
-from ..calibrate.landmarks.pairs import read_landmarks
+from ..calibrate.landmarks.pairs import Landmarks, read_landmarks
 from ..calibrate.landmarks.pipeline import calibrate_camera
 from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror
 from ..camera.image_terms import check_term_names
@@ -327,13 +327,7 @@ def fit(
         azimuth_zero, handedness, camera_height, terms, uncertainty_plot,
     )  # fmt: skip
     pairs = read_landmarks(landmarks)
-    if camera is None and pairs.camera is None:
-        raise click.UsageError(
-            f'no camera position in {landmarks}: give --camera X0 Y0 Z0 (or "camera" in a JSON landmark file)'
-        )
-    if camera is not None and pairs.camera is not None and tuple(camera) != tuple(pairs.camera):
-        given, filed = (", ".join(f"{c:g}" for c in p) for p in (camera, pairs.camera))
-        click.echo(f"panomap: warning: --camera ({given}) is used, not the camera in {landmarks} ({filed})", err=True)
+    _check_camera_position(camera, pairs, landmarks)
     if frame_time is not None and image is None:
         raise click.UsageError("--frame-time picks a frame of --image: give --image VIDEO too")
     mirror = check_mount_options(model, azimuth, axis, tilt, orientation, viewpoint, sphere_radius)
@@ -414,6 +408,18 @@ def _write_fit(
         click.echo(printable(f"diagnosis: {note}"), err=True)
     written = [str(path) for path in (output, plot, overlay) if path is not None]
     say("wrote " + (", ".join(written[:-1]) + " and " + written[-1] if len(written) > 1 else written[0]))
+
+
+def _check_camera_position(camera: tuple[float, float, float] | None, pairs: Landmarks, landmarks: Path) -> None:
+    """``--camera`` against the landmark file's own camera: one of them needed; ``--camera`` wins, with a warning
+    where they differ."""
+    if camera is None and pairs.camera is None:
+        raise click.UsageError(
+            f'no camera position in {landmarks}: give --camera X0 Y0 Z0 (or "camera" in a JSON landmark file)'
+        )
+    if camera is not None and pairs.camera is not None and tuple(camera) != tuple(pairs.camera):
+        given, filed = (", ".join(f"{c:g}" for c in p) for p in (camera, pairs.camera))
+        click.echo(f"panomap: warning: --camera ({given}) is used, not the camera in {landmarks} ({filed})", err=True)
 
 
 def _fit_lines(
