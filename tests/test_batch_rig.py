@@ -29,6 +29,7 @@ FLOOR = "floor:z=0,x=-3:5,y=-4:4,size=120x120"
 FLOOR_COMMAND = ["floor", "--z", "0", "--x", "-3", "5", "--y", "-4", "4", "--size", "120x120"]
 
 
+@pytest.mark.slow
 def test_a_dual_fisheyes_frames_and_video_equal_the_view_commands_and_panomap_video(
     request: pytest.FixtureRequest, tmp_path: Path
 ) -> None:
@@ -63,6 +64,7 @@ def test_a_dual_fisheyes_frames_and_video_equal_the_view_commands_and_panomap_vi
     assert_one_line_error(cubic, "linear or nearest", exit_code=2)  # (before any work, as panomap video)
 
 
+@pytest.mark.slow
 def test_folders_of_one_picture_per_camera_equal_the_floor_command(
     request: pytest.FixtureRequest, tmp_path: Path
 ) -> None:

@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 BENCH = Path(__file__).resolve().parents[1] / "bench" / "bench_unwarp.py"
 
 
@@ -14,6 +16,7 @@ def test_paper_per_pixel_algorithm_and_ours_agree_pixel_for_pixel() -> None:
     assert "outputs equal: True (0 of 65536 pixels differ)" in result.stdout, result.stdout
 
 
+@pytest.mark.slow
 def test_view_benchmark_runs_and_reports_the_targets() -> None:
     bench = BENCH.with_name("bench_views.py")
     result = subprocess.run([sys.executable, str(bench), "--quick"], capture_output=True, text=True, check=True)

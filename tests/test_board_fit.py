@@ -103,6 +103,7 @@ def test_noise_free_corners_give_the_centre_and_the_rays_exactly() -> None:
     assert np.percentile(pixel_errors(fit.model, camera), 90) < 0.01
 
 
+@pytest.mark.slow
 def test_a_misread_board_is_set_aside() -> None:
     """A board whose corners were read one column off (its grid places shifted along the rows) disagrees
     with every camera; it is set aside and the rest give the camera as four boards do.
@@ -244,6 +245,7 @@ def test_a_folder_and_a_glob_give_the_camera_of_the_pictures_one_by_one(rendered
         assert models[how].centre == models["one by one"].centre, how
 
 
+@pytest.mark.slow
 def test_cli_without_boards_the_edges_alone_do_not_pin_the_camera(rendered_boards, tmp_path) -> None:
     """``--no-boards`` skips them: the same image goes to the edge-arc fit alone, whose lines do not pin this
     camera (the fisheye law explains them and their right angles as well as the true unified law, and lies 3.1 px

@@ -174,6 +174,7 @@ def test_the_fits_jacobian_with_terms_is_the_derivative_of_its_residuals() -> No
     assert np.abs(closed - numeric).max() < 1e-6 * np.abs(numeric).max()
 
 
+@pytest.mark.slow
 def test_a_table_of_a_camera_with_terms_holds_them_and_unprojects_through_them(tmp_path) -> None:
     """The table's entries are the camera's pixels through its terms (float32: 1e-3 px); saved as format
     version 5 and loaded, the terms and their choice come back (``info``); unproject then sample gives each

@@ -157,6 +157,7 @@ def test_one_board_is_refused_saying_what_to_add_and_many_are_not() -> None:
     assert band.max() < 2.0 and np.all(error <= band)
 
 
+@pytest.mark.slow
 def test_the_band_travels_with_the_table_and_info_draws_it(tmp_path) -> None:
     """The band is stored in the table's report, told by ``info`` and drawn by ``info --uncertainty-plot``; a
     table without one is refused in one line naming it."""

@@ -360,6 +360,7 @@ def test_the_cut_off_disc_is_looked_for_again_about_the_fitted_centre(
     assert abs(result.table.cutoff_radius - camera.cutoff_radius) < 0.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("first_disc", [False, True])
 def test_the_learn_page_looks_for_the_cut_off_disc_about_the_fitted_centre_too(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path, first_disc: bool
@@ -497,6 +498,7 @@ def test_the_learn_page_drops_a_rim_that_landmarks_lie_well_outside(
     assert state["circles"]["centre"] == [690.0, 515.0] and state["circles"]["outer_radius"] == 180.0
 
 
+@pytest.mark.slow
 def test_fit_on_a_full_frame_fisheye_says_a_tilt_and_the_centre_look_alike(tmp_path: Path) -> None:
     """``panomap fit --image`` on a full-frame fisheye: the warning that no rim was found, and the diagnosis
     that the centre, refined from the frame's middle (here 14.1 px), cannot be told from a tilt."""

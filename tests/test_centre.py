@@ -85,6 +85,7 @@ def test_centre_and_radii_on_degraded_renders(name: str) -> None:
 SUBPIXEL_CENTRES = [(160.37, 149.61), (158.83, 151.29), (161.12, 148.04), (159.55, 150.86)]
 
 
+@pytest.mark.slow
 def test_the_centre_of_noise_free_renders_at_sub_pixel_places_is_unbiased() -> None:
     """Every camera kind, noise-free (320 x 300, 2.5 s): a 0.05 px bias of the found centre fails here.
 
@@ -182,6 +183,7 @@ def test_cli_centre_prints_and_draws(tmp_path: Path) -> None:
     assert failed.stderr.strip().startswith(f"panomap: error: {plain}: no image circle found")
 
 
+@pytest.mark.slow
 def test_fit_finds_the_centre_and_radii_when_not_given(tmp_path: Path) -> None:
     camera = standard_cameras((640, 640), centre=(331.7, 309.2), s=-1, phi0=1.0)["hyperbolic"]
     cv2.imwrite(str(tmp_path / "omni.png"), render(ROOM, camera, supersample=2))

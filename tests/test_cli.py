@@ -253,6 +253,7 @@ def _lossless_video(path: Path, image: np.ndarray, frames: int = 3, step_px: int
             container.mux(packet)
 
 
+@pytest.mark.slow
 def test_a_video_serves_where_one_omni_image_is_taken_and_views_point_to_panomap_video(work: Path) -> None:
     from panomap.simulate import load_room, render
 
@@ -560,6 +561,7 @@ def test_long_landmark_names_are_printed_whole_and_one_ray_is_singular(work: Pat
     assert "1 ray reaches the plane Z = 0" in result.output
 
 
+@pytest.mark.slow
 def test_a_huge_number_is_refused_in_one_line_without_a_numpy_warning(work: Path) -> None:
     """1e300 is finite, but no camera, room or pixel is that large: refused with its place named (issue 14:
     ``fit --camera 1e300 ...`` printed NumPy's overflow RuntimeWarning, ``floor --x 0 1e300`` too)."""
@@ -609,6 +611,7 @@ def test_a_huge_number_is_refused_in_one_line_without_a_numpy_warning(work: Path
     assert not any(work.glob("t.*"))
 
 
+@pytest.mark.slow
 def test_a_broken_image_gets_our_one_line_and_nothing_from_libpng_or_opencv(tmp_path: Path) -> None:
     """In a real process (libpng and OpenCV write to the stderr file descriptor, not through Python)."""
     cv2.imwrite(str(tmp_path / "good.png"), (np.random.default_rng(1).random((200, 300, 3)) * 255).astype(np.uint8))
@@ -637,6 +640,7 @@ def test_a_broken_image_gets_our_one_line_and_nothing_from_libpng_or_opencv(tmp_
         assert lines[0].startswith(f"panomap: error: {tmp_path / name}: ") and message in lines[0], lines
 
 
+@pytest.mark.slow
 def test_a_truncated_jpeg_is_said_so_and_never_taken_for_a_video(work: Path, tmp_path: Path) -> None:
     """A JPEG cut short decoded half grey (or PyAV read it as a one-frame video): `panorama` advised
     `panomap video`, and `centre` / `fit --image` went on with the half image, exit 0."""

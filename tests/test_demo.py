@@ -6,6 +6,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from panomap.cli.app import main
@@ -14,6 +15,7 @@ from panomap.table.file import load_table
 from panomap.views import Band, CylinderPanorama
 
 
+@pytest.mark.slow
 def test_demo_writes_views_that_match_a_direct_render_of_the_room(tmp_path: Path) -> None:
     result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path)])
     assert result.exit_code == 0, result.output + result.stderr

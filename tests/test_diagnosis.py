@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from panomap.calibrate.core.report import CENTRE_AS_FOUND
 from panomap.calibrate.landmarks.diagnosis import diagnose, noise_ratio
@@ -95,6 +96,7 @@ def test_landmarks_that_no_camera_explains_are_said_to_be_wrong_together() -> No
     assert not any("noise explains" in note for note in diagnose(fit_camera(landmarks, POSITION, camera.centre)))
 
 
+@pytest.mark.slow
 def test_a_tilt_within_its_uncertainty_about_the_rim_is_not_said_to_be_one() -> None:
     """The learn page's screenshot session (docs/make_screenshots.py): a level mirror camera, 10 landmarks
     clicked 0.4 px off, one height 0.5 m off. The fit keeps the rim's centre with a tilt of 0.05 +- 0.16 deg
@@ -115,6 +117,7 @@ def test_a_tilt_within_its_uncertainty_about_the_rim_is_not_said_to_be_one() -> 
     assert any(note.startswith("dropped as outliers: E_window_bottom_right") for note in notes), notes
 
 
+@pytest.mark.slow
 def test_landmarks_given_as_row_and_column_are_said_to_be_so() -> None:
     """The example camera on an 800 x 760 frame (its centre (397.7, 381.7), 23 px from its transpose) with
     every landmark's u and v swapped (all still inside the frame): a transposed camera fits them as well,
@@ -150,6 +153,7 @@ def test_landmarks_in_millimetres_with_the_camera_in_metres_are_said_to_be_wrong
     assert any("times what the landmarks' noise explains" in note and "units" in note for note in diagnose(result.fit))
 
 
+@pytest.mark.slow
 def test_landmarks_of_a_cropped_copy_of_the_image_are_said_to_be_so() -> None:
     """The example's landmarks measured on a copy of the image cropped by 30 px at the left and 20 at the top:
     the refinement takes the centre 36 px from the rim's, which no real rim is off its axis (0.7-2.3 px)."""

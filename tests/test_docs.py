@@ -25,6 +25,7 @@ LINK = re.compile(r"!?\[(?:[^\]\[]|\[[^\]]*\])*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)
 FENCE = re.compile(r"^(```|~~~)")
 
 
+@pytest.mark.slow
 def test_the_manual_builds_without_a_warning(tmp_path: Path) -> None:
     """``sphinx-build -W --keep-going``: a broken reference, a page left out of the table of contents, a
     docstring that does not parse or an object of the API reference without a docstring fails the build."""

@@ -18,6 +18,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pytest
+
 import panomap
 
 PACKAGE = Path(panomap.__file__).resolve().parent
@@ -146,6 +148,7 @@ def run_python(code: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False, timeout=120)
 
 
+@pytest.mark.slow
 def test_every_module_imports_on_its_own() -> None:
     """No import cycle: each module, imported first in a clean package, loads.
 

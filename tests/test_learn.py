@@ -110,6 +110,7 @@ def all_files(root: Path) -> set[Path]:
     return {p for p in root.rglob("*")}
 
 
+@pytest.mark.slow
 def test_true_landmarks_fit_with_small_residuals_and_a_panorama(client: Client, example: Example) -> None:
     state = client.get("/api/state")
     assert state["image"] == {"name": "omni.png", "width": SIZE[0], "height": SIZE[1]}
@@ -324,6 +325,7 @@ def test_file_names_stay_in_the_folder(client: Client, example: Example, folder:
     assert all_files(root) == before
 
 
+@pytest.mark.slow
 def test_saved_files_are_what_panomap_fit_makes(client: Client, example: Example, folder: Path) -> None:
     """The saved table equals ``panomap fit --image`` on the saved landmarks, the same image and camera: the page
     fits with the circles it found as the command does (the centre refined, the cut-off disc about it)."""
@@ -413,6 +415,7 @@ def test_an_image_without_circles_starts_from_a_guess(folder: Path) -> None:
     assert session._sources()["outer_radius"].value == "default (the whole frame: no image circle in it)"
 
 
+@pytest.mark.slow
 def test_the_command_serves_until_interrupted(tmp_path: Path, example: Example) -> None:
     cv2.imwrite(str(tmp_path / "omni.png"), example.image)
     (tmp_path / "lm.json").write_text(

@@ -103,6 +103,7 @@ def files_under(root: Path) -> set[str]:
     return {str(p.relative_to(root)) for p in root.rglob("*")}
 
 
+@pytest.mark.slow
 def test_learning_a_camera_in_the_browser(browser: Any, serve: Any, example: Example, tmp_path: Path) -> None:
     folder = tmp_path / "work"
     folder.mkdir()
@@ -218,6 +219,7 @@ def test_learning_a_camera_in_the_browser(browser: Any, serve: Any, example: Exa
     assert np.allclose(web.entries, cli.entries, rtol=0, atol=1e-4)
 
 
+@pytest.mark.slow
 def test_dragging_the_circles_and_editing_landmarks(browser: Any, serve: Any, example: Example, tmp_path: Path) -> None:
     landmarks = Landmarks(example.pixels, example.world, example.names)
     session = Session(example.image, "omni.png", tmp_path, landmarks, example.camera_position)
@@ -306,6 +308,7 @@ def test_dragging_the_circles_and_editing_landmarks(browser: Any, serve: Any, ex
     view.close()
 
 
+@pytest.mark.slow
 def test_learning_from_lines_in_the_browser(browser: Any, serve: Any, tmp_path: Path) -> None:
     """ "learn from lines" on a rendered room with boards (a hyperbolic mirror): the report and the lines drawn, then
     "set azimuth 0 by a click" on the true pixel of world azimuth 0 (it adds no landmark), and the line table

@@ -79,6 +79,7 @@ def scene(request: pytest.FixtureRequest) -> tuple[LineScene, list[EdgeArc], NDA
 Scene = tuple[LineScene, list[EdgeArc], NDArray[np.float64]]
 
 
+@pytest.mark.slow
 def test_arcs_lie_on_the_true_lines_and_curves_without_bias(scene: Scene) -> None:
     # Measured (fisheye, mirror): 0.1% / 0.1% of points on neither; on-line p50 0.055 / 0.063 px, p90
     # 0.55 / 0.34 px (thin shelves and the skirting beside the floor edge pull the tail); mean error

@@ -232,6 +232,7 @@ def test_a_picture_that_cannot_pin_the_camera_is_refused(tmp_path) -> None:
     assert not table_path.exists()
 
 
+@pytest.mark.slow
 def test_a_scene_with_no_straight_lines_is_refused(tmp_path) -> None:
     """Trees, rocks, clouds: curved edges only (ellipses of every size and slant in a fisheye's circle). The
     command refuses in one line and writes no table."""

@@ -189,6 +189,7 @@ def test_a_bad_tilt_is_refused(bad: object) -> None:
         fit_camera(landmarks, POSITION, base.centre, tilt_deg=bad)  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 def test_noise_alone_does_not_make_a_level_camera_tilted() -> None:
     """Level cameras, 10 noisy landmarks (1 px, 1 cm), 6 cameras x 3 seeds: the fit keeps them level and at
     the given position (the mount is chosen only when it beats the simpler one beyond chance)."""

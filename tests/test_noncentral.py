@@ -116,6 +116,7 @@ def test_the_caustic_of_f_r_is_where_a_traced_spheres_rays_meet_its_axis() -> No
     assert np.max(np.abs(design @ coefficients - on_axis)) < 0.5e-3
 
 
+@pytest.mark.slow
 def test_a_sphere_is_fitted_with_its_ray_origins_and_projects_near_points(sphere_fits) -> None:
     """From landmarks at 1-6 m, cross-validation chooses the caustic, and points at 1, 2 and 4 m project
     within 2.5 px of the traced mirror (measured 2.10 / 0.74 / 0.08); the single viewpoint on the same
@@ -162,6 +163,7 @@ def test_a_perspective_view_given_a_distance_sees_along_the_rays_that_reach_it(s
     assert np.nanmax(np.linalg.norm(build_map(noncentral.table, far) - truth, axis=-1)[seen]) > 3.0
 
 
+@pytest.mark.slow
 def test_single_viewpoint_cameras_keep_their_fit() -> None:
     """A hyperbolic mirror (single viewpoint) from 12 landmarks with 1 px / 1 cm of noise: the default fit is
     the single-viewpoint one, entry for entry, on each of three trials; a fisheye lens is not tried."""

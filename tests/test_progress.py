@@ -9,6 +9,8 @@ import select
 import struct
 import termios
 
+import pytest
+
 from panomap.cli.progress import FALLBACK_COLUMNS, ProgressBar, terminal_columns
 
 
@@ -71,6 +73,7 @@ def _read_all(leader: int) -> str:
     return b"".join(chunks).decode("utf-8", "replace")
 
 
+@pytest.mark.slow
 def test_a_stage_without_a_count_gets_a_line_whose_seconds_tick() -> None:
     """Issue 53: a step with no count (a landmark fit) left the terminal silent; its line now ticks each second."""
     import time

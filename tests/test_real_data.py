@@ -36,6 +36,7 @@ def ocam_centre(folder: str) -> tuple[float, float]:
     return model["yc_col_0based"], model["xc_row_0based"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("folder", OCAM_FOLDERS)
 def test_a_centre_found_is_near_the_calibrations_or_it_is_an_error(folder: str) -> None:
     """Never a guess: every image gives a centre within a few px of the calibration's, or an error.
@@ -76,6 +77,7 @@ def _evaluated(folder: str) -> dict[str, Any]:
     return result
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("folder", FOLDERS)
 def test_ten_corners_reproject_all_others_within_a_pixel(folder: str) -> None:
     """bench/bench_real.py: 10 corners spread in elevation in, RMS on all other corners out (goal <= 1 px).
@@ -129,6 +131,7 @@ def test_the_refined_centre_moves_from_the_rim_to_the_axis_on_vmr() -> None:
     assert math.dist(result["fits"]["refined centre"]["centre"], ocam_centre("ocam_vmr_catadioptric")) < 0.5
 
 
+@pytest.mark.slow
 def test_miniomni_tables_keep_the_cameras_reflection_out_where_the_rim_is_found_off_the_axis() -> None:
     """On three MiniOmni images the rim is found 7-11 px off the calibrated axis, and the cut-off disc, looked
     for about it, was missed (none) or found off the axis: their tables cut off at 0, 13.9 and 16.1 px, where
@@ -167,6 +170,7 @@ def test_a_fit_whose_radius_does_not_reach_the_image_circle_is_one_clear_error()
         calibrate_camera(landmarks, (0.0, 0.0, 0.0), omni=read_image(folder / "images" / "MiniOmni1.jpg"))
 
 
+@pytest.mark.slow
 def test_the_line_fit_of_an_image_with_no_rim_starts_from_stand_in_circles(tmp_path: Path) -> None:
     """MiniOmni13 overfills the frame (no rim to find): `panomap fit --image` without landmarks used to stop at
     "no image circle"; it now starts from the cut-off disc's centre and fits its one board, whose projection

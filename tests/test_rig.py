@@ -175,6 +175,7 @@ def test_the_blend_has_no_step_at_the_seam_with_one_lens_brighter(dual: Path) ->
     assert float(np.abs(hard[rows, cut + 1] - hard[rows, cut]).mean()) > step(expected) + 10
 
 
+@pytest.mark.slow
 def test_the_floor_map_is_exact_for_every_camera_of_a_surround_rig(tmp_path: Path) -> None:
     """Four lenses chained by quarter turns about their own down axis and 1.4 m offsets, camera 0 pitched 40 deg
     down from 1.2 m: every camera's floor map lies within 0.01 px of its lens seeing the floor from its own

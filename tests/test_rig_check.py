@@ -49,6 +49,7 @@ def frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_the_true_chain_agrees_and_an_inverted_one_agrees_clearly_better_inverted(frame: Path, tmp_path: Path) -> None:
     """As given, the true chain's overlaps agree at 0.9 or more (measured 0.98) and no inversion beats it; with
     cam1's pose inverted, the pictures agree at 0.5 or less as given (measured 0.21) and at 0.9 or more with it
@@ -67,6 +68,7 @@ def test_the_true_chain_agrees_and_an_inverted_one_agrees_clearly_better_inverte
     assert result.suspect == "cam1" and result.alternatives["cam1"].score >= 0.9
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mistake", [inverted, transposed])
 def test_the_import_refuses_a_chain_whose_pose_looks_inverted(frame: Path, tmp_path: Path, mistake: object) -> None:
     """import with the frame: the true chain is written; cam2's pose inverted, or its rotation transposed, is

@@ -77,6 +77,7 @@ def project(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return pto(tmp_path_factory.mktemp("pto") / "gear360.pto")
 
 
+@pytest.mark.slow
 def test_a_hugin_project_of_two_fisheyes_is_a_rig_of_its_lenses(project: Path) -> None:
     """Each camera's equirect map lies within 0.05 px of PanoTools' stack over its lens's field (measured
     0.004 px), covering 99.5% of it or more (measured 99.9%); each looks yaw -y, pitch p, roll r (panomap's, of
@@ -98,6 +99,7 @@ def test_a_hugin_project_of_two_fisheyes_is_a_rig_of_its_lenses(project: Path) -
         assert errors.max() < 0.05, errors.max()
 
 
+@pytest.mark.slow
 def test_the_import_makes_the_rig_and_refuses_what_it_does_not_read(project: Path, tmp_path: Path) -> None:
     out = tmp_path / "rig.npz"
     result = run("import", project, "-o", out, "--side-by-side", "--fov", str(HFOV))
@@ -125,6 +127,7 @@ def quaternion(axis: tuple[float, float, float], angle_deg: float) -> list[float
     return [*(k * math.sin(half)), math.cos(half)]
 
 
+@pytest.mark.slow
 def test_a_basalt_calibration_of_two_cameras_is_a_rig_placed_by_t_imu_cam(tmp_path: Path) -> None:
     """Two kb4 cameras whose T_imu_cam turn them 30 deg and 180 + 30 deg about the IMU's y axis, 0.1 m apart:
     camera 1 sits, relative to camera 0, turned 180 deg about camera 0's down axis, 0.1 m along camera 0's

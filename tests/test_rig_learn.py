@@ -85,6 +85,7 @@ def test_a_turned_table_is_the_table_made_at_that_pose(dual: tuple[Path, np.ndar
     assert np.percentile(errors, 99) < 0.05
 
 
+@pytest.mark.slow
 def test_too_few_matching_features_are_refused_in_one_line(dual: tuple[Path, np.ndarray], tmp_path: Path) -> None:  # type: ignore[type-arg]
     """Featureless pictures: the library refuses naming the pair, and so does ``rig learn``, in one line."""
     path, _ = dual

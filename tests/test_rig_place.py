@@ -111,6 +111,7 @@ def test_exact_and_noisy_floor_landmarks_place_every_camera(car: tuple) -> None:
                 assert 1.0 < camera.residual_px_median < 3.0
 
 
+@pytest.mark.slow
 def test_degenerate_landmarks_are_refused_naming_the_camera(car: tuple) -> None:  # type: ignore[type-arg]
     """Three landmarks, landmarks all on one line, all but one on a line, a mirrored world (Y negated: the camera
     would look up from below the floor) and pixels shuffled against their floor points are each refused in one

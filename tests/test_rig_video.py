@@ -100,6 +100,7 @@ def formula_weights(maps: list[np.ndarray], wrap: bool) -> np.ndarray:
     return np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("wrap", [True, False])
 def test_the_seams_weights_are_the_formulas_over_every_pixel(dual: tuple, surround: tuple, wrap: bool) -> None:  # type: ignore[type-arg]
     """The weights kept sparse (each pixel's sole camera, the band where several weigh: seams.py) are the

@@ -138,6 +138,7 @@ class Run:
 # ----------------------------------------------------------------------------- reconnecting
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_a_killed_server_that_comes_back_continues_in_a_second_segment(work: Path, server: StreamServer) -> None:
     output = work / "out.mp4"
@@ -226,6 +227,7 @@ def kill_when(condition: Callable[[], bool], server: StreamServer) -> threading.
     return thread
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_no_reconnect_ends_at_the_drop_keeping_the_frames(work: Path, server: StreamServer, tmp_path: Path) -> None:
     watcher = kill_when(growing(tmp_path, "out.mp4"), server)
@@ -250,6 +252,7 @@ def test_no_reconnect_ends_at_the_drop_keeping_the_frames(work: Path, server: St
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.mp4"]
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_when_every_attempt_fails_the_run_ends_with_one_line_and_keeps_the_segments(
     work: Path, server: StreamServer, tmp_path: Path
@@ -307,6 +310,7 @@ def test_a_stop_right_after_the_drop_is_seen_is_a_stop(
     assert gap.outcome == "stopped"
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_sigterm_while_reconnecting_finishes_cleanly(work: Path, server: StreamServer, tmp_path: Path) -> None:
     output = tmp_path / "out.mp4"

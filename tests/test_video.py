@@ -683,6 +683,7 @@ def test_a_stream_over_http_is_read_like_a_live_input(work: Path, tmp_path: Path
     np.testing.assert_allclose(times - times[0], source - source[0], atol=1e-6)
 
 
+@pytest.mark.slow
 def test_progress_bar_on_a_terminal_only(work: Path, tmp_path: Path) -> None:
     command = [
         sys.executable,
@@ -756,6 +757,7 @@ print(json.dumps({"frames": report.frames_written, "samples": samples}))
 """
 
 
+@pytest.mark.slow
 def test_memory_stays_flat_over_a_long_stream(work: Path, tmp_path: Path) -> None:
     """600 frames through two views, in a process of their own (nothing else allocates there):
     resident memory after warm-up grows by less than 0.02 MB per frame, the least-squares slope over

@@ -52,6 +52,7 @@ def test_a_fixed_cameras_frames_are_one_view_and_a_new_place_is_another(pictures
     assert distinct_views([np.zeros((40, 40), np.uint8), np.full((40, 40), 9, np.uint8)]) == [0]
 
 
+@pytest.mark.slow
 def test_a_video_pools_its_frames_views_and_counts_one_view_once(tmp_path: Path, pictures: list[np.ndarray]) -> None:
     """A clip of three boards held in turn (one second each): six frames taken, three views kept, the camera
     learned from the three boards within 1 px of the truth (measured p90 0.62 px, max 0.93); a clip of the first

@@ -145,6 +145,7 @@ PERSPECTIVES = [  # (yaw, pitch, roll, fov) deg: straight down among them
 ]
 
 
+@pytest.mark.slow
 def test_the_view_is_the_command_lines_picture(browser: Any, serve: Any, work: Path, tmp_path: Path) -> None:
     page = Page(browser, serve(str(work / "omni.png")))
     try:
@@ -278,6 +279,7 @@ Object.defineProperty(window, "panomapView", {
 """
 
 
+@pytest.mark.slow
 def test_the_first_view_a_script_asks_for_is_drawn_from_the_source(
     browser: Any, serve: Any, work: Path, tmp_path: Path
 ) -> None:
@@ -432,6 +434,7 @@ def test_a_video_the_browser_cannot_play_is_decoded_by_the_server(
         page.close()
 
 
+@pytest.mark.slow
 def test_a_live_stream_that_drops_says_so_and_comes_back(browser: Any, serve: Any, work: Path) -> None:
     stream = StreamServer(work / "moving.ts")
     stream.start()

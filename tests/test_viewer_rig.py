@@ -102,6 +102,7 @@ def assert_the_blend(got: np.ndarray, expected: np.ndarray, library: dict[str, n
     assert min(others.values()) > 3 * BAND_MEAN  # (what a wrong gain or weight would give)
 
 
+@pytest.mark.slow
 def test_the_view_of_a_rig_is_the_command_lines_picture(browser: Any, rig_files: Path, tmp_path: Path) -> None:
     """A dual-fisheye frame: the page's perspective views across the seam and askew, and its equirect, are the
     command line's blend (same weights, same gains) within RIG_MEAN grey levels on average; the layers
@@ -128,6 +129,7 @@ def test_the_view_of_a_rig_is_the_command_lines_picture(browser: Any, rig_files:
             page.close()
 
 
+@pytest.mark.slow
 def test_a_rig_with_a_picture_per_camera_and_its_floor_map(browser: Any, rig_files: Path, tmp_path: Path) -> None:
     """A rig whose cameras each have their own picture (laid out in one texture for the page): its perspective
     view and its floor map (each camera seeing the floor from its own position) are the command line's."""
