@@ -22,10 +22,11 @@ import shutil
 import time
 import traceback
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
 from pathlib import Path
+from typing import TypeVar
 
 from ..errors import PanomapError
 from ..files import all_or_none
@@ -44,6 +45,9 @@ from ..views.spec import NamedView
 from .job import Item, Settings
 from .record import Done
 from .segments import Segment, join_segments
+
+K = TypeVar("K")
+V = TypeVar("V")
 
 # Tables (and their maps) a worker keeps: the most recently used, a few cameras at a time.
 CACHED_TABLES = 8
@@ -72,17 +76,21 @@ class PartResult:
     frames: int
 
 
+def _kept(cache: OrderedDict[K, V], key: K, make: Callable[[], V]) -> V:
+    """``cache[key]``, made by ``make`` where it is missing; the :data:`CACHED_TABLES` used last are kept."""
+    value = cache.get(key)
+    if value is None:
+        value = make()
+        cache[key] = value
+        while len(cache) > CACHED_TABLES:
+            cache.popitem(last=False)
+    cache.move_to_end(key)
+    return value
+
+
 def cached_table(path: Path, digest: str) -> PanoMappingTable:
     """The table at ``path`` whose file has SHA-256 ``digest``, loaded once per worker."""
-    key = (str(path), digest)
-    table = _TABLES.get(key)
-    if table is None:
-        table = load_table(path)
-        _TABLES[key] = table
-        while len(_TABLES) > CACHED_TABLES:
-            _TABLES.popitem(last=False)
-    _TABLES.move_to_end(key)
-    return table
+    return _kept(_TABLES, (str(path), digest), lambda: load_table(path))
 
 
 def cached_remappers(item: Item, views: Sequence[NamedView], settings: Settings) -> list[Remapper]:
@@ -91,52 +99,43 @@ def cached_remappers(item: Item, views: Sequence[NamedView], settings: Settings)
     Maps are made the exact way (as the view commands make their one map), so that a batch
     output equals the view command's output bit for bit; per worker and camera that is paid once.
     """
-    key = (str(item.input.table), item.table_sha256, repr([*views, settings.interpolation, settings.sampling]))
-    remappers = _REMAPPERS.get(key)
-    if remappers is None:
+
+    def make() -> list[Remapper]:
         table = cached_table(item.input.table, item.table_sha256)
         size = None if table.image_size is None else (int(table.image_size[0]), int(table.image_size[1]))
-        remappers = [
+        return [
             Remapper(build_map(table, named.view, settings.sampling, exact=True), size, settings.interpolation)
             for named in views
         ]
-        _REMAPPERS[key] = remappers
-        while len(_REMAPPERS) > CACHED_TABLES:
-            _REMAPPERS.popitem(last=False)
-    _REMAPPERS.move_to_end(key)
-    return remappers
+
+    return _kept(_REMAPPERS, _views_key(item, views, settings), make)
 
 
 def cached_rig(path: Path, digest: str) -> CameraRig:
     """The rig at ``path`` whose file has SHA-256 ``digest``, loaded once per worker; its tables fresh objects (their
     arrays shared) at each call, as :func:`video_table` makes them: every view's maps as the commands make them."""
-    key = (str(path), digest)
-    rig = _RIGS.get(key)
-    if rig is None:
-        rig = load_rig(path)
-        _RIGS[key] = rig
-        while len(_RIGS) > CACHED_TABLES:
-            _RIGS.popitem(last=False)
-    _RIGS.move_to_end(key)
+    rig = _kept(_RIGS, (str(path), digest), lambda: load_rig(path))
     return replace(rig, tables=tuple(copy.copy(table) for table in rig.tables))
 
 
 def cached_rig_remappers(item: Item, views: Sequence[NamedView], settings: Settings) -> list[RigRemapper]:
     """Each view's blend of ``item``'s rig (as the view commands make it: its weights wrap on a panorama), built
     once per worker."""
-    key = (str(item.input.table), item.table_sha256, repr([*views, settings.interpolation, settings.sampling]))
-    remappers = _RIG_REMAPPERS.get(key)
-    if remappers is None:
+
+    def make() -> list[RigRemapper]:
         remappers = []
         for named in views:
             rig = cached_rig(item.input.table, item.table_sha256)
             maps = camera_maps(rig, named.view, settings.sampling)
             remappers.append(RigRemapper(rig, maps, settings.interpolation, wrap=named.view.kind in WRAPPING_KINDS))
-        _RIG_REMAPPERS[key] = remappers
-        while len(_RIG_REMAPPERS) > CACHED_TABLES:
-            _RIG_REMAPPERS.popitem(last=False)
-    _RIG_REMAPPERS.move_to_end(key)
-    return remappers
+        return remappers
+
+    return _kept(_RIG_REMAPPERS, _views_key(item, views, settings), make)
+
+
+def _views_key(item: Item, views: Sequence[NamedView], settings: Settings) -> tuple[str, str, str]:
+    """The key of ``item``'s table (or rig) file with these views and settings."""
+    return (str(item.input.table), item.table_sha256, repr([*views, settings.interpolation, settings.sampling]))
 
 
 def describe(exc: BaseException) -> str:
