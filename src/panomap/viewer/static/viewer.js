@@ -232,18 +232,7 @@ void main() {
     const blocks = Math.ceil(info.table.M / info.table.block_width);
     const defines = `#version 300 es\n#define RAYS ${rays}\n#define LOOKUP ${lookup}\n#define PLANES ${planes}\n#define BLOCKS ${blocks}\n`
       + `#define LINEAR_FLOAT ${linearFloat ? 1 : 0}\n`;
-    gl.attachShader(program, compile(gl.FRAGMENT_SHADER, defines + FRAGMENT));
-    gl.bindAttribLocation(program, 0, "corner");
-    gl.linkProgram(program);
-    if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(program));
-    const locations = {};
-    const count = gl.getProgramParameter(program, gl.ACTIVE_UNIFORMS);
-    for (let n = 0; n < count; n++) {
-      const name = gl.getActiveUniform(program, n).name;
-      locations[name] = gl.getUniformLocation(program, name);
-    }
-    gl.useProgram(program);
-    uniforms = locations;
+    const locations = link(program, defines + FRAGMENT);
     const t = info.table, size = info.source.size;
     gl.uniform1i(uniforms.table_entries, 0);
     gl.uniform1i(uniforms.source_image, 1);
@@ -269,9 +258,9 @@ void main() {
     return { program, locations };
   }
 
-  // A rig's program (viewer_rig.js): every camera's lookup and edge, blended as the library blends them.
-  function makeRigProgram(program, rays, planes) {
-    gl.attachShader(program, compile(gl.FRAGMENT_SHADER, window.panomapRig.fragment(info.rig.cameras.length, rays, planes, linearFloat)));
+  // Links the program with this fragment shader and makes it the one in use: its uniforms' locations by name.
+  function link(program, fragment) {
+    gl.attachShader(program, compile(gl.FRAGMENT_SHADER, fragment));
     gl.bindAttribLocation(program, 0, "corner");
     gl.linkProgram(program);
     if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(program));
@@ -283,6 +272,12 @@ void main() {
     }
     gl.useProgram(program);
     uniforms = locations;
+    return locations;
+  }
+
+  // A rig's program (viewer_rig.js): every camera's lookup and edge, blended as the library blends them.
+  function makeRigProgram(program, rays, planes) {
+    const locations = link(program, window.panomapRig.fragment(info.rig.cameras.length, rays, planes, linearFloat));
     const t = info.table;
     gl.uniform1i(uniforms.source_image, 1);
     gl.uniform1i(uniforms.plane_u, 3);
