@@ -44,13 +44,14 @@ from bench_scenes import (
     GOAL_P90_PX,
     MIRRORS,
     PANORAMAS,
+    dressed,
     mirror_camera,
     read_panorama,
     reproject,
     ring_agreement,
     simulated,
 )
-from panomap.simulate import mount_rotation, noisy_jpeg, vignette
+from panomap.simulate import mount_rotation
 from panomap.simulate.cameras import RadialCamera, TiltedCamera
 
 FloatArray = NDArray[np.float64]
@@ -140,24 +141,6 @@ def ocam_camera(
     body = float(np.interp(math.radians(90.0 + low_deg), alpha, r))
     rotation = mount_rotation(math.radians(tilt), float(rng.uniform(0, 2 * math.pi)), looking_down=axis == "down")
     return TiltedCamera(inner, rotation), body
-
-
-def dress(image: NDArray[np.uint8], camera: TiltedCamera, body: float, seed: int) -> NDArray[np.uint8]:
-    """The mirror's own camera a dark disc, vignetting, noise and JPEG."""
-    rng = np.random.default_rng(seed + 7)
-    v, u = np.mgrid[0 : image.shape[0], 0 : image.shape[1]]
-    r = np.hypot(u - camera.centre[0], v - camera.centre[1])
-    image[r < body] = (25, 25, 30)
-    image[r < 0.4 * body] = (5, 5, 5)
-    image = vignette(
-        image,
-        camera.centre,
-        camera.outer_radius,
-        falloff=float(rng.uniform(0.2, 0.5)),
-        dim=float(rng.uniform(0.0, 0.2)),
-        dim_angle=float(rng.uniform(0, 2 * math.pi)),
-    )
-    return noisy_jpeg(image, rng, noise=4.0, quality=80)
 
 
 @dataclass(frozen=True)
@@ -283,7 +266,7 @@ def main() -> None:
         panorama = read_panorama(folder / file)
         size = (1920, 1080) if panorama.shape[1] >= 4000 else (960, 540)
         for label, camera, body, seed in cases(args.data, k, file, size, args.quick):
-            image = dress(reproject(panorama, camera), camera, body, seed)
+            image = dressed(reproject(panorama, camera), camera, seed, body_px=body)
             row = fit_one(image, camera)
             name = f"{file.split('.')[0][:22]} / {label}"
             rows.append((name, row))

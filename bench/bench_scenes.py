@@ -385,14 +385,18 @@ def mirror_pictures(data: Path, quick: bool) -> list[Picture]:
     return out
 
 
-def dressed(image: NDArray[np.uint8], camera: TiltedCamera, seed: int) -> NDArray[np.uint8]:
-    """``image`` with the mirror's own camera (a dark disc with a lens in it), vignetting, noise and JPEG."""
+def dressed(
+    image: NDArray[np.uint8], camera: TiltedCamera, seed: int, body_px: float | None = None
+) -> NDArray[np.uint8]:
+    """``image`` with the mirror's own camera (a dark disc with a lens in it, ``body_px`` across its radius: the
+    camera's cut-off radius where None), vignetting, noise and JPEG."""
     rng = np.random.default_rng(seed + 7)
-    if camera.cutoff_radius > 0:
+    body = camera.cutoff_radius if body_px is None else body_px
+    if body > 0:
         v, u = np.mgrid[0 : image.shape[0], 0 : image.shape[1]]
         r = np.hypot(u - camera.centre[0], v - camera.centre[1])
-        image[r < camera.cutoff_radius] = (25, 25, 30)
-        image[r < 0.4 * camera.cutoff_radius] = (5, 5, 5)
+        image[r < body] = (25, 25, 30)
+        image[r < 0.4 * body] = (5, 5, 5)
     image = vignette(
         image,
         camera.centre,
