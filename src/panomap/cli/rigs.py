@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, read_text
 from ..io.images import read_image, read_rig_pictures, save_map, write_image
-from ..rig import CameraRig, RigRemapper, camera_maps, load_rig, save_rig
+from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
 from ..views import View
 from .options import say
 
@@ -319,10 +319,9 @@ def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], sid
 
 
 @rig.command("learn")
-@click.argument("rig_path", metavar="RIG", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.argument(
-    "images",
-    metavar="PICTURE...",
+    "paths",
+    metavar="[RIG] PICTURE...",
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
     nargs=-1,
     required=True,
@@ -330,10 +329,34 @@ def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], sid
 @click.option(
     "-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True, help="Rig file to write (.npz)."
 )
-def rig_learn(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
+@click.option(
+    "--side-by-side",
+    is_flag=True,
+    help="No RIG: a dual fisheye's frames alone (each lens side by side, lens 0 on the left): each lens is learned "
+    "from its lines too, and refused where the frames cannot pin it.",
+)
+@click.option(
+    "-v", "--verbose", is_flag=True, help="Where it is refused: the figures behind the refusal after its line."
+)
+def rig_learn(paths: tuple[Path, ...], output: Path, side_by_side: bool, verbose: bool) -> None:
     """The rotations between RIG's cameras, learned from the features they share in its PICTUREs (each a frame
     holding every camera's picture, or one picture per camera in the rig's order, shot after shot); camera 0
-    stays where it is. The rig must be placed within a few degrees (a dual fisheye's lenses back to back)."""
+    stays where it is. The rig must be placed within a few degrees (a dual fisheye's lenses back to back).
+
+    With --side-by-side and no RIG, a dual fisheye with no calibration at all: its lenses and the turn between
+    them from its side-by-side frames alone (panomap rig learn --side-by-side FRAME... -o rig.npz)."""
+    if side_by_side:
+        _learn_dual(paths, output, verbose)
+        return
+    if len(paths) < 2:
+        raise click.UsageError(
+            "give the rig and its pictures (or, with no rig, --side-by-side and a dual fisheye's frames)"
+        )
+    _learn_rig(paths[0], paths[1:], output)
+
+
+def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
+    """``rig learn RIG PICTURE...``: the rotations of a rig whose lenses are known."""
     from ..interop.orient import turn_table
     from ..rig.learn import learn_rotations
 
@@ -348,6 +371,30 @@ def rig_learn(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
         pictures = read_rig_pictures(loaded, images[start : start + per_shot])
         shots.append(pictures[0] if loaded.offsets is not None else pictures)
     learned = learn_rotations(loaded, shots, turn=turn_table)
+    with all_or_none():
+        save_rig(learned.rig, output)
+    for line in learned.describe():
+        say(printable(line))
+    say(f"wrote {printable(str(output))}")
+
+
+def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:
+    """``rig learn --side-by-side FRAME...``: a dual fisheye's lenses and their turn from its frames alone
+    (:func:`panomap.calibrate.dual_fisheye.learn_dual_fisheye`); a refusal's figures with ``verbose``."""
+    from ..calibrate.dual_fisheye import learn_dual_fisheye
+
+    if any(is_rig_file(path) for path in frames):
+        raise click.UsageError(
+            "--side-by-side learns the lenses too, from the frames alone: give no rig (or drop --side-by-side)"
+        )
+    check_outputs([("a frame", frame) for frame in frames], [("the output", output)])
+    pictures = [read_image(frame, None, "a frame") for frame in frames]
+    try:
+        learned = learn_dual_fisheye(pictures)
+    except PanomapError as exc:
+        error = PanomapError(exc.detail, exc.source)
+        error.verbose = verbose  # type: ignore[attr-defined]
+        raise error from None
     with all_or_none():
         save_rig(learned.rig, output)
     for line in learned.describe():
