@@ -179,10 +179,7 @@ def learn_dual_fisheye(
     if not shots:
         raise PanomapError("no frame to learn the dual fisheye from")
     halves = [split_frame(frame) for frame in shots]
-    lenses = []
-    for k, side in enumerate(("left", "right")):
-        say(f"learning lens {k} (the {side} half) from its lines")
-        lenses.append(_learn_lens(k, side, [h[k] for h in halves]))
+    lenses = _learn_lenses([[h[k] for h in halves] for k in (0, 1)], say)
     bands = (lens_band(lenses[0]), lens_band(lenses[1]))
     rig = _start_rig(lenses[0].table, lenses[1].table)
     say("learning the turn between the lenses from their overlap")
@@ -211,17 +208,28 @@ def learn_dual_fisheye(
     return DualFisheye(out, (lenses[0], lenses[1]), bands, learned, limit)
 
 
-def _learn_lens(k: int, side: str, pictures: list[NDArray[Any]]) -> LearnedCalibration:
-    """Lens ``k`` from its halves, refused in one line (the lens's own refusal in the figures)."""
-    try:
-        return learn_from_images(pictures, boards=True)
-    except PanomapError as exc:
+def _learn_lenses(
+    pictures: list[list[NDArray[Any]]], say: Callable[[str], None]
+) -> tuple[LearnedCalibration, LearnedCalibration]:
+    """Each lens from its halves (``pictures[k]``); where either is not pinned, one refusal naming them (each
+    lens's own refusal in the figures)."""
+    learned: list[LearnedCalibration] = []
+    refused: list[str] = []
+    for k, side in enumerate(("left", "right")):
+        say(f"learning lens {k} (the {side} half) from its lines")
+        try:
+            learned.append(learn_from_images(pictures[k], boards=True))
+        except PanomapError as exc:
+            refused.append(f"lens {k} ({side}): {exc.detail}")
+    if refused:
+        who = "lens 0 (left) is" if refused[0].startswith("lens 0") else "lens 1 (right) is"
         raise PanomapError(
             refusal(
-                f"lens {k} ({side}) is not pinned by these frames: {REMEDY}",
-                f"lens {k}: {exc.detail}\n{_what_it_pins()}\n{OTHER_WAY}",
+                f"{'neither lens is' if len(refused) == 2 else who + ' not'} pinned by these frames: {REMEDY}",
+                "\n".join([*refused, _what_it_pins(), OTHER_WAY]),
             )
-        ) from None
+        )
+    return learned[0], learned[1]
 
 
 def _what_it_pins() -> str:
