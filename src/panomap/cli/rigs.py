@@ -16,7 +16,7 @@ from ..files import all_or_none, check_outputs, read_text
 from ..io.images import read_image, read_rig_pictures, save_map, write_image
 from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
 from ..views import View
-from .options import say
+from .options import progress_bar, say
 
 WRAPPING_KINDS = ("panorama", "equirect")
 
@@ -389,12 +389,15 @@ def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:
         )
     check_outputs([("a frame", frame) for frame in frames], [("the output", output)])
     pictures = [read_image(frame, None, "a frame") for frame in frames]
+    bar = progress_bar("step")
     try:
-        learned = learn_dual_fisheye(pictures)
+        learned = learn_dual_fisheye(pictures, progress=bar.stage)
     except PanomapError as exc:
         error = PanomapError(exc.detail, exc.source)
         error.verbose = verbose  # type: ignore[attr-defined]
         raise error from None
+    finally:
+        bar.close()
     with all_or_none():
         save_rig(learned.rig, output)
     for line in learned.describe():
