@@ -17,8 +17,9 @@ What one dual-fisheye picture pins, and what it does not (:mod:`panomap.calibrat
   of the world, under which the overlap's matches agree and every line stays straight.
 
 So the rig is written only where both lenses are pinned by their own pictures (each lens's 95% band within the line
-fit's limits, :mod:`panomap.calibrate.lines.agreement`) and their overlap agrees within their bands; otherwise it is
-refused in one line (what to do: a checkerboard picture of each lens, or their calibration), the figures after it.
+fit's limits, :mod:`panomap.calibrate.lines.agreement`) and they draw their overlap alike within their bands;
+otherwise it is refused in one line (what to do: a checkerboard picture of each lens, or their calibration), the
+figures after it.
 """
 
 from __future__ import annotations
@@ -165,7 +166,8 @@ def learn_dual_fisheye(
 ) -> DualFisheye:
     """A dual fisheye learned from its own side-by-side frames, no calibration: each lens from its lines (all its
     halves together, :func:`panomap.calibrate.pictures.learn_from_images`), then the turn between them from their
-    overlap (:func:`panomap.rig.learn.learn_rotations`), the overlap's residual checked against the lenses' bands.
+    overlap (:func:`panomap.rig.learn.learn_rotations`), the two lenses' drawings of the overlap checked against their
+    bands (:func:`pair_lenses`).
 
     Parameters
     ----------
@@ -211,6 +213,11 @@ def pair_lenses(
         One line (what to do: :data:`REMEDY`), the figures after it.
     """
     bands = (lens_band(lenses[0]), lens_band(lenses[1]))
+    for k, band in enumerate(bands):
+        if not math.isfinite(band.max_px):  # (a rim without rings falls back on max_px: _overlap_limit)
+            raise PanomapError(
+                refusal(f"lens {k}'s fit states no band to check it by: {REMEDY}", f"{_what_it_pins()}\n{OTHER_WAY}")
+            )
     rig = _start_rig(lenses[0].table, lenses[1].table)
     try:
         learned = learn_rotations(rig, list(frames), turn=turn_table, seed=seed)
