@@ -74,6 +74,12 @@ MIN_CORNERS = 20
 MAX_SMALL_FINDS = 3
 # Images larger than this (px, the longer side) are searched downscaled, and the corners refined in full.
 SEARCH_SIZE_PX = 1400
+# Once a board is found, the search for another first looks at the search image halved (LOOK_FACTOR: a quarter of
+# the time) and searches the search image itself only where that shows a grid: most images hold one board, and
+# the search that finds nothing more was half the detection's time. On the 63 pictures of the real sets (the
+# MiniOmni set's squares 3 px at their smallest) the halved image showed every board the full search finds; the
+# corners are the full search's, unchanged.
+LOOK_FACTOR = 0.5
 # The half-width (px) of the window a corner is refined in: a quarter of the way to its nearest corner, at
 # least MIN (smaller squares keep the detector's estimate) and at most MAX.
 MIN_WINDOW_PX = 4
@@ -127,7 +133,7 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
     small = 0
     while len(boards) < max_boards and small < (1 if boards else MAX_SMALL_FINDS):
         # every seed on the first search; after it, a search that finds nothing with the first seed ends there
-        found = _largest(search, SEEDS if searched == 0 else LATER_SEEDS, give_up=searched > 0)
+        found = _largest(search, SEEDS) if searched == 0 else _looked(search)
         searched += 1
         if found is None:
             break
@@ -156,7 +162,7 @@ def _rectangle(columns: int, rows: int) -> NDArray[np.intp]:
 
 
 def _largest(
-    search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...], give_up: bool
+    search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...], give_up: bool = False
 ) -> tuple[FloatArray, tuple[int, int]] | None:
     """The largest board the detector grows from the seeds: corners (n, 2) px and (rows, columns).
 
@@ -176,6 +182,17 @@ def _largest(
         if give_up or len(best[0]) >= MIN_CORNERS:
             break
     return best
+
+
+def _looked(search: NDArray[np.uint8]) -> tuple[FloatArray, tuple[int, int]] | None:
+    """A later search (``LATER_SEEDS``, giving up at the first seed that finds nothing): :func:`_largest` on
+    ``search`` where the detector shows a grid on ``search`` halved (``LOOK_FACTOR``), else None."""
+    look = np.asarray(
+        cv2.resize(search, None, fx=LOOK_FACTOR, fy=LOOK_FACTOR, interpolation=cv2.INTER_AREA), dtype=np.uint8
+    )
+    if _largest(look, LATER_SEEDS, give_up=True) is None:
+        return None
+    return _largest(search, LATER_SEEDS, give_up=True)
 
 
 def _accurate(
