@@ -128,3 +128,21 @@ def test_a_board_tiled_over_the_frame_is_found_whole() -> None:
     assert len(np.unique(true_grid, axis=0)) == len(true_grid), "two corners on one true corner"
     assert_grid_is_the_boards(board, true_grid)
     assert np.median(error) < 0.2 and np.percentile(error, 99) < 0.8 and error.max() < 3.0
+
+
+def test_a_later_search_looks_at_the_image_halved_first(mirror_pair: BoardScene) -> None:
+    """Once a board is found, the search for another (_looked) asks the detector on the image halved first: where
+    that shows a grid, the result is the full search's own (the same corners, bit for bit); with both boards
+    painted over, nothing (the full search, which finds nothing there either, is not run)."""
+    image = mirror_pair.image
+    grey = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    looked = detect._looked(grey)
+    full = detect._largest(grey, detect.LATER_SEEDS, give_up=True)
+    assert looked is not None and full is not None
+    np.testing.assert_array_equal(looked[0], full[0])
+    assert looked[1] == full[1]
+    painted = grey
+    for board in find_boards(image):
+        painted = detect._painted_over(painted, board.pixels, board.grid)
+    assert detect._looked(painted) is None
+    assert detect._largest(painted, detect.LATER_SEEDS, give_up=True) is None
