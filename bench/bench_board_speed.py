@@ -7,7 +7,8 @@ measure it, before and after a change, in the same run of the machine as this on
 For each real set (``--data``: each folder's ``images/`` and ``corners.csv``), every picture:
 
 - **panomap**: the image circles of the first picture (``line_circles``, as ``panomap fit --image`` starts),
-  ``find_boards`` on every picture (the board's size unknown), then ``fit_boards`` on every board found;
+  ``find_boards`` on every picture (the board's size unknown; ``find_boards_each``: the pictures in threads, one
+  per CPU, as ``panomap fit``), then ``fit_boards`` on every board found;
 - **OpenCV**: ``findChessboardCorners`` told the board's size (read off ``corners.csv``) + ``cornerSubPix``
   (5 x 5) on every picture, then ``cv2.omnidir.calibrate`` (Mei's model, skew fixed) on the boards it found:
   what omnidir's users run. opencv-contrib of the installed OpenCV's version, found through ``--contrib``
@@ -122,7 +123,7 @@ def opencv_pipeline(cv2, images: list[NDArray[np.uint8]], shape: tuple[int, int]
 def panomap_pipeline(images: list[NDArray[np.uint8]]):  # type: ignore[no-untyped-def]
     """panomap's circles, detection and fit: (circles, detection, fit (each (wall s, CPU s)), boards per picture,
     the fit or the error)."""
-    from panomap.calibrate.boards.detect import find_boards
+    from panomap.calibrate.boards.detect import find_boards_each
     from panomap.calibrate.boards.fit import fit_boards
     from panomap.calibrate.lines.frame_circles import line_circles
     from panomap.errors import PanomapError
@@ -130,7 +131,7 @@ def panomap_pipeline(images: list[NDArray[np.uint8]]):  # type: ignore[no-untype
     clock = Clock()
     circles = line_circles(images[0])
     circles_s = clock.lap()
-    boards = [find_boards(image, k) for k, image in enumerate(images)]
+    boards = list(find_boards_each(images))  # in threads, as panomap fit: the CPU time counts them all
     detect_s = clock.lap()
     try:
         fit: object = fit_boards([b for these in boards for b in these], circles)

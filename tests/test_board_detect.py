@@ -146,3 +146,18 @@ def test_a_later_search_looks_at_the_image_halved_first(mirror_pair: BoardScene)
         painted = detect._painted_over(painted, board.pixels, board.grid)
     assert detect._looked(painted) is None
     assert detect._largest(painted, detect.LATER_SEEDS, give_up=True) is None
+
+
+def test_images_searched_in_threads_give_each_images_boards(mirror_pair: BoardScene) -> None:
+    """find_boards_each in two threads: each image's boards as find_boards finds them alone, bit for bit (OpenCV's
+    generator, seeded before each search, is its thread's own), in the images' order, with their indices."""
+    images = [mirror_pair.image, np.ascontiguousarray(mirror_pair.image[::-1]), mirror_pair.image[:, ::-1].copy()]
+    threaded = list(detect.find_boards_each(images, threads=2))
+    assert len(threaded) == len(images)
+    for k, (image, boards) in enumerate(zip(images, threaded, strict=True)):
+        alone = find_boards(image, k)
+        assert len(boards) == len(alone) == 2
+        for board, single in zip(boards, alone, strict=True):
+            assert board.image_index == k
+            np.testing.assert_array_equal(board.pixels, single.pixels)
+            np.testing.assert_array_equal(board.grid, single.grid)

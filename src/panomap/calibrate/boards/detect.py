@@ -21,6 +21,9 @@ the board the picture shows, not a rectangle.
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import cv2
@@ -153,6 +156,22 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
             pixels = (pixels + 0.5) / scale - 0.5
         boards.append(Board(image_index, _refine(grey, pixels, grid), grid))
     return boards
+
+
+def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None = None) -> Iterator[list[Board]]:
+    """The checkerboards of each of ``images`` (:func:`find_boards`, each board's ``image_index`` its image's place
+    in ``images``), image by image in order, each as soon as it and those before it are searched.
+
+    The images are searched ``threads`` at a time (the CPUs', where None): the detector runs in one thread and
+    lets the others run, so the wall time falls with the cores free and the CPU time does not. Each search seeds
+    the generator of its own thread (OpenCV keeps one per thread): the boards are those found one image at a time.
+    """
+    count = min(len(images), threads or os.cpu_count() or 1)
+    if count <= 1:
+        yield from (find_boards(image, k) for k, image in enumerate(images))
+        return
+    with ThreadPoolExecutor(count, thread_name_prefix="panomap-boards") as pool:
+        yield from pool.map(find_boards, images, range(len(images)))
 
 
 def _rectangle(columns: int, rows: int) -> NDArray[np.intp]:
