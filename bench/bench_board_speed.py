@@ -123,7 +123,15 @@ def opencv_pipeline(cv2, images: list[NDArray[np.uint8]], shape: tuple[int, int]
 def panomap_pipeline(images: list[NDArray[np.uint8]]):  # type: ignore[no-untyped-def]
     """panomap's circles, detection and fit: (circles, detection, fit (each (wall s, CPU s)), boards per picture,
     the fit or the error)."""
-    from panomap.calibrate.boards.detect import find_boards_each
+    try:
+        from panomap.calibrate.boards.detect import find_boards_each
+    except ImportError:  # another tree's panomap (--src), from before it: one picture after another
+
+        def find_boards_each(images):  # type: ignore[no-untyped-def]
+            from panomap.calibrate.boards.detect import find_boards
+
+            return [find_boards(image, k) for k, image in enumerate(images)]
+
     from panomap.calibrate.boards.fit import fit_boards
     from panomap.calibrate.lines.frame_circles import line_circles
     from panomap.errors import PanomapError
