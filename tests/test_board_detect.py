@@ -161,3 +161,42 @@ def test_images_searched_in_threads_give_each_images_boards(mirror_pair: BoardSc
             assert board.image_index == k
             np.testing.assert_array_equal(board.pixels, single.pixels)
             np.testing.assert_array_equal(board.grid, single.grid)
+
+
+@pytest.fixture(scope="module")
+def one_board_pictures() -> list[BoardScene]:
+    """Three pictures of one 9 x 6 board each (inner corners) in three poses before mirror_pair's camera."""
+    camera = line_camera("hyperbolic", 0.5, tilt_deg=2.0)
+    return [
+        render_board_scene(camera, board_poses(camera, 1, seed=40 + k, sizes=((9, 6),)), seed=k, supersample=2)
+        for k in range(3)
+    ]
+
+
+def test_the_board_learned_from_the_first_pictures_is_the_true_one(one_board_pictures: list[BoardScene]) -> None:
+    """The first LEARN_PICTURES pictures each show one whole board: its size is learned, the true 6 x 9; the later
+    picture, searched for one board of that size only, gives the boards find_boards gives it alone, bit for bit."""
+    images = [scene.image for scene in one_board_pictures]
+    found = list(detect.find_boards_each(images, threads=1))
+    assert detect.learned_size(found[: detect.LEARN_PICTURES]) == (6, 9)
+    for k, (scene, boards) in enumerate(zip(one_board_pictures, found, strict=True)):
+        alone = find_boards(scene.image, k)
+        assert len(boards) == len(alone) == 1
+        np.testing.assert_array_equal(boards[0].pixels, alone[0].pixels)
+        _, error, _ = matched(boards[0], scene)
+        assert np.median(error) < 0.15, np.median(error)  # on the true corners (the detector's accuracy, as above)
+
+
+def test_a_later_picture_whose_board_is_of_another_size_is_searched_in_full(
+    one_board_pictures: list[BoardScene], mirror_pair: BoardScene
+) -> None:
+    """After two pictures of a 9 x 6 board, a picture of an 8 x 5 and a 7 x 6 board: the one board first found is
+    of another size, so the picture is searched in full and both are found (as find_boards finds them); where the
+    first pictures show two boards, no size is learned."""
+    images = [one_board_pictures[0].image, one_board_pictures[1].image, mirror_pair.image]
+    found = list(detect.find_boards_each(images, threads=2))
+    assert len(found[2]) == 2
+    for board, alone in zip(found[2], find_boards(mirror_pair.image, 2), strict=True):
+        np.testing.assert_array_equal(board.pixels, alone.pixels)
+    assert detect.learned_size([found[2], found[0]]) is None
+    assert detect.learned_size(found[:1]) is None  # one picture is not enough

@@ -25,6 +25,7 @@ import os
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 
 import cv2
 import numpy as np
@@ -68,6 +69,9 @@ SAME_CORNER = 0.75
 RNG_SEED = 20071
 # Most boards searched for in one image.
 MAX_BOARDS = 6
+# Pictures the board is learned from (find_boards_each): where each shows one whole board, all of one size, the
+# later pictures are searched for one board of that size (the search for more left out: half the detection's time).
+LEARN_PICTURES = 2
 # Fewest inner corners a board must show to be used.
 MIN_CORNERS = 20
 # The search stops after this many searches in a row that find only grids under MIN_CORNERS: a scene's texture
@@ -162,16 +166,46 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
     """The checkerboards of each of ``images`` (:func:`find_boards`, each board's ``image_index`` its image's place
     in ``images``), image by image in order, each as soon as it and those before it are searched.
 
+    The board is learned from the first pictures: where each of the first ``LEARN_PICTURES`` shows one whole board,
+    all of one size (rows x columns, either way round), the others are searched for one board only
+    (:func:`_one_board`: the search for more, half the detection's time, is left out), and in full where that one
+    is of another size. A later picture that shows two boards then gives the first only.
+
     The images are searched ``threads`` at a time (the CPUs', where None): the detector runs in one thread and
     lets the others run, so the wall time falls with the cores free and the CPU time does not. Each search seeds
     the generator of its own thread (OpenCV keeps one per thread): the boards are those found one image at a time.
     """
     count = min(len(images), threads or os.cpu_count() or 1)
-    if count <= 1:
-        yield from (find_boards(image, k) for k, image in enumerate(images))
-        return
-    with ThreadPoolExecutor(count, thread_name_prefix="panomap-boards") as pool:
-        yield from pool.map(find_boards, images, range(len(images)))
+    with ThreadPoolExecutor(max(count, 1), thread_name_prefix="panomap-boards") as pool:
+        mapped = pool.map if count > 1 else map
+        first = list(mapped(find_boards, images[:LEARN_PICTURES], range(LEARN_PICTURES)))
+        yield from first
+        size = learned_size(first)
+        later = range(len(first), len(images))
+        search = find_boards if size is None else partial(_one_board, size=size)
+        yield from mapped(search, [images[k] for k in later], later)
+
+
+def learned_size(found: Sequence[Sequence[Board]]) -> tuple[int, int] | None:
+    """The board's size (the lesser and the greater count of inner corners along a side) where each picture's
+    boards ``found`` are one whole board, all of one size, and there are ``LEARN_PICTURES`` of them; else None."""
+    if len(found) < LEARN_PICTURES or any(len(boards) != 1 for boards in found):
+        return None
+    sizes = {tuple(sorted(boards[0].shape)) for boards in found}
+    whole = all(len(boards[0].pixels) == boards[0].shape[0] * boards[0].shape[1] for boards in found)
+    if len(sizes) != 1 or not whole:
+        return None
+    low, high = sizes.pop()
+    return low, high
+
+
+def _one_board(image: NDArray[np.generic], image_index: int, size: tuple[int, int]) -> list[Board]:
+    """The board of ``size`` (:func:`learned_size`) in ``image``: the first search's board where it is whole and of
+    that size, or none where the search finds none; else every board :func:`find_boards` finds."""
+    found = find_boards(image, image_index, max_boards=1)
+    if not found or (tuple(sorted(found[0].shape)) == size and len(found[0].pixels) == size[0] * size[1]):
+        return found
+    return find_boards(image, image_index)
 
 
 def _rectangle(columns: int, rows: int) -> NDArray[np.intp]:
