@@ -7,8 +7,9 @@ measure it, before and after a change, in the same run of the machine as this on
 For each real set (``--data``: each folder's ``images/`` and ``corners.csv``), every picture:
 
 - **panomap**: the image circles of the first picture (``line_circles``, as ``panomap fit --image`` starts),
-  ``find_boards`` on every picture (the board's size unknown; ``find_boards_each``: the pictures in threads, one
-  per CPU, as ``panomap fit``), then ``fit_boards`` on every board found;
+  ``find_boards`` on every picture (the board's size unknown; ``find_boards_each``, as ``panomap fit``: the board
+  learned from the first two pictures, the later ones searched for one board of its size, the pictures in threads,
+  one per CPU), then ``fit_boards`` on every board found;
 - **OpenCV**: ``findChessboardCorners`` told the board's size (read off ``corners.csv``) + ``cornerSubPix``
   (5 x 5) on every picture, then ``cv2.omnidir.calibrate`` (Mei's model, skew fixed) on the boards it found:
   what omnidir's users run. opencv-contrib of the installed OpenCV's version, found through ``--contrib``

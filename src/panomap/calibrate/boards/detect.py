@@ -17,6 +17,12 @@ grow the grid by a row the search missed (:func:`_accurate`), and they are refin
 The detector grows a grid to about ``PATTERN_CORNERS`` corners at most: a board tiled over the whole frame
 is grown on from there corner by corner (:func:`_grown`), and its corners' places are then whatever part of
 the board the picture shows, not a rectangle.
+
+Once a board is found, the search for another looks at the image halved first (:func:`_looked`). Many pictures
+(:func:`find_boards_each`) are searched in threads, and where the first two show one board each, of one size,
+the others are searched for one board only (the search for more, most of what is left, is left out). Told the
+board's size, the detector is no quicker: it needs ``CALIB_CB_EXHAUSTIVE`` to find the real sets' boards (0 of 17
+without on the Kaidan set) and then takes as long as the search grown from a seed (measured on the five sets).
 """
 
 from __future__ import annotations
