@@ -76,7 +76,8 @@ RNG_SEED = 20071
 # Most boards searched for in one image.
 MAX_BOARDS = 6
 # Pictures the board is learned from (find_boards_each): where each shows one whole board, all of one size, the
-# later pictures are searched for one board of that size (the search for more left out: half the detection's time).
+# later pictures are searched for one board of that size (the look for more left out: a third of the detection's
+# time on the real sets).
 LEARN_PICTURES = 2
 # Fewest inner corners a board must show to be used.
 MIN_CORNERS = 20
@@ -87,11 +88,11 @@ MIN_CORNERS = 20
 MAX_SMALL_FINDS = 3
 # Images larger than this (px, the longer side) are searched downscaled, and the corners refined in full.
 SEARCH_SIZE_PX = 1400
-# Once a board is found, the search for another first looks at the search image halved (LOOK_FACTOR: a quarter of
-# the time) and searches the search image itself only where that shows a grid: most images hold one board, and
-# the search that finds nothing more was half the detection's time. On the 63 pictures of the real sets (the
-# MiniOmni set's squares 3 px at their smallest) the halved image showed every board the full search finds; the
-# corners are the full search's, unchanged.
+# Once a board is found, the search for another first looks at the search image halved (LOOK_FACTOR: a quarter to
+# three quarters of the time, where it finds nothing) and searches the search image itself only where that shows a
+# grid: most images hold one board, and the search that finds nothing more was half the detection's time. On the
+# 63 pictures of the real sets (the MiniOmni set's squares 3 px at their smallest) the halved image showed every
+# board the full search finds; the corners are the full search's, unchanged.
 LOOK_FACTOR = 0.5
 # The half-width (px) of the window a corner is refined in: a quarter of the way to its nearest corner, at
 # least MIN (smaller squares keep the detector's estimate) and at most MAX.
@@ -174,8 +175,8 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
 
     The board is learned from the first pictures: where each of the first ``LEARN_PICTURES`` shows one whole board,
     all of one size (rows x columns, either way round), the others are searched for one board only
-    (:func:`_one_board`: the search for more, half the detection's time, is left out), and in full where that one
-    is of another size. A later picture that shows two boards then gives the first only.
+    (:func:`_one_board`: the look for more, a third of the detection's time, is left out), and in full where that
+    one is of another size. A later picture that shows two boards then gives the first only.
 
     The images are searched ``threads`` at a time (the CPUs', where None): the detector runs in one thread and
     lets the others run, so the wall time falls with the cores free and the CPU time does not. Each search seeds

