@@ -200,3 +200,21 @@ def test_a_later_picture_whose_board_is_of_another_size_is_searched_in_full(
         np.testing.assert_array_equal(board.pixels, alone.pixels)
     assert detect.learned_size([found[2], found[0]]) is None
     assert detect.learned_size(found[:1]) is None  # one picture is not enough
+
+
+def test_a_later_picture_with_two_boards_of_the_size_gives_both(one_board_pictures: list[BoardScene]) -> None:
+    """After two pictures of a 9 x 6 board, a picture of two 9 x 6 boards: the quick detector told the size sees the
+    second with the first painted over, so the picture is searched in full: both boards, as find_boards finds them,
+    each on its true board (the quick detector sees the second board on 11 of 12 such renders: see _one_board)."""
+    camera = line_camera("hyperbolic", 0.5, tilt_deg=2.0)
+    pair = render_board_scene(camera, board_poses(camera, 2, seed=50, sizes=((9, 6),)), seed=3, supersample=2)
+    images = [one_board_pictures[0].image, one_board_pictures[1].image, pair.image]
+    found = list(detect.find_boards_each(images, threads=1))
+    assert len(found[2]) == 2
+    onto = set()
+    for board, alone in zip(found[2], find_boards(pair.image, 2), strict=True):
+        np.testing.assert_array_equal(board.pixels, alone.pixels)
+        k, error, _ = matched(board, pair)
+        onto.add(k)
+        assert np.median(error) < 0.15, np.median(error)
+    assert onto == {0, 1}
