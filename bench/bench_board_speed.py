@@ -7,7 +7,9 @@ measure it, before and after a change, in the same run of the machine as this on
 For each real set (``--data``: each folder's ``images/`` and ``corners.csv``), every picture:
 
 - **panomap**: the image circles of the first picture (``line_circles``, as ``panomap fit --image`` starts),
-  ``find_boards`` on every picture (the board's size unknown), then ``fit_boards`` on every board found;
+  ``find_boards`` on every picture (the board's size unknown; ``find_boards_each``, as ``panomap fit``: the board
+  learned from the first two pictures, the later ones searched for one board of its size, the pictures in threads,
+  one per CPU), then ``fit_boards`` on every board found;
 - **OpenCV**: ``findChessboardCorners`` told the board's size (read off ``corners.csv``) + ``cornerSubPix``
   (5 x 5) on every picture, then ``cv2.omnidir.calibrate`` (Mei's model, skew fixed) on the boards it found:
   what omnidir's users run. opencv-contrib of the installed OpenCV's version, found through ``--contrib``
@@ -25,10 +27,17 @@ circle through the frame's corners) looking down at a 60 x 60 board of 5 cm squa
 (:func:`panomap.simulate.board_scenes.render_board_scene`); ``find_boards``' time (goal: under 5 s) and its
 corners against the true ones (``camera.project`` of each corner's 3-D point), and the boards' fit's time.
 
-The machine's load changes absolute times by a factor of several (two shared cores): compare the ratios.
+The machine's load changes absolute times by a factor of several (two shared cores): compare the ratios. Each
+time is given as wall (s) and CPU (s, every thread of the process: OpenCV's detectors run threads of their own);
+the ratio is the wall times', the CPU times' beside it. OpenBLAS runs one thread, as in ``panomap``'s command line
+(``panomap/__main__.py``; its idle threads spin and take the fit's CPU: 1.4-2 times its time on two cores).
 """
 
 from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy loads, as panomap's command line
 
 import argparse
 import collections
@@ -42,6 +51,20 @@ import numpy as np
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
+
+
+class Clock:
+    """Wall and CPU seconds (every thread of the process) since it was made."""
+
+    def __init__(self) -> None:
+        self.wall, self.cpu = time.perf_counter(), time.process_time()
+
+    def lap(self) -> tuple[float, float]:
+        """(wall s, CPU s) since made or since the last lap."""
+        wall, cpu = time.perf_counter(), time.process_time()
+        out = (wall - self.wall, cpu - self.cpu)
+        self.wall, self.cpu = wall, cpu
+        return out
 
 
 def load_cv2(contrib: Path | None):  # type: ignore[no-untyped-def]
@@ -69,10 +92,10 @@ def set_corners(folder: Path) -> tuple[dict[str, FloatArray], tuple[int, int]]:
     return corners, size
 
 
-def opencv_pipeline(cv2, images: list[NDArray[np.uint8]], shape: tuple[int, int]) -> tuple[float, float, int]:  # type: ignore[no-untyped-def]
+def opencv_pipeline(cv2, images: list[NDArray[np.uint8]], shape: tuple[int, int]):  # type: ignore[no-untyped-def]
     """OpenCV's detector told the board's size + cornerSubPix on every picture, then omnidir on the boards found:
-    (detection s, omnidir s (nan where absent or failed), boards found)."""
-    start = time.perf_counter()
+    (detection (wall s, CPU s), omnidir (wall s, CPU s) (nan where absent or failed), boards found)."""
+    clock = Clock()
     found = []
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.01)
     for image in images:
@@ -80,43 +103,50 @@ def opencv_pipeline(cv2, images: list[NDArray[np.uint8]], shape: tuple[int, int]
         ok, corners = cv2.findChessboardCorners(grey, shape)
         if ok:
             found.append(cv2.cornerSubPix(grey, corners, (5, 5), (-1, -1), criteria))
-    detect_s = time.perf_counter() - start
+    detect_s = clock.lap()
+    failed = (math.nan, math.nan)
     if not hasattr(cv2, "omnidir") or len(found) < 3:
-        return detect_s, math.nan, len(found)
+        return detect_s, failed, len(found)
     column, row = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]))
     plane = np.column_stack([column.ravel(), row.ravel(), np.zeros(column.size)]).astype(np.float64)
     objects = [plane.reshape(1, -1, 3) for _ in found]
     points = [np.asarray(c, dtype=np.float64).reshape(1, -1, 2) for c in found]
     size = (images[0].shape[1], images[0].shape[0])
     criteria = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 500, 1e-12)
-    start = time.perf_counter()
+    clock.lap()
     try:
         cv2.omnidir.calibrate(objects, points, size, None, None, None, cv2.omnidir.CALIB_FIX_SKEW, criteria)
     except cv2.error:
-        return detect_s, math.nan, len(found)
-    return detect_s, time.perf_counter() - start, len(found)
+        return detect_s, failed, len(found)
+    return detect_s, clock.lap(), len(found)
 
 
 def panomap_pipeline(images: list[NDArray[np.uint8]]):  # type: ignore[no-untyped-def]
-    """panomap's circles, detection and fit: (circles s, detection s, fit s, boards per picture, the fit or the
-    error)."""
-    from panomap.calibrate.boards.detect import find_boards
+    """panomap's circles, detection and fit: (circles, detection, fit (each (wall s, CPU s)), boards per picture,
+    the fit or the error)."""
+    try:
+        from panomap.calibrate.boards.detect import find_boards_each
+    except ImportError:  # another tree's panomap (--src), from before it: one picture after another
+
+        def find_boards_each(images):  # type: ignore[no-untyped-def]
+            from panomap.calibrate.boards.detect import find_boards
+
+            return [find_boards(image, k) for k, image in enumerate(images)]
+
     from panomap.calibrate.boards.fit import fit_boards
     from panomap.calibrate.lines.frame_circles import line_circles
     from panomap.errors import PanomapError
 
-    start = time.perf_counter()
+    clock = Clock()
     circles = line_circles(images[0])
-    circles_s = time.perf_counter() - start
-    start = time.perf_counter()
-    boards = [find_boards(image, k) for k, image in enumerate(images)]
-    detect_s = time.perf_counter() - start
-    start = time.perf_counter()
+    circles_s = clock.lap()
+    boards = list(find_boards_each(images))  # in threads, as panomap fit: the CPU time counts them all
+    detect_s = clock.lap()
     try:
         fit: object = fit_boards([b for these in boards for b in these], circles)
     except PanomapError as exc:
         fit = exc
-    return circles_s, detect_s, time.perf_counter() - start, boards, fit
+    return circles_s, detect_s, clock.lap(), boards, fit
 
 
 def distances(found: list[FloatArray], truth: FloatArray) -> FloatArray:
@@ -151,13 +181,13 @@ def measure(folder: Path, cv2) -> None:  # type: ignore[no-untyped-def]
         if isinstance(fit, Exception)
         else f"{fit.report.model}, corner RMS {fit.report.corner_rms_px:.3f} px"  # type: ignore[attr-defined]
     )
-    ours = circles_s + detect_s + fit_s
-    theirs = cv_detect_s + (omnidir_s if math.isfinite(omnidir_s) else 0.0)
+    ours = np.add(np.add(circles_s, detect_s), fit_s)
+    theirs = np.add(cv_detect_s, omnidir_s if math.isfinite(omnidir_s[0]) else (0.0, 0.0))
     print(
-        f"  {folder.name} ({len(images)} pictures): panomap circles {circles_s:.2f} + detection {detect_s:.2f} + fit "
-        f"{fit_s:.2f} s ({fitted}) = {ours:.2f} s; OpenCV detection (size told) {cv_detect_s:.2f} + omnidir "
-        f"{omnidir_s:.2f} s = {theirs:.2f} s ({cv_boards} boards); ratio {ours / theirs:.1f} "
-        f"(detection alone {detect_s / cv_detect_s:.1f})"
+        f"  {folder.name} ({len(images)} pictures), wall / CPU s: panomap circles {_pair(circles_s)} + detection "
+        f"{_pair(detect_s)} + fit {_pair(fit_s)} ({fitted}) = {_pair(ours)}; OpenCV detection (size told) "
+        f"{_pair(cv_detect_s)} + omnidir {_pair(omnidir_s)} = {_pair(theirs)} ({cv_boards} boards); ratio "
+        f"{_pair(np.divide(ours, theirs), 1)} (detection alone {_pair(np.divide(detect_s, cv_detect_s), 1)})"
     )
     print(
         f"      panomap's corners: {found} boards, {sum(len(b.pixels) for t in boards for b in t)} corners; "
@@ -165,6 +195,11 @@ def measure(folder: Path, cv2) -> None:  # type: ignore[no-untyped-def]
         f"({len(near)} matched); held out: {held_out:.4f} px RMS"
     )
     sys.stdout.flush()
+
+
+def _pair(times: tuple[float, float] | NDArray[np.float64], digits: int = 2) -> str:
+    """A (wall, CPU) pair written ``wall / CPU``."""
+    return f"{float(times[0]):.{digits}f} / {float(times[1]):.{digits}f}"
 
 
 def held_out_rms(folder: Path, paths: list[Path], boards, cv2) -> float:  # type: ignore[no-untyped-def]
@@ -208,22 +243,21 @@ def measure_tiled() -> None:
     from panomap.errors import PanomapError
 
     image, truth = tiled_scene()
-    start = time.perf_counter()
+    clock = Clock()
     boards = find_boards(image)
-    detect_s = time.perf_counter() - start
+    detect_s = clock.lap()
     near = distances([b.pixels for b in boards], truth)
-    start = time.perf_counter()
     try:
         fit_boards(boards, line_circles(image))
         outcome = "fitted"
     except PanomapError as exc:
         outcome = f"refused: {exc.summary[:60]}"
-    fit_s = time.perf_counter() - start
+    fit_s = clock.lap()
     print(
-        f"  tiled 1600 x 1600: find_boards {detect_s:.2f} s, {len(boards)} boards "
+        f"  tiled 1600 x 1600 (wall / CPU s): find_boards {_pair(detect_s)}, {len(boards)} boards "
         f"({', '.join(f'{c} x {r}' for c, r in (b.shape for b in boards))}), corners against the truth median "
-        f"{np.median(near):.3f} p90 {np.percentile(near, 90):.3f} max {near.max():.3f} px; circles + fit {fit_s:.2f} s "
-        f"({outcome})"
+        f"{np.median(near):.3f} p90 {np.percentile(near, 90):.3f} max {near.max():.3f} px; circles + fit "
+        f"{_pair(fit_s)} ({outcome})"
     )
 
 

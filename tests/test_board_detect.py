@@ -128,3 +128,93 @@ def test_a_board_tiled_over_the_frame_is_found_whole() -> None:
     assert len(np.unique(true_grid, axis=0)) == len(true_grid), "two corners on one true corner"
     assert_grid_is_the_boards(board, true_grid)
     assert np.median(error) < 0.2 and np.percentile(error, 99) < 0.8 and error.max() < 3.0
+
+
+def test_a_later_search_looks_at_the_image_halved_first(mirror_pair: BoardScene) -> None:
+    """Once a board is found, the search for another (_looked) asks the detector on the image halved first: where
+    that shows a grid, the result is the full search's own (the same corners, bit for bit); with both boards
+    painted over, nothing (the full search, which finds nothing there either, is not run)."""
+    image = mirror_pair.image
+    grey = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    looked = detect._looked(grey)
+    full = detect._largest(grey, detect.LATER_SEEDS, give_up=True)
+    assert looked is not None and full is not None
+    np.testing.assert_array_equal(looked[0], full[0])
+    assert looked[1] == full[1]
+    painted = grey
+    for board in find_boards(image):
+        painted = detect._painted_over(painted, board.pixels, board.grid)
+    assert detect._looked(painted) is None
+    assert detect._largest(painted, detect.LATER_SEEDS, give_up=True) is None
+
+
+def test_images_searched_in_threads_give_each_images_boards(mirror_pair: BoardScene) -> None:
+    """find_boards_each in two threads: each image's boards as find_boards finds them alone, bit for bit (OpenCV's
+    generator, seeded before each search, is its thread's own), in the images' order, with their indices."""
+    images = [mirror_pair.image, np.ascontiguousarray(mirror_pair.image[::-1]), mirror_pair.image[:, ::-1].copy()]
+    threaded = list(detect.find_boards_each(images, threads=2))
+    assert len(threaded) == len(images)
+    for k, (image, boards) in enumerate(zip(images, threaded, strict=True)):
+        alone = find_boards(image, k)
+        assert len(boards) == len(alone) == 2
+        for board, single in zip(boards, alone, strict=True):
+            assert board.image_index == k
+            np.testing.assert_array_equal(board.pixels, single.pixels)
+            np.testing.assert_array_equal(board.grid, single.grid)
+
+
+@pytest.fixture(scope="module")
+def one_board_pictures() -> list[BoardScene]:
+    """Three pictures of one 9 x 6 board each (inner corners) in three poses before mirror_pair's camera."""
+    camera = line_camera("hyperbolic", 0.5, tilt_deg=2.0)
+    return [
+        render_board_scene(camera, board_poses(camera, 1, seed=40 + k, sizes=((9, 6),)), seed=k, supersample=2)
+        for k in range(3)
+    ]
+
+
+def test_the_board_learned_from_the_first_pictures_is_the_true_one(one_board_pictures: list[BoardScene]) -> None:
+    """The first LEARN_PICTURES pictures each show one whole board: its size is learned, the true 6 x 9; the later
+    picture, searched for one board of that size only, gives the boards find_boards gives it alone, bit for bit."""
+    images = [scene.image for scene in one_board_pictures]
+    found = list(detect.find_boards_each(images, threads=1))
+    assert detect.learned_size(found[: detect.LEARN_PICTURES]) == (6, 9)
+    for k, (scene, boards) in enumerate(zip(one_board_pictures, found, strict=True)):
+        alone = find_boards(scene.image, k)
+        assert len(boards) == len(alone) == 1
+        np.testing.assert_array_equal(boards[0].pixels, alone[0].pixels)
+        _, error, _ = matched(boards[0], scene)
+        assert np.median(error) < 0.15, np.median(error)  # on the true corners (the detector's accuracy, as above)
+
+
+def test_a_later_picture_whose_board_is_of_another_size_is_searched_in_full(
+    one_board_pictures: list[BoardScene], mirror_pair: BoardScene
+) -> None:
+    """After two pictures of a 9 x 6 board, a picture of an 8 x 5 and a 7 x 6 board: the one board first found is
+    of another size, so the picture is searched in full and both are found (as find_boards finds them); where the
+    first pictures show two boards, no size is learned."""
+    images = [one_board_pictures[0].image, one_board_pictures[1].image, mirror_pair.image]
+    found = list(detect.find_boards_each(images, threads=2))
+    assert len(found[2]) == 2
+    for board, alone in zip(found[2], find_boards(mirror_pair.image, 2), strict=True):
+        np.testing.assert_array_equal(board.pixels, alone.pixels)
+    assert detect.learned_size([found[2], found[0]]) is None
+    assert detect.learned_size(found[:1]) is None  # one picture is not enough
+
+
+def test_a_later_picture_with_two_boards_of_the_size_gives_both(one_board_pictures: list[BoardScene]) -> None:
+    """After two pictures of a 9 x 6 board, a picture of two 9 x 6 boards: the quick detector told the size sees the
+    second with the first painted over, so the picture is searched in full: both boards, as find_boards finds them,
+    each on its true board (the quick detector sees the second board on 11 of 12 such renders: see _one_board)."""
+    camera = line_camera("hyperbolic", 0.5, tilt_deg=2.0)
+    pair = render_board_scene(camera, board_poses(camera, 2, seed=50, sizes=((9, 6),)), seed=3, supersample=2)
+    images = [one_board_pictures[0].image, one_board_pictures[1].image, pair.image]
+    found = list(detect.find_boards_each(images, threads=1))
+    assert len(found[2]) == 2
+    onto = set()
+    for board, alone in zip(found[2], find_boards(pair.image, 2), strict=True):
+        np.testing.assert_array_equal(board.pixels, alone.pixels)
+        k, error, _ = matched(board, pair)
+        onto.add(k)
+        assert np.median(error) < 0.15, np.median(error)
+    assert onto == {0, 1}

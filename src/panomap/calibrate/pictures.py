@@ -25,7 +25,7 @@ from .. import inputs
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
 from .boards.choice import LearnedCamera, learn_camera
-from .boards.detect import Board, find_boards
+from .boards.detect import Board, find_boards_each
 from .circles import ImageCircles
 from .core.report import FitReport, table_fit_report
 from .landmarks.joint import ImageLines
@@ -247,9 +247,11 @@ def _learn(
         edges += find_arcs(omni, circles, image_index=k)
     found_boards: list[Board] = []
     if use_boards:
-        for k, omni in enumerate(omnis):
-            say(len(omnis) + k, f"checkerboards in {_called(names, k)}")
-            found_boards += find_boards(omni, image_index=k)
+        say(len(omnis), f"checkerboards in {_called(names, 0)}")
+        for k, boards in enumerate(find_boards_each(omnis)):  # searched in threads, given in order
+            found_boards += boards
+            if k + 1 < len(omnis):
+                say(len(omnis) + k + 1, f"checkerboards in {_called(names, k + 1)}")
     try:
         learned = learn_camera(found_boards, edges, circles, options, progress=lambda step: say(2 * len(omnis), step))
     except PanomapError as exc:

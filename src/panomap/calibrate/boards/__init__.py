@@ -8,6 +8,7 @@ the scale of the elevations, which straightness alone leaves free.
 Files:
 
 - ``detect.py``: :class:`Board` and :func:`find_boards`, the inner corners of a checkerboard of any
-  size in an omni-image, with their place on the grid.
+  size in an omni-image, with their place on the grid; :func:`find_boards_each`, those of many images
+  (in threads, the board learned from the first).
 - ``fit.py``: the fit of the camera (radial model, centre) and of each board's pose from them.
 """
