@@ -217,9 +217,10 @@ def _far_sides(drops: NDArray[Any]) -> NDArray[np.bool_]:
     (unkind renders, bench/bench_circles_unkind.py). A rim is a step: the level does not rise just before it.
     """
     width = max(1, round(LINE_WIDTH_PX / STEP))
-    rises = np.maximum(-drops, 0.0)
-    padded = np.pad(rises, ((0, 0), (width, 0)))
-    before = np.lib.stride_tricks.sliding_window_view(padded, width, axis=1)[:, : drops.shape[1]].max(axis=2)
+    rises = np.maximum(-drops, 0.0).astype(np.float32)
+    # The highest rise over the ``width`` samples inward and the sample itself (no rise where there is a drop).
+    kernel = np.ones((1, width + 1), np.uint8)
+    before = cv2.dilate(rises, kernel, anchor=(width, 0), borderType=cv2.BORDER_CONSTANT, borderValue=0.0)
     return np.asarray((drops > 0) & (before >= LINE_SLOPE_RATIO * drops))
 
 

@@ -63,10 +63,10 @@ def _soft_rim(grey: NDArray[Any], rim: _Rim) -> _Rim:
 
 def _halfway_rim(grey: NDArray[Any], rim: _Rim) -> _Rim:
     """A bright- or dark-inside ``rim`` whose edge points are measured again at each ray's half level
-    (:func:`_rim_points` with ``halfway``) and fitted again about its circle, HALFWAY_ITERATIONS times; kept where
-    its points lie on it clearly better (:func:`_fits_better`). ``rim`` itself where that fails, finds fewer than
-    HALFWAY_LEAST_SHARE of its inliers, fits no better, or moves the circle (centre and radius together) by the
-    search's reach or more: another edge than the one the search chose.
+    (:func:`_rim_points` with ``halfway``) and fitted again about its circle, up to HALFWAY_ITERATIONS times (until
+    it moves by under 0.01 px); kept where its points lie on it clearly better (:func:`_fits_better`). ``rim``
+    itself where that fails, finds fewer than HALFWAY_LEAST_SHARE of its inliers, fits no better, or moves the
+    circle (centre and radius together) by the search's reach or more: another edge than the one the search chose.
 
     The search ranks candidates by each ray's outermost clear drop; once it has chosen the rim, the half level is
     the better measure of where that drop lies: a lit barrel's ring or a glow on the rim's outer slope moves the
@@ -81,7 +81,10 @@ def _halfway_rim(grey: NDArray[Any], rim: _Rim) -> _Rim:
             circle = _robust_circle(points, centre, radius, consensus=False)
         except PanomapError:
             return rim
+        step = math.dist(circle.centre, centre) + abs(circle.radius - radius)
         centre, radius = circle.centre, circle.radius
+        if step < 0.01:
+            break
     moved = math.dist(circle.centre, rim.circle.centre) + abs(circle.radius - rim.circle.radius)
     if (
         moved >= NARROW_REACH * rim.circle.radius
