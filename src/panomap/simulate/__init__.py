@@ -15,7 +15,15 @@ from panomap.simulate.cameras import (
     mount_rotation,
     standard_cameras,
 )
-from panomap.simulate.degrade import dark_square, field_stop, housed_mirror, noisy_jpeg, vignette
+from panomap.simulate.degrade import (
+    dark_square,
+    field_stop,
+    housed_mirror,
+    lit_ring,
+    noisy_jpeg,
+    side_glow,
+    vignette,
+)
 from panomap.simulate.room import (
     WALL_NAMES,
     Opening,
@@ -42,11 +50,13 @@ __all__ = [
     "dark_square",
     "field_stop",
     "housed_mirror",
+    "lit_ring",
     "load_room",
     "mount_rotation",
     "noisy_jpeg",
     "render",
     "render_rays",
+    "side_glow",
     "spread_landmarks",
     "standard_cameras",
     "vignette",

@@ -1,6 +1,7 @@
 """What a real lens, sensor and housing do to a rendered omni-image: vignetting (to near black at the rim), a
 dim side, a bright housing around a mirror with a camera board in it, a rim off the optical axis, a dark
-square about the circle inside a black frame, noise, JPEG.
+square about the circle inside a black frame, a lens barrel's lit ring and a glow past the rim on one side,
+noise, JPEG.
 
 Convention: pixel (u, v), u the column, v the row, the centre of the top-left pixel at
 (0, 0); images are (H, W[, C]) uint8.
@@ -169,6 +170,64 @@ def dark_square(
     if image.ndim == 3:
         fill = fill[..., None]
     return np.clip(np.rint(image + fill), 0, 255).astype(np.uint8)
+
+
+def _one_sided(phi: NDArray[np.float64], angle: float, spread: float) -> NDArray[np.float64]:
+    """A weight over image angle ``phi`` (rad): 1 towards ``angle``, falling to 0 ``spread`` rad either side."""
+    off = np.abs((phi - angle + math.pi) % (2 * math.pi) - math.pi)
+    return np.clip(1.0 - off / spread, 0.0, 1.0)
+
+
+def lit_ring(
+    image: NDArray[np.uint8],
+    centre: tuple[float, float],
+    radius: float,
+    level: float,
+    at_px: float,
+    width_px: float = 1.5,
+    angle: float = 0.0,
+    spread: float = math.pi / 2,
+) -> NDArray[np.uint8]:
+    """A lens barrel's edge lit past the rim, on part of the circle (a Ricoh Theta's bluish ring, an OCam's).
+
+    Adds ``level`` grey levels times a Gaussian of sigma ``width_px`` (px) about the radius ``radius + at_px``
+    around ``centre``, weighted 1 towards image angle ``angle`` (rad) and falling linearly to 0 ``spread`` rad
+    either side: the ring shows on one arc, not all round. ``level``, ``at_px``, ``width_px``, ``spread`` > 0.
+    """
+    if not (radius > 0 and level >= 0 and at_px > 0 and width_px > 0 and spread > 0):
+        raise PanomapError(
+            f"need radius, at_px, width_px, spread > 0 and level >= 0; got {radius}, {at_px}, {width_px}"
+        )
+    height, width = image.shape[:2]
+    v, u = np.mgrid[0:height, 0:width].astype(np.float64)
+    r = np.hypot(u - centre[0], v - centre[1])
+    add = level * _one_sided(np.arctan2(v - centre[1], u - centre[0]), angle, spread)
+    add = add * np.exp(-0.5 * ((r - radius - at_px) / width_px) ** 2)
+    return np.clip(np.rint(image + (add[..., None] if image.ndim == 3 else add)), 0, 255).astype(np.uint8)
+
+
+def side_glow(
+    image: NDArray[np.uint8],
+    centre: tuple[float, float],
+    radius: float,
+    level: float,
+    fade_px: float,
+    angle: float = 0.0,
+    spread: float = math.pi / 2,
+) -> NDArray[np.uint8]:
+    """Light scattered past the rim on one side (flare from a bright scene near the rim, as on an OCam's picture).
+
+    Outside ``radius`` about ``centre``, adds ``level`` grey levels fading as ``exp(-(r - radius) / fade_px)``,
+    weighted as :func:`lit_ring` is by ``angle`` and ``spread`` (rad). ``level`` >= 0; ``fade_px``, ``spread`` > 0.
+    """
+    if not (radius > 0 and level >= 0 and fade_px > 0 and spread > 0):
+        raise PanomapError(f"need radius, fade_px, spread > 0 and level >= 0; got {radius}, {level}, {fade_px}")
+    height, width = image.shape[:2]
+    v, u = np.mgrid[0:height, 0:width].astype(np.float64)
+    r = np.hypot(u - centre[0], v - centre[1])
+    add = level * _one_sided(np.arctan2(v - centre[1], u - centre[0]), angle, spread)
+    add = add * np.exp(-np.maximum(r - radius, 0.0) / fade_px) * np.clip(r - radius + 0.5, 0.0, 1.0)
+    return np.clip(np.rint(image + (add[..., None] if image.ndim == 3 else add)), 0, 255).astype(np.uint8)
 
 
 def noisy_jpeg(

@@ -25,7 +25,9 @@ transforms):
    across it on most rays in the frame; that count ranks candidates. An ellipse
    is fitted to the same inliers and reported when the rim is measurably
    elliptical (non-square pixels, a tilted mirror); its centre is then the image
-   centre. Only when no bright disc is found, a rim of either polarity (a mirror
+   centre. A bright- or dark-inside rim chosen is measured again at each ray's half level (a
+   lit ring or a glow on the rim's outer slope moves its steepest point, not its half level),
+   kept where it fits clearly better. Only when no bright disc is found, a rim of either polarity (a mirror
    in a bright housing: darker inside on some arcs, a thin bright or dark line on
    others), started from the circle transform's centres with the radii where the
    edge strength most rays reach peaks, outermost first (a concentric search; the

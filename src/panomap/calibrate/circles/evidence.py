@@ -19,6 +19,9 @@ from .thresholds import (
     EDGE_HALF_WINDOW,
     FEATURE_MIN_RATIO,
     FEATURE_MIN_STRENGTH,
+    HALFWAY_WINDOW_PX,
+    LINE_SLOPE_RATIO,
+    LINE_WIDTH_PX,
     RAYS,
     STEP,
     WIDE_REACH,
@@ -91,7 +94,7 @@ def _either_polarity(grey: NDArray[Any], circle: Circle) -> str:
 
 
 def _rim_points(
-    grey: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reach: float
+    grey: NDArray[Any], centre: tuple[float, float], radius: float, polarity: int, reach: float, halfway: bool = False
 ) -> FloatArray:
     """Sub-pixel rim edge points (n, 2): the steepest step near ``radius``, from bright to dark going out.
 
@@ -110,10 +113,12 @@ def _rim_points(
     drops = np.gradient(samples, axis=1)
     np.nan_to_num(drops, copy=False, nan=0.0)
     drops *= np.float32(-polarity / STEP)
-    index = np.clip(np.argmax(drops[:, 1:-1], axis=1) + 1, 1, len(radii) - 2)
+    # Re-measuring a rim found: a thin line's far side (a lens barrel's lit edge just past the rim) is no rim.
+    steps = np.where(_far_sides(drops), np.float32(0.0), drops) if halfway else drops
+    index = np.clip(np.argmax(steps[:, 1:-1], axis=1) + 1, 1, len(radii) - 2)
     rows = np.arange(RAYS)
-    middle = drops[:, 1:-1]
-    clear = middle > np.maximum(2.0, CLEAR_DROP * drops[rows, index])[:, None]
+    middle = steps[:, 1:-1]
+    clear = middle > np.maximum(2.0, CLEAR_DROP * steps[rows, index])[:, None]
     clear &= middle >= drops[:, :-2]
     clear &= middle > drops[:, 2:]
     last = clear.shape[1] - 1 - np.argmax(clear[:, ::-1], axis=1)
@@ -122,7 +127,10 @@ def _rim_points(
     inside, outside, in_frame = _step_levels(samples, index)
     # A rim: a steep step to something clearly darker (brighter for polarity -1).
     good = in_frame & (drop > 2.0) & (polarity * (inside - outside) > 8.0)
-    where = radii[0] + STEP * _subpixel_peak(drops, index)
+    if halfway:
+        where = radii[0] + STEP * _halfway(samples, index, polarity)
+    else:
+        where = radii[0] + STEP * _subpixel_peak(drops, index)
     r = where[good]
     points = np.stack([centre[0] + r * cos[good], centre[1] + r * sin[good]], axis=-1)
     return away_from_frame(points, grey.shape)
@@ -197,3 +205,52 @@ def _feature_position(samples: NDArray[Any], index: NDArray[Any]) -> FloatArray:
     signed = np.where(bright, 1.0, -1.0)[:, None]
     values = np.where(line[:, None], signed * samples, np.abs(gradient))
     return _subpixel_peak(np.where(np.isfinite(values), values, 0.0), at)
+
+
+def _far_sides(drops: NDArray[Any]) -> NDArray[np.bool_]:
+    """Where each ray's drop (rays, R; grey levels per px going out, the rim's polarity) is the far side of a
+    thin line: a slope the other way at least LINE_SLOPE_RATIO of it within LINE_WIDTH_PX inward.
+
+    A lens barrel's edge lit past the rim (a bright ring a few px out on some arcs: a Ricoh Theta's, a glow at
+    an OCam's rim) falls to the dark surround as the rim does, further out: each ray's outermost clear drop
+    was the ring's on those arcs and the rim's on the others, the centre pulled towards the ring by several px
+    (unkind renders, bench/bench_circles_unkind.py). A rim is a step: the level does not rise just before it.
+    """
+    width = max(1, round(LINE_WIDTH_PX / STEP))
+    rises = np.maximum(-drops, 0.0).astype(np.float32)
+    # The highest rise over the ``width`` samples inward and the sample itself (no rise where there is a drop).
+    kernel = np.ones((1, width + 1), np.uint8)
+    before = cv2.dilate(rises, kernel, anchor=(width, 0), borderType=cv2.BORDER_CONSTANT, borderValue=0.0)
+    return np.asarray((drops > 0) & (before >= LINE_SLOPE_RATIO * drops))
+
+
+def _halfway(samples: NDArray[Any], index: NDArray[Any], polarity: int) -> FloatArray:
+    """Sub-sample position on each ray (rays, R) of the crossing, going out, nearest sample ``index`` of the level
+    halfway between the highest level (the rim's polarity) HALFWAY_WINDOW_PX inside ``index`` and the lowest as far
+    outside it, within that window; ``index`` where there is none.
+
+    A blurred step's half level is its edge whatever the blur (a field stop out of focus); its steepest slope is
+    too, but only where nothing else lies on the slope: a lit barrel's ring on the rim's outer slope (a shoulder),
+    or a glow past it, made each ray's outermost clear drop the ring's, several px out on the arcs where it shows
+    (bench/bench_circles_unkind.py). The ring's level lies under the half level: the crossing stays the rim's.
+    """
+    rows = np.arange(samples.shape[0])
+    count = samples.shape[1]
+    width = max(1, round(HALFWAY_WINDOW_PX / STEP))
+    cols = np.arange(count)[None, :]
+    level = polarity * samples
+    inner = (cols >= index[:, None] - width) & (cols <= index[:, None])
+    outer = (cols >= index[:, None]) & (cols <= index[:, None] + width)
+    with np.errstate(invalid="ignore"):
+        high = np.nanmax(np.where(inner, level, -np.inf), axis=1)
+        low = np.nanmin(np.where(outer, level, np.inf), axis=1)
+        half = 0.5 * (high + low)
+        above = level > half[:, None]
+    crossing = above[:, :-1] & ~above[:, 1:] & (inner | outer)[:, :-1] & (inner | outer)[:, 1:]
+    has = crossing.any(axis=1) & np.isfinite(half)
+    distance = np.where(crossing, np.abs(cols[:, :-1] - index[:, None]), count)
+    last = np.where(has, np.argmin(distance, axis=1), 0)
+    before, after = level[rows, last], level[rows, last + 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fraction = np.where(before > after, (before - half) / (before - after), 0.5)
+    return np.where(has, last + np.clip(fraction, 0.0, 1.0), index)

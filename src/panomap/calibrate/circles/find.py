@@ -20,7 +20,7 @@ from .cutoff import _cutoff_circle, _disc_without_rim
 from .evidence import _either_polarity
 from .fitting import _ellipse
 from .frame import _arcs, _cropping_edges, _fraction_in_frame
-from .rim import _best_rim, _iterate_rim, _refine_rim, _soft_rim, _soft_start
+from .rim import _best_rim, _halfway_rim, _iterate_rim, _refine_rim, _soft_rim, _soft_start
 from .sampling import _downscaled, to_grey
 from .scales import coarser_rim
 from .starts import (
@@ -124,6 +124,8 @@ def find_image_circles(image: NDArray[Any]) -> ImageCircles:
             grey = smoothed if best is not None else grey
     if best is None:
         raise _no_rim(grey, small, factor, reasons, frame_centre)
+    if best.polarity:
+        best = _halfway_rim(grey, best)
     outer = best.circle
     centre = outer.centre
     ellipse = _ellipse(best.points, outer)

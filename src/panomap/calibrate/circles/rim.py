@@ -20,6 +20,10 @@ from .starts import _coarse_circle
 from .thresholds import (
     DARK_INSIDE_LEAST_IN_FRAME,
     EARLY_STEPPING_SHARE,
+    HALFWAY_GAIN,
+    HALFWAY_ITERATIONS,
+    HALFWAY_LEAST_SHARE,
+    HALFWAY_MORE,
     MAX_CENTRE_UNCERTAINTY_PX,
     MAX_RIM_RMS_PX,
     MIN_FEATURE_FRACTION,
@@ -35,7 +39,7 @@ from .thresholds import (
     SOFT_RIM_SIGMAS_PX,
     WIDE_REACH,
 )
-from .types import ShortArc, _Rim
+from .types import Circle, ShortArc, _Rim
 
 
 def _soft_rim(grey: NDArray[Any], rim: _Rim) -> _Rim:
@@ -55,6 +59,48 @@ def _soft_rim(grey: NDArray[Any], rim: _Rim) -> _Rim:
         ):
             best = found
     return best
+
+
+def _halfway_rim(grey: NDArray[Any], rim: _Rim) -> _Rim:
+    """A bright- or dark-inside ``rim`` whose edge points are measured again at each ray's half level
+    (:func:`_rim_points` with ``halfway``) and fitted again about its circle, up to HALFWAY_ITERATIONS times (until
+    it moves by under 0.01 px); kept where its points lie on it clearly better (:func:`_fits_better`). ``rim``
+    itself where that fails, finds fewer than HALFWAY_LEAST_SHARE of its inliers, fits no better, or moves the
+    circle (centre and radius together) by the search's reach or more: another edge than the one the search chose.
+
+    The search ranks candidates by each ray's outermost clear drop; once it has chosen the rim, the half level is
+    the better measure of where that drop lies: a lit barrel's ring or a glow on the rim's outer slope moves the
+    steepest point out on the arcs where it shows, not the half level (bench/bench_circles_unkind.py).
+    """
+    centre, radius = rim.circle.centre, rim.circle.radius
+    for _ in range(HALFWAY_ITERATIONS):
+        points = _rim_points(grey, centre, radius, rim.polarity, NARROW_REACH, halfway=True)
+        if len(points) < HALFWAY_LEAST_SHARE * rim.circle.inliers:
+            return rim
+        try:
+            circle = _robust_circle(points, centre, radius, consensus=False)
+        except PanomapError:
+            return rim
+        step = math.dist(circle.centre, centre) + abs(circle.radius - radius)
+        centre, radius = circle.centre, circle.radius
+        if step < 0.01:
+            break
+    moved = math.dist(circle.centre, rim.circle.centre) + abs(circle.radius - rim.circle.radius)
+    if (
+        moved >= NARROW_REACH * rim.circle.radius
+        or circle.inliers < HALFWAY_LEAST_SHARE * rim.circle.inliers
+        or not _fits_better(circle, rim.circle)
+    ):
+        return rim
+    return _Rim(circle, points, rim.rays_in_frame, rim.polarity, rim.stepping)
+
+
+def _fits_better(circle: Circle, other: Circle) -> bool:
+    """Whether ``circle``'s edge points lie on it clearly better than ``other``'s on it: an RMS under HALFWAY_GAIN of
+    the other's, or HALFWAY_MORE times its inliers at an RMS under the other's over HALFWAY_GAIN."""
+    if circle.rms_px <= HALFWAY_GAIN * other.rms_px:
+        return True
+    return circle.inliers >= HALFWAY_MORE * other.inliers and circle.rms_px * HALFWAY_GAIN <= other.rms_px
 
 
 def _soft_start(grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[str]) -> _Rim | None:

@@ -106,6 +106,22 @@ NARROW_REACH = 0.06
 WIDE_REACH = 0.15
 # A drop of at least this fraction of the steepest on its ray is a clear one.
 CLEAR_DROP = 0.3
+# A drop with a slope the other way of at least this fraction of it within this many px inward is a thin line's far
+# side (a lit barrel's ring past the rim), no rim (evidence._far_sides).
+LINE_SLOPE_RATIO = 0.5
+LINE_WIDTH_PX = 6.0
+# A rim's edge, re-measured where the search ended, is where the level crosses halfway between its highest this many
+# px inside each ray's drop and its lowest as far outside (evidence._halfway).
+HALFWAY_WINDOW_PX = 15.0
+# ... fitted this many times about each fit's circle, kept where at least this share of the rim's inliers are found
+# so and the fit's RMS is at most this fraction of the search's (rim._halfway_rim): the half levels lie on a circle
+# clearly better than the steepest points (a sharp rim's steepest points are the finer measure: 0.03-0.06 px).
+HALFWAY_ITERATIONS = 3
+HALFWAY_LEAST_SHARE = 0.8
+HALFWAY_GAIN = 0.8
+# ... or, at most 1 / HALFWAY_GAIN of it, with this many times its inliers (a lit ring past the rim on one arc: the
+# steepest points there off the circle, the half levels on it).
+HALFWAY_MORE = 1.2
 # Circles through three edge points tried by the consensus fit.
 CONSENSUS_SAMPLES = 200
 GAUSS_NEWTON_ITERATIONS = 50
