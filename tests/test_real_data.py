@@ -105,6 +105,7 @@ def test_ten_corners_reproject_all_others_within_a_pixel(folder: str) -> None:
     assert result["centre"].source.startswith("detected"), result["centre"].source
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("folder", FOLDERS)
 def test_fit_image_finds_the_calibrations_centre_from_ten_corners(folder: str) -> None:
     """``panomap fit --image`` with no other option, once with each of the folder's images: the calibration's
