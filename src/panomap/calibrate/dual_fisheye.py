@@ -29,14 +29,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PanomapError, refusal
-from ..geometry import FloatArray, azimuth_elevation
+from ..geometry import FloatArray
 from ..interop.orient import orient_table, turn_table
-from ..rig.learn import LearnedRig, band_of, learn_rotations
+from ..rig.learn import LearnedRig, learn_rotations
+from ..rig.overlap import overlap_tiles
 from ..rig.rig import CameraRig
 from ..table.table import PanoMappingTable
 from .lines.agreement import RING_TO_DEG, Z95
@@ -260,41 +260,10 @@ def overlap_shifts_px(rig: CameraRig, frames: Sequence[NDArray[Any]]) -> FloatAr
     """How far apart the two lenses put the same scene in their overlap (px): the overlap's band (the ring of
     directions seen by both, :func:`panomap.rig.learn.band_of`, no margin) drawn from each lens's half through its
     table, cut in :data:`TILE_PX` square tiles; each tile both lenses see whole, and textured in both (grey std at
-    least :data:`TILE_STD`), gives the shift between the two lenses' drawings by phase correlation (px at the band's
-    scale, the lenses' finest there: about the pictures' own px). Every frame's tiles, (n,); empty where none."""
-    band = band_of(rig, 0, 1, 0.0)
-    if band is None:
-        return np.zeros(0)
-    theta, rho = azimuth_elevation(band.rays())
-    window = cv2.createHanningWindow((TILE_PX, TILE_PX), cv2.CV_64F)
-    shifts = []
-    for frame in frames:
-        layers, seen = [], []
-        for k, (x, y) in enumerate(rig.offsets or ((0, 0), (0, 0))):
-            table = rig.tables[k]
-            w, h = table.image_size  # type: ignore[misc]
-            grey = _grey(np.asarray(frame)[y : y + h, x : x + w])
-            map_uv = table.sample(theta.astype(np.float32), rho.astype(np.float32))
-            ok = np.all(np.isfinite(map_uv), axis=-1)
-            maps = [np.where(ok, map_uv[..., i], -1e4).astype(np.float32) for i in (0, 1)]
-            layers.append(cv2.remap(grey, maps[0], maps[1], cv2.INTER_LINEAR).astype(np.float64))
-            seen.append(ok)
-        both = seen[0] & seen[1]
-        for v in range(0, band.height - TILE_PX + 1, TILE_PX // 2):
-            for u in range(0, band.width - TILE_PX + 1, TILE_PX // 2):
-                cut = (slice(v, v + TILE_PX), slice(u, u + TILE_PX))
-                a, b = layers[0][cut], layers[1][cut]
-                if both[cut].all() and min(a.std(), b.std()) >= TILE_STD:
-                    (du, dv), _ = cv2.phaseCorrelate(a, b, window)
-                    shifts.append(math.hypot(du, dv))
-    return np.asarray(shifts, dtype=np.float64)
-
-
-def _grey(picture: NDArray[Any]) -> NDArray[np.float32]:
-    image = picture.astype(np.float32)
-    if image.ndim == 3:
-        image = image[..., :3].mean(axis=2) if image.shape[2] >= 3 else image[..., 0]
-    return image / 257.0 if picture.dtype == np.uint16 else image
+    least :data:`TILE_STD`), gives the shift between the two lenses' drawings by phase correlation
+    (:func:`panomap.rig.overlap.overlap_tiles`; px at the band's scale, the lenses' finest there: about the
+    pictures' own px). Every frame's tiles, (n,); empty where none."""
+    return overlap_tiles(rig, list(frames), tile_px=TILE_PX, min_std=TILE_STD).distances_px()
 
 
 def _learn_lenses(

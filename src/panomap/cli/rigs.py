@@ -358,7 +358,7 @@ def rig_learn(paths: tuple[Path, ...], output: Path, side_by_side: bool, verbose
 def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
     """``rig learn RIG PICTURE...``: the rotations of a rig whose lenses are known."""
     from ..interop.orient import turn_table
-    from ..rig.learn import learn_rotations
+    from ..rig.overlap import learn_with_overlap
 
     loaded = load_rig(rig_path)
     check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], [("the output", output)])
@@ -370,7 +370,7 @@ def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
     for start in range(0, len(images), per_shot):
         pictures = read_rig_pictures(loaded, images[start : start + per_shot])
         shots.append(pictures[0] if loaded.offsets is not None else pictures)
-    learned = learn_rotations(loaded, shots, turn=turn_table)
+    learned = learn_with_overlap(loaded, shots, turn=turn_table)
     with all_or_none():
         save_rig(learned.rig, output)
     for line in learned.describe():

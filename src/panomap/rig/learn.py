@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
@@ -43,6 +43,9 @@ from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, ray_from_angles
 from ..table.table import PanoMappingTable, fill_entries
 from .rig import CameraRig
+
+if TYPE_CHECKING:
+    from .overlap import OverlapFit
 
 # Inliers of a pair below which it is refused.
 MIN_INLIERS = 12
@@ -119,7 +122,8 @@ class LearnedRig:
     ``rotations``: each camera's rotation (3, 3), camera to world; ``turned_deg``: how far each turned from
     the start; ``uncertainty_deg``: each rotation's 1-sigma uncertainty about its worst axis (camera 0: 0, it
     places the world); ``pairs``: each overlapping pair's :class:`PairReport`; ``steps``: Gauss-Newton steps of
-    the last pass.
+    the last pass; ``overlap``: what the overlap's tiles said (:func:`panomap.rig.overlap.learn_overlap`), None
+    where they were not asked.
     """
 
     rig: CameraRig
@@ -128,13 +132,15 @@ class LearnedRig:
     uncertainty_deg: tuple[float, ...]
     pairs: tuple[PairReport, ...]
     steps: int
+    overlap: OverlapFit | None = None
 
     def describe(self) -> list[str]:
         lines = [
             f"{name}: turned {turned:.3f} deg from the start, uncertainty {sigma:.4f} deg (1 sigma)"
             for name, turned, sigma in zip(self.rig.names, self.turned_deg, self.uncertainty_deg, strict=True)
         ]
-        return lines + [pair.describe() for pair in self.pairs]
+        lines += [pair.describe() for pair in self.pairs]
+        return lines + ([self.overlap.describe()] if self.overlap is not None else [])
 
 
 def rotation_of(table: PanoMappingTable) -> FloatArray:

@@ -1,0 +1,350 @@
+"""Two cameras' overlap compared tile by tile, and the turn (and one lens's centre) it asks for.
+
+Convention (docs/conventions.md, "A rig"; :mod:`panomap.rig.learn`): rotations take a camera's axes to the world's,
+updated as ``R -> exp(w) R`` (``w`` a rotation vector, rad); pixels (u, v) with the top-left pixel's centre at (0, 0);
+a band's pixels (x, y) as :class:`~panomap.rig.learn.Band` says (its scale: the cameras' finest in the overlap, so
+a band px is about a picture px). Shifts are in band px.
+
+The overlap's **tiles** (:func:`overlap_tiles`): the ring of directions both cameras see (:func:`band_of`, no
+margin) drawn from each camera through its table, cut in square tiles; each tile both see whole and textured in
+both gives, by phase correlation, the shift ``s`` (2,) at which camera j's drawing shows what camera i's shows at
+the tile. Phase correlation on small tiles understates shifts of a few px (16 px tiles: 3 px read as 0.5-2.8 px),
+so :func:`learn_overlap` measures with larger tiles and iterates to the fixed point, where the shifts are ~0.
+
+**What a tile's shift says** (camera i right, a far scene): turning camera j by ``w`` and moving its picture by
+``c`` (px; the table's pixels ``+ c``, a decentering of its centre) shift the tile by ``H [d]x w + G^-1 c``:
+``d`` the tile's world ray, ``H`` (2, 3) the band's px per change of ray, ``G`` (2, 2) camera j's picture px per
+band px there. A turn of j tilts the ring across the band and rolls it along; a centre moved by ``c`` moves the rim
+along the ring by ``c``'s tangential part, in a cos pattern round it, which no turn makes. Near objects' parallax
+(the lenses' centres apart along their axes) is across the band; robust weights leave it out.
+
+:func:`learn_overlap` fits both, and keeps the centre's move only where it predicts tiles it was not fitted on
+(the ring cut in :data:`SECTORS` sectors, each predicted from the others) clearly better than the turn alone.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
+
+import cv2
+import numpy as np
+
+from ..errors import PanomapError
+from ..geometry import FloatArray, azimuth_elevation
+from ..table.table import PanoMappingTable, fill_entries
+from .learn import Band, LearnedRig, _shots, band_of, learn_rotations, turned_table
+from .rig import CameraRig
+
+#: Tiles (px, square; every half of it) when :func:`learn_overlap` measures, how far each way it searches (px), the
+#: normalised cross-correlation a tile's peak needs, and the grey std a tile needs in both drawings.
+FIT_TILE_PX = 16
+SEARCH_PX = 6
+NCC_MIN = 0.6
+TILE_STD = 6.0
+#: Fewer textured tiles than this: the overlap is not compared.
+MIN_TILES = 40
+#: Cross-validation: sectors round the ring; the centre's move is kept where the left-out tiles' p90 with it is at
+#: most KEEP_RATIO of the turn alone's and KEEP_GAIN_PX less.
+SECTORS = 8
+KEEP_RATIO = 0.8
+KEEP_GAIN_PX = 0.3
+#: Robust weights: Cauchy at twice the robust sigma, at least this (px).
+MIN_SIGMA_PX = 0.1
+#: Iterations of the reweighted least squares.
+IRLS_STEPS = 10
+
+
+@dataclass(frozen=True)
+class OverlapTiles:
+    """The textured tiles of a pair's overlap: ``centres`` (n, 2) band px (x, y), ``shifts`` (n, 2) band px (where
+    camera j's drawing shows what camera i's shows at the centre, less the centre), on ``band``."""
+
+    i: int
+    j: int
+    band: Band
+    centres: FloatArray
+    shifts: FloatArray
+
+    @property
+    def count(self) -> int:
+        return int(self.centres.shape[0])
+
+    def distances_px(self) -> FloatArray:
+        """Each tile's shift's length (n,), px."""
+        return np.hypot(self.shifts[:, 0], self.shifts[:, 1])
+
+
+def overlap_tiles(
+    rig: CameraRig,
+    pictures: Any,
+    i: int = 0,
+    j: int = 1,
+    *,
+    tile_px: int = 16,
+    min_std: float = TILE_STD,
+    search_px: int = 0,
+) -> OverlapTiles:
+    """The overlap of cameras i and j in every shot of ``pictures`` (as :func:`~panomap.rig.learn.learn_rotations`
+    takes them), cut in ``tile_px`` square tiles every ``tile_px / 2``; each tile both cameras see whole (and, with
+    ``search_px``, that far round it), with grey std at least ``min_std`` in both, is compared.
+
+    ``search_px`` 0: by phase correlation (the tile's shift understated where it is over a px or two); otherwise by
+    normalised cross-correlation within ``search_px`` each way, the peak's place to a fraction of a px by a parabola
+    each way (:func:`_ncc_shift`; a tile whose peak is on the search's edge, or correlates under :data:`NCC_MIN`, is
+    left out). Empty where the cameras do not overlap."""
+    band = band_of(rig, i, j, 0.0)
+    if band is None:
+        empty = np.zeros((0, 2))
+        return OverlapTiles(i, j, Band(np.zeros(3), np.zeros(3), np.zeros(3), 0.0, 1, 1), empty, empty)
+    theta, rho = azimuth_elevation(band.rays())
+    window = cv2.createHanningWindow((tile_px, tile_px), cv2.CV_64F)
+    r = search_px
+    centres, shifts = [], []
+    for shot in _shots(rig, pictures):
+        layers, seen = [], []
+        for k in (i, j):
+            map_uv = rig.tables[k].sample(theta.astype(np.float32), rho.astype(np.float32))
+            ok = np.all(np.isfinite(map_uv), axis=-1)
+            maps = [np.where(ok, map_uv[..., c], -1e4).astype(np.float32) for c in (0, 1)]
+            layers.append(cv2.remap(shot[k], maps[0], maps[1], cv2.INTER_LINEAR).astype(np.float64))
+            seen.append(ok)
+        both = seen[0] & seen[1]
+        for v in range(r, band.height - tile_px - r + 1, tile_px // 2):
+            for u in range(r, band.width - tile_px - r + 1, tile_px // 2):
+                cut = (slice(v, v + tile_px), slice(u, u + tile_px))
+                around = (slice(v - r, v + tile_px + r), slice(u - r, u + tile_px + r))
+                a, b = layers[0][cut], layers[1][cut]
+                if not (both[around].all() and min(a.std(), b.std()) >= min_std):
+                    continue
+                found = cv2.phaseCorrelate(a, b, window)[0] if r == 0 else _ncc_shift(a, layers[1][around], r)
+                if found is not None:
+                    centres.append((u + (tile_px - 1) / 2, v + (tile_px - 1) / 2))
+                    shifts.append(found)
+    shape = (-1, 2)
+    return OverlapTiles(i, j, band, np.asarray(centres, np.float64).reshape(shape), np.asarray(shifts).reshape(shape))
+
+
+def _ncc_shift(tile: FloatArray, around: FloatArray, search_px: int) -> tuple[float, float] | None:
+    """Where ``tile`` (t, t) lies in ``around`` (t + 2 r, t + 2 r), less ``r`` (px, (x, y)): the peak of their
+    normalised cross-correlation, refined by a parabola through it and its neighbours each way; None where the peak
+    is on the edge or under :data:`NCC_MIN`."""
+    score = cv2.matchTemplate(around.astype(np.float32), tile.astype(np.float32), cv2.TM_CCOEFF_NORMED)
+    y, x = np.unravel_index(int(np.argmax(score)), score.shape)
+    if not (0 < x < 2 * search_px and 0 < y < 2 * search_px) or score[y, x] < NCC_MIN:
+        return None
+
+    def vertex(left: float, centre: float, right: float) -> float:
+        curve = left - 2 * centre + right
+        return 0.5 * (left - right) / curve if curve < 0 else 0.0
+
+    dx = vertex(float(score[y, x - 1]), float(score[y, x]), float(score[y, x + 1]))
+    dy = vertex(float(score[y - 1, x]), float(score[y, x]), float(score[y + 1, x]))
+    return float(x - search_px + dx), float(y - search_px + dy)
+
+
+def tile_jacobians(table_j: PanoMappingTable, tiles: OverlapTiles) -> tuple[Any, Any]:
+    """The tiles' shifts' Jacobians (module docstring): ``A`` (n, 2, 3) in camera j's turn ``w`` (rad) and ``B``
+    (n, 2, 2) in its picture's move ``c`` (px); ``B`` NaN where camera j's map is singular or unseen."""
+    band, xy = tiles.band, tiles.centres
+    d = band.rays_at(xy)
+    h = 0.5
+    ex, ey = np.array([h, 0.0]), np.array([0.0, h])
+    dx = (band.rays_at(xy + ex) - band.rays_at(xy - ex)) / (2 * h)
+    dy = (band.rays_at(xy + ey) - band.rays_at(xy - ey)) / (2 * h)
+    # The band's axes are orthogonal on the sphere: H's rows are each axis over its squared length.
+    big_h = np.stack([dx / np.sum(dx * dx, axis=1)[:, None], dy / np.sum(dy * dy, axis=1)[:, None]], axis=1)
+    a = np.einsum("nij,njk->nik", big_h, _skew_rows(d))
+
+    def pixel(rays: FloatArray) -> FloatArray:
+        return table_j.sample(*azimuth_elevation(rays)).astype(np.float64)  # the table takes world rays
+
+    g = np.stack([(pixel(band.rays_at(xy + e)) - pixel(band.rays_at(xy - e))) / (2 * h) for e in (ex, ey)], axis=2)
+    det = g[:, 0, 0] * g[:, 1, 1] - g[:, 0, 1] * g[:, 1, 0]
+    ok = np.isfinite(det) & (np.abs(det) > 1e-6)
+    b = np.full((len(xy), 2, 2), np.nan)
+    b[ok] = np.linalg.inv(g[ok])
+    return a, b
+
+
+def _skew_rows(v: FloatArray) -> FloatArray:
+    out = np.zeros((len(v), 3, 3))
+    out[:, 0, 1], out[:, 0, 2], out[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
+    out[:, 1, 0], out[:, 2, 0], out[:, 2, 1] = v[:, 2], -v[:, 1], v[:, 0]
+    return out
+
+
+def robust_fit(design: FloatArray, shifts: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The parameters ``p`` (k,) that best give ``shifts`` (n, 2) as ``design @ p`` (design (n, 2, k)), by
+    iteratively reweighted least squares: Cauchy weights on each component at twice that component's robust sigma
+    (at least :data:`MIN_SIGMA_PX`), so the across-band component, which near objects' parallax spreads, weighs as
+    little as it is spread; and the residuals (n, 2), px.
+
+    Raises PanomapError where the design does not fix the parameters (too few tiles, or all along one line)."""
+    k = design.shape[2]
+    rows, values = design.reshape(-1, k), shifts.reshape(-1)
+    weights = np.ones(shifts.shape)
+    params = np.zeros(k)
+    for _ in range(IRLS_STEPS):
+        w = weights.reshape(-1)
+        normal = rows.T @ (rows * w[:, None])
+        scale = np.sqrt(np.diag(normal))
+        if not np.all(scale > 0) or np.linalg.cond(normal / np.outer(scale, scale)) > 1e10:
+            raise PanomapError("the overlap's tiles do not fix the turn (and centre): too few, or along one line")
+        params = np.asarray(np.linalg.solve(normal, rows.T @ (values * w)), dtype=np.float64)
+        residual = shifts - design @ params
+        sigma = np.maximum(1.4826 * np.median(np.abs(residual), axis=0), MIN_SIGMA_PX)
+        weights = 1.0 / (1.0 + (residual / (2 * sigma)) ** 2) / sigma**2
+    return params, shifts - design @ params
+
+
+def sector_residuals(design: FloatArray, shifts: FloatArray, lon: FloatArray) -> FloatArray:
+    """Each tile's residual (n, 2), px, predicted from the tiles of the other :data:`SECTORS` sectors of the
+    ring (``lon`` (n,): each tile's longitude round it, rad): a left-out sector's tiles by the fit of the rest."""
+    sector = np.floor(np.mod(lon, 2 * math.pi) / (2 * math.pi) * SECTORS).astype(int)
+    out = np.full(shifts.shape, np.nan)
+    for s in range(SECTORS):
+        held = sector == s
+        if held.any() and (~held).sum() >= MIN_TILES // 2:
+            params, _ = robust_fit(design[~held], shifts[~held])
+            out[held] = shifts[held] - design[held] @ params
+    return out
+
+
+def shifted_table(table: PanoMappingTable, shift_px: FloatArray) -> PanoMappingTable:
+    """``table``'s camera with its picture moved by ``shift_px`` (2,) px: its centre (and every entry) moved so, as a
+    decentering of its image terms moves every pixel (a fitted table's entries filled anew from the moved model, an
+    imported one's moved as they are); the move is added to ``info["centre moved px"]``."""
+    du, dv = (float(x) for x in shift_px)
+    model = replace(table.model, centre=(table.model.centre[0] + du, table.model.centre[1] + dv))
+    before = table.info.get("centre moved px", (0.0, 0.0))
+    info = {**table.info, "centre moved px": (float(before[0]) + du, float(before[1]) + dv)}
+    if table.entries_from_model:
+        turned = model.rotation is not None
+        camera_range = table.camera_range
+        entries = fill_entries(model, table.size, table.elevation_range, camera_range=camera_range if turned else None)
+    else:
+        entries = np.asarray(table.entries, np.float32) + np.array([du, dv], dtype=np.float32)
+    return replace(table, entries=entries, model=model, info=info)
+
+
+@dataclass(frozen=True)
+class OverlapFit:
+    """What the overlap's tiles said (:func:`learn_with_overlap`), px at the band's scale.
+
+    ``camera``: the camera whose centre may move (camera 1); ``tiles``: textured tiles; ``p90_start_px`` /
+    ``p90_px``: their shifts' p90 (length) at the features' rotation and at the end; ``held_roll_p90_px`` /
+    ``held_centre_p90_px``: the left-out sectors' tiles' along-ring residual p90 predicted by a roll alone and by
+    a roll and the centre's move (:func:`sector_residuals`); ``centre_px`` (2,): the centre's move fitted (in all);
+    ``kept``: whether it was kept (the rig's table of ``camera`` carries it, and the rotation was learned anew with
+    it); ``left_px``: the move the tiles ask for after it (its length; NaN where not kept): how well one step
+    settled it (the tiles' model is linear to 0.15 px over 2 px moves on the Ricoh Theta's overlap)."""
+
+    camera: str
+    tiles: int
+    p90_start_px: float
+    p90_px: float
+    held_roll_p90_px: float
+    held_centre_p90_px: float
+    centre_px: tuple[float, float]
+    kept: bool
+    left_px: float
+
+    def describe(self) -> str:
+        move = f"{self.camera}'s centre moved ({self.centre_px[0]:+.2f}, {self.centre_px[1]:+.2f}) px"
+        if self.kept:
+            said = f"{move}: kept, the rig's table carries it (then {self.left_px:.2f} px more asked)"
+        else:
+            said = f"{move} fitted there: not kept, it does not predict left-out sectors clearly better"
+        return (
+            f"the overlap's {self.tiles} tiles: shifts p90 {self.p90_start_px:.2f} -> {self.p90_px:.2f} px; along the "
+            f"ring, left-out sectors p90 {self.held_roll_p90_px:.2f} px by a roll alone, {self.held_centre_p90_px:.2f}"
+            f" px with the centre; {said}"
+        )
+
+
+def learn_with_overlap(
+    rig: CameraRig,
+    pictures: Any,
+    *,
+    turn: Callable[[PanoMappingTable, FloatArray], PanoMappingTable] = turned_table,
+    seed: int = 0,
+) -> LearnedRig:
+    """A two-camera rig's rotations learned from its features (:func:`~panomap.rig.learn.learn_rotations`), and
+    camera 1's centre moved where its overlap's tiles say it must be, only where that predicts tiles it was not
+    fitted on.
+
+    The tiles' shifts along the ring (parallax-free: near objects' parallax is across it) are fitted by a roll of
+    camera 1 alone, and by a roll and a move of its centre (module docstring); the ring's :data:`SECTORS` sectors,
+    each left out in turn, say whether the centre predicts the left-out tiles clearly better (along-ring p90 at
+    most :data:`KEEP_RATIO` of the roll alone's and :data:`KEEP_GAIN_PX` less). Only then is the move kept: camera
+    1's table moved (:func:`shifted_table`) and the rotations learned anew from the features with it (once: the
+    move hardly depends on the rotation, which moves the tiles across the ring; the tiles measured again say how
+    much more they would ask, ``left_px``). Otherwise the answer is
+    :func:`~panomap.rig.learn.learn_rotations`'s. Rigs of other than two cameras: its answer, ``overlap`` None.
+
+    Raises
+    ------
+    PanomapError
+        As :func:`~panomap.rig.learn.learn_rotations`, or where the tiles do not fix the move.
+    """
+    learned = learn_rotations(rig, pictures, turn=turn, seed=seed)
+    if rig.count != 2:
+        return learned
+    first = overlap_tiles(learned.rig, pictures, tile_px=FIT_TILE_PX, search_px=SEARCH_PX)
+    if first.count < MIN_TILES:
+        return learned
+    step, held_roll, held_centre = _centre_step(learned.rig, first)
+    keep = held_centre <= KEEP_RATIO * held_roll and held_roll - held_centre >= KEEP_GAIN_PX
+    fit = OverlapFit(rig.names[1], first.count, _p90(first), _p90(first), held_roll, held_centre,
+                     (float(step[0]), float(step[1])), keep, math.nan)  # fmt: skip
+    if not keep:
+        return replace(learned, overlap=fit)
+    moved = step
+    original, moved_table = rig.tables[1], shifted_table(rig.tables[1], moved)
+
+    def turn_moved(table: PanoMappingTable, rotation: FloatArray) -> PanoMappingTable:
+        # camera 1 turned from its table as given (an imported one through its calibration), then moved
+        return shifted_table(turn(original, rotation), moved) if table is moved_table else turn(table, rotation)
+
+    start = replace(rig, tables=(rig.tables[0], moved_table))
+    learned = learn_rotations(start, pictures, turn=turn_moved, seed=seed)
+    tiles = overlap_tiles(learned.rig, pictures, tile_px=FIT_TILE_PX, search_px=SEARCH_PX)
+    left, _, _ = _centre_step(learned.rig, tiles, validate=False)
+    fit = replace(fit, tiles=tiles.count, p90_px=_p90(tiles), left_px=float(np.hypot(*left)))
+    return replace(learned, overlap=fit)
+
+
+def _centre_step(rig: CameraRig, tiles: OverlapTiles, *, validate: bool = True) -> tuple[FloatArray, float, float]:
+    """Camera 1's centre's move (2,) px fitted to the tiles' along-ring shifts with a roll; and, with ``validate``,
+    the left-out sectors' along-ring residual p90 (px) by a roll alone and by the roll and the move (else NaN)."""
+    a, b = tile_jacobians(rig.tables[1], tiles)
+    ok = np.all(np.isfinite(b), axis=(1, 2))
+    roll = (a @ tiles.band.pole)[ok, :1, None]  # the along-ring shift per rad of roll about the band's pole
+    both = np.concatenate([roll, b[ok, :1, :]], axis=2)
+    along = tiles.shifts[ok, :1]
+    params, _ = robust_fit(both, along)
+    if not validate:
+        return params[1:], math.nan, math.nan
+    lon = 2 * math.pi * (tiles.centres[ok, 0] + 0.5) / tiles.band.width
+    held = [float(np.nanpercentile(np.abs(sector_residuals(d, along, lon)), 90)) for d in (roll, both)]
+    return params[1:], held[0], held[1]
+
+
+def _p90(tiles: OverlapTiles) -> float:
+    values = tiles.distances_px()
+    return float(np.percentile(values, 90)) if values.size else math.nan
+
+
+__all__ = [
+    "OverlapFit",
+    "OverlapTiles",
+    "learn_with_overlap",
+    "overlap_tiles",
+    "robust_fit",
+    "sector_residuals",
+    "shifted_table",
+    "tile_jacobians",
+]
