@@ -28,8 +28,9 @@ def orient_table(table: PanoMappingTable, yaw_rad: float, pitch_rad: float, roll
     """``table``'s camera looking along yaw, pitch and roll (rad), its entries made anew.
 
     The table keeps its size (M, N), its annulus, its image size and its information (the orientation
-    given is recorded in ``info["orientation"]``). A camera without a single viewpoint keeps its ray
-    origins along its (turned) axis.
+    given is recorded in ``info["orientation"]``); an imported table whose centre was moved since
+    (``info["centre moved px"]``, :func:`panomap.rig.overlap.shifted_table`) stays moved. A camera without a
+    single viewpoint keeps its ray origins along its (turned) axis.
 
     Parameters
     ----------
@@ -56,6 +57,8 @@ def orient_table(table: PanoMappingTable, yaw_rad: float, pitch_rad: float, roll
         except (KeyError, TypeError, ValueError):
             raise PanomapError("the table's import record does not give its calibration's model") from None
         entries = project_grid(camera, model, table.size, elevation_range, camera_range if turned else None)
+        # A centre moved since the import (panomap.rig.overlap.shifted_table) stays moved: every pixel by the move.
+        entries = entries + np.asarray(table.info.get("centre moved px", (0.0, 0.0)), dtype=np.float32)
     info = dict(table.info)
     info["orientation"] = {
         "yaw_deg": math.degrees(yaw_rad),

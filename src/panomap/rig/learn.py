@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import cv2
 import numpy as np
@@ -43,9 +43,6 @@ from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, ray_from_angles
 from ..table.table import PanoMappingTable, fill_entries
 from .rig import CameraRig
-
-if TYPE_CHECKING:
-    from .overlap import OverlapFit
 
 # Inliers of a pair below which it is refused.
 MIN_INLIERS = 12
@@ -112,6 +109,41 @@ class PairReport:
             f"{self.cameras[0]} and {self.cameras[1]}: {self.matches} matches, {self.inliers} inliers{near}; residual "
             f"median {self.residual_deg_median:.3f} deg ({self.residual_px_median:.2f} px), p90 "
             f"{self.residual_deg_p90:.3f} deg ({self.residual_px_p90:.2f} px)"
+        )
+
+
+@dataclass(frozen=True)
+class OverlapFit:
+    """What the overlap's tiles said (:func:`panomap.rig.overlap.learn_with_overlap`), px at the band's scale.
+
+    ``camera``: the camera whose centre may move (camera 1); ``tiles``: textured tiles; ``p90_start_px`` /
+    ``p90_px``: their shifts' p90 (length) at the features' rotation and at the end; ``held_roll_p90_px`` /
+    ``held_centre_p90_px``: the left-out sectors' tiles' along-ring residual p90 predicted by a roll alone and by
+    a roll and the centre's move (:func:`panomap.rig.overlap.sector_residuals`); ``centre_px`` (2,): the centre's
+    move fitted; ``kept``: whether it was kept (the rig's table of ``camera`` carries it, and the rotation was learned anew with
+    it); ``left_px``: the move the tiles ask for after it (its length; NaN where not kept): how well one step
+    settled it (the tiles' model is linear to 0.15 px over 2 px moves on the Ricoh Theta's overlap)."""
+
+    camera: str
+    tiles: int
+    p90_start_px: float
+    p90_px: float
+    held_roll_p90_px: float
+    held_centre_p90_px: float
+    centre_px: tuple[float, float]
+    kept: bool
+    left_px: float
+
+    def describe(self) -> str:
+        move = f"{self.camera}'s centre moved ({self.centre_px[0]:+.2f}, {self.centre_px[1]:+.2f}) px"
+        if self.kept:
+            said = f"{move}: kept, the rig's table carries it (then {self.left_px:.2f} px more asked)"
+        else:
+            said = f"{move} fitted there: not kept, it does not predict left-out sectors clearly better"
+        return (
+            f"the overlap's {self.tiles} tiles: shifts p90 {self.p90_start_px:.2f} -> {self.p90_px:.2f} px; along the "
+            f"ring, left-out sectors p90 {self.held_roll_p90_px:.2f} px by a roll alone, {self.held_centre_p90_px:.2f}"
+            f" px with the centre; {said}"
         )
 
 
@@ -593,4 +625,4 @@ def _pair_report(rig: CameraRig, m: Matches, rotations: list[FloatArray]) -> Pai
     )
 
 
-__all__ = ["Band", "LearnedRig", "PairReport", "band_of", "learn_rotations", "turned_table"]
+__all__ = ["Band", "LearnedRig", "OverlapFit", "PairReport", "band_of", "learn_rotations", "turned_table"]

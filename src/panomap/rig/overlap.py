@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation
 from ..table.table import PanoMappingTable, fill_entries
-from .learn import Band, LearnedRig, _shots, band_of, learn_rotations, turned_table
+from .learn import Band, LearnedRig, OverlapFit, _shots, band_of, learn_rotations, turned_table
 from .rig import CameraRig
 
 #: Tiles (px, square; every half of it) when :func:`learn_overlap` measures, how far each way it searches (px), the
@@ -216,7 +216,9 @@ def sector_residuals(design: FloatArray, shifts: FloatArray, lon: FloatArray) ->
 def shifted_table(table: PanoMappingTable, shift_px: FloatArray) -> PanoMappingTable:
     """``table``'s camera with its picture moved by ``shift_px`` (2,) px: its centre (and every entry) moved so, as a
     decentering of its image terms moves every pixel (a fitted table's entries filled anew from the moved model, an
-    imported one's moved as they are); the move is added to ``info["centre moved px"]``."""
+    imported one's moved as they are); the move is added to ``info["centre moved px"]``, so that turning the table
+    keeps it (:func:`~panomap.rig.learn.turned_table` resamples the moved entries; an imported table turned through
+    its calibration, :func:`panomap.interop.orient.orient_table`, adds the move again)."""
     du, dv = (float(x) for x in shift_px)
     model = replace(table.model, centre=(table.model.centre[0] + du, table.model.centre[1] + dv))
     before = table.info.get("centre moved px", (0.0, 0.0))
@@ -228,41 +230,6 @@ def shifted_table(table: PanoMappingTable, shift_px: FloatArray) -> PanoMappingT
     else:
         entries = np.asarray(table.entries, np.float32) + np.array([du, dv], dtype=np.float32)
     return replace(table, entries=entries, model=model, info=info)
-
-
-@dataclass(frozen=True)
-class OverlapFit:
-    """What the overlap's tiles said (:func:`learn_with_overlap`), px at the band's scale.
-
-    ``camera``: the camera whose centre may move (camera 1); ``tiles``: textured tiles; ``p90_start_px`` /
-    ``p90_px``: their shifts' p90 (length) at the features' rotation and at the end; ``held_roll_p90_px`` /
-    ``held_centre_p90_px``: the left-out sectors' tiles' along-ring residual p90 predicted by a roll alone and by
-    a roll and the centre's move (:func:`sector_residuals`); ``centre_px`` (2,): the centre's move fitted (in all);
-    ``kept``: whether it was kept (the rig's table of ``camera`` carries it, and the rotation was learned anew with
-    it); ``left_px``: the move the tiles ask for after it (its length; NaN where not kept): how well one step
-    settled it (the tiles' model is linear to 0.15 px over 2 px moves on the Ricoh Theta's overlap)."""
-
-    camera: str
-    tiles: int
-    p90_start_px: float
-    p90_px: float
-    held_roll_p90_px: float
-    held_centre_p90_px: float
-    centre_px: tuple[float, float]
-    kept: bool
-    left_px: float
-
-    def describe(self) -> str:
-        move = f"{self.camera}'s centre moved ({self.centre_px[0]:+.2f}, {self.centre_px[1]:+.2f}) px"
-        if self.kept:
-            said = f"{move}: kept, the rig's table carries it (then {self.left_px:.2f} px more asked)"
-        else:
-            said = f"{move} fitted there: not kept, it does not predict left-out sectors clearly better"
-        return (
-            f"the overlap's {self.tiles} tiles: shifts p90 {self.p90_start_px:.2f} -> {self.p90_px:.2f} px; along the "
-            f"ring, left-out sectors p90 {self.held_roll_p90_px:.2f} px by a roll alone, {self.held_centre_p90_px:.2f}"
-            f" px with the centre; {said}"
-        )
 
 
 def learn_with_overlap(
@@ -302,15 +269,8 @@ def learn_with_overlap(
                      (float(step[0]), float(step[1])), keep, math.nan)  # fmt: skip
     if not keep:
         return replace(learned, overlap=fit)
-    moved = step
-    original, moved_table = rig.tables[1], shifted_table(rig.tables[1], moved)
-
-    def turn_moved(table: PanoMappingTable, rotation: FloatArray) -> PanoMappingTable:
-        # camera 1 turned from its table as given (an imported one through its calibration), then moved
-        return shifted_table(turn(original, rotation), moved) if table is moved_table else turn(table, rotation)
-
-    start = replace(rig, tables=(rig.tables[0], moved_table))
-    learned = learn_rotations(start, pictures, turn=turn_moved, seed=seed)
+    start = replace(rig, tables=(rig.tables[0], shifted_table(rig.tables[1], step)))
+    learned = learn_rotations(start, pictures, turn=turn, seed=seed)  # a turn keeps the move (shifted_table)
     tiles = overlap_tiles(learned.rig, pictures, tile_px=FIT_TILE_PX, search_px=SEARCH_PX)
     left, _, _ = _centre_step(learned.rig, tiles, validate=False)
     fit = replace(fit, tiles=tiles.count, p90_px=_p90(tiles), left_px=float(np.hypot(*left)))
