@@ -121,8 +121,8 @@ class OverlapFit:
     ``held_centre_p90_px``: the left-out sectors' tiles' along-ring residual p90 predicted by a roll alone and by
     a roll and the centre's move (:func:`panomap.rig.overlap.sector_residuals`); ``centre_px`` (2,): the centre's
     move fitted; ``kept``: whether it was kept (the rig's table of ``camera`` carries it, and the rotation was
-    learned anew with it); ``left_px``: the move the tiles ask for after it (its length; NaN where not kept): how well one step
-    settled it (the tiles' model is linear to 0.15 px over 2 px moves on the Ricoh Theta's overlap)."""
+    learned anew with it); ``left_px``: the move the tiles ask for after it (its length; NaN where not kept):
+    how well one step settled it (the tiles' model is linear to 0.15 px over 2 px moves on the Theta's overlap)."""
 
     camera: str
     tiles: int
