@@ -289,7 +289,11 @@ def _centre_step(rig: CameraRig, tiles: OverlapTiles, *, validate: bool = True) 
     if not validate:
         return params[1:], math.nan, math.nan
     lon = 2 * math.pi * (tiles.centres[ok, 0] + 0.5) / tiles.band.width
-    held = [float(np.nanpercentile(np.abs(sector_residuals(d, along, lon)), 90)) for d in (roll, both)]
+    held = []
+    for design in (roll, both):
+        left_out = np.abs(sector_residuals(design, along, lon))
+        left_out = left_out[np.isfinite(left_out)]
+        held.append(float(np.percentile(left_out, 90)) if left_out.size else math.nan)
     return params[1:], held[0], held[1]
 
 
