@@ -90,7 +90,10 @@ class PairReport:
     ``matches``: ratio-test matches in the band; ``inliers``: those the rotation explains (far points);
     ``near``: beyond three robust sigmas but within :data:`NEAR_PX` (near objects' parallax); residuals of the
     inliers in deg and in px (each ray through the other camera's table, against its feature; the two ways'
-    mean); ``near_parallax_deg``: the near matches' median residual (None without any).
+    mean); ``near_parallax_deg``: the near matches' median residual (None without any); ``along_px_p90`` /
+    ``across_px_p90``: the inliers' residual's p90 along the ring of directions equally far from both axes and
+    across it (px at the band's scale; the lenses' centres lie apart along their axes, so near objects' parallax
+    lies across the ring, and along it the residual is the cameras' own).
     """
 
     cameras: tuple[str, str]
@@ -102,13 +105,16 @@ class PairReport:
     residual_px_median: float
     residual_px_p90: float
     near_parallax_deg: float | None
+    along_px_p90: float = math.nan
+    across_px_p90: float = math.nan
 
     def describe(self) -> str:
         near = f", {self.near} near (parallax median {self.near_parallax_deg:.2f} deg)" if self.near else ", none near"
         return (
             f"{self.cameras[0]} and {self.cameras[1]}: {self.matches} matches, {self.inliers} inliers{near}; residual "
             f"median {self.residual_deg_median:.3f} deg ({self.residual_px_median:.2f} px), p90 "
-            f"{self.residual_deg_p90:.3f} deg ({self.residual_px_p90:.2f} px)"
+            f"{self.residual_deg_p90:.3f} deg ({self.residual_px_p90:.2f} px); p90 along the overlap's ring "
+            f"{self.along_px_p90:.2f} px, across it {self.across_px_p90:.2f} px (where parallax lies)"
         )
 
 
@@ -608,6 +614,7 @@ def _pair_report(rig: CameraRig, m: Matches, rotations: list[FloatArray]) -> Pai
     px = (np.linalg.norm(into_j, axis=1) + np.linalg.norm(into_i, axis=1)) / 2
     px = px[np.isfinite(px)]
     degrees = np.degrees(angle[inlier])
+    along, across = _along_across(rig, m, a[inlier], b[inlier])
 
     def pct(values: FloatArray, q: float) -> float:
         return float(np.percentile(values, q)) if values.size else math.nan
@@ -622,7 +629,25 @@ def _pair_report(rig: CameraRig, m: Matches, rotations: list[FloatArray]) -> Pai
         pct(px, 50),
         pct(px, 90),
         float(np.degrees(np.median(angle[near]))) if near.any() else None,
+        pct(along, 90),
+        pct(across, 90),
     )
+
+
+def _along_across(rig: CameraRig, m: Matches, a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The residuals ``b - a`` of world rays (n, 3) along the pair's ring and across it (n,) each, absolute, px at
+    the band's scale: across is toward the pole ``a_i - a_j`` of the ring, along is square to it and to the ray."""
+    axes = rig.optical_axes()
+    pole = axes[m.i] - axes[m.j]
+    norm = float(np.linalg.norm(pole))
+    if norm < 1e-9:
+        nan = np.full(len(a), np.nan)
+        return nan, nan
+    pole = pole / norm
+    tangent = np.cross(pole, a)
+    tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
+    r = (b - a) * m.scale_px_per_rad
+    return np.abs(np.sum(r * tangent, axis=1)), np.abs(r @ pole)
 
 
 __all__ = ["Band", "LearnedRig", "OverlapFit", "PairReport", "band_of", "learn_rotations", "turned_table"]
