@@ -341,7 +341,9 @@ def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], sid
 def rig_learn(paths: tuple[Path, ...], output: Path, side_by_side: bool, verbose: bool) -> None:
     """The rotations between RIG's cameras, learned from the features they share in its PICTUREs (each a frame
     holding every camera's picture, or one picture per camera in the rig's order, shot after shot); camera 0
-    stays where it is. The rig must be placed within a few degrees (a dual fisheye's lenses back to back).
+    stays where it is. The rig must be placed within a few degrees (a dual fisheye's lenses back to back). For two
+    cameras, their overlap's tiles then say whether camera 1's centre must move (kept only where it predicts
+    left-out parts of the overlap clearly better; the report's last line says which).
 
     With --side-by-side and no RIG, a dual fisheye with no calibration at all: its lenses and the turn between
     them from its side-by-side frames alone (panomap rig learn --side-by-side FRAME... -o rig.npz)."""

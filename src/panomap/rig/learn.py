@@ -160,7 +160,7 @@ class LearnedRig:
     ``rotations``: each camera's rotation (3, 3), camera to world; ``turned_deg``: how far each turned from
     the start; ``uncertainty_deg``: each rotation's 1-sigma uncertainty about its worst axis (camera 0: 0, it
     places the world); ``pairs``: each overlapping pair's :class:`PairReport`; ``steps``: Gauss-Newton steps of
-    the last pass; ``overlap``: what the overlap's tiles said (:func:`panomap.rig.overlap.learn_overlap`), None
+    the last pass; ``overlap``: what the overlap's tiles said (:func:`panomap.rig.overlap.learn_with_overlap`), None
     where they were not asked.
     """
 

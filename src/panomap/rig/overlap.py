@@ -7,19 +7,22 @@ a band px is about a picture px). Shifts are in band px.
 
 The overlap's **tiles** (:func:`overlap_tiles`): the ring of directions both cameras see (:func:`band_of`, no
 margin) drawn from each camera through its table, cut in square tiles; each tile both see whole and textured in
-both gives, by phase correlation, the shift ``s`` (2,) at which camera j's drawing shows what camera i's shows at
-the tile. Phase correlation on small tiles understates shifts of a few px (16 px tiles: 3 px read as 0.5-2.8 px),
-so :func:`learn_overlap` measures with larger tiles and iterates to the fixed point, where the shifts are ~0.
+both gives the shift ``s`` (2,) at which camera j's drawing shows what camera i's shows at the tile: by phase
+correlation (the side-by-side check's, :mod:`panomap.calibrate.dual_fisheye`), which on tiles this small
+understates shifts of a px or more (a 2.25 px turn read 0.2-1.9 px on 32 px tiles of the Ricoh Theta's overlap),
+or by normalised cross-correlation within a search (what :func:`learn_with_overlap` uses: 2.2 px read there).
 
 **What a tile's shift says** (camera i right, a far scene): turning camera j by ``w`` and moving its picture by
 ``c`` (px; the table's pixels ``+ c``, a decentering of its centre) shift the tile by ``H [d]x w + G^-1 c``:
 ``d`` the tile's world ray, ``H`` (2, 3) the band's px per change of ray, ``G`` (2, 2) camera j's picture px per
-band px there. A turn of j tilts the ring across the band and rolls it along; a centre moved by ``c`` moves the rim
+band px there (:func:`tile_jacobians`; within 0.15 px of the measured change for 2 px moves and 0.2 deg turns on
+the Theta). A turn of j tilts the ring across the band and rolls it along; a centre moved by ``c`` moves the rim
 along the ring by ``c``'s tangential part, in a cos pattern round it, which no turn makes. Near objects' parallax
-(the lenses' centres apart along their axes) is across the band; robust weights leave it out.
+(the lenses' centres apart along their axes) is across the band only.
 
-:func:`learn_overlap` fits both, and keeps the centre's move only where it predicts tiles it was not fitted on
-(the ring cut in :data:`SECTORS` sectors, each predicted from the others) clearly better than the turn alone.
+:func:`learn_with_overlap` fits the shifts along the ring by a roll alone and by a roll and the centre's move, and
+keeps the move only where it predicts tiles it was not fitted on (the ring cut in :data:`SECTORS` sectors, each
+predicted from the others, :func:`sector_residuals`) clearly better than the roll alone.
 """
 
 from __future__ import annotations
@@ -38,7 +41,7 @@ from ..table.table import PanoMappingTable, fill_entries
 from .learn import Band, LearnedRig, OverlapFit, _shots, band_of, learn_rotations, turned_table
 from .rig import CameraRig
 
-#: Tiles (px, square; every half of it) when :func:`learn_overlap` measures, how far each way it searches (px), the
+#: Tiles (px, square; every half of it) when :func:`learn_with_overlap` measures, how far each way it searches (px), the
 #: normalised cross-correlation a tile's peak needs, and the grey std a tile needs in both drawings.
 FIT_TILE_PX = 16
 SEARCH_PX = 6
