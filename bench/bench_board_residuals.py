@@ -20,6 +20,9 @@ in-sample residuals). Of the held-out corners' residuals (px) it prints:
 - **image field**: a smooth field over the image (a polynomial of degree 1-4 in the offsets from the centre,
   ridge-regularised), fitted to the even images' in-sample residuals and added to the camera's pixels; the
   held-out RMS with it (poses refitted): a field that predicts the images left out lowers it;
+- **the image field in folds** (``--folds``: this and the field alone): whether the rule that keeps a term
+  (:mod:`panomap.calibrate.boards.terms`: 5 folds of whole images, better by more than one standard error
+  and 3%) would keep that field, within the even images (the camera refitted without each fold);
 - **the board's shape**: one shape for the set's board (a print not square; a bend off its plane, a
   polynomial of degree 2 or 3 of its places), fitted to the even images with the camera held; the held-out
   RMS where the held-out boards' poses are fitted with that shape (a board that is not flat, the same in
@@ -150,25 +153,25 @@ def board_local_share(residuals: list[FloatArray], boards: Boards) -> tuple[floa
     return explained / total, expected / total
 
 
-def field_design(offsets: FloatArray, scale: float, degree: int) -> FloatArray:
-    """Monomials x^i y^j, 0 < i + j <= degree, of the offsets (n, 2) / scale: (n, terms)."""
+def field_design(offsets: FloatArray, scale: float, degree: int, lowest: int = 1) -> FloatArray:
+    """Monomials x^i y^j, lowest <= i + j <= degree, of the offsets (n, 2) / scale: (n, terms)."""
     x, y = (offsets / scale).T
-    return np.column_stack([x**i * y ** (d - i) for d in range(1, degree + 1) for i in range(d + 1)])
+    return np.column_stack([x**i * y ** (d - i) for d in range(lowest, degree + 1) for i in range(d + 1)])
 
 
-def with_field(project, centre, scale, degree, coef):  # type: ignore[no-untyped-def]
+def with_field(project, centre, scale, degree, coef, lowest=1):  # type: ignore[no-untyped-def]
     """The camera's pixels moved by the field (coef: terms x 2) at them."""
 
     def moved(points: FloatArray) -> FloatArray:
         pixels = project(points)
-        return pixels - field_design(pixels - centre, scale, degree) @ coef
+        return pixels - field_design(pixels - centre, scale, degree, lowest) @ coef
 
     return moved
 
 
-def field_fit(project, residuals, trains, centre, scale, degree, ridge):  # type: ignore[no-untyped-def]
+def field_fit(project, residuals, trains, centre, scale, degree, ridge, lowest=1):  # type: ignore[no-untyped-def]
     """The field (terms, 2) a ridge fit finds in the training residuals (model minus detection) at the detections."""
-    design = np.concatenate([field_design(p - centre, scale, degree) for p, _ in trains])
+    design = np.concatenate([field_design(p - centre, scale, degree, lowest) for p, _ in trains])
     target = np.concatenate(residuals)
     gram = design.T @ design + ridge * len(design) * np.eye(design.shape[1])
     return np.linalg.solve(gram, design.T @ target)
@@ -207,12 +210,51 @@ def field_line(project, lift, seen, trains: Boards, tests: Boards, centre: Float
     """The held-out RMS with an image field fitted to the even images' residuals, by degree and ridge."""
     scale = float(max(np.hypot(*(p - centre).T).max() for p, _ in trains + tests))
     cells = []
-    for degree in (1, 2, 3, 4):
+    for degree, lowest in ((1, 1), (2, 1), (3, 1), (4, 1), (2, 2), (3, 2), (4, 2)):
         for ridge in (1e-4, 1e-2):
-            coef = field_fit(project, seen, trains, centre, scale, degree, ridge)
-            moved = with_field(project, centre, scale, degree, coef)
-            cells.append(f"deg {degree} ridge {ridge:g}: {rms(fitted_residuals(moved, lift, tests, cv2)):.3f}")
+            coef = field_fit(project, seen, trains, centre, scale, degree, ridge, lowest)
+            moved = with_field(project, centre, scale, degree, coef, lowest)
+            cells.append(f"deg {lowest}-{degree} ridge {ridge:g}: {rms(fitted_residuals(moved, lift, tests, cv2)):.3f}")
     return f"image field fitted to the even images' residuals, held-out: {'; '.join(cells)}"
+
+
+def field_folds_line(trains: Boards, refit, cv2) -> str:  # type: ignore[no-untyped-def]
+    """Would the rule of :mod:`panomap.calibrate.boards.terms` keep the image field? The even images dealt into 5
+    folds: the camera refitted to every fold but one (``refit``: boards -> fit), the field fitted to its
+    residuals, each left-out image's mean squared distance with and without it; kept (KEPT) where the mean gain
+    exceeds one standard error and the folds' RMS falls 3%."""
+    folds = min(5, len(trains))
+    variants = [(d, lo, r) for d, lo in ((2, 2), (3, 2), (4, 2), (1, 1), (3, 1), (4, 1)) for r in (1e-4, 1e-2)]
+    base: list[float] = []
+    withs: dict[tuple[int, int, float], list[float]] = {v: [] for v in variants}
+    counts: list[int] = []
+    for k in range(folds):
+        inside = [b for j, b in enumerate(trains) if j % folds != k]
+        out = [b for j, b in enumerate(trains) if j % folds == k]
+        fit = refit(inside)
+        project, lift = panomap_camera(fit)
+        centre = np.asarray(fit.model.centre, dtype=np.float64)
+        scale = float(max(np.hypot(*(p - centre).T).max() for p, _ in trains))
+        seen = fitted_residuals(project, lift, inside, cv2)
+        base += [float(np.sum(r**2)) for r in fitted_residuals(project, lift, out, cv2)]
+        counts += [len(p) for p, _ in out]
+        for degree, lowest, ridge in variants:
+            coef = field_fit(project, seen, inside, centre, scale, degree, ridge, lowest)
+            moved = with_field(project, centre, scale, degree, coef, lowest)
+            withs[(degree, lowest, ridge)] += [float(np.sum(r**2)) for r in fitted_residuals(moved, lift, out, cv2)]
+    n, b = np.array(counts, dtype=np.float64), np.array(base)
+    cells = [f"none {math.sqrt(b.sum() / n.sum()):.3f}"]
+    for (degree, lowest, ridge), values in withs.items():
+        w = np.array(values)
+        gains = b / n - w / n
+        held = math.sqrt(w.sum() / n.sum())
+        kept = gains.mean() > gains.std(ddof=1) / math.sqrt(gains.size) and held <= 0.97 * cells_rms(b, n)
+        cells.append(f"deg {lowest}-{degree} ridge {ridge:g} {held:.3f}{' KEPT' if kept else ''}")
+    return f"image field in 5 folds of the even images (the rule of terms.py): {'; '.join(cells)}"
+
+
+def cells_rms(squares: FloatArray, counts: FloatArray) -> float:
+    return math.sqrt(squares.sum() / counts.sum())
 
 
 def shape_lines(project, lift, trains: Boards, tests: Boards, refit, cv2) -> list[str]:  # type: ignore[no-untyped-def]
@@ -237,7 +279,7 @@ def shape_lines(project, lift, trains: Boards, tests: Boards, refit, cv2) -> lis
     return out
 
 
-def measure(folder: Path, cv2) -> None:  # type: ignore[no-untyped-def]
+def measure(folder: Path, cv2, folds_only: bool = False) -> None:  # type: ignore[no-untyped-def]
     from panomap.calibrate.boards.detect import Board
     from panomap.calibrate.boards.fit import fit_boards
     from panomap.calibrate.lines.fit import LineFitOptions
@@ -255,7 +297,7 @@ def measure(folder: Path, cv2) -> None:  # type: ignore[no-untyped-def]
         f"  {folder.name}: the corners' noise sigma (3rd / 4th / 5th differences) "
         f"{' / '.join(f'{s:.3f}' for s in sigmas)} px per axis; the held-out RMS a pose fit leaves of it {floor:.3f} px"
     )
-    for terms in ("auto", "none"):
+    for terms in ("auto",) if folds_only else ("auto", "none"):
 
         def refit(these: Boards, terms: str = terms):  # type: ignore[no-untyped-def]
             options = LineFitOptions(terms=terms)
@@ -269,6 +311,9 @@ def measure(folder: Path, cv2) -> None:  # type: ignore[no-untyped-def]
         print(f"    terms {terms} ({fit.report.model}, kept {kept or 'none'}), in-sample {rms(seen):.3f} px: ", end="")
         print(structure_line(held, tests, centre))
         print(f"      {field_line(project, lift, seen, trains, tests, centre, cv2)}")
+        print(f"      {field_folds_line(trains, refit, cv2)}")
+        if folds_only:
+            continue
         for line in shape_lines(project, lift, trains, tests, lambda b, f=refit: panomap_camera(f(b)), cv2):
             print(f"      {line}")
 
@@ -317,6 +362,7 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[1].parent / "shared/data/real")
     parser.add_argument("--contrib", type=Path, default=Path("/tmp/contrib"))
     parser.add_argument("--only", help="one set (its folder's name)")
+    parser.add_argument("--folds", action="store_true", help="only the image field, and its fold test")
     parser.add_argument("--drift", action="store_true", help="only the drift from the established calibrations")
     args = parser.parse_args()
     cv2 = load_cv2(args.contrib)
@@ -326,7 +372,7 @@ def main() -> None:
                 print(f"  {folder.name}")
                 drift(folder)
             else:
-                measure(folder, cv2)
+                measure(folder, cv2, args.folds)
 
 
 if __name__ == "__main__":
