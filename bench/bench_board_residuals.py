@@ -340,6 +340,9 @@ def drift(folder: Path) -> None:
     bands = {
         "inside": ring_grid(centre, r_min, r_max, size),
         f"nearer ({r_min * 0.5:.0f}-{r_min:.0f} px)": ring_grid(centre, r_min * 0.5, r_min, size),
+        f"just beyond ({r_max:.0f}-{min(1.25 * r_max, outer):.0f} px)": ring_grid(
+            centre, r_max, min(1.25 * r_max, outer), size
+        ),
         f"farther ({r_max:.0f}-{outer:.0f} px)": ring_grid(centre, r_max, outer, size),
     }
     for terms in ("auto", "none"):
