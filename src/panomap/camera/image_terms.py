@@ -28,8 +28,8 @@ move it to the pixel's offset ``(du, dv)``:
   (``MAX_SMOOTH``), and the map it makes must not fold there (its Jacobian's determinant at least
   ``MIN_SMOOTH_DET``): it grows as the cube of the radius beyond the boards, where no corner holds it.
 
-  It holds the decentering's and the field's quadratic parts, so it is chosen beside them, not with them
-  (:mod:`panomap.calibrate.boards.terms`); its move within the image circle is bounded as the field's.
+  It holds the decentering's and the field's quadratic parts, so it is chosen instead of them, never with
+  them (:mod:`panomap.calibrate.boards.terms`).
 
 - ``aspect`` (a ratio, 1 for square pixels, OpenCV's fx / fy) and ``skew`` (px of u per px of v), an affine
   map of the image plane as OCamCalib's ``c, d, e``::
@@ -97,7 +97,7 @@ TERM_KINDS: dict[str, TermKind] = {
             "smooth",
             tuple(f"c{axis}{i}{j}" for axis, i, j in SMOOTH_TERMS),
             (0.0,) * len(SMOOTH_TERMS),
-            "a general field over the image, every monomial of degree 2 and 3",
+            "a general field over the image, the monomials of degree 2 and 3 (but y's yn^3)",
         ),
     )
 }
