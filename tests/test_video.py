@@ -879,3 +879,24 @@ def test_selection_and_encoder_settings_refuse_nonsense() -> None:
     assert EncoderSettings().codec_options() == {"preset": "veryfast", "crf": "20"}
     assert EncoderSettings(bitrate=8_000_000).codec_options() == {"preset": "veryfast"}
     assert EncoderSettings("ffv1", "yuv420p", options=(("level", "3"),)).codec_options() == {"level": "3"}
+
+
+def test_writer_threads_x264_as_ffmpeg_does(tmp_path: Path) -> None:
+    """The encoder gets libavcodec's default threading, as ffmpeg's command line: x264 writes frame threads, not
+    sliced threads (PyAV's own default, slice threads alone, makes libx264 slice each frame)."""
+    from fractions import Fraction
+
+    from panomap.video.output import open_writer
+
+    path = tmp_path / "out.mp4"
+    writer = open_writer(path, path, (320, 240), Fraction(25), Fraction(1, 25), EncoderSettings(), None)
+    for index in range(3):
+        frame = av.VideoFrame.from_ndarray(np.full((240, 320, 3), 40 * index, dtype=np.uint8), format="bgr24")
+        frame.pts = index
+        for packet in writer.video.encode(frame.reformat(format="yuv420p")):
+            writer.container.mux(packet)
+    for packet in writer.video.encode(None):
+        writer.container.mux(packet)
+    writer.close()
+    assert writer.error is None
+    assert b"sliced_threads=0" in path.read_bytes()

@@ -18,6 +18,19 @@ move it to the pixel's offset ``(du, dv)``:
   On boards that leave the image's middle empty (a mirror's annulus) it trades with the centre and the
   boards' poses: its move within the image circle is bounded (``MAX_FIELD``) rather than its coefficients.
 
+- ``smooth`` ``(cx_20 .. cx_03, cy_20 .. cy_12)``, dimensionless: a general low-order field over the image,
+  the monomials ``xn^i yn^j`` of degree 2 and 3 (:data:`SMOOTH_POWERS`), added to the decentred offset::
+
+      xt += R sum_k cx_k xn^i_k yn^j_k,    yt += R sum_k cy_k xn^i_k yn^j_k
+
+  but y's ``yn^3``: without it the field holds no radial cubic ``rn^2 (xn, yn)``, which is the radial law's
+  (a fit that frees both runs along it, tens of px each way). Its move within the image circle is bounded
+  (``MAX_SMOOTH``), and the map it makes must not fold there (its Jacobian's determinant at least
+  ``MIN_SMOOTH_DET``): it grows as the cube of the radius beyond the boards, where no corner holds it.
+
+  It holds the decentering's and the field's quadratic parts, so it is chosen instead of them, never with
+  them (:mod:`panomap.calibrate.boards.terms`).
+
 - ``aspect`` (a ratio, 1 for square pixels, OpenCV's fx / fy) and ``skew`` (px of u per px of v), an affine
   map of the image plane as OCamCalib's ``c, d, e``::
 
@@ -53,6 +66,12 @@ MAX_SKEW = 0.2
 MAX_DECENTERING = 0.05
 # The field's largest move within the image circle, in units of R (its coefficients alone may be larger).
 MAX_FIELD = 0.02
+# The smooth field's largest move within the image circle (units of R) and the least determinant of its map there.
+MAX_SMOOTH = 0.1
+MIN_SMOOTH_DET = 0.5
+# The smooth field's monomials (i, j): xn^i yn^j, degree 2 then 3, for x; y's, all but yn^3 (module docstring).
+SMOOTH_POWERS = ((2, 0), (1, 1), (0, 2), (3, 0), (2, 1), (1, 2), (0, 3))
+SMOOTH_TERMS = tuple(("x", i, j) for i, j in SMOOTH_POWERS) + tuple(("y", i, j) for i, j in SMOOTH_POWERS[:-1])
 
 
 @dataclass(frozen=True)
@@ -73,6 +92,12 @@ TERM_KINDS: dict[str, TermKind] = {
         TermKind("decentering", ("p1", "p2"), (0.0, 0.0), "a lens or mirror off the sensor's axis (p1, p2)"),
         TermKind(
             "field", ("s1", "s2", "s3", "s4"), (0.0,) * 4, "a smooth field over the image, not radial (thin prism)"
+        ),
+        TermKind(
+            "smooth",
+            tuple(f"c{axis}{i}{j}" for axis, i, j in SMOOTH_TERMS),
+            (0.0,) * len(SMOOTH_TERMS),
+            "a general field over the image, the monomials of degree 2 and 3 (but y's yn^3)",
         ),
     )
 }
@@ -135,8 +160,16 @@ class ImageTerms:
             largest = float(np.max(np.abs(named[a] * t + named[b] * t * t)))
             if largest > MAX_FIELD:
                 return f"the image field moves {axis} {largest:.3g} R within the image circle (limit {MAX_FIELD} R)"
+        if "smooth" in self.kept:
+            disc = _disc_points()
+            largest = float(np.max(np.hypot(*_smooth_move(disc, named).T)))
+            if largest > MAX_SMOOTH:
+                return f"the smooth field moves {largest:.3g} R within the image circle (limit {MAX_SMOOTH} R)"
+            least = float(np.min(np.linalg.det(self.jacobian(disc * self.radius_px))))
+            if least < MIN_SMOOTH_DET:
+                return f"the smooth field folds the image within its circle (determinant {least:.3g})"
         for name, value in named.items():
-            if name in TERM_KINDS["field"].parameters:
+            if name in TERM_KINDS["field"].parameters or name in TERM_KINDS["smooth"].parameters:
                 continue
             offset = value - 1.0 if name == "aspect" else value
             if abs(offset) > limits[name]:
@@ -186,7 +219,7 @@ class ImageTerms:
         p = self.named()
         yt = uv[..., 1]
         xt = (uv[..., 0] - p["skew"] * yt) / p["aspect"]
-        if all(p[q] == 0.0 for q in ("p1", "p2", *TERM_KINDS["field"].parameters)):
+        if all(p[q] == 0.0 for q in ("p1", "p2", *TERM_KINDS["field"].parameters, *TERM_KINDS["smooth"].parameters)):
             return np.stack([xt, yt], axis=-1)
         big = self.radius_px
         x, y = xt.copy(), yt.copy()
@@ -233,6 +266,10 @@ class ImageTerms:
                 columns.append((yt, zero))
             elif name == "field":  # d(xt, yt) / d s1..s4, then the affine part
                 for dxt, dyt in ((r2, zero), (r4, zero), (zero, r2), (zero, r4)):
+                    columns.append((p["aspect"] * dxt + p["skew"] * dyt, dyt))
+            elif name == "smooth":  # d(xt, yt) / d cx_k (x moved by R m_k), then / d cy_k, then the affine part
+                moves = [(axis, big * (x / big) ** i * (y / big) ** j) for axis, i, j in SMOOTH_TERMS]
+                for dxt, dyt in [(m, zero) if axis == "x" else (zero, m) for axis, m in moves]:
                     columns.append((p["aspect"] * dxt + p["skew"] * dyt, dyt))
             else:  # decentering: d(xt, yt)/d p1 and / d p2, then the affine part
                 for dxt, dyt in (
@@ -281,10 +318,42 @@ def _decentred(x: FloatArray, y: FloatArray, p: dict[str, float], big: float) ->
     p1, p2 = p["p1"], p["p2"]
     r2 = (x * x + y * y) / big  # R rn^2
     r4 = r2 * r2 / big  # R rn^4
+    smooth = big * _smooth_move(np.stack([x / big, y / big], axis=-1), p)
     return (
-        x + (2 * p1 * x * y + p2 * (3 * x * x + y * y)) / big + p["s1"] * r2 + p["s2"] * r4,
-        y + (p1 * (x * x + 3 * y * y) + 2 * p2 * x * y) / big + p["s3"] * r2 + p["s4"] * r4,
+        x + (2 * p1 * x * y + p2 * (3 * x * x + y * y)) / big + p["s1"] * r2 + p["s2"] * r4 + smooth[..., 0],
+        y + (p1 * (x * x + 3 * y * y) + 2 * p2 * x * y) / big + p["s3"] * r2 + p["s4"] * r4 + smooth[..., 1],
     )
+
+
+def _smooth_move(normalised: FloatArray, p: dict[str, float]) -> FloatArray:
+    """The smooth field's move (..., 2), in units of R, at offsets (..., 2) in units of R."""
+    xn, yn = normalised[..., 0], normalised[..., 1]
+    move = np.zeros(normalised.shape, dtype=np.float64)
+    for axis, i, j in SMOOTH_TERMS:
+        c = p[f"c{axis}{i}{j}"]
+        if c != 0.0:
+            move[..., 0 if axis == "x" else 1] += c * xn**i * yn**j
+    return move
+
+
+def _smooth_derivatives(xn: FloatArray, yn: FloatArray, p: dict[str, float]) -> tuple[FloatArray, ...]:
+    """d(smooth move) / d(xn, yn) (dimensionless: the move and the offsets both in units of R):
+    (dmx/dxn, dmx/dyn, dmy/dxn, dmy/dyn)."""
+    out = [np.zeros(np.shape(xn)) for _ in range(4)]
+    for axis, i, j in SMOOTH_TERMS:
+        c = p[f"c{axis}{i}{j}"]
+        if c == 0.0:
+            continue
+        row = 0 if axis == "x" else 2
+        out[row] = out[row] + c * i * xn ** max(i - 1, 0) * yn**j
+        out[row + 1] = out[row + 1] + c * j * xn**i * yn ** max(j - 1, 0)
+    return tuple(out)
+
+
+def _disc_points() -> FloatArray:
+    """Points (n, 2) over the unit disc (rings and spokes), where the smooth field's move is bounded."""
+    radius, angle = np.meshgrid(np.linspace(0.0, 1.0, 21), np.linspace(0.0, 2 * math.pi, 72, endpoint=False))
+    return np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=-1).reshape(-1, 2)
 
 
 def _decentring_jacobian(
@@ -295,7 +364,8 @@ def _decentring_jacobian(
     rn2 = (x * x + y * y) / (big * big)
     fx = (2 * p["s1"] + 4 * p["s2"] * rn2) / big  # d(field's x)/dx = fx x, /dy = fx y
     fy = (2 * p["s3"] + 4 * p["s4"] * rn2) / big
+    sxx, sxy, syx, syy = _smooth_derivatives(x / big, y / big, p)
     return (
-        (1 + (2 * p1 * y + 6 * p2 * x) / big + fx * x, (2 * p1 * x + 2 * p2 * y) / big + fx * y),
-        ((2 * p1 * x + 2 * p2 * y) / big + fy * x, 1 + (6 * p1 * y + 2 * p2 * x) / big + fy * y),
+        (1 + (2 * p1 * y + 6 * p2 * x) / big + fx * x + sxx, (2 * p1 * x + 2 * p2 * y) / big + fx * y + sxy),
+        ((2 * p1 * x + 2 * p2 * y) / big + fy * x + syx, 1 + (6 * p1 * y + 2 * p2 * x) / big + fy * y + syy),
     )

@@ -4,7 +4,7 @@ Convention: ``u = u0 + r cos(phi)``, ``v = v0 + r sin(phi)``,
 ``phi = s*theta + phi0`` and ``r = f_r(rho)``; theta, rho in rad as in
 :mod:`panomap.geometry`. The paper's assumption is ``s = +1, phi0 = 0``.
 
-Terms beyond the radial law (:mod:`panomap.camera.image_terms`: aspect, skew, decentering) move the
+Terms beyond the radial law (:mod:`panomap.camera.image_terms`: aspect, skew, decentering, fields) move the
 offset ``(u - u0, v - v0)`` of that pixel; a camera without them is rotationally symmetric.
 
 A tilted camera (beyond the paper) has a ``rotation`` R, camera to world

@@ -245,7 +245,7 @@ from .progress import ProgressBar
     show_default=True,
     callback=lambda _ctx, _param, value: _checked_terms(value),
     help="Learning from checkerboards: the image terms beyond the radial law the camera may keep (aspect, skew, "
-    "decentering, field): 'auto' keeps each only where the images left out say it helps, 'none', or names "
+    "decentering, field, smooth): 'auto' keeps each only where the images left out say it helps, 'none', or names "
     "joined by commas (kept as given).",
 )
 @click.option(

@@ -162,6 +162,9 @@ def open_writer(
         video: Any = container.add_stream(encoder.codec, rate=rate or Fraction(25))
         video.width, video.height = size
         video.pix_fmt = encoder.pix_fmt
+        # FFmpeg's own default (and its command line's): frame and slice threads. PyAV sets slice threads alone,
+        # which libx264 takes as its sliced threads (one frame at a time, every core waiting on the slowest slice).
+        video.codec_context.thread_type = ENCODER_THREAD_TYPE
         video.time_base = time_base
         video.codec_context.time_base = time_base
         if encoder.bitrate is not None:
@@ -199,6 +202,10 @@ def open_writer(
         ) from None
     return Writer(path, temporary, container, video, audio)
 
+
+# The encoders' threading: libavcodec's default (frame and slice threads), as ffmpeg's command line encodes;
+# the thread count stays PyAV's 0 (as many as there are cores), as ffmpeg's ``-threads auto``.
+ENCODER_THREAD_TYPE = "AUTO"
 
 # The audio codecs FFmpeg's MPEG-TS muxer gives a stream type (any other it writes as private data, silently).
 MPEGTS_AUDIO = frozenset({"mp2", "mp3", "aac", "aac_latm", "ac3", "eac3", "dts", "truehd", "opus", "s302m"})
