@@ -172,10 +172,20 @@ def dark_square(
     return np.clip(np.rint(image + fill), 0, 255).astype(np.uint8)
 
 
-def _one_sided(phi: NDArray[np.float64], angle: float, spread: float) -> NDArray[np.float64]:
-    """A weight over image angle ``phi`` (rad): 1 towards ``angle``, falling to 0 ``spread`` rad either side."""
+def _one_sided(
+    shape: tuple[int, ...], centre: tuple[float, float], angle: float, spread: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each pixel's distance (px) from ``centre`` and a weight over its image angle about it: 1 towards
+    ``angle`` (rad), falling to 0 ``spread`` rad either side. Both ``shape[:2]``."""
+    v, u = np.mgrid[0 : shape[0], 0 : shape[1]].astype(np.float64)
+    phi = np.arctan2(v - centre[1], u - centre[0])
     off = np.abs((phi - angle + math.pi) % (2 * math.pi) - math.pi)
-    return np.clip(1.0 - off / spread, 0.0, 1.0)
+    return np.hypot(u - centre[0], v - centre[1]), np.clip(1.0 - off / spread, 0.0, 1.0)
+
+
+def _added(image: NDArray[np.uint8], add: NDArray[np.float64]) -> NDArray[np.uint8]:
+    """``image`` plus ``add`` grey levels (``image.shape[:2]``, on every channel), rounded and clipped."""
+    return np.clip(np.rint(image + (add[..., None] if image.ndim == 3 else add)), 0, 255).astype(np.uint8)
 
 
 def lit_ring(
@@ -198,12 +208,8 @@ def lit_ring(
         raise PanomapError(
             f"need radius, at_px, width_px, spread > 0 and level >= 0; got {radius}, {at_px}, {width_px}"
         )
-    height, width = image.shape[:2]
-    v, u = np.mgrid[0:height, 0:width].astype(np.float64)
-    r = np.hypot(u - centre[0], v - centre[1])
-    add = level * _one_sided(np.arctan2(v - centre[1], u - centre[0]), angle, spread)
-    add = add * np.exp(-0.5 * ((r - radius - at_px) / width_px) ** 2)
-    return np.clip(np.rint(image + (add[..., None] if image.ndim == 3 else add)), 0, 255).astype(np.uint8)
+    r, weight = _one_sided(image.shape, centre, angle, spread)
+    return _added(image, level * weight * np.exp(-0.5 * ((r - radius - at_px) / width_px) ** 2))
 
 
 def side_glow(
@@ -222,12 +228,9 @@ def side_glow(
     """
     if not (radius > 0 and level >= 0 and fade_px > 0 and spread > 0):
         raise PanomapError(f"need radius, fade_px, spread > 0 and level >= 0; got {radius}, {level}, {fade_px}")
-    height, width = image.shape[:2]
-    v, u = np.mgrid[0:height, 0:width].astype(np.float64)
-    r = np.hypot(u - centre[0], v - centre[1])
-    add = level * _one_sided(np.arctan2(v - centre[1], u - centre[0]), angle, spread)
-    add = add * np.exp(-np.maximum(r - radius, 0.0) / fade_px) * np.clip(r - radius + 0.5, 0.0, 1.0)
-    return np.clip(np.rint(image + (add[..., None] if image.ndim == 3 else add)), 0, 255).astype(np.uint8)
+    r, weight = _one_sided(image.shape, centre, angle, spread)
+    fade = np.exp(-np.maximum(r - radius, 0.0) / fade_px) * np.clip(r - radius + 0.5, 0.0, 1.0)
+    return _added(image, level * weight * fade)
 
 
 def noisy_jpeg(
