@@ -4,7 +4,7 @@ cameras (the rig's file, what ``info`` says of it)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -82,6 +82,16 @@ def _strongest_map(maps: list[Any], weights: Any) -> Any:
     return out
 
 
+def _write_rig(rig: CameraRig, output: Path, report: Iterable[str]) -> None:
+    """Writes ``rig`` to ``output`` whole or not at all, then prints ``report`` (what the command found) and the
+    file written."""
+    with all_or_none():
+        save_rig(rig, output)
+    for line in report:
+        say(printable(line))
+    say(f"wrote {printable(str(output))}")
+
+
 def rig_format(path: Path, format_: str | None) -> str | None:
     """The format of ``path`` where it holds a rig (a Kalibr camchain of two or more cameras each with its
     T_cn_cnm1, a Basalt calibration of two or more cameras with their T_imu_cam, a Hugin project of two or more
@@ -157,11 +167,7 @@ def import_rig(
                         size=table_size, fov_rad=fov_rad, outer_radii=outer_radii)  # fmt: skip
     if pictures is not None and format_ == "kalibr":
         _check_poses(calibration, pictures, orientation_rad, side_by_side, fov_rad, outer_radii)  # type: ignore[arg-type]
-    with all_or_none():
-        save_rig(rig, output)
-    for line in rig.describe():
-        say(printable(line))
-    say(f"wrote {printable(str(output))}")
+    _write_rig(rig, output, rig.describe())
 
 
 def _check_poses(
@@ -311,11 +317,7 @@ def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], sid
     made = CameraRig(
         loaded, names or tuple(table.stem for table in tables), offsets, {"made of": [t.name for t in tables]}
     )
-    with all_or_none():
-        save_rig(made, output)
-    for line in made.describe():
-        say(printable(line))
-    say(f"wrote {printable(str(output))}")
+    _write_rig(made, output, made.describe())
 
 
 @rig.command("learn")
@@ -373,11 +375,7 @@ def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
         pictures = read_rig_pictures(loaded, images[start : start + per_shot])
         shots.append(pictures[0] if loaded.offsets is not None else pictures)
     learned = learn_with_overlap(loaded, shots, turn=turn_table)
-    with all_or_none():
-        save_rig(learned.rig, output)
-    for line in learned.describe():
-        say(printable(line))
-    say(f"wrote {printable(str(output))}")
+    _write_rig(learned.rig, output, learned.describe())
 
 
 def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:
@@ -400,11 +398,7 @@ def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:
         raise error from None
     finally:
         bar.close()
-    with all_or_none():
-        save_rig(learned.rig, output)
-    for line in learned.describe():
-        say(printable(line))
-    say(f"wrote {printable(str(output))}")
+    _write_rig(learned.rig, output, learned.describe())
 
 
 @rig.command("place")
@@ -450,8 +444,4 @@ def rig_place(rig_path: Path, landmark_files: tuple[Path, ...], output: Path, un
         # The camera the refusal names is the file's: say which file.
         named = next((k for k, name in enumerate(loaded.names) if exc.detail.startswith(f"camera {name}:")), None)
         raise PanomapError(exc.detail, landmark_files[named] if named is not None else None) from None
-    with all_or_none():
-        save_rig(placed.rig, output)
-    for line in placed.describe(unit):
-        say(printable(line))
-    say(f"wrote {printable(str(output))}")
+    _write_rig(placed.rig, output, placed.describe(unit))
