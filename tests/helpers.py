@@ -8,14 +8,17 @@ what runs that code on it (making ``Landmarks``, fitting, building tables) is he
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import os
 import socket
 import subprocess
+import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from types import ModuleType
 from typing import Any, TypeVar
 
 import av
@@ -38,6 +41,19 @@ from panomap.simulate.scenarios import CAMERA_POSITION, IMAGE_SIZE, Trial
 from panomap.table.table import PanoMappingTable
 
 ServerT = TypeVar("ServerT", bound=LocalServer)
+
+
+def bench_module(name: str) -> ModuleType:
+    """``bench/<name>.py`` loaded as the module ``name`` (``bench/`` is no package): its renders, its ground
+    truth and its measures, for the tests that pin a bench's figures."""
+    path = Path(__file__).resolve().parents[1] / "bench" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses look their module up while the file runs
+    spec.loader.exec_module(module)
+    return module
+
 
 # ----------------------------------------------------------------------------- the command line, in-process
 

@@ -15,7 +15,6 @@ import pytest
 
 from panomap.calibrate.circles import find_image_circles
 from panomap.simulate import (
-    dark_square,
     field_stop,
     lit_ring,
     load_room,
@@ -25,6 +24,8 @@ from panomap.simulate import (
     standard_cameras,
     vignette,
 )
+
+from helpers import bench_module
 
 ROOM = load_room()
 
@@ -80,19 +81,6 @@ def test_a_robots_fisheye_in_a_dark_square_with_a_lit_ring(seed: int) -> None:
     its stop blurred by 1.5-5 px, vignetted by 40-80%, dimmed, a ring of 20-50 levels 4-9 px past the rim on one arc;
     noise, JPEG (bench/bench_circles_unkind.py's robots 5 and 10). Measured: 0.01 and 0.05 px from the truth
     (before: 4.3 and 4.8 px)."""
-    rng = np.random.default_rng(seed)
-    square = (640 + rng.uniform(-150, 150), 399.5)
-    radius = rng.uniform(0.40, 0.56) * 800
-    centre = (square[0] + rng.uniform(-8, 8), square[1] + rng.uniform(-8, 8))
-    soft = rng.uniform(1.5, 5)
-    camera = standard_cameras((1280, 800), centre=centre, phi0=rng.uniform(0, 6.3), outer_radius=radius + 3 * soft + 12)
-    image = field_stop(render(ROOM, camera["equidistant"], supersample=1), centre, radius, softness_px=soft)
-    image = vignette(image, centre, radius, falloff=rng.uniform(0.4, 0.8), power=rng.uniform(2, 4))
-    image = np.asarray(image * rng.uniform(0.4, 1.0), np.uint8)
-    image = dark_square(image, centre, radius, 399.5, rng.uniform(10, 30), square_centre=square, under_disc=True)
-    level, at_px, width_px = rng.uniform(20, 50), rng.uniform(4, 9), rng.uniform(1, 2)
-    image = lit_ring(
-        image, centre, radius, level, at_px, width_px, angle=rng.uniform(0, 6.3), spread=rng.uniform(0.5, 2)
-    )
-    found = find_image_circles(noisy_jpeg(image, rng, noise=3.0, quality=80))
+    image, centre, _ = bench_module("bench_circles_unkind").robot(seed)
+    found = find_image_circles(image)
     assert math.dist(found.centre, centre) < 0.5, (found.centre, centre)

@@ -12,15 +12,15 @@ bound is the measured offset plus 1 px, a guard against getting worse, said in `
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 from types import ModuleType
 
 import pytest
 
 from panomap.calibrate.circles import NoImageCircle, find_image_circles
+
+from helpers import bench_module
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 pytestmark = [
@@ -55,13 +55,7 @@ REFUSED = {"MiniOmni1.jpg", "surround front.png", "surround back.png", "surround
 
 
 def _bench() -> ModuleType:
-    path = Path(__file__).resolve().parents[1] / "bench" / "bench_circles_real.py"
-    spec = importlib.util.spec_from_file_location("bench_circles_real", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["bench_circles_real"] = module
-    spec.loader.exec_module(module)
-    return module
+    return bench_module("bench_circles_real")
 
 
 def test_the_image_circle_of_every_real_picture() -> None:

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import functools
-import importlib.util
 import json
 import math
-import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -16,6 +14,8 @@ import pytest
 from panomap.calibrate.circles import find_image_circles
 from panomap.errors import PanomapError
 from panomap.io.images import read_image
+
+from helpers import bench_module
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 pytestmark = [
@@ -62,13 +62,7 @@ def test_a_centre_found_is_near_the_calibrations_or_it_is_an_error(folder: str) 
 
 
 def _bench_real() -> ModuleType:
-    path = Path(__file__).resolve().parents[1] / "bench" / "bench_real.py"
-    spec = importlib.util.spec_from_file_location("bench_real", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["bench_real"] = module  # dataclasses look their module up while the file runs
-    spec.loader.exec_module(module)
-    return module
+    return bench_module("bench_real")
 
 
 @functools.cache

@@ -7,9 +7,7 @@ photograph (skipped where ../shared is absent)."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
@@ -24,7 +22,7 @@ from panomap.calibrate.lines.fit import LineFitOptions, fit_lines
 from panomap.calibrate.lines.frame_circles import line_circles
 from panomap.errors import PanomapError
 
-from helpers import assert_one_line_error, run
+from helpers import assert_one_line_error, bench_module, run
 
 PHOTOGRAPH = Path(__file__).resolve().parents[2] / "shared" / "data" / "panoramas" / "eso_alma_correlator_room.jpg"
 #: The whole refusal on stderr, prefix and hint included, at most this long (one line a user reads).
@@ -32,13 +30,7 @@ LINE_CHARS = 160
 
 
 def _bench() -> ModuleType:
-    path = Path(__file__).resolve().parents[1] / "bench" / "bench_dual_learn.py"
-    spec = importlib.util.spec_from_file_location("bench_dual_learn", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["bench_dual_learn"] = module  # dataclasses look their module up while the file runs
-    spec.loader.exec_module(module)
-    return module
+    return bench_module("bench_dual_learn")
 
 
 def test_a_frame_splits_into_its_two_halves_lens_0_on_the_left() -> None:

@@ -4,9 +4,7 @@ skipped where ../shared is absent)."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -14,18 +12,14 @@ import cv2
 import numpy as np
 import pytest
 
+from helpers import bench_module
+
 PANORAMAS = Path(__file__).resolve().parents[2] / "shared" / "data" / "panoramas"
 PHOTOGRAPH = PANORAMAS / "eso_alma_correlator_room.jpg"
 
 
 def _bench() -> ModuleType:
-    path = Path(__file__).resolve().parents[1] / "bench" / "bench_rig_panoramas.py"
-    spec = importlib.util.spec_from_file_location("bench_rig_panoramas", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["bench_rig_panoramas"] = module  # dataclasses look their module up while the file runs
-    spec.loader.exec_module(module)
-    return module
+    return bench_module("bench_rig_panoramas")
 
 
 def test_tile_shifts_read_a_known_shift() -> None:

@@ -7,13 +7,13 @@ within 2 cm (median) of their lattice points in the floor map, 3 cm at the seams
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 import pytest
+
+from helpers import bench_module
 
 SET = Path(__file__).resolve().parents[2] / "shared" / "data" / "rigs" / "neozhaoliang_surround_view"
 pytestmark = [
@@ -23,13 +23,7 @@ pytestmark = [
 
 
 def bench_surround() -> ModuleType:
-    path = Path(__file__).resolve().parents[1] / "bench" / "bench_surround.py"
-    spec = importlib.util.spec_from_file_location("bench_surround", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["bench_surround"] = module  # dataclasses look their module up while the file runs
-    spec.loader.exec_module(module)
-    return module
+    return bench_module("bench_surround")
 
 
 @pytest.mark.slow
