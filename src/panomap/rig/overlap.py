@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation
 from ..table.table import PanoMappingTable, fill_entries
-from .learn import Band, LearnedRig, OverlapFit, _shots, band_of, learn_rotations, turned_table
+from .learn import Band, LearnedRig, OverlapFit, _shots, _skew_rows, band_of, learn_rotations, turned_table
 from .rig import CameraRig
 
 #: Tiles (px, square; every half of it) when :func:`learn_with_overlap` measures, how far each way it searches (px), the
@@ -105,16 +105,19 @@ def overlap_tiles(
     theta, rho = azimuth_elevation(band.rays())
     window = cv2.createHanningWindow((tile_px, tile_px), cv2.CV_64F)
     r = search_px
+    maps, seen = [], []
+    for k in (i, j):
+        map_uv = rig.tables[k].sample(theta.astype(np.float32), rho.astype(np.float32))
+        ok = np.all(np.isfinite(map_uv), axis=-1)
+        maps.append([np.where(ok, map_uv[..., c], -1e4).astype(np.float32) for c in (0, 1)])
+        seen.append(ok)
+    both = seen[0] & seen[1]
     centres, shifts = [], []
     for shot in _shots(rig, pictures):
-        layers, seen = [], []
-        for k in (i, j):
-            map_uv = rig.tables[k].sample(theta.astype(np.float32), rho.astype(np.float32))
-            ok = np.all(np.isfinite(map_uv), axis=-1)
-            maps = [np.where(ok, map_uv[..., c], -1e4).astype(np.float32) for c in (0, 1)]
-            layers.append(cv2.remap(shot[k], maps[0], maps[1], cv2.INTER_LINEAR).astype(np.float64))
-            seen.append(ok)
-        both = seen[0] & seen[1]
+        layers = [
+            cv2.remap(shot[k], map_u, map_v, cv2.INTER_LINEAR).astype(np.float64)
+            for k, (map_u, map_v) in zip((i, j), maps, strict=True)
+        ]
         for v in range(r, band.height - tile_px - r + 1, tile_px // 2):
             for u in range(r, band.width - tile_px - r + 1, tile_px // 2):
                 cut = (slice(v, v + tile_px), slice(u, u + tile_px))
@@ -170,13 +173,6 @@ def tile_jacobians(table_j: PanoMappingTable, tiles: OverlapTiles) -> tuple[Any,
     b = np.full((len(xy), 2, 2), np.nan)
     b[ok] = np.linalg.inv(g[ok])
     return a, b
-
-
-def _skew_rows(v: FloatArray) -> FloatArray:
-    out = np.zeros((len(v), 3, 3))
-    out[:, 0, 1], out[:, 0, 2], out[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
-    out[:, 1, 0], out[:, 2, 0], out[:, 2, 1] = v[:, 2], -v[:, 1], v[:, 0]
-    return out
 
 
 def robust_fit(design: FloatArray, shifts: FloatArray) -> tuple[FloatArray, FloatArray]:
