@@ -138,8 +138,7 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
     list of Board
         The boards found (each at least ``MIN_CORNERS`` inner corners), in the order found.
     """
-    grey = image if image.ndim == 2 else cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_BGR2GRAY)
-    grey = np.ascontiguousarray(grey, dtype=np.uint8)
+    grey = _grey(image)
     scale = min(1.0, SEARCH_SIZE_PX / max(grey.shape))
     search: NDArray[np.uint8] = np.asarray(
         grey if scale == 1.0 else cv2.resize(grey, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA),
@@ -227,10 +226,15 @@ def _one_board(image: NDArray[np.generic], image_index: int, size: tuple[int, in
     board = found[0]
     if tuple(sorted(board.shape)) != size or len(board.pixels) != size[0] * size[1]:
         return find_boards(image, image_index)
-    grey = image if image.ndim == 2 else cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_BGR2GRAY)
-    painted = _painted_over(np.ascontiguousarray(grey, dtype=np.uint8), board.pixels, board.grid)
+    painted = _painted_over(_grey(image), board.pixels, board.grid)
     another, _ = cv2.findChessboardCorners(painted, board.shape, flags=QUICK_FLAGS)
     return find_boards(image, image_index) if another else found
+
+
+def _grey(image: NDArray[np.generic]) -> NDArray[np.uint8]:
+    """``image`` (H, W) or (H, W, 3) BGR as (H, W) 8-bit grey, contiguous: what the detector searches."""
+    grey = image if image.ndim == 2 else cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_BGR2GRAY)
+    return np.ascontiguousarray(grey, dtype=np.uint8)
 
 
 def _rectangle(columns: int, rows: int) -> NDArray[np.intp]:
