@@ -17,7 +17,7 @@ import pytest
 
 from panomap.interop.rig_of_camchain import rig_of_camchain
 from panomap.rig import RigRemapper, camera_maps, load_rig, save_rig
-from panomap.views import EquirectView, FloorView
+from panomap.views import EquirectView, FloorView, GenericPanorama
 from test_orientation import conventions_axes, equirect_rays
 
 from helpers import assert_one_line_error, run
@@ -223,3 +223,20 @@ def test_a_pose_that_is_not_a_rotation_is_refused(tmp_path: Path) -> None:
     path = camchain(tmp_path / "bad.yaml", [scaled])
     result = run("import", path, "-o", tmp_path / "bad.npz")
     assert_one_line_error(result, "cam1.T_cn_cnm1", "not a rotation")
+
+
+def test_a_view_without_a_size_takes_camera_0s_for_every_camera_of_a_rig(tmp_path: Path) -> None:
+    """Two lenses back to back, the second's focal length 10% longer (its table finer): an equirect or a panorama
+    given no size is each camera's own default for a single camera, different here, and camera 0's for the rig
+    (every camera's map one shape; before, the blend failed on two shapes)."""
+    path = camchain(tmp_path / "dual.yaml", [BACK_TO_BACK])
+    text = path.read_text().split("cam1:")
+    longer = f"intrinsics: [{F_PX * 1.1}, {F_PX * 1.1}, {CX}, {CY}]"
+    path.write_text(text[0] + "cam1:" + text[1].replace(f"intrinsics: [{F_PX}, {F_PX}, {CX}, {CY}]", longer))
+    rig = rig_of_camchain(path, side_by_side=True, fov_rad=2 * HALF_FOV)
+    for view in (EquirectView(), GenericPanorama()):
+        own = [view.output_size(table) for table in rig.tables]
+        assert own[0] != own[1], own  # the cameras would choose differently
+        maps = camera_maps(rig, view)
+        assert [m.shape[:2] for m in maps] == [own[0][::-1]] * 2, ([m.shape for m in maps], own)
+        RigRemapper(rig, maps, wrap=True)  # the seams' weights take the maps together

@@ -23,7 +23,7 @@ each camera's own picture or, for a rig whose pictures share one frame, in the f
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -53,7 +53,8 @@ def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear", threads:
     rig : CameraRig
     view : View
         Any view; a view of directions at infinity (unless it has a distance), a surface's points seen from each
-        camera's own position (relative to camera 0's, the rig's reference).
+        camera's own position (relative to camera 0's, the rig's reference). Its values taken from a table (a
+        default size, a perspective view's axis) are camera 0's, so that every camera's map has one shape.
     sampling : {"bilinear", "nearest"}
         How the tables are read.
     threads : int
@@ -62,6 +63,8 @@ def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear", threads:
     """
     reference = rig.tables[0]
     view = view.resolved(reference)
+    if getattr(view, "size", ()) is None:  # a size each table would choose for itself: camera 0's, for every camera
+        view = replace(view, size=view.output_size(reference))  # type: ignore[type-var]
     points = view.points(reference)
 
     def camera_map(table: PanoMappingTable) -> NDArray[np.float32]:
