@@ -240,3 +240,39 @@ def test_a_view_without_a_size_takes_camera_0s_for_every_camera_of_a_rig(tmp_pat
         maps = camera_maps(rig, view)
         assert [m.shape[:2] for m in maps] == [own[0][::-1]] * 2, ([m.shape for m in maps], own)
         RigRemapper(rig, maps, wrap=True)  # the seams' weights take the maps together
+
+
+def test_pictures_of_a_rig_in_grey_colour_and_alpha_blend_as_their_colour_twins(tmp_path: Path) -> None:
+    """Each camera its own file (the Theta pair's way), one grey or with alpha beside one in colour: the view is
+    the one of the grey picture repeated into B, G, R and of the colour without its alpha (an opaque alpha added
+    to the other where one has it); pictures of two depths are refused in one line naming the file (before: an
+    IndexError's traceback)."""
+    path = camchain(tmp_path / "dual.yaml", [BACK_TO_BACK])
+    out = tmp_path / "rig.npz"
+    assert run("import", path, "-o", out, "--fov", "190").exit_code == 0
+    truth = chain_truth(conventions_axes(0, 0, 0), np.zeros(3), [BACK_TO_BACK])
+    front, back = (render_lens(textured_world(), axes) for axes, _ in truth)
+    grey = cv2.cvtColor(front, cv2.COLOR_BGR2GRAY)
+    files = {
+        "grey.png": grey,
+        "grey3.png": np.repeat(grey[..., None], 3, axis=2),
+        "back.png": back,
+        "back4.png": np.concatenate([back, np.full((*back.shape[:2], 1), 255, np.uint8)], axis=2),
+        "back16.png": back.astype(np.uint16) * 257,
+    }
+    for name, image in files.items():
+        cv2.imwrite(str(tmp_path / name), image)
+
+    def equirect(first: str, second: str) -> np.ndarray:
+        result = run("equirect", out, tmp_path / first, tmp_path / second, "-o", tmp_path / "e.png", "--size",
+                     "256x128")  # fmt: skip
+        assert result.exit_code == 0, result.output
+        return cv2.imread(str(tmp_path / "e.png"), cv2.IMREAD_UNCHANGED)
+
+    twin = equirect("grey3.png", "back.png")
+    assert np.array_equal(equirect("grey.png", "back.png"), twin)
+    with_alpha = equirect("grey.png", "back4.png")
+    assert with_alpha.shape[2] == 4 and np.array_equal(with_alpha[..., :3], twin)
+    result = run("equirect", out, tmp_path / "grey3.png", tmp_path / "back16.png", "-o", tmp_path / "x.png")
+    assert_one_line_error(result, "back16.png: its pixels are uint16", "give the rig's pictures alike")
+    assert not (tmp_path / "x.png").exists()

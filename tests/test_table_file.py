@@ -83,7 +83,10 @@ def test_truncated_file(tmp_path: Path, keep: float) -> None:
 def test_not_a_table(tmp_path: Path) -> None:
     path = tmp_path / "t.npz"
     path.write_text("u,v,X,Y,Z\n")
-    with pytest.raises(PanomapError, match="corrupt or truncated"):
+    with pytest.raises(PanomapError, match=r"not a panomap table \(not a .npz archive; panomap import"):
+        load_table(path)
+    path.write_bytes(b"")
+    with pytest.raises(PanomapError, match=r"not a panomap table \(an empty file"):
         load_table(path)
     np.savez(path, something=np.zeros(3))
     with pytest.raises(PanomapError, match="not a panomap table"):

@@ -900,3 +900,12 @@ def test_writer_threads_x264_as_ffmpeg_does(tmp_path: Path) -> None:
     writer.close()
     assert writer.error is None
     assert b"sliced_threads=0" in path.read_bytes()
+
+
+def test_a_text_file_named_like_a_picture_is_not_a_video(work: Path, tmp_path: Path) -> None:
+    """FFmpeg opens a text file named .jpg as an image sequence with frames of 0 x 0: that is no video (before:
+    "its frames are 0 x 0, the table is for ..."), and nothing is written."""
+    (tmp_path / "notes.jpg").write_text("not a picture\n")
+    result = run("video", work / "cam.npz", tmp_path / "notes.jpg", "-o", tmp_path / "v.mkv", "--view", PANORAMA)
+    assert_one_line_error(result, "notes.jpg: cannot read it as a video (its header gives no frame size")
+    assert not (tmp_path / "v.mkv").exists()

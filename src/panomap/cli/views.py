@@ -190,6 +190,7 @@ def view_command(kind: str) -> click.Command:
         if each is not None:
             raise click.UsageError("--each writes each camera of a rig: give a rig file")
         if len(images) != 1:
+            load_table(table)  # (a file that is neither a rig nor a table is named as such, not its pictures)
             raise click.UsageError(f"a table takes one picture, not {len(images)} (several cameras make a rig)")
         _render(table, images[0], output, maps, interp, table_sampling, lambda: make_view(kind, values))
 

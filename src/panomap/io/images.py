@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import inputs
-from ..errors import PanomapError
+from ..errors import PanomapError, printable
 from ..files import input_file, write_bytes_atomic, write_with
 
 if TYPE_CHECKING:
@@ -123,8 +123,16 @@ def read_rig_pictures(rig: CameraRig, paths: Sequence[Path]) -> list[Any]:
     if len(paths) != rig.count:
         names = ", ".join(rig.names)
         raise PanomapError(f"give one picture per camera of the rig, in its order ({names}), not {len(paths)}")
-    return [read_image(path, table.image_size, f"camera {name}") for path, table, name in
-            zip(paths, rig.tables, rig.names, strict=True)]  # fmt: skip
+    pictures = [read_image(path, table.image_size, f"camera {name}") for path, table, name in
+                zip(paths, rig.tables, rig.names, strict=True)]  # fmt: skip
+    for path, picture in zip(paths[1:], pictures[1:], strict=True):
+        if picture.dtype != pictures[0].dtype:
+            raise PanomapError(
+                f"its pixels are {picture.dtype.name}, those of {printable(str(paths[0]))} {pictures[0].dtype.name}: "
+                "give the rig's pictures alike",
+                path,
+            )
+    return pictures
 
 
 def float_format(head: bytes) -> str | None:

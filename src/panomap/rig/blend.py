@@ -177,7 +177,7 @@ class RigRemapper:
         if len(pictures) != self.rig.count or self.rig.offsets is not None:
             wanted = "one frame holding them all" if self.rig.offsets is not None else f"{self.rig.count}"
             raise PanomapError(f"{len(pictures)} pictures for a rig of {self.rig.count} cameras: give {wanted}")
-        return pictures
+        return alike_pictures(pictures)
 
     def layers(self, pictures: Any) -> list[NDArray[Any]]:
         """Each camera's own view, unblended (the fill where it sees nothing)."""
@@ -211,6 +211,34 @@ class RigRemapper:
             out = np.clip(np.rint(out), info.min, info.max)
         blended = out.astype(dtype)
         return blended[..., 0] if layers[0].ndim == 2 else blended
+
+
+def alike_pictures(pictures: list[NDArray[Any]]) -> list[NDArray[Any]]:
+    """The cameras' pictures with one number of channels: a grey (H, W) or (H, W, 1) picture beside colour ones
+    is repeated into B, G and R, and a colour picture beside one with alpha gets an opaque alpha (the most
+    channels any of them has). Their depths must agree: PanomapError names the two otherwise."""
+    depths = sorted({picture.dtype.name for picture in pictures})
+    if len(depths) > 1:
+        raise PanomapError(f"the rig's pictures are of different depths ({' and '.join(depths)}): give them alike")
+    channels = [_channels(picture).shape[2] for picture in pictures]
+    most = max(channels)
+    if min(channels) == most:
+        return pictures
+    if most not in (3, 4) or any(c not in (1, 3, 4) for c in channels):
+        raise PanomapError(f"the rig's pictures have {min(channels)} and {most} channels: give them alike")
+    return [_with_channels(picture, most) for picture in pictures]
+
+
+def _with_channels(picture: NDArray[Any], channels: int) -> NDArray[Any]:
+    """``picture`` (grey, BGR or BGRA) as ``channels`` (3: BGR, 4: BGRA, opaque where it had no alpha)."""
+    image = _channels(picture)
+    if image.shape[2] == channels:
+        return image
+    colour = np.repeat(image, 3, axis=2) if image.shape[2] == 1 else image[..., :3]
+    if channels == 3:
+        return np.ascontiguousarray(colour)
+    opaque = np.iinfo(image.dtype).max if np.issubdtype(image.dtype, np.integer) else 1.0
+    return np.concatenate([colour, np.full((*image.shape[:2], 1), opaque, image.dtype)], axis=2)
 
 
 def _channels(image: NDArray[Any]) -> NDArray[Any]:

@@ -383,6 +383,12 @@ def load_table(path: str | Path) -> PanoMappingTable:
     except OSError as exc:
         raise PanomapError(f"cannot read it ({exc.strerror or exc})", path) from None
     try:
+        head = file.read(4)
+        file.seek(0)
+        if not head.startswith(b"PK"):  # (every .npz is a zip; an empty file, a picture, a CSV ... is not)
+            file.close()
+            what = "an empty file" if not head else "not a .npz archive"
+            raise PanomapError(f"not a panomap table ({what}; panomap import or panomap fit makes one)")
         with file, np.load(file, allow_pickle=False) as archive:
             if not isinstance(archive, np.lib.npyio.NpzFile) or not {"entries", "meta"} <= set(archive.files):
                 raise PanomapError("not a panomap table (no entries/meta inside)")

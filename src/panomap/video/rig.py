@@ -46,7 +46,16 @@ from .frames import work_format as choose_work_format
 from .handoff import END, QUEUE_FRAMES, put, reason
 from .output import EncoderSettings, Writer, open_writer
 from .report import VideoReport
-from .source import ReadState, Selection, SharedInput, copy_packet, expected_frames, open_input, read_frames
+from .source import (
+    NO_FRAME_SIZE,
+    ReadState,
+    Selection,
+    SharedInput,
+    copy_packet,
+    expected_frames,
+    open_input,
+    read_frames,
+)
 from .unwarp import _check_outputs, check_memory
 
 # Luma's black level per planar format (gains scale from it); chroma's grey is 128.
@@ -246,6 +255,8 @@ def unwarp_rig_video(
             stream = container.streams.video[0]
             inputs.append(_Input(source, shared, stream, queue.Queue(QUEUE_FRAMES), VideoReport()))
             got = (stream.codec_context.width, stream.codec_context.height)
+            if 0 in got:
+                raise PanomapError(NO_FRAME_SIZE, source)
             if got != tuple(size):
                 raise PanomapError(f"its frames are {got[0]} x {got[1]}, {what} is {size[0]} x {size[1]}", source)
         in_format = inputs[0].stream.codec_context.pix_fmt or "yuv420p"

@@ -69,6 +69,10 @@ def is_live(source: str) -> bool:
     return "://" in source or source.startswith("/dev/")
 
 
+# A file that FFmpeg opens but whose header gives no frame size (a text file named .jpg, a broken header).
+NO_FRAME_SIZE = "cannot read it as a video (its header gives no frame size: not a video, or corrupt)"
+
+
 def open_input(source: str, open_timeout: float = 10.0, read_timeout: float | None = None) -> Any:
     """Open a video file, an RTSP/HTTP URL or a V4L2 device (``/dev/videoN``) with PyAV.
 
