@@ -276,3 +276,20 @@ def test_pictures_of_a_rig_in_grey_colour_and_alpha_blend_as_their_colour_twins(
     result = run("equirect", out, tmp_path / "grey3.png", tmp_path / "back16.png", "-o", tmp_path / "x.png")
     assert_one_line_error(result, "back16.png: its pixels are uint16", "give the rig's pictures alike")
     assert not (tmp_path / "x.png").exists()
+
+
+def test_a_rig_where_one_cameras_table_is_wanted_is_named_a_rig(dual: Path, tmp_path: Path) -> None:
+    """A rig file given to a command of one camera, or to import, is called a rig in one line (before: "no
+    entries/meta inside" and a UnicodeDecodeError); a table given to import is called a table."""
+    rig = tmp_path / "rig.npz"
+    assert run("import", dual, "-o", rig, "--side-by-side", "--fov", "190").exit_code == 0
+    (tmp_path / "uv.csv").write_text("u,v\n10,20\n")
+    for args in (("unproject", rig, tmp_path / "uv.csv", "-o", tmp_path / "rays.csv"),
+                 ("export", rig, "-o", tmp_path / "cam.txt", "--format", "ocam")):  # fmt: skip
+        assert_one_line_error(run(*args), "rig.npz: a rig of several cameras, not one camera's table")
+    assert_one_line_error(run("import", rig, "-o", tmp_path / "x.npz"), "rig.npz: a panomap rig already")
+    assert_one_line_error(run("import", rig, "--camera-name", "cam0", "-o", tmp_path / "x.npz"), "a panomap rig")
+    one = tmp_path / "one.npz"
+    assert run("import", dual, "--camera-name", "cam0", "-o", one).exit_code == 0
+    assert_one_line_error(run("import", one, "-o", tmp_path / "x.npz"), "one.npz: a panomap table already")
+    assert not (tmp_path / "x.npz").exists()

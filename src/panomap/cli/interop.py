@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import zipfile
 from pathlib import Path
 
 import click
@@ -16,6 +17,7 @@ from ..interop.export import FORMATS, export_calibration
 from ..interop.orient import orient_table
 from ..interop.readers import READERS, read_calibration
 from ..io.images import MAX_IMAGE_PIXELS
+from ..rig.file import is_rig_file
 from ..table.file import load_table, save_table
 from .calibrate import find_image_circles_in
 from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, Finite, orientation_option, orientation_rad, read_omni, say
@@ -138,6 +140,7 @@ def import_(
     check_outputs(
         [("the calibration", calibration), *(("the image", image) for image in images)], [("the output", output)]
     )
+    _not_panomaps_own(calibration)
     rig = rig_format(calibration, format_) if camera_name is None and camera_id is None else None
     if rig is not None:
         one_camera = {"--axis": axis, "--image-size": image_size, "--cutoff-radius": cutoff_radius}
@@ -303,3 +306,16 @@ def export(table: Path, output: Path, format_: str) -> None:
     say(f"{format_} ({result.model.name}): {parameters}")
     say(f"largest difference from the table over its valid range: {result.max_error_px:.4f} px")
     say(f"wrote {output}")
+
+
+def _not_panomaps_own(path: Path) -> None:
+    """Refuse, in one line, a rig or a table that panomap wrote: ``import`` reads other tools' calibrations."""
+    if is_rig_file(path):
+        raise PanomapError("a panomap rig already: the views, video and batch take it as it is", path)
+    try:
+        with zipfile.ZipFile(path) as archive:
+            ours = {"entries.npy", "meta.npy"} <= set(archive.namelist())
+    except (zipfile.BadZipFile, OSError, ValueError):
+        return
+    if ours:
+        raise PanomapError("a panomap table already: the views take it as it is (panomap orient turns it)", path)
