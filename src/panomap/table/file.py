@@ -391,7 +391,11 @@ def load_table(path: str | Path) -> PanoMappingTable:
             raise PanomapError(f"not a panomap table ({what}; panomap import or panomap fit makes one)")
         with file, np.load(file, allow_pickle=False) as archive:
             if not isinstance(archive, np.lib.npyio.NpzFile) or not {"entries", "meta"} <= set(archive.files):
-                if isinstance(archive, np.lib.npyio.NpzFile) and "rig.json" in archive.zip.namelist():
+                if (
+                    isinstance(archive, np.lib.npyio.NpzFile)
+                    and archive.zip is not None
+                    and "rig.json" in archive.zip.namelist()
+                ):
                     raise PanomapError("a rig of several cameras, not one camera's table: give one of its tables")
                 raise PanomapError("not a panomap table (no entries/meta inside)")
             _check_declared(_array_header(archive, "entries"), _array_header(archive, "meta"))
