@@ -7,6 +7,8 @@ import os
 import pty
 import select
 import struct
+import subprocess
+import sys
 import termios
 
 import pytest
@@ -14,14 +16,14 @@ import pytest
 from panomap.cli.progress import FALLBACK_COLUMNS, ProgressBar, terminal_columns
 
 
-def _terminal(columns: int) -> tuple[int, int]:
+def _terminal(columns: int, rows: int = 24) -> tuple[int, int]:
     leader, follower = pty.openpty()
-    fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
+    fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", rows, columns, 0, 0))
     return leader, follower
 
 
-def _drawn(columns: int) -> str:
-    leader, follower = _terminal(columns)
+def _drawn(columns: int, rows: int = 24) -> str:
+    leader, follower = _terminal(columns, rows)
     with os.fdopen(follower, "w", encoding="utf-8", closefd=True) as stream:
         assert terminal_columns(stream) == (columns or None)
         bar = ProgressBar(True, stream)
@@ -52,6 +54,25 @@ def test_a_terminal_reporting_0_columns_gets_a_bar_of_fixed_width() -> None:
     assert "50%" in lines[-1]
 
 
+def test_a_terminal_reporting_no_size_at_all_gets_the_bar_and_the_stage_lines() -> None:
+    """A pty given no size (0 x 0: ``script``, ``docker exec -t``, some CI runners) as stderr: tqdm, reading 0 rows
+    there, drew nothing at all, bar or stage line (``rig learn --side-by-side`` was silent for its 14-25 s)."""
+    leader, follower = _terminal(0, 0)
+    code = (
+        "from panomap.cli.progress import ProgressBar\n"
+        "bar = ProgressBar(True, unit='step')\n"
+        "bar.stage('learning lens 0')\n"
+        "bar.update(60, 120)\n"
+        "bar.close()\n"
+    )
+    with subprocess.Popen([sys.executable, "-c", code], stdin=follower, stdout=follower, stderr=follower) as child:
+        os.close(follower)
+        text = _read_all(leader, child)
+    assert "learning lens 0: 00:00" in text, text
+    lines = [line for line in text.replace("\r", "\n").split("\n") if "60/120" in line]
+    assert lines and "50%" in lines[-1], text
+
+
 def test_a_terminal_of_known_width_gets_a_bar_that_fills_it_and_messages_are_escaped() -> None:
     text = _drawn(132)
     lines = [line for line in text.replace("\r", "\n").split("\n") if "60/120" in line]
@@ -59,9 +80,9 @@ def test_a_terminal_of_known_width_gets_a_bar_that_fills_it_and_messages_are_esc
     assert "note: \\x1b[2J a name" in text and "\x1b[2J" not in text
 
 
-def _read_all(leader: int) -> str:
+def _read_all(leader: int, child: subprocess.Popen[bytes] | None = None) -> str:
     chunks = []
-    while select.select([leader], [], [], 0.5)[0]:
+    while select.select([leader], [], [], 0.5)[0] or (child is not None and child.poll() is None):
         try:
             chunk = os.read(leader, 65536)
         except OSError:

@@ -1,11 +1,11 @@
 """The progress of the long commands (``fit``, ``video``, ``batch``...): one tqdm bar on stderr, or a line
 per stage where the work has no count (a line that names the stage and ticks its seconds).
-
 Shown only on a terminal and without ``-q`` (:func:`panomap.cli.options.quiet`): a bar or a stage line
 is redrawn every second, so no long step is silent. A terminal that reports 0 columns (a serial
-console, some CI runners and multiplexers) gets a bar of :data:`FALLBACK_COLUMNS`; tqdm's own
-sizing drew nothing there. Messages written while the bar is up go above it, with every
-control character escaped (they may quote names from files).
+console, some CI runners and multiplexers) gets a bar of :data:`FALLBACK_COLUMNS`, one that reports
+0 rows (a pty given no size) :data:`FALLBACK_ROWS`; tqdm's own sizing drew nothing there. Messages
+written while the bar is up go above it, with every control character escaped (they may quote names
+from files).
 """
 
 from __future__ import annotations
@@ -20,17 +20,25 @@ import click
 from ..errors import printable
 
 FALLBACK_COLUMNS = 80
+# The rows assumed where the terminal reports 0 (a pty given no size: `script`, `docker exec -t`, some CI
+# runners): tqdm, told 0, draws nothing at all.
+FALLBACK_ROWS = 24
 # Seconds between redraws of a bar whose count does not move (its elapsed time ticks).
 TICK_S = 1.0
 
 
 def terminal_columns(stream: IO[str]) -> int | None:
     """The width of the terminal ``stream`` writes to, or None where it reports none (or 0)."""
+    return _terminal_size(stream)[0]
+
+
+def _terminal_size(stream: IO[str]) -> tuple[int | None, int | None]:
+    """(columns, rows) of the terminal ``stream`` writes to, each None where it reports none (or 0)."""
     try:
-        columns = os.get_terminal_size(stream.fileno()).columns
+        size = os.get_terminal_size(stream.fileno())
     except (AttributeError, OSError, ValueError):
-        return None
-    return columns if columns > 0 else None
+        return None, None
+    return (size.columns or None), (size.lines or None)
 
 
 class ProgressBar:
@@ -60,13 +68,14 @@ class ProgressBar:
         from tqdm import tqdm
 
         stream = self.stream or sys.stderr
-        columns = terminal_columns(stream)
+        columns, rows = _terminal_size(stream)
         self.bar = tqdm(
             total=total,
             file=stream,
             leave=True,
             dynamic_ncols=columns is not None,
             ncols=None if columns is not None else FALLBACK_COLUMNS,
+            nrows=None if rows is not None else FALLBACK_ROWS,  # (tqdm draws nothing on a terminal of 0 rows)
             **kwargs,
         )
         stop = self._stop = threading.Event()
