@@ -293,3 +293,64 @@ def test_a_rig_where_one_cameras_table_is_wanted_is_named_a_rig(dual: Path, tmp_
     assert run("import", dual, "--camera-name", "cam0", "-o", one).exit_code == 0
     assert_one_line_error(run("import", one, "-o", tmp_path / "x.npz"), "one.npz: a panomap table already")
     assert not (tmp_path / "x.npz").exists()
+
+
+def _rewritten(rig: Path, out: Path, index: object = None, drop: str | None = None, raw: bytes | None = None) -> Path:
+    """``rig`` with its rig.json replaced (``index``, as JSON, or ``raw`` bytes) and/or a member dropped."""
+    import json
+    import zipfile
+
+    with zipfile.ZipFile(rig) as source, zipfile.ZipFile(out, "w") as target:
+        for name in source.namelist():
+            if name == drop:
+                continue
+            data = source.read(name)
+            if name == "rig.json" and (index is not None or raw is not None):
+                data = raw if raw is not None else json.dumps(index).encode()
+            target.writestr(name, data)
+    return out
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"drop": "rig.json"}, "not a panomap table (no entries/meta inside)"),
+        ({"raw": b"{not json"}, "its rig.json is not valid JSON"),
+        ({"index": {"format": "other"}}, "not a panomap rig (rig.json names another format)"),
+        ({"index": {"version": 99}}, "rig format version 99"),
+        ({"index": {"names": "cam0"}}, "rig.json's names must be a list"),
+        ({"index": {"offsets": [[0, 0]]}}, "rig.json's offsets must be one pair of pixel counts per camera"),
+        ({"index": {"offsets": [[0, 0], [-5, 0]]}}, "rig.json's offsets must be one pair"),
+        ({"index": {"info": [1]}}, "rig.json's info must be an object"),
+        ({"drop": "cam1.npz"}, "camera cam1's table (cam1.npz) is missing"),
+    ],
+)
+def test_a_rig_file_whose_index_or_tables_are_wrong_is_refused_in_one_line(
+    dual: Path, tmp_path: Path, change: dict, message: str
+) -> None:
+    import json
+    import zipfile
+
+    rig = tmp_path / "rig.npz"
+    assert run("import", dual, "-o", rig, "--side-by-side", "--fov", "190").exit_code == 0
+    with zipfile.ZipFile(rig) as archive:
+        index = json.loads(archive.read("rig.json"))
+    if "index" in change:
+        change = {"index": index | change["index"]}
+    bad = _rewritten(rig, tmp_path / "bad.npz", **change)
+    assert_one_line_error(run("info", bad), f"bad.npz: {message}" if change.get("drop") != "cam1.npz" else message)
+
+
+def test_a_rig_index_without_offsets_takes_one_picture_per_camera(dual: Path, tmp_path: Path) -> None:
+    """An index written by hand without "offsets" (before: a KeyError's traceback) is a rig whose cameras each
+    take their own picture, as "offsets": null says."""
+    import json
+    import zipfile
+
+    rig = tmp_path / "rig.npz"
+    assert run("import", dual, "-o", rig, "--side-by-side", "--fov", "190").exit_code == 0
+    with zipfile.ZipFile(rig) as archive:
+        index = json.loads(archive.read("rig.json"))
+    del index["offsets"]
+    loaded = load_rig(_rewritten(rig, tmp_path / "own.npz", index=index))
+    assert loaded.offsets is None and loaded.names == ("cam0", "cam1")

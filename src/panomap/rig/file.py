@@ -139,7 +139,8 @@ def _index(archive: zipfile.ZipFile) -> dict[str, Any]:
     if archive.getinfo("rig.json").file_size > MAX_RIG_JSON:
         raise PanomapError("its rig.json is larger than any rig's")
     try:
-        meta = json.load(io.TextIOWrapper(archive.open("rig.json"), encoding="utf-8"))
+        with io.TextIOWrapper(archive.open("rig.json"), encoding="utf-8") as member:  # (closed: the zip's file too)
+            meta = json.load(member)
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
         raise PanomapError("its rig.json is not valid JSON (corrupt)") from None
     if not isinstance(meta, dict) or meta.get("format") != RIG_FORMAT:
@@ -162,4 +163,5 @@ def _index(archive: zipfile.ZipFile) -> dict[str, Any]:
     if not isinstance(meta.get("info", {}), dict):
         raise PanomapError("rig.json's info must be an object")
     meta.setdefault("info", {})
+    meta.setdefault("offsets", None)  # (none written: each camera takes its own picture)
     return meta
