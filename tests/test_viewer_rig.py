@@ -162,3 +162,22 @@ def test_a_rigs_wrong_pictures_are_refused_in_one_line(rig_files: Path) -> None:
     assert_one_line_error(run("view", pair, cam0, "--port", "0"), "one picture per camera", "cam0, cam1")
     assert_one_line_error(run("view", dual, cam0, "--port", "0"), "960 x 960", "1920 x 960")
     assert_one_line_error(run("view", rig_files / "cam0.png", cam0, cam0, "--port", "0"), "one source", exit_code=2)
+
+
+def test_a_grey_picture_beside_a_colour_one_is_shown_as_its_colour_twin(rig_files: Path, tmp_path: Path) -> None:
+    """panomap view RIG grey.png colour.png: the page's picture is that of the grey one repeated into B, G, R
+    (before: refused, "the rig's pictures differ in channels or depth"); a 16-bit one beside an 8-bit one is
+    refused naming it."""
+    import panomap
+
+    pair = load_rig(rig_files / "pair.npz")
+    grey = cv2.cvtColor(cv2.imread(str(rig_files / "cam0.png")), cv2.COLOR_BGR2GRAY)
+    cv2.imwrite(str(tmp_path / "grey.png"), grey)
+    cv2.imwrite(str(tmp_path / "grey3.png"), np.repeat(grey[..., None], 3, axis=2))
+    cv2.imwrite(str(tmp_path / "deep.png"), cv2.imread(str(rig_files / "cam1.png")).astype(np.uint16) * 257)
+    cam1 = str(rig_files / "cam1.png")
+    _, from_grey = open_rig_source(pair, "pair.npz", [str(tmp_path / "grey.png"), cam1])
+    _, twin = open_rig_source(pair, "pair.npz", [str(tmp_path / "grey3.png"), cam1])
+    assert from_grey.image_png == twin.image_png
+    with pytest.raises(panomap.PanomapError, match="deep.png: its pixels are uint16, those of .*grey3.png uint8"):
+        open_rig_source(pair, "pair.npz", [str(tmp_path / "grey3.png"), str(tmp_path / "deep.png")])
