@@ -179,5 +179,5 @@ def test_a_grey_picture_beside_a_colour_one_is_shown_as_its_colour_twin(rig_file
     _, from_grey = open_rig_source(pair, "pair.npz", [str(tmp_path / "grey.png"), cam1])
     _, twin = open_rig_source(pair, "pair.npz", [str(tmp_path / "grey3.png"), cam1])
     assert from_grey.image_png == twin.image_png
-    with pytest.raises(panomap.PanomapError, match="deep.png: its pixels are uint16, those of .*grey3.png uint8"):
+    with pytest.raises(panomap.PanomapError, match=r"deep\.png: its pixels are uint16, those of .*grey3\.png uint8"):
         open_rig_source(pair, "pair.npz", [str(tmp_path / "grey3.png"), str(tmp_path / "deep.png")])
