@@ -55,8 +55,9 @@ def test_a_fixed_cameras_frames_are_one_view_and_a_new_place_is_another(pictures
 @pytest.mark.slow
 def test_a_video_pools_its_frames_views_and_counts_one_view_once(tmp_path: Path, pictures: list[np.ndarray]) -> None:
     """A clip of three boards held in turn (one second each): six frames taken, three views kept, the camera
-    learned from the three boards within 1 px of the truth (measured p90 0.62 px, max 0.93); a clip of the first
-    board alone, whose six frames are one view, is refused in one line naming the pictures to add (its band
+    learned from the three boards within 1.5 px of the truth (measured p90 1.16 px, max 1.22; 0.62 / 0.93 when the
+    room's checkered floor was taken for two more boards and a board grew a row past its edge, issue 54); a clip of
+    the first board alone, whose six frames are one view, is refused in one line naming the pictures to add (its band
     2.4 px at 95% at 40 deg; its camera was p90 0.61 / max 0.88 px off, which one board cannot vouch for)."""
     clip, still = tmp_path / "boards.mp4", tmp_path / "still.mp4"
     write_clip(clip, [picture for picture in pictures for _ in range(8)], rate=8, options={"crf": "12"})
@@ -66,7 +67,7 @@ def test_a_video_pools_its_frames_views_and_counts_one_view_once(tmp_path: Path,
     assert f"{clip}: 6 frames taken, 3 showing a view no earlier picture shows" in result.stderr
     table = load_table(tmp_path / "pooled.npz")
     assert len(table.info["images"]) == 3 and all(" at " in name for name in table.info["images"])
-    assert float(np.percentile(pixel_errors(table.model, CAMERA), 90)) < 1.0
+    assert float(np.percentile(pixel_errors(table.model, CAMERA), 90)) < 1.5
     result = run("fit", "-o", tmp_path / "one.npz", "--video", still, "--video-frames", "6")
     assert f"{still}: 6 frames taken, 1 showing a view no earlier picture shows" in result.stderr
     errors = [line for line in result.stderr.splitlines() if line.startswith("panomap: error")]

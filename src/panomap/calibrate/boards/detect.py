@@ -68,6 +68,13 @@ GROWN_SQUARE_PX = 8.0
 # two sheared squares 0.15 or less).
 GROWN_BLUR_PX = 1.75
 GROWN_SADDLE = 0.18
+# A board found (_checked) loses an outer row or column where fewer than CHECKED_ROW of its corners show the board's
+# colouring (a row past the board's edge shows none), and is refused where fewer than CHECKED_BOARD of those left do
+# (a glare or a shadow on a corner or two does not lose a board); corners whose squares are under CHECKED_SQUARE_PX
+# wide are not judged.
+CHECKED_ROW = 0.5
+CHECKED_BOARD = 0.9
+CHECKED_SQUARE_PX = 6.0
 # A corner placed on the crop is the search's corner where it lies within this fraction of the way to the corner's
 # nearest neighbour on the grid, and no other corner of the search's is nearest it (the search's corners, without
 # the upsampling, may lie 0.3-0.7 of the way off where a square is a few pixels: 3 px on the MiniOmni set).
@@ -158,9 +165,16 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
             search = _painted_over(search, pixels, _rectangle(columns, rows))
             small += 1
             continue
-        small = 0
         if len(pixels) < PATTERN_CORNERS:
             pixels, (rows, columns) = _accurate(search, pixels, columns, rows)
+        checked = _checked(search, pixels, columns, rows)
+        if checked is None:  # not a board: a scene's checkered texture, its grid run off it
+            search = _painted_over(search, pixels, _rectangle(columns, rows))
+            small += 1
+            continue
+        small = 0
+        pixels, (rows, columns) = checked
+        if len(pixels) < PATTERN_CORNERS:
             grid = _rectangle(columns, rows)
         else:
             pixels, grid = _grown(search, pixels, _rectangle(columns, rows))
@@ -313,6 +327,97 @@ def _accurate(
             return placed[nearest], (rows, columns)
         return placed, (int(meta.shape[0]), int(meta.shape[1]))
     return pixels, (rows, columns)
+
+
+def _checked(
+    search: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int
+) -> tuple[FloatArray, tuple[int, int]] | None:
+    """A board's corners (n, 2) px and (rows, columns) with the outer rows and columns that are not a checkerboard's
+    taken off; None where what is left is not a board.
+
+    The detector grows a grid past a board's edge where a dark shape lies against it (a row of the outer squares'
+    outer vertices, a square's width off the true corners) and runs a scene's checkered texture onto what lies
+    beyond it. A checkerboard's corner shows its four squares dark and light as the board's colouring has them
+    (:func:`_saddle`, sampled ``GROWN_SAMPLE`` of the way along the grid's diagonals, ``GROWN_CONTRAST`` of the
+    median corner's contrast, as :func:`_grown` asks); an outer row or column where fewer than ``CHECKED_ROW`` of
+    the corners do is taken off (the worst first, then the others again), and the board is refused where fewer
+    than ``CHECKED_BOARD`` of the corners left do or fewer than ``MIN_CORNERS`` are left. Corners whose squares are
+    under ``CHECKED_SQUARE_PX`` wide are not judged (too few pixels to sample the squares apart).
+
+    A board's squares end a square past its outer corners: where the pattern runs on past an edge (:func:`_beyond`:
+    ``CHECKED_ROW`` of the points one step past it show the colouring), the detector has missed a row of a board
+    (past one edge: 2 of the 63 boards of the real sets, kept) or run a scene's texture into a grid (a checkered
+    floor: past two or more edges, or past one of a grid with a row taken off or a corner that is no
+    checkerboard's), refused. Not asked of a pattern tiled over the frame (``PATTERN_CORNERS``: :func:`_grown`).
+    """
+    placed = pixels.reshape(rows, columns, 2)
+    board = len(pixels) < PATTERN_CORNERS  # a board, not part of a pattern tiled over the frame (_grown)
+    peeled = 0
+    while rows >= 3 and columns >= 3 and rows * columns >= MIN_CORNERS:
+        flat = placed.reshape(-1, 2)
+        grid = _rectangle(columns, rows)
+        a, b = _steps(flat, grid)
+        contrast = _saddle(search, flat, a, b)
+        parity = (grid[:, 0] + grid[:, 1]) % 2 * 2 - 1
+        colouring = 1.0 if np.median(contrast * parity) > 0 else -1.0
+        least = GROWN_CONTRAST * float(np.median(np.abs(contrast)))
+        good = ((contrast * parity * colouring > least) | (_least_width(a, b) < CHECKED_SQUARE_PX)).reshape(
+            rows, columns
+        )
+        edges = (good[0].mean(), good[-1].mean(), good[:, 0].mean(), good[:, -1].mean())
+        worst = int(np.argmin(edges))
+        if edges[worst] < CHECKED_ROW:
+            placed = (placed[1:], placed[:-1], placed[:, 1:], placed[:, :-1])[worst]
+            rows, columns = placed.shape[0], placed.shape[1]
+            peeled += 1
+            continue
+        if good.mean() < CHECKED_BOARD:
+            return None
+        # a pattern running on past two edges, or past one of a grid trimmed or flawed: a texture, not a board
+        runs_on = sum(edge >= CHECKED_ROW for edge in _beyond(search, placed, colouring, least)) if board else 0
+        if runs_on >= 2 or (runs_on and (peeled or not good.all())):
+            return None
+        return placed.reshape(-1, 2), (rows, columns)
+    return None
+
+
+def _least_width(a: FloatArray, b: FloatArray) -> FloatArray:
+    """The least width (px, (n,)) of the squares with grid steps ``a``, ``b`` (n, 2) px."""
+    out: FloatArray = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) / np.maximum(
+        np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
+    )
+    return out
+
+
+def _beyond(search: NDArray[np.uint8], placed: FloatArray, colouring: float, least: float) -> tuple[float, ...]:
+    """For each edge of a grid ``placed`` (rows, columns, 2) px (first row, last row, first column, last column), the
+    fraction of the points one step past it (a parabola through the three corners before each, as :func:`_grown`
+    predicts them) inside the image whose four squares show the grid's colouring (``colouring``, contrast over
+    ``least``): 0 past a board's edge (its outer squares' outer vertices), most of them where a pattern runs on."""
+    height, width = search.shape
+    rows, columns = placed.shape[:2]
+    out = []
+    for turned, flip in ((False, True), (False, False), (True, True), (True, False)):
+        grid = np.transpose(placed, (1, 0, 2)) if turned else placed  # (lines across the edge, along it, 2)
+        grid = grid[::-1] if flip else grid
+        edge, before, further = grid[-1], grid[-2], grid[-3]
+        ahead = 3.0 * edge - 3.0 * before + further
+        step = ahead - edge
+        along = np.gradient(edge, axis=0)
+        # the parity of the points ahead: the next line's, in the grid's own (column + row) count
+        line = (rows if not turned else columns) - 1 if not flip else 0
+        line = line + (-1 if flip else 1)
+        place = np.arange(edge.shape[0])
+        parity = ((place + line) % 2) * 2 - 1
+        a, b = (along, step) if not turned else (step, along)
+        inside = (ahead[:, 0] >= 0) & (ahead[:, 1] >= 0) & (ahead[:, 0] <= width - 1) & (ahead[:, 1] <= height - 1)
+        if not inside.any():
+            out.append(0.0)
+            continue
+        contrast = _saddle(search, ahead[inside], a[inside], b[inside])
+        sign = -1.0 if flip else 1.0  # the step across the edge points back along the grid's count
+        out.append(float(np.mean(sign * contrast * parity[inside] * colouring > least)))
+    return tuple(out)
 
 
 def _grown(
