@@ -220,18 +220,51 @@ def test_a_later_picture_with_two_boards_of_the_size_gives_both(one_board_pictur
     assert onto == {0, 1}
 
 
-def test_a_board_before_a_dark_shape_and_a_checkered_floor_gives_its_inner_corners_only() -> None:
+@pytest.fixture(scope="module")
+def board_over_floor() -> BoardScene:
+    """A 9 x 6 board (inner corners) before an 800 x 800 equidistant fisheye, a dark shape against its edge, over
+    the room's checkered floor."""
+    camera = standard_cameras((800, 800), outer_radius=400)["equidistant"]
+    boards = board_poses(camera, 1, seed=71, sizes=((9, 6),), min_square_px=18)
+    return render_board_scene(camera, boards, seed=71, supersample=2, background="lines")
+
+
+def test_a_board_before_a_dark_shape_and_a_checkered_floor_gives_its_inner_corners_only(
+    board_over_floor: BoardScene,
+) -> None:
     """A 9 x 6 board before an 800 x 800 equidistant fisheye, a dark shape against its edge, over the room's
     checkered floor: OpenCV's detector grows the board by a row of its outer squares' outer vertices (6 x 10, that
     row a square's width, 25 px, from the nearest inner corner) and runs the floor's texture off the floor (a 6 x 4
     grid); _checked takes the row off and refuses the floor. Measured: one board, 54 corners on the 54 true ones,
     max 0.19 px."""
-    camera = standard_cameras((800, 800), outer_radius=400)["equidistant"]
-    boards = board_poses(camera, 1, seed=71, sizes=((9, 6),), min_square_px=18)
-    scene = render_board_scene(camera, boards, seed=71, supersample=2, background="lines")
+    scene = board_over_floor
     found = find_boards(scene.image)
     assert [sorted(board.shape) for board in found] == [[6, 9]]
     _, error, true_grid = matched(found[0], scene)
     assert len(np.unique(true_grid, axis=0)) == len(true_grid) == 54
     assert_grid_is_the_boards(found[0], true_grid)
     assert error.max() < 0.5, error.max()
+
+
+def test_a_grid_a_row_short_of_its_board_is_kept_and_a_row_past_its_edge_taken_off(
+    board_over_floor: BoardScene,
+) -> None:
+    """The true corners of the board less its first row (a row the detector missed): the pattern runs on past that
+    edge alone and every corner is a checkerboard's, so the grid is a board's, kept as it is; the same grid with the
+    row a square past its last edge (the outer squares' outer vertices, where the detector put the issue's row; no
+    checkerboard's corners) loses that row, the rest kept."""
+    truth = board_over_floor.truth[0]
+    board = board_over_floor.boards[0]
+    placed = truth.pixels.reshape(board.rows, board.cols, 2)
+    grey = detect._grey(board_over_floor.image)
+    short = placed[1:].reshape(-1, 2)
+    kept = detect._checked(grey, short, board.cols, board.rows - 1)
+    assert kept is not None and kept[1] == (board.rows - 1, board.cols)
+    np.testing.assert_array_equal(kept[0], short)
+    past = board_over_floor.camera.project(
+        board.points(np.column_stack([np.arange(board.cols), np.full(board.cols, board.rows)]) * board.square)
+    )
+    grown = np.concatenate([placed[1:], past[None]], axis=0)
+    trimmed = detect._checked(grey, grown.reshape(-1, 2), board.cols, board.rows)
+    assert trimmed is not None and trimmed[1] == (board.rows - 1, board.cols)
+    np.testing.assert_array_equal(trimmed[0], short)

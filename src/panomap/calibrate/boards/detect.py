@@ -346,13 +346,13 @@ def _checked(
 
     A board's squares end a square past its outer corners: where the pattern runs on past an edge (:func:`_beyond`:
     ``CHECKED_ROW`` of the points one step past it show the colouring), the detector has missed a row of a board
-    (past one edge: 2 of the 63 boards of the real sets, kept) or run a scene's texture into a grid (a checkered
-    floor: past two or more edges, or past one of a grid with a row taken off or a corner that is no
-    checkerboard's), refused. Not asked of a pattern tiled over the frame (``PATTERN_CORNERS``: :func:`_grown`).
+    (past one edge of a grid whose corners all show the colouring: 2 of the 63 boards of the real sets, kept) or run
+    a scene's texture into a grid (a checkered floor: past two or more edges, or past one of a grid with a corner
+    that is no checkerboard's), refused. Not asked of a pattern tiled over the frame (``PATTERN_CORNERS``:
+    :func:`_grown`).
     """
     placed = pixels.reshape(rows, columns, 2)
     board = len(pixels) < PATTERN_CORNERS  # a board, not part of a pattern tiled over the frame (_grown)
-    peeled = 0
     while rows >= 3 and columns >= 3 and rows * columns >= MIN_CORNERS:
         flat = placed.reshape(-1, 2)
         grid = _rectangle(columns, rows)
@@ -369,13 +369,12 @@ def _checked(
         if edges[worst] < CHECKED_ROW:
             placed = (placed[1:], placed[:-1], placed[:, 1:], placed[:, :-1])[worst]
             rows, columns = placed.shape[0], placed.shape[1]
-            peeled += 1
             continue
         if good.mean() < CHECKED_BOARD:
             return None
-        # a pattern running on past two edges, or past one of a grid trimmed or flawed: a texture, not a board
+        # a pattern running on past two edges, or past one of a grid with a corner no checkerboard's: a texture
         runs_on = sum(edge >= CHECKED_ROW for edge in _beyond(search, placed, colouring, least)) if board else 0
-        if runs_on >= 2 or (runs_on and (peeled or not good.all())):
+        if runs_on >= 2 or (runs_on and not good.all()):
             return None
         return placed.reshape(-1, 2), (rows, columns)
     return None
