@@ -199,7 +199,9 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
         if size is None:
             yield from mapped(find_boards, [images[k] for k in later], later)
             return
-        quick = all(mapped(partial(_quick_suits, size=size), images[:LEARN_PICTURES], [b[0] for b in first]))
+        learned = [boards[0] for boards in first]
+        quick = all(_refined(images[k], board) for k, board in enumerate(learned))  # cheap: before the detector
+        quick = quick and all(mapped(partial(_quick_suits, size=size), images[:LEARN_PICTURES], learned))
         yield from mapped(partial(_one_board, size=size, quick=quick), [images[k] for k in later], later)
 
 
@@ -240,15 +242,20 @@ def _one_board(image: NDArray[np.generic], image_index: int, size: tuple[int, in
     return find_boards(image, image_index) if another else found
 
 
+def _refined(image: NDArray[np.generic], board: Board) -> bool:
+    """Whether every corner of ``board`` in ``image`` is refined in full: its window (:func:`_windows`) at least
+    ``MIN_WINDOW_PX``."""
+    return bool(np.all(_windows(_grey(image), board.pixels, board.grid) >= MIN_WINDOW_PX))
+
+
 def _quick_suits(image: NDArray[np.generic], board: Board, size: tuple[int, int]) -> bool:
     """Whether OpenCV's quick detector told ``size`` finds ``board`` (a learned picture's, found by the search) in
-    ``image``, each of its corners within ``SAME_CORNER`` of the way to its neighbour, and the squares are large
-    enough for each of its corners to be refined in full (:func:`_windows`): where the learned pictures' boards are
-    so, the quick detector stands in for the search on the later pictures (:func:`_one_board`)."""
-    grey = _grey(image)
-    if np.any(_windows(grey, board.pixels, board.grid) < MIN_WINDOW_PX):
+    ``image``, each of its corners within ``SAME_CORNER`` of the way to its neighbour, and every corner of it is
+    refined in full (:func:`_refined`): where the learned pictures' boards are so, the quick detector stands in for
+    the search on the later pictures (:func:`_one_board`)."""
+    if not _refined(image, board):
         return False
-    search, scale = _searched(grey)
+    search, scale = _searched(_grey(image))
     found, corners = cv2.findChessboardCorners(search, size, flags=QUICK_FLAGS)
     if not found or corners is None or len(corners) != len(board.pixels):
         return False
