@@ -110,6 +110,10 @@ CLEAR_DROP = 0.3
 # side (a lit barrel's ring past the rim), no rim (evidence._far_sides).
 LINE_SLOPE_RATIO = 0.5
 LINE_WIDTH_PX = 6.0
+# ... or a drop within LINE_WIDTH_PX past a line of the rim's polarity that a grey opening as wide takes off this many
+# grey levels high (evidence._without_lines: a lit ring on the rim's blurred outer slope, its rise too small beside
+# its fall for a line by slopes; smoothed JPEG noise of 2-5 levels leaves bumps of 1-3).
+LINE_LEAST_LEVELS = 5.0
 # A rim's edge, re-measured where the search ended, is where the level crosses halfway between its highest this many
 # px inside each ray's drop and its lowest as far outside (evidence._halfway).
 HALFWAY_WINDOW_PX = 15.0
