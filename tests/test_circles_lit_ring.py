@@ -91,12 +91,14 @@ def test_the_ring_and_the_glow_are_drawn_where_they_are_asked() -> None:
     assert glow[39, 100] == 0 and glow[150, 100] == 0
 
 
-@pytest.mark.parametrize("seed", [0, 5, 10])
+@pytest.mark.parametrize("seed", [0, 5, 10, 24])
 def test_a_robots_fisheye_in_a_dark_square_with_a_lit_ring(seed: int) -> None:
     """A robot's fisheye (1280 x 800 frame, the circle in a dark square whose pedestal lies under the picture too),
     its stop blurred by 1.5-5 px, vignetted by 40-80%, dimmed, a ring of 20-50 levels 4-9 px past the rim on one arc;
-    noise, JPEG (bench/bench_circles_unkind.py's robots 0, 5 and 10). Measured: 0.2, 0.01 and 0.05 px from the
-    truth (before: 4.3, 4.3 and 4.8 px; robot 0's ring lies on the rim's blurred slope, over its half level)."""
+    noise, JPEG (bench/bench_circles_unkind.py's robots 0, 5 and 10; 24, a held-out seed). Measured: 0.2, 0.01,
+    0.05 and 0.06 px from the truth (before: 4.3, 4.3, 4.8 and 4.9 px; robot 0's ring lies on the rim's blurred
+    slope, over its half level; robot 24's rim, vignetted by 80%, was first found as an edge of either polarity,
+    the ring's on its arc, and the bright disc's rim about the same circle not taken)."""
     image, centre, _ = bench_module("bench_circles_unkind").robot(seed)
     found = find_image_circles(image)
     assert math.dist(found.centre, centre) < 0.5, (found.centre, centre)
