@@ -114,7 +114,8 @@ def _rim_points(
     if halfway:
         # Re-measuring a rim found: a thin line's far side (a lens barrel's lit edge just past the rim) is no rim,
         # and the line itself no part of the rim's step.
-        opened = _without_lines(samples, polarity)
+        # Only past the circle's radius less a line's width: a lit ring lies past the rim, the scene's lines inside.
+        opened = np.where(radii[None, :] >= radius - LINE_WIDTH_PX, _without_lines(samples, polarity), samples)
         far = _far_sides(drops) | _past_lines(polarity * (samples - opened))
         samples, drops = opened, _drops(opened, polarity)
         steps = np.where(far, np.float32(0.0), drops)
