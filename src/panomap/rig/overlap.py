@@ -53,6 +53,10 @@ TILE_STD = 6.0
 #: room, three of a photograph): without it the tiles lay p90 3.72 / 0.21 px apart (up to 6.5 px), with it 0.13 /
 #: 0.12 px (max 0.31 / 3.78), 183 / 482 tiles kept of 2143 / 2032.
 MIN_CORNERNESS = 0.2
+#: The Gaussian blur (sigma, px) of both drawings before cross-correlation: a picture sampled without blur (aliased
+#: edges, as a sharp sensor's) made the tiles of the true lenses lie p90 1.10 px apart on three rendered frames of
+#: a room sampled once a pixel, 0.63 px after it; frames sampled 3 x 3 a pixel: 0.13 and 0.12 px, either way.
+LAYER_BLUR_PX = 0.7
 #: Fewer textured tiles than this: the overlap is not compared.
 MIN_TILES = 40
 #: Cross-validation: sectors round the ring; the centre's move is kept where the left-out tiles' p90 with it is at
@@ -101,10 +105,11 @@ def overlap_tiles(
     ``search_px``, that far round it), with grey std at least ``min_std`` in both, is compared.
 
     ``search_px`` 0: by phase correlation (the tile's shift understated where it is over a px or two); otherwise by
-    normalised cross-correlation within ``search_px`` each way, the peak's place to a fraction of a px by a parabola
-    each way (:func:`_ncc_shift`; a tile whose peak is on the search's edge, or correlates under :data:`NCC_MIN`, is
-    left out, and so is a tile of camera i's drawing textured one way only, :func:`cornerness` under
-    :data:`MIN_CORNERNESS`). Empty where the cameras do not overlap."""
+    normalised cross-correlation within ``search_px`` each way, both drawings blurred by :data:`LAYER_BLUR_PX`, the
+    peak's place to a fraction of a px by a parabola each way (:func:`_ncc_shift`; a tile whose peak is on the
+    search's edge, or correlates under :data:`NCC_MIN`, is left out, and so is a tile of camera i's drawing
+    textured one way only, :func:`cornerness` under :data:`MIN_CORNERNESS`). Empty where the cameras do not
+    overlap."""
     band = band_of(rig, i, j, 0.0)
     if band is None:
         empty = np.zeros((0, 2))
@@ -125,6 +130,8 @@ def overlap_tiles(
             cv2.remap(shot[k], map_u, map_v, cv2.INTER_LINEAR).astype(np.float64)
             for k, (map_u, map_v) in zip((i, j), maps, strict=True)
         ]
+        if r and LAYER_BLUR_PX > 0:
+            layers = [cv2.GaussianBlur(layer, (0, 0), LAYER_BLUR_PX) for layer in layers]
         for v in range(r, band.height - tile_px - r + 1, tile_px // 2):
             for u in range(r, band.width - tile_px - r + 1, tile_px // 2):
                 cut = (slice(v, v + tile_px), slice(u, u + tile_px))
