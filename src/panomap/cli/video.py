@@ -277,8 +277,10 @@ def video(
     rotation = rotation_warnings([Path(source)] if local_file(source) is not None else [])
     try:
         loaded = load_table(table)
-    finally:
-        rotation(sys.exc_info()[0] is None)
+    except BaseException:
+        rotation(False)
+        raise
+    rotation(True)
     stop = threading.Event()
     progress = _Progress(not quiet() and sys.stderr.isatty())
     try:
@@ -335,8 +337,10 @@ def rig_video(
             [("the rig", rig_path), *((f"input {k + 1}", local_file(s)) for k, s in enumerate(sources))],
             [("the output", output)],
         )
-    finally:
-        rotation(sys.exc_info()[0] is None)
+    except BaseException:
+        rotation(False)
+        raise
+    rotation(True)
     stop = threading.Event()
     progress = _Progress(not quiet() and sys.stderr.isatty())
     try:
