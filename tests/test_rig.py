@@ -8,13 +8,16 @@ whose frames follow the camchain's ``x_n = R x_(n-1) + t``: camera n's axes ``G_
 
 from __future__ import annotations
 
+import io
 import math
+import zipfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
+from panomap.errors import PanomapError
 from panomap.interop.rig_of_camchain import rig_of_camchain
 from panomap.rig import RigRemapper, camera_maps, load_rig, save_rig
 from panomap.views import EquirectView, FloorView, GenericPanorama
@@ -216,6 +219,32 @@ def test_a_rig_file_round_trips_and_the_commands_take_it(dual: Path, tmp_path: P
     assert_one_line_error(run("equirect", out, picture, "-o", tmp_path / "x.png", "--each", "a.png"), "{camera}",
                           exit_code=2)  # fmt: skip
     assert not (tmp_path / "x.png").exists()
+
+
+def test_a_rig_whose_table_is_corrupt_is_refused_naming_the_camera_and_the_file(dual: Path, tmp_path: Path) -> None:
+    """Each camera's table is checked as a table file is (read in memory, not through a temporary file): an
+    entry changed (its checksum), or no table at all, is refused naming the camera and the rig file."""
+    out = tmp_path / "dual.npz"
+    assert run("import", dual, "-o", out, "--side-by-side", "--fov", "190").exit_code == 0
+    with zipfile.ZipFile(out) as archive:
+        members = {name: archive.read(name) for name in archive.namelist()}
+    with np.load(io.BytesIO(members["cam1.npz"])) as table:
+        arrays = {key: table[key] for key in table.files}
+    arrays["entries"][5, 5, 0] += 0.5
+    edited = io.BytesIO()
+    np.savez(edited, **arrays)
+    for name, part, message in (
+        ("edited", edited.getvalue(), "camera cam1: the entries do not match their checksum (corrupt)"),
+        ("garbage", b"not a table", "camera cam1: not a panomap table (not a .npz archive"),
+    ):
+        path = tmp_path / f"{name}.npz"
+        with zipfile.ZipFile(path, "w") as archive:
+            for member, data in members.items():
+                archive.writestr(member, part if member == "cam1.npz" else data)
+        with pytest.raises(PanomapError) as caught:
+            load_rig(path)
+        assert str(path) in str(caught.value) and message in str(caught.value)
+        assert_one_line_error(run("info", path), "camera cam1", name)
 
 
 def test_a_pose_that_is_not_a_rotation_is_refused(tmp_path: Path) -> None:

@@ -30,7 +30,7 @@ from ..video.rig import check_rig_sources, unwarp_rig_video
 from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video
 from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
-from .options import FINITE, PATH, quiet, usage_error, warn_rotation
+from .options import FINITE, PATH, quiet, rotation_warnings, usage_error
 from .progress import ProgressBar
 
 
@@ -274,9 +274,13 @@ def video(
         [("the table", table), ("the input", local_file(source))],
         [(f"the output of view {item.name}", path) for item, path in zip(named, paths, strict=True)],
     )
-    loaded = load_table(table)
-    if local_file(source) is not None:
-        warn_rotation(Path(source))
+    rotation = rotation_warnings([Path(source)] if local_file(source) is not None else [])
+    try:
+        loaded = load_table(table)
+    except BaseException:
+        rotation(False)
+        raise
+    rotation(True)
     stop = threading.Event()
     progress = _Progress(not quiet() and sys.stderr.isatty())
     try:
@@ -322,18 +326,21 @@ def rig_video(
     """``panomap video RIG INPUT... --view SPEC``: the rig's blended view of its videos."""
     if interp not in ("linear", "nearest"):
         raise click.BadParameter("a rig's video reads linear or nearest", param_hint="'--interp'")
-    rig = load_rig(rig_path)
+    rotation = rotation_warnings([Path(source) for source in sources if local_file(source) is not None])
     try:
-        check_rig_sources(rig, sources)
-    except PanomapError as exc:
-        raise usage_error(exc) from None
-    check_outputs(
-        [("the rig", rig_path), *((f"input {k + 1}", local_file(s)) for k, s in enumerate(sources))],
-        [("the output", output)],
-    )
-    for source in sources:
-        if local_file(source) is not None:
-            warn_rotation(Path(source))
+        rig = load_rig(rig_path)
+        try:
+            check_rig_sources(rig, sources)
+        except PanomapError as exc:
+            raise usage_error(exc) from None
+        check_outputs(
+            [("the rig", rig_path), *((f"input {k + 1}", local_file(s)) for k, s in enumerate(sources))],
+            [("the output", output)],
+        )
+    except BaseException:
+        rotation(False)
+        raise
+    rotation(True)
     stop = threading.Event()
     progress = _Progress(not quiet() and sys.stderr.isatty())
     try:

@@ -131,7 +131,7 @@ def overlap_tiles(
             for k, (map_u, map_v) in zip((i, j), maps, strict=True)
         ]
         if r and LAYER_BLUR_PX > 0:
-            layers = [cv2.GaussianBlur(layer, (0, 0), LAYER_BLUR_PX) for layer in layers]
+            layers = [np.asarray(cv2.GaussianBlur(layer, (0, 0), LAYER_BLUR_PX), np.float64) for layer in layers]
         for v in range(r, band.height - tile_px - r + 1, tile_px // 2):
             for u in range(r, band.width - tile_px - r + 1, tile_px // 2):
                 cut = (slice(v, v + tile_px), slice(u, u + tile_px))
