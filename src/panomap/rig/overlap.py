@@ -50,8 +50,8 @@ TILE_STD = 6.0
 #: The smaller eigenvalue of a tile's structure tensor (its grey gradients' second moments) over the larger that a
 #: tile needs to be measured by cross-correlation: below it the tile holds an edge alone, along which the
 #: correlation's peak slides (the aperture problem). Measured on rigs of the true lenses (six rendered frames of a
-#: room, three of a photograph): without it the tiles lay p90 3.72 / 0.21 px apart (up to 6.5 px), with it 0.13 /
-#: 0.12 px (max 0.31 / 3.78), 183 / 482 tiles kept of 2143 / 2032.
+#: room, three of a photograph; ``bench/bench_overlap_tiles.py``): without it the tiles lay p90 2.19 / 0.14 px apart
+#: (up to 6.4 px), with it 0.12 / 0.10 px (max 0.40 / 0.41), 181 / 411 tiles kept of 2174 / 1998.
 MIN_CORNERNESS = 0.2
 #: The Gaussian blur (sigma, px) of both drawings before cross-correlation: a picture sampled without blur (aliased
 #: edges, as a sharp sensor's) made the tiles of the true lenses lie p90 1.10 px apart on three rendered frames of
