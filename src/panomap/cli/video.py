@@ -274,13 +274,7 @@ def video(
         [("the table", table), ("the input", local_file(source))],
         [(f"the output of view {item.name}", path) for item, path in zip(named, paths, strict=True)],
     )
-    rotation = rotation_warnings([Path(source)] if local_file(source) is not None else [])
-    try:
-        loaded = load_table(table)
-    except BaseException:
-        rotation(False)
-        raise
-    rotation(True)
+    loaded = _load_warning_of_rotation(table, source)
     stop = threading.Event()
     progress = _Progress(not quiet() and sys.stderr.isatty())
     try:
@@ -373,3 +367,16 @@ def summary(report: VideoReport) -> str:
         f"{how} {report.frames_written} frames{extra} in {report.seconds:.1f} s ({fps:.1f} fps)"
         f"{', audio copied' if report.audio else ''}: " + ", ".join(str(path) for path in report.outputs)
     )
+
+
+def _load_warning_of_rotation(table: Path, source: str) -> Any:
+    """The table, read while the input's rotation metadata is checked beside it; the warnings printed after the
+    table's checks, or not at all where the table is refused."""
+    rotation = rotation_warnings([Path(source)] if local_file(source) is not None else [])
+    try:
+        loaded = load_table(table)
+    except BaseException:
+        rotation(False)
+        raise
+    rotation(True)
+    return loaded
