@@ -104,6 +104,14 @@ def dual(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return camchain(tmp_path_factory.mktemp("rig") / "dual.yaml", [BACK_TO_BACK])
 
 
+@pytest.fixture(scope="module")
+def dual_rig(dual: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The dual camchain imported as a rig file of one side-by-side frame (made once: tests copy what they change)."""
+    out = tmp_path_factory.mktemp("rig") / "rig.npz"
+    assert run("import", dual, "-o", out, "--side-by-side", "--fov", "190").exit_code == 0
+    return out
+
+
 def test_a_camchain_places_every_camera_as_its_chain_says(tmp_path: Path) -> None:
     """Three lenses turned 120 deg apart about a tilted axis, with offsets: each camera's table looks along its
     chained axes from its chained centre (its forward ray lands on its principal point, its right ray to the
@@ -307,11 +315,10 @@ def test_pictures_of_a_rig_in_grey_colour_and_alpha_blend_as_their_colour_twins(
     assert not (tmp_path / "x.png").exists()
 
 
-def test_a_rig_where_one_cameras_table_is_wanted_is_named_a_rig(dual: Path, tmp_path: Path) -> None:
+def test_a_rig_where_one_cameras_table_is_wanted_is_named_a_rig(dual: Path, dual_rig: Path, tmp_path: Path) -> None:
     """A rig file given to a command of one camera, or to import, is called a rig in one line (before: "no
     entries/meta inside" and a UnicodeDecodeError); a table given to import is called a table."""
-    rig = tmp_path / "rig.npz"
-    assert run("import", dual, "-o", rig, "--side-by-side", "--fov", "190").exit_code == 0
+    rig = dual_rig
     (tmp_path / "uv.csv").write_text("u,v\n10,20\n")
     for args in (("unproject", rig, tmp_path / "uv.csv", "-o", tmp_path / "rays.csv"),
                  ("export", rig, "-o", tmp_path / "cam.txt", "--format", "ocam")):  # fmt: skip
@@ -355,13 +362,12 @@ def _rewritten(rig: Path, out: Path, index: object = None, drop: str | None = No
     ],
 )
 def test_a_rig_file_whose_index_or_tables_are_wrong_is_refused_in_one_line(
-    dual: Path, tmp_path: Path, change: dict, message: str
+    dual_rig: Path, tmp_path: Path, change: dict, message: str
 ) -> None:
     import json
     import zipfile
 
-    rig = tmp_path / "rig.npz"
-    assert run("import", dual, "-o", rig, "--side-by-side", "--fov", "190").exit_code == 0
+    rig = dual_rig
     with zipfile.ZipFile(rig) as archive:
         index = json.loads(archive.read("rig.json"))
     if "index" in change:
@@ -370,14 +376,13 @@ def test_a_rig_file_whose_index_or_tables_are_wrong_is_refused_in_one_line(
     assert_one_line_error(run("info", bad), f"bad.npz: {message}" if change.get("drop") != "cam1.npz" else message)
 
 
-def test_a_rig_index_without_offsets_takes_one_picture_per_camera(dual: Path, tmp_path: Path) -> None:
+def test_a_rig_index_without_offsets_takes_one_picture_per_camera(dual_rig: Path, tmp_path: Path) -> None:
     """An index written by hand without "offsets" (before: a KeyError's traceback) is a rig whose cameras each
     take their own picture, as "offsets": null says."""
     import json
     import zipfile
 
-    rig = tmp_path / "rig.npz"
-    assert run("import", dual, "-o", rig, "--side-by-side", "--fov", "190").exit_code == 0
+    rig = dual_rig
     with zipfile.ZipFile(rig) as archive:
         index = json.loads(archive.read("rig.json"))
     del index["offsets"]
