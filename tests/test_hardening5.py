@@ -309,6 +309,11 @@ def test_a_videos_rotation_metadata_is_warned_of(inputs: Path, tmp_path: Path) -
         assert f"panomap: warning: {turned}: it asks players to turn its frames by 90 deg" in result.stderr, args
     plain = small_video(tmp_path / "plain.mp4")
     assert "turn its frames" not in run("centre", plain).stderr
+    # (video reads it beside the table, on a thread: a table refused meanwhile gets its one line alone)
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a table")
+    assert_one_line_error(run("video", bad, turned, "-o", tmp_path / "no.mp4", "--view", "panorama:size=64x16"),
+                          "bad.npz", "not a")  # fmt: skip
 
 
 def test_the_video_note_escapes_the_files_name(tmp_path: Path) -> None:

@@ -8,13 +8,16 @@ whose frames follow the camchain's ``x_n = R x_(n-1) + t``: camera n's axes ``G_
 
 from __future__ import annotations
 
+import io
 import math
+import zipfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
+from panomap.errors import PanomapError
 from panomap.interop.rig_of_camchain import rig_of_camchain
 from panomap.rig import RigRemapper, camera_maps, load_rig, save_rig
 from panomap.views import EquirectView, FloorView, GenericPanorama
@@ -99,6 +102,14 @@ def textured_world(seed: int = 0) -> np.ndarray:
 @pytest.fixture(scope="module")
 def dual(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return camchain(tmp_path_factory.mktemp("rig") / "dual.yaml", [BACK_TO_BACK])
+
+
+@pytest.fixture(scope="module")
+def dual_rig(dual: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The dual camchain imported as a rig file of one side-by-side frame (made once: tests copy what they change)."""
+    out = tmp_path_factory.mktemp("rig") / "rig.npz"
+    assert run("import", dual, "-o", out, "--side-by-side", "--fov", "190").exit_code == 0
+    return out
 
 
 def test_a_camchain_places_every_camera_as_its_chain_says(tmp_path: Path) -> None:
@@ -218,6 +229,32 @@ def test_a_rig_file_round_trips_and_the_commands_take_it(dual: Path, tmp_path: P
     assert not (tmp_path / "x.png").exists()
 
 
+def test_a_rig_whose_table_is_corrupt_is_refused_naming_the_camera_and_the_file(dual: Path, tmp_path: Path) -> None:
+    """Each camera's table is checked as a table file is (read in memory, not through a temporary file): an
+    entry changed (its checksum), or no table at all, is refused naming the camera and the rig file."""
+    out = tmp_path / "dual.npz"
+    assert run("import", dual, "-o", out, "--side-by-side", "--fov", "190").exit_code == 0
+    with zipfile.ZipFile(out) as archive:
+        members = {name: archive.read(name) for name in archive.namelist()}
+    with np.load(io.BytesIO(members["cam1.npz"])) as table:
+        arrays = {key: table[key] for key in table.files}
+    arrays["entries"][5, 5, 0] += 0.5
+    edited = io.BytesIO()
+    np.savez(edited, **arrays)
+    for name, part, message in (
+        ("edited", edited.getvalue(), "camera cam1: the entries do not match their checksum (corrupt)"),
+        ("garbage", b"not a table", "camera cam1: not a panomap table (not a .npz archive"),
+    ):
+        path = tmp_path / f"{name}.npz"
+        with zipfile.ZipFile(path, "w") as archive:
+            for member, data in members.items():
+                archive.writestr(member, part if member == "cam1.npz" else data)
+        with pytest.raises(PanomapError) as caught:
+            load_rig(path)
+        assert str(path) in str(caught.value) and message in str(caught.value)
+        assert_one_line_error(run("info", path), "camera cam1", name)
+
+
 def test_a_pose_that_is_not_a_rotation_is_refused(tmp_path: Path) -> None:
     scaled = [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
     path = camchain(tmp_path / "bad.yaml", [scaled])
@@ -278,11 +315,10 @@ def test_pictures_of_a_rig_in_grey_colour_and_alpha_blend_as_their_colour_twins(
     assert not (tmp_path / "x.png").exists()
 
 
-def test_a_rig_where_one_cameras_table_is_wanted_is_named_a_rig(dual: Path, tmp_path: Path) -> None:
+def test_a_rig_where_one_cameras_table_is_wanted_is_named_a_rig(dual: Path, dual_rig: Path, tmp_path: Path) -> None:
     """A rig file given to a command of one camera, or to import, is called a rig in one line (before: "no
     entries/meta inside" and a UnicodeDecodeError); a table given to import is called a table."""
-    rig = tmp_path / "rig.npz"
-    assert run("import", dual, "-o", rig, "--side-by-side", "--fov", "190").exit_code == 0
+    rig = dual_rig
     (tmp_path / "uv.csv").write_text("u,v\n10,20\n")
     for args in (("unproject", rig, tmp_path / "uv.csv", "-o", tmp_path / "rays.csv"),
                  ("export", rig, "-o", tmp_path / "cam.txt", "--format", "ocam")):  # fmt: skip
@@ -326,13 +362,12 @@ def _rewritten(rig: Path, out: Path, index: object = None, drop: str | None = No
     ],
 )
 def test_a_rig_file_whose_index_or_tables_are_wrong_is_refused_in_one_line(
-    dual: Path, tmp_path: Path, change: dict, message: str
+    dual_rig: Path, tmp_path: Path, change: dict, message: str
 ) -> None:
     import json
     import zipfile
 
-    rig = tmp_path / "rig.npz"
-    assert run("import", dual, "-o", rig, "--side-by-side", "--fov", "190").exit_code == 0
+    rig = dual_rig
     with zipfile.ZipFile(rig) as archive:
         index = json.loads(archive.read("rig.json"))
     if "index" in change:
@@ -341,14 +376,13 @@ def test_a_rig_file_whose_index_or_tables_are_wrong_is_refused_in_one_line(
     assert_one_line_error(run("info", bad), f"bad.npz: {message}" if change.get("drop") != "cam1.npz" else message)
 
 
-def test_a_rig_index_without_offsets_takes_one_picture_per_camera(dual: Path, tmp_path: Path) -> None:
+def test_a_rig_index_without_offsets_takes_one_picture_per_camera(dual_rig: Path, tmp_path: Path) -> None:
     """An index written by hand without "offsets" (before: a KeyError's traceback) is a rig whose cameras each
     take their own picture, as "offsets": null says."""
     import json
     import zipfile
 
-    rig = tmp_path / "rig.npz"
-    assert run("import", dual, "-o", rig, "--side-by-side", "--fov", "190").exit_code == 0
+    rig = dual_rig
     with zipfile.ZipFile(rig) as archive:
         index = json.loads(archive.read("rig.json"))
     del index["offsets"]

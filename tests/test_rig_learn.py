@@ -20,7 +20,7 @@ from panomap.interop.orient import turn_table
 from panomap.interop.rig_of_camchain import rig_of_camchain
 from panomap.rig import load_rig
 from panomap.rig.learn import learn_rotations, rotation_of, turned_table
-from panomap.rig.overlap import learn_with_overlap, shifted_table
+from panomap.rig.overlap import cornerness, learn_with_overlap, shifted_table
 from panomap.views import EquirectView, build_map
 from test_orientation import conventions_axes, equirect_rays
 from test_rig import BACK_TO_BACK, F_PX, HALF_FOV, SIDE, camchain, chain_truth, lens_pixels, render_lens
@@ -223,3 +223,19 @@ def test_a_real_insta360_frame_turns_its_back_lens_as_docs_say(tmp_path: Path) -
     checked = learn_with_overlap(rig, frame)
     assert checked.overlap is not None and not checked.overlap.kept, checked.overlap
     assert np.array_equal(checked.rotations[1], learned.rotations[1])
+
+
+@pytest.mark.parametrize("angle_deg", [0.0, 30.0, 90.0, 137.0])
+def test_a_tile_holding_an_edge_alone_is_not_textured_both_ways(angle_deg: float) -> None:
+    """:func:`cornerness` in closed form: a straight edge (a blurred step at any angle) has one gradient direction,
+    so the structure tensor's smaller eigenvalue is 0 (under 0.02 after the pixel grid's sampling); a checkerboard
+    corner's gradients run both ways equally (1 in the limit, over 0.8 here); a flat tile has none (0)."""
+    v, u = np.mgrid[0:16, 0:16].astype(np.float64) - 7.5
+    a = math.radians(angle_deg)
+    across = u * math.cos(a) + v * math.sin(a)
+    along = -u * math.sin(a) + v * math.cos(a)
+    edge = 100 + 60 * np.tanh(across / 1.5)
+    corner = 100 + 60 * np.tanh(across / 1.5) * np.tanh(along / 1.5)
+    assert cornerness(edge) < 0.02
+    assert cornerness(corner) > 0.8
+    assert cornerness(np.full((16, 16), 80.0)) == 0.0

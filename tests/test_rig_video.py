@@ -230,3 +230,22 @@ def test_bad_inputs_are_refused_in_one_line_before_any_work(dual: tuple, surroun
     assert_one_line_error(run("video", rig_path, tmp_path / "dual.mkv", "-o", "o_{name}.mkv", *view, "--view",
                               "panorama:size=256x64"), "one view", exit_code=2)  # fmt: skip
     assert not out.exists() and not [p for p in tmp_path.iterdir() if ".part" in p.name]
+
+
+def test_a_rig_videos_rotation_metadata_is_warned_of_and_not_on_a_refusal(dual: tuple, tmp_path: Path) -> None:  # type: ignore[type-arg]
+    """The rotation metadata is read beside the rig (on a thread): its warning is printed once the rig is read
+    and the inputs checked; a command refused meanwhile prints its one line alone."""
+    _, rig_path, frame = dual
+    clip = tmp_path / "turned.mp4"
+    with av.open(str(clip), "w") as container:
+        stream = container.add_stream("libx264", rate=10)
+        stream.width, stream.height, stream.pix_fmt = frame.shape[1], frame.shape[0], "yuv420p"
+        stream.set_display_rotation(90)
+        for packet in [*stream.encode(av.VideoFrame.from_ndarray(frame, format="bgr24")), *stream.encode()]:
+            container.mux(packet)
+    view = ["--view", "equirect:size=64x32"]
+    result = run("video", rig_path, clip, "-o", tmp_path / "out.mp4", *view)
+    assert result.exit_code == 0, result.output + result.stderr
+    assert result.stderr.count(f"panomap: warning: {clip}: it asks players to turn its frames by 90 deg") == 1
+    assert_one_line_error(run("video", rig_path, clip, clip, "-o", tmp_path / "no.mp4", *view), "share one frame",
+                          exit_code=2)  # fmt: skip

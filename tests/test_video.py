@@ -149,6 +149,14 @@ def test_chroma_map_is_the_block_mean_in_chroma_plane_coordinates(sub_x: int, su
     assert chroma.dtype == np.float32 and chroma.shape == expected.shape
     np.testing.assert_allclose(chroma, expected, atol=1e-4)
     assert np.isnan(chroma[2 // sy, 3 // sx, 0]) and np.isfinite(chroma[2 // sy, 3 // sx, 1])
+    # Bit for bit the float32 steps its docstring states (the seams' chroma weights are built on them): each block
+    # summed from its first entry in row order, times 1 / (s sx sy), plus 0.5 / s - 0.5, per axis.
+    edge = np.pad(map_uv, ((0, -7 % sy), (0, -9 % sx), (0, 0)), mode="edge")
+    sums = edge[::sy, ::sx].copy()
+    for dy, dx in [(dy, dx) for dy in range(sy) for dx in range(sx)][1:]:
+        sums += edge[dy::sy, dx::sx]
+    scale = np.array([1 / (sx * sx * sy), 1 / (sy * sx * sy)], dtype=np.float32)
+    np.testing.assert_array_equal(chroma, sums * scale + np.array([0.5 / sx - 0.5, 0.5 / sy - 0.5], np.float32))
 
 
 def test_every_frame_and_timestamp_is_kept_and_audio_is_copied_into_each_output(work: Path) -> None:

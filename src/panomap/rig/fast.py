@@ -24,6 +24,11 @@ Each camera's entries are clamped to its source (``[0, W-1] x [0, H-1]``): for b
 :class:`RigRemapper`'s: the same float maps, the same float32 sums, the same rounding (``tests/test_rig_video.py``
 checks it within 1 grey level; measured 0). Cubic reads 4 x 4 pixels, which the clamp does not make exact: it
 is refused here (:class:`RigRemapper` takes it).
+
+The maps stay float32: OpenCV 5.1 remaps from them with its vectorised float kernels, and fixed-point maps
+(``cv2.convertMaps`` to ``CV_16SC2``, converted once) went through its older path: 1.4-1.5 x slower for the
+3840 x 1920 luma of a dual fisheye's equirect (20.7 ms against 14.0 ms a frame, one thread), besides their 1/32 px
+steps.
 """
 
 from __future__ import annotations

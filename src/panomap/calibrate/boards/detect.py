@@ -23,7 +23,10 @@ Once a board is found, the search for another looks at the image halved first (:
 the others are searched for one board only (the search for more, most of what is left, is left out; OpenCV's
 quick detector, told the size, looks for a second: :func:`_one_board`). Told the board's size, the sector
 detector is no quicker: it needs ``CALIB_CB_EXHAUSTIVE`` to find the real sets' boards (0 of 17 without on the
-Kaidan set) and then takes as long as the search grown from a seed (measured on the five sets).
+Kaidan set) and then takes as long as the search grown from a seed (measured on the five sets). OpenCV's quick
+detector told the size finds the real fisheye and VMR sets' boards in a fifth of the search's time: where it finds
+the first pictures' boards and their squares are large enough for every corner to be refined in full, it stands in
+for the search on the later pictures (:func:`_quick_board`), the corners placed as the search's are.
 """
 
 from __future__ import annotations
@@ -146,11 +149,7 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
         The boards found (each at least ``MIN_CORNERS`` inner corners), in the order found.
     """
     grey = _grey(image)
-    scale = min(1.0, SEARCH_SIZE_PX / max(grey.shape))
-    search: NDArray[np.uint8] = np.asarray(
-        grey if scale == 1.0 else cv2.resize(grey, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA),
-        dtype=np.uint8,
-    )
+    search, scale = _searched(grey)
     boards: list[Board] = []
     searched = 0
     small = 0
@@ -166,7 +165,9 @@ def find_boards(image: NDArray[np.generic], image_index: int = 0, max_boards: in
             small += 1
             continue
         if len(pixels) < PATTERN_CORNERS:
-            pixels, (rows, columns) = _accurate(search, pixels, columns, rows)
+            placed = _accurate(search, pixels, columns, rows)
+            if placed is not None:
+                pixels, (rows, columns) = placed
         checked = _checked(search, pixels, columns, rows)
         if checked is None:  # not a board: a scene's checkered texture, its grid run off it
             search = _painted_over(search, pixels, _rectangle(columns, rows))
@@ -194,7 +195,9 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
     (:func:`_one_board`: the look for more, a third of the detection's time, is left out; OpenCV's quick detector
     told the size looks for a second), and in full where that one is of another size or the quick detector sees a
     second. A later picture that shows two boards of the size that the quick detector misses (a mirror's strongly
-    bent boards) gives the first only.
+    bent boards) gives the first only. Where the quick detector told the size finds the learned pictures' boards and
+    their squares are large enough for every corner to be refined in full (:func:`_quick_suits`), it also stands in
+    for the search on the later pictures (:func:`_quick_board`).
 
     The images are searched ``threads`` at a time (the CPUs', where None): the detector runs in one thread and
     lets the others run, so the wall time falls with the cores free and the CPU time does not. Each search seeds
@@ -207,8 +210,13 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
         yield from first
         size = learned_size(first)
         later = range(len(first), len(images))
-        search = find_boards if size is None else partial(_one_board, size=size)
-        yield from mapped(search, [images[k] for k in later], later)
+        if size is None:
+            yield from mapped(find_boards, [images[k] for k in later], later)
+            return
+        learned = [boards[0] for boards in first]
+        quick = all(_refined(images[k], board) for k, board in enumerate(learned))  # cheap: before the detector
+        quick = quick and all(mapped(partial(_quick_suits, size=size), images[:LEARN_PICTURES], learned))
+        yield from mapped(partial(_one_board, size=size, quick=quick), [images[k] for k in later], later)
 
 
 def learned_size(found: Sequence[Sequence[Board]]) -> tuple[int, int] | None:
@@ -224,25 +232,98 @@ def learned_size(found: Sequence[Sequence[Board]]) -> tuple[int, int] | None:
     return low, high
 
 
-def _one_board(image: NDArray[np.generic], image_index: int, size: tuple[int, int]) -> list[Board]:
-    """The board of ``size`` (:func:`learned_size`) in ``image``: the first search's board where it is whole and of
-    that size and OpenCV's quick detector, told the size (``findChessboardCorners``, ``CALIB_CB_FAST_CHECK``), sees
-    no other with it painted over; none where the search finds none; else every board :func:`find_boards` finds.
+def _one_board(image: NDArray[np.generic], image_index: int, size: tuple[int, int], quick: bool = False) -> list[Board]:
+    """The board of ``size`` (:func:`learned_size`) in ``image``: the first search's board (with ``quick``, the quick
+    detector's where :func:`_quick_board` gives one) where it is whole and of that size and OpenCV's quick detector,
+    told the size (``findChessboardCorners``, ``CALIB_CB_FAST_CHECK``), sees no other with it painted over; none
+    where the search finds none; else every board :func:`find_boards` finds.
 
     The quick detector costs a sixth to a third of the halved look it stands in for, and sees the second board of
     11 of 12 rendered pictures of two 9 x 6 boards before a mirror, and the real sets' fisheye and VMR boards (21 of
     21; the pictures' one board, as a stand-in for a second), not the Kaidan mirror's (0 of 17) nor some of the
     MiniOmni's and Mei's (9 of 15, 7 of 10): there a second board of the size is missed.
     """
-    found = find_boards(image, image_index, max_boards=1)
+    grey = _grey(image)
+    board = _quick_board(grey, image_index, size) if quick else None
+    found = [board] if board is not None else find_boards(image, image_index, max_boards=1)
     if not found:
         return found
     board = found[0]
     if tuple(sorted(board.shape)) != size or len(board.pixels) != size[0] * size[1]:
         return find_boards(image, image_index)
-    painted = _painted_over(_grey(image), board.pixels, board.grid)
+    painted = _painted_over(grey, board.pixels, board.grid)
     another, _ = cv2.findChessboardCorners(painted, board.shape, flags=QUICK_FLAGS)
     return find_boards(image, image_index) if another else found
+
+
+def _refined(image: NDArray[np.generic], board: Board) -> bool:
+    """Whether every corner of ``board`` in ``image`` is refined in full: its window (:func:`_windows`) at least
+    ``MIN_WINDOW_PX``."""
+    return bool(np.all(_windows(_grey(image), board.pixels, board.grid) >= MIN_WINDOW_PX))
+
+
+def _quick_suits(image: NDArray[np.generic], board: Board, size: tuple[int, int]) -> bool:
+    """Whether OpenCV's quick detector told ``size`` finds ``board`` (a learned picture's, found by the search) in
+    ``image``, each of its corners within ``SAME_CORNER`` of the way to its neighbour, and every corner of it is
+    refined in full (:func:`_refined`): where the learned pictures' boards are so, the quick detector stands in for
+    the search on the later pictures (:func:`_one_board`)."""
+    if not _refined(image, board):
+        return False
+    search, scale = _searched(_grey(image))
+    found, corners = cv2.findChessboardCorners(search, size, flags=QUICK_FLAGS)
+    if not found or corners is None or len(corners) != len(board.pixels):
+        return False
+    rough = (corners.reshape(-1, 2).astype(np.float64) + 0.5) / scale - 0.5
+    distance = np.linalg.norm(rough[:, None, :] - board.pixels[None, :, :], axis=2)
+    spacing = _neighbour_spacing(board.pixels, board.grid)
+    return bool(np.all(distance.min(axis=0) < SAME_CORNER * spacing))
+
+
+def _quick_board(grey: NDArray[np.uint8], image_index: int, size: tuple[int, int]) -> Board | None:
+    """The board of ``size`` (lesser, greater count of inner corners) in ``grey`` (H, W) found by OpenCV's quick
+    detector told the size (``findChessboardCorners``, ``QUICK_FLAGS``) and placed as :func:`find_boards` places a
+    board its search found: by the sector detector with its upsampling on a crop round it (:func:`_accurate`, in
+    its own order of the corners), then refined in full (:func:`_refine`); None where the quick detector finds no
+    board, the crop shows no grid of ``size`` that holds its corners, or a corner's squares are too small for it to
+    be refined (its window under ``MIN_WINDOW_PX``).
+
+    It stands in for the search (``findChessboardCornersSBWithMeta``, exhaustive: 60-80 ms a picture on the real
+    fisheye and VMR sets, the quick detector 3-20 ms). The crop is drawn round the quick detector's corners, not
+    the search's, and the upsampled placement moves with it (0.1 px, up to 2 px where squares are a few pixels):
+    corners that keep it, unrefined, would move; refined in full, they converge on the same saddle of the grey
+    levels (on the real fisheye and VMR sets' pictures: 0.005 px or less from the search's).
+    """
+    search, scale = _searched(grey)
+    columns, rows = size
+    found, corners = cv2.findChessboardCorners(search, (columns, rows), flags=QUICK_FLAGS)
+    if not found or corners is None or len(corners) != columns * rows:
+        return None
+    rough = corners.reshape(-1, 2).astype(np.float64)
+    if _neighbour_spacing(rough, _rectangle(columns, rows)).min() / scale < 4.0 * MIN_WINDOW_PX - 1.0:
+        return None  # too small to be refined (the quick detector's corners within half a pixel)
+    placed = _accurate(search, rough, columns, rows, own_order=True)
+    if placed is not None:  # its rows all a board's (the search's own check, _checked)
+        placed = _checked(search, placed[0], placed[1][1], placed[1][0])
+    if placed is None or tuple(sorted(placed[1])) != size:
+        return None
+    pixels, (rows, columns) = placed
+    if scale != 1.0:
+        pixels = (pixels + 0.5) / scale - 0.5
+    grid = _rectangle(columns, rows)
+    if np.any(_windows(grey, pixels, grid) < MIN_WINDOW_PX):
+        return None
+    return Board(image_index, _refine(grey, pixels, grid), grid)
+
+
+def _searched(grey: NDArray[np.uint8]) -> tuple[NDArray[np.uint8], float]:
+    """The image the detector searches ((h, w) uint8: ``grey`` downscaled to ``SEARCH_SIZE_PX`` where larger) and its
+    scale (search px per image px)."""
+    scale = min(1.0, SEARCH_SIZE_PX / max(grey.shape))
+    search: NDArray[np.uint8] = np.asarray(
+        grey if scale == 1.0 else cv2.resize(grey, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA),
+        dtype=np.uint8,
+    )
+    return search, scale
 
 
 def _grey(image: NDArray[np.generic]) -> NDArray[np.uint8]:
@@ -292,8 +373,8 @@ def _looked(search: NDArray[np.uint8]) -> tuple[FloatArray, tuple[int, int]] | N
 
 
 def _accurate(
-    search: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int
-) -> tuple[FloatArray, tuple[int, int]]:
+    search: NDArray[np.uint8], pixels: FloatArray, columns: int, rows: int, own_order: bool = False
+) -> tuple[FloatArray, tuple[int, int]] | None:
     """A board's corners (n, 2) px as the detector places them with its upsampling, and (rows, columns).
 
     The detector searches with ``CALIB_CB_ACCURACY`` on the board alone: the crop of ``search`` round its corners'
@@ -303,7 +384,8 @@ def _accurate(
     second), and its grid may grow past the search's: the upsampled image shows an outer row the search may miss
     (a 10 x 7 grid of an 11 x 7 board). The first grid that holds every corner of ``pixels`` (each within
     ``SAME_CORNER`` of the way to its nearest neighbour on the grid) is kept, the same grid's corners in the
-    order of ``pixels``; where none does, ``pixels`` are kept.
+    order of ``pixels`` (with ``own_order``, in the detector's order, and its (rows, columns)); None where none
+    does (the search's corners are then kept).
     """
     spacing = _neighbour_spacing(pixels, _rectangle(columns, rows))
     mask = _grown_hull(search.shape, pixels, CROP_SQUARES * float(spacing.max()))
@@ -323,10 +405,10 @@ def _accurate(
         close = distance[np.arange(len(pixels)), nearest] < SAME_CORNER * spacing
         if not np.all(close) or len(np.unique(nearest)) != len(pixels):
             continue
-        if len(placed) == len(pixels):
+        if len(placed) == len(pixels) and not own_order:
             return placed[nearest], (rows, columns)
         return placed, (int(meta.shape[0]), int(meta.shape[1]))
-    return pixels, (rows, columns)
+    return None
 
 
 def _checked(
