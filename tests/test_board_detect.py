@@ -270,6 +270,7 @@ def test_a_grid_a_row_short_of_its_board_is_kept_and_a_row_past_its_edge_taken_o
     np.testing.assert_array_equal(trimmed[0], short)
 
 
+@pytest.mark.slow
 def test_a_later_picture_found_by_the_quick_detector_is_on_the_true_corners() -> None:
     """Three pictures of a 9 x 6 board (squares 18 px or more) through a 190-degree fisheye: the quick detector told
     the learned size finds the learned pictures' boards, so on the third it stands in for the search (_quick_board;

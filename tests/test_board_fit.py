@@ -90,6 +90,7 @@ def test_learned_camera_matches_the_true_one(name: str, count: int, p90_px: floa
     assert fit.report.corner_rms_px == pytest.approx(0.3 * math.sqrt(2), rel=0.25)
 
 
+@pytest.mark.slow
 def test_noise_free_corners_give_the_centre_and_the_rays_exactly() -> None:
     """Without noise the centre comes back to 0.01 px (a 0.05 px bias fails) from a start 9 px off.
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from panomap.calibrate.boards.fit import camera_lift, camera_project, fit_boards
 from panomap.calibrate.lines.fit import LineFitOptions
@@ -77,6 +78,7 @@ def inside_errors_px(fit, camera: FieldCamera, boards) -> np.ndarray:
     return np.asarray(np.hypot(*(camera_project(fit)(rays @ (left @ right).T) - truth).T))
 
 
+@pytest.mark.slow
 def test_a_smooth_field_is_kept_and_recovered() -> None:
     """The field above, 10 images: the smooth field kept (alone); within the corners' radii the learned
     camera's rays within 1.2 px (p90; 4 times the corners' noise) of the truth and 1.5 times closer than the

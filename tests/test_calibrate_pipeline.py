@@ -450,6 +450,7 @@ def test_the_learn_page_starts_a_mirror_image_that_overfills_the_frame_from_its_
     assert float(np.max(error)) < 5.0
 
 
+@pytest.mark.slow
 def test_the_learn_page_drops_a_rim_that_landmarks_lie_well_outside(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -274,6 +274,7 @@ def test_posts_name_the_host_and_give_their_length_and_every_answer_has_its_guar
         assert headers["Content-Security-Policy"].startswith("default-src 'self'")
 
 
+@pytest.mark.slow
 def test_symbolic_links_are_never_followed(client: Client, example: Example, folder: Path) -> None:
     """A link in the folder, to a file outside it: loading refuses it as no file; saving (once told to
     overwrite) replaces the link by a file of its own and leaves the file outside as it was."""

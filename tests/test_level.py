@@ -85,6 +85,7 @@ def test_level_finds_the_vertical_of_a_world_of_vertical_edges(camchain: Path, t
     assert result.vertical_lines >= 10
 
 
+@pytest.mark.slow
 def test_a_picture_without_verticals_is_refused(camchain: Path, tmp_path: Path) -> None:
     """A world of horizontal bands only: refused in one line that says no vertical lines were found."""
     world = np.full((1024, 2048), 100, np.uint8)

@@ -182,6 +182,7 @@ def test_fit_refuses_a_videos_frames_beyond_the_memory_before_decoding_one(
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_fit_takes_only_the_video_frames_the_memory_holds(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     video = large_video(tmp_path / "big.mp4", 4, distinct=True)
     import panomap.cli.lines

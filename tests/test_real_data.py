@@ -115,6 +115,7 @@ def test_fit_image_finds_the_calibrations_centre_from_ten_corners(folder: str) -
     assert max(result["fit_image_rms_px"]) <= 0.7, result["fit_image_rms_px"]
 
 
+@pytest.mark.slow
 def test_the_refined_centre_moves_from_the_rim_to_the_axis_on_vmr() -> None:
     """vmr's rim centre is 2.2 px from the calibrated axis: held there, the fit is off by 2.4 px RMS.
 

@@ -112,6 +112,7 @@ def dual_rig(dual: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_a_camchain_places_every_camera_as_its_chain_says(tmp_path: Path) -> None:
     """Three lenses turned 120 deg apart about a tilted axis, with offsets: each camera's table looks along its
     chained axes from its chained centre (its forward ray lands on its principal point, its right ray to the
@@ -152,6 +153,7 @@ def test_each_camera_of_a_dual_fisheye_is_its_lens_and_the_pair_covers_the_spher
     assert np.allclose(weights.sum(axis=0), 1.0, atol=1e-5)
 
 
+@pytest.mark.slow
 def test_the_blend_has_no_step_at_the_seam_with_one_lens_brighter(dual: Path) -> None:
     """A world rendered through the pair, lens 1 15% brighter, with noise: the blended panorama's change
     between neighbouring columns across the overlap is within 2 grey levels of the true world's (measured

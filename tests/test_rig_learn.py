@@ -177,6 +177,7 @@ def test_a_centred_lens_keeps_its_table_and_the_features_rotation(dual: tuple[Pa
     assert angle_deg(found @ OFF.T) < 0.05
 
 
+@pytest.mark.slow
 def test_a_moved_table_draws_the_moved_picture(dual: tuple[Path, np.ndarray]) -> None:  # type: ignore[type-arg]
     """:func:`shifted_table` of an imported table moves every entry by the move, and records it; turned through its
     calibration (``rig learn``'s way) or by resampling, it stays moved (within the resampling's 0.05 px)."""
@@ -204,6 +205,7 @@ cam1: {camera_model: pinhole, intrinsics: [283.6, 283.6, 489.8, 479.0], distorti
 """
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not INSTA360.is_dir(), reason=f"the shared Insta360 frames are not at {INSTA360}")
 def test_a_real_insta360_frame_turns_its_back_lens_as_docs_say(tmp_path: Path) -> None:
     """docs/rigs.md's Insta360 Air street frame, through its author's hand-tuned model (lenses exactly back to

@@ -188,6 +188,7 @@ def test_the_videos_first_frame_is_the_still_commands_picture(dual: tuple, tmp_p
     assert float(np.abs(frames_of(tmp_path / "e.mp4")[0] - expected).mean()) < 4
 
 
+@pytest.mark.slow
 def test_four_videos_are_read_in_step_to_the_shortest(surround: tuple, tmp_path: Path) -> None:  # type: ignore[type-arg]
     """One video per camera, one of them a frame shorter: the floor map's video has the shortest's frames, and
     its first frame is the still command's."""
