@@ -6,9 +6,10 @@ Angles on the command line are in degrees; lengths in world units; sizes as
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -162,30 +163,32 @@ def warn_rotation(path: Path) -> None:
     """Print a warning line where the video at ``path`` asks players to turn its frames (its rotation metadata)."""
     from ..video.source import rotation_note
 
-    note = rotation_note(path)
-    if note is not None:
-        click.echo(f"panomap: warning: {printable(str(path))}: {note}", err=True)
+    _rotation_warning(path, rotation_note(path))
 
 
-def rotation_warnings(paths: Sequence[Path]) -> Callable[[bool], None]:
-    """Start reading the videos' rotation metadata (:func:`warn_rotation`'s) on a thread; the function returned
-    waits for it and prints their warnings in order (given True; False: waits alone, the command failing).
-    Reading it decodes a first frame (about 50 ms for a 3840 x 1920 H.264 frame): it goes on beside the
-    caller's own start (reading a table or a rig)."""
+@contextlib.contextmanager
+def rotation_warned(paths: Sequence[Path]) -> Iterator[None]:
+    """The videos' rotation metadata (:func:`warn_rotation`'s) read on a thread while the block runs; after it,
+    their warnings printed in order (none where the block fails: the reading is waited for alone). Reading it
+    decodes a first frame (about 50 ms for a 3840 x 1920 H.264 frame): it goes on beside the block's own start
+    (reading a table or a rig)."""
     from ..video.source import rotation_note
 
     notes: list[str | None] = []
     reader = threading.Thread(target=lambda: notes.extend(rotation_note(path) for path in paths),
                               name="panomap-rotation", daemon=True)  # fmt: skip
     reader.start()
-
-    def warn(show: bool) -> None:
+    try:
+        yield
+    finally:
         reader.join()
-        for path, note in zip(paths, notes if show else [], strict=False):
-            if note is not None:
-                click.echo(f"panomap: warning: {printable(str(path))}: {note}", err=True)
+    for path, note in zip(paths, notes, strict=False):
+        _rotation_warning(path, note)
 
-    return warn
+
+def _rotation_warning(path: Path, note: str | None) -> None:
+    if note is not None:
+        click.echo(f"panomap: warning: {printable(str(path))}: {note}", err=True)
 
 
 def warn_orientation(path: Path) -> None:

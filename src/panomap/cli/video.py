@@ -30,7 +30,7 @@ from ..video.rig import check_rig_sources, unwarp_rig_video
 from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video
 from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
-from .options import FINITE, PATH, quiet, rotation_warnings, usage_error
+from .options import FINITE, PATH, quiet, rotation_warned, usage_error
 from .progress import ProgressBar
 
 
@@ -274,7 +274,8 @@ def video(
         [("the table", table), ("the input", local_file(source))],
         [(f"the output of view {item.name}", path) for item, path in zip(named, paths, strict=True)],
     )
-    loaded = _load_warning_of_rotation(table, source)
+    with rotation_warned([Path(source)] if local_file(source) is not None else []):
+        loaded = load_table(table)
     stop = threading.Event()
     progress = _Progress(not quiet() and sys.stderr.isatty())
     try:
@@ -320,8 +321,7 @@ def rig_video(
     """``panomap video RIG INPUT... --view SPEC``: the rig's blended view of its videos."""
     if interp not in ("linear", "nearest"):
         raise click.BadParameter("a rig's video reads linear or nearest", param_hint="'--interp'")
-    rotation = rotation_warnings([Path(source) for source in sources if local_file(source) is not None])
-    try:
+    with rotation_warned([Path(source) for source in sources if local_file(source) is not None]):
         rig = load_rig(rig_path)
         try:
             check_rig_sources(rig, sources)
@@ -331,10 +331,6 @@ def rig_video(
             [("the rig", rig_path), *((f"input {k + 1}", local_file(s)) for k, s in enumerate(sources))],
             [("the output", output)],
         )
-    except BaseException:
-        rotation(False)
-        raise
-    rotation(True)
     stop = threading.Event()
     progress = _Progress(not quiet() and sys.stderr.isatty())
     try:
@@ -367,16 +363,3 @@ def summary(report: VideoReport) -> str:
         f"{how} {report.frames_written} frames{extra} in {report.seconds:.1f} s ({fps:.1f} fps)"
         f"{', audio copied' if report.audio else ''}: " + ", ".join(str(path) for path in report.outputs)
     )
-
-
-def _load_warning_of_rotation(table: Path, source: str) -> Any:
-    """The table, read while the input's rotation metadata is checked beside it; the warnings printed after the
-    table's checks, or not at all where the table is refused."""
-    rotation = rotation_warnings([Path(source)] if local_file(source) is not None else [])
-    try:
-        loaded = load_table(table)
-    except BaseException:
-        rotation(False)
-        raise
-    rotation(True)
-    return loaded
