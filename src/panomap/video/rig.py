@@ -47,12 +47,12 @@ from .handoff import END, QUEUE_FRAMES, put, reason
 from .output import EncoderSettings, Writer, open_writer
 from .report import VideoReport
 from .source import (
-    NO_FRAME_SIZE,
     ReadState,
     Selection,
     SharedInput,
     copy_packet,
     expected_frames,
+    frame_size,
     open_input,
     read_frames,
 )
@@ -254,9 +254,7 @@ def unwarp_rig_video(
             shared = SharedInput(container)
             stream = container.streams.video[0]
             inputs.append(_Input(source, shared, stream, queue.Queue(QUEUE_FRAMES), VideoReport()))
-            got = (stream.codec_context.width, stream.codec_context.height)
-            if 0 in got:
-                raise PanomapError(NO_FRAME_SIZE, source)
+            got = frame_size(stream, source)
             if got != tuple(size):
                 raise PanomapError(f"its frames are {got[0]} x {got[1]}, {what} is {size[0]} x {size[1]}", source)
         in_format = inputs[0].stream.codec_context.pix_fmt or "yuv420p"

@@ -69,8 +69,15 @@ def is_live(source: str) -> bool:
     return "://" in source or source.startswith("/dev/")
 
 
-# A file that FFmpeg opens but whose header gives no frame size (a text file named .jpg, a broken header).
-NO_FRAME_SIZE = "cannot read it as a video (its header gives no frame size: not a video, or corrupt)"
+def frame_size(stream: Any, source: str) -> tuple[int, int]:
+    """The video ``stream``'s frame size (W, H) from its header; PanomapError naming ``source`` where the header
+    gives none (a file FFmpeg opens that is no video: a text file named .jpg, a broken header)."""
+    size = (stream.codec_context.width, stream.codec_context.height)
+    if 0 in size:
+        raise PanomapError(
+            "cannot read it as a video (its header gives no frame size: not a video, or corrupt)", source
+        )
+    return size
 
 
 def open_input(source: str, open_timeout: float = 10.0, read_timeout: float | None = None) -> Any:

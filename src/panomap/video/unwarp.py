@@ -46,7 +46,6 @@ from .live import Reconnect, check_segment_names, segment_path
 from .output import EncoderSettings, Writer, container_format, open_writer
 from .report import Gap, GapOutcome, VideoReport
 from .source import (
-    NO_FRAME_SIZE,
     ReadState,
     Selection,
     SharedInput,
@@ -56,6 +55,7 @@ from .source import (
     ended_early,
     expected_frames,
     frame_rate,
+    frame_size,
     is_live,
     open_input,
     read_frames,
@@ -403,9 +403,7 @@ def _nothing_written(report: VideoReport, source: str, selection: Selection, dec
 def _check_input(container: Any, table: PanoMappingTable, source: str) -> tuple[int, int]:
     """The video's frame size (W, H), refused unless it is the table's image size."""
     stream = container.streams.video[0]
-    size = (stream.codec_context.width, stream.codec_context.height)
-    if 0 in size:
-        raise PanomapError(NO_FRAME_SIZE, source)
+    size = frame_size(stream, source)
     if table.image_size is not None and size != tuple(table.image_size):
         raise PanomapError(
             f"its frames are {size[0]} x {size[1]}, the table is for "
