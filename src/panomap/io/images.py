@@ -125,6 +125,13 @@ def read_rig_pictures(rig: CameraRig, paths: Sequence[Path]) -> list[Any]:
         raise PanomapError(f"give one picture per camera of the rig, in its order ({names}), not {len(paths)}")
     pictures = [read_image(path, table.image_size, f"camera {name}") for path, table, name in
                 zip(paths, rig.tables, rig.names, strict=True)]  # fmt: skip
+    check_same_depth(paths, pictures)
+    return pictures
+
+
+def check_same_depth(paths: Sequence[str | Path], pictures: Sequence[NDArray[Any]]) -> None:
+    """Refuse, naming the file, a rig's picture whose pixels are not of the first one's type (8 or 16 bits): the
+    blend brings grey and colour alike (:func:`panomap.rig.blend.alike_pictures`), not depths."""
     for path, picture in zip(paths[1:], pictures[1:], strict=True):
         if picture.dtype != pictures[0].dtype:
             raise PanomapError(
@@ -132,7 +139,6 @@ def read_rig_pictures(rig: CameraRig, paths: Sequence[Path]) -> list[Any]:
                 "give the rig's pictures alike",
                 path,
             )
-    return pictures
 
 
 def float_format(head: bytes) -> str | None:

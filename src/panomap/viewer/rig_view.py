@@ -32,9 +32,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import PanomapError, printable
+from ..errors import PanomapError
 from ..geometry import inside_image
-from ..io.images import MAX_IMAGE_PIXELS, UNKNOWN_FORMAT, encode_png, read_image
+from ..io.images import MAX_IMAGE_PIXELS, UNKNOWN_FORMAT, check_same_depth, encode_png, read_image
 from ..rig import CameraRig, RigRemapper, camera_maps
 from ..rig.blend import WRAPPING_KINDS, alike_pictures
 from ..table.table import PanoMappingTable
@@ -284,10 +284,7 @@ def open_rig_source(rig: CameraRig, rig_name: str, names: list[str]) -> tuple[Ri
                 raise PanomapError(f"the viewer takes a still picture per camera ({camera} here): blend a rig's "
                                    "videos with panomap video", name)  # fmt: skip
             pictures.append(read_image(name, table.image_size, f"camera {camera}"))
-        for name, picture in zip(names[1:], pictures[1:], strict=True):
-            if picture.dtype != pictures[0].dtype:
-                raise PanomapError(f"its pixels are {picture.dtype.name}, those of {printable(names[0])} "
-                                   f"{pictures[0].dtype.name}: give the rig's pictures alike", name)  # fmt: skip
+        check_same_depth(names, pictures)
         pictures = alike_pictures(pictures)  # (grey beside colour: repeated into B, G, R)
         composite, offsets = one_picture(rig, pictures)
         shown = display_image(composite)
