@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import zipfile
 from pathlib import Path
 
 import click
@@ -18,7 +17,7 @@ from ..interop.orient import orient_table
 from ..interop.readers import READERS, read_calibration
 from ..io.images import MAX_IMAGE_PIXELS
 from ..rig.file import is_rig_file
-from ..table.file import load_table, save_table
+from ..table.file import is_table_file, load_table, save_table
 from .calibrate import find_image_circles_in
 from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, Finite, orientation_option, orientation_rad, read_omni, say
 from .rigs import import_rig, rig_format
@@ -312,10 +311,5 @@ def _not_panomaps_own(path: Path) -> None:
     """Refuse, in one line, a rig or a table that panomap wrote: ``import`` reads other tools' calibrations."""
     if is_rig_file(path):
         raise PanomapError("a panomap rig already: the views, video and batch take it as it is", path)
-    try:
-        with zipfile.ZipFile(path) as archive:
-            ours = {"entries.npy", "meta.npy"} <= set(archive.namelist())
-    except (zipfile.BadZipFile, OSError, ValueError):
-        return
-    if ours:
+    if is_table_file(path):
         raise PanomapError("a panomap table already: the views take it as it is (panomap orient turns it)", path)

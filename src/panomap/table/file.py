@@ -355,6 +355,18 @@ def _check_declared(
         )
 
 
+def is_table_file(path: str | Path) -> bool:
+    """Whether ``path`` is a table file (a zip holding ``entries`` and ``meta``, as :func:`save_table` writes),
+    from its members' names alone; False for a rig file or anything else (a missing file, a folder too)."""
+    if not Path(path).is_file():
+        return False
+    try:
+        with zipfile.ZipFile(Path(path)) as archive:
+            return {"entries.npy", "meta.npy"} <= set(archive.namelist())
+    except (zipfile.BadZipFile, OSError, ValueError):
+        return False
+
+
 def load_table(path: str | Path) -> PanoMappingTable:
     """Read a table file, checking its format, version and contents.
 
