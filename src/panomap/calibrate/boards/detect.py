@@ -439,10 +439,7 @@ def _checked(
         flat = placed.reshape(-1, 2)
         grid = _rectangle(columns, rows)
         a, b = _steps(flat, grid)
-        contrast = _saddle(search, flat, a, b)
-        parity = (grid[:, 0] + grid[:, 1]) % 2 * 2 - 1
-        colouring = 1.0 if np.median(contrast * parity) > 0 else -1.0
-        least = GROWN_CONTRAST * float(np.median(np.abs(contrast)))
+        contrast, parity, colouring, least = _colouring(search, flat, grid, a, b)
         good = ((contrast * parity * colouring > least) | (_least_width(a, b) < CHECKED_SQUARE_PX)).reshape(
             rows, columns
         )
@@ -460,6 +457,19 @@ def _checked(
             return None
         return placed.reshape(-1, 2), (rows, columns)
     return None
+
+
+def _colouring(
+    search: NDArray[np.uint8], pixels: FloatArray, grid: NDArray[np.intp], a: FloatArray, b: FloatArray
+) -> tuple[FloatArray, NDArray[np.intp], float, float]:
+    """A grid's own corners (n, 2) px at places ``grid`` (n, 2), grid steps ``a``, ``b`` (n, 2) px: each corner's
+    contrast (n,) (:func:`_saddle`), its parity (n,) (+1 / -1 by column + row), the board's colouring (+1 / -1: the
+    sign of the squares along the columns' and rows' diagonal, as most corners show it) and the contrast a corner
+    needs to show it (``GROWN_CONTRAST`` of the median corner's)."""
+    contrast = _saddle(search, pixels, a, b)
+    parity = (grid[:, 0] + grid[:, 1]) % 2 * 2 - 1
+    colouring = 1.0 if np.median(contrast * parity) > 0 else -1.0
+    return contrast, parity, colouring, GROWN_CONTRAST * float(np.median(np.abs(contrast)))
 
 
 def _least_width(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -521,12 +531,7 @@ def _grown(
     a, b = _steps(pixels, grid)
     handed = 1.0 if np.median(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) > 0 else -1.0
     known = {(int(c), int(r)): p for (c, r), p in zip(grid, pixels, strict=True)}
-    # the grid's own corners: their colouring (the sign of the squares along the columns' and rows' diagonal)
-    # and contrast
-    contrast = _saddle(search, pixels, a, b)
-    parity = (grid[:, 0] + grid[:, 1]) % 2 * 2 - 1
-    colouring = 1.0 if np.median(contrast * parity) > 0 else -1.0
-    least = GROWN_CONTRAST * float(np.median(np.abs(contrast)))
+    _, _, colouring, least = _colouring(search, pixels, grid, a, b)
     saddle = _hessian(search)
     deepest = GROWN_SADDLE * float(np.median(_sampled(saddle, pixels)))
     frontier = set(known)
@@ -558,10 +563,7 @@ def _grown(
         predicted = np.array([targets[t][0] for t in places])
         a = np.array([targets[t][1] for t in places])
         b = np.array([targets[t][2] for t in places])
-        # the squares' least width (px): a lens that squeezes them radially shears them into thin rhombi
-        spacing = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) / np.maximum(
-            np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
-        )
+        spacing = _least_width(a, b)  # a lens that squeezes the squares radially shears them into thin rhombi
         half = np.floor(spacing / 4.0)
         margin = np.minimum.reduce(
             [predicted[:, 0], predicted[:, 1], width - 1 - predicted[:, 0], height - 1 - predicted[:, 1]]
