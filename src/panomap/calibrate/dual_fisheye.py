@@ -46,11 +46,11 @@ from .pictures import LearnedCalibration, learn_from_images
 LENS_NAMES = ("lens0", "lens1")
 #: The overlap's tiles (:func:`overlap_shifts_px`) may lie this far apart (px, p90) beyond the two lenses' bands at
 #: the rim added. Measured by normalised cross-correlation on tiles textured both ways, with rigs of the true lenses
-#: turned as their features say (six rendered frames of a room; three of a real photograph): p90 0.13 / 0.12 px where
-#: the lenses agree; lens 1's law scaled by 1.005 / 1.01: 1.94 / 4.16 px (room), 1.85 / 2.77 px (photograph); its
-#: centre 8 px off: 3.43 / 4.23 px. (Phase correlation, used before, read these 0.66 / 1.00 and 1.02 px on the
-#: room: it understates shifts over a px, and neither the 1% scale nor the 8 px let the check refuse.) Fewer than
-#: ``MIN_TILES`` tiles cannot check.
+#: turned as their features say (``bench/bench_overlap_tiles.py``: six rendered frames of a room; three of a real
+#: photograph): p90 0.12 / 0.10 px where the lenses agree; lens 1's law scaled by 1.005 / 1.01: 1.92 / 4.12 px
+#: (room), 1.83 / 2.80 px (photograph); its centre 8 px off: 3.43 / 4.20 px. (Phase correlation, used before, read
+#: these 0.66 / 1.00 and 1.02 px on the room: it understates shifts over a px, and neither the 1% scale nor the 8 px
+#: let the check refuse.) Fewer than ``MIN_TILES`` tiles cannot check.
 TILE_NOISE_PX = 0.5
 MIN_TILES = 20
 #: The overlap's tiles (px, square) compared between the two lenses, and the grey levels' spread (std) a tile
