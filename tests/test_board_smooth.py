@@ -8,8 +8,6 @@ of a grid with 0.3 px of noise per coordinate.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -17,7 +15,7 @@ from panomap.calibrate.boards.fit import camera_lift, camera_project, fit_boards
 from panomap.calibrate.lines.fit import LineFitOptions
 from panomap.camera.image_terms import ImageTerms
 from test_board_fit import level
-from test_board_terms import moved_boards
+from test_board_terms import looking_down_rays, moved_boards
 
 from helpers import true_circles
 
@@ -64,11 +62,7 @@ def inside_errors_px(fit, camera: FieldCamera, boards) -> np.ndarray:
     percentile): where the boards hold the field (beyond them it is the cube's extrapolation)."""
     centre = np.asarray(camera.camera.centre)
     radii = np.concatenate([np.hypot(*(board.pixels - centre).T) for board in boards])
-    low, high = camera.elevation_range
-    alpha = np.linspace(math.pi / 2 + low + 0.05, math.pi / 2 + high - 0.05, 30)
-    phi = np.linspace(0.0, 2 * math.pi, 96, endpoint=False)
-    a, p = (x.ravel() for x in np.meshgrid(alpha, phi))
-    rays = np.stack([np.sin(a) * np.cos(p), np.sin(a) * np.sin(p), -np.cos(a)], axis=1)  # world: looking down
+    rays = looking_down_rays(camera.elevation_range, 30, 96)
     truth = camera.project(rays)
     r = np.hypot(*(truth - centre).T)
     inside = (r >= np.percentile(radii, 5)) & (r <= np.percentile(radii, 95))

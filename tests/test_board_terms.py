@@ -55,14 +55,20 @@ def moved_boards(camera: MovedCamera, count: int, seed: int, noise_px: float = 0
     return boards
 
 
+def looking_down_rays(elevation_range: tuple[float, float], rings: int, azimuths: int) -> np.ndarray:
+    """Unit rays (rings * azimuths, 3) in the world of a camera looking down: ``rings`` elevations 0.05 rad inside
+    ``elevation_range`` (rad), ``azimuths`` round each."""
+    low, high = elevation_range
+    alpha = np.linspace(math.pi / 2 + low + 0.05, math.pi / 2 + high - 0.05, rings)
+    phi = np.linspace(0.0, 2 * math.pi, azimuths, endpoint=False)
+    a, p = (x.ravel() for x in np.meshgrid(alpha, phi))
+    return np.stack([np.sin(a) * np.cos(p), np.sin(a) * np.sin(p), -np.cos(a)], axis=1)
+
+
 def ray_errors_px(fit, camera: MovedCamera) -> np.ndarray:
     """Distances (px) between the true pixels of rays across the image and where the learned camera puts them
     (after the rotation or reflection of the rays that best aligns the two: what boards cannot know)."""
-    low, high = camera.elevation_range
-    alpha = np.linspace(math.pi / 2 + low + 0.05, math.pi / 2 + high - 0.05, 15)
-    phi = np.linspace(0.0, 2 * math.pi, 48, endpoint=False)
-    a, p = (x.ravel() for x in np.meshgrid(alpha, phi))
-    rays = np.stack([np.sin(a) * np.cos(p), np.sin(a) * np.sin(p), -np.cos(a)], axis=1)  # world: looking down
+    rays = looking_down_rays(camera.elevation_range, 15, 48)
     truth = camera.project(rays)
     learned = camera_lift(fit)(truth)
     left, _, right = np.linalg.svd(learned.T @ rays)
