@@ -32,7 +32,6 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 from scipy.sparse import csr_matrix, lil_matrix
 from scipy.spatial.transform import Rotation
 
@@ -50,6 +49,7 @@ from ..lines.fit import LineFit, LineFitOptions, vertical_under
 from ..lines.orientation import level_rotation, zero_azimuth
 from ..lines.rays import ALPHA_LIMIT, InverseRadial, pixel_rays
 from .detect import Board
+from .solve import BlockJacobian, least_squares_blocks
 from .terms import NO_TERMS, TermChoice, TermLayout, choose_terms
 from .uncertainty import board_band
 
@@ -99,7 +99,7 @@ class _Fit:
     params: FloatArray
     poses: FloatArray
     residuals_px: FloatArray
-    jacobian: FloatArray
+    jacobian: BlockJacobian
     layout: TermLayout = NO_TERMS
 
     @property
@@ -190,7 +190,7 @@ def fit_boards(
 
 def _with_terms(fit: _Fit, boards: Sequence[Board], axis: str, radius_px: float, asked: str) -> tuple[_Fit, TermChoice]:
     """``fit`` refitted with the image terms :func:`.terms.choose_terms` keeps (``fit`` itself without any)."""
-    kept, choice = choose_terms(fit, boards, axis, radius_px, asked, (_residuals, _jacobian))
+    kept, choice = choose_terms(fit, boards, axis, radius_px, asked, (_residuals, _jacobian_blocks))
     if not kept:
         return fit, choice
     layout = TermLayout(kept, radius_px)
@@ -344,6 +344,13 @@ def _residuals(
 def _jacobian(
     x: FloatArray, kind: str, axis: str, boards: Sequence[Board], observed: FloatArray, layout: TermLayout = NO_TERMS
 ) -> csr_matrix:
+    """The Jacobian (2N, count + 6B) of :func:`_residuals` as a sparse matrix (:func:`_jacobian_blocks`)."""
+    return _jacobian_blocks(x, kind, axis, boards, observed, layout).sparse()
+
+
+def _jacobian_blocks(
+    x: FloatArray, kind: str, axis: str, boards: Sequence[Board], observed: FloatArray, layout: TermLayout = NO_TERMS
+) -> BlockJacobian:
     """The Jacobian (2N, count + 6B) of :func:`_residuals`, in closed form but for f_r's derivatives.
 
     ``pixel = centre + f_r(rho(X)) (cos phi, sin phi)`` with ``X = R(w) p + t``: the chain through the point's
@@ -351,9 +358,8 @@ def _jacobian(
     rotation's in its vector, are central differences (steps 1e-6; f_r costs one pass over the corners, where
     differencing every parameter through the whole projection cost 90% of the fit). A residual set to
     ``UNREACHED_PX`` has zero derivatives. Image terms (``layout``): the radial offset's derivatives through the
-    terms' Jacobian, the terms' own in closed form (:mod:`panomap.camera.image_terms`). Sparse (each corner sees
-    the camera and its board's pose): the solver then takes LSMR steps, where a dense Jacobian's SVD runs BLAS's
-    threads (10-50 times slower on a busy machine).
+    terms' Jacobian, the terms' own in closed form (:mod:`panomap.camera.image_terms`). In blocks (each corner
+    sees the camera and its board's pose): :mod:`.solve` steps on their normal equations.
     """
     spec = radial_kind(kind)
     radial_count = 2 + spec.parameter_count
@@ -428,18 +434,7 @@ def _jacobian(
     jac[1::2, count + 3 :] = dv_dx
     residuals = (project(kind, axis, params, points, layout) - observed).ravel()
     jac[~np.isfinite(residuals)] = 0.0
-    return _row_blocks(np.where(np.isfinite(jac), jac, 0.0), count, np.repeat(owner, 2), len(boards))
-
-
-def _row_blocks(values: FloatArray, count: int, owner: NDArray[np.intp], boards: int) -> csr_matrix:
-    """The sparse Jacobian (R, count + 6 boards) whose row r holds ``values[r]`` (R, count + 6): the camera's
-    ``count`` columns, then the six pose columns of its board ``owner[r]`` (R,)."""
-    rows = len(values)
-    columns = np.concatenate(
-        [np.broadcast_to(np.arange(count), (rows, count)), (count + 6 * owner)[:, None] + np.arange(6)], axis=1
-    )
-    pointers = np.arange(rows + 1) * (count + 6)
-    return csr_matrix((values.ravel(), columns.ravel(), pointers), shape=(rows, count + 6 * boards))
+    return BlockJacobian(np.where(np.isfinite(jac), jac, 0.0), np.repeat(owner, 2), count, len(boards))
 
 
 def sparsity(count: int, boards: Sequence[Board]) -> lil_matrix:
@@ -470,22 +465,31 @@ def _joint(
     values at the end of ``params``; ``ftol``: the relative drop of the cost where it stops)."""
     observed = np.concatenate([b.pixels for b in boards])
     count = 2 + radial_kind(kind).parameter_count + layout.count
-    x0 = np.concatenate([params, poses.ravel()])
-    solution = least_squares(
-        _residuals,
-        x0,
-        jac=_jacobian,
-        x_scale="jac",
-        method="trf",
-        loss="soft_l1" if robust else "linear",
-        f_scale=ROBUST_SCALE_PX,
-        max_nfev=max_nfev or MAX_EVALUATIONS,
-        ftol=ftol,
-        args=(kind, axis, boards, observed, layout),
-    )
-    residuals_px = np.hypot(*solution.fun.reshape(-1, 2).T)
-    jacobian = solution.jac.toarray() if hasattr(solution.jac, "toarray") else np.asarray(solution.jac)
-    return _Fit(kind, solution.x[:count], solution.x[count:].reshape(-1, 6), residuals_px, jacobian, layout)
+    problem = (kind, axis, boards, observed, layout)
+    evaluations = max_nfev or MAX_EVALUATIONS
+    try:
+        solution = least_squares_blocks(
+            functools.partial(_residuals_of, problem=problem),
+            functools.partial(_jacobian_of, problem=problem),
+            np.concatenate([params, poses.ravel()]),
+            steps=evaluations,
+            tolerance=ftol,
+            evaluations=evaluations,
+            robust_scale=ROBUST_SCALE_PX if robust else None,
+        )
+    except np.linalg.LinAlgError:
+        raise PanomapError("the boards' fit is singular: the corners do not pin the camera and the poses") from None
+    residuals_px = np.hypot(*solution.residuals.reshape(-1, 2).T)
+    x = solution.x
+    return _Fit(kind, x[:count], x[count:].reshape(-1, 6), residuals_px, _jacobian_blocks(x, *problem), layout)
+
+
+def _residuals_of(x: FloatArray, problem: tuple[str, str, Sequence[Board], FloatArray, TermLayout]) -> FloatArray:
+    return _residuals(x, *problem)
+
+
+def _jacobian_of(x: FloatArray, problem: tuple[str, str, Sequence[Board], FloatArray, TermLayout]) -> BlockJacobian:
+    return _jacobian_blocks(x, *problem)
 
 
 # -- the starts -------------------------------------------------------------------------------------
@@ -501,10 +505,10 @@ def _from_starts(boards: Sequence[Board], circles: ImageCircles, axis: str, r_ma
         radial = RadialFunction("odd1", (a1,), axis)
         try:
             inverse = InverseRadial.of(radial, r_max)
+            poses = np.array([pose_of(board, circles.centre, inverse) for board in boards])
+            fit = _joint(boards, START_KIND, axis, params, poses, max_nfev=START_EVALUATIONS, robust=True)
         except PanomapError:
             continue
-        poses = np.array([pose_of(board, circles.centre, inverse) for board in boards])
-        fit = _joint(boards, START_KIND, axis, params, poses, max_nfev=START_EVALUATIONS, robust=True)
         if any(abs(fit.cost - other.cost) <= SAME_START * max(fit.cost, other.cost) for other in tried):
             return min([*tried, fit], key=lambda fit: fit.cost)  # two starts came home to one minimum
         tried.append(fit)
@@ -650,7 +654,8 @@ def _result(
     n = fit.residuals_px.size
     dof = max(2 * n - fit.params.size - fit.poses.size, 1)
     sigma = math.sqrt(fit.cost / dof)
-    covariance = np.linalg.pinv(fit.jacobian.T @ fit.jacobian) * sigma**2
+    jacobian = fit.jacobian.dense()
+    covariance = np.linalg.pinv(jacobian.T @ jacobian) * sigma**2
     count = 2 + radial_kind(fit.kind).parameter_count
     radial = RadialFunction(fit.kind, tuple(float(c) for c in fit.coefficients), axis)
     s = options.s if options.s is not None else default_handedness(circles.cutoff is not None, axis)
@@ -720,7 +725,7 @@ def _result(
             fit.params,
             fit.poses,
             board_points(fit.poses, boards),
-            fit.jacobian,
+            jacobian,
             boards,
             circles,
             sigma,

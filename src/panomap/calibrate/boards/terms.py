@@ -31,12 +31,12 @@ from functools import partial
 from typing import Any
 
 import numpy as np
-from scipy.sparse import csr_matrix
 
 from ...camera.image_terms import TERM_KINDS, TERMS, ImageTerms, check_term_names, parameter_count
 from ...geometry import FloatArray
 from ..core.term_choice import TermChoice
 from .detect import Board
+from .solve import BlockJacobian, least_squares_blocks
 
 # Folds of images, at most; fewer images than MIN_IMAGES leave nothing to hold out: no term is kept.
 FOLDS = 5
@@ -49,12 +49,9 @@ MIN_IMAGES = 3
 # Real sets' kept terms lower it 6-7%, simulated ones' 13-22%.
 SE_FACTOR = 1.0
 MIN_GAIN = 0.03
-# Each fold's fit: damped Gauss-Newton steps, at most GN_STEPS, from the damping GN_DAMPING (on the normal
-# equations with unit columns), until a step lowers the cost by less than GN_TOLERANCE of it (the held-out
-# RMS is wanted to a small fraction of MARGIN).
+# Each fold's fit: damped Gauss-Newton steps (:mod:`.solve`), at most GN_STEPS, until a step lowers the cost by
+# less than GN_TOLERANCE of it (the held-out RMS is wanted to a small fraction of MARGIN).
 GN_STEPS = 30
-GN_DAMPING = 1e-6
-GN_MAX_DAMPING = 1e6
 GN_TOLERANCE = 1e-5
 
 
@@ -77,8 +74,9 @@ class TermLayout:
 NO_TERMS = TermLayout()
 
 
-# The fit's residuals and their Jacobian (:func:`.fit._residuals`, :func:`.fit._jacobian`): x (the camera, its terms'
-# values, then the poses), the radial kind, the axis, the boards, their observed corners (n, 2) and a TermLayout.
+# The fit's residuals and their Jacobian in blocks (:func:`.fit._residuals`, :func:`.fit._jacobian_blocks`): x
+# (the camera, its terms' values, then the poses), the radial kind, the axis, the boards, their observed corners
+# (n, 2) and a TermLayout.
 ProblemFunctions = tuple[Callable[..., FloatArray], Callable[..., Any]]
 
 
@@ -225,51 +223,26 @@ def _camera_residuals(
 
 def _camera_jacobian(
     x: FloatArray, problem: tuple[Any, ...], functions: ProblemFunctions, camera: FloatArray | None = None
-) -> Any:
-    """The Jacobian (sparse) of :func:`_camera_residuals` in ``x``."""
+) -> BlockJacobian:
+    """The Jacobian (in blocks) of :func:`_camera_residuals` in ``x``."""
     if camera is None:
         return functions[1](x, *problem)
-    return functions[1](np.concatenate([camera, x]), *problem)[:, camera.size :]
+    jacobian: BlockJacobian = functions[1](np.concatenate([camera, x]), *problem)
+    return jacobian.poses_only()
 
 
 def _gauss_newton(
-    fun: Callable[[FloatArray], FloatArray], jac: Callable[[FloatArray], Any], x0: FloatArray
+    fun: Callable[[FloatArray], FloatArray], jac: Callable[[FloatArray], BlockJacobian], x0: FloatArray
 ) -> FloatArray | None:
-    """The least-squares minimum of ``fun`` near ``x0`` by damped Gauss-Newton (Levenberg-Marquardt) steps: a
-    fold's fit starts at the camera fitted to all, a few steps from its own, and the normal equations
-    (columns scaled to unit norm) are small (the camera's parameters and six per board). None where they
-    is singular. It stops after ``GN_STEPS`` steps where it has not met its tolerance: the cost only falls,
-    so a fold's score is then a little high (against the terms tried: at most 0.5% in the cases measured)."""
-    x = x0.copy()
-    r = fun(x)
-    cost = float(r @ r)
-    damping = GN_DAMPING
-    for _ in range(GN_STEPS):
-        j = csr_matrix(jac(x))  # sparse products: a dense product runs BLAS's threads, slow on a busy machine
-        normal = (j.T @ j).toarray()
-        scale = np.sqrt(np.diag(normal))
-        scale[scale == 0] = 1.0
-        normal = normal / np.outer(scale, scale)
-        gradient = (j.T @ r) / scale
-        while True:
-            try:
-                step = -np.linalg.solve(normal + damping * np.eye(len(x)), gradient) / scale
-            except np.linalg.LinAlgError:
-                return None
-            trial = x + step
-            r_trial = fun(trial)
-            trial_cost = float(r_trial @ r_trial)
-            if np.isfinite(trial_cost) and trial_cost <= cost:
-                break
-            damping *= 10.0
-            if damping > GN_MAX_DAMPING:  # no step lowers the cost: x is the minimum to rounding
-                return x
-        drop = cost - trial_cost
-        x, r, cost = trial, r_trial, trial_cost
-        damping = max(damping / 10.0, GN_DAMPING)
-        if drop <= GN_TOLERANCE * cost:
-            break
-    return x
+    """The least-squares minimum of ``fun`` near ``x0`` by damped Gauss-Newton (Levenberg-Marquardt) steps
+    (:func:`.solve.least_squares_blocks`): a fold's fit starts at the camera fitted to all, a few steps from its
+    own. None where the normal equations are singular. It stops after ``GN_STEPS`` steps where it has not met its
+    tolerance: the cost only falls, so a fold's score is then a little high (against the terms tried: at most 0.5%
+    in the cases measured)."""
+    try:
+        return least_squares_blocks(fun, jac, x0, GN_STEPS, GN_TOLERANCE).x
+    except np.linalg.LinAlgError:
+        return None
 
 
 def _parsimonious(better: list[tuple[tuple[str, ...], HeldOut, str]]) -> tuple[tuple[str, ...], HeldOut, str]:
