@@ -49,7 +49,7 @@ from ..lines.fit import LineFit, LineFitOptions, vertical_under
 from ..lines.orientation import level_rotation, zero_azimuth
 from ..lines.rays import ALPHA_LIMIT, InverseRadial, pixel_rays
 from .detect import Board
-from .solve import BlockJacobian, least_squares_blocks
+from .solve import NEAR_DAMPING, BlockJacobian, least_squares_blocks
 from .terms import NO_TERMS, TermChoice, TermLayout, choose_terms
 from .uncertainty import board_band
 
@@ -67,6 +67,9 @@ SAME_START = 1.0e-4
 # Evaluations each start may take, and the scale (px) of its robust loss.
 START_EVALUATIONS = 40
 ROBUST_SCALE_PX = 2.0
+# The damping a start's steps begin with (:mod:`.solve`; the fits from a fit begin with NEAR_DAMPING): from a start
+# 5 px RMS off, 1e-6 spent half of the 40 evaluations on steps refused (two real sets: three starts, not two).
+FAR_DAMPING = 1e-3
 # Evaluations of the residuals a joint fit may take (a slow one has found its minimum long before).
 MAX_EVALUATIONS = 400
 # ... and the flexible kind's fits, whose residuals only tell misread corners and boards (5 sigma and 1.5 px at
@@ -349,7 +352,13 @@ def _jacobian(
 
 
 def _jacobian_blocks(
-    x: FloatArray, kind: str, axis: str, boards: Sequence[Board], observed: FloatArray, layout: TermLayout = NO_TERMS
+    x: FloatArray,
+    kind: str,
+    axis: str,
+    boards: Sequence[Board],
+    observed: FloatArray,
+    layout: TermLayout = NO_TERMS,
+    camera: bool = True,
 ) -> BlockJacobian:
     """The Jacobian (2N, count + 6B) of :func:`_residuals`, in closed form but for f_r's derivatives.
 
@@ -359,7 +368,8 @@ def _jacobian_blocks(
     differencing every parameter through the whole projection cost 90% of the fit). A residual set to
     ``UNREACHED_PX`` has zero derivatives. Image terms (``layout``): the radial offset's derivatives through the
     terms' Jacobian, the terms' own in closed form (:mod:`panomap.camera.image_terms`). In blocks (each corner
-    sees the camera and its board's pose): :mod:`.solve` steps on their normal equations.
+    sees the camera and its board's pose): :mod:`.solve` steps on their normal equations. ``camera`` False: the
+    camera's columns but the centre's are left zero (a fit of the poses alone, the camera held, needs none).
     """
     spec = radial_kind(kind)
     radial_count = 2 + spec.parameter_count
@@ -401,14 +411,14 @@ def _jacobian_blocks(
     jac = np.zeros((2 * n, count + 6))
     jac[0::2, 0] = 1.0
     jac[1::2, 1] = 1.0
-    for k in range(spec.parameter_count):
+    for k in range(spec.parameter_count if camera else 0):
         step = 1e-6 * max(1.0, abs(float(coefficients[k])))
         up, down = coefficients.copy(), coefficients.copy()
         up[k] += step
         down[k] -= step
         dr = (f(up, rho) - f(down, rho)) / (2.0 * step)
         jac[0::2, 2 + k], jac[1::2, 2 + k] = through(dr * cos_phi, dr * sin_phi)
-    if terms is not None:
+    if terms is not None and camera:
         with np.errstate(invalid="ignore", over="ignore"):
             own = terms.parameter_jacobian(offsets)
         jac[0::2, radial_count:count] = own[:, 0, :]
@@ -432,8 +442,9 @@ def _jacobian_blocks(
     jac[1::2, count : count + 3] = np.einsum("nki,ni->nk", dp, dv_dx)
     jac[0::2, count + 3 :] = du_dx
     jac[1::2, count + 3 :] = dv_dx
-    residuals = (project(kind, axis, params, points, layout) - observed).ravel()
-    jac[~np.isfinite(residuals)] = 0.0
+    with np.errstate(invalid="ignore", over="ignore"):  # the residuals, as project gives them
+        pixels = params[:2] + (offsets if terms is None else terms.apply(offsets))
+    jac[~np.isfinite((pixels - observed).ravel())] = 0.0
     return BlockJacobian(np.where(np.isfinite(jac), jac, 0.0), np.repeat(owner, 2), count, len(boards))
 
 
@@ -476,6 +487,7 @@ def _joint(
             tolerance=ftol,
             evaluations=evaluations,
             robust_scale=ROBUST_SCALE_PX if robust else None,
+            damping=FAR_DAMPING if robust else NEAR_DAMPING,
         )
     except np.linalg.LinAlgError:
         raise PanomapError("the boards' fit is singular: the corners do not pin the camera and the poses") from None

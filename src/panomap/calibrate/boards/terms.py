@@ -227,7 +227,7 @@ def _camera_jacobian(
     """The Jacobian (in blocks) of :func:`_camera_residuals` in ``x``."""
     if camera is None:
         return functions[1](x, *problem)
-    jacobian: BlockJacobian = functions[1](np.concatenate([camera, x]), *problem)
+    jacobian: BlockJacobian = functions[1](np.concatenate([camera, x]), *problem, camera=False)
     return jacobian.poses_only()
 
 
