@@ -268,7 +268,8 @@ class ImageTerms:
                 for dxt, dyt in ((r2, zero), (r4, zero), (zero, r2), (zero, r4)):
                     columns.append((p["aspect"] * dxt + p["skew"] * dyt, dyt))
             elif name == "smooth":  # d(xt, yt) / d cx_k (x moved by R m_k), then / d cy_k, then the affine part
-                moves = [(axis, big * (x / big) ** i * (y / big) ** j) for axis, i, j in SMOOTH_TERMS]
+                xp, yp = _powers(x / big), _powers(y / big)
+                moves = [(axis, big * xp[i] * yp[j]) for axis, i, j in SMOOTH_TERMS]
                 for dxt, dyt in [(m, zero) if axis == "x" else (zero, m) for axis, m in moves]:
                     columns.append((p["aspect"] * dxt + p["skew"] * dyt, dyt))
             else:  # decentering: d(xt, yt)/d p1 and / d p2, then the affine part
@@ -327,26 +328,37 @@ def _decentred(x: FloatArray, y: FloatArray, p: dict[str, float], big: float) ->
 
 def _smooth_move(normalised: FloatArray, p: dict[str, float]) -> FloatArray:
     """The smooth field's move (..., 2), in units of R, at offsets (..., 2) in units of R."""
-    xn, yn = normalised[..., 0], normalised[..., 1]
     move = np.zeros(normalised.shape, dtype=np.float64)
+    if not any(p[f"c{axis}{i}{j}"] != 0.0 for axis, i, j in SMOOTH_TERMS):
+        return move
+    xp, yp = _powers(normalised[..., 0]), _powers(normalised[..., 1])
     for axis, i, j in SMOOTH_TERMS:
         c = p[f"c{axis}{i}{j}"]
         if c != 0.0:
-            move[..., 0 if axis == "x" else 1] += c * xn**i * yn**j
+            move[..., 0 if axis == "x" else 1] += c * xp[i] * yp[j]
     return move
+
+
+def _powers(values: FloatArray) -> list[FloatArray]:
+    """``values ** k`` for k = 0 .. 3, the smooth field's monomials' factors (each power taken once: the field's
+    moves and derivatives took a fifth of the fit's choice of terms raising the same offsets again)."""
+    return [values**k for k in range(4)]
 
 
 def _smooth_derivatives(xn: FloatArray, yn: FloatArray, p: dict[str, float]) -> tuple[FloatArray, ...]:
     """d(smooth move) / d(xn, yn) (dimensionless: the move and the offsets both in units of R):
     (dmx/dxn, dmx/dyn, dmy/dxn, dmy/dyn)."""
     out = [np.zeros(np.shape(xn)) for _ in range(4)]
+    if not any(p[f"c{axis}{i}{j}"] != 0.0 for axis, i, j in SMOOTH_TERMS):
+        return tuple(out)
+    xp, yp = _powers(xn), _powers(yn)
     for axis, i, j in SMOOTH_TERMS:
         c = p[f"c{axis}{i}{j}"]
         if c == 0.0:
             continue
         row = 0 if axis == "x" else 2
-        out[row] = out[row] + c * i * xn ** max(i - 1, 0) * yn**j
-        out[row + 1] = out[row + 1] + c * j * xn**i * yn ** max(j - 1, 0)
+        out[row] = out[row] + c * i * xp[max(i - 1, 0)] * yp[j]
+        out[row + 1] = out[row + 1] + c * j * xp[i] * yp[max(j - 1, 0)]
     return tuple(out)
 
 
