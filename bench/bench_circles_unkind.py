@@ -11,7 +11,11 @@ levels, 1-2 px wide, 3-10 px out: a Ricoh Theta's bluish ring, an OCam's), and o
 one side (10-40 levels fading over 5-20 px: flare). Then robots' fisheyes (``--robots``, 16 more): the circle in a
 dark square (10-30 grey levels, its pedestal under the picture too) inside a black 1280 x 800 frame, cut at top and
 bottom or not, the stop blurred by 1.5-5 px, vignetted by 40-80%, dimmed to 40-100%, a lit ring on one arc (20-50
-levels, 4-9 px out), noise of 3 levels, JPEG at 80. Prints each picture whose centre is found more than 0.5 px from
+levels, 4-9 px out), noise of 3 levels, JPEG at 80. Then fading rims (``--faded``, 16 more: an OCam fisheye's, imgBack1
+in ../shared): a 748 x 480 or 1024 x 768 frame cutting the circle at top and bottom, the stop blurred by 4-8 px (the
+rim fading over 20-30 px), one or two dark things of the scene at the rim, vignetted by 10-40%, over-exposed by
+1-2.2x after the stop (a bright scene clips on the stop's fall), a halo of its own light (10-30%, blurred by 6-15 px)
+on one side, noise of 2-4 levels, JPEG at 70-89. Prints each picture whose centre is found more than 0.5 px from
 the truth, then, per set, the count found, within 1 and 3 px, the median and the worst.
 """
 
@@ -28,9 +32,11 @@ from panomap.calibrate.circles import NoImageCircle, find_image_circles
 from panomap.simulate import (
     dark_square,
     field_stop,
+    halo,
     lit_ring,
     load_room,
     noisy_jpeg,
+    over_exposed,
     render,
     side_glow,
     standard_cameras,
@@ -103,8 +109,29 @@ def robot(seed: int) -> tuple[np.ndarray, tuple[float, float], float]:
     return noisy_jpeg(image, rng, noise=3.0, quality=80), centre, radius
 
 
+def faded(seed: int) -> tuple[np.ndarray, tuple[float, float], float]:
+    """Fading rim ``seed``: the image, the circle's centre (u, v) and radius, px."""
+    rng = np.random.default_rng(900 + seed)
+    width, height = ((748, 480), (1024, 768))[seed % 2]
+    radius = rng.uniform(0.55, 0.62) * height
+    centre = (width / 2 + rng.uniform(-10, 10), height / 2 + rng.uniform(-10, 10))
+    soft = rng.uniform(4.0, 8.0)
+    outer = radius + 3 * soft + 10
+    camera = standard_cameras((width, height), centre=centre, phi0=rng.uniform(0, 6.3), outer_radius=outer)
+    scene = render(ROOM, camera["equidistant"], supersample=1)
+    image = dark_things(scene, centre, radius, rng, int(rng.integers(1, 3)))
+    image = field_stop(image, centre, radius, softness_px=soft)
+    image = vignette(image, centre, radius, falloff=rng.uniform(0.1, 0.4), power=rng.uniform(2, 4))
+    image = over_exposed(image, rng.uniform(1.0, 2.2))
+    fraction, blur_px = rng.uniform(0.1, 0.3), rng.uniform(6, 15)
+    image = halo(image, centre, fraction, blur_px, angle=rng.uniform(0, 2 * math.pi), spread=rng.uniform(0.5, 2.0))
+    return noisy_jpeg(image, rng, noise=rng.uniform(2, 4), quality=int(rng.integers(70, 90))), centre, radius
+
+
 def measure(name: str, make: Callable[[int], tuple[np.ndarray, tuple[float, float], float]], count: int) -> None:
     """Prints the pictures ``make`` draws for seeds 0 .. count - 1 whose centre is off by over 0.5 px, then a line."""
+    if count <= 0:
+        return
     errors = []
     for seed in range(count):
         image, centre, radius = make(seed)
@@ -132,9 +159,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--count", type=int, default=32)
     parser.add_argument("--robots", type=int, default=16)
+    parser.add_argument("--faded", type=int, default=16)
     args = parser.parse_args()
     measure("fisheyes", unkind, args.count)
     measure("robots", robot, args.robots)
+    measure("faded", faded, args.faded)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """What a real lens, sensor and housing do to a rendered omni-image: vignetting (to near black at the rim), a
 dim side, a bright housing around a mirror with a camera board in it, a rim off the optical axis, a dark
-square about the circle inside a black frame, a lens barrel's lit ring and a glow past the rim on one side,
-noise, JPEG.
+square about the circle inside a black frame, a lens barrel's lit ring and a glow past the rim on one side, a halo
+of scattered light about a bright rim, over-exposure, noise, JPEG.
 
 Convention: pixel (u, v), u the column, v the row, the centre of the top-left pixel at
 (0, 0); images are (H, W[, C]) uint8.
@@ -231,6 +231,35 @@ def side_glow(
     r, weight = _one_sided(image.shape, centre, angle, spread)
     fade = np.exp(-np.maximum(r - radius, 0.0) / fade_px) * np.clip(r - radius + 0.5, 0.0, 1.0)
     return _added(image, level * weight * fade)
+
+
+def halo(
+    image: NDArray[np.uint8], centre: tuple[float, float], fraction: float, blur_px: float, angle: float, spread: float
+) -> NDArray[np.uint8]:
+    """Light scattered about a bright rim on one side (a real fisheye's halo where an over-exposed scene meets its
+    rim, as on an OCam fisheye's picture): ``fraction`` of the picture itself blurred by a Gaussian of ``blur_px``
+    (px) added, weighted as :func:`lit_ring` is by ``angle`` and ``spread`` (rad) about ``centre``.
+
+    Unlike :func:`side_glow` (added past the rim only, from its edge on), the halo is smooth across the rim: the
+    picture's light spread both ways, as a lens's scatter spreads it. ``fraction`` >= 0; ``blur_px``, ``spread``
+    > 0.
+    """
+    if not (fraction >= 0 and blur_px > 0 and spread > 0):
+        raise PanomapError(f"need fraction >= 0 and blur_px, spread > 0; got {fraction}, {blur_px}, {spread}")
+    _, weight = _one_sided(image.shape, centre, angle, spread)
+    spread_light = cv2.GaussianBlur(image.astype(np.float64), (0, 0), blur_px)
+    if image.ndim == 3:
+        weight = weight[..., None]
+    return np.clip(np.rint(image + fraction * weight * spread_light), 0, 255).astype(np.uint8)
+
+
+def over_exposed(image: NDArray[np.uint8], gain: float) -> NDArray[np.uint8]:
+    """Every level times ``gain`` (> 0), clipped at 255: a sensor over-exposed after the lens's field stop, so a
+    bright scene clips on the stop's blurred fall and its visible edge lies further out there than where the
+    scene is dim."""
+    if not (gain > 0 and math.isfinite(gain)):
+        raise PanomapError(f"need a finite gain > 0, got {gain}")
+    return np.clip(np.rint(image * gain), 0, 255).astype(np.uint8)
 
 
 def noisy_jpeg(

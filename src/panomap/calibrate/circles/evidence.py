@@ -17,6 +17,8 @@ from .thresholds import (
     CLEAR_DROP,
     CONVINCING_RIM_FRACTION,
     EDGE_HALF_WINDOW,
+    FALL_SLOPE_PX,
+    FALL_WIDTH_SHARE,
     FEATURE_MIN_RATIO,
     FEATURE_MIN_STRENGTH,
     HALFWAY_WINDOW_PX,
@@ -24,6 +26,7 @@ from .thresholds import (
     LINE_SLOPE_RATIO,
     LINE_WIDTH_PX,
     RAYS,
+    SOFT_FALL_PX,
     STEP,
     WIDE_REACH,
 )
@@ -104,7 +107,8 @@ def _rim_points(
     search runs ``reach`` times the radius either side of it. Each ray's outermost
     clear drop is taken, not its steepest: past the rim the border stays dark, while
     a scene edge inside the disc (a dark target, a checkerboard) may be steeper than
-    a soft rim.
+    a soft rim. With ``halfway``, each ray's half-level crossing instead, on a soft rim only
+    where its fall is as wide as the rim's (:func:`_as_wide_as_the_rim`).
     """
     half = max(reach * radius, 8.0)
     radii = np.arange(max(radius - half, 1.0), radius + half, STEP)
@@ -132,7 +136,9 @@ def _rim_points(
     # A rim: a steep step to something clearly darker (brighter for polarity -1).
     good = in_frame & (drop > 2.0) & (polarity * (inside - outside) > 8.0)
     if halfway:
-        where = radii[0] + STEP * _halfway(samples, index, polarity)
+        at = _halfway(samples, index, polarity)
+        where = radii[0] + STEP * at
+        good &= _as_wide_as_the_rim(_fall_widths(samples, drops, at, polarity), good)
     else:
         where = radii[0] + STEP * _subpixel_peak(drops, index)
     r = where[good]
@@ -267,6 +273,42 @@ def _without_lines(samples: NDArray[Any], polarity: int) -> NDArray[Any]:
     eroded = np.where(missing, -np.inf, eroded).astype(np.float32)
     opened = cv2.dilate(eroded, kernel, borderType=cv2.BORDER_REPLICATE)
     return np.where(missing, np.nan, polarity * opened)
+
+
+def _fall_widths(samples: NDArray[Any], drops: NDArray[Any], at: FloatArray, polarity: int) -> FloatArray:
+    """Each ray's fall width (px) at its half-level crossing ``at`` (rays, R; sub-sample positions): its step (the
+    highest level HALFWAY_WINDOW_PX inside less the lowest as far outside, the rim's polarity) over its steepest drop
+    within FALL_SLOPE_PX of the crossing. A step blurred by a Gaussian of sigma s is sqrt(2 pi) s wide; NaN where
+    the ray has no drop there."""
+    count = samples.shape[1]
+    cols = np.arange(count)[None, :]
+    centre = np.rint(at)[:, None]
+    width = max(1, round(HALFWAY_WINDOW_PX / STEP))
+    level = polarity * samples
+    with np.errstate(invalid="ignore"):
+        high = np.nanmax(np.where((cols >= centre - width) & (cols <= centre), level, -np.inf), axis=1)
+        low = np.nanmin(np.where((cols >= centre) & (cols <= centre + width), level, np.inf), axis=1)
+    near = np.abs(cols - centre) <= max(1, round(FALL_SLOPE_PX / STEP))
+    steepest = np.max(np.where(near, drops, 0.0), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(steepest > 0, (high - low) / steepest, np.nan)
+
+
+def _as_wide_as_the_rim(widths: FloatArray, good: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Which rays' falls (``widths``, px) are as wide as the rim's: at least FALL_WIDTH_SHARE of the median over the
+    ``good`` rays, where that median is SOFT_FALL_PX or more; every ray where it is less (a sharp rim).
+
+    A field stop out of focus blurs the rim alike all round; the scene is in focus. Where a dark thing of the scene
+    lies at a soft rim (a checkerboard's black square, a dark wall), the ray's half level falls at the thing's edge,
+    5-10 px inside the rim, and that fall is a few times narrower than the rim's."""
+    finite = good & np.isfinite(widths)
+    if finite.sum() == 0:
+        return good
+    median = float(np.median(widths[finite]))
+    if median < SOFT_FALL_PX:
+        return good
+    with np.errstate(invalid="ignore"):
+        return np.asarray(good & (widths >= FALL_WIDTH_SHARE * median))
 
 
 def _halfway(samples: NDArray[Any], index: NDArray[Any], polarity: int) -> FloatArray:

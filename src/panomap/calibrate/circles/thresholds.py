@@ -119,6 +119,13 @@ LINE_LEAST_LEVELS = 5.0
 # A rim's edge, re-measured where the search ended, is where the level crosses halfway between its highest this many
 # px inside each ray's drop and its lowest as far outside (evidence._halfway).
 HALFWAY_WINDOW_PX = 15.0
+# ... on rays whose fall is at least FALL_WIDTH_SHARE as wide as the rim's median (evidence._as_wide_as_the_rim; each
+# ray's step over its steepest drop within FALL_SLOPE_PX of the crossing), where that median is SOFT_FALL_PX or more
+# (a stop blurred by a sigma of 2.4 px). Renders of rims fading over 20-30 px (bench_circles_unkind --faded): the
+# rim's falls 14-18 px wide, a dark thing's edge at the rim 3-6 px; a sharp rim's falls are a few px, all alike.
+FALL_WIDTH_SHARE = 0.5
+FALL_SLOPE_PX = 2.0
+SOFT_FALL_PX = 6.0
 # ... fitted this many times about each fit's circle, kept where at least this share of the rim's inliers are found
 # so and the fit's RMS is at most this fraction of the search's (rim._halfway_rim): the half levels lie on a circle
 # clearly better than the steepest points (a sharp rim's steepest points are the finer measure: 0.03-0.06 px).
