@@ -105,6 +105,7 @@ def test_arcs_lie_on_the_true_lines_and_curves_without_bias(scene: Scene) -> Non
     assert np.hypot(*offsets.mean(axis=0)) < 0.02  # a 0.05 px shift of every point fails this
 
 
+@pytest.mark.slow  # the rendered rooms: 4-6 s of set-up on two cores
 def test_arcs_stay_inside_the_usable_annulus(scene: Scene) -> None:
     sc, arcs, _ = scene
     camera = sc.camera
@@ -117,6 +118,7 @@ def test_arcs_stay_inside_the_usable_annulus(scene: Scene) -> None:
     assert all(len(a.pixels) >= 8 and a.contrast > 0 for a in arcs)
 
 
+@pytest.mark.slow  # the rendered rooms: 4-6 s of set-up on two cores
 def test_arcs_cover_the_lines_in_few_pieces_split_at_corners(scene: Scene) -> None:
     # Measured: coverage of the long lines' visible images median 0.74 / 0.63 (the checker's tile lines
     # break at every crossing; the pieces near the image circle are short), median 1 piece per line; one
@@ -143,6 +145,7 @@ def test_arcs_cover_the_lines_in_few_pieces_split_at_corners(scene: Scene) -> No
     assert mixed <= 0.03 * len(arcs)
 
 
+@pytest.mark.slow  # the rendered rooms: 4-6 s of set-up on two cores
 def test_curved_things_come_out_as_arcs_on_no_line(scene: Scene) -> None:
     # Measured: the rug, the ring and the painted disc each give arcs in both cameras; at most 25% of
     # such an arc's points lie within 1 px of a true line (where the rug covers tile lines).
