@@ -398,6 +398,32 @@ def placeholder_text(key: str, spec: str, conversion: str) -> str:
     return "{" + key + (f"!{conversion}" if conversion else "") + (f":{spec}" if spec else "") + "}"
 
 
+def fill_pattern(pattern: str, key: str, meaning: str, values: Iterable[str], required: bool = True) -> list[Path]:
+    """The file names of an output name ``pattern`` holding ``{key}`` (``meaning``: what it stands for, for the
+    message), one for each of ``values``; ``{{`` and ``}}`` are literal braces. ``required``: a pattern without
+    ``{key}`` is refused (else it names one file for every value).
+
+    Raises
+    ------
+    PanomapError
+        Where the pattern is malformed, holds any other placeholder (taken literally, a mistyped ``{view}``
+        wrote one file for all), or holds no ``{key}`` where it is ``required``.
+    """
+    try:
+        fields = placeholders(pattern)
+    except ValueError as exc:
+        raise PanomapError(f"{pattern!r} is malformed ({exc}; write a literal brace as {{{{ or }}}})") from None
+    for field, spec, conversion in fields:
+        if field != key or spec or conversion:
+            raise PanomapError(
+                f"{pattern!r} has an unknown placeholder {placeholder_text(field, spec, conversion)}: the only one "
+                f"is {{{key}}}, {meaning} (write a literal brace as {{{{ or }}}})"
+            )
+    if required and not fields:
+        raise PanomapError(f"{pattern!r} has no {{{key}}} to put {meaning} in")
+    return [Path(pattern.format(**{key: value})) for value in values]
+
+
 def check_output_paths(
     inputs: Iterable[tuple[str, str | Path | None]], outputs: Iterable[tuple[str, str | Path | None]]
 ) -> None:

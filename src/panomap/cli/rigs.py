@@ -12,7 +12,7 @@ import click
 import numpy as np
 
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, read_text
+from ..files import all_or_none, check_outputs, fill_pattern, read_text
 from ..io.images import read_image, read_rig_pictures, save_map, write_image
 from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
 from ..views import View
@@ -33,12 +33,15 @@ def render_rig(
 ) -> None:
     """A view of a rig: each camera's map, blended (gains matched over the overlaps); ``each`` (a pattern with
     ``{camera}``) also writes each camera's own unblended view."""
-    if each is not None and "{camera}" not in each:
-        raise click.BadParameter(f"{each!r} has no {{camera}} to name each camera's file", param_hint="'--each'")
+    if each is not None:
+        try:
+            fill_pattern(each, "camera", "each camera's name", ())
+        except PanomapError as exc:
+            raise click.BadParameter(exc.detail, param_hint="'--each'") from None
     rig = load_rig(rig_path)
     outputs = [("the output", output), ("--save-map", save_map_path)]
-    if each is not None:
-        outputs += [(f"--each for {name}", Path(each.format(camera=name))) for name in rig.names]
+    each_paths = fill_pattern(each, "camera", "each camera's name", rig.names) if each is not None else []
+    outputs += [(f"--each for {name}", path) for name, path in zip(rig.names, each_paths, strict=False)]
     check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], outputs)
     pictures = _pictures(rig, images)
     maps = camera_maps(rig, view, sampling)
@@ -51,8 +54,8 @@ def render_rig(
         if save_map_path is not None:
             save_map(save_map_path, _strongest_map(maps, remapper.weights))
         if each is not None:
-            for name, layer in zip(rig.names, layers, strict=True):
-                write_image(Path(each.format(camera=name)), layer)
+            for path, layer in zip(each_paths, layers, strict=True):
+                write_image(path, layer)
     seen = float(np.mean(remapper.weights.sum(axis=0) > 0))
     shown = ", ".join(f"{name} x{float(np.mean(g)):.3f}" for name, g in zip(rig.names, gains, strict=True))
     say(
@@ -314,9 +317,17 @@ def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], sid
             placed.append((x, 0))
             x += table.image_size[0]  # type: ignore[index]
         offsets = tuple(placed)
-    made = CameraRig(
-        loaded, names or tuple(table.stem for table in tables), offsets, {"made of": [t.name for t in tables]}
-    )
+    try:
+        made = CameraRig(
+            loaded, names or tuple(table.stem for table in tables), offsets, {"made of": [t.name for t in tables]}
+        )
+    except PanomapError as exc:
+        if names:
+            raise
+        # The names were the tables' file names: say so, and how to give others.
+        raise click.UsageError(
+            f"{exc.detail}: the cameras are named after their tables' files; name each with --name"
+        ) from None
     _write_rig(made, output, made.describe())
 
 

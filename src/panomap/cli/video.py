@@ -18,7 +18,7 @@ from typing import Any
 import click
 
 from ..errors import PanomapError
-from ..files import check_outputs, local_file, placeholder_text, placeholders
+from ..files import check_outputs, fill_pattern, local_file, placeholders
 from ..remap import INTERPOLATIONS
 from ..rig.file import is_rig_file, load_rig
 from ..table.file import load_table
@@ -77,20 +77,12 @@ def output_paths(pattern: str, views: list[NamedView]) -> list[Path]:
     literal braces). Any other ``{key}`` is refused: taken literally, a mistyped ``{view}`` wrote one file
     named ``out_{view}.mp4`` for every view."""
     try:
-        fields = placeholders(pattern)
-    except ValueError as exc:
-        raise click.BadParameter(f"{pattern!r} is malformed ({exc}; write a literal brace as {{{{ or }}}})",
-                                 param_hint="'-o'") from None  # fmt: skip
-    for key, spec, conversion in fields:
-        if key != "name" or spec or conversion:
-            raise click.BadParameter(
-                f"{pattern!r} has an unknown placeholder {placeholder_text(key, spec, conversion)}: the only one is "
-                "{name}, the view's name (write a literal brace as {{ or }})",
-                param_hint="'-o'",
-            )
-    if not fields and len(views) > 1:
+        paths = fill_pattern(pattern, "name", "the view's name", [item.name for item in views], required=False)
+    except PanomapError as exc:
+        raise click.BadParameter(exc.detail, param_hint="'-o'") from None
+    if not placeholders(pattern) and len(views) > 1:
         raise click.UsageError("with several views the output pattern needs {name}, e.g. -o 'out_{name}.mp4'")
-    return [Path(pattern.format(name=item.name)) for item in views]
+    return paths
 
 
 # The signals that finish every output cleanly (SIGHUP where the system has it).

@@ -13,6 +13,7 @@ from typing import Any
 import av
 
 from ..errors import PanomapError
+from .encoder_open import open_codec
 from .handoff import END, QUEUE_FRAMES, reason
 
 
@@ -173,14 +174,19 @@ def open_writer(
     except (av.error.FFmpegError, ValueError, TypeError) as exc:
         container.close()
         raise PanomapError(f"cannot encode {encoder.codec} {encoder.pix_fmt} into it: {reason(exc)}", path) from None
-    try:
-        # Opened on its own (start_encoding then skips it), so that a value it refuses is blamed on it.
-        video.codec_context.open()
-    except (av.error.FFmpegError, ValueError, TypeError) as exc:
+    # Opened on its own (start_encoding then skips it), so that a value it refuses is blamed on it.
+    refused = open_codec(video.codec_context)
+    if refused is not None:
         container.close()
+        if _opens_smaller(encoder, rate or Fraction(25), time_base):
+            raise PanomapError(
+                f"the video encoder {encoder.codec} cannot encode frames of {size[0]} x {size[1]} ({refused}): "
+                "give the view a smaller size",
+                path,
+            )
         raise PanomapError(
-            f"the video encoder {encoder.codec} refused its options ({encoder.described()}): {reason(exc)}", path
-        ) from None
+            f"the video encoder {encoder.codec} refused its options ({encoder.described()}): {refused}", path
+        )
     if audio_template is not None and container.format.name == "mpegts":
         codec = audio_template.codec_context.name
         if codec not in MPEGTS_AUDIO:
@@ -202,6 +208,26 @@ def open_writer(
         ) from None
     return Writer(path, temporary, container, video, audio)
 
+
+def _opens_smaller(encoder: EncoderSettings, rate: Fraction, time_base: Fraction) -> bool:
+    """Whether the encoder opens with the same options and pixel format for a small frame (so that what it
+    refused was the frame's size)."""
+    context: Any = av.codec.CodecContext.create(encoder.codec, "w")
+    try:
+        context.width, context.height = PROBE_SIZE
+        context.pix_fmt = encoder.pix_fmt
+        context.framerate = rate
+        context.time_base = time_base
+        if encoder.bitrate is not None:
+            context.bit_rate = encoder.bitrate
+        context.options = encoder.codec_options()
+    except (av.error.FFmpegError, ValueError, TypeError):
+        return False
+    return open_codec(context, echo=False) is None
+
+
+# A frame every encoder takes (divisible by 16; above every encoder's least size).
+PROBE_SIZE = (256, 144)
 
 # The encoders' threading: libavcodec's default (frame and slice threads), as ffmpeg's command line encodes;
 # the thread count stays PyAV's 0 (as many as there are cores), as ffmpeg's ``-threads auto``.

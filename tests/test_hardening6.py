@@ -1,0 +1,181 @@
+"""Hardening 6: the command line fuzzed command by command; each fault found is pinned here.
+
+A floor view's resolution too fine for any image (C1); an encoder's own refusal, which went past FFmpeg's log
+(x264 on stderr) or was hidden behind "Generic error" (a frame wider than the encoder takes) (C2); a rig's
+``--each`` pattern and its cameras' names, which go into file names (C3).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import zipfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from panomap.errors import PanomapError
+from panomap.rig import CameraRig
+from panomap.simulate import standard_cameras
+from panomap.table.file import load_table, save_table
+from panomap.views.floor import FloorView
+
+from helpers import assert_one_line_error, learn_table, run, spread_landmarks
+
+SIZE = (240, 240)
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder with a table fitted to a simulated hyperbolic camera (cam.npz), the same table twice as
+    front.npz and back.npz, their rig (rig.npz), an image of its size (omni.png) and an out/ folder."""
+    folder = tmp_path_factory.mktemp("hardening6")
+    camera = standard_cameras(SIZE, centre=(121.3, 118.2))["hyperbolic"]
+    position = (0.3, -0.2, 2.5)
+    marks = spread_landmarks(camera, position, 30, np.random.default_rng(3))
+    table, _ = learn_table(camera, position, marks, SIZE)
+    save_table(table, folder / "cam.npz")
+    for name in ("front", "back"):
+        shutil.copy(folder / "cam.npz", folder / f"{name}.npz")
+    image = np.random.default_rng(0).integers(0, 255, (*SIZE, 3), dtype=np.uint8)
+    cv2.imwrite(str(folder / "omni.png"), image)
+    (folder / "out").mkdir()
+    result = run("rig", "make", folder / "front.npz", folder / "back.npz", "-o", folder / "rig.npz")
+    assert result.exit_code == 0, result.output + result.stderr
+    return folder
+
+
+def written(folder: Path) -> list[str]:
+    return sorted(path.name for path in folder.iterdir())
+
+
+# ----------------------------------------------------------------------------- C1: a resolution too fine
+
+
+@pytest.mark.parametrize(("x_range", "shown"), [((0.0, 6.0), "6e+300 x 5e+300"), ((-1e9, 1e9), "inf x 5e+300")])
+def test_a_floor_resolution_too_fine_for_any_image_is_refused_in_a_short_line(
+    inputs: Path, x_range: tuple[float, float], shown: str
+) -> None:
+    """It printed the image's width as a 300-digit integer, and over a wide extent failed with OverflowError's
+    traceback (the width rounded from infinity)."""
+    with pytest.raises(PanomapError, match="too large") as error:
+        FloorView.with_resolution(0.0, x_range, (0.0, 5.0), 1e-300)
+    assert shown in str(error.value) and len(str(error.value)) < 160
+    out = inputs / "out" / "floor.png"
+    result = run("floor", inputs / "cam.npz", inputs / "omni.png", "-o", out, "--z", 0, "--x", *x_range,
+                 "--y", 0, 5, "--resolution", 1e-300)  # fmt: skip
+    assert_one_line_error(result, f"an image of {shown} px: too large", exit_code=2)
+    assert not out.exists()
+
+
+def test_a_fine_resolution_within_the_limits_still_gives_its_size() -> None:
+    assert FloorView.with_resolution(0.0, (0.0, 6.0), (0.0, 5.0), 0.01).size == (600, 500)
+    assert FloorView.with_resolution(0.0, (0.0, 6.0), (0.0, 5.0), 1e3).size == (1, 1)
+
+
+# ----------------------------------------------------------------------------- C2: the encoder's own words
+
+
+@pytest.mark.parametrize(
+    ("options", "reason"),
+    [
+        (["--preset", "nope"], "invalid preset 'nope'"),
+        (["--encoder-option", "tune=nope"], "invalid tune 'nope'"),
+    ],
+)
+def test_x264s_own_refusal_is_the_reason_and_nothing_else_is_printed(
+    inputs: Path, capfd: pytest.CaptureFixture[str], options: list[str], reason: str
+) -> None:
+    """x264 printed "x264 [error]: invalid preset 'nope'" to the process's stderr itself, a second line beside
+    ours, which said only "Invalid argument"."""
+    out = inputs / "out" / "x264.mp4"
+    result = run("video", inputs / "cam.npz", inputs / "omni.png", "-o", out, "--view", "panorama:size=64x16",
+                 *options)  # fmt: skip
+    assert_one_line_error(result, "x264.mp4: the video encoder libx264 refused its options", reason)
+    assert "x264 [error]" not in capfd.readouterr().err
+    assert not out.exists()
+
+
+def test_a_frame_wider_than_the_encoder_takes_is_said_so(inputs: Path) -> None:
+    """x264 takes frames up to 16384 px a side: a wider view said "refused its options (preset=veryfast,
+    crf=20): Generic error in an external library", blaming the options."""
+    out = inputs / "out" / "wide.mp4"
+    result = run("video", inputs / "cam.npz", inputs / "omni.png", "-o", out, "--view", "equirect:size=16386x64")
+    assert_one_line_error(result, "wide.mp4: the video encoder libx264 cannot encode frames of 16386 x 64",
+                          "16386x64", "give the view a smaller size")  # fmt: skip
+    assert not out.exists()
+
+
+def test_an_encoder_that_opens_still_writes_the_video(inputs: Path) -> None:
+    out = inputs / "out" / "fine.mp4"
+    result = run("video", inputs / "cam.npz", inputs / "omni.png", "-o", out, "--view", "panorama:size=64x16", "-q")
+    assert result.exit_code == 0 and result.stderr == "", result.stderr
+    assert out.stat().st_size > 0
+
+
+# ----------------------------------------------------------------------------- C3: a rig's names in file names
+
+
+@pytest.mark.parametrize(
+    ("pattern", "message"),
+    [
+        ("{camera}{0}.png", "unknown placeholder {0}: the only one is {camera}"),
+        ("{camera}{x}.png", "unknown placeholder {x}"),
+        ("{camera.__class__}.png", "unknown placeholder {camera.__class__}"),
+        ("{camera:>9}.png", "unknown placeholder {camera:>9}"),
+        ("{camera}{.png", "is malformed (expected '}' before end of string"),
+        ("{camera}}.png", "is malformed (Single '}'"),
+        ("{{camera}}.png", "has no {camera} to put each camera's name in"),
+    ],
+)
+def test_an_each_pattern_with_any_other_placeholder_is_refused(inputs: Path, pattern: str, message: str) -> None:
+    """IndexError's, KeyError's or ValueError's traceback; {camera.__class__} wrote "<class 'str'>front.png"."""
+    out = inputs / "out"
+    before = written(out)
+    result = run("equirect", inputs / "rig.npz", inputs / "omni.png", inputs / "omni.png", "-o", out / "r.png",
+                 "--size", "64x32", "--each", f"{out}/{pattern}")  # fmt: skip
+    assert_one_line_error(result, "'--each'", message, exit_code=2)
+    assert written(out) == before
+
+
+@pytest.mark.parametrize("name", ["../../x", "a/b", "a\\b", "..", " ", "", "\x1b[31m", "a\u202eb", "n" * 65])
+def test_a_camera_name_that_cannot_name_a_file_is_refused(inputs: Path, name: str) -> None:
+    """``--each 'out/{camera}.png'`` with a camera named ../../x wrote two folders up; an escape sequence went
+    to the terminal and into a file name."""
+    tables = (load_table(inputs / "cam.npz"),) * 2
+    with pytest.raises(PanomapError, match="cannot name a file"):
+        CameraRig(tables, (name, "back"))
+    out = inputs / "out" / "named.npz"
+    result = run("rig", "make", inputs / "front.npz", inputs / "back.npz", "--name", name, "--name", "b", "-o", out)
+    assert_one_line_error(result, "cannot name a file: 1 to 64 characters, no / or \\")
+    assert "\x1b" not in result.stderr and not out.exists()
+
+
+def test_a_rig_file_edited_to_hold_such_a_name_is_refused(inputs: Path, tmp_path: Path) -> None:
+    edited = tmp_path / "edited.npz"
+    with zipfile.ZipFile(inputs / "rig.npz") as source, zipfile.ZipFile(edited, "w") as target:
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename == "rig.json":
+                index = json.loads(data)
+                index["names"][1] = "../../x"
+                data = json.dumps(index).encode()
+            target.writestr(item, data)
+    result = run("equirect", edited, inputs / "omni.png", inputs / "omni.png", "-o", tmp_path / "r.png",
+                 "--size", "64x32", "--each", f"{tmp_path}/{{camera}}.png")  # fmt: skip
+    assert_one_line_error(result, "edited.npz: the rig is malformed (camera name '../../x' cannot name a file")
+    assert written(tmp_path) == ["edited.npz"]
+
+
+def test_tables_of_one_file_name_are_told_to_be_named(inputs: Path, tmp_path: Path) -> None:
+    """It said "a rig needs one name per camera, each its own", not which name or how to give others."""
+    (tmp_path / "a").mkdir()
+    shutil.copy(inputs / "cam.npz", tmp_path / "a" / "cam.npz")
+    out = tmp_path / "rig.npz"
+    result = run("rig", "make", inputs / "cam.npz", tmp_path / "a" / "cam.npz", "-o", out)
+    assert_one_line_error(result, "(cam twice)", "named after their tables' files; name each with --name", exit_code=2)
+    result = run("rig", "make", inputs / "front.npz", inputs / "back.npz", "--name", "x", "--name", "x", "-o", out)
+    assert_one_line_error(result, "a rig needs one name per camera, each its own (x twice)")
+    assert not out.exists()
