@@ -179,3 +179,58 @@ def test_tables_of_one_file_name_are_told_to_be_named(inputs: Path, tmp_path: Pa
     result = run("rig", "make", inputs / "front.npz", inputs / "back.npz", "--name", "x", "--name", "x", "-o", out)
     assert_one_line_error(result, "a rig needs one name per camera, each its own (x twice)")
     assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- C4: a CSV's column given twice
+
+
+@pytest.mark.parametrize(
+    ("command", "header", "message"),
+    [
+        ("unproject", "u,u,v", "holds u 2 times (columns 1, 2)"),
+        ("unproject", "U,v,u", "holds u 2 times (columns 1, 3)"),
+        ("fit", "name,u,v,X,Y,Z,x", "holds X 2 times (columns 4, 7)"),
+    ],
+)
+def test_a_csv_holding_a_column_twice_is_refused(inputs: Path, tmp_path: Path, command: str, header: str,
+                                                 message: str) -> None:  # fmt: skip
+    """The columns are found in any case: the first of two was taken, silently (u,u,v read u from column 1)."""
+    points = tmp_path / "points.csv"
+    if command == "fit":
+        points.write_text(f"{header}\n" + "".join(f"a{k},{10 * k},20,3,4,0,1\n" for k in range(6)))
+        out = tmp_path / "cam.npz"
+        args = [points, "-o", out, "--camera", 0.3, -0.2, 2.5, "--centre", 120, 120, "--image-size", "240x240"]
+    else:
+        points.write_text(f"{header}\n100,110,120\n")
+        out = tmp_path / "rays.csv"
+        args = [inputs / "cam.npz", points, "-o", out]
+    result = run(command, *args)
+    assert_one_line_error(result, "points.csv: the CSV's header holds", message, "keep one")
+    assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- C5: a table or a rig not .npz
+
+
+@pytest.mark.parametrize(
+    ("command", "what"),
+    [
+        (["import", "{omni.png}", "-o", "{out}/t.png"], "a table (or a rig)"),
+        (["orient", "{cam.npz}", "-o", "{out}/t.png", "--orientation", 0, 0, 0], "a table"),
+        (["level", "{cam.npz}", "{omni.png}", "-o", "{out}/t"], "a table"),
+        (["rig", "make", "{front.npz}", "{back.npz}", "-o", "{out}/r.zip"], "a rig"),
+        (["rig", "learn", "{rig.npz}", "{omni.png}", "{omni.png}", "-o", "{out}/r.png"], "a rig"),
+        (["rig", "learn", "--side-by-side", "{omni.png}", "-o", "{out}/r.json"], "a rig"),
+        (["rig", "place", "{rig.npz}", "{omni.png}", "{omni.png}", "-o", "{out}/r.npy"], "a rig"),
+    ],
+)
+def test_a_table_or_rig_named_other_than_npz_is_refused_before_any_work(
+    inputs: Path, tmp_path: Path, command: list[object], what: str
+) -> None:
+    """``fit`` refused ``-o cam.png``; import, orient, level and the rig commands wrote a table or a rig under
+    any name (cam.png, which every other program takes for a broken picture)."""
+    files = {f"{{{path.name}}}": str(path) for path in inputs.iterdir()} | {"{out}": str(tmp_path)}
+    args = [files.get(str(arg), str(arg)).replace("{out}", str(tmp_path)) for arg in command]
+    result = run(*args)
+    assert_one_line_error(result, "'-o'", f"{what} is written as .npz (name it so)", exit_code=2)
+    assert list(tmp_path.iterdir()) == []
