@@ -22,7 +22,7 @@ from panomap.simulate import standard_cameras
 from panomap.table.file import load_table, save_table
 from panomap.views.floor import FloorView
 
-from helpers import assert_one_line_error, learn_table, run, spread_landmarks
+from helpers import assert_one_line_error, learn_table, run, spread_landmarks, write_clip
 
 SIZE = (240, 240)
 
@@ -234,3 +234,87 @@ def test_a_table_or_rig_named_other_than_npz_is_refused_before_any_work(
     result = run(*args)
     assert_one_line_error(result, "'-o'", f"{what} is written as .npz (name it so)", exit_code=2)
     assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------------------- C6: batch's job-wide refusals
+
+
+BATCH = ["batch", "--workers", "1", "--view", "panorama:size=64x16"]
+
+
+@pytest.mark.parametrize("table", ["omni.png", "empty.npz"])
+def test_a_batch_table_that_is_no_table_is_refused_once_before_the_cluster(
+    inputs: Path, tmp_path: Path, table: str
+) -> None:
+    """Each input's task failed on the cluster (after its retries), one line each, then the summary."""
+    (inputs / "empty.npz").touch()
+    record = tmp_path / "record.jsonl"
+    result = run(*BATCH, inputs / "omni.png", "--table", inputs / table,
+                 "-o", f"{tmp_path}/{{stem}}_{{name}}.png", "--record", record)  # fmt: skip
+    assert_one_line_error(result, f"{table}: not a panomap table")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_batch_video_whose_output_is_no_video_file_is_refused_before_the_cluster(
+    inputs: Path, tmp_path: Path
+) -> None:
+    """The video's task failed on the cluster with "unknown video file type '.png'"."""
+    clip = tmp_path / "clip.mp4"
+    write_clip(clip, [cv2.imread(str(inputs / "omni.png"))] * 2, 5)
+    out = tmp_path / "out"
+    out.mkdir()
+    result = run(*BATCH, clip, "--table", inputs / "cam.npz", "-o", f"{out}/{{stem}}_{{name}}.png",
+                 "--record", tmp_path / "record.jsonl")  # fmt: skip
+    assert_one_line_error(result, "clip_panorama.png: unknown video file type '.png'")
+    assert list(out.iterdir()) == []
+
+
+def test_a_batch_camera_name_with_a_control_character_is_refused(inputs: Path, tmp_path: Path) -> None:
+    """An escape sequence named a folder of outputs (listing it rewrote the terminal)."""
+    result = run(*BATCH, inputs / "omni.png", "--table", inputs / "cam.npz", "--camera", "\x1b[2J",
+                 "-o", f"{tmp_path}/{{camera}}/{{stem}}_{{name}}.png", "--record", tmp_path / "r.jsonl")  # fmt: skip
+    assert_one_line_error(result, "the camera name '\\x1b[2J' must be a plain name", "control characters")
+    assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------------------- C7: room on the disk, first
+
+
+def no_room(monkeypatch: pytest.MonkeyPatch, free: int) -> None:
+    """Every disk has ``free`` bytes free."""
+    monkeypatch.setattr("panomap.files.shutil.disk_usage", lambda _path: shutil._ntuple_diskusage(10**12, 0, free))
+
+
+@pytest.mark.parametrize(
+    ("options", "named", "needed"),
+    [
+        (["--save-map", "{out}/m.npy"], "m.npy", "160 kB"),
+        (["--save-map-pgm", "{out}/m"], "m_x.pgm", "80 kB"),
+    ],
+)
+def test_a_map_its_disk_has_no_room_for_is_refused_before_any_work(
+    inputs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, options: list[str], named: str, needed: str
+) -> None:
+    """A full disk was found when the map was written, after the work (each output whole or none, as now)."""
+    no_room(monkeypatch, 50_000)
+    args = [option.replace("{out}", str(tmp_path)) for option in options]
+    result = run("panorama", inputs / "cam.npz", inputs / "omni.png", "-o", tmp_path / "p.png", "--size", "200x100",
+                 *args)  # fmt: skip
+    assert_one_line_error(result, f"{named}: no room for it: {needed} to write, its disk has 50 kB free")
+    assert list(tmp_path.iterdir()) == []
+    no_room(monkeypatch, 10**9)
+    result = run("panorama", inputs / "cam.npz", inputs / "omni.png", "-o", tmp_path / "p.png", "--size", "200x100",
+                 *args, "-q")  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+
+
+def test_a_table_of_a_given_size_its_disk_has_no_room_for_is_refused_before_the_fit(
+    inputs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    marks = tmp_path / "marks.csv"
+    marks.write_text("u,v,X,Y,Z\n" + "".join(f"{100 + k},{120 + k},{k},1,0\n" for k in range(6)))
+    no_room(monkeypatch, 2_000)
+    result = run("fit", marks, "-o", tmp_path / "cam.npz", "--camera", 0, 0, 2, "--centre", 120, 120,
+                 "--image-size", "240x240", "--size", "100x50")  # fmt: skip
+    assert_one_line_error(result, "cam.npz: no room for it: 40 kB to write, its disk has 2 kB free")
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["marks.csv"]

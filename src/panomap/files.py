@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import shutil
 import stat
 import string
 import tempfile
@@ -285,6 +286,41 @@ def check_output(path: str | Path) -> None:
     if not os.access(directory, os.W_OK | os.X_OK):
         raise PanomapError("its folder is not writable", path)
     check_replaceable(path)
+
+
+def check_room(outputs: Iterable[tuple[str | Path, int]]) -> None:
+    """Refuse, before any work, outputs of known size (``(path, bytes)``: a map, a table) that their disks
+    have no room for, the outputs on one disk counted together (each is written whole beside its name before
+    it replaces it, so an output it replaces frees nothing).
+
+    Raises
+    ------
+    PanomapError
+        Naming the first output of a disk without room, what the outputs on it need and what it has free.
+    """
+    needs: dict[int, tuple[Path, Path, int]] = {}
+    for given, size in outputs:
+        path = Path(given)
+        directory = path.parent if str(path.parent) else Path(".")
+        try:
+            device = directory.stat().st_dev
+        except OSError:
+            continue  # (a missing folder is check_output's to name)
+        first, folder, total = needs.get(device, (path, directory, 0))
+        needs[device] = (first, folder, total + size)
+    for first, folder, total in needs.values():
+        try:
+            free = shutil.disk_usage(folder).free
+        except OSError:
+            continue
+        if total > free:
+            raise PanomapError(
+                f"no room for it: {_megabytes(total)} to write, its disk has {_megabytes(free)} free", first
+            )
+
+
+def _megabytes(size: int) -> str:
+    return f"{size / 1e6:.1f} MB" if size >= 1_000_000 else f"{size / 1e3:.0f} kB"
 
 
 def check_outputs(

@@ -12,8 +12,8 @@ import click
 import numpy as np
 
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, fill_pattern, read_text
-from ..io.images import read_image, read_rig_pictures, save_map, write_image
+from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_text
+from ..io.images import map_file_bytes, read_image, read_rig_pictures, save_map, write_image
 from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
 from ..views import View
 from .options import check_npz_output, progress_bar, say
@@ -43,6 +43,7 @@ def render_rig(
     each_paths = fill_pattern(each, "camera", "each camera's name", rig.names) if each is not None else []
     outputs += [(f"--each for {name}", path) for name, path in zip(rig.names, each_paths, strict=False)]
     check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], outputs)
+    check_room(map_file_bytes(view.output_size(rig.tables[0]), save_map_path))  # (every camera takes camera 0's)
     pictures = _pictures(rig, images)
     maps = camera_maps(rig, view, sampling)
     remapper = RigRemapper(rig, maps, interp, wrap=view.kind in WRAPPING_KINDS)
