@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import shutil
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
@@ -17,10 +18,12 @@ import numpy as np
 import pytest
 
 from panomap.errors import PanomapError
+from panomap.interop.readers.json_text import load_json
 from panomap.rig import CameraRig
 from panomap.simulate import standard_cameras
 from panomap.table.file import load_table, save_table
 from panomap.views.floor import FloorView
+from test_rig import BACK_TO_BACK, camchain
 
 from helpers import assert_one_line_error, learn_table, run, spread_landmarks, write_clip
 
@@ -332,3 +335,33 @@ def test_a_host_no_page_can_listen_on_is_named_alone(inputs: Path, host: str) ->
     result = run("learn", inputs / "omni.png", "--host", host, "--port", 0, "--dir", inputs / "out")
     assert result.exit_code == 1 and "not loopback" not in result.stderr  # (a note on the noise's circles first)
     assert "choose another --host" in result.stderr.splitlines()[-1], result.stderr
+
+
+# ----------------------------------------------------------------------------- C9: a rig's file, whole or refused
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda text: text.replace("[0, 0, -1, -0.02]", "[0, 0, -1, .nan]"), "cam1.T_cn_cnm1[2][3] is nan"),
+        (lambda text: text.replace("[0, 0, -1, -0.02]", "[0, 0, -1, x]"), "cam1.T_cn_cnm1[2] is [0, 0, -1, 'x']"),
+        (lambda text: text.rsplit("  T_cn_cnm1:", 1)[0], "cam2.T_cn_cnm1 is missing"),
+        (lambda text: text.replace("cam1:", "cam0:"), "the key 'cam0' is written twice in one map (line 7)"),
+    ],
+)
+def test_a_camchain_with_a_broken_camera_is_refused_not_imported_as_its_first(
+    tmp_path: Path, edit: Callable[[str], str], message: str
+) -> None:
+    """Its rig was not recognised, and camera 0 alone was imported as a table: "wrote cam.npz", exit 0."""
+    chain = camchain(tmp_path / "chain.yaml", [BACK_TO_BACK, BACK_TO_BACK])
+    chain.write_text(edit(chain.read_text()))
+    out = tmp_path / "cam.npz"
+    assert_one_line_error(run("import", chain, "-o", out), f"chain.yaml: {message}")
+    assert not out.exists()
+
+
+def test_a_json_key_written_twice_is_refused() -> None:
+    """``json`` keeps the last of two, silently (a Basalt calibration's fx written twice)."""
+    with pytest.raises(PanomapError, match=r"x\.json: the key 'fx' is written twice in one object"):
+        load_json('{"intrinsics": {"fx": 122.5, "fx": 500}}', "x.json")
+    assert load_json('{"a": {"fx": 1}, "b": {"fx": 2}}', "x.json") == {"a": {"fx": 1}, "b": {"fx": 2}}

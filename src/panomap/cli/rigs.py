@@ -99,24 +99,39 @@ def _write_rig(rig: CameraRig, output: Path, report: Iterable[str]) -> None:
 def rig_format(path: Path, format_: str | None) -> str | None:
     """The format of ``path`` where it holds a rig (a Kalibr camchain of two or more cameras each with its
     T_cn_cnm1, a Basalt calibration of two or more cameras with their T_imu_cam, a Hugin project of two or more
-    images); None otherwise (the single camera's import says what is wrong with a file it cannot read)."""
+    images); None otherwise (the single camera's import says what is wrong with a file it cannot read).
+
+    Raises
+    ------
+    PanomapError
+        Where the file writes a rig (several cameras, poses between them) and one of them is malformed (a pose
+        of NaN, a camera without its pose): imported as one camera, camera 0 alone came out of a rig, silently.
+    """
     from ..interop.readers import READERS, basalt, hugin_pto, kalibr
 
     try:
         text = read_text(path)
-        found = [name for name, entry in READERS.items() if entry.looks_like(text)] if format_ is None else [format_]
-        if not found or found[0] not in ("kalibr", "basalt", "hugin"):
-            return None
-        # A file naming one camera is no rig: it is not parsed here (the import parses it once).
-        if found[0] == "kalibr":
-            many = len(kalibr.CAMERA_MODEL_KEY.findall(text)) > 1
-            count = len(kalibr.read_chain(text, path)) if many else 1
-        elif found[0] == "basalt":
-            count = len(basalt.read(text, path, None).rig_poses) if text.count('"camera_type"') > 1 else 1
-        else:
-            count = len(hugin_pto.read_images(text, path))
     except PanomapError:
         return None
+    found = [name for name, entry in READERS.items() if entry.looks_like(text)] if format_ is None else [format_]
+    if not found or found[0] not in ("kalibr", "basalt", "hugin"):
+        return None
+    # A file naming one camera is no rig: it is not parsed here (the import parses it once).
+    if found[0] == "kalibr":
+        many = len(kalibr.CAMERA_MODEL_KEY.findall(text)) > 1
+        try:
+            count = len(kalibr.read_chain(text, path)) if many else 1
+        except PanomapError:
+            if "T_cn_cnm1" in text:
+                raise
+            return None  # (cameras without poses: no chain; the import takes the first, as documented)
+    elif found[0] == "basalt":
+        count = len(basalt.read(text, path, None).rig_poses) if text.count('"camera_type"') > 1 else 1
+    else:
+        try:
+            count = len(hugin_pto.read_images(text, path))
+        except PanomapError:
+            return None  # (a project whose images cannot be read: the single camera's import says why)
     return found[0] if count > 1 else None
 
 
