@@ -17,6 +17,8 @@ import cv2
 import numpy as np
 import pytest
 
+from panomap.calibrate.circles.types import Circle, ImageCircles
+from panomap.calibrate.lines.orientation import pixel_world_azimuth, zero_azimuth
 from panomap.errors import PanomapError
 from panomap.interop.readers.json_text import load_json
 from panomap.rig import CameraRig
@@ -365,3 +367,31 @@ def test_a_json_key_written_twice_is_refused() -> None:
     with pytest.raises(PanomapError, match=r"x\.json: the key 'fx' is written twice in one object"):
         load_json('{"intrinsics": {"fx": 122.5, "fx": 500}}', "x.json")
     assert load_json('{"a": {"fx": 1}, "b": {"fx": 2}}', "x.json") == {"a": {"fx": 1}, "b": {"fx": 2}}
+
+
+# ----------------------------------------------------------------------------- C10: pixels and pictures given once
+
+
+@pytest.mark.parametrize(("offset", "radius"), [((0.2, -0.1), "0.2"), ((-5000.0, 0.0), "5000.0"), ((3.0, 0.0), "3.0")])
+def test_a_pixel_for_azimuth_zero_outside_the_scene_is_refused(
+    inputs: Path, offset: tuple[float, float], radius: str
+) -> None:
+    """At the centre every azimuth meets (the pixel's azimuth was the centre's noise), and past the image
+    circle the camera sees nothing: ``fit --image --azimuth-zero`` took both."""
+    model = load_table(inputs / "cam.npz").model
+    u0, v0 = model.centre
+    circles = ImageCircles((u0, v0), Circle((u0, v0), 110.0, 0.1, 100, 100), None, None)
+    with pytest.raises(PanomapError, match=f"is {radius} px from the image centre: give a pixel of the scene, 5 to"):
+        zero_azimuth(model, (u0 + offset[0], v0 + offset[1]), circles)
+    turned = zero_azimuth(model, (u0 + 60.0, v0), circles)  # (in the ring: taken; its azimuth is now 0)
+    assert abs(pixel_world_azimuth(turned, (u0 + 60.0, v0))) < 1e-9
+
+
+def test_a_picture_given_twice_to_level_is_refused(inputs: Path, tmp_path: Path) -> None:
+    """Its vertical lines counted twice (levelling needs 4: two lines given twice passed)."""
+    shutil.copy(inputs / "omni.png", tmp_path / "copy.png")
+    out = tmp_path / "level.npz"
+    for second, how in ((inputs / "omni.png", "the same file"), (tmp_path / "copy.png", "the same bytes")):
+        result = run("level", inputs / "cam.npz", inputs / "omni.png", second, "-o", out)
+        assert_one_line_error(result, f"are one picture ({how}): give each picture once", exit_code=2)
+    assert not out.exists()

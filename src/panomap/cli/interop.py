@@ -10,7 +10,7 @@ import click
 from ..calibrate.circles import ImageCircles
 from ..calibrate.level import level_table
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs
+from ..files import all_or_none, check_outputs, same_input
 from ..interop.api import check_image_size, table_of_imported
 from ..interop.export import FORMATS, export_calibration
 from ..interop.orient import orient_table
@@ -275,6 +275,13 @@ def level(table: Path, images: tuple[Path, ...], output: Path) -> None:
     the truth (give it with panomap orient or import --orientation); several pictures are pooled."""
     check_outputs([("the table", table), *(("an image", image) for image in images)], [("the output", output)])
     check_npz_output(output)
+    twice = same_input(images)
+    if twice is not None:
+        first, second, how = twice
+        raise click.BadParameter(
+            f"{first} and {second} are one picture ({how}): give each picture once (its lines twice count twice)",
+            param_hint="'IMAGES...'",
+        )
     loaded = load_table(table)
     pictures = []
     for image in images:
