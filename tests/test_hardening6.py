@@ -395,3 +395,33 @@ def test_a_picture_given_twice_to_level_is_refused(inputs: Path, tmp_path: Path)
         result = run("level", inputs / "cam.npz", inputs / "omni.png", second, "-o", out)
         assert_one_line_error(result, f"are one picture ({how}): give each picture once", exit_code=2)
     assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- C11: a video's numbers
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--bitrate", "100000000000G"], "'--bitrate': '100000000000G': a bit rate is 1 to 100G bit/s"),
+        (["--bitrate", "0"], "'--bitrate': '0': a bit rate is 1 to 100G bit/s"),
+        (["--timeout", "nan"], "'--timeout': 'nan' is not a finite number"),
+        (["--timeout", "inf"], "'--timeout': 'inf' is not a finite number"),
+    ],
+)
+def test_a_videos_absurd_bit_rate_or_timeout_is_a_usage_error(inputs: Path, options: list[str], message: str) -> None:
+    """A bit rate past a C long failed with OverflowError's traceback, 0 was taken; a timeout of nan or inf said
+    "the reconnect timeout_s must be more than 0 s" (a Python name) with exit 1."""
+    out = inputs / "out" / "numbers.mp4"
+    result = run("video", inputs / "cam.npz", inputs / "omni.png", "-o", out, "--view", "panorama:size=64x16",
+                 *options)  # fmt: skip
+    assert_one_line_error(result, message, exit_code=2)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("segment", ["nan", "inf"])
+def test_a_batch_segment_that_is_no_number_is_a_usage_error(inputs: Path, tmp_path: Path, segment: str) -> None:
+    """click's FloatRange lets nan through (nan < 1 is false): "the segment length must be more than 0 s"."""
+    result = run(*BATCH, inputs / "omni.png", "--table", inputs / "cam.npz", "-o", f"{tmp_path}/{{stem}}.png",
+                 "--segment", segment)  # fmt: skip
+    assert_one_line_error(result, f"'--segment': '{segment}' is not a finite number", exit_code=2)
