@@ -24,6 +24,7 @@ from panomap.interop.readers.json_text import load_json
 from panomap.rig import CameraRig
 from panomap.simulate import standard_cameras
 from panomap.table.file import load_table, save_table
+from panomap.video.output import EncoderSettings, probe_refusal
 from panomap.views.floor import FloorView
 from test_rig import BACK_TO_BACK, camchain
 
@@ -94,13 +95,33 @@ def test_x264s_own_refusal_is_the_reason_and_nothing_else_is_printed(
     inputs: Path, capfd: pytest.CaptureFixture[str], options: list[str], reason: str
 ) -> None:
     """x264 printed "x264 [error]: invalid preset 'nope'" to the process's stderr itself, a second line beside
-    ours, which said only "Invalid argument"."""
+    ours, which said only "Invalid argument" (and ``batch`` refused it on the cluster, for every video). The
+    options are now tried before any work: a usage error."""
     out = inputs / "out" / "x264.mp4"
     result = run("video", inputs / "cam.npz", inputs / "omni.png", "-o", out, "--view", "panorama:size=64x16",
                  *options)  # fmt: skip
-    assert_one_line_error(result, "x264.mp4: the video encoder libx264 refused its options", reason)
+    assert_one_line_error(result, "the video encoder libx264 refused its options", reason, exit_code=2)
     assert "x264 [error]" not in capfd.readouterr().err
     assert not out.exists()
+
+
+def test_the_encoders_words_are_the_reason_on_a_retry_too() -> None:
+    """PyAV drops a log line that repeats the one before: a batch's retry of a refused output said only
+    "Generic error in an external library"."""
+    settings = EncoderSettings(preset="nope")
+    first, second = probe_refusal(settings), probe_refusal(settings)
+    assert first is not None and "invalid preset 'nope'" in first and "Error setting preset" in first
+    assert second == first
+    assert probe_refusal(EncoderSettings()) is None
+
+
+def test_batch_refuses_an_encoder_option_once_before_the_cluster(inputs: Path, tmp_path: Path) -> None:
+    clip = tmp_path / "clip.mp4"
+    write_clip(clip, [cv2.imread(str(inputs / "omni.png"))] * 2, 5)
+    result = run(*BATCH, clip, "--table", inputs / "cam.npz", "-o", f"{tmp_path}/{{stem}}_{{name}}.mp4",
+                 "--preset", "nope", "--record", tmp_path / "record.jsonl")  # fmt: skip
+    assert_one_line_error(result, "refused its options (preset=nope, crf=20): invalid preset 'nope'", exit_code=2)
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["clip.mp4"]
 
 
 def test_a_frame_wider_than_the_encoder_takes_is_said_so(inputs: Path) -> None:

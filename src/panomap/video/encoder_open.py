@@ -60,8 +60,9 @@ def open_codec(context: Any, echo: bool = True) -> str | None:
     wrote to stderr), or the exception's where it said none. What an encoder that opens writes to stderr is
     written on where ``echo``, its information lines left out.
     """
-    level = av.logging.get_level()
+    level, skip = av.logging.get_level(), av.logging.get_skip_repeated()
     av.logging.set_level(av.logging.ERROR)
+    av.logging.set_skip_repeated(False)  # (a retry's refusal repeats the first's words: they are its reason too)
     failure: BaseException | None = None
     try:
         with _stderr_kept() as said, av.logging.Capture() as logged:
@@ -71,6 +72,7 @@ def open_codec(context: Any, echo: bool = True) -> str | None:
                 failure = exc
     finally:
         av.logging.set_level(level)
+        av.logging.set_skip_repeated(skip)
     lines = [line.strip() for line in said if line.strip() and not _INFO.search(line)]
     if failure is None:
         if lines and echo:

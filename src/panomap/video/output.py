@@ -81,6 +81,9 @@ class EncoderSettings:
                 f"the video encoder {self.codec} has no option {', '.join(repr(k) for k in unknown)} "
                 f"(--encoder-option; its options: ffmpeg -h encoder={self.codec})"
             )
+        refused = probe_refusal(self)  # (a value it refuses: a preset it has not, a crf of text)
+        if refused is not None:
+            raise PanomapError(f"the video encoder {self.codec} refused its options ({self.described()}): {refused}")
 
     def described(self) -> str:
         """The options passed to the encoder, as ``key=value, ...`` (for messages)."""
@@ -178,7 +181,7 @@ def open_writer(
     refused = open_codec(video.codec_context)
     if refused is not None:
         container.close()
-        if _opens_smaller(encoder, rate or Fraction(25), time_base):
+        if probe_refusal(encoder, rate or Fraction(25), time_base) is None:
             raise PanomapError(
                 f"the video encoder {encoder.codec} cannot encode frames of {size[0]} x {size[1]} ({refused}): "
                 "give the view a smaller size",
@@ -209,9 +212,12 @@ def open_writer(
     return Writer(path, temporary, container, video, audio)
 
 
-def _opens_smaller(encoder: EncoderSettings, rate: Fraction, time_base: Fraction) -> bool:
-    """Whether the encoder opens with the same options and pixel format for a small frame (so that what it
-    refused was the frame's size)."""
+def probe_refusal(
+    encoder: EncoderSettings, rate: Fraction = Fraction(25), time_base: Fraction = Fraction(1, 25)
+) -> str | None:
+    """Why the encoder refuses to open with these options and pixel format for a small frame (its own words),
+    or None where it opens: its options checked before any work, and, where a frame of the view's size was
+    refused, whether its size was the reason."""
     context: Any = av.codec.CodecContext.create(encoder.codec, "w")
     try:
         context.width, context.height = PROBE_SIZE
@@ -221,9 +227,9 @@ def _opens_smaller(encoder: EncoderSettings, rate: Fraction, time_base: Fraction
         if encoder.bitrate is not None:
             context.bit_rate = encoder.bitrate
         context.options = encoder.codec_options()
-    except (av.error.FFmpegError, ValueError, TypeError):
-        return False
-    return open_codec(context, echo=False) is None
+    except (av.error.FFmpegError, ValueError, TypeError, OverflowError) as exc:
+        return reason(exc)
+    return open_codec(context, echo=False)
 
 
 # A frame every encoder takes (divisible by 16; above every encoder's least size).
