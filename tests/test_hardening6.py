@@ -444,5 +444,5 @@ def test_a_videos_absurd_bit_rate_or_timeout_is_a_usage_error(inputs: Path, opti
 def test_a_batch_segment_that_is_no_number_is_a_usage_error(inputs: Path, tmp_path: Path, segment: str) -> None:
     """click's FloatRange lets nan through (nan < 1 is false): "the segment length must be more than 0 s"."""
     result = run(*BATCH, inputs / "omni.png", "--table", inputs / "cam.npz", "-o", f"{tmp_path}/{{stem}}.png",
-                 "--segment", segment)  # fmt: skip
+                 "--segment", segment, "--record", tmp_path / "record.jsonl")  # fmt: skip
     assert_one_line_error(result, f"'--segment': '{segment}' is not a finite number", exit_code=2)
