@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import shutil
 import stat
 import string
 import tempfile
@@ -287,6 +288,41 @@ def check_output(path: str | Path) -> None:
     check_replaceable(path)
 
 
+def check_room(outputs: Iterable[tuple[str | Path, int]]) -> None:
+    """Refuse, before any work, outputs of known size (``(path, bytes)``: a map, a table) that their disks
+    have no room for, the outputs on one disk counted together (each is written whole beside its name before
+    it replaces it, so an output it replaces frees nothing).
+
+    Raises
+    ------
+    PanomapError
+        Naming the first output of a disk without room, what the outputs on it need and what it has free.
+    """
+    needs: dict[int, tuple[Path, Path, int]] = {}
+    for given, size in outputs:
+        path = Path(given)
+        directory = path.parent if str(path.parent) else Path(".")
+        try:
+            device = directory.stat().st_dev
+        except OSError:
+            continue  # (a missing folder is check_output's to name)
+        first, folder, total = needs.get(device, (path, directory, 0))
+        needs[device] = (first, folder, total + size)
+    for first, folder, total in needs.values():
+        try:
+            free = shutil.disk_usage(folder).free
+        except OSError:
+            continue
+        if total > free:
+            raise PanomapError(
+                f"no room for it: {_megabytes(total)} to write, its disk has {_megabytes(free)} free", first
+            )
+
+
+def _megabytes(size: int) -> str:
+    return f"{size / 1e6:.1f} MB" if size >= 1_000_000 else f"{size / 1e3:.0f} kB"
+
+
 def check_outputs(
     inputs: Iterable[tuple[str, str | Path | None]], outputs: Iterable[tuple[str, str | Path | None]]
 ) -> None:
@@ -396,6 +432,32 @@ def placeholders(pattern: str) -> list[tuple[str, str, str]]:
 def placeholder_text(key: str, spec: str, conversion: str) -> str:
     """A field as written in a pattern: ``{key!conversion:spec}``."""
     return "{" + key + (f"!{conversion}" if conversion else "") + (f":{spec}" if spec else "") + "}"
+
+
+def fill_pattern(pattern: str, key: str, meaning: str, values: Iterable[str], required: bool = True) -> list[Path]:
+    """The file names of an output name ``pattern`` holding ``{key}`` (``meaning``: what it stands for, for the
+    message), one for each of ``values``; ``{{`` and ``}}`` are literal braces. ``required``: a pattern without
+    ``{key}`` is refused (else it names one file for every value).
+
+    Raises
+    ------
+    PanomapError
+        Where the pattern is malformed, holds any other placeholder (taken literally, a mistyped ``{view}``
+        wrote one file for all), or holds no ``{key}`` where it is ``required``.
+    """
+    try:
+        fields = placeholders(pattern)
+    except ValueError as exc:
+        raise PanomapError(f"{pattern!r} is malformed ({exc}; write a literal brace as {{{{ or }}}})") from None
+    for field, spec, conversion in fields:
+        if field != key or spec or conversion:
+            raise PanomapError(
+                f"{pattern!r} has an unknown placeholder {placeholder_text(field, spec, conversion)}: the only one "
+                f"is {{{key}}}, {meaning} (write a literal brace as {{{{ or }}}})"
+            )
+    if required and not fields:
+        raise PanomapError(f"{pattern!r} has no {{{key}}} to put {meaning} in")
+    return [Path(pattern.format(**{key: value})) for value in values]
 
 
 def check_output_paths(

@@ -37,6 +37,7 @@ import io
 import json
 import re
 import string
+import unicodedata
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -54,8 +55,16 @@ from ..files import (  # noqa: F401  (IMAGE_SUFFIXES, VIDEO_SUFFIXES, kind_of: t
     read_text,
 )
 from ..rig.file import is_rig_file, rig_index
-from ..video.output import EncoderSettings
+from ..table.file import is_table_file, load_table
+from ..video.output import EncoderSettings, container_format
 from ..views.spec import NamedView
+
+# The characters a camera's name may not hold, as Unicode categories: control, format, line and paragraph
+# separators (NUL among them).
+CONTROLS = frozenset({"Cc", "Cf", "Zl", "Zp"})
+
+# What a camera's name must be, as the refusals say it.
+PLAIN_NAME = "a plain name (no path separators or control characters, not . or ..)"
 
 MANIFEST_SUFFIXES = frozenset({".csv", ".json", ".yaml", ".yml"})
 TEMPLATE_KEYS = ("camera", "stem", "name", "ext")
@@ -180,7 +189,7 @@ def find_inputs(
     unique = list(dict.fromkeys(p.absolute() for p in found))
     name = camera if camera is not None else table.stem
     if not is_camera_name(name):
-        raise PanomapError(f"the camera name {name!r} must be a plain name (no path separators, not . or ..)")
+        raise PanomapError(f"the camera name {name!r} must be {PLAIN_NAME}")
     if is_rig_file(table):
         return rig_inputs(unique, table, name)
     return [BatchInput(path, table, name) for path in unique]
@@ -266,7 +275,7 @@ def read_manifest(path: Path) -> list[BatchInput]:
         camera = str(row.get("camera") or table.stem)
         if not is_camera_name(camera):
             raise PanomapError(
-                f"row {number}: the camera name {camera!r} must be a plain name (no path separators, not . or ..)",
+                f"row {number}: the camera name {camera!r} must be {PLAIN_NAME}",
                 path,
             )
         if source.is_dir() and is_rig_file(table):  # (a rig's pictures, one per camera)
@@ -284,8 +293,10 @@ def read_manifest(path: Path) -> list[BatchInput]:
 
 def is_camera_name(name: str) -> bool:
     """Whether ``name`` can stand for ``{camera}`` in an output path: one plain file name, so that the
-    outputs stay under the template's folder."""
-    return bool(name) and name not in (".", "..") and not any(c in name for c in "/\\\0")
+    outputs stay under the template's folder, without control characters (an escape sequence in a folder's
+    name rewrites the terminal of whoever lists it)."""
+    plain = not any(c in name for c in "/\\") and not any(unicodedata.category(c) in CONTROLS for c in name)
+    return bool(name) and name not in (".", "..") and plain
 
 
 def check_template(template: str) -> None:
@@ -419,12 +430,16 @@ def make_job(
         if item.table not in tables:
             if not item.table.is_file():
                 raise PanomapError("no such table file", item.table)
+            if not (is_rig_file(item.table) or is_table_file(item.table)):
+                load_table(item.table)  # (refused here, in one line, not by every input's task on the cluster)
             tables[item.table] = file_digest(item.table)
         outputs = []
         for name in names:
             path = output_path(template, item, name)
             if file_identity(path) in sources:
                 raise PanomapError(f"the output of {item.path} is an input: refusing to overwrite it", path)
+            if item.is_video:
+                container_format(path)  # (a video's output named .png: refused before the cluster starts)
             if path in seen:
                 raise PanomapError(
                     f"two outputs would be this file ({seen[path]} and {item.path}): put {{stem}} or {{camera}} "

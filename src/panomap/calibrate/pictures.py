@@ -267,7 +267,9 @@ def _learn_found(lines: ImageLines, options: LineFitOptions) -> LearnedCamera:
         return learned
     fit = learned.fit
     fit = replace(
-        fit, model=zero_azimuth(fit.model, options.azimuth_zero), report=replace(fit.report, azimuth_source="given")
+        fit,
+        model=zero_azimuth(fit.model, options.azimuth_zero, lines.circles),
+        report=replace(fit.report, azimuth_source="given"),
     )
     return replace(learned, fit=fit)
 

@@ -27,7 +27,7 @@ from ..errors import PanomapError
 from ..remap import INTERPOLATIONS
 from ..table.sampling import SAMPLINGS
 from ..views.spec import KINDS
-from .options import PATH, usage_error, warn_orientation
+from .options import PATH, Finite, usage_error, warn_orientation
 from .options import quiet as quiet_given
 from .progress import ProgressBar
 from .video import encoder_settings, stop_on_signals, views_of
@@ -93,7 +93,7 @@ class _Bar(ProgressBar):
 @click.option(
     "--segment",
     "segment_s",
-    type=click.FloatRange(min=1),
+    type=Finite(1.0),
     metavar="SECONDS",
     help="Split videos longer than this into segments of this length (1 s or more), unwarped in parallel and joined.",
 )

@@ -40,6 +40,7 @@ from .options import (
     POSITIVE,
     SIZE,
     TILT,
+    check_npz_output,
     frame_time_option,
     orientation_option,
     progress_bar,
@@ -467,8 +468,7 @@ def _fit_lines(
         [*(("the image", path) for path in images), *(("the video", path) for path in videos)],
         [("the output", output), ("--overlay", overlay), ("--uncertainty-plot", uncertainty_plot)],
     )
-    if output.suffix.lower() != ".npz":
-        raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
+    check_npz_output(output)
     if overlay is not None and overlay.suffix.lower() != ".png":
         raise click.BadParameter(f"{overlay}: the overlay is written as PNG (name it .png)", param_hint="'--overlay'")
     if uncertainty_plot is not None and uncertainty_plot.suffix.lower() != ".png":

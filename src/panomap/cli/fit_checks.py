@@ -15,9 +15,10 @@ from click.core import ParameterSource
 from ..calibrate.landmarks.viewpoint import SphericalMirror, viewpoint_conflict
 from ..camera.radial_models import radial_kind
 from ..errors import PanomapError, printable
-from ..files import check_outputs, expand_input, kind_of
+from ..files import check_outputs, check_room, expand_input, kind_of
+from ..table.file import ENTRY_BYTES
 from ..table.table import check_table_size
-from .options import orientation_rad, usage_error
+from .options import check_npz_output, orientation_rad, usage_error
 
 
 def check_mount_options(
@@ -149,8 +150,9 @@ def check_landmark_fit_options(
         [("the landmarks", landmarks), ("the image", image)],
         [("the output", output), ("--plot", plot), ("--overlay", overlay)],
     )
-    if output.suffix.lower() != ".npz":
-        raise click.BadParameter(f"{output}: a table is written as .npz (name it so)", param_hint="'-o'")
+    check_npz_output(output)
+    if table_size is not None:
+        check_room([(output, table_size[0] * table_size[1] * ENTRY_BYTES)])
     for picture, option, what in ((plot, "--plot", "the fit plot"), (overlay, "--overlay", "the overlay")):
         if picture is not None and picture.suffix.lower() != ".png":
             raise click.BadParameter(f"{picture}: {what} is written as PNG (name it .png)", param_hint=f"'{option}'")

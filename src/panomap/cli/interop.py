@@ -10,7 +10,7 @@ import click
 from ..calibrate.circles import ImageCircles
 from ..calibrate.level import level_table
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs
+from ..files import all_or_none, check_outputs, same_input
 from ..interop.api import check_image_size, table_of_imported
 from ..interop.export import FORMATS, export_calibration
 from ..interop.orient import orient_table
@@ -19,7 +19,19 @@ from ..io.images import MAX_IMAGE_PIXELS
 from ..rig.file import is_rig_file
 from ..table.file import is_table_file, load_table, save_table
 from .calibrate import find_image_circles_in
-from .options import FINITE, NON_NEGATIVE, PATH, SIZE, TILT, Finite, orientation_option, orientation_rad, read_omni, say
+from .options import (
+    FINITE,
+    NON_NEGATIVE,
+    PATH,
+    SIZE,
+    TILT,
+    Finite,
+    check_npz_output,
+    orientation_option,
+    orientation_rad,
+    read_omni,
+    say,
+)
 from .rigs import import_rig, rig_format
 
 
@@ -139,6 +151,7 @@ def import_(
     check_outputs(
         [("the calibration", calibration), *(("the image", image) for image in images)], [("the output", output)]
     )
+    check_npz_output(output, "a table (or a rig)")
     _not_panomaps_own(calibration)
     rig = rig_format(calibration, format_) if camera_name is None and camera_id is None else None
     if rig is not None:
@@ -235,6 +248,7 @@ def orient(table: Path, output: Path, orientation: tuple[float, float, float]) -
     """Turn a table's camera to look another way, without a new fit: its entries made anew from its model (or
     its calibration's), over every world direction it then sees."""
     check_outputs([("the table", table)], [("the output", output)])
+    check_npz_output(output)
     loaded = load_table(table)
     yaw, pitch, roll = orientation_rad(orientation)  # type: ignore[misc]
     try:
@@ -260,6 +274,14 @@ def level(table: Path, images: tuple[Path, ...], output: Path) -> None:
     poles): the camera's pitch and roll found, its yaw kept. The table's orientation must be within 20 deg of
     the truth (give it with panomap orient or import --orientation); several pictures are pooled."""
     check_outputs([("the table", table), *(("an image", image) for image in images)], [("the output", output)])
+    check_npz_output(output)
+    twice = same_input(images)
+    if twice is not None:
+        first, second, how = twice
+        raise click.BadParameter(
+            f"{first} and {second} are one picture ({how}): give each picture once (its lines twice count twice)",
+            param_hint="'IMAGES...'",
+        )
     loaded = load_table(table)
     pictures = []
     for image in images:

@@ -53,6 +53,6 @@ def learn(
     session = Session(image, omni.name, folder, preload, camera)
     if session.circles_note:
         click.echo(f"panomap: note: {session.circles_note}", err=True)
-    warn_unless_loopback(host, "anyone who can reach this machine can use the page and write files into the folder")
     server = make_server(session, host, port)
+    warn_unless_loopback(host, "anyone who can reach this machine can use the page and write files into the folder")
     serve_until_interrupted(server, "learn", f"serving {omni.name} at {server.url} (files in {session.folder})")

@@ -35,7 +35,8 @@ def server_options(default_port: int, exposed: str) -> Callable[[Any], Any]:
 
 
 def warn_unless_loopback(host: str, consequence: str) -> None:
-    """One warning line where ``host`` is not a loopback address: ``consequence`` says what that exposes."""
+    """One warning line where ``host`` is not a loopback address: ``consequence`` says what that exposes (once it
+    listens there: a host it cannot listen on is refused alone)."""
     if not is_loopback(host):
         click.echo(f"panomap: warning: listening on {host}, not loopback: {consequence}", err=True)
 

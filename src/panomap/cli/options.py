@@ -104,6 +104,13 @@ def orientation_rad(orientation: tuple[float, float, float] | None) -> tuple[flo
     return (float(np.radians(yaw)), float(np.radians(pitch)), float(np.radians(roll)))
 
 
+def check_npz_output(output: Path, what: str = "a table") -> None:
+    """Refuse an ``-o`` for a table or a rig not named ``.npz`` (a table named cam.png reads as a broken picture
+    to every other program), before any work."""
+    if output.suffix.lower() != ".npz":
+        raise click.BadParameter(f"{output}: {what} is written as .npz (name it so)", param_hint="'-o'")
+
+
 def usage_error(exc: PanomapError, option: str | None = None) -> click.UsageError:
     """A library error about an option's value, or about options given together, as a usage error (exit 2),
     in the library's words (under ``option``'s name when given)."""

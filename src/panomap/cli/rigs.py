@@ -12,11 +12,11 @@ import click
 import numpy as np
 
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, read_text
-from ..io.images import read_image, read_rig_pictures, save_map, write_image
+from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_text
+from ..io.images import map_file_bytes, read_image, read_rig_pictures, save_map, write_image
 from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
 from ..views import View
-from .options import progress_bar, say
+from .options import check_npz_output, progress_bar, say
 
 WRAPPING_KINDS = ("panorama", "equirect")
 
@@ -33,13 +33,17 @@ def render_rig(
 ) -> None:
     """A view of a rig: each camera's map, blended (gains matched over the overlaps); ``each`` (a pattern with
     ``{camera}``) also writes each camera's own unblended view."""
-    if each is not None and "{camera}" not in each:
-        raise click.BadParameter(f"{each!r} has no {{camera}} to name each camera's file", param_hint="'--each'")
+    if each is not None:
+        try:
+            fill_pattern(each, "camera", "each camera's name", ())
+        except PanomapError as exc:
+            raise click.BadParameter(exc.detail, param_hint="'--each'") from None
     rig = load_rig(rig_path)
     outputs = [("the output", output), ("--save-map", save_map_path)]
-    if each is not None:
-        outputs += [(f"--each for {name}", Path(each.format(camera=name))) for name in rig.names]
+    each_paths = fill_pattern(each, "camera", "each camera's name", rig.names) if each is not None else []
+    outputs += [(f"--each for {name}", path) for name, path in zip(rig.names, each_paths, strict=False)]
     check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], outputs)
+    check_room(map_file_bytes(view.output_size(rig.tables[0]), save_map_path))  # (every camera takes camera 0's)
     pictures = _pictures(rig, images)
     maps = camera_maps(rig, view, sampling)
     remapper = RigRemapper(rig, maps, interp, wrap=view.kind in WRAPPING_KINDS)
@@ -51,8 +55,8 @@ def render_rig(
         if save_map_path is not None:
             save_map(save_map_path, _strongest_map(maps, remapper.weights))
         if each is not None:
-            for name, layer in zip(rig.names, layers, strict=True):
-                write_image(Path(each.format(camera=name)), layer)
+            for path, layer in zip(each_paths, layers, strict=True):
+                write_image(path, layer)
     seen = float(np.mean(remapper.weights.sum(axis=0) > 0))
     shown = ", ".join(f"{name} x{float(np.mean(g)):.3f}" for name, g in zip(rig.names, gains, strict=True))
     say(
@@ -95,24 +99,39 @@ def _write_rig(rig: CameraRig, output: Path, report: Iterable[str]) -> None:
 def rig_format(path: Path, format_: str | None) -> str | None:
     """The format of ``path`` where it holds a rig (a Kalibr camchain of two or more cameras each with its
     T_cn_cnm1, a Basalt calibration of two or more cameras with their T_imu_cam, a Hugin project of two or more
-    images); None otherwise (the single camera's import says what is wrong with a file it cannot read)."""
+    images); None otherwise (the single camera's import says what is wrong with a file it cannot read).
+
+    Raises
+    ------
+    PanomapError
+        Where the file writes a rig (several cameras, poses between them) and one of them is malformed (a pose
+        of NaN, a camera without its pose): imported as one camera, camera 0 alone came out of a rig, silently.
+    """
     from ..interop.readers import READERS, basalt, hugin_pto, kalibr
 
     try:
         text = read_text(path)
-        found = [name for name, entry in READERS.items() if entry.looks_like(text)] if format_ is None else [format_]
-        if not found or found[0] not in ("kalibr", "basalt", "hugin"):
-            return None
-        # A file naming one camera is no rig: it is not parsed here (the import parses it once).
-        if found[0] == "kalibr":
-            many = len(kalibr.CAMERA_MODEL_KEY.findall(text)) > 1
-            count = len(kalibr.read_chain(text, path)) if many else 1
-        elif found[0] == "basalt":
-            count = len(basalt.read(text, path, None).rig_poses) if text.count('"camera_type"') > 1 else 1
-        else:
-            count = len(hugin_pto.read_images(text, path))
     except PanomapError:
         return None
+    found = [name for name, entry in READERS.items() if entry.looks_like(text)] if format_ is None else [format_]
+    if not found or found[0] not in ("kalibr", "basalt", "hugin"):
+        return None
+    # A file naming one camera is no rig: it is not parsed here (the import parses it once).
+    if found[0] == "kalibr":
+        many = len(kalibr.CAMERA_MODEL_KEY.findall(text)) > 1
+        try:
+            count = len(kalibr.read_chain(text, path)) if many else 1
+        except PanomapError:
+            if "T_cn_cnm1" in text:
+                raise
+            return None  # (cameras without poses: no chain; the import takes the first, as documented)
+    elif found[0] == "basalt":
+        count = len(basalt.read(text, path, None).rig_poses) if text.count('"camera_type"') > 1 else 1
+    else:
+        try:
+            count = len(hugin_pto.read_images(text, path))
+        except PanomapError:
+            return None  # (a project whose images cannot be read: the single camera's import says why)
     return found[0] if count > 1 else None
 
 
@@ -306,6 +325,7 @@ def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], sid
     if names and len(names) != len(tables):
         raise click.BadParameter(f"{len(names)} names for {len(tables)} tables", param_hint="'--name'")
     check_outputs([("a table", table) for table in tables], [("the output", output)])
+    check_npz_output(output, "a rig")
     loaded = tuple(load_table(table) for table in tables)
     offsets = None
     if side_by_side:
@@ -314,9 +334,17 @@ def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], sid
             placed.append((x, 0))
             x += table.image_size[0]  # type: ignore[index]
         offsets = tuple(placed)
-    made = CameraRig(
-        loaded, names or tuple(table.stem for table in tables), offsets, {"made of": [t.name for t in tables]}
-    )
+    try:
+        made = CameraRig(
+            loaded, names or tuple(table.stem for table in tables), offsets, {"made of": [t.name for t in tables]}
+        )
+    except PanomapError as exc:
+        if names:
+            raise
+        # The names were the tables' file names: say so, and how to give others.
+        raise click.UsageError(
+            f"{exc.detail}: the cameras are named after their tables' files; name each with --name"
+        ) from None
     _write_rig(made, output, made.describe())
 
 
@@ -366,6 +394,7 @@ def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
 
     loaded = load_rig(rig_path)
     check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], [("the output", output)])
+    check_npz_output(output, "a rig")
     per_shot = 1 if loaded.offsets is not None else loaded.count
     if len(images) % per_shot:
         names = ", ".join(loaded.names)
@@ -388,6 +417,7 @@ def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:
             "--side-by-side learns the lenses too, from the frames alone: give no rig (or drop --side-by-side)"
         )
     check_outputs([("a frame", frame) for frame in frames], [("the output", output)])
+    check_npz_output(output, "a rig")
     pictures = [read_image(frame, None, "a frame") for frame in frames]
     bar = progress_bar("step")
     try:
@@ -430,6 +460,7 @@ def rig_place(rig_path: Path, landmark_files: tuple[Path, ...], output: Path, un
 
     loaded = load_rig(rig_path)
     check_outputs([("the rig", rig_path), *(("landmarks", path) for path in landmark_files)], [("the output", output)])
+    check_npz_output(output, "a rig")
     if len(landmark_files) != loaded.count:
         names = ", ".join(loaded.names)
         raise click.UsageError(f"give one landmark file per camera of the rig, in its order ({names}), not "

@@ -18,7 +18,7 @@ from typing import Any
 import click
 
 from ..errors import PanomapError
-from ..files import check_outputs, local_file, placeholder_text, placeholders
+from ..files import check_outputs, fill_pattern, local_file, placeholders
 from ..remap import INTERPOLATIONS
 from ..rig.file import is_rig_file, load_rig
 from ..table.file import load_table
@@ -30,16 +30,22 @@ from ..video.rig import check_rig_sources, unwarp_rig_video
 from ..video.source import Selection
 from ..video.unwarp import ViewOutput, unwarp_video
 from ..views.spec import KINDS, NamedView, name_views, parse_view_spec, read_views_file
-from .options import FINITE, PATH, quiet, rotation_warned, usage_error
+from .options import FINITE, PATH, POSITIVE, quiet, rotation_warned, usage_error
 from .progress import ProgressBar
+
+# The highest bit rate taken (bit/s): FFmpeg holds it in a C long; 100 Gbit/s is past any encoder's.
+MAX_BITRATE = 100 * 10**9
 
 
 def _bitrate(text: str) -> int:
     match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*([kKmMgG]?)\s*", text)
     if not match:
-        raise click.BadParameter(f"{text!r} is not a bit rate like 8M or 800k")
+        raise click.BadParameter(f"{text!r} is not a bit rate like 8M or 800k", param_hint="'--bitrate'")
     scale = {"": 1, "k": 10**3, "m": 10**6, "g": 10**9}[match.group(2).lower()]
-    return int(float(match.group(1)) * scale)
+    rate = float(match.group(1)) * scale
+    if not 1 <= rate <= MAX_BITRATE:
+        raise click.BadParameter(f"{text!r}: a bit rate is 1 to {MAX_BITRATE / 1e9:g}G bit/s", param_hint="'--bitrate'")
+    return int(rate)
 
 
 def views_of(specs: tuple[str, ...], views_file: Path | None) -> list[NamedView]:
@@ -77,20 +83,12 @@ def output_paths(pattern: str, views: list[NamedView]) -> list[Path]:
     literal braces). Any other ``{key}`` is refused: taken literally, a mistyped ``{view}`` wrote one file
     named ``out_{view}.mp4`` for every view."""
     try:
-        fields = placeholders(pattern)
-    except ValueError as exc:
-        raise click.BadParameter(f"{pattern!r} is malformed ({exc}; write a literal brace as {{{{ or }}}})",
-                                 param_hint="'-o'") from None  # fmt: skip
-    for key, spec, conversion in fields:
-        if key != "name" or spec or conversion:
-            raise click.BadParameter(
-                f"{pattern!r} has an unknown placeholder {placeholder_text(key, spec, conversion)}: the only one is "
-                "{name}, the view's name (write a literal brace as {{ or }})",
-                param_hint="'-o'",
-            )
-    if not fields and len(views) > 1:
+        paths = fill_pattern(pattern, "name", "the view's name", [item.name for item in views], required=False)
+    except PanomapError as exc:
+        raise click.BadParameter(exc.detail, param_hint="'-o'") from None
+    if not placeholders(pattern) and len(views) > 1:
         raise click.UsageError("with several views the output pattern needs {name}, e.g. -o 'out_{name}.mp4'")
-    return [Path(pattern.format(name=item.name)) for item in views]
+    return paths
 
 
 # The signals that finish every output cleanly (SIGHUP where the system has it).
@@ -183,7 +181,7 @@ class _Progress(ProgressBar):
 @click.option(
     "--timeout",
     "timeout_s",
-    type=click.FloatRange(min=0, min_open=True),
+    type=POSITIVE,
     default=10.0,
     show_default=True,
     help="A live input silent this long (s) has dropped; also the limit for each connection attempt.",

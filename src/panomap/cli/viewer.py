@@ -56,8 +56,8 @@ def view(table_path: Path, source_names: tuple[str, ...], port: int, host: str) 
             f"its frames are {width} x {height}, the table {table_path} is for {expected[0]} x {expected[1]} images",
             source_name if is_live(source_name) else Path(source_name),
         )
-    warn_unless_loopback(host, "whoever can reach this machine sees the source")
     server = make_server(table, table_path.name, source, host, port)
+    warn_unless_loopback(host, "whoever can reach this machine sees the source")
     shown = source.name if source.kind == "live" else Path(source.name).name
     serve_until_interrupted(
         server, "view", f"showing {shown} ({source.kind}) through {table_path.name} at {server.url}"
@@ -77,8 +77,8 @@ def _view_rig(rig_path: Path, names: list[str], port: int, host: str) -> None:
         if exc.source is None:
             raise PanomapError(exc.detail, rig_path) from None
         raise
-    warn_unless_loopback(host, "whoever can reach this machine sees the pictures")
     server = make_server(rig.tables[0], rig_path.name, source, host, port, rig=rig_view)
+    warn_unless_loopback(host, "whoever can reach this machine sees the pictures")
     shown = ", ".join(Path(name).name for name in names)
     serve_until_interrupted(
         server,

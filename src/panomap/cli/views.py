@@ -17,8 +17,16 @@ import click
 import numpy as np
 
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs
-from ..io.images import UNKNOWN_FORMAT, pgm_map_paths, read_image, save_map, save_map_pgm, write_image
+from ..files import all_or_none, check_outputs, check_room
+from ..io.images import (
+    UNKNOWN_FORMAT,
+    map_file_bytes,
+    pgm_map_paths,
+    read_image,
+    save_map,
+    save_map_pgm,
+    write_image,
+)
 from ..remap import INTERPOLATIONS, Remapper
 from ..rig.file import is_rig_file
 from ..table.file import load_table
@@ -94,6 +102,7 @@ def _render(
     )
     extra = [path for path in (save_map_path, *pgm_paths) if path is not None]
     table = load_table(table_path)
+    check_room(map_file_bytes(view.output_size(table), save_map_path, pgm_paths))
     if view.needs_camera_height and table.info.get("camera_height_known") is False:
         click.echo(
             f"panomap: note: {printable(str(table_path))} was learned from lines, which know no distance: its camera "

@@ -330,6 +330,17 @@ def save_map(path: str | Path, map_uv: NDArray[np.float32]) -> None:
 PGM_NO_SOURCE = 65535
 
 
+def map_file_bytes(
+    size: tuple[int, int], npy: Path | None, pgm: tuple[Path | None, Path | None] = (None, None)
+) -> list[tuple[Path, int]]:
+    """The bytes a map of ``size`` (W, H) takes at least, as ``.npy`` at ``npy`` (float32 u and v: 8 a pixel)
+    and as the two 16-bit PGM planes at ``pgm`` (2 a pixel each), where given: for
+    :func:`panomap.files.check_room`."""
+    width, height = size
+    files = [(npy, width * height * 8)] + [(path, width * height * 2) for path in pgm]
+    return [(path, size) for path, size in files if path is not None]
+
+
 def map_to_pgm(map_uv: NDArray[np.float32]) -> tuple[NDArray[np.uint16], NDArray[np.uint16]]:
     """A map as the two 16-bit planes of integer source columns and rows that ffmpeg's ``remap`` takes.
 

@@ -18,6 +18,7 @@ first checked:
 
 from __future__ import annotations
 
+import errno
 import ipaddress
 import json
 import math
@@ -131,9 +132,14 @@ def bind(factory: Callable[[tuple[str, int]], ServerT], host: str, port: int) ->
         return factory((host, port))
     except OSError as exc:
         shown = f"[{host}]" if ":" in host else host
-        raise PanomapError(
-            f"cannot listen on {shown}:{port} ({exc.strerror or exc}); choose another --port (0 picks a free one)"
-        ) from None
+        # The port is the problem where it is taken or reserved; otherwise the address (no such name, not this
+        # machine's).
+        remedy = (
+            "choose another --port (0 picks a free one)"
+            if exc.errno in (errno.EADDRINUSE, errno.EACCES)
+            else "choose another --host (127.0.0.1: this machine alone)"
+        )
+        raise PanomapError(f"cannot listen on {shown}:{port} ({exc.strerror or exc}); {remedy}") from None
 
 
 def serve_in_thread(server: LocalServer) -> threading.Thread:

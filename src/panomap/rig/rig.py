@@ -10,17 +10,35 @@ holds its cameras side by side, camera 0 on the left).
 from __future__ import annotations
 
 import math
+import unicodedata
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ..errors import PanomapError
+from ..errors import PanomapError, printable
 from ..geometry import FloatArray
 from ..table.table import PanoMappingTable
 
 # At most this many cameras in a rig.
 MAX_CAMERAS = 16
+
+# A camera's name is at most this long: it goes into file names (a view's file for each camera).
+MAX_NAME_CHARS = 64
+
+
+def check_camera_name(name: str) -> str:
+    """``name`` where it can name a camera: 1 to :data:`MAX_NAME_CHARS` characters, not blank, ``.`` or ``..``,
+    without a path separator or a control character (a camera's name goes into file names: ``cams/{camera}.png``
+    must not leave its folder)."""
+    bad = [char for char in name if char in "/\\" or unicodedata.category(char) in ("Cc", "Cf", "Zl", "Zp")]
+    if bad or not name.strip() or name in (".", "..") or len(name) > MAX_NAME_CHARS:
+        shown = f"'{printable(name[:MAX_NAME_CHARS])}" + ("...'" if len(name) > MAX_NAME_CHARS else "'")
+        raise PanomapError(
+            f"camera name {shown} cannot name a file: 1 to {MAX_NAME_CHARS} characters, no / or \\, no control "
+            "characters"
+        )
+    return name
 
 
 @dataclass(frozen=True)
@@ -49,9 +67,11 @@ class CameraRig:
         tables = tuple(self.tables)
         if not 1 <= len(tables) <= MAX_CAMERAS:
             raise PanomapError(f"a rig has 1 to {MAX_CAMERAS} cameras, not {len(tables)}")
-        names = tuple(str(name) for name in self.names)
-        if len(names) != len(tables) or len(set(names)) != len(names):
-            raise PanomapError("a rig needs one name per camera, each its own")
+        names = tuple(check_camera_name(str(name)) for name in self.names)
+        twice = sorted({name for name in names if names.count(name) > 1})
+        if len(names) != len(tables) or twice:
+            named = f" ({', '.join(twice)} twice)" if twice else f" ({len(names)} names, {len(tables)} cameras)"
+            raise PanomapError(f"a rig needs one name per camera, each its own{named}")
         for name, table in zip(names, tables, strict=True):
             if table.image_size is None:
                 raise PanomapError(f"the rig's camera {name} has no image size")

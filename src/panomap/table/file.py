@@ -71,6 +71,11 @@ _FIELDS = {
 }
 
 
+# Bytes of one entry in a table file (azimuth and elevation's (u, v), float32): a table of M x N entries takes
+# at least M * N * ENTRY_BYTES on disk.
+ENTRY_BYTES = 8
+
+
 def save_table(table: PanoMappingTable, path: str | Path) -> None:
     """Write the table to ``path`` (an ``.npz``), through a temporary file.
 

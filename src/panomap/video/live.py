@@ -49,10 +49,10 @@ class Reconnect:
     def __post_init__(self) -> None:
         if self.attempts < 0:
             raise PanomapError(f"reconnect attempts must be 0 or more, not {self.attempts}")
-        for name in ("first_wait_s", "max_wait_s", "timeout_s"):
+        for name, said in (("first_wait_s", "first wait"), ("max_wait_s", "longest wait"), ("timeout_s", "timeout")):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                raise PanomapError(f"the reconnect {name} must be more than 0 s, not {value:g}")
+                raise PanomapError(f"the reconnect's {said} must be a finite time of more than 0 s, not {value:g}")
 
     def wait_s(self, attempt: int) -> float:
         """The wait (s) before attempt number ``attempt`` (1, 2, ...) after a drop."""

@@ -13,6 +13,7 @@ from typing import Any
 import av
 
 from ..errors import PanomapError
+from .encoder_open import open_codec
 from .handoff import END, QUEUE_FRAMES, reason
 
 
@@ -80,6 +81,9 @@ class EncoderSettings:
                 f"the video encoder {self.codec} has no option {', '.join(repr(k) for k in unknown)} "
                 f"(--encoder-option; its options: ffmpeg -h encoder={self.codec})"
             )
+        refused = probe_refusal(self)  # (a value it refuses: a preset it has not, a crf of text)
+        if refused is not None:
+            raise PanomapError(f"the video encoder {self.codec} refused its options ({self.described()}): {refused}")
 
     def described(self) -> str:
         """The options passed to the encoder, as ``key=value, ...`` (for messages)."""
@@ -173,14 +177,19 @@ def open_writer(
     except (av.error.FFmpegError, ValueError, TypeError) as exc:
         container.close()
         raise PanomapError(f"cannot encode {encoder.codec} {encoder.pix_fmt} into it: {reason(exc)}", path) from None
-    try:
-        # Opened on its own (start_encoding then skips it), so that a value it refuses is blamed on it.
-        video.codec_context.open()
-    except (av.error.FFmpegError, ValueError, TypeError) as exc:
+    # Opened on its own (start_encoding then skips it), so that a value it refuses is blamed on it.
+    refused = open_codec(video.codec_context)
+    if refused is not None:
         container.close()
+        if probe_refusal(encoder, rate or Fraction(25), time_base) is None:
+            raise PanomapError(
+                f"the video encoder {encoder.codec} cannot encode frames of {size[0]} x {size[1]} ({refused}): "
+                "give the view a smaller size",
+                path,
+            )
         raise PanomapError(
-            f"the video encoder {encoder.codec} refused its options ({encoder.described()}): {reason(exc)}", path
-        ) from None
+            f"the video encoder {encoder.codec} refused its options ({encoder.described()}): {refused}", path
+        )
     if audio_template is not None and container.format.name == "mpegts":
         codec = audio_template.codec_context.name
         if codec not in MPEGTS_AUDIO:
@@ -202,6 +211,29 @@ def open_writer(
         ) from None
     return Writer(path, temporary, container, video, audio)
 
+
+def probe_refusal(
+    encoder: EncoderSettings, rate: Fraction = Fraction(25), time_base: Fraction = Fraction(1, 25)
+) -> str | None:
+    """Why the encoder refuses to open with these options and pixel format for a small frame (its own words),
+    or None where it opens: its options checked before any work, and, where a frame of the view's size was
+    refused, whether its size was the reason."""
+    context: Any = av.codec.CodecContext.create(encoder.codec, "w")
+    try:
+        context.width, context.height = PROBE_SIZE
+        context.pix_fmt = encoder.pix_fmt
+        context.framerate = rate
+        context.time_base = time_base
+        if encoder.bitrate is not None:
+            context.bit_rate = encoder.bitrate
+        context.options = encoder.codec_options()
+    except (av.error.FFmpegError, ValueError, TypeError, OverflowError) as exc:
+        return reason(exc)
+    return open_codec(context, echo=False)
+
+
+# A frame every encoder takes (divisible by 16; above every encoder's least size).
+PROBE_SIZE = (256, 144)
 
 # The encoders' threading: libavcodec's default (frame and slice threads), as ffmpeg's command line encodes;
 # the thread count stays PyAV's 0 (as many as there are cores), as ffmpeg's ``-threads auto``.

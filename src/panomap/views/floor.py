@@ -94,14 +94,15 @@ class FloorView(View):
         if resolution <= 0:
             raise PanomapError(f"the resolution must be positive, not {resolution:g}")
         # An empty extent gets one pixel here and is refused, with its reason, by the constructor.
-        width = max(1, round((x_max - x_min) / resolution))
-        height = max(1, round((y_max - y_min) / resolution))
+        # Rounded only where it can be: a tiny resolution over a wide extent overflows to infinity.
+        extent_px = ((x_max - x_min) / resolution, (y_max - y_min) / resolution)
+        width, height = (max(1, round(side)) if side < 2 * MAX_VIEW_SIDE else side for side in extent_px)
         if width * height > MAX_VIEW_PIXELS or max(width, height) > MAX_VIEW_SIDE:
             raise PanomapError(
-                f"a resolution of {resolution:g} gives a {width} x {height} image: too large "
+                f"a resolution of {resolution:g} gives an image of {width:.6g} x {height:.6g} px: too large "
                 f"(at most {MAX_VIEW_SIDE} px a side and {MAX_VIEW_PIXELS:,} px in all)"
             )
-        return cls(z_plane, (x_min, x_max), (y_min, y_max), (width, height))
+        return cls(z_plane, (x_min, x_max), (y_min, y_max), (int(width), int(height)))
 
     @classmethod
     def from_params(cls, values: Mapping[str, Any]) -> Self:

@@ -681,7 +681,7 @@ def _result(
         terms=fit.terms,
     )
     if options.azimuth_zero is not None:
-        model = zero_azimuth(model, options.azimuth_zero)
+        model = zero_azimuth(model, options.azimuth_zero, circles)
     rho_deg = np.degrees(elevations(board_points(fit.poses, boards), axis))
     lines: list[FittedLine] = []
     start = 0

@@ -171,6 +171,7 @@ def _from_csv(text: str) -> Landmarks:
             f"the CSV lacks the column(s) {','.join(missing)}; its header must hold u,v,X,Y,Z "
             f"(and optionally name), it holds {','.join(header) or 'nothing'}"
         )
+    _check_columns_once(header, (*COLUMNS, "name"))
     index = {c: lowered.index(c.lower()) for c in COLUMNS}
     name_index = lowered.index("name") if "name" in lowered else None
     pixels, world, names = [], [], []
@@ -188,6 +189,17 @@ def _from_csv(text: str) -> Landmarks:
         lines.append(line)
         _check_named_once(names, unnamed, "row", lines)
     return Landmarks(np.array(pixels).reshape(-1, 2), np.array(world).reshape(-1, 3), tuple(names))
+
+
+def _check_columns_once(header: list[str], columns: tuple[str, ...]) -> None:
+    """Refuse a header that holds one of ``columns`` twice (in any case): which of the two is meant is a guess."""
+    lowered = [h.lower() for h in header]
+    for column in columns:
+        places = [k + 1 for k, h in enumerate(lowered) if h == column.lower()]
+        if len(places) > 1:
+            raise PanomapError(
+                f"the CSV's header holds {column} {len(places)} times (columns {', '.join(map(str, places))}): keep one"
+            )
 
 
 def _check_named_once(names: list[str], unnamed: list[bool], what: str, places: list[int]) -> None:
@@ -306,6 +318,10 @@ def read_points(path: str | Path, columns: tuple[str, ...] = ("X", "Y", "Z")) ->
     missing = [c for c in columns if c.lower() not in lowered]
     if missing:
         raise PanomapError(f"the CSV lacks the column(s) {','.join(missing)}; it holds {','.join(header)}", path)
+    try:
+        _check_columns_once(header, columns)
+    except PanomapError as exc:
+        raise PanomapError(exc.detail, path) from None
     index = [lowered.index(c.lower()) for c in columns]
     values = []
     for line, row in numbered[1:]:

@@ -656,7 +656,7 @@ def _result(
         (float(params[0]), float(params[1])), radial, s, 0.0, None if rotation is None else tuple(map(tuple, rotation))
     )
     if options.azimuth_zero is not None:
-        model = zero_azimuth(model, options.azimuth_zero)
+        model = zero_azimuth(model, options.azimuth_zero, circles)
     family_of = {int(m): f for f, family in enumerate(families) for m in family.members}
     rho = _camera_elevations(trial.rays.d, axis)
     fitted = tuple(

@@ -14,7 +14,9 @@ from dataclasses import replace
 import numpy as np
 
 from ...camera.model import CameraModel
+from ...errors import PanomapError
 from ...geometry import FloatArray
+from ..circles.types import ImageCircles
 from .rays import InverseRadial
 
 
@@ -53,8 +55,28 @@ def pixel_world_azimuth(model: CameraModel, pixel: tuple[float, float]) -> float
     return float(theta_world[0])
 
 
-def zero_azimuth(model: CameraModel, pixel: tuple[float, float]) -> CameraModel:
-    """``model`` with its azimuth origin turned so that ``pixel`` (u, v) sees world azimuth 0."""
+# A pixel closer than this to the image centre has no azimuth to speak of (its angle turns a degree for each
+# hundredth of a pixel the centre moves).
+MIN_AZIMUTH_RADIUS_PX = 5.0
+
+
+def check_scene_pixel(pixel: tuple[float, float], centre: tuple[float, float], circles: ImageCircles) -> None:
+    """Refuse a ``pixel`` (u, v) that sees no azimuth of the scene: nearer the ``centre`` than the cut-off disc
+    (or :data:`MIN_AZIMUTH_RADIUS_PX`), where every azimuth meets, or past the image circle, where the camera
+    sees nothing (the user's click or typing gone astray)."""
+    radius = math.hypot(pixel[0] - centre[0], pixel[1] - centre[1])
+    inner = max(circles.cutoff.radius if circles.cutoff is not None else 0.0, MIN_AZIMUTH_RADIUS_PX)
+    if not inner <= radius <= circles.outer_radius:
+        raise PanomapError(
+            f"the pixel given for azimuth 0, ({pixel[0]:g}, {pixel[1]:g}), is {radius:.1f} px from the image centre: "
+            f"give a pixel of the scene, {inner:.0f} to {circles.outer_radius:.0f} px from it"
+        )
+
+
+def zero_azimuth(model: CameraModel, pixel: tuple[float, float], circles: ImageCircles) -> CameraModel:
+    """``model`` with its azimuth origin turned so that ``pixel`` (u, v) sees world azimuth 0; a pixel outside
+    the scene's ring of ``circles`` is refused (:func:`check_scene_pixel`)."""
+    check_scene_pixel(pixel, model.centre, circles)
     theta0 = pixel_world_azimuth(model, pixel)
     if model.rotation is None:
         return replace(model, phi0=model.phi0 + model.s * theta0, rotation=None)

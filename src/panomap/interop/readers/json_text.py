@@ -38,6 +38,15 @@ def _depth(text: str) -> int:
     return deepest
 
 
+def _once(pairs: list[tuple[str, Any]], path: str | Path) -> dict[str, Any]:
+    """An object's members, refused where a key is written twice (``json`` keeps the last, silently)."""
+    data = dict(pairs)
+    if len(data) < len(pairs):
+        twice = next(key for k, (key, _) in enumerate(pairs) if key in (other for other, _ in pairs[:k]))
+        raise PanomapError(f"the key {twice!r} is written twice in one object: which one is meant is a guess", path)
+    return data
+
+
 def load_json(text: str, path: str | Path) -> Any:
     """The JSON document in ``text``, at most :data:`.yaml_text.MAX_CHARS` characters and
     :data:`.yaml_text.MAX_DEPTH` levels deep.
@@ -52,8 +61,10 @@ def load_json(text: str, path: str | Path) -> Any:
     if _depth(text) > MAX_DEPTH:
         raise PanomapError(f"nested more than {MAX_DEPTH} levels deep: not a calibration file", path)
     try:
-        return json.loads(text.lstrip("\ufeff"))
+        return json.loads(text.lstrip("\ufeff"), object_pairs_hook=lambda pairs: _once(pairs, path))
     except json.JSONDecodeError as exc:
         raise PanomapError(f"not valid JSON (line {exc.lineno}: {exc.msg})", path) from None
+    except PanomapError:
+        raise
     except ValueError:  # an integer of more digits than Python converts (4300)
         raise PanomapError("holds a number too long to read", path) from None

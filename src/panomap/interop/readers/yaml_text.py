@@ -48,8 +48,15 @@ def check_shape(text: str, path: str | Path) -> None:
         raise PanomapError(f"{len(text)} characters: more than a calibration file holds ({MAX_CHARS})", path)
     sizes: dict[str, int] = {}  # anchor -> values its node expands to
     open_nodes: list[tuple[str | None, int]] = []  # (anchor, total before it) of each open list or map
+    keys: list[tuple[set[str], list[int]] | None] = []  # each open map's keys so far and its items' count
     total = 0
     for event in yaml.parse(text, Loader=_LOADER):
+        if isinstance(event, (yaml.AliasEvent, yaml.ScalarEvent, yaml.SequenceStartEvent, yaml.MappingStartEvent)):
+            _check_key_once(event, keys[-1] if keys else None, path)
+        if isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
+            keys.append((set(), [0]) if isinstance(event, yaml.MappingStartEvent) else None)
+        elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)) and keys:
+            keys.pop()
         if isinstance(event, yaml.AliasEvent):
             if event.anchor not in sizes:
                 break  # an undefined alias: the loader says so
@@ -71,6 +78,23 @@ def check_shape(text: str, path: str | Path) -> None:
             raise PanomapError(
                 f"its aliases expand to more than {MAX_EXPANDED_NODES} values: not a calibration file", path
             )
+
+
+def _check_key_once(event: Any, mapping: tuple[set[str], list[int]] | None, path: str | Path) -> None:
+    """Refuse ``event`` where it is a key its open ``mapping`` (keys so far, items so far) already has: PyYAML
+    keeps the last of two, silently (a camchain's camera written twice under one name came out as one camera)."""
+    if mapping is None:
+        return
+    seen, items = mapping
+    if items[0] % 2 == 0 and isinstance(event, yaml.ScalarEvent):
+        if event.value in seen:
+            raise PanomapError(
+                f"the key {brief(event.value)} is written twice in one map (line {event.start_mark.line + 1}): "
+                "which one is meant is a guess",
+                path,
+            )
+        seen.add(event.value)
+    items[0] += 1
 
 
 def load_yaml(text: str, path: str | Path) -> Any:

@@ -1,0 +1,83 @@
+"""An encoder opened with what it says kept: the reason it refuses, in its own words, and nothing on the terminal.
+
+FFmpeg's encoders report why they refuse through FFmpeg's log, which PyAV keeps quiet (the exception then says
+only "Generic error in an external library"); some libraries also write to the process's stderr themselves,
+past that log: x264 a bad preset or tune (``x264 [error]: invalid preset 'nope'``), SVT-AV1 a banner of five
+lines at every start. Both are caught here while the encoder opens.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import sys
+import tempfile
+from collections.abc import Iterator
+from typing import Any
+
+import av
+import av.logging
+
+# At most this much of what a library writes to stderr while it opens is read back.
+MAX_SAID_BYTES = 64_000
+
+# At most this many of the encoder's lines make its reason (the first say why; the rest, that it failed).
+MAX_REASONS = 2
+
+# A library's own prefix to a line ("x264 [error]: ", "Svt[error]: ", "[libx264 @ 0x55d] "), taken off.
+_PREFIX = re.compile(r"^(?:\[[^\]]*\]\s*|[\w-]+\s?\[\w+\]:\s*)+")
+# Lines of no news: a banner, information.
+_INFO = re.compile(r"\[info\]", re.IGNORECASE)
+
+
+@contextlib.contextmanager
+def _stderr_kept() -> Iterator[list[str]]:
+    """The lines written to file descriptor 2 while the block runs (by any code of this process), in the list
+    yielded, filled when the block ends. Where descriptor 2 cannot be duplicated, nothing is kept."""
+    said: list[str] = []
+    sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:
+        yield said
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield said
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            said.extend(sink.read(MAX_SAID_BYTES).decode("utf-8", "replace").splitlines())
+
+
+def open_codec(context: Any, echo: bool = True) -> str | None:
+    """Open the encoder ``context`` (a PyAV codec context, its size, format and options set).
+
+    Returns None where it opened, else why it did not: the encoder's own words (its log's errors, the lines it
+    wrote to stderr), or the exception's where it said none. What an encoder that opens writes to stderr is
+    written on where ``echo``, its information lines left out.
+    """
+    level, skip = av.logging.get_level(), av.logging.get_skip_repeated()
+    av.logging.set_level(av.logging.ERROR)
+    av.logging.set_skip_repeated(False)  # (a retry's refusal repeats the first's words: they are its reason too)
+    failure: BaseException | None = None
+    try:
+        with _stderr_kept() as said, av.logging.Capture() as logged:
+            try:
+                context.open()
+            except (av.error.FFmpegError, ValueError, TypeError) as exc:
+                failure = exc
+    finally:
+        av.logging.set_level(level)
+        av.logging.set_skip_repeated(skip)
+    lines = [line.strip() for line in said if line.strip() and not _INFO.search(line)]
+    if failure is None:
+        if lines and echo:
+            sys.stderr.write("".join(f"{line}\n" for line in lines))
+        return None
+    words = [*(_PREFIX.sub("", line) for line in lines), *(str(message).strip() for _, _, message in logged)]
+    words = list(dict.fromkeys(word.rstrip(".") for word in words if word))[:MAX_REASONS]
+    return "; ".join(words) if words else " ".join(str(getattr(failure, "strerror", None) or failure).split())
