@@ -127,6 +127,25 @@ def learn_table(
     return table, fit
 
 
+def hyperbolic_inputs(
+    folder: Path, size: tuple[int, int], centre: tuple[float, float], count: int, table_name: str
+) -> PanoMappingTable:
+    """A simulated hyperbolic camera's table learned from ``count`` landmarks (the camera 2.5 m up, its centre
+    ``centre`` px in an image of ``size``), saved as ``folder/table_name``, and a random picture of that size,
+    ``folder/omni.png``; the table."""
+    from panomap.simulate import standard_cameras
+    from panomap.table.file import save_table
+
+    camera = standard_cameras(size, centre=centre)["hyperbolic"]
+    position = (0.3, -0.2, 2.5)
+    marks = spread_landmarks(camera, position, count, np.random.default_rng(3))
+    table, _ = learn_table(camera, position, marks, size)
+    save_table(table, folder / table_name)
+    image = np.random.default_rng(0).integers(0, 255, (*size, 3), dtype=np.uint8)
+    cv2.imwrite(str(folder / "omni.png"), image)
+    return table
+
+
 def worst_error(
     camera: RadialCamera, trial: Trial, points: tuple[NDArray[np.float64], NDArray[np.float64]], model: str = "auto"
 ) -> float:

@@ -26,9 +26,9 @@ import pytest
 
 from panomap.errors import PanomapError
 from panomap.simulate import standard_cameras
-from panomap.table.file import load_table, metadata_digest, save_table
+from panomap.table.file import load_table, metadata_digest
 
-from helpers import assert_one_line_error, learn_table, run, spread_landmarks
+from helpers import assert_one_line_error, hyperbolic_inputs, run
 
 SIZE = (400, 400)
 
@@ -38,14 +38,8 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder with a table fitted to a simulated hyperbolic camera (fit.npz), the same table with ray
     origins 30 mm apart (vp.npz, format version 4) and an image of its size (omni.png)."""
     folder = tmp_path_factory.mktemp("hardening5")
-    camera = standard_cameras(SIZE, centre=(201.3, 196.2))["hyperbolic"]
-    position = (0.3, -0.2, 2.5)
-    marks = spread_landmarks(camera, position, 40, np.random.default_rng(3))
-    table, _ = learn_table(camera, position, marks, SIZE)
-    save_table(table, folder / "fit.npz")
+    hyperbolic_inputs(folder, SIZE, (201.3, 196.2), 40, "fit.npz")
     tamper(folder / "fit.npz", folder / "vp.npz", with_viewpoint)
-    image = np.random.default_rng(0).integers(0, 255, (*SIZE, 3), dtype=np.uint8)
-    cv2.imwrite(str(folder / "omni.png"), image)
     return folder
 
 

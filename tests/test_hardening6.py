@@ -14,7 +14,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import cv2
-import numpy as np
 import pytest
 
 from panomap.calibrate.circles.types import Circle, ImageCircles
@@ -22,13 +21,12 @@ from panomap.calibrate.lines.orientation import pixel_world_azimuth, zero_azimut
 from panomap.errors import PanomapError
 from panomap.interop.readers.json_text import load_json
 from panomap.rig import CameraRig
-from panomap.simulate import standard_cameras
-from panomap.table.file import load_table, save_table
+from panomap.table.file import load_table
 from panomap.video.output import EncoderSettings, probe_refusal
 from panomap.views.floor import FloorView
 from test_rig import BACK_TO_BACK, camchain
 
-from helpers import assert_one_line_error, learn_table, run, spread_landmarks, write_clip
+from helpers import assert_one_line_error, hyperbolic_inputs, run, write_clip
 
 SIZE = (240, 240)
 
@@ -38,15 +36,9 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder with a table fitted to a simulated hyperbolic camera (cam.npz), the same table twice as
     front.npz and back.npz, their rig (rig.npz), an image of its size (omni.png) and an out/ folder."""
     folder = tmp_path_factory.mktemp("hardening6")
-    camera = standard_cameras(SIZE, centre=(121.3, 118.2))["hyperbolic"]
-    position = (0.3, -0.2, 2.5)
-    marks = spread_landmarks(camera, position, 30, np.random.default_rng(3))
-    table, _ = learn_table(camera, position, marks, SIZE)
-    save_table(table, folder / "cam.npz")
+    hyperbolic_inputs(folder, SIZE, (121.3, 118.2), 30, "cam.npz")
     for name in ("front", "back"):
         shutil.copy(folder / "cam.npz", folder / f"{name}.npz")
-    image = np.random.default_rng(0).integers(0, 255, (*SIZE, 3), dtype=np.uint8)
-    cv2.imwrite(str(folder / "omni.png"), image)
     (folder / "out").mkdir()
     result = run("rig", "make", folder / "front.npz", folder / "back.npz", "-o", folder / "rig.npz")
     assert result.exit_code == 0, result.output + result.stderr
