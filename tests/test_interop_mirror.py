@@ -110,3 +110,16 @@ def test_a_found_circle_beyond_the_models_range_stops_the_table_there(tmp_path: 
     # A radius typed beyond the model is still refused (the user asked for what the calibration cannot give).
     result = run("import", path, "-o", out, "--image-size", "640x480", "--outer-radius", "150")
     assert result.exit_code == 1 and "reaches beyond the mei model's valid range" in result.stderr
+
+
+def test_without_a_picture_a_model_of_mirror_cameras_is_taken_as_a_lens_and_said_so(tmp_path: Path) -> None:
+    path = omnidir_file(tmp_path / "omnidir.yaml", G, 1.0)
+    out = tmp_path / "cam.npz"
+    result = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x64")
+    assert result.exit_code == 0, result.stderr
+    assert "taken as a lens's; a mirror camera's calibration needs --mirror" in result.stderr
+    assert load_table(out).model.s == -1
+    for choice, s in (("--lens", -1), ("--mirror", 1)):
+        result = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x64", choice)
+        assert result.exit_code == 0 and "taken as a lens's" not in result.stderr, result.stderr
+        assert load_table(out).model.s == s

@@ -190,6 +190,9 @@ def import_(
         sources=sources,
         mirror=bool(mirror),
     )
+    if image is None and mirror is None and imported.model.name in MIRROR_MODELS:  # nothing says which: say so
+        note = "taken as a lens's; a mirror camera's calibration needs --mirror (or --image), or its views are mirrored"
+        click.echo(f"panomap: note: {calibration}: {note}", err=True)
     with all_or_none():
         save_table(table, output)
     record = table.info["import"]
@@ -205,6 +208,11 @@ def import_(
         )
     )
     say(f"wrote {output}")
+
+
+MIRROR_MODELS = ("ocam", "mei")
+"""The models that calibrate mirror cameras as well as lenses (OCamCalib's, the unified model): nothing in their
+files says which."""
 
 
 def _bounds_of_image(
