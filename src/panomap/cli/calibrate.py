@@ -12,6 +12,7 @@ import click
 from click.core import ParameterSource
 
 from ..calibrate.circles import ImageCircles, NoImageCircle, find_image_circles
+from ..calibrate.circles.side_by_side import side_by_side_half
 from ..calibrate.core.report import FitReport, table_fit_report
 from ..calibrate.core.sources import Source
 from ..calibrate.landmarks.diagnosis import diagnose
@@ -544,6 +545,12 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
             f"{circles.rim_in_frame:.0%} of the rim lies in the frame, the valid region is the circle within the frame"
         )
     click.echo(f"rim seen on {circles.rim_seen:.0%} of the rays, {circles.rim_polarity}")
+    half = side_by_side_half(circles.centre, (int(omni.shape[1]), int(omni.shape[0])))
+    if half is not None:
+        click.echo(
+            f"this is the {half} lens of a frame of two side by side (a dual fisheye's raw frame?): "
+            "a rig of them takes import --side-by-side or rig learn --side-by-side (docs/rigs.md)"
+        )
     if circles.ellipse is not None:
         e = circles.ellipse
         click.echo(

@@ -204,7 +204,7 @@ def import_(
             + (f" (camera {record['camera']})" if "camera" in record else "")
             + f"; table {m} x {n}, elevation {rho_s:.2f}..{rho_e:.2f} deg, radii {table.cutoff_radius:.1f}.."
             f"{table.outer_radius:.1f} px"
-            + ("; a mirror camera (its mirrored image turned back: s = +1 looking down)" if mirror else "")
+            + (f"; {sources.get('handedness', 'a mirror camera')} (its world turned back: s = +1)" if mirror else "")
         )
     )
     say(f"wrote {output}")
