@@ -86,6 +86,7 @@ def test_import_takes_a_picture_with_a_cut_off_disc_for_a_mirror_camera(tmp_path
         *(table.sample(theta, below - math.pi / 2).astype(np.float64) - paracatadioptric_pixels(theta, below)).T
     )
     assert error.max() < 0.05
+    assert "(a mirror camera: its frame is the world mirrored)" in run("info", out).stdout
     result = run("import", path, "-o", out, "--image", image, "--table-size", "256x64", "--lens")
     assert result.exit_code == 0, result.stderr
     assert "a mirror camera" not in result.stdout

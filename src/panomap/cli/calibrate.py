@@ -693,7 +693,8 @@ def _describe_import(record: object) -> list[str]:
     camera = f", camera {record['camera']}" if record.get("camera") is not None else ""
     return [
         f"imported from {record.get('file', '?')} ({record.get('format', '?')} calibration{camera}, sha256 "
-        f"{str(record.get('sha256', '?'))[:12]}...): model {record.get('model', '?')}, optical axis "
+        f"{str(record.get('sha256', '?'))[:12]}...): model {record.get('model', '?')}"
+        f"{' (a mirror camera: its frame is the world mirrored)' if record.get('mirror') else ''}, optical axis "
         f"{record.get('axis', '?')}; the radial model below approximates it within "
         f"{float(record.get('radial_approximation_max_px', float('nan'))):.2f} px (the entries are exact)"
     ]
