@@ -12,6 +12,7 @@ import click
 from click.core import ParameterSource
 
 from ..calibrate.circles import ImageCircles, NoImageCircle, find_image_circles
+from ..calibrate.circles.side_by_side import side_by_side_half
 from ..calibrate.core.report import FitReport, table_fit_report
 from ..calibrate.core.sources import Source
 from ..calibrate.landmarks.diagnosis import diagnose
@@ -544,6 +545,12 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
             f"{circles.rim_in_frame:.0%} of the rim lies in the frame, the valid region is the circle within the frame"
         )
     click.echo(f"rim seen on {circles.rim_seen:.0%} of the rays, {circles.rim_polarity}")
+    half = side_by_side_half(circles.centre, (int(omni.shape[1]), int(omni.shape[0])))
+    if half is not None:
+        click.echo(
+            f"this is the {half} lens of a frame of two side by side (a dual fisheye's raw frame?): "
+            "a rig of them takes import --side-by-side or rig learn --side-by-side (docs/rigs.md)"
+        )
     if circles.ellipse is not None:
         e = circles.ellipse
         click.echo(
@@ -686,7 +693,8 @@ def _describe_import(record: object) -> list[str]:
     camera = f", camera {record['camera']}" if record.get("camera") is not None else ""
     return [
         f"imported from {record.get('file', '?')} ({record.get('format', '?')} calibration{camera}, sha256 "
-        f"{str(record.get('sha256', '?'))[:12]}...): model {record.get('model', '?')}, optical axis "
+        f"{str(record.get('sha256', '?'))[:12]}...): model {record.get('model', '?')}"
+        f"{' (a mirror camera: its frame is the world mirrored)' if record.get('mirror') else ''}, optical axis "
         f"{record.get('axis', '?')}; the radial model below approximates it within "
         f"{float(record.get('radial_approximation_max_px', float('nan'))):.2f} px (the entries are exact)"
     ]

@@ -7,14 +7,15 @@ from pathlib import Path
 
 import click
 
-from ..calibrate.circles import ImageCircles
+from ..calibrate.circles import ImageCircles, NoImageCircle, find_image_circles
 from ..calibrate.level import level_table
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, same_input
 from ..interop.api import check_image_size, table_of_imported
 from ..interop.export import FORMATS, export_calibration
 from ..interop.orient import orient_table
-from ..interop.readers import READERS, read_calibration
+from ..interop.readers import READERS, Imported, read_calibration
+from ..interop.table_of_camera import model_profile
 from ..io.images import MAX_IMAGE_PIXELS
 from ..rig.file import is_rig_file
 from ..table.file import is_table_file, load_table, save_table
@@ -84,6 +85,14 @@ from .rigs import import_rig, rig_format
     "and a camchain's poses are checked against the pictures.",
 )
 @click.option(
+    "--mirror/--lens",
+    "mirror",
+    default=None,
+    help="A mirror camera (a camera looking into a mirror: its image, and its calibration's frame, are the world's "
+    "mirror image, turned back in the table) or a lens [default: a mirror camera where --image shows a cut-off "
+    "disc (the camera's own reflection), else a lens].",
+)
+@click.option(
     "--image-size",
     type=SIZE,
     metavar="WxH",
@@ -124,6 +133,7 @@ def import_(
     table_size: tuple[int, int] | None,
     side_by_side: bool,
     fov_deg: float | None,
+    mirror: bool | None,
 ) -> None:
     """Make a table from a calibration: OCamCalib calib_results.txt, a Kalibr camchain, an OpenCV
     cv::fisheye or cv::omnidir FileStorage file, COLMAP cameras.txt, a BoofCV calibration YAML
@@ -157,6 +167,7 @@ def import_(
     if rig is not None:
         one_camera = {"--axis": axis, "--image-size": image_size, "--cutoff-radius": cutoff_radius}
         one_camera |= {"--outer-radius": outer_radius, "--tilt": None if tilt == "none" else str(tilt)}
+        one_camera |= {"--mirror/--lens": mirror}
         given = [name for name, value in one_camera.items() if value is not None]
         if given:
             raise click.UsageError(f"{', '.join(given)}: for one camera; a rig takes --orientation, --fov, --image")
@@ -175,17 +186,9 @@ def import_(
     for note in imported.notes:
         click.echo(f"panomap: note: {printable(note)}", err=True)
     if image is not None:
-        omni = read_omni(image)
-        image_size = (int(omni.shape[1]), int(omni.shape[0]))
-        check_image_size(imported, image_size, calibration)
-        try:
-            circles = find_image_circles_in(image, omni)
-        except PanomapError as exc:  # no rim (a full-frame fisheye): the model's valid range in the image
-            click.echo(f"panomap: note: {printable(str(exc))}; the table covers the model's valid range", err=True)
-        else:
-            cutoff_radius, outer_radius = _circle_radii(
-                imported.model.principal_point, circles, cutoff_radius, outer_radius, sources, image
-            )
+        image_size, cutoff_radius, outer_radius, mirror = _bounds_of_image(
+            imported, calibration, image, (cutoff_radius, outer_radius), mirror, sources
+        )
     table = table_of_imported(
         imported,
         calibration,
@@ -198,7 +201,11 @@ def import_(
         outer_radius=outer_radius,
         size=table_size,
         sources=sources,
+        mirror=bool(mirror),
     )
+    if image is None and mirror is None and imported.model.name in MIRROR_MODELS:  # nothing says which: say so
+        note = "taken as a lens's; a mirror camera's calibration needs --mirror (or --image), or its views are mirrored"
+        click.echo(f"panomap: note: {calibration}: {note}", err=True)
     with all_or_none():
         save_table(table, output)
     record = table.info["import"]
@@ -210,9 +217,69 @@ def import_(
             + (f" (camera {record['camera']})" if "camera" in record else "")
             + f"; table {m} x {n}, elevation {rho_s:.2f}..{rho_e:.2f} deg, radii {table.cutoff_radius:.1f}.."
             f"{table.outer_radius:.1f} px"
+            + (f"; {sources.get('handedness', 'a mirror camera')} (its world turned back: s = +1)" if mirror else "")
         )
     )
     say(f"wrote {output}")
+
+
+MIRROR_MODELS = ("ocam", "mei")
+"""The models that calibrate mirror cameras as well as lenses (OCamCalib's, the unified model): nothing in their
+files says which."""
+
+
+def _bounds_of_image(
+    imported: Imported,
+    calibration: Path,
+    image: Path,
+    radii: tuple[float | None, float | None],
+    mirror: bool | None,
+    sources: dict[str, str],
+) -> tuple[tuple[int, int], float | None, float | None, bool | None]:
+    """The image's size, the (cut-off, outer) radii its circles give (unless given), and whether it is a mirror
+    camera's (unless given: where a cut-off disc, the camera's own reflection, shows)."""
+    cutoff_radius, outer_radius = radii
+    omni = read_omni(image)
+    image_size = (int(omni.shape[1]), int(omni.shape[0]))
+    check_image_size(imported, image_size, calibration)
+    try:
+        circles = find_image_circles(omni)
+    except PanomapError as exc:  # no rim (a full-frame fisheye, a mirror overfilling the frame)
+        note = f"{image}: {printable(exc.detail)}; the table covers the model's valid range"
+        click.echo(f"panomap: note: {note}", err=True)
+        cutoff = exc.cutoff if isinstance(exc, NoImageCircle) else None
+        if cutoff is not None and cutoff_radius is None:
+            u0, v0 = imported.model.principal_point
+            cutoff_radius = cutoff.radius + math.hypot(cutoff.centre[0] - u0, cutoff.centre[1] - v0)
+            sources["cutoff_radius"] = f"cut-off disc found in {image.name}"
+    else:
+        cutoff = circles.cutoff
+        cutoff_radius, outer_radius = _circle_radii(
+            imported.model.principal_point, circles, cutoff_radius, outer_radius, sources, image
+        )
+        outer_radius = _within_model(imported, outer_radius, sources)
+    if mirror is None and cutoff is not None:
+        mirror = True
+        sources["handedness"] = f"a mirror camera: cut-off disc found in {image.name} (--lens if not)"
+    return image_size, cutoff_radius, outer_radius, mirror
+
+
+def _within_model(imported: Imported, outer_radius: float | None, sources: dict[str, str]) -> float | None:
+    """The image circle found, no farther than the model's valid range (a found circle a few px beyond it: the
+    table stops where the calibration does, and says so)."""
+    if outer_radius is None or "outer_radius" not in sources:
+        return outer_radius
+    profile = model_profile(imported.model)
+    reach = float(profile.radius[-1])
+    if outer_radius <= reach:
+        return outer_radius
+    click.echo(
+        f"panomap: note: the image circle ({outer_radius:.1f} px) reaches beyond the {imported.model.name} model's "
+        f"valid range; the table stops there ({reach:.1f} px, {math.degrees(profile.alpha[-1]):.1f} deg off the axis)",
+        err=True,
+    )
+    sources["outer_radius"] += f", cut to the {imported.model.name} model's valid range"
+    return reach
 
 
 def _circle_radii(

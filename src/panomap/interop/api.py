@@ -48,6 +48,7 @@ def import_calibration(
     outer_radius: float | None = None,
     size: tuple[int, int] | None = None,
     sources: dict[str, str] | None = None,
+    mirror: bool = False,
 ) -> PanoMappingTable:
     """The pano-mapping table of the calibration in ``path``.
 
@@ -83,6 +84,9 @@ def import_calibration(
         Table size; default about one entry per pixel.
     sources : dict, optional
         Where quantities came from (stored in ``info["sources"]``).
+    mirror : bool
+        A mirror camera (a camera looking into a mirror): its image is the world's mirror image, and so is its
+        calibration's frame; the table's handedness is turned to the world's (default: a lens).
     """
     return table_of_imported(
         read_calibration(path, format, camera),
@@ -96,6 +100,7 @@ def import_calibration(
         outer_radius=outer_radius,
         size=size,
         sources=sources,
+        mirror=mirror,
     )
 
 
@@ -112,6 +117,7 @@ def table_of_imported(
     outer_radius: float | None = None,
     size: tuple[int, int] | None = None,
     sources: dict[str, str] | None = None,
+    mirror: bool = False,
 ) -> PanoMappingTable:
     """The table of a calibration already read from ``path`` (:func:`read_calibration`: a caller that
     needs the calibration first reads the file once); the parameters as :func:`import_calibration`'s."""
@@ -145,6 +151,7 @@ def table_of_imported(
             outer_radius=outer_radius,
             size=size,
             info={"import": record, "sources": info_sources, "warnings": []},
+            mirror=mirror,
         )
     except PanomapError as exc:
         raise PanomapError(exc.detail, path) from None

@@ -82,6 +82,12 @@ def radius_profile(camera: ExternalCamera, max_angle_rad: float) -> RadiusProfil
     return RadiusProfile(alpha[:end], radius[:end])
 
 
+def model_profile(camera: ExternalCamera) -> RadiusProfile:
+    """The camera's mean image radius (px) against the angle from its axis (rad), over its valid range: its
+    last radius is as far from the principal point as the model runs."""
+    return radius_profile(camera, float(getattr(camera, "max_angle_rad", camera.max_angle_limit_rad)))
+
+
 def angle_range(
     camera: ExternalCamera,
     image_size: tuple[int, int] | None,
@@ -94,7 +100,7 @@ def angle_range(
     corner when the image size is known (every pixel of the frame is in the table, as far as the
     model runs); the cut-off radius defaults to 0.
     """
-    profile = radius_profile(camera, float(getattr(camera, "max_angle_rad", camera.max_angle_limit_rad)))
+    profile = model_profile(camera)
     reach = float(profile.radius[-1])
     if reach < MIN_REACH_PX:
         raise PanomapError(
@@ -189,6 +195,7 @@ def table_of_camera(
     outer_radius: float | None = None,
     size: tuple[int, int] | None = None,
     info: dict[str, Any] | None = None,
+    mirror: bool = False,
 ) -> PanoMappingTable:
     """The pano-mapping table of an external camera model.
 
@@ -214,6 +221,10 @@ def table_of_camera(
         Default about one entry per pixel along the outer circle and along the radius.
     info : dict, optional
         Stored in the table (its ``import`` record and ``sources``).
+    mirror : bool
+        A mirror camera (a camera looking into a mirror): its calibration's frame, whose pixel offsets keep the
+        mirror's azimuths while its image centre sees back toward the camera, is the world's mirror image, so
+        the table's handedness is the opposite of a lens's (docs/conventions.md). Default: a lens.
     """
     if axis not in HANDEDNESS:
         raise PanomapError(f"axis must be 'down' or 'up', not {axis!r}")
@@ -225,7 +236,8 @@ def table_of_camera(
     if tilt != 0:
         matrix = tilt_rotation(tilt, toward, axis)
         rotation = tuple((float(row[0]), float(row[1]), float(row[2])) for row in matrix)
-    model = CameraModel(camera.principal_point, radial, HANDEDNESS[axis], 0.0, rotation)
+    s = -HANDEDNESS[axis] if mirror else HANDEDNESS[axis]
+    model = CameraModel(camera.principal_point, radial, s, 0.0, rotation)
     if orientation_rad is not None:
         if tilt != 0 or axis != "down":
             raise PanomapError("give the orientation, or the axis and tilt, not both")
@@ -244,6 +256,7 @@ def table_of_camera(
             "model": camera.name,
             "parameters": camera.parameters(),
             "axis": axis,
+            "mirror": bool(mirror),
             "radial_approximation_max_px": _approximation_error(entries, model, size, world_range, camera_range),
         }
     )

@@ -49,6 +49,7 @@ from ..lines.fit import LineFit, LineFitOptions, vertical_under
 from ..lines.orientation import level_rotation, zero_azimuth
 from ..lines.rays import ALPHA_LIMIT, InverseRadial, pixel_rays
 from .detect import Board
+from .off_board import arcs_off_boards
 from .solve import NEAR_DAMPING, BlockJacobian, least_squares_blocks
 from .terms import NO_TERMS, TermChoice, TermLayout, choose_terms
 from .uncertainty import board_band
@@ -184,7 +185,8 @@ def fit_boards(
     radial_params = final.params[: 2 + radial_kind(final.kind).parameter_count]
     vertical = None
     if arcs:  # the arcs' pixels as the radial model sees them (the terms undone)
-        vertical = vertical_under(_undone(arcs, final), circles, final.kind, axis, radial_params)
+        off = arcs_off_boards(arcs, boards)  # a board's own lines run any way its holder tilts it
+        vertical = vertical_under(_undone(off, final), circles, final.kind, axis, radial_params) if off else None
     r_max = _farthest(boards, circles.centre) * 1.05
     return _result(
         final, given, boards, kept_index, sorted(dropped + rejected), rms, options, circles, r_max, vertical, choice
