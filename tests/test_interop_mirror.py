@@ -18,6 +18,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from click.testing import Result
 
 from panomap import import_calibration, load_table
 
@@ -70,11 +71,17 @@ def annulus_picture(path: Path, cutoff_px: float, outer_px: float) -> Path:
     return path
 
 
+def imported(folder: Path, gamma: float, xi: float, cutoff_px: float, *options: str) -> tuple[Path, Path, Result]:
+    """``panomap import`` of an omnidir file (``gamma``, ``xi``) with ``--image`` a picture of a cut-off disc of
+    ``cutoff_px`` and a rim of 150 px: the file, the table's path and the command's result."""
+    path = omnidir_file(folder / "omnidir.yaml", gamma, xi)
+    image = annulus_picture(folder / "omni.png", cutoff_px, 150.0)
+    out = folder / "cam.npz"
+    return path, out, run("import", path, "-o", out, "--image", image, "--table-size", "256x64", *options)
+
+
 def test_import_takes_a_picture_with_a_cut_off_disc_for_a_mirror_camera(tmp_path: Path) -> None:
-    path = omnidir_file(tmp_path / "omnidir.yaml", G, 1.0)
-    image = annulus_picture(tmp_path / "omni.png", 30.0, 150.0)
-    out = tmp_path / "cam.npz"
-    result = run("import", path, "-o", out, "--image", image, "--table-size", "256x64")
+    _, out, result = imported(tmp_path, G, 1.0, 30.0)
     assert result.exit_code == 0, result.stderr
     assert "a mirror camera" in result.stdout
     table = load_table(out)
@@ -87,7 +94,7 @@ def test_import_takes_a_picture_with_a_cut_off_disc_for_a_mirror_camera(tmp_path
     )
     assert error.max() < 0.05
     assert "(a mirror camera: its frame is the world mirrored)" in run("info", out).stdout
-    result = run("import", path, "-o", out, "--image", image, "--table-size", "256x64", "--lens")
+    _, _, result = imported(tmp_path, G, 1.0, 30.0, "--lens")
     assert result.exit_code == 0, result.stderr
     assert "a mirror camera" not in result.stdout
     assert load_table(out).model.s == -1
@@ -98,10 +105,7 @@ def test_a_found_circle_beyond_the_models_range_stops_the_table_there(tmp_path: 
     # g / sqrt(xi^2 - 1) (107.3 px here); the picture's circle is 150 px: the table stops at 107.3 px, with a note.
     gamma, xi = 120.0, 1.5
     reach = gamma / math.sqrt(xi**2 - 1)
-    path = omnidir_file(tmp_path / "omnidir.yaml", gamma, xi)
-    image = annulus_picture(tmp_path / "omni.png", 0.0, 150.0)
-    out = tmp_path / "cam.npz"
-    result = run("import", path, "-o", out, "--image", image, "--table-size", "256x64")
+    path, out, result = imported(tmp_path, gamma, xi, 0.0)
     assert result.exit_code == 0, result.stderr
     assert "reaches beyond the mei model's valid range; the table stops there" in result.stderr
     table = load_table(out)
