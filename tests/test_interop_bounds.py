@@ -368,6 +368,7 @@ def test_a_solver_failure_in_export_is_one_line(tmp_path: Path, monkeypatch: pyt
     assert not out.exists()
 
 
+@pytest.mark.slow  # 3-4 s of set-up on two cores: the fast subset keeps within its 3 minutes
 def test_an_edited_table_no_camera_makes_is_refused_in_export(tmp_path: Path) -> None:
     table = import_calibration_small(tmp_path, KB_CAM)
     rng = np.random.default_rng(1)

@@ -132,6 +132,7 @@ def test_the_seams_weights_are_the_formulas_over_every_pixel(dual: tuple, surrou
     assert np.abs(FastRigRemapper(remapper)(pictures, gains).astype(int) - dense.blend(layers, gains)).max() <= 1
 
 
+@pytest.mark.slow  # 3-4 s of set-up on two cores: the fast subset keeps within its 3 minutes
 def test_the_fast_blend_equals_the_rig_remapper_on_a_surround_floor(surround: tuple) -> None:  # type: ignore[type-arg]
     """Four pictures, a floor map (its weights do not wrap), nearest and linear: within 1 grey level (nearest: but
     for the odd pixel whose entry lies a hair from a pixel's edge, where the fast buffer's offset, added in float32
