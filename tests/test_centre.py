@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import cv2
@@ -133,6 +134,29 @@ def test_no_circle_is_an_error_not_a_guess(kind: str) -> None:
     with pytest.raises(NoImageCircle, match="no image circle found") as raised:
         find_image_circles(image)
     assert raised.value.frame_centre == (319.5, 239.5)
+
+
+def test_cli_centre_on_an_ordinary_photo_says_so_in_one_short_line(tmp_path: Path) -> None:
+    """A picture that is no omni-image: one line naming it (<= 160 characters with the path, "rim" once), the frame
+    centre as only a start; ``--verbose`` adds what the search found instead (before: ~190 characters and the path,
+    "rim" twice, the rays' count in the line)."""
+    image = np.full((480, 640, 3), (150, 200, 150), np.uint8)
+    image[300:] = (60, 80, 110)
+    cv2.rectangle(image, (80, 60), (260, 200), (240, 210, 160), -1)
+    path = tmp_path / "holiday.jpg"
+    cv2.imwrite(str(path), image)
+    runner = CliRunner()
+    failed = runner.invoke(main, ["centre", str(path)])
+    assert failed.exit_code == 1 and failed.stdout == ""
+    lines = failed.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"panomap: error: {path}: no image circle found: no rim is visible")
+    message = lines[0].removeprefix("panomap: error: ")
+    assert len(message.replace(str(path), "holiday.jpg")) <= 160 and message.count("rim") == 1, message
+    assert "the frame centre (319.5, 239.5) is only a start" in message and "rays" not in message
+    verbose = runner.invoke(main, ["centre", str(path), "--verbose"])
+    more = verbose.stderr.splitlines()
+    assert verbose.exit_code == 1 and more[0] == lines[0] and len(more) == 2
+    assert re.fullmatch(r"only \d+ of \d+ rays cross a (bright-to-dark|dark-to-bright) rim", more[1]), more[1]
 
 
 def test_sixteen_bit_and_grey_images_work() -> None:

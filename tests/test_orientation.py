@@ -193,6 +193,33 @@ def test_orient_command_turns_a_table_as_import_would(camchain: Path, tmp_path: 
     assert "orientation: yaw 325.000, pitch 25.000, roll 30.000 deg" in result.stdout
 
 
+@pytest.mark.parametrize(
+    ("orientation", "looks"),
+    [
+        (("0", "0", "0"), "ahead, toward azimuth 0.00 deg"),
+        (("-35", "25", "30"), "25.00 deg above the horizon, toward azimuth 325.00 deg"),
+        (("200", "-88", "0"), "88.00 deg below the horizon, toward azimuth 200.00 deg"),
+        (("40", "90", "0"), "straight up"),
+        (("90", "-90", "0"), "straight down"),
+        ((), "straight down"),  # no orientation: the calibration's axis, down and level
+    ],
+)
+def test_info_says_where_an_imported_camera_looks(
+    camchain: Path, tmp_path: Path, orientation: tuple[str, ...], looks: str
+) -> None:
+    """``info`` of a table imported ``--orientation YAW PITCH ROLL`` says where its optical axis looks: its pitch
+    from the horizon toward the azimuth of its yaw (before, every imported table was "axis down", "optical axis
+    down", even looking ahead); the radial model's own frame is not called the camera's axis."""
+    out = tmp_path / "t.npz"
+    given = ["--orientation", *orientation] if orientation else []
+    radius = F_PX * math.radians(HALF_FOV_DEG)
+    assert run("import", camchain, "-o", out, *given, "--outer-radius", radius).exit_code == 0
+    text = run("info", str(out)).stdout
+    axis_line = next(line for line in text.splitlines() if line.startswith("camera axis: "))
+    assert axis_line.endswith(f"looking {looks}") or f"looking {looks} (" in axis_line, axis_line
+    assert "axis down" not in text and "axis up" not in text, text
+
+
 def test_orientation_refused_with_axis_or_pitch_out_of_range(camchain: Path, tmp_path: Path) -> None:
     out = tmp_path / "t.npz"
     result = run("import", camchain, "-o", out, "--orientation", "0", "0", "0", "--axis", "up")

@@ -20,6 +20,7 @@ from ..calibrate.landmarks.pairs import Landmarks, read_landmarks
 from ..calibrate.landmarks.pipeline import calibrate_camera
 from ..calibrate.landmarks.viewpoint import VIEWPOINT_MODES, SphericalMirror
 from ..camera.image_terms import check_term_names
+from ..camera.model import CameraModel
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, input_file, same_input
@@ -501,8 +502,14 @@ def _fit_lines(
 @click.argument("image", type=PATH)
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @click.option("--overlay", type=PATH, help="Also write the image with the circles drawn on it (PNG).")
+@click.option(
+    "-v",
+    "--verbose",
+    is_flag=True,
+    help="Where no image circle is found: what the search found instead (how many rays crossed a rim), after its line.",
+)
 @frame_time_option
-def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float | None) -> None:
+def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float | None, verbose: bool) -> None:
     """Find the image centre, the cut-off radius and the image circle of an omni-image.
 
     The centre is the rim's centre to a fraction of a pixel (the ellipse's, when the
@@ -510,8 +517,9 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
     the circle; the cut-off radius is "none" for a camera that does not see itself
     (a fisheye). Fails with a reason, never a guess, when no rim is visible (a
     full-frame fisheye: the message gives the frame centre as a starting value; a
-    mirror image that overfills the frame: the cut-off disc found and its centre);
-    the overlay then shows that disc and the starting value.
+    mirror image that overfills the frame: the cut-off disc found and its centre) in
+    one line; --verbose adds what the search found instead. The overlay then shows
+    that disc and the starting value.
     """
     check_outputs([("the input image", image)], [("--overlay", overlay)])
     omni = read_omni(image, frame_time)
@@ -522,7 +530,9 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
         if overlay is not None:
             write_image(overlay, draw_no_rim_overlay(omni, exc))
             say(f"wrote {overlay}")
-        raise PanomapError(exc.detail, image) from None
+        error = PanomapError(f"{exc.detail}\n{exc.reason}" if exc.reason else exc.detail, image)
+        error.verbose = True if verbose else None  # type: ignore[attr-defined]  # (the figures with --verbose)
+        raise error from None
     except PanomapError as exc:
         raise PanomapError(exc.detail, image) from None
     if overlay is not None:
@@ -686,6 +696,18 @@ def _describe_viewpoint(table: PanoMappingTable, report: FitReport | None) -> li
     return [f"viewpoint: not single: the rays leave the axis over {viewpoint.excursion(low, high):.4g} world units"]
 
 
+def _looks(model: CameraModel) -> str:
+    """Where the camera's optical axis looks in the world, in words: straight down or up, or its pitch from the
+    horizon toward the azimuth of its yaw (the orientation of docs/conventions.md, ``orient``/``--orientation``)."""
+    yaw, pitch, _ = (math.degrees(a) for a in model.orientation)
+    if abs(abs(pitch) - 90.0) < 0.005:
+        return f"straight {'down' if pitch < 0 else 'up'}"
+    toward = f"toward azimuth {yaw % 360.0:.2f} deg"
+    if abs(pitch) < 0.005:
+        return f"ahead, {toward}"
+    return f"{abs(pitch):.2f} deg {'below' if pitch < 0 else 'above'} the horizon, {toward}"
+
+
 def _describe_import(record: object) -> list[str]:
     """Where an imported table came from (``panomap import``): none for a table fitted here."""
     if not isinstance(record, dict):
@@ -694,8 +716,8 @@ def _describe_import(record: object) -> list[str]:
     return [
         f"imported from {record.get('file', '?')} ({record.get('format', '?')} calibration{camera}, sha256 "
         f"{str(record.get('sha256', '?'))[:12]}...): model {record.get('model', '?')}"
-        f"{' (a mirror camera: its frame is the world mirrored)' if record.get('mirror') else ''}, optical axis "
-        f"{record.get('axis', '?')}; the radial model below approximates it within "
+        f"{' (a mirror camera: its frame is the world mirrored)' if record.get('mirror') else ''}; the radial "
+        f"model below approximates it within "
         f"{float(record.get('radial_approximation_max_px', float('nan'))):.2f} px (the entries are exact)"
     ]
 
@@ -740,17 +762,17 @@ def info(table: Path, as_json: bool, uncertainty_plot: Path | None = None) -> No
         f"image size: {size}; centre (u0, v0) = ({model.centre[0]:.3f}, {model.centre[1]:.3f}) "
         f"({loaded.info.get('sources', {}).get('centre', '?')})",
         f"camera position (X0, Y0, Z0) = {tuple(round(c, 6) for c in loaded.camera_position)}",
-        f"radial model: {model.radial.kind}, axis {model.axis}, coefficients "
+        f"radial model: {model.radial.kind} of the angle from the optical axis, coefficients "
         + ", ".join(f"{c:.9g}" for c in model.radial.coefficients),
         f"azimuth mapping: s = {model.s:+d}, phi0 = {math.degrees(model.phi0):.4f} deg",
     ]
     tilt_rad, toward_rad = model.tilt
     lines.extend(_describe_import(loaded.info.get("import")))
     lines.append(
-        "camera axis: vertical (level)"
+        f"camera axis: vertical (level), looking {_looks(model)}"
         if model.rotation is None
         else f"camera axis: {math.degrees(tilt_rad):.3f} deg off the vertical, leaning toward azimuth "
-        f"{math.degrees(toward_rad):.2f} deg (the table is in world angles)"
+        f"{math.degrees(toward_rad):.2f} deg, looking {_looks(model)} (the table is in world angles)"
     )
     yaw, pitch, roll = (math.degrees(a) for a in model.orientation)
     lines.append(

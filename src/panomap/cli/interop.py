@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from ..calibrate.circles import ImageCircles, NoImageCircle, find_image_circles
+from ..calibrate.circles.side_by_side import side_by_side_half
 from ..calibrate.level import level_table
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, same_input
@@ -254,14 +255,46 @@ def _bounds_of_image(
             sources["cutoff_radius"] = f"cut-off disc found in {image.name}"
     else:
         cutoff = circles.cutoff
-        cutoff_radius, outer_radius = _circle_radii(
-            imported.model.principal_point, circles, cutoff_radius, outer_radius, sources, image
-        )
+        if _one_of_two(image, circles, imported.model.principal_point, image_size, outer_radius is not None):
+            cutoff_radius, outer_radius = _circle_radii(
+                imported.model.principal_point, circles, cutoff_radius, outer_radius, sources, image
+            )
+        else:
+            cutoff = None
         outer_radius = _within_model(imported, outer_radius, sources)
     if mirror is None and cutoff is not None:
         mirror = True
         sources["handedness"] = f"a mirror camera: cut-off disc found in {image.name} (--lens if not)"
     return image_size, cutoff_radius, outer_radius, mirror
+
+
+def _one_of_two(
+    image: Path,
+    circles: ImageCircles,
+    principal_point: tuple[float, float],
+    image_size: tuple[int, int],
+    outer_given: bool,
+) -> bool:
+    """Whether the circle found in ``image`` is the calibration's own. In a frame of two lenses side by side (a dual
+    fisheye's raw frame) a note says which lens's circle was taken and that the pair is a rig; where the
+    calibration's principal point lies in the other half the circle is the other lens's: not taken, and without
+    the outer radius given the table, which would reach into the other lens, is refused."""
+    half = side_by_side_half(circles.centre, image_size)
+    if half is None:
+        return True
+    mine = "left" if principal_point[0] < image_size[0] / 2.0 else "right"
+    rig = "both lenses, a rig, take import --side-by-side (docs/rigs.md)"
+    if mine == half:
+        click.echo(f"panomap: note: {image}: two lenses side by side: the {half} one's circle taken; {rig}", err=True)
+        return True
+    if not outer_given:
+        raise PanomapError(
+            f"two lenses side by side: the circle found is the {half} one's, this calibration's the {mine} one's; "
+            "give --outer-radius, or import the pair with --side-by-side (docs/rigs.md)",
+            image,
+        )
+    click.echo(f"panomap: note: {image}: two lenses side by side: the {half} one's circle not taken; {rig}", err=True)
+    return False
 
 
 def _within_model(imported: Imported, outer_radius: float | None, sources: dict[str, str]) -> float | None:

@@ -32,6 +32,7 @@ from ..lines.objective import LineData, evaluate
 from ..lines.rays import InverseRadial
 from .detect import Board
 from .fit import MIN_CORNERS, board_arcs, fit_boards, pose_of, residuals_under, sparsity
+from .off_board import on_boards
 
 # scipy is imported where it is used: its import would cost every command (a video's start-up too) 0.4 s.
 
@@ -101,7 +102,8 @@ def learn_camera(
         return LearnedCamera(board_fit, "checkerboards", board_arcs(boards), notes)
     say("fitting the camera to the lines")
     try:
-        line_fit = fit_lines(arcs, circles, options, progress=say)
+        # a board's own lines are straight lines like any, but run any way its holder tilts it: no vertical
+        line_fit = fit_lines(arcs, circles, options, progress=say, on_board=on_boards(arcs, boards))
         refusal = line_fit.refusal()
         if refusal is not None:  # the picture cannot stand behind the lines' camera (lines.agreement)
             raise PanomapError(refusal)

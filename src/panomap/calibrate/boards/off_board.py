@@ -29,7 +29,13 @@ ON_BOARD_SHARE = 0.5
 
 
 def arcs_off_boards(arcs: Sequence[EdgeArc], boards: Sequence[Board]) -> list[EdgeArc]:
-    """The ``arcs`` (any images) that lie on no board of their own image (``boards``: inner corners, px).
+    """The ``arcs`` (any images) that lie on no board of their own image (``boards``: inner corners, px)."""
+    on = on_boards(arcs, boards)
+    return [arc for k, arc in enumerate(arcs) if k not in on]
+
+
+def on_boards(arcs: Sequence[EdgeArc], boards: Sequence[Board]) -> frozenset[int]:
+    """The indices into ``arcs`` of those that lie on a board of their own image (``boards``: inner corners, px).
 
     A board's region is its inner corners' convex hull (image px) grown by ``MARGIN_SQUARES`` times its
     mean square size there (the square root of the hull's area per corner cell): every edge's half-plane
@@ -50,11 +56,11 @@ def arcs_off_boards(arcs: Sequence[EdgeArc], boards: Sequence[Board]) -> list[Ed
         if np.any(normals @ hull.mean(axis=0) > offsets):  # the hull ran the other way: normals inward
             normals, offsets = -normals, -offsets
         regions.setdefault(board.image_index, []).append((normals, offsets + MARGIN_SQUARES * square_px))
-    kept = []
-    for arc in arcs:
+    found = set()
+    for k, arc in enumerate(arcs):
         on = np.zeros(len(arc.pixels), dtype=bool)
         for normals, limits in regions.get(arc.image_index, []):
             on |= np.all(arc.pixels @ normals.T <= limits, axis=1)
-        if on.mean() <= ON_BOARD_SHARE:
-            kept.append(arc)
-    return kept
+        if on.mean() > ON_BOARD_SHARE:
+            found.add(k)
+    return frozenset(found)

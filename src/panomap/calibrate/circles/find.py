@@ -353,36 +353,41 @@ def _outermost_either(grey: NDArray[Any], best: _Rim) -> _Rim:
 def _no_rim(
     grey: NDArray[Any], small: NDArray[Any], factor: int, reasons: list[str], frame_centre: tuple[float, float]
 ) -> NoImageCircle:
-    """The error where no rim passes: the first reason, and the cut-off disc where one shows."""
+    """The error where no rim passes, in one line (the search's first failure kept as its ``reason``), and the
+    cut-off disc where one shows."""
     reason = next((r for r in reasons if "rim" in r), reasons[0] if reasons else "no rim")
-    one_arc = next((r for r in reasons if "a rim shows, but" in r), None)
+    reason = reason.removeprefix("no image circle found: ")
+    one_arc = next((r.removeprefix("no image circle found: ") for r in reasons if "a rim shows, but" in r), None)
+    start = f"the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a start"
     if one_arc is not None:
         # A rim shows, on too short an arc: no full-frame fisheye, and no centre to stand behind.
         return NoImageCircle(
-            f"{one_arc}; the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a starting value",
+            f"no image circle found: a rim shows, but on too short an arc to fix its centre; {start}",
             frame_centre,
+            reason=one_arc,
         )
     if _dark_corners(small):
         # A picture in a dark border whose rim no test passed (too dark, too soft, too noisy): no full-frame
         # fisheye (its corners show the scene) and no mirror image overfilling the frame.
         return NoImageCircle(
-            f"{reason}; the frame's corners are dark around a picture (no full-frame fisheye), but no rim about it "
-            f"passed: the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a starting value",
+            f"no image circle found: the frame's corners are dark around a picture, but no rim about it passed; "
+            f"{start}",
             frame_centre,
+            reason=reason,
         )
     disc = _disc_without_rim(grey, small, factor)
     if disc is not None:
         return NoImageCircle(
-            f"{reason}; no rim is visible, but a cut-off disc is (the camera's own reflection: a mirror "
-            f"image that overfills the frame), centre ({disc.centre[0]:.1f}, {disc.centre[1]:.1f}), "
-            f"radius {disc.radius:.1f} px: its centre is only a starting value",
+            f"no image circle found: no rim is visible, but a cut-off disc is (a mirror image overfilling the frame): "
+            f"its centre ({disc.centre[0]:.1f}, {disc.centre[1]:.1f}) is only a start",
             frame_centre,
             cutoff=disc,
+            reason=f"{reason}; the cut-off disc's radius {disc.radius:.1f} px",
         )
     return NoImageCircle(
-        f"{reason}; no rim is visible (a full-frame fisheye, or not an omni-image): "
-        f"the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a starting value",
+        f"no image circle found: no rim is visible (a full-frame fisheye, or not an omni-image); {start}",
         frame_centre,
+        reason=reason,
     )
 
 

@@ -24,6 +24,8 @@ class NoImageCircle(PanomapError):
     cutoff : Circle or None
         The cut-off disc, where one shows without a rim (a mirror camera whose
         image overfills the frame): its centre is the better starting value.
+    reason : str
+        The figures behind the message: what the search found instead (how many rays crossed a rim), or "".
     """
 
     def __init__(
@@ -32,10 +34,12 @@ class NoImageCircle(PanomapError):
         frame_centre: tuple[float, float],
         source: object | None = None,
         cutoff: Circle | None = None,
+        reason: str = "",
     ) -> None:
         super().__init__(message, source)
         self.frame_centre = frame_centre
         self.cutoff = cutoff
+        self.reason = reason
 
 
 class ShortArc(PanomapError):

@@ -42,7 +42,7 @@ The steps (:func:`refine_with_lines`):
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
@@ -56,6 +56,7 @@ from ...errors import PanomapError
 from ...geometry import FloatArray, azimuth_elevation
 from ..boards.choice import LearnedCamera, learn_camera
 from ..boards.detect import Board
+from ..boards.off_board import on_boards
 from ..circles import ImageCircles
 from ..core.line_report import FittedLine, LineFitReport
 from ..core.refine import (
@@ -69,10 +70,11 @@ from ..core.refine import (
     residual_parts,
 )
 from ..lines.arcs import EdgeArc
-from ..lines.families import common_direction
-from ..lines.fit import VERTICAL_WITHIN_DEG, LineFit, LineFitOptions, fit_lines
+from ..lines.families import FAMILY_MIN_LINES, common_direction
+from ..lines.fit import LineFit, LineFitOptions, fit_lines
 from ..lines.objective import LineData, evaluate
 from ..lines.rays import InverseRadial, PixelRays, best_planes, pixel_rays, plane_distances_px
+from ..lines.vertical import VERTICAL_WITHIN_DEG
 from .mount import CHI2_95, MOUNT_SCORE_CAP_SIGMAS, _mount_misses_annulus
 
 T = TypeVar("T")
@@ -130,7 +132,8 @@ class ImageLines:
         PanomapError
             As the line fit does (too few lines, no two orthogonal families).
         """
-        return _once(self._fits, options, lambda: fit_lines(self.arcs, self.circles, options))
+        on_board = on_boards(self.arcs, self.boards)  # a board's rows run any way it is held: no vertical
+        return _once(self._fits, options, lambda: fit_lines(self.arcs, self.circles, options, on_board=on_board))
 
 
 def _once(cache: dict[LineFitOptions, T | PanomapError], options: LineFitOptions, make: Callable[[], T]) -> T:
@@ -271,9 +274,10 @@ def planes_holding(rays: PixelRays, line_index: NDArray[np.intp], count: int, up
     return np.asarray(np.cos(t)[:, None] * e1 + np.sin(t)[:, None] * e2, dtype=np.float64)
 
 
-def vertical_members(fit: LineFit, block_data: LineData) -> NDArray[np.bool_]:
+def vertical_members(fit: LineFit, block_data: LineData, on_board: Collection[int] = ()) -> NDArray[np.bool_]:
     """The lines (L,) of the family that the line fit took for the world's vertical (the most populated within
-    ``VERTICAL_WITHIN_DEG`` of the axis); none where it found none."""
+    ``VERTICAL_WITHIN_DEG`` of the axis, lines all of whose arcs are ``on_board`` left out, as the fit leaves them:
+    :mod:`panomap.calibrate.lines.vertical`); none where it found none."""
     members = np.zeros(block_data.count, dtype=bool)
     if not fit.report.vertical_lines:
         return members
@@ -284,7 +288,9 @@ def vertical_members(fit: LineFit, block_data: LineData) -> NDArray[np.bool_]:
     families = {line.family for line in fit.report.lines if line.family is not None}
     best: NDArray[np.bool_] | None = None
     for family in families:
-        mask = np.array([line.family == family for line in fit.report.lines])
+        mask = np.array([line.family == family and not set(line.arcs) <= set(on_board) for line in fit.report.lines])
+        if mask.sum() < FAMILY_MIN_LINES:
+            continue
         direction = common_direction(trial.normals[mask])
         near_axis = abs(direction[2]) > math.cos(math.radians(VERTICAL_WITHIN_DEG))
         if near_axis and (best is None or mask.sum() > best.sum()):
@@ -361,7 +367,8 @@ def refine_with_lines(
     # The vertical edges hold the world's vertical: they measure the tilt beside the landmarks.
     vertical = None
     if tilt:
-        vertical = VerticalLines(vertical_members(line_fit, LineData.of(lines, r_max)), problem.s, problem.rotation)
+        members = vertical_members(line_fit, LineData.of(lines, r_max), on_boards(image.arcs, image.boards))
+        vertical = VerticalLines(members, problem.s, problem.rotation)
     block = LineBlock(lines, line_sigmas(line_fit.report), problem.axis, r_max, vertical)
     centre = line_fit.model.centre if refine_centre else landmark_solution.centre
     # The lines' kind, from its own fit; and the landmarks' where it differs (and the choice is automatic).

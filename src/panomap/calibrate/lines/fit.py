@@ -20,7 +20,7 @@ the caller (:class:`LineFitOptions`).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,6 +43,7 @@ from .orientation import level_rotation, zero_azimuth
 from .rays import InverseRadial
 from .refusals import no_right_angles, not_straight, too_few
 from .stretch import FLAT_BOARD_DEG, StretchRange, stretch_range, stretched_normals
+from .vertical import vertical_family
 
 # Fewest lines a fit needs, and fewest of them with a family orthogonal to another (the scale).
 MIN_LINES = 8
@@ -72,9 +73,6 @@ LOSS_SCALE_PX = 0.5
 CV_FOLDS = 5
 # A kind with more parameters must beat a simpler one by this fraction of its held-out score.
 CV_MARGIN = 0.02
-# A family whose direction is within this angle of the optical axis is the world's vertical (it gives the
-# tilt); a checkerboard's rows held at an angle are not.
-VERTICAL_WITHIN_DEG = 12.0
 # The camera's own law (the mirrors' for an image with a cut-off disc, the lenses' else) wins within this
 # fraction of the best held-out score: a flexible polynomial follows the scale that lines leave loose and
 # wins held-out straightness by a few percent (the Mei set's first image: odd5 by 6% over the unified
@@ -209,6 +207,7 @@ def fit_lines(
     circles: ImageCircles,
     options: LineFitOptions = LineFitOptions(),
     progress: Callable[[str], None] | None = None,
+    on_board: Collection[int] = (),
 ) -> LineFit:
     """Learn the camera from the edge arcs of one or more images of it.
 
@@ -221,6 +220,9 @@ def fit_lines(
     options : LineFitOptions
     progress : callable, optional
         Called with a short description of each step.
+    on_board : collection of int
+        The arcs (indices) that lie on a checkerboard: straight lines like any, but no world's vertical
+        (:mod:`.vertical`).
 
     Raises
     ------
@@ -260,8 +262,9 @@ def fit_lines(
     chosen, scores, final, others, folds = _choose(state, families, axis, params, r_max, outer, options, circles)
     alternatives = _not_ruled_out(start_ends, Camera(chosen, final, "chosen"), axis, state, families, r_max)
     return _result(
-        chosen, axis, final, state, families, r_max, outer, scores, options, circles, [*alternatives, *others], folds
-    )
+        chosen, axis, final, state, families, r_max, outer, scores, options, circles, [*alternatives, *others], folds,
+        on_board,
+    )  # fmt: skip
 
 
 def _units(camera: Camera, axis: str, data: LineData, families: list[Family]) -> FloatArray | None:
@@ -629,9 +632,11 @@ def _result(
     circles: ImageCircles,
     alternatives: Sequence[Camera] = (),
     folds: Sequence[FloatArray] = (),
+    on_board: Collection[int] = (),
 ) -> LineFit:
     """The camera model, its covariance, how well the picture pins it (:mod:`.agreement`, from the
-    ``alternatives`` and the chosen kind's ``folds``) and the report of the final fit."""
+    ``alternatives`` and the chosen kind's ``folds``) and the report of the final fit; the tilt from the
+    vertical family of the lines not on a board (``on_board``: arcs, :mod:`.vertical`)."""
     lines = state.line_pixels()
     data = LineData.of(lines, r_max)
     trial = evaluate(kind, axis, params, data)
@@ -650,7 +655,7 @@ def _result(
     covariance = _covariance(kind, axis, params, data, families, outer, sigma)
     s = options.s if options.s is not None else default_handedness(circles.cutoff is not None, axis)
     seen = _seen(families, trial.normals)
-    vertical = _vertical(seen)
+    vertical = vertical_family(families, trial.normals, state.groups, on_board)
     rotation = None if vertical is None else level_rotation(vertical[0], axis, s)
     model = CameraModel(
         (float(params[0]), float(params[1])), radial, s, 0.0, None if rotation is None else tuple(map(tuple, rotation))
@@ -749,7 +754,7 @@ def vertical_under(
     except PanomapError:
         return None
     trial = evaluate(kind, axis, params, LineData.of(state.line_pixels(), r_max))
-    return None if trial is None else _vertical(_seen(families, trial.normals))
+    return None if trial is None else vertical_family(families, trial.normals, state.groups)
 
 
 def _covariance(
@@ -772,18 +777,6 @@ def _covariance(
 def _seen(families: list[Family], normals: FloatArray) -> list[Family]:
     """The families with their directions as the lines' plane ``normals`` (L, 3) under one camera place them."""
     return [Family(f.members, f.image_index, common_direction(normals[f.members])) for f in families]
-
-
-def _vertical(families: list[Family]) -> tuple[FloatArray, int] | None:
-    """The direction of the most-populated family within ``VERTICAL_WITHIN_DEG`` of the axis, and its line count."""
-    best: tuple[FloatArray, int] | None = None
-    for family in families:
-        direction = family.direction
-        if abs(direction[2]) > math.cos(math.radians(VERTICAL_WITHIN_DEG)) and (
-            best is None or family.members.size > best[1]
-        ):
-            best = (direction, int(family.members.size))
-    return best
 
 
 def _camera_elevations(rays: FloatArray, axis: str) -> FloatArray:
