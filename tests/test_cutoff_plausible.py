@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from panomap import load_table
-from panomap.calibrate.circles import find_image_circles
+from panomap.calibrate.circles import NoImageCircle, find_image_circles
 from panomap.io.images import read_image
 from panomap.simulate import load_room, noisy_jpeg, render, standard_cameras
 from test_interop_mirror import G, imported
@@ -44,6 +44,16 @@ def test_a_small_dark_thing_straight_ahead_of_a_fisheye_is_no_cut_off_disc(
     circles = find_image_circles(noisy_jpeg(image, np.random.default_rng(0), 3.0, 85))
     assert math.dist(circles.centre, camera.centre) < 1.0
     assert circles.cutoff is None
+
+
+def test_a_dark_dot_straight_ahead_of_a_full_frame_fisheye_is_no_mirror_overfilling_the_frame() -> None:
+    # No rim in the frame (a circle of 420 px on 640 x 480): a disc is looked for alone, and must be 2.5% of the
+    # short side at least (5% of a circle that overfills the frame). Before: a 10.3 px disc (2.2%), a mirror camera.
+    camera = standard_cameras((640, 480), seed=4, outer_radius=420.0)["equidistant"]
+    image = with_disc(render(ROOM, camera, supersample=1), camera.centre, 0.022 * 480, 5.0)
+    with pytest.raises(NoImageCircle) as caught:
+        find_image_circles(noisy_jpeg(image, np.random.default_rng(0), 3.0, 85))
+    assert caught.value.cutoff is None
 
 
 def test_a_bright_thing_straight_ahead_of_a_fisheye_is_no_cut_off_disc() -> None:
