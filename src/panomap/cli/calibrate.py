@@ -541,7 +541,10 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
         click.echo(json.dumps(circles.to_dict(), indent=2))
         return
     u0, v0 = circles.centre
-    cutoff = "none" if circles.cutoff is None else f"{circles.cutoff.radius:.2f} px"
+    cutoff = "none"
+    if circles.cutoff is not None:  # its share of the rim: a mirror camera's reflection is 5% of it at least
+        share = circles.cutoff.radius / circles.outer.radius
+        cutoff = f"{circles.cutoff.radius:.2f} px ({share:.0%} of the outer radius)"
     click.echo(f"centre: {u0:.2f} {v0:.2f}")
     click.echo(f"cut-off radius: {cutoff}")
     click.echo(

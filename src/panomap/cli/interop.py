@@ -264,7 +264,11 @@ def _bounds_of_image(
         outer_radius = _within_model(imported, outer_radius, sources)
     if mirror is None and cutoff is not None:
         mirror = True
-        sources["handedness"] = f"a mirror camera: cut-off disc found in {image.name} (--lens if not)"
+        size = f"{cutoff.radius:.0f} px" if outer_radius is None else f"{cutoff.radius / outer_radius:.0%} of the rim"
+        sources["handedness"] = f"a mirror camera assumed: a cut-off disc ({size}) in {image.name}; --lens if not"
+    elif mirror is None and imported.model.name in MIRROR_MODELS:  # a model of either kind, no disc: say which
+        note = "no cut-off disc (a mirror's reflection of its camera) in it: taken as a lens's; --mirror if not"
+        click.echo(f"panomap: note: {image}: {note}", err=True)
     return image_size, cutoff_radius, outer_radius, mirror
 
 

@@ -17,6 +17,7 @@ from .thresholds import (
     CUTOFF_CENTRE_FRACTION,
     CUTOFF_ITERATIONS,
     CUTOFF_MIN_MEDIAN_RISE,
+    CUTOFF_MIN_RATIO,
     DISC_CANDIDATES,
     DISC_GRID_HALF,
     DISC_GRID_STEP,
@@ -39,9 +40,12 @@ def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius
 
     The disc's radius is where the median over the rays of the radial gradient peaks,
     so that a textured or lit self-reflection, or scene edges, do not hide it; each
-    ray's steepest rise near that radius is then fitted as the rim is.
+    ray's steepest rise near that radius is then fitted as the rim is. Only radii from
+    CUTOFF_MIN_RATIO of ``outer_radius`` up are looked at, and a disc is kept only that
+    large: a smaller dark thing at the centre is no camera's reflection (a fisheye's).
     """
     # The median over a quarter of the rays finds the radius; all of them then find the edge.
+    smallest = CUTOFF_MIN_RATIO * outer_radius
     radii = np.arange(2.0, 0.75 * outer_radius, STEP)
     samples, _, _ = _profiles(grey, centre, radii, RAYS // 4)
     gradient = np.gradient(samples, axis=1) / STEP
@@ -50,6 +54,7 @@ def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius
     # The median gradient per radius over the rays that are in the frame there.
     score = np.nan_to_num(_row_medians(gradient.T))
     score = np.convolve(score, np.ones(5) / 5, mode="same")
+    score[radii < 0.8 * smallest] = 0.0
     index = int(np.argmax(score))
     if score[index] < CUTOFF_MIN_MEDIAN_RISE:
         return None
@@ -58,6 +63,7 @@ def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius
     def passes(circle: Circle | None, reach_px: float) -> bool:
         return (
             circle is not None
+            and circle.radius >= smallest
             and circle.inliers >= MIN_CUTOFF_FRACTION * RAYS
             and circle.rms_px <= MAX_CUTOFF_RMS_PX
             and math.dist(circle.centre, centre) < reach_px

@@ -84,6 +84,13 @@ CUTOFF_MIN_MEDIAN_RISE = 3.0
 # The cut-off disc's centre may lie this far (a fraction of the outer radius) from the rim's: on the
 # miniomni camera the disc (about the calibrated axis) is 3-5 px off the rim's centre in most images.
 CUTOFF_CENTRE_FRACTION = 0.03
+# A cut-off disc is the camera's own reflection, so it is as large as the camera seen from its mirror: the
+# simulated mirror cameras' discs are 7-16% of the outer radius (cut-off angles 12 deg and up), the real
+# ones 9-26% (miniomni to kaidan). A dark thing straight ahead of a fisheye is any size: one smaller than
+# CUTOFF_MIN_RATIO of the outer radius (a lens's 7.6 px dot, 1.5% of its 495 px circle; a dark blob of 3%
+# in a render) is no camera's reflection and is not reported, so it cannot make a fisheye a mirror camera.
+# (A larger dark disc straight ahead, concentric with the rim, looks as a reflection does: see docs/centre.md.)
+CUTOFF_MIN_RATIO = 0.05
 CUTOFF_ITERATIONS = 4
 # A mirror image that overfills the frame shows no rim, only the camera's reflection: a dark disc
 # near the frame's middle. It is looked for about a grid of centres this far (a fraction of the
@@ -94,7 +101,9 @@ DISC_GRID_HALF = 0.03
 DISC_GRID_STEP = 0.005
 DISC_MIN_FRACTION = 0.7
 DISC_MAX_OFFSET = 0.05
-DISC_RADII = (0.02, 0.35)
+# Its smallest radius is CUTOFF_MIN_RATIO of the image circle's, which overfills the frame: at least half its
+# short side.
+DISC_RADII = (CUTOFF_MIN_RATIO / 2, 0.35)
 DISC_CANDIDATES = 5
 # An ellipse is reported when its axes differ by more than this fraction and it fits clearly better.
 ELLIPSE_MIN_ECCENTRICITY = 0.003
