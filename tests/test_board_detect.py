@@ -202,6 +202,29 @@ def test_a_later_picture_whose_board_is_of_another_size_is_searched_in_full(
     assert detect.learned_size(found[:1]) is None  # one picture is not enough
 
 
+def test_a_picture_searched_in_full_after_its_first_board_is_not_searched_again(
+    mirror_pair: BoardScene, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A later picture whose first board is of another size than the learned one: the search goes on from that
+    board (one first search of every seed, not two: on the real Kaidan set, half of one picture's 1 s), and gives
+    find_boards' boards, bit for bit."""
+    alone = find_boards(mirror_pair.image, 2)
+    searches = []
+    largest = detect._largest
+
+    def counted(search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...], give_up: bool = False):  # type: ignore[no-untyped-def]
+        searches.append(seeds)
+        return largest(search, seeds, give_up)
+
+    monkeypatch.setattr(detect, "_largest", counted)
+    found = detect._one_board(mirror_pair.image, 2, size=(6, 9))
+    assert searches.count(detect.SEEDS) == 1
+    assert len(found) == len(alone) == 2
+    for board, single in zip(found, alone, strict=True):
+        np.testing.assert_array_equal(board.pixels, single.pixels)
+        np.testing.assert_array_equal(board.grid, single.grid)
+
+
 def test_a_later_picture_with_two_boards_of_the_size_gives_both(one_board_pictures: list[BoardScene]) -> None:
     """After two pictures of a 9 x 6 board, a picture of two 9 x 6 boards: the quick detector told the size sees the
     second with the first painted over, so the picture is searched in full: both boards, as find_boards finds them,
