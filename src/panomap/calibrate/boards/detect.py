@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import partial
 from itertools import chain, islice
@@ -223,21 +223,45 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
     The images are searched ``threads`` at a time (the CPUs', where None): the detector runs in one thread and
     lets the others run, so the wall time falls with the cores free and the CPU time does not. Each search seeds
     the generator of its own thread (OpenCV keeps one per thread): the boards are those found one image at a time.
+    The later pictures are searched as soon as the first pictures' first boards are found, while those pictures
+    are searched for more (:func:`_learning`: no core waits on the slower picture); where one shows more, the
+    later pictures are searched again in full.
     """
-    count = min(len(images), threads or os.cpu_count() or 1)
-    with ThreadPoolExecutor(max(count, 1), thread_name_prefix="panomap-boards") as pool:
-        mapped = pool.map if count > 1 else map
-        first = list(mapped(find_boards, images[:LEARN_PICTURES], range(LEARN_PICTURES)))
-        yield from first
-        size = learned_size(first)
-        later = range(len(first), len(images))
+    learning = range(min(LEARN_PICTURES, len(images)))
+    later = range(len(learning), len(images))
+    with ThreadPoolExecutor(max(min(len(images), threads or os.cpu_count() or 1), 1), "panomap-boards") as pool:
+        firsts: list[Future[Board | None]] = [Future() for _ in learning]
+        searched = [pool.submit(_learning, images[k], k, firsts[k]) for k in learning]
+        learned = [first.result() for first in firsts]
+        size = learned_size([[board] if board is not None else [] for board in learned])  # None: None once all are
         if size is None:
-            yield from mapped(find_boards, [images[k] for k in later], later)
+            ahead = [pool.submit(find_boards, images[k], k) for k in later]
+        else:
+            boards = [board for board in learned if board is not None]
+            quick = all(_refined(images[k], board) for k, board in enumerate(boards))  # cheap: before the detector
+            quick = quick and all(pool.map(partial(_quick_suits, size=size), images[: len(boards)], boards))
+            ahead = [pool.submit(_one_board, images[k], k, size, quick) for k in later]
+        first = [these.result() for these in searched]
+        yield from first
+        if learned_size(first) == size:
+            yield from (these.result() for these in ahead)
             return
-        learned = [boards[0] for boards in first]
-        quick = all(_refined(images[k], board) for k, board in enumerate(learned))  # cheap: before the detector
-        quick = quick and all(mapped(partial(_quick_suits, size=size), images[:LEARN_PICTURES], learned))
-        yield from mapped(partial(_one_board, size=size, quick=quick), [images[k] for k in later], later)
+        for these in ahead:
+            these.cancel()
+        yield from pool.map(find_boards, [images[k] for k in later], later)
+
+
+def _learning(image: NDArray[np.generic], image_index: int, first: Future[Board | None]) -> list[Board]:
+    """:func:`find_boards` of one of the pictures a board is learned from (:func:`find_boards_each`), its first board
+    (None where none) given to ``first`` as soon as it is found."""
+    searches = _searches(_grey(image), image_index)
+    try:
+        board = next(searches, None)
+    except Exception as error:
+        first.set_exception(error)
+        raise
+    first.set_result(board)
+    return [] if board is None else [board, *islice(searches, MAX_BOARDS - 1)]
 
 
 def learned_size(found: Sequence[Sequence[Board]]) -> tuple[int, int] | None:
