@@ -468,10 +468,11 @@ def _accurate(
     tiled over the frame would show the detector thousands of corners), from each seed in turn (told the board's
     size, the detector often finds nothing on a crop; grown from a seed on it, the whole board in a tenth of a
     second), and its grid may grow past the search's: the upsampled image shows an outer row the search may miss
-    (a 10 x 7 grid of an 11 x 7 board). The first grid that holds every corner of ``pixels`` (each within
-    ``SAME_CORNER`` of the way to its nearest neighbour on the grid) is kept, the same grid's corners in the
-    order of ``pixels`` (with ``own_order``, in the detector's order, and its (rows, columns)); None where none
-    does (the search's corners are then kept).
+    (a 10 x 7 grid of an 11 x 7 board). The first grid of as many corners as ``pixels`` or more is kept where it
+    holds every corner of ``pixels`` (each within ``SAME_CORNER`` of the way to its nearest neighbour on the grid),
+    the same grid's corners in the order of ``pixels`` (with ``own_order``, in the detector's order, and its (rows,
+    columns)); None where it does not (the search's corners are then kept; the later seeds grow the same grid, as
+    in the search: on the real sets' two such boards, and a seed that finds nothing costs 0.3 s on a Kaidan crop).
     """
     spacing = _neighbour_spacing(pixels, _rectangle(columns, rows))
     mask = _grown_hull(search.shape, pixels, CROP_SQUARES * float(spacing.max()))
@@ -490,7 +491,7 @@ def _accurate(
         nearest = np.argmin(distance, axis=1)
         close = distance[np.arange(len(pixels)), nearest] < SAME_CORNER * spacing
         if not np.all(close) or len(np.unique(nearest)) != len(pixels):
-            continue
+            return None
         if len(placed) == len(pixels) and not own_order:
             return placed[nearest], (rows, columns)
         return placed, (int(meta.shape[0]), int(meta.shape[1]))
