@@ -223,9 +223,8 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
     The images are searched ``threads`` at a time (the CPUs', where None): the detector runs in one thread and
     lets the others run, so the wall time falls with the cores free and the CPU time does not. Each search seeds
     the generator of its own thread (OpenCV keeps one per thread): the boards are those found one image at a time.
-    The later pictures are searched as soon as the first pictures' first boards are found, while those pictures
-    are searched for more (:func:`_learning`: no core waits on the slower picture); where one shows more, the
-    later pictures are searched again in full.
+    The later pictures are searched once the first pictures' first boards are found, while those are searched for
+    more (:func:`_learning`: no core waits on the slower one); where one shows more, the later ones again in full.
     """
     learning = range(min(LEARN_PICTURES, len(images)))
     later = range(len(learning), len(images))
@@ -241,19 +240,20 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
             quick = all(_refined(images[k], board) for k, board in enumerate(boards))  # cheap: before the detector
             quick = quick and all(pool.map(partial(_quick_suits, size=size), images[: len(boards)], boards))
             ahead = [pool.submit(_one_board, images[k], k, size, quick) for k in later]
-        first = [these.result() for these in searched]
-        yield from first
-        if learned_size(first) == size:
-            yield from (these.result() for these in ahead)
-            return
-        for these in ahead:
-            these.cancel()
+        try:
+            first = [these.result() for these in searched]
+            yield from first
+            if learned_size(first) == size:
+                yield from (these.result() for these in ahead)
+                return
+        finally:  # those not started where not wanted, or where the caller stops early
+            for these in ahead:
+                these.cancel()
         yield from pool.map(find_boards, [images[k] for k in later], later)
 
 
 def _learning(image: NDArray[np.generic], image_index: int, first: Future[Board | None]) -> list[Board]:
-    """:func:`find_boards` of one of the pictures a board is learned from (:func:`find_boards_each`), its first board
-    (None where none) given to ``first`` as soon as it is found."""
+    """A learned picture's boards (:func:`find_boards`), its first board (or None) set in ``first`` when found."""
     searches = _searches(_grey(image), image_index)
     try:
         board = next(searches, None)
