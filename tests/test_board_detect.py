@@ -202,12 +202,42 @@ def test_a_later_picture_whose_board_is_of_another_size_is_searched_in_full(
     assert detect.learned_size(found[:1]) is None  # one picture is not enough
 
 
-def test_a_later_picture_with_two_boards_of_the_size_gives_both(one_board_pictures: list[BoardScene]) -> None:
+def test_a_picture_searched_in_full_after_its_first_board_is_not_searched_again(
+    mirror_pair: BoardScene, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A later picture whose first board is of another size than the learned one: the search goes on from that
+    board (one first search of every seed, not two: on the real Kaidan set, half of one picture's 1 s), and gives
+    find_boards' boards, bit for bit."""
+    alone = find_boards(mirror_pair.image, 2)
+    searches = []
+    largest = detect._largest
+
+    def counted(search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...], give_up: bool = False):  # type: ignore[no-untyped-def]
+        searches.append(seeds)
+        return largest(search, seeds, give_up)
+
+    monkeypatch.setattr(detect, "_largest", counted)
+    found = detect._one_board(mirror_pair.image, 2, size=(6, 9))
+    assert searches.count(detect.SEEDS) == 1
+    assert len(found) == len(alone) == 2
+    for board, single in zip(found, alone, strict=True):
+        np.testing.assert_array_equal(board.pixels, single.pixels)
+        np.testing.assert_array_equal(board.grid, single.grid)
+
+
+@pytest.fixture(scope="module")
+def pair() -> BoardScene:
+    """Two 9 x 6 boards (inner corners) before mirror_pair's camera."""
+    camera = line_camera("hyperbolic", 0.5, tilt_deg=2.0)
+    return render_board_scene(camera, board_poses(camera, 2, seed=50, sizes=((9, 6),)), seed=3, supersample=2)
+
+
+def test_a_later_picture_with_two_boards_of_the_size_gives_both(
+    one_board_pictures: list[BoardScene], pair: BoardScene
+) -> None:
     """After two pictures of a 9 x 6 board, a picture of two 9 x 6 boards: the quick detector told the size sees the
     second with the first painted over, so the picture is searched in full: both boards, as find_boards finds them,
     each on its true board (the quick detector sees the second board on 11 of 12 such renders: see _one_board)."""
-    camera = line_camera("hyperbolic", 0.5, tilt_deg=2.0)
-    pair = render_board_scene(camera, board_poses(camera, 2, seed=50, sizes=((9, 6),)), seed=3, supersample=2)
     images = [one_board_pictures[0].image, one_board_pictures[1].image, pair.image]
     found = list(detect.find_boards_each(images, threads=1))
     assert len(found[2]) == 2
@@ -218,6 +248,27 @@ def test_a_later_picture_with_two_boards_of_the_size_gives_both(one_board_pictur
         onto.add(k)
         assert np.median(error) < 0.15, np.median(error)
     assert onto == {0, 1}
+
+
+def test_a_first_picture_with_two_boards_has_the_later_ones_searched_in_full(
+    one_board_pictures: list[BoardScene], pair: BoardScene, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The first picture shows two 9 x 6 boards, the second one: the later pictures, searched for one board as soon as
+    the first boards were found, are searched again in full (find_boards) once the first picture shows its second:
+    no size is learned from it."""
+    searched_in_full = []
+    find = detect.find_boards
+
+    def counted(image: NDArray[np.uint8], image_index: int = 0, max_boards: int = detect.MAX_BOARDS) -> list[Found]:
+        searched_in_full.append(image_index)
+        return find(image, image_index, max_boards)
+
+    monkeypatch.setattr(detect, "find_boards", counted)
+    images = [pair.image, one_board_pictures[0].image, one_board_pictures[2].image]
+    found = list(detect.find_boards_each(images, threads=2))
+    assert [len(boards) for boards in found] == [2, 1, 1]
+    assert searched_in_full == [2]
+    np.testing.assert_array_equal(found[2][0].pixels, find(images[2], 2)[0].pixels)
 
 
 @pytest.fixture(scope="module")
