@@ -508,8 +508,9 @@ def _checked(
     than ``CHECKED_BOARD`` of the corners left do or fewer than ``MIN_CORNERS`` are left. Corners whose squares are
     under ``CHECKED_SQUARE_PX`` wide are not judged (too few pixels to sample the squares apart).
 
-    A board's squares end a square past its outer corners: where the pattern runs on past an edge (:func:`.grid._beyond`:
-    ``CHECKED_ROW`` of the points one step past it show the colouring), the detector has missed a row of a board
+    A board's squares end a square past its outer corners: where the pattern runs on past an edge
+    (:func:`.grid._beyond`: ``CHECKED_ROW`` of the points one step past it show the colouring), the detector has
+    missed a row of a board
     (past one edge of a grid whose corners all show the colouring: 2 of the 63 boards of the real sets, kept) or run
     a scene's texture into a grid (a checkered floor: past two or more edges, or past one of a grid with a corner
     that is no checkerboard's), refused. Not asked of a pattern tiled over the frame (``PATTERN_CORNERS``:
