@@ -13,6 +13,7 @@ import os
 import re
 import sys
 import tempfile
+import threading
 from collections.abc import Iterator
 from typing import Any
 
@@ -30,27 +31,33 @@ _PREFIX = re.compile(r"^(?:\[[^\]]*\]\s*|[\w-]+\s?\[\w+\]:\s*)+")
 # Lines of no news: a banner, information.
 _INFO = re.compile(r"\[info\]", re.IGNORECASE)
 
+# Descriptor 2 is the process's: one redirect at a time (two threads' interleaved would leave it on a sink).
+_STDERR_LOCK = threading.Lock()
+
 
 @contextlib.contextmanager
 def _stderr_kept() -> Iterator[list[str]]:
     """The lines written to file descriptor 2 while the block runs (by any code of this process), in the list
-    yielded, filled when the block ends. Where descriptor 2 cannot be duplicated, nothing is kept."""
+    yielded, filled when the block ends. Where descriptor 2 cannot be duplicated, nothing is kept. One thread at a
+    time: another waits for the first to put descriptor 2 back."""
     said: list[str] = []
-    sys.stderr.flush()
-    try:
-        saved = os.dup(2)
-    except OSError:
-        yield said
-        return
-    with tempfile.TemporaryFile() as sink:
-        os.dup2(sink.fileno(), 2)
+    with _STDERR_LOCK:
+        if sys.stderr is not None:  # (None without a console)
+            sys.stderr.flush()
         try:
+            saved = os.dup(2)
+        except OSError:
             yield said
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            sink.seek(0)
-            said.extend(sink.read(MAX_SAID_BYTES).decode("utf-8", "replace").splitlines())
+            return
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield said
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                sink.seek(0)
+                said.extend(sink.read(MAX_SAID_BYTES).decode("utf-8", "replace").splitlines())
 
 
 def open_codec(context: Any, echo: bool = True) -> str | None:
@@ -75,7 +82,7 @@ def open_codec(context: Any, echo: bool = True) -> str | None:
         av.logging.set_skip_repeated(skip)
     lines = [line.strip() for line in said if line.strip() and not _INFO.search(line)]
     if failure is None:
-        if lines and echo:
+        if lines and echo and sys.stderr is not None:
             sys.stderr.write("".join(f"{line}\n" for line in lines))
         return None
     words = [*(_PREFIX.sub("", line) for line in lines), *(str(message).strip() for _, _, message in logged)]
