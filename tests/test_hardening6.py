@@ -344,12 +344,12 @@ def test_a_table_of_a_given_size_its_disk_has_no_room_for_is_refused_before_the_
 @pytest.mark.parametrize("host", ["no.such.host.invalid", "999.1.1.1"])
 def test_a_host_no_page_can_listen_on_is_named_alone(inputs: Path, host: str) -> None:
     """It warned first that the page was "listening on no.such.host.invalid, not loopback", then failed to
-    listen and said to choose another --port."""
+    listen and said to choose another port."""
     result = run("view", inputs / "cam.npz", inputs / "omni.png", "--host", host, "--port", 0)
-    assert_one_line_error(result, f"cannot listen on {host}:0", "choose another --host")
+    assert_one_line_error(result, f"cannot listen on {host}:0", "choose another host")
     result = run("learn", inputs / "omni.png", "--host", host, "--port", 0, "--dir", inputs / "out")
     assert result.exit_code == 1 and "not loopback" not in result.stderr  # (a note on the noise's circles first)
-    assert "choose another --host" in result.stderr.splitlines()[-1], result.stderr
+    assert "choose another host" in result.stderr.splitlines()[-1], result.stderr
 
 
 # ----------------------------------------------------------------------------- C9: a rig's file, whole or refused

@@ -483,7 +483,7 @@ def test_a_port_in_use_is_refused_with_a_reason(example: Example, folder: Path) 
     session = Session(example.image, "omni.png", folder)
     first = make_server(session, port=0)
     try:
-        with pytest.raises(PanomapError, match=r"cannot listen on 127.0.0.1:\d+ .*choose another --port"):
+        with pytest.raises(PanomapError, match=r"cannot listen on 127.0.0.1:\d+ .*choose another port"):
             make_server(session, port=first.server_address[1])
     finally:
         first.server_close()

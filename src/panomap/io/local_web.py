@@ -135,9 +135,9 @@ def bind(factory: Callable[[tuple[str, int]], ServerT], host: str, port: int) ->
         # The port is the problem where it is taken or reserved; otherwise the address (no such name, not this
         # machine's).
         remedy = (
-            "choose another --port (0 picks a free one)"
+            "choose another port (0 picks a free one)"
             if exc.errno in (errno.EADDRINUSE, errno.EACCES)
-            else "choose another --host (127.0.0.1: this machine alone)"
+            else "choose another host (127.0.0.1: this machine alone)"
         )
         raise PanomapError(f"cannot listen on {shown}:{port} ({exc.strerror or exc}); {remedy}") from None
 
