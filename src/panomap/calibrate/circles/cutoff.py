@@ -40,9 +40,10 @@ def _cutoff_circle(grey: NDArray[Any], centre: tuple[float, float], outer_radius
 
     The disc's radius is where the median over the rays of the radial gradient peaks,
     so that a textured or lit self-reflection, or scene edges, do not hide it; each
-    ray's steepest rise near that radius is then fitted as the rim is. Only radii from
-    CUTOFF_MIN_RATIO of ``outer_radius`` up are looked at, and a disc is kept only that
-    large: a smaller dark thing at the centre is no camera's reflection (a fisheye's).
+    ray's steepest rise near that radius is then fitted as the rim is. The peak is looked
+    for from 0.8 CUTOFF_MIN_RATIO of ``outer_radius`` up (a fitted edge may lie a little
+    outside the peak's radius), and a disc is kept only from CUTOFF_MIN_RATIO up: a smaller
+    dark thing at the centre is no camera's reflection (a fisheye's).
     """
     # The median over a quarter of the rays finds the radius; all of them then find the edge.
     smallest = CUTOFF_MIN_RATIO * outer_radius
