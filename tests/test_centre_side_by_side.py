@@ -76,4 +76,5 @@ def test_import_with_a_dual_frame_names_the_lens_and_refuses_the_other_ones_circ
     lines = result.stderr.splitlines()
     assert len(lines) == 1 and f"the circle found is the {half} one's, this calibration's the {other} one's" in lines[0]
     assert "--outer-radius" in lines[0] and "--side-by-side" in lines[0]
+    assert len(lines[0]) <= len(f"panomap: error: {image}: ") + 160, lines[0]
     assert run("import", across, "-o", out, "--image", image, "--outer-radius", "180").exit_code == 0

@@ -294,7 +294,7 @@ def _one_of_two(
     if not outer_given:
         raise PanomapError(
             f"two lenses side by side: the circle found is the {half} one's, this calibration's the {mine} one's; "
-            "give --outer-radius, or import the pair with --side-by-side (docs/rigs.md)",
+            "give --outer-radius or import --side-by-side",
             image,
         )
     click.echo(f"panomap: note: {image}: two lenses side by side: the {half} one's circle not taken; {rig}", err=True)
