@@ -107,10 +107,10 @@ SEARCH_SIZE_PX = 1400
 # board the full search finds; the corners are the full search's, unchanged.
 LOOK_FACTOR = 0.5
 # The quick detector's corners (_quick_board) are refined in full from where it puts them (twice, the second from the
-# first's corners and windows) where each corner settles: refined again from SETTLE_START_PX off it along each
-# diagonal it comes back within SETTLED_PX, and it moved less than SETTLE_MOVE of the way to its nearest neighbour
-# (a corner the quick detector put on no saddle, 11 px off on a real fisheye picture, is drawn 8 px by those starts).
-# Else it is placed as the search's, on a crop (_accurate).
+# first's corners and windows) where each corner settles: refined again from SETTLE_START_PX off it in u and in v (along
+# each diagonal, 0.42 px) it comes back within SETTLED_PX, and it moved less than SETTLE_MOVE of the way to its nearest
+# neighbour (a corner the quick detector put on no saddle, 11 px off on a real fisheye picture, is drawn 8 px by those
+# starts). Else it is placed as the search's, on a crop (_accurate).
 SETTLE_START_PX = 0.3
 SETTLED_PX = 0.02
 SETTLE_MOVE = 0.25
@@ -366,12 +366,12 @@ def _quick_board(grey: NDArray[np.uint8], image_index: int, size: tuple[int, int
 
 def _settled(grey: NDArray[np.uint8], rough: FloatArray, grid: NDArray[np.intp]) -> FloatArray | None:
     """The quick detector's corners ``rough`` (n, 2) px at places ``grid`` (n, 2), refined in full (:func:`_refine`,
-    twice: the second from the first's corners and windows); None where a corner's window is under
-    ``MIN_WINDOW_PX``, it moved ``SETTLE_MOVE`` of the way to its nearest neighbour or more, it does not settle
-    (refined again from ``SETTLE_START_PX`` off it along each diagonal, it lands more than ``SETTLED_PX`` from it:
-    the grey levels' saddle is no single point there, or another corner's draws it), or its four squares do not
-    show the board's colouring (:func:`.grid._colouring`, as :func:`_checked` asks, of every corner: a start on a flat
-    square is not moved).
+    twice: the second from the first's corners and windows); None where a corner's window is under ``MIN_WINDOW_PX``, it
+    moved ``SETTLE_MOVE`` of the way to its nearest neighbour or more, it does not settle (refined again from
+    ``SETTLE_START_PX`` off it in u and in v, along each diagonal, it lands more than ``SETTLED_PX`` from it: the grey
+    levels' saddle is no single point there, or another corner's draws it), or its four squares do not show the board's
+    colouring (:func:`.grid._colouring`, as :func:`_checked` asks, of every corner: a start on a flat square is not
+    moved).
 
     The search's placement (:func:`_accurate`, a crop searched with the detector's upsampling) only starts the same
     refinement: from the quick detector's corners (0.05-0.7 px off) the corners land on the same saddles, a
