@@ -197,6 +197,7 @@ def test_orient_command_turns_a_table_as_import_would(camchain: Path, tmp_path: 
     ("orientation", "looks"),
     [
         (("0", "0", "0"), "ahead, toward azimuth 0.00 deg"),
+        (("-0.001", "0", "0"), "ahead, toward azimuth 0.00 deg"),  # (not 360.00: the azimuth as printed, wrapped)
         (("-35", "25", "30"), "25.00 deg above the horizon, toward azimuth 325.00 deg"),
         (("200", "-88", "0"), "88.00 deg below the horizon, toward azimuth 200.00 deg"),
         (("40", "90", "0"), "straight up"),
@@ -217,7 +218,7 @@ def test_info_says_where_an_imported_camera_looks(
     text = run("info", str(out)).stdout
     axis_line = next(line for line in text.splitlines() if line.startswith("camera axis: "))
     assert axis_line.endswith(f"looking {looks}") or f"looking {looks} (" in axis_line, axis_line
-    assert "axis down" not in text and "axis up" not in text, text
+    assert "axis down" not in text and "axis up" not in text and "360.00" not in axis_line, text
 
 
 def test_orientation_refused_with_axis_or_pitch_out_of_range(camchain: Path, tmp_path: Path) -> None:

@@ -705,7 +705,7 @@ def _looks(model: CameraModel) -> str:
     yaw, pitch, _ = (math.degrees(a) for a in model.orientation)
     if abs(abs(pitch) - 90.0) < 0.005:
         return f"straight {'down' if pitch < 0 else 'up'}"
-    toward = f"toward azimuth {yaw % 360.0:.2f} deg"
+    toward = f"toward azimuth {round(yaw, 2) % 360.0:.2f} deg"  # (rounded first: -0.001 is 0.00, not 360.00)
     if abs(pitch) < 0.005:
         return f"ahead, {toward}"
     return f"{abs(pitch):.2f} deg {'below' if pitch < 0 else 'above'} the horizon, {toward}"
@@ -775,7 +775,7 @@ def info(table: Path, as_json: bool, uncertainty_plot: Path | None = None) -> No
         f"camera axis: vertical (level), looking {_looks(model)}"
         if model.rotation is None
         else f"camera axis: {math.degrees(tilt_rad):.3f} deg off the vertical, leaning toward azimuth "
-        f"{math.degrees(toward_rad):.2f} deg, looking {_looks(model)} (the table is in world angles)"
+        f"{round(math.degrees(toward_rad), 2) % 360.0:.2f} deg, looking {_looks(model)} (the table is in world angles)"
     )
     yaw, pitch, roll = (math.degrees(a) for a in model.orientation)
     lines.append(
