@@ -562,7 +562,7 @@ def centre(image: Path, as_json: bool, overlay: Path | None, frame_time: float |
     if half is not None:
         click.echo(
             f"this is the {half} lens of a frame of two side by side (a dual fisheye's raw frame?): "
-            "a rig of them takes import --side-by-side or rig learn --side-by-side (docs/rigs.md)"
+            "a rig of them takes import --side-by-side or rig learn --side-by-side"
         )
     if circles.ellipse is not None:
         e = circles.ellipse
