@@ -702,13 +702,13 @@ def _describe_viewpoint(table: PanoMappingTable, report: FitReport | None) -> li
 def _looks(model: CameraModel) -> str:
     """Where the camera's optical axis looks in the world, in words: straight down or up, or its pitch from the
     horizon toward the azimuth of its yaw (the orientation of docs/conventions.md, ``orient``/``--orientation``)."""
-    yaw, pitch, _ = (math.degrees(a) for a in model.orientation)
-    if abs(abs(pitch) - 90.0) < 0.005:
-        return f"straight {'down' if pitch < 0 else 'up'}"
-    toward = f"toward azimuth {round(yaw, 2) % 360.0:.2f} deg"  # (rounded first: -0.001 is 0.00, not 360.00)
-    if abs(pitch) < 0.005:
+    yaw_deg, pitch_deg, _ = (math.degrees(a) for a in model.orientation)
+    if abs(abs(pitch_deg) - 90.0) < 0.005:
+        return f"straight {'down' if pitch_deg < 0 else 'up'}"
+    toward = f"toward azimuth {round(yaw_deg, 2) % 360.0:.2f} deg"  # (rounded first: -0.001 is 0.00, not 360.00)
+    if abs(pitch_deg) < 0.005:
         return f"ahead, {toward}"
-    return f"{abs(pitch):.2f} deg {'below' if pitch < 0 else 'above'} the horizon, {toward}"
+    return f"{abs(pitch_deg):.2f} deg {'below' if pitch_deg < 0 else 'above'} the horizon, {toward}"
 
 
 def _describe_import(record: object) -> list[str]:
