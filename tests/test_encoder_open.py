@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import threading
 
-from panomap.video.encoder_open import _stderr_kept
+from panomap.video.encoder_open import _stderr_kept, open_codec
 
 
 def _identity(fd: int) -> tuple[int, int]:
@@ -46,3 +46,41 @@ def test_kept_lines_are_those_written_to_descriptor_2() -> None:
     with _stderr_kept() as said:
         os.write(2, b"x264 [error]: invalid preset 'nope'\n")
     assert said == ["x264 [error]: invalid preset 'nope'"]
+
+
+class _Waiting:
+    """A codec context whose ``open`` waits on ``until`` (a stand-in for an encoder that takes its time)."""
+
+    def __init__(self, started: threading.Event, until: threading.Event) -> None:
+        self.started, self.until = started, until
+
+    def open(self) -> None:
+        self.started.set()
+        self.until.wait(timeout=0.5)  # (the other thread is let in at once where nothing holds it out)
+
+
+def test_two_threads_opening_leave_ffmpegs_log_level_as_it_was() -> None:
+    """The log level is the process's too: the second opening must not put back the first's ERROR for good."""
+    import av.logging
+
+    before = av.logging.get_level()
+    av.logging.set_level(av.logging.WARNING)
+    first_in, second_in, first_out = threading.Event(), threading.Event(), threading.Event()
+
+    def first() -> None:
+        open_codec(_Waiting(first_in, second_in))
+        first_out.set()
+
+    def second() -> None:
+        first_in.wait()
+        open_codec(_Waiting(second_in, first_out))
+
+    try:
+        threads = [threading.Thread(target=first), threading.Thread(target=second)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        assert av.logging.get_level() == av.logging.WARNING
+    finally:
+        av.logging.set_level(before)

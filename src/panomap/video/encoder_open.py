@@ -31,8 +31,9 @@ _PREFIX = re.compile(r"^(?:\[[^\]]*\]\s*|[\w-]+\s?\[\w+\]:\s*)+")
 # Lines of no news: a banner, information.
 _INFO = re.compile(r"\[info\]", re.IGNORECASE)
 
-# Descriptor 2 is the process's: one redirect at a time (two threads' interleaved would leave it on a sink).
-_STDERR_LOCK = threading.Lock()
+# Descriptor 2 and FFmpeg's log level are the process's: one opening at a time (two threads' interleaved would
+# leave descriptor 2 on a sink, the log level at ERROR).
+_STDERR_LOCK = threading.RLock()
 
 
 @contextlib.contextmanager
@@ -65,21 +66,23 @@ def open_codec(context: Any, echo: bool = True) -> str | None:
 
     Returns None where it opened, else why it did not: the encoder's own words (its log's errors, the lines it
     wrote to stderr), or the exception's where it said none. What an encoder that opens writes to stderr is
-    written on where ``echo``, its information lines left out.
+    written on where ``echo``, its information lines left out. One thread opens at a time (the log level and
+    descriptor 2 are the process's).
     """
-    level, skip = av.logging.get_level(), av.logging.get_skip_repeated()
-    av.logging.set_level(av.logging.ERROR)
-    av.logging.set_skip_repeated(False)  # (a retry's refusal repeats the first's words: they are its reason too)
     failure: BaseException | None = None
-    try:
-        with _stderr_kept() as said, av.logging.Capture() as logged:
-            try:
-                context.open()
-            except (av.error.FFmpegError, ValueError, TypeError) as exc:
-                failure = exc
-    finally:
-        av.logging.set_level(level)
-        av.logging.set_skip_repeated(skip)
+    with _STDERR_LOCK:
+        level, skip = av.logging.get_level(), av.logging.get_skip_repeated()
+        av.logging.set_level(av.logging.ERROR)
+        av.logging.set_skip_repeated(False)  # (a retry's refusal repeats the first's words: they are its reason too)
+        try:
+            with _stderr_kept() as said, av.logging.Capture() as logged:
+                try:
+                    context.open()
+                except (av.error.FFmpegError, ValueError, TypeError) as exc:
+                    failure = exc
+        finally:
+            av.logging.set_level(level)
+            av.logging.set_skip_repeated(skip)
     lines = [line.strip() for line in said if line.strip() and not _INFO.search(line)]
     if failure is None:
         if lines and echo and sys.stderr is not None:
