@@ -167,7 +167,7 @@ def test_a_camera_name_that_cannot_name_a_file_is_refused(inputs: Path, name: st
         CameraRig(tables, (name, "back"))
     out = inputs / "out" / "named.npz"
     result = run("rig", "make", inputs / "front.npz", inputs / "back.npz", "--name", name, "--name", "b", "-o", out)
-    assert_one_line_error(result, "cannot name a file: 1 to 64 characters, no / or \\")
+    assert_one_line_error(result, "cannot name a file: 1 to 64 characters, no / or \\", "not blank, . or ..")
     assert "\x1b" not in result.stderr and not out.exists()
 
 

@@ -36,7 +36,7 @@ def check_camera_name(name: str) -> str:
         shown = f"'{printable(name[:MAX_NAME_CHARS])}" + ("...'" if len(name) > MAX_NAME_CHARS else "'")
         raise PanomapError(
             f"camera name {shown} cannot name a file: 1 to {MAX_NAME_CHARS} characters, no / or \\, no control "
-            "characters"
+            "characters, not blank, . or .."
         )
     return name
 
