@@ -9,6 +9,8 @@ detector cannot know which corner is the board's first).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import cv2
 import numpy as np
 import pytest
@@ -402,3 +404,31 @@ def test_a_later_picture_with_small_squares_is_placed_on_a_crop_round_the_quick_
     searched = find_boards(scene.image, 0, max_boards=1)[0].pixels
     moved = np.linalg.norm(quick.pixels[:, None, :] - searched[None, :, :], axis=2).min(axis=1)
     assert moved.max() < 0.06, moved.max()
+
+
+class _Stopped(BaseException):
+    """Not an Exception: a search stopped by something beyond the search's own errors."""
+
+
+def test_a_learned_pictures_search_that_stops_is_raised_not_waited_on(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``find_boards_each`` waits on each learned picture's first board: a search that stops with any exception,
+    not only an Exception, must end that wait and be raised (before, the wait never ended)."""
+    import threading
+
+    def stopped(*_: object) -> Iterator[Found]:  # (a generator, as the search is)
+        raise _Stopped
+        yield
+
+    monkeypatch.setattr(detect, "_searches", stopped)
+    raised: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            list(detect.find_boards_each([np.zeros((32, 32), np.uint8)] * 3, threads=2))
+        except BaseException as error:
+            raised.append(error)
+
+    worker = threading.Thread(target=run, daemon=True)
+    worker.start()
+    worker.join(timeout=10)
+    assert not worker.is_alive() and len(raised) == 1 and isinstance(raised[0], _Stopped)

@@ -252,7 +252,7 @@ def _learning(image: NDArray[np.generic], image_index: int, first: Future[Board 
     searches = _searches(_grey(image), image_index)
     try:
         board = next(searches, None)
-    except Exception as error:
+    except BaseException as error:  # (any: find_boards_each waits on ``first``)
         first.set_exception(error)
         raise
     first.set_result(board)
