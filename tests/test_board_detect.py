@@ -410,25 +410,40 @@ class _Stopped(BaseException):
     """Not an Exception: a search stopped by something beyond the search's own errors."""
 
 
+def raised_within(images: list[NDArray[np.uint8]], seconds: float) -> list[BaseException]:
+    """What ``find_boards_each`` of ``images`` raised, run in a thread given ``seconds`` to end."""
+    import threading
+
+    raised: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            list(detect.find_boards_each(images, threads=2))
+        except BaseException as error:
+            raised.append(error)
+
+    worker = threading.Thread(target=run, daemon=True)
+    worker.start()
+    worker.join(timeout=seconds)
+    assert not worker.is_alive(), "find_boards_each still waits"
+    return raised
+
+
+def test_a_learned_picture_that_cannot_be_made_grey_is_raised_not_waited_on() -> None:
+    """A first picture of two channels: OpenCV refuses to make it grey before its search starts; before, that
+    refusal left ``find_boards_each`` waiting for the picture's first board for ever."""
+    raised = raised_within([np.zeros((32, 32, 2), np.uint8)] + [np.zeros((32, 32), np.uint8)] * 2, 10)
+    assert len(raised) == 1 and isinstance(raised[0], cv2.error)
+
+
 def test_a_learned_pictures_search_that_stops_is_raised_not_waited_on(monkeypatch: pytest.MonkeyPatch) -> None:
     """``find_boards_each`` waits on each learned picture's first board: a search that stops with any exception,
     not only an Exception, must end that wait and be raised (before, the wait never ended)."""
-    import threading
 
     def stopped(*_: object) -> Iterator[Found]:  # (a generator, as the search is)
         raise _Stopped
         yield
 
     monkeypatch.setattr(detect, "_searches", stopped)
-    raised: list[BaseException] = []
-
-    def run() -> None:
-        try:
-            list(detect.find_boards_each([np.zeros((32, 32), np.uint8)] * 3, threads=2))
-        except BaseException as error:
-            raised.append(error)
-
-    worker = threading.Thread(target=run, daemon=True)
-    worker.start()
-    worker.join(timeout=10)
-    assert not worker.is_alive() and len(raised) == 1 and isinstance(raised[0], _Stopped)
+    raised = raised_within([np.zeros((32, 32), np.uint8)] * 3, 10)
+    assert len(raised) == 1 and isinstance(raised[0], _Stopped)

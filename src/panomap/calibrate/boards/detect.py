@@ -249,10 +249,10 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
 
 def _learning(image: NDArray[np.generic], image_index: int, first: Future[Board | None]) -> list[Board]:
     """A learned picture's boards (:func:`find_boards`), its first board (or None) set in ``first`` when found."""
-    searches = _searches(_grey(image), image_index)
     try:
+        searches = _searches(_grey(image), image_index)
         board = next(searches, None)
-    except BaseException as error:  # (any: find_boards_each waits on ``first``)
+    except BaseException as error:  # (any, the grey image's too: find_boards_each waits on ``first``)
         first.set_exception(error)
         raise
     first.set_result(board)
