@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import threading
+from collections.abc import Callable
 
 from panomap.video.encoder_open import _stderr_kept, open_codec
 
@@ -11,6 +12,15 @@ from panomap.video.encoder_open import _stderr_kept, open_codec
 def _identity(fd: int) -> tuple[int, int]:
     status = os.fstat(fd)
     return status.st_dev, status.st_ino
+
+
+def run_both(*targets: Callable[[], None]) -> None:
+    """Run each of ``targets`` on a thread of its own, all at once, and wait for them all."""
+    threads = [threading.Thread(target=target) for target in targets]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
 
 
 def test_two_threads_leave_descriptor_2_as_it_was() -> None:
@@ -31,11 +41,7 @@ def test_two_threads_leave_descriptor_2_as_it_was() -> None:
             first_out.wait(timeout=5)
 
     try:
-        threads = [threading.Thread(target=first), threading.Thread(target=second)]
-        for thread in threads:
-            thread.start()
-        for thread in threads:
-            thread.join()
+        run_both(first, second)
         assert _identity(2) == before
     finally:
         os.dup2(saved, 2)
@@ -76,11 +82,7 @@ def test_two_threads_opening_leave_ffmpegs_log_level_as_it_was() -> None:
         open_codec(_Waiting(second_in, first_out))
 
     try:
-        threads = [threading.Thread(target=first), threading.Thread(target=second)]
-        for thread in threads:
-            thread.start()
-        for thread in threads:
-            thread.join()
+        run_both(first, second)
         assert av.logging.get_level() == av.logging.WARNING
     finally:
         av.logging.set_level(before)
