@@ -216,6 +216,7 @@ def full_frame_fisheye(
         ((1920, 1080), (7.6, -11.9), 5, 3.0),
     ],
 )
+@pytest.mark.slow  # about a second each: the fast subset keeps within its 3 minutes
 def test_a_full_frame_fisheye_gets_a_table_of_the_whole_frame(
     size: tuple[int, int], offset: tuple[float, float], seed: int, bar_px: float
 ) -> None:
@@ -251,6 +252,7 @@ def test_a_circle_seen_only_about_the_corners_is_the_tables_rim(
     assert float(np.max(error)) < bar_px
 
 
+@pytest.mark.slow  # about a second each: the fast subset keeps within its 3 minutes
 def test_a_mirror_image_that_overfills_the_frame_starts_from_its_cut_off_disc() -> None:
     """A mirror camera whose image is larger than the frame on every side shows no rim, only its own reflection
     in the middle: ``fit --image`` starts the centre there and keeps the disc out of the table. Measured worst
@@ -271,6 +273,7 @@ def test_a_mirror_image_that_overfills_the_frame_starts_from_its_cut_off_disc() 
     assert float(np.max(error)) < 5.0
 
 
+@pytest.mark.slow  # about a second each: the fast subset keeps within its 3 minutes
 def test_a_detected_cut_off_disc_asks_f_r_to_reach_a_default_outer_radius_no_further_than_it_runs() -> None:
     """With the cut-off radius detected and the outer radius the whole frame's default (a mirror image that
     overfills the frame), the table runs from the disc to where f_r ends; a given outer radius f_r does not
@@ -416,6 +419,7 @@ def test_a_dark_disc_that_holds_landmarks_is_not_the_cameras_reflection() -> Non
     assert any("not the camera's own reflection" in warning for warning in result.warnings), result.warnings
 
 
+@pytest.mark.slow  # about a second each: the fast subset keeps within its 3 minutes
 def test_the_learn_page_gives_a_full_frame_fisheye_the_whole_frame_too(tmp_path: Path) -> None:
     """The learn page starts a full-frame fisheye as ``fit --image`` does: the frame's middle, refined, and an outer
     circle through the frame's corners. Measured worst 3.21 px, as the command's; before, the page's outer circle
@@ -433,6 +437,7 @@ def test_the_learn_page_gives_a_full_frame_fisheye_the_whole_frame_too(tmp_path:
     assert float(np.max(error)) < 5.0
 
 
+@pytest.mark.slow  # about a second each: the fast subset keeps within its 3 minutes
 def test_the_learn_page_starts_a_mirror_image_that_overfills_the_frame_from_its_cut_off_disc(tmp_path: Path) -> None:
     """As ``fit --image`` does: the disc's centre (refined by the landmarks) and radius, the whole frame. Measured
     worst 4.25 px, as the command's."""
@@ -532,6 +537,7 @@ def housed_mirror_off_centre() -> tuple[RadialCamera, np.ndarray, tuple[float, f
     return camera, image, axis, (axis[0] + 6.0, axis[1])
 
 
+@pytest.mark.slow  # about a second each: the fast subset keeps within its 3 minutes
 def test_the_table_keeps_the_view_next_to_a_cut_off_disc_off_its_centre() -> None:
     """A housed mirror, its camera's reflection (the cut-off disc) about the optical axis, and the table's
     centre 6 px from it (given so): every pixel the camera shows 1 px or more outside its true disc is in
@@ -552,6 +558,7 @@ def test_the_table_keeps_the_view_next_to_a_cut_off_disc_off_its_centre() -> Non
         assert np.all(np.isfinite(rho)), f"{int(np.sum(~np.isfinite(rho)))} of 720 pixels {beyond_px} px out"
 
 
+@pytest.mark.slow  # about a second each: the fast subset keeps within its 3 minutes
 def test_a_model_that_turns_back_inside_the_disc_keeps_the_discs_radius(monkeypatch: pytest.MonkeyPatch) -> None:
     """Where f_r would not run monotonically down to the smaller cut-off radius, the table keeps the disc's
     own radius (the table is made, as before, rather than refused)."""

@@ -35,6 +35,9 @@ from panomap.viewer.source import open_source
 
 from helpers import LIMIT_S, StreamServer, chromium, room_camera_files, run, serving, write_clip
 
+# Chromium on SwiftShader: a second or more a test; the whole module runs with the slow tests.
+pytestmark = pytest.mark.slow
+
 # WebGL2 on SwiftShader (the slowest GPU a user can have); videos play without a click.
 VIEWER_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--autoplay-policy=no-user-gesture-required"]
 SIZE = (480, 480)
@@ -145,7 +148,6 @@ PERSPECTIVES = [  # (yaw, pitch, roll, fov) deg: straight down among them
 ]
 
 
-@pytest.mark.slow
 def test_the_view_is_the_command_lines_picture(browser: Any, serve: Any, work: Path, tmp_path: Path) -> None:
     page = Page(browser, serve(str(work / "omni.png")))
     try:
@@ -217,7 +219,6 @@ def assert_same_where_both_see(got: np.ndarray, expected: np.ndarray, exact: boo
     assert difference[both].mean() <= SAME_MEAN and np.mean(difference[both] > 2) <= 0.001
 
 
-@pytest.mark.slow
 def test_a_camera_looking_ahead_is_drawn_as_the_command_line_draws_it_the_equirect_too(
     browser: Any, serve: Any, work: Path, tmp_path: Path
 ) -> None:
@@ -279,7 +280,6 @@ Object.defineProperty(window, "panomapView", {
 """
 
 
-@pytest.mark.slow
 def test_the_first_view_a_script_asks_for_is_drawn_from_the_source(
     browser: Any, serve: Any, work: Path, tmp_path: Path
 ) -> None:
@@ -434,7 +434,6 @@ def test_a_video_the_browser_cannot_play_is_decoded_by_the_server(
         page.close()
 
 
-@pytest.mark.slow
 def test_a_live_stream_that_drops_says_so_and_comes_back(browser: Any, serve: Any, work: Path) -> None:
     stream = StreamServer(work / "moving.ts")
     stream.start()
