@@ -97,15 +97,17 @@ class Normal:
         return cls(camera, cross, poses, gradients[:, :c].sum(axis=0), gradients[:, c:])
 
     def diagonal(self) -> tuple[FloatArray, FloatArray]:
-        """The diagonals of the camera's block (c,) and of the boards' (B, 6)."""
-        return np.diagonal(self.camera).copy(), np.diagonal(self.poses, axis1=1, axis2=2).copy()
+        """The damping's scale, D: the diagonals of the camera's block (c,) and of the boards' (B, 6), 1 where a
+        column is zero."""
+        camera, poses = np.diagonal(self.camera).copy(), np.diagonal(self.poses, axis1=1, axis2=2).copy()
+        camera[camera == 0] = 1.0
+        poses[poses == 0] = 1.0
+        return camera, poses
 
     def step(self, damping: float) -> tuple[FloatArray, FloatArray]:
         """The damped Gauss-Newton step (the camera's (c,), the poses' (B, 6)): ``(J^T J + damping D) x = -J^T r``,
         D the diagonal of J^T J (1 where a column is zero). Raises ``np.linalg.LinAlgError`` where singular."""
         camera_diagonal, pose_diagonal = self.diagonal()
-        camera_diagonal[camera_diagonal == 0] = 1.0
-        pose_diagonal[pose_diagonal == 0] = 1.0
         poses = self.poses + damping * pose_diagonal[:, :, None] * np.eye(6)
         inverse = np.linalg.inv(poses)  # (B, 6, 6), every board at once
         if self.camera.size == 0:
@@ -122,8 +124,6 @@ class Normal:
     def predicted_drop(self, camera_step: FloatArray, pose_step: FloatArray, damping: float) -> float:
         """The drop of the cost (the squares' sum) the linear model predicts for a step :meth:`step` gave."""
         camera_diagonal, pose_diagonal = self.diagonal()
-        camera_diagonal[camera_diagonal == 0] = 1.0
-        pose_diagonal[pose_diagonal == 0] = 1.0
         damped = float(camera_step @ (camera_diagonal * camera_step) + np.sum(pose_step * pose_diagonal * pose_step))
         along = float(camera_step @ self.camera_gradient + np.sum(pose_step * self.pose_gradient))
         return damping * damped - along
