@@ -365,7 +365,7 @@ def test_the_fits_jacobian_is_the_derivative_of_its_residuals(kind: str, axis: s
     smooth functions with steps of 1e-6; what is left is their rounding)."""
     from scipy.optimize._numdiff import approx_derivative
 
-    from panomap.calibrate.boards.fit import _jacobian, _residuals
+    from panomap.calibrate.boards.fit import _jacobian_blocks, _residuals
     from panomap.camera.radial import fit_radial
 
     grid = np.stack(np.meshgrid(np.arange(5), np.arange(4)), axis=-1).reshape(-1, 2)
@@ -376,6 +376,6 @@ def test_the_fits_jacobian_is_the_derivative_of_its_residuals(kind: str, axis: s
     coefficients = fit_radial(kind, rho, 150.0 * (rho + 1.6), axis).coefficients
     poses = np.concatenate([[0.3, 0.2, 0.1, -3.0 + k, 2.0, 5.0 + k] for k in range(3)])
     x = np.concatenate([[512.0, 384.0], coefficients, poses])
-    closed = _jacobian(x, kind, axis, boards, observed).toarray()
+    closed = _jacobian_blocks(x, kind, axis, boards, observed).dense()
     numeric = approx_derivative(_residuals, x, method="3-point", args=(kind, axis, boards, observed))
     assert np.abs(closed - numeric).max() < 1e-6 * np.abs(numeric).max()

@@ -166,7 +166,7 @@ def test_the_fits_jacobian_with_terms_is_the_derivative_of_its_residuals() -> No
     them (equal to 1e-6 of the largest derivative: both are differences of smooth functions, steps 1e-6)."""
     from scipy.optimize._numdiff import approx_derivative
 
-    from panomap.calibrate.boards.fit import _jacobian, _residuals
+    from panomap.calibrate.boards.fit import _jacobian_blocks, _residuals
     from panomap.calibrate.boards.terms import TermLayout
 
     grid = np.stack(np.meshgrid(np.arange(5), np.arange(4)), axis=-1).reshape(-1, 2)
@@ -175,7 +175,7 @@ def test_the_fits_jacobian_with_terms_is_the_derivative_of_its_residuals() -> No
     layout = TermLayout(("aspect", "skew", "decentering", "field"), 450.0)
     poses = np.concatenate([[0.3, 0.2, 0.1, -3.0 + k, 2.0, 5.0 + k] for k in range(3)])
     x = np.concatenate([[512.0, 384.0, 300.0, 0.8], [1.02, 0.01, 0.003, -0.002, 0.004, -0.003, 0.002, 0.001], poses])
-    closed = _jacobian(x, "unified", "down", boards, observed, layout).toarray()
+    closed = _jacobian_blocks(x, "unified", "down", boards, observed, layout).dense()
     numeric = approx_derivative(_residuals, x, method="3-point", args=("unified", "down", boards, observed, layout))
     assert np.abs(closed - numeric).max() < 1e-6 * np.abs(numeric).max()
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy.sparse import csr_matrix, lil_matrix
+from scipy.sparse import lil_matrix
 from scipy.spatial.transform import Rotation
 
 from ...camera.image_terms import TERM_KINDS, ImageTerms
@@ -344,13 +344,6 @@ def _residuals(
     predicted = project(kind, axis, params, board_points(poses, boards), layout)
     out = (predicted - observed).ravel()
     return np.where(np.isfinite(out), out, UNREACHED_PX)
-
-
-def _jacobian(
-    x: FloatArray, kind: str, axis: str, boards: Sequence[Board], observed: FloatArray, layout: TermLayout = NO_TERMS
-) -> csr_matrix:
-    """The Jacobian (2N, count + 6B) of :func:`_residuals` as a sparse matrix (:func:`_jacobian_blocks`)."""
-    return _jacobian_blocks(x, kind, axis, boards, observed, layout).sparse()
 
 
 def _jacobian_blocks(
