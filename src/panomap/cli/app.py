@@ -152,7 +152,7 @@ def main() -> None:
     \b
     First a table of the camera, one of three ways:
       panomap import calib_results.txt -o cam.npz    a calibration made elsewhere (OCamCalib, Kalibr,
-                                                      OpenCV, COLMAP)
+                                                      OpenCV, COLMAP, BoofCV, Basalt, gyroflow, Hugin)
       panomap fit -o cam.npz --image 'shots/*.jpg'   learned from pictures: their straight lines and
                                                       checkerboards (--camera-height H for distances)
       panomap fit landmarks.csv -o cam.npz --camera X0 Y0 Z0 --image omni.png
