@@ -2,7 +2,8 @@
 
 Renders the bundled room through a simulated ceiling camera (rotated and
 mirrored, as real ones are), takes landmarks as a user would click them,
-fits, saves the table, and writes the paper's three views and its Fig. 7b.
+fits, saves the table, and writes the paper's three views and its Fig. 7b; then the
+example inputs the documented commands use (:mod:`.demo_inputs`).
 """
 
 from __future__ import annotations
@@ -149,6 +150,7 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
     help="Simulated ceiling camera to use.",
 )
 def demo(out: Path, camera_name: str) -> None:
-    """Render the bundled room through a simulated ceiling camera, learn it, and unwarp it."""
+    """Render the bundled room through a simulated ceiling camera, learn it, and unwarp it; write example inputs
+    (a clip, a fisheye looking ahead, a dual fisheye, their calibrations, a batch manifest)."""
     for line in run_demo(out, camera_name):
         say(line)
