@@ -77,10 +77,10 @@ def test_the_looking_ahead_calibration_is_the_pictures_camera(demo_out: Path) ->
     values = (AHEAD.fx, AHEAD.fy, AHEAD.cx, AHEAD.cy, AHEAD.xi, AHEAD.alpha)
     v, u = np.mgrid[0 : AHEAD.size[1] : 7, 0 : AHEAD.size[0] : 7]
     pixels = np.stack([u.ravel(), v.ravel()], -1).astype(np.float64)
-    assert np.max(np.abs(basalt_ds(AHEAD.rays(pixels), *values) - pixels)) < 1e-6  # measured: 2e-13 px
+    assert np.max(np.abs(basalt_ds(AHEAD.rays(pixels), *values) - pixels)) < 1e-6  # measured: 1.7e-13 px
     table = import_calibration(demo_out / "ahead.json")
     rays = fan(100.0)
-    assert table_error(table, rays, basalt_ds(rays, *values), 100.0) < TOLERANCE_PX  # measured: 1e-3 px
+    assert table_error(table, rays, basalt_ds(rays, *values), 100.0) < TOLERANCE_PX  # measured: 7.5e-4 px
     assert np.allclose(camera_axes(*AHEAD_ORIENTATION_DEG), conventions_axes(*AHEAD_ORIENTATION_DEG), atol=1e-12)
 
     yaw, pitch, roll = AHEAD_ORIENTATION_DEG
@@ -97,16 +97,18 @@ def test_the_looking_ahead_calibration_is_the_pictures_camera(demo_out: Path) ->
 def test_the_camchain_is_the_dual_frames_rig(demo_out: Path) -> None:
     """Each lens of ``camchain.yaml`` imported is the ideal equidistant lens within 0.05 px; the rig's blended
     equirectangular view of ``dual.jpg`` shows the room's own colours along its rays from where the rig stands."""
-    rays = fan(97.0)
+    field_deg = math.degrees(LENS.half_fov_rad) - 1
+    rays = fan(field_deg)
     for name in ("cam0", "cam1"):
         table = import_calibration(demo_out / "camchain.yaml", camera=name)
-        assert table_error(table, rays, equidistant_pixels(rays), 97.0) < TOLERANCE_PX  # measured: 1e-3 px
-    rig = rig_of_camchain(demo_out / "camchain.yaml", side_by_side=True, fov_rad=math.radians(195.0))
+        assert table_error(table, rays, equidistant_pixels(rays), field_deg) < TOLERANCE_PX  # measured: 2.4e-4 px
+    rig = rig_of_camchain(demo_out / "camchain.yaml", side_by_side=True, fov_rad=2 * LENS.half_fov_rad)
     view = EquirectView(size=(512, 256))
     remapper = RigRemapper(rig, camera_maps(rig, view), wrap=True)
     frame = cv2.imread(str(demo_out / "dual.jpg"))
     seen = remapper([frame], remapper.gains([frame]))
     direct = render_rays(load_room(), np.asarray(DUAL_AT), view.rays(rig.tables[0]))
     difference = np.abs(seen.astype(np.float32) - direct).mean(axis=-1)
-    # Measured: median 0.33, p75 1.0 grey levels, 96.1% within 20 (the back lens 2 cm behind: a little parallax).
-    assert np.percentile(difference, 75) < 3.0 and np.mean(difference < 20) > 0.93
+    # Measured: median 0.33, p75 1.0 grey levels, 96.8% within 20; the back lens's picture turned 2 deg about its
+    # centre 92.5%, mirrored 82.2%.
+    assert np.percentile(difference, 75) < 3.0 and np.mean(difference < 20) > 0.95

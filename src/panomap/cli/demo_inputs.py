@@ -28,11 +28,13 @@ CLIP_FRAMES, CLIP_RATE, CLIP_TURN_DEG = 24, 12, 1.25
 # A fisheye looking ahead (Basalt's double sphere, 640 x 480), a little down and rolled, at AHEAD_AT (m).
 AHEAD = DoubleSphereLens(fx=190.0, fy=190.0, cx=318.4, cy=241.7, xi=-0.2, alpha=0.6, size=(640, 480))
 AHEAD_AT, AHEAD_ORIENTATION_DEG = (1.5, 2.5, 1.4), (0.0, -8.0, 3.0)
-# A dual fisheye (two 195 deg equidistant lenses back to back, side by side in one frame), camera 0 looking
-# along +X, level, at DUAL_AT (m); camera 1 turned half a turn about its y axis, DUAL_BASE_M behind.
-LENS = EquidistantLens(f_px=185.0, cx=319.5, cy=319.5, half_fov_rad=math.radians(97.5), size=(640, 640))
-DUAL_AT, DUAL_BASE_M = (2.7, 2.15, 1.5), 0.02
-BACK = np.diag([-1.0, 1.0, -1.0])  # R of camera 1's T_cn_cnm1: x_1 = R x_0 + t, t = (0, 0, -DUAL_BASE_M)
+# A dual fisheye (two 210 deg equidistant lenses back to back, side by side in one frame), camera 0 looking
+# along +X, level, at DUAL_AT (m), off the room's centre (its floor looks the same turned half a turn about it);
+# camera 1 turned half a turn about its y axis, at the same point: a real camera's 1-2 cm between its lenses,
+# seen against walls 1-3 m away, is a parallax of up to 0.8 deg, which `rig learn` would read as a turn.
+LENS = EquidistantLens(f_px=170.0, cx=319.5, cy=319.5, half_fov_rad=math.radians(105.0), size=(640, 640))
+DUAL_AT = (2.7, 2.15, 1.5)
+BACK = np.diag([-1.0, 1.0, -1.0])  # R of camera 1's T_cn_cnm1: x_1 = R x_0 (t = 0)
 DUAL_FRAMES = 6
 # The files written here, in the demo's folder.
 INPUTS = ("omni.mp4", "ahead.json", "ahead.jpg", "camchain.yaml", "dual.jpg", "dual.mp4", "cams.csv")
@@ -87,7 +89,7 @@ def camchain_text(lens: EquidistantLens) -> str:
         "  distortion_coeffs: [0.0, 0.0, 0.0, 0.0]\n"
         f"  resolution: [{lens.size[0]}, {lens.size[1]}]\n"
     )
-    rows = [[*BACK[k], t] for k, t in enumerate((0.0, 0.0, -DUAL_BASE_M))] + [[0.0, 0.0, 0.0, 1.0]]
+    rows = [[*BACK[k], 0.0] for k in range(3)] + [[0.0, 0.0, 0.0, 1.0]]
     chain = "".join(f"  - [{', '.join(f'{x:g}' for x in row)}]\n" for row in rows)
     return f"cam0:\n{camera}cam1:\n{camera}  T_cn_cnm1:\n{chain}"
 
@@ -95,9 +97,8 @@ def camchain_text(lens: EquidistantLens) -> str:
 def dual_frame(room: Room) -> NDArray[np.uint8]:
     """The dual fisheye's frame: camera 0's picture on the left, camera 1's on the right."""
     axes = camera_axes(0.0, 0.0, 0.0)
-    behind = np.asarray(DUAL_AT) + axes @ (-BACK.T @ np.array([0.0, 0.0, -DUAL_BASE_M]))
     return np.concatenate(
-        [render_lens(room, LENS, DUAL_AT, axes), render_lens(room, LENS, behind, axes @ BACK.T)], axis=1
+        [render_lens(room, LENS, DUAL_AT, axes), render_lens(room, LENS, DUAL_AT, axes @ BACK.T)], axis=1
     )
 
 
