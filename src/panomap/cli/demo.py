@@ -2,7 +2,8 @@
 
 Renders the bundled room through a simulated ceiling camera (rotated and
 mirrored, as real ones are), takes landmarks as a user would click them,
-fits, saves the table, and writes the paper's three views and its Fig. 7b.
+fits, saves the table, and writes the paper's three views and its Fig. 7b; then the
+example inputs the documented commands use (:mod:`.demo_inputs`).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from ..simulate import load_room, render, standard_cameras
 from ..simulate.board_scenes import board_poses, render_board_scene
 from ..table.file import save_table
 from ..views import Band, CylinderPanorama, GenericPanorama, PlaneView, View, build_map
+from .demo_inputs import INPUTS, write_inputs
 from .options import FOLDER, say
 
 IMAGE_SIZE = (1024, 1024)
@@ -35,7 +37,7 @@ VIEWS = ("panorama", "cylinder", "plane")  # (the views written below, in this o
 # Every file the demo writes into its folder.
 OUTPUTS = (
     "omni.png", "landmarks.csv", "table.npz", "fit.png", "fit-overlay.png", "boards.png",
-    *(f"{name}{end}" for name in VIEWS for end in (".png", "_map.npy")),
+    *(f"{name}{end}" for name in VIEWS for end in (".png", "_map.npy")), *INPUTS,
 )  # fmt: skip
 
 
@@ -126,6 +128,7 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
     boards = render_board_scene(camera, board_poses(camera, 4, seed=3), seed=3, supersample=2)
     write_image(out / "boards.png", boards.image)
     yield f"rendered four checkerboards held before the same camera, to learn it from: {out / 'boards.png'}"
+    yield from write_inputs(out, room, omni, camera.centre)
     yield f"done in {time.perf_counter() - start:.1f} s"
 
 
@@ -147,6 +150,7 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
     help="Simulated ceiling camera to use.",
 )
 def demo(out: Path, camera_name: str) -> None:
-    """Render the bundled room through a simulated ceiling camera, learn it, and unwarp it."""
+    """Render the bundled room through a simulated ceiling camera, learn it, and unwarp it; write example inputs
+    (a clip, a fisheye looking ahead, a dual fisheye, their calibrations, a batch manifest)."""
     for line in run_demo(out, camera_name):
         say(line)
