@@ -376,6 +376,8 @@ def fit(
         raise PanomapError(exc.detail, exc.source or landmarks) from None
     for warning in result.warnings:
         bar.write(f"panomap: warning: {warning}")
+    for note in result.notes:
+        bar.write(f"panomap: note: {note}")
     table = result.table
     _write_fit(table, result, output, plot, overlay, omni, bar)
     for warning in table.info.get("warnings", []):

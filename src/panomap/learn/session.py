@@ -414,7 +414,7 @@ class Session:
                         calibration.fit, centre_guessed=calibration.sources["centre"].source is Source.FRAME_CENTRE
                     )
                 }
-                if calibration.fit.lines_note is not None:  # why the image's lines did not join the fit
+                if calibration.fit.lines_note is not None and calibration.fit.lines_note_warns:  # lines left out
                     status["warnings"] = [*status["warnings"], calibration.fit.lines_note]
         return table, status
 

@@ -121,6 +121,8 @@ class CameraFit:
         fitted camera; None where no line joined.
     lines_note : str, optional
         Why no line joined, where lines were offered and none did.
+    lines_note_warns : bool
+        Whether ``lines_note`` is a warning (False: the landmarks alone fit far more tightly than the lines).
     viewpoint : ViewpointReport, optional
         Whether the camera has a single viewpoint, as cross-validation over the landmarks says
         (:mod:`.viewpoint`); None where it was not tried.
@@ -146,6 +148,7 @@ class CameraFit:
     mount: MountReport | None = None
     lines: LineFitReport | None = None
     lines_note: str | None = None
+    lines_note_warns: bool = True
     viewpoint: ViewpointReport | None = None
 
     @property
@@ -440,7 +443,7 @@ def _finished(
         covariance = joint.refinement.covariance[:count, :count]
         return replace(fitted, covariance=covariance, lines=joint.lines.report)
     if joint is not None:
-        return replace(fitted, lines_note=joint.note)
+        return replace(fitted, lines_note=joint.note, lines_note_warns=joint.warns)
     if isinstance(viewpoint, SphericalMirror):
         return with_viewpoint(fitted, annulus, sphere=viewpoint)
     if viewpoint == "single" or azimuth != "fit" or (viewpoint == "auto" and (annulus is None or annulus[0] <= 0)):

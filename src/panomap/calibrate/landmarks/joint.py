@@ -159,10 +159,14 @@ class JointLines:
         The lines that joined, each line's RMS (px) under the joint camera; None where none joined.
     note : str or None
         Why no line joined (the line fit failed, the lines disagree with the landmarks), None where they did.
+    warns : bool
+        Whether ``note`` is a warning (False: the lines agree with the landmarks within their stated noise, but
+        the landmarks alone fit far more tightly than that, as exact ones do: leaving the lines out is right).
     """
 
     report: LineFitReport | None
     note: str | None = None
+    warns: bool = True
 
 
 @dataclass(frozen=True)
@@ -403,8 +407,16 @@ def refine_with_lines(
             chosen, refinement = tilted, trial
     joint_problem = replace(problem, kind=kind)
     solution = refinement.solution
-    note = _disagreement(problem, landmark_solution, landmark_options, joint_problem, solution, chosen, inliers)
-    if note is not None:
+    disagreement = _disagreement(problem, landmark_solution, landmark_options, joint_problem, solution, chosen, inliers)
+    if disagreement is not None:
+        note, tighter = disagreement
+        if tighter:  # (the figures in ``note`` are the detail; the line says what was done and why)
+            return JointLines(
+                None,
+                f"the landmarks fit alone: the image's {len(lines)} straight lines agree with them within their "
+                "stated noise, but they fit far more tightly without the lines",
+                warns=False,
+            )
         return JointLines(
             None,
             f"the {len(lines)} straight lines of the image disagree with the landmarks ({note}): "
@@ -491,8 +503,9 @@ def _disagreement(
     solution: MountSolution,
     chosen: MountOptions,
     inliers: FloatArray,
-) -> str | None:
-    """Why the lines disagree with the landmarks (None where they agree): the landmarks' chi-square rises, from
+) -> tuple[str, bool] | None:
+    """Why the lines disagree with the landmarks, and whether only with the landmarks' own scatter (True: within
+    their assumed noise), or None where they agree: the landmarks' chi-square rises, from
     the landmark fit to the joint one, beyond :data:`DISAGREE_QUANTILE` of chance for the unknowns the lines take
     over (f_r's coefficients and the centre), measured in their assumed noise (a chi-square test) or in their own
     scatter about the landmark fit (an F test, where they have 3 degrees of freedom or more: landmarks far more
@@ -504,7 +517,7 @@ def _disagreement(
     taken_over = len(solution.radial.coefficients) + 2 * chosen.centre
     rise = after - before
     if rise > float(stats.chi2.ppf(DISAGREE_QUANTILE, taken_over)):
-        return f"their chi-square rises from {before:.1f} to {after:.1f} with the lines"
+        return f"their chi-square rises from {before:.1f} to {after:.1f} with the lines", False
     unknowns = len(landmark_solution.radial.coefficients) + 1 + 2 * landmark_options.centre
     unknowns += 2 * landmark_options.tilt + 3 * landmark_options.position
     dof = 2 * int(np.count_nonzero(inliers)) - unknowns
@@ -516,7 +529,7 @@ def _disagreement(
             return (
                 f"their whitened RMS rises from {rms_before:.2f} to {rms_after:.2f} with the lines, "
                 f"{times} their own scatter"
-            )
+            ), True
     return None
 
 

@@ -85,6 +85,9 @@ class Calibration:
     warnings : tuple of str
         What could not be done, and what was done instead (e.g. the circles
         not found where the centre was given: the default radii are used).
+    notes : tuple of str
+        What was chosen that the user should know but need not act on (the landmarks fitted without the
+        image's lines where they fit far more tightly than the lines).
     """
 
     table: PanoMappingTable
@@ -92,6 +95,7 @@ class Calibration:
     sources: Mapping[str, Origin]
     circles: ImageCircles | None
     warnings: tuple[str, ...]
+    notes: tuple[str, ...] = ()
 
 
 # Where the fit's centre ends this far (px) from the centre the cut-off disc was looked for about, it is
@@ -448,7 +452,8 @@ def calibrate_camera(
     cutoff = _cutoff_settled(omni, choice, camera_fit, cutoff, recorded)
     # 5. Annulus and 6. table.
     table = _table(camera_fit, choice, (cutoff, outer), recorded, size=table_size, image_size=image_size, info=info)
-    return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings + line_warnings)
+    notes = () if camera_fit.lines_note is None or camera_fit.lines_note_warns else (camera_fit.lines_note,)
+    return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings + line_warnings, notes)
 
 
 def _fit(
@@ -488,7 +493,7 @@ def _fit(
         pixel_sigma=pixel_sigma, world_sigma=world_sigma, reject_outliers=reject_outliers, tilt_deg=tilt_deg,
         camera_sigma=camera_sigma, lines=image_lines, viewpoint=viewpoint, orientation_deg=orientation_deg,
     )  # fmt: skip
-    if camera_fit.lines_note is not None:
+    if camera_fit.lines_note is not None and camera_fit.lines_note_warns:
         line_warnings += (camera_fit.lines_note,)
     return camera_fit, line_warnings
 
