@@ -12,7 +12,7 @@ from ..calibrate.circles.side_by_side import side_by_side_half
 from ..calibrate.level import level_table
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, same_input
-from ..interop.api import check_image_size, table_of_imported
+from ..interop.api import check_image_size, could_be_a_mirror_camera, table_of_imported
 from ..interop.export import FORMATS, export_calibration
 from ..interop.orient import orient_table
 from ..interop.readers import READERS, Imported, read_calibration
@@ -204,9 +204,9 @@ def import_(
         sources=sources,
         mirror=bool(mirror),
     )
-    if image is None and mirror is None and imported.model.name in MIRROR_MODELS:  # nothing says which: say so
-        note = "taken as a lens's; a mirror camera's calibration needs --mirror (or --image), or its views are mirrored"
-        click.echo(f"panomap: note: {calibration}: {note}", err=True)
+    if image is None and mirror is None and _could_be_a_mirror(imported, image_size, outer_radius):
+        # Nothing says which, and the model sees beyond 90 deg off its axis, as a mirror camera does: say so.
+        click.echo("panomap: note: taken as a lens; a mirror camera's needs --mirror (or --image)", err=True)
     with all_or_none():
         save_table(table, output)
     record = table.info["import"]
@@ -227,6 +227,13 @@ def import_(
 MIRROR_MODELS = ("ocam", "mei")
 """The models that calibrate mirror cameras as well as lenses (OCamCalib's, the unified model): nothing in their
 files says which."""
+
+
+def _could_be_a_mirror(imported: Imported, image_size: tuple[int, int] | None, outer_radius: float | None) -> bool:
+    """Whether the choice of a mirror camera or a lens could matter: a model of either kind that sees beyond 90 deg
+    off its axis within the image circle (or the frame), as every mirror camera does and no lens of 180 deg or
+    less (:func:`~panomap.interop.api.could_be_a_mirror_camera`)."""
+    return imported.model.name in MIRROR_MODELS and could_be_a_mirror_camera(imported, image_size, outer_radius)
 
 
 def _bounds_of_image(
@@ -266,9 +273,9 @@ def _bounds_of_image(
         mirror = True
         size = f"{cutoff.radius:.0f} px" if outer_radius is None else f"{cutoff.radius / outer_radius:.0%} of the rim"
         sources["handedness"] = f"a mirror camera assumed: a cut-off disc ({size}) in {image.name}; --lens if not"
-    elif mirror is None and imported.model.name in MIRROR_MODELS:  # a model of either kind, no disc: say which
-        note = "no cut-off disc (a mirror's reflection of its camera) in it: taken as a lens's; --mirror if not"
-        click.echo(f"panomap: note: {image}: {note}", err=True)
+    elif mirror is None and _could_be_a_mirror(imported, image_size, outer_radius):  # either kind, no disc
+        click.echo(f"panomap: note: {image.name}: no cut-off disc (a mirror's reflection of its camera): taken as a "
+                   "lens; --mirror if not", err=True)  # fmt: skip
     return image_size, cutoff_radius, outer_radius, mirror
 
 
