@@ -154,3 +154,18 @@ def test_the_shared_ocamcalib_fisheye_imports_without_the_lens_note(tmp_path: Pa
         result = run("import", FISHEYE / "calib_results.txt", "-o", tmp_path / "cam.npz", *image)
         assert result.exit_code == 0 and result.stderr == "", result.stderr
         assert load_table(tmp_path / "cam.npz").model.s == -1
+
+
+def test_a_picture_without_a_rim_gets_one_short_note_without_a_centre_to_start_from(tmp_path: Path) -> None:
+    """A picture whose frame the scene fills (no rim): the import says so in one line, without centre finding's
+    advice on where a centre may start (the calibration gives the centre), and the table spans the model's range
+    within the frame."""
+    path = omnidir_file(tmp_path / "omnidir.yaml", 300.0, 1.0)
+    picture = np.random.default_rng(0).integers(0, 256, (480, 640, 3), dtype=np.uint8)
+    cv2.imwrite(str(tmp_path / "full.png"), cv2.GaussianBlur(picture, (0, 0), 2.0))
+    result = run("import", path, "-o", tmp_path / "cam.npz", "--image", tmp_path / "full.png", "--table-size", "256x64")
+    assert result.exit_code == 0, result.stderr
+    notes = result.stderr.strip().splitlines()
+    assert len(notes) == 1 and notes[0].startswith("panomap: note: full.png: no image circle found"), notes
+    assert "only a start" not in notes[0] and len(notes[0]) <= 160, notes[0]
+    assert load_table(tmp_path / "cam.npz").cutoff_radius == 0.0

@@ -253,8 +253,8 @@ def _bounds_of_image(
     try:
         circles = find_image_circles(omni)
     except PanomapError as exc:  # no rim (a full-frame fisheye, a mirror overfilling the frame)
-        note = f"{image}: {printable(exc.detail)}; the table covers the model's valid range"
-        click.echo(f"panomap: note: {note}", err=True)
+        seen = exc.seen if isinstance(exc, NoImageCircle) else exc.detail  # the centre is the calibration's
+        click.echo(f"panomap: note: {image.name}: {printable(seen)}; the table covers the model's range", err=True)
         cutoff = exc.cutoff if isinstance(exc, NoImageCircle) else None
         if cutoff is not None and cutoff_radius is None:
             u0, v0 = imported.model.principal_point
