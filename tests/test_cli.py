@@ -716,3 +716,16 @@ def test_a_picture_given_as_landmarks_points_to_image_and_a_glob_that_matches_no
     (work / "empty").mkdir()
     result = run("fit", "-o", work / "cam.npz", "--image", work / "empty")
     assert_one_line_error(result, "'--image'", "the folder holds no image", exit_code=2)
+
+
+def test_the_help_names_every_calibration_format_and_the_equirect_view() -> None:
+    """``panomap --help``, where a new user starts, names every format ``import`` reads (it named four of eight)
+    and the whole-sphere view beside the others."""
+    from panomap.interop.readers import READERS
+
+    tools = {"ocam": "OCamCalib", "gyroflow": "gyroflow", "opencv": "OpenCV", "kalibr": "Kalibr"}
+    tools |= {"colmap": "COLMAP", "boofcv": "BoofCV", "basalt": "Basalt", "hugin": "Hugin"}
+    text = " ".join(run("--help").output.split())
+    assert set(READERS) == set(tools)
+    assert all(tool in text for tool in tools.values()), text
+    assert "panomap equirect cam.npz omni.png" in text
