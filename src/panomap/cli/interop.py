@@ -28,7 +28,7 @@ from .options import (
     SIZE,
     TILT,
     Finite,
-    check_npz_output,
+    check_table_outputs,
     orientation_option,
     orientation_rad,
     read_omni,
@@ -159,10 +159,9 @@ def import_(
             f"{image_size[0]}x{image_size[1]} is not an image size (positive, at most {MAX_IMAGE_PIXELS} pixels)",
             param_hint="'--image-size'",
         )
-    check_outputs(
-        [("the calibration", calibration), *(("the image", image) for image in images)], [("the output", output)]
+    check_table_outputs(
+        [("the calibration", calibration), *(("the image", image) for image in images)], output, "a table (or a rig)"
     )
-    check_npz_output(output, "a table (or a rig)")
     _not_panomaps_own(calibration)
     rig = rig_format(calibration, format_) if camera_name is None and camera_id is None else None
     if rig is not None:
@@ -358,8 +357,7 @@ def _circle_radii(
 def orient(table: Path, output: Path, orientation: tuple[float, float, float]) -> None:
     """Turn a table's camera to look another way, without a new fit: its entries made anew from its model (or
     its calibration's), over every world direction it then sees."""
-    check_outputs([("the table", table)], [("the output", output)])
-    check_npz_output(output)
+    check_table_outputs([("the table", table)], output)
     loaded = load_table(table)
     yaw, pitch, roll = orientation_rad(orientation)  # type: ignore[misc]
     try:
@@ -384,8 +382,7 @@ def level(table: Path, images: tuple[Path, ...], output: Path) -> None:
     """Level a table from the vertical lines of pictures of its camera (door and window frames, wall corners,
     poles): the camera's pitch and roll found, its yaw kept. The table's orientation must be within 20 deg of
     the truth (give it with panomap orient or import --orientation); several pictures are pooled."""
-    check_outputs([("the table", table), *(("an image", image) for image in images)], [("the output", output)])
-    check_npz_output(output)
+    check_table_outputs([("the table", table), *(("an image", image) for image in images)], output)
     twice = same_input(images)
     if twice is not None:
         first, second, how = twice
