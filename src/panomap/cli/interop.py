@@ -217,9 +217,10 @@ def import_(
             + (f" (camera {record['camera']})" if "camera" in record else "")
             + f"; table {m} x {n}, elevation {rho_s:.2f}..{rho_e:.2f} deg, radii {table.cutoff_radius:.1f}.."
             f"{table.outer_radius:.1f} px"
-            + (f"; {sources.get('handedness', 'a mirror camera')} (its world turned back: s = +1)" if mirror else "")
         )
     )
+    if mirror:  # on a line of its own: the summary above is long enough
+        say(printable(f"{sources.get('handedness', 'a mirror camera')} (its world turned back: s = +1)"))
     say(f"wrote {output}")
 
 
