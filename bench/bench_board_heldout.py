@@ -21,7 +21,7 @@ Times: each calibration on the first half; with detection (not ``--no-detect``),
 ratio of detection + fit, panomap's over omnidir's. Ratios below 1 are panomap's gain. With ``--floor``,
 panomap and omnidir fitted to every image and measured on the odd ones' corners (seen in the fit): the
 floor a camera fitted to the even images alone cannot be expected to beat, beside the goal of issue 54
-(0.95 times the best peer's held-out RMS).
+(0.95 times the best peer's held-out RMS). SciPy and the fit's modules are imported before anything is timed.
 """
 
 from __future__ import annotations
@@ -271,6 +271,21 @@ def measure(folder: Path, cv2, detect: bool, floor: bool = False) -> None:  # ty
     sys.stdout.flush()
 
 
+def import_before_timing() -> None:
+    """Import what the timed steps import lazily (SciPy's optimize, stats and spatial, the fit's modules), so
+    that the first set's fit is not charged with SciPy's import (about a second on this machine)."""
+    import scipy.optimize
+    import scipy.sparse
+    import scipy.spatial
+    import scipy.stats
+
+    import panomap.calibrate.boards.fit
+    import panomap.calibrate.lines.fit
+    import panomap.camera.valid_range
+
+    del scipy, panomap
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[1].parent / "shared/data/real")
@@ -280,6 +295,7 @@ def main() -> None:
     parser.add_argument("--floor", action="store_true", help="also each camera fitted to every image (the floor)")
     args = parser.parse_args()
     cv2 = load_cv2(args.contrib)
+    import_before_timing()
     print(f"OpenCV {cv2.__version__}, omnidir {'present' if hasattr(cv2, 'omnidir') else 'absent (not run)'}")
     print("== held-out RMS (fit on the even images, measured on the odd ones' corners)")
     for folder in sorted(p for p in args.data.iterdir() if p.is_dir()):

@@ -31,7 +31,7 @@ import panomap
 from panomap.batch.job import Job, Settings, excluded, find_inputs, make_job, output_pattern, without_outputs
 from panomap.batch.leftovers import tidy
 from panomap.batch.record import Done, Record
-from panomap.batch.run import Progress, codec_threads, run_job
+from panomap.batch.run import Progress, codec_threads, connect, run_job
 from panomap.batch.tasks import parts_folder
 from panomap.simulate import load_room, render, standard_cameras
 from panomap.table.file import save_table
@@ -112,7 +112,7 @@ def cluster() -> Iterator[str]:
     """A local Dask cluster of two single-threaded worker processes, shared by the tests; its address."""
     from distributed import LocalCluster
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as local:
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as local:
         yield local.scheduler_address
 
 
@@ -583,3 +583,21 @@ def test_video_tasks_share_the_cores_only_on_a_local_cluster_of_several_workers(
     assert codec_threads("tcp://127.0.0.1:8786", 8) is None
     monkeypatch.setattr(os, "cpu_count", lambda: None)
     assert codec_threads(None, 2) == 1
+
+
+def test_a_local_cluster_starts_quietly_where_dasks_default_port_is_taken() -> None:
+    """The local cluster's HTTP server takes a free port: on Dask's default, 8787, held by another Dask (a second
+    batch, a notebook's cluster), it printed a three-line warning from distributed and left a socket open (an
+    error under this suite's warnings, where two runs at once failed a documented batch command)."""
+    import socket
+
+    with socket.socket() as holder:
+        holder.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            holder.bind(("0.0.0.0", 8787))
+            holder.listen()
+        except OSError:
+            pass  # held by someone else already: the case itself
+        with connect(None, workers=1) as client:
+            assert client.submit(sum, [1, 2]).result() == 3
+            assert not client.scheduler_info()["address"].endswith(":8787")

@@ -201,7 +201,8 @@ def test_cli_learns_the_camera_from_rendered_boards(rendered_boards, tmp_path) -
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     assert f"and {band}" in result.output and band.stat().st_size > 10_000  # (the figure: test_board_uncertainty)
-    assert "projection uncertainty (the corners'" in result.output
+    assert "projection uncertainty (95%): within the boards' field" in result.output
+    assert "  from the corners' " in result.output
     assert "camera learned from checkerboards" in result.output
     found = re.search(r"learned from (\d+) checkerboards", result.output)
     assert found is not None and int(found[1]) >= 6, result.output  # (two boards in each picture)

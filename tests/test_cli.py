@@ -716,3 +716,38 @@ def test_a_picture_given_as_landmarks_points_to_image_and_a_glob_that_matches_no
     (work / "empty").mkdir()
     result = run("fit", "-o", work / "cam.npz", "--image", work / "empty")
     assert_one_line_error(result, "'--image'", "the folder holds no image", exit_code=2)
+
+
+def test_the_help_names_every_calibration_format_and_the_equirect_view() -> None:
+    """``panomap --help``, where a new user starts, names every format ``import`` reads (it named four of eight)
+    and the whole-sphere view beside the others."""
+    from panomap.interop.readers import READERS
+
+    tools = {"ocam": "OCamCalib", "gyroflow": "gyroflow", "opencv": "OpenCV", "kalibr": "Kalibr"}
+    tools |= {"colmap": "COLMAP", "boofcv": "BoofCV", "basalt": "Basalt", "hugin": "Hugin"}
+    text = " ".join(run("--help").output.split())
+    assert set(READERS) == set(tools)
+    assert all(tool in text for tool in tools.values()), text
+    assert "panomap equirect cam.npz omni.png" in text
+
+
+@pytest.mark.parametrize(
+    ("option", "what"), [("--overlay", "the overlay"), ("--uncertainty-plot", "the figure"), ("-o", "a table")]
+)
+def test_fit_from_pictures_refuses_outputs_named_for_another_format_before_any_work(
+    tmp_path: Path, option: str, what: str
+) -> None:
+    """``fit --image``'s table, overlay and figure go through the one check the table commands share
+    (``check_table_outputs``): a name for another format is refused in one line, nothing written."""
+    picture = tmp_path / "in" / "boards.png"
+    picture.parent.mkdir()
+    cv2.imwrite(str(picture), np.zeros((48, 64), np.uint8))
+    out = tmp_path / "out"
+    out.mkdir()
+    names = {"-o": out / "t.npz", "--overlay": out / "o.png", "--uncertainty-plot": out / "u.png"}
+    names[option] = out / ("t.png" if option == "-o" else "x.jpg")
+    args = [arg for name, path in names.items() for arg in (name, path)]
+    result = run("fit", "--image", picture, *args)
+    written = ".npz (name it so)" if option == "-o" else "PNG (name it .png)"
+    assert_one_line_error(result, f"'{option}'", f"{what} is written as {written}", exit_code=2)
+    assert list(out.iterdir()) == []

@@ -77,7 +77,7 @@ def test_import_takes_a_picture_with_a_dot_at_its_centre_for_a_lens(tmp_path: Pa
     _, out, result = imported(tmp_path, G, 1.0, 4.0)
     assert result.exit_code == 0, result.stderr
     assert "a mirror camera" not in result.stdout
-    assert "no cut-off disc" in result.stderr and "taken as a lens's; --mirror if not" in result.stderr
+    assert "no cut-off disc" in result.stderr and "taken as a lens; --mirror if not" in result.stderr
     assert load_table(out).model.s == -1
     _, out, result = imported(tmp_path, G, 1.0, 30.0)
     assert "a mirror camera assumed: a cut-off disc (20% of the rim)" in result.stdout

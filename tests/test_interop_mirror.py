@@ -18,6 +18,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 from click.testing import Result
 
 from panomap import import_calibration, load_table
@@ -122,9 +123,49 @@ def test_without_a_picture_a_model_of_mirror_cameras_is_taken_as_a_lens_and_said
     out = tmp_path / "cam.npz"
     result = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x64")
     assert result.exit_code == 0, result.stderr
-    assert "taken as a lens's; a mirror camera's calibration needs --mirror" in result.stderr
+    assert "note: taken as a lens; a mirror camera's needs --mirror (or --image)" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and len(result.stderr) < 100
     assert load_table(out).model.s == -1
     for choice, s in (("--lens", -1), ("--mirror", 1)):
         result = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x64", choice)
-        assert result.exit_code == 0 and "taken as a lens's" not in result.stderr, result.stderr
+        assert result.exit_code == 0 and "taken as a lens" not in result.stderr, result.stderr
         assert load_table(out).model.s == s
+
+
+def test_the_lens_note_is_said_only_where_the_calibration_could_be_a_mirror_cameras(tmp_path: Path) -> None:
+    """The unified model with xi = 1 sees 2 atan(r / gamma) off its axis at r px (closed form above): with gamma
+    120, the frame's 240 px circle sees 127 deg, beyond the horizon as a mirror camera does (said); with gamma
+    300, 77 deg, as no mirror camera (not said)."""
+    for gamma, said in ((120.0, True), (300.0, False)):
+        path = omnidir_file(tmp_path / f"omnidir{gamma:g}.yaml", gamma, 1.0)
+        result = run("import", path, "-o", tmp_path / "cam.npz", "--image-size", "640x480", "--table-size", "256x64")
+        assert result.exit_code == 0, result.stderr
+        assert ("taken as a lens" in result.stderr) is said, result.stderr
+
+
+FISHEYE = Path(__file__).resolve().parents[1].parent / "shared/data/real/ocam_fisheye_imgback"
+
+
+@pytest.mark.skipif(not FISHEYE.is_dir(), reason=f"real data not found at {FISHEYE} (../shared is not beside the repo)")
+def test_the_shared_ocamcalib_fisheye_imports_without_the_lens_note(tmp_path: Path) -> None:
+    """The shared OCamCalib fisheye sees 70 deg off its axis at the frame's edge, 85 deg at its rim: a lens, with
+    or without its picture, and no note says it might not be."""
+    for image in ((), ("--image", FISHEYE / "images/imgBack1.jpg")):
+        result = run("import", FISHEYE / "calib_results.txt", "-o", tmp_path / "cam.npz", *image)
+        assert result.exit_code == 0 and result.stderr == "", result.stderr
+        assert load_table(tmp_path / "cam.npz").model.s == -1
+
+
+def test_a_picture_without_a_rim_gets_one_short_note_without_a_centre_to_start_from(tmp_path: Path) -> None:
+    """A picture whose frame the scene fills (no rim): the import says so in one line, without centre finding's
+    advice on where a centre may start (the calibration gives the centre), and the table spans the model's range
+    within the frame."""
+    path = omnidir_file(tmp_path / "omnidir.yaml", 300.0, 1.0)
+    picture = np.random.default_rng(0).integers(0, 256, (480, 640, 3), dtype=np.uint8)
+    cv2.imwrite(str(tmp_path / "full.png"), cv2.GaussianBlur(picture, (0, 0), 2.0))
+    result = run("import", path, "-o", tmp_path / "cam.npz", "--image", tmp_path / "full.png", "--table-size", "256x64")
+    assert result.exit_code == 0, result.stderr
+    notes = result.stderr.strip().splitlines()
+    assert len(notes) == 1 and notes[0].startswith("panomap: note: full.png: no image circle found"), notes
+    assert "only a start" not in notes[0] and len(notes[0]) <= 160, notes[0]
+    assert load_table(tmp_path / "cam.npz").cutoff_radius == 0.0

@@ -120,7 +120,10 @@ def connect(address: str | None, workers: int | None = None, timeout_s: float = 
                 n_workers=count,
                 threads_per_worker=1,
                 processes=True,
-                dashboard_address=":0" if _has_dashboard() else None,
+                # A free port, whether or not bokeh serves a dashboard there: None meant Dask's default 8787
+                # for its HTTP server, and where that is taken (another Dask, a second batch) a three-line
+                # warning from distributed, and a socket left open.
+                dashboard_address=":0",
                 silence_logs=logging.CRITICAL,  # a failing task is reported here, in one line
             ) as cluster,
             Client(cluster) as client,

@@ -151,15 +151,16 @@ def main() -> None:
 
     \b
     First a table of the camera, one of three ways:
-      panomap import calib_results.txt -o cam.npz    a calibration made elsewhere (OCamCalib, Kalibr,
-                                                      OpenCV, COLMAP, BoofCV, Basalt, gyroflow, Hugin)
+      panomap import calib_results.txt -o cam.npz    a calibration made elsewhere (OCamCalib, OpenCV,
+                                                      Kalibr, COLMAP, BoofCV, Basalt, gyroflow, Hugin)
       panomap fit -o cam.npz --image 'shots/*.jpg'   learned from pictures: their straight lines and
                                                       checkerboards (--camera-height H for distances)
       panomap fit landmarks.csv -o cam.npz --camera X0 Y0 Z0 --image omni.png
                                                       fitted to landmarks (pixel u,v and world X,Y,Z)
     Then its views, of a picture, a video or a stream:
       panomap panorama cam.npz omni.png -o pano.png
-      panomap perspective cam.npz omni.png -o ptz.png --yaw 270 --pitch -30 --fov 100 --size 1280x720
+      panomap equirect cam.npz omni.png -o sphere.png    the whole sphere (a camera looking any way)
+      panomap perspective cam.npz omni.png -o ptz.png --yaw 270 --pitch -30 --fov 100
       panomap floor cam.npz omni.png -o floor.png --z 0 --x 0 6 --y 0 5 --resolution 0.01
       panomap video cam.npz omni.mp4 -o 'out_{name}.mp4' --view panorama:size=2048x512
     panomap demo renders a simulated room and does all of it.

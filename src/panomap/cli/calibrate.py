@@ -42,7 +42,7 @@ from .options import (
     POSITIVE,
     SIZE,
     TILT,
-    check_npz_output,
+    check_table_outputs,
     frame_time_option,
     orientation_option,
     progress_bar,
@@ -468,17 +468,11 @@ def _fit_lines(
             f"{first} and {second} are one picture ({how}): give each picture once (its lines twice add nothing)",
             param_hint="'--image'" if second in images else "'--video'",
         )
-    check_outputs(
+    check_table_outputs(
         [*(("the image", path) for path in images), *(("the video", path) for path in videos)],
-        [("the output", output), ("--overlay", overlay), ("--uncertainty-plot", uncertainty_plot)],
+        output,
+        pictures=[("--overlay", overlay, "the overlay"), ("--uncertainty-plot", uncertainty_plot, "the figure")],
     )
-    check_npz_output(output)
-    if overlay is not None and overlay.suffix.lower() != ".png":
-        raise click.BadParameter(f"{overlay}: the overlay is written as PNG (name it .png)", param_hint="'--overlay'")
-    if uncertainty_plot is not None and uncertainty_plot.suffix.lower() != ".png":
-        raise click.BadParameter(
-            f"{uncertainty_plot}: the figure is written as PNG (name it .png)", param_hint="'--uncertainty-plot'"
-        )
     options = LineFitOptions(
         axis=axis or "down",
         s=None if handedness == "auto" else int(handedness),

@@ -15,10 +15,10 @@ from click.core import ParameterSource
 from ..calibrate.landmarks.viewpoint import SphericalMirror, viewpoint_conflict
 from ..camera.radial_models import radial_kind
 from ..errors import PanomapError, printable
-from ..files import check_outputs, check_room, expand_input, kind_of
+from ..files import check_room, expand_input, kind_of
 from ..table.file import ENTRY_BYTES
 from ..table.table import check_table_size
-from .options import check_npz_output, orientation_rad, usage_error
+from .options import check_table_outputs, orientation_rad, usage_error
 
 
 def check_mount_options(
@@ -146,14 +146,11 @@ def check_landmark_fit_options(
             raise usage_error(exc) from None
     if overlay is not None and image is None:
         raise click.UsageError("--overlay draws the fit on --image: give --image OMNI too")
-    check_outputs(
+    check_table_outputs(
         [("the landmarks", landmarks), ("the image", image)],
-        [("the output", output), ("--plot", plot), ("--overlay", overlay)],
+        output,
+        pictures=[("--plot", plot, "the fit plot"), ("--overlay", overlay, "the overlay")],
     )
-    check_npz_output(output)
     if table_size is not None:
         check_room([(output, table_size[0] * table_size[1] * ENTRY_BYTES)])
-    for picture, option, what in ((plot, "--plot", "the fit plot"), (overlay, "--overlay", "the overlay")):
-        if picture is not None and picture.suffix.lower() != ".png":
-            raise click.BadParameter(f"{picture}: {what} is written as PNG (name it .png)", param_hint=f"'{option}'")
     return image

@@ -12,7 +12,7 @@ from ..calibrate.circles.side_by_side import side_by_side_half
 from ..calibrate.level import level_table
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, same_input
-from ..interop.api import check_image_size, table_of_imported
+from ..interop.api import check_image_size, could_be_a_mirror_camera, table_of_imported
 from ..interop.export import FORMATS, export_calibration
 from ..interop.orient import orient_table
 from ..interop.readers import READERS, Imported, read_calibration
@@ -28,7 +28,7 @@ from .options import (
     SIZE,
     TILT,
     Finite,
-    check_npz_output,
+    check_table_outputs,
     orientation_option,
     orientation_rad,
     read_omni,
@@ -159,10 +159,9 @@ def import_(
             f"{image_size[0]}x{image_size[1]} is not an image size (positive, at most {MAX_IMAGE_PIXELS} pixels)",
             param_hint="'--image-size'",
         )
-    check_outputs(
-        [("the calibration", calibration), *(("the image", image) for image in images)], [("the output", output)]
+    check_table_outputs(
+        [("the calibration", calibration), *(("the image", image) for image in images)], output, "a table (or a rig)"
     )
-    check_npz_output(output, "a table (or a rig)")
     _not_panomaps_own(calibration)
     rig = rig_format(calibration, format_) if camera_name is None and camera_id is None else None
     if rig is not None:
@@ -204,9 +203,9 @@ def import_(
         sources=sources,
         mirror=bool(mirror),
     )
-    if image is None and mirror is None and imported.model.name in MIRROR_MODELS:  # nothing says which: say so
-        note = "taken as a lens's; a mirror camera's calibration needs --mirror (or --image), or its views are mirrored"
-        click.echo(f"panomap: note: {calibration}: {note}", err=True)
+    if image is None and mirror is None and _could_be_a_mirror(imported, image_size, outer_radius):
+        # Nothing says which, and the model sees beyond 90 deg off its axis, as a mirror camera does: say so.
+        click.echo("panomap: note: taken as a lens; a mirror camera's needs --mirror (or --image)", err=True)
     with all_or_none():
         save_table(table, output)
     record = table.info["import"]
@@ -218,15 +217,23 @@ def import_(
             + (f" (camera {record['camera']})" if "camera" in record else "")
             + f"; table {m} x {n}, elevation {rho_s:.2f}..{rho_e:.2f} deg, radii {table.cutoff_radius:.1f}.."
             f"{table.outer_radius:.1f} px"
-            + (f"; {sources.get('handedness', 'a mirror camera')} (its world turned back: s = +1)" if mirror else "")
         )
     )
+    if mirror:  # on a line of its own: the summary above is long enough
+        say(printable(f"{sources.get('handedness', 'a mirror camera')} (its world turned back: s = +1)"))
     say(f"wrote {output}")
 
 
 MIRROR_MODELS = ("ocam", "mei")
 """The models that calibrate mirror cameras as well as lenses (OCamCalib's, the unified model): nothing in their
 files says which."""
+
+
+def _could_be_a_mirror(imported: Imported, image_size: tuple[int, int] | None, outer_radius: float | None) -> bool:
+    """Whether the choice of a mirror camera or a lens could matter: a model of either kind that sees beyond 90 deg
+    off its axis within the image circle (or the frame), as every mirror camera does and no lens of 180 deg or
+    less (:func:`~panomap.interop.api.could_be_a_mirror_camera`)."""
+    return imported.model.name in MIRROR_MODELS and could_be_a_mirror_camera(imported, image_size, outer_radius)
 
 
 def _bounds_of_image(
@@ -246,8 +253,8 @@ def _bounds_of_image(
     try:
         circles = find_image_circles(omni)
     except PanomapError as exc:  # no rim (a full-frame fisheye, a mirror overfilling the frame)
-        note = f"{image}: {printable(exc.detail)}; the table covers the model's valid range"
-        click.echo(f"panomap: note: {note}", err=True)
+        seen = exc.seen if isinstance(exc, NoImageCircle) else exc.detail  # the centre is the calibration's
+        click.echo(f"panomap: note: {image.name}: {printable(seen)}; the table covers the model's range", err=True)
         cutoff = exc.cutoff if isinstance(exc, NoImageCircle) else None
         if cutoff is not None and cutoff_radius is None:
             u0, v0 = imported.model.principal_point
@@ -266,9 +273,9 @@ def _bounds_of_image(
         mirror = True
         size = f"{cutoff.radius:.0f} px" if outer_radius is None else f"{cutoff.radius / outer_radius:.0%} of the rim"
         sources["handedness"] = f"a mirror camera assumed: a cut-off disc ({size}) in {image.name}; --lens if not"
-    elif mirror is None and imported.model.name in MIRROR_MODELS:  # a model of either kind, no disc: say which
-        note = "no cut-off disc (a mirror's reflection of its camera) in it: taken as a lens's; --mirror if not"
-        click.echo(f"panomap: note: {image}: {note}", err=True)
+    elif mirror is None and _could_be_a_mirror(imported, image_size, outer_radius):  # either kind, no disc
+        click.echo(f"panomap: note: {image.name}: no cut-off disc (a mirror's reflection of its camera): taken as a "
+                   "lens; --mirror if not", err=True)  # fmt: skip
     return image_size, cutoff_radius, outer_radius, mirror
 
 
@@ -351,8 +358,7 @@ def _circle_radii(
 def orient(table: Path, output: Path, orientation: tuple[float, float, float]) -> None:
     """Turn a table's camera to look another way, without a new fit: its entries made anew from its model (or
     its calibration's), over every world direction it then sees."""
-    check_outputs([("the table", table)], [("the output", output)])
-    check_npz_output(output)
+    check_table_outputs([("the table", table)], output)
     loaded = load_table(table)
     yaw, pitch, roll = orientation_rad(orientation)  # type: ignore[misc]
     try:
@@ -377,8 +383,7 @@ def level(table: Path, images: tuple[Path, ...], output: Path) -> None:
     """Level a table from the vertical lines of pictures of its camera (door and window frames, wall corners,
     poles): the camera's pitch and roll found, its yaw kept. The table's orientation must be within 20 deg of
     the truth (give it with panomap orient or import --orientation); several pictures are pooled."""
-    check_outputs([("the table", table), *(("an image", image) for image in images)], [("the output", output)])
-    check_npz_output(output)
+    check_table_outputs([("the table", table), *(("an image", image) for image in images)], output)
     twice = same_input(images)
     if twice is not None:
         first, second, how = twice

@@ -222,7 +222,7 @@ def describe_line_fit(table: PanoMappingTable, circles: ImageCircles, seconds: f
         f"camera learned from {'checkerboards' if report.lines.boards else 'lines'} in {seconds:.1f} s: "
         f"radial model {report.model} "
         f"{tuple(round(c, 6) for c in model.radial.coefficients)}, centre ({model.centre[0]:.2f}, "
-        f"{model.centre[1]:.2f}) ({circles.centre[0]:.2f}, {circles.centre[1]:.2f} from the rim)",
+        f"{model.centre[1]:.2f}) (the rim's: ({circles.centre[0]:.2f}, {circles.centre[1]:.2f}))",
         f"tilt {tilt_deg:.2f} deg toward azimuth {toward_deg:.1f} deg"
         if report.lines.vertical_lines
         else "no vertical lines: the camera is taken as level"

@@ -9,7 +9,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PanomapError, printable
+from ..files import check_outputs
 from ..values import NotFinite, finite_number
 
 
@@ -104,11 +105,25 @@ def orientation_rad(orientation: tuple[float, float, float] | None) -> tuple[flo
     return (float(np.radians(yaw)), float(np.radians(pitch)), float(np.radians(roll)))
 
 
-def check_npz_output(output: Path, what: str = "a table") -> None:
-    """Refuse an ``-o`` for a table or a rig not named ``.npz`` (a table named cam.png reads as a broken picture
-    to every other program), before any work."""
+def check_table_outputs(
+    inputs: Iterable[tuple[str, Path | None]],
+    output: Path,
+    what: str = "a table",
+    pictures: Sequence[tuple[str, Path | None, str]] = (),
+) -> None:
+    """The checks a command that writes a table (or a rig) runs on its outputs before any work.
+
+    No output is one of ``inputs`` or another output and each can be written (:func:`~panomap.files.check_outputs`,
+    inputs as ``(what, path)``); the ``-o`` for a table or a rig is named ``.npz`` (a table named cam.png reads as
+    a broken picture to every other program); each picture written beside it, ``(option, path, what)`` (an
+    overlay, a plot; a None path is skipped), is named ``.png``.
+    """
+    check_outputs(inputs, [("the output", output), *((option, path) for option, path, _ in pictures)])
     if output.suffix.lower() != ".npz":
         raise click.BadParameter(f"{output}: {what} is written as .npz (name it so)", param_hint="'-o'")
+    for option, path, kind in pictures:
+        if path is not None and path.suffix.lower() != ".png":
+            raise click.BadParameter(f"{path}: {kind} is written as PNG (name it .png)", param_hint=f"'{option}'")
 
 
 def usage_error(exc: PanomapError, option: str | None = None) -> click.UsageError:

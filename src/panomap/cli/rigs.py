@@ -16,7 +16,7 @@ from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_t
 from ..io.images import map_file_bytes, read_image, read_rig_pictures, save_map, write_image
 from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
 from ..views import View
-from .options import check_npz_output, progress_bar, say
+from .options import check_table_outputs, progress_bar, say
 
 WRAPPING_KINDS = ("panorama", "equirect")
 
@@ -324,8 +324,7 @@ def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], sid
 
     if names and len(names) != len(tables):
         raise click.BadParameter(f"{len(names)} names for {len(tables)} tables", param_hint="'--name'")
-    check_outputs([("a table", table) for table in tables], [("the output", output)])
-    check_npz_output(output, "a rig")
+    check_table_outputs([("a table", table) for table in tables], output, "a rig")
     loaded = tuple(load_table(table) for table in tables)
     offsets = None
     if side_by_side:
@@ -393,8 +392,7 @@ def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
     from ..rig.overlap import learn_with_overlap
 
     loaded = load_rig(rig_path)
-    check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], [("the output", output)])
-    check_npz_output(output, "a rig")
+    check_table_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], output, "a rig")
     per_shot = 1 if loaded.offsets is not None else loaded.count
     if len(images) % per_shot:
         names = ", ".join(loaded.names)
@@ -416,8 +414,7 @@ def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:
         raise click.UsageError(
             "--side-by-side learns the lenses too, from the frames alone: give no rig (or drop --side-by-side)"
         )
-    check_outputs([("a frame", frame) for frame in frames], [("the output", output)])
-    check_npz_output(output, "a rig")
+    check_table_outputs([("a frame", frame) for frame in frames], output, "a rig")
     pictures = [read_image(frame, None, "a frame") for frame in frames]
     bar = progress_bar("step")
     try:
@@ -459,8 +456,7 @@ def rig_place(rig_path: Path, landmark_files: tuple[Path, ...], output: Path, un
     from ..rig.place import place_on_floor
 
     loaded = load_rig(rig_path)
-    check_outputs([("the rig", rig_path), *(("landmarks", path) for path in landmark_files)], [("the output", output)])
-    check_npz_output(output, "a rig")
+    check_table_outputs([("the rig", rig_path), *(("landmarks", path) for path in landmark_files)], output, "a rig")
     if len(landmark_files) != loaded.count:
         names = ", ".join(loaded.names)
         raise click.UsageError(f"give one landmark file per camera of the rig, in its order ({names}), not "

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import hashlib
+import math
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
@@ -32,6 +35,33 @@ def check_size_known(imported: Imported, image_size: tuple[int, int] | None, pat
             "give the image (--image) or its size (--image-size WxH)",
             path,
         )
+
+
+def could_be_a_mirror_camera(
+    imported: Imported, image_size: tuple[int, int] | None, radius_px: float | None = None
+) -> bool:
+    """Whether a calibration of a model that serves mirror cameras as well as lenses (OCamCalib's, the unified
+    model's) could be a mirror camera's: whether it sees beyond 90 deg off its axis within ``radius_px`` of its
+    principal point (the image circle, where one was found), else within the circle the frame holds about it.
+
+    A mirror camera is built to see the horizon round its axis and beyond: at their rims the shared OCamCalib
+    mirror cameras see 100-134 deg off the axis, a 200 deg fisheye 95-109, the shared OCamCalib fisheye 70-85:
+    a lens that stays within 90 deg is no mirror camera's. True where the size and the radius are unknown.
+    """
+    u0, v0 = imported.model.principal_point
+    size = image_size if image_size is not None else imported.image_size
+    if radius_px is None:
+        if size is None:
+            return True
+        radius_px = min(u0 + 0.5, size[0] - 0.5 - u0, v0 + 0.5, size[1] - 0.5 - v0)
+    if not radius_px > 0.0:
+        return True
+    # 8 radii out to the circle on 32 azimuths: the widest angle any of them sees.
+    phi = np.linspace(0.0, 2.0 * math.pi, 32, endpoint=False)
+    r = radius_px * np.linspace(0.5, 1.0, 8)[:, None]
+    rays = imported.model.unproject(np.stack([u0 + r * np.cos(phi), v0 + r * np.sin(phi)], axis=-1))
+    z = rays[..., 2][np.isfinite(rays[..., 2])]
+    return z.size == 0 or bool(np.min(z) < 0.0)
 
 
 def import_calibration(

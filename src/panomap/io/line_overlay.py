@@ -73,7 +73,8 @@ def draw_line_overlay(
     cv2.line(canvas, at_subpixel((u - size, v)), at_subpixel((u + size, v)), TEXT, thickness, cv2.LINE_AA, SHIFT)
     cv2.line(canvas, at_subpixel((u, v - size)), at_subpixel((u, v + size)), TEXT, thickness, cv2.LINE_AA, SHIFT)
     legend = [
-        f"{len(lines.lines)} lines used (green, RMS px): RMS {lines.rms_px:.2f} px, max {lines.max_px:.2f} px",
+        f"{len(lines.lines)} lines used (green; orange: over 2x the noise): RMS {lines.rms_px:.2f}, max "
+        f"{lines.max_px:.2f} px",
         f"{len(lines.rejected)} arcs set aside (red); blue: bands without a line",
     ]
     draw_legend(canvas, legend, thickness, TEXT)

@@ -29,6 +29,7 @@ from ..camera.orientation import optical_axis
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
 from ..views.lookup import EDGE_TEXELS, LOOKUP_ERROR_PX, LOOKUP_STEPS, MAX_LOOKUP_SIDE, direction_lookup
+from ..views.perspective import default_direction
 
 # Texels a side every WebGL2 GPU takes (its MAX_TEXTURE_SIZE is at least this).
 GUARANTEED_SIDE = 2048
@@ -101,7 +102,8 @@ def texture_bytes(table: PanoMappingTable) -> bytes:
 
 def table_description(table: PanoMappingTable) -> dict[str, Any]:
     """What the page needs besides the entries: sizes, elevation range (rad), image size, camera position,
-    axis, whether the camera's height is known (a table learned from lines without ``--camera-height``
+    axis, the perspective view's default direction (:func:`~panomap.views.perspective.default_direction`),
+    whether the camera's height is known (a table learned from lines without ``--camera-height``
     does not know it: the floor map says so), and the texture's layout."""
     m, n = table.size
     rho_s, rho_e = table.elevation_range
@@ -117,6 +119,7 @@ def table_description(table: PanoMappingTable) -> dict[str, Any]:
         "camera_position": [x0, y0, z0],
         "axis": table.model.axis,
         "orientation_deg": [math.degrees(yaw), math.degrees(pitch), math.degrees(roll)],
+        "default_view_deg": [math.degrees(angle) for angle in default_direction(table)],
         "camera_height_known": height_known and math.isfinite(z0),
         "block_width": block_width(table),
         "texture_width": block_width(table) + 1,

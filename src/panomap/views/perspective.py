@@ -24,6 +24,40 @@ from .panorama import check_distance
 DEFAULT_SIZE = (1280, 720)
 
 
+def default_direction(table: PanoMappingTable) -> tuple[float, float]:
+    """(yaw_rad, pitch_rad): where a perspective view looks when it is not told.
+
+    The camera's optical axis (its orientation's yaw and pitch) where the table sees along it. A camera that does
+    not (a mirror camera, whose centre shows its own reflection, a cut-off disc about the axis: the table's
+    camera elevation range stops short of the pole the centre sees) would show that disc alone: the view is
+    turned off the axis, in the vertical plane through it (toward the camera's yaw where the axis is vertical),
+    by the middle of the angles off the axis the table sees, toward the horizon (up from an axis below it, down
+    from one above it).
+
+    Convention: angles in the camera's axes: the centre sees camera elevation -pi/2 (axis ``"down"``) or
+    +pi/2 (``"up"``); off the axis by ``alpha`` is camera elevation ``alpha - pi/2`` (down), ``pi/2 - alpha`` (up).
+    """
+    yaw, pitch, _ = table.model.orientation
+    low, high = table.camera_range
+    down = table.model.axis == "down"
+    nearest = low + HALF_PI if down else HALF_PI - high  # the angle off the axis where the table starts (rad)
+    if nearest <= AXIS_SEEN_RAD:
+        return yaw, pitch
+    alpha = HALF_PI + 0.5 * (low + high) if down else HALF_PI - 0.5 * (low + high)
+    axis = np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
+    # The unit vector of growing pitch at (yaw, pitch), turned down for an axis above the horizon.
+    up = np.array([-math.sin(pitch) * math.cos(yaw), -math.sin(pitch) * math.sin(yaw), math.cos(pitch)])
+    forward = math.cos(alpha) * axis + math.sin(alpha) * (up if pitch <= 0.0 else -up)
+    horizontal = math.hypot(forward[0], forward[1])
+    turned_yaw = yaw if horizontal < 1e-9 else math.atan2(forward[1], forward[0]) % (2.0 * math.pi)
+    return turned_yaw, math.atan2(forward[2], horizontal)
+
+
+# The camera sees along its axis where its table starts within this angle of it (rad): a fisheye's table
+# starts at the pole itself.
+AXIS_SEEN_RAD = 1e-6
+
+
 @register
 @dataclass(frozen=True)
 class PerspectiveView(View):
@@ -32,10 +66,12 @@ class PerspectiveView(View):
     Parameters
     ----------
     yaw_rad : float, optional
-        psi, the azimuth (rad) of the optical axis; None: the camera's (:meth:`resolved`).
+        psi, the azimuth (rad) of the optical axis; None: the camera's (:meth:`resolved`,
+        :func:`default_direction`).
     pitch_rad : float, optional
         tau, its elevation (rad), in [-pi/2, pi/2]; negative looks down,
-        -pi/2 straight down; None: the camera's.
+        -pi/2 straight down; None: the camera's (its axis, or the middle of what it sees where it does not see
+        along its axis).
     roll_rad : float
         omega (rad), about the optical axis: positive tips the camera's right
         side down, which turns the scene counter-clockwise in the image.
@@ -62,14 +98,15 @@ class PerspectiveView(View):
         Param(
             "yaw",
             Value.ANGLE,
-            "Azimuth of the optical axis (counter-clockwise from +X) [default: the camera's].",
+            "Azimuth of the optical axis (counter-clockwise from +X) [default: the camera's axis].",
             optional=True,
             aliases=("--yaw-deg",),
         ),
         Param(
             "pitch",
             Value.ANGLE,
-            "Elevation of the optical axis, -90..90 (negative looks down) [default: the camera's].",
+            "Elevation of the optical axis, -90..90 (negative looks down) [default: the camera's axis, or the "
+            "middle of what it sees where it does not see along its axis (a mirror's reflection of its camera)].",
             optional=True,
             aliases=("--pitch-deg",),
         ),
@@ -123,10 +160,11 @@ class PerspectiveView(View):
         return cls(values["yaw"], values["pitch"], values["roll"], values["fov"], size, values["distance"])
 
     def resolved(self, table: PanoMappingTable) -> PerspectiveView:
-        """The view with a yaw or pitch not given taken from the camera's optical axis (its orientation)."""
+        """The view with a yaw or pitch not given taken from the camera (:func:`default_direction`): its optical
+        axis, or where it does not see along it (a mirror camera's own reflection), the middle of what it sees."""
         if self.yaw_rad is not None and self.pitch_rad is not None:
             return self
-        yaw, pitch, _ = table.model.orientation
+        yaw, pitch = default_direction(table)
         return replace(
             self,
             yaw_rad=yaw if self.yaw_rad is None else self.yaw_rad,

@@ -574,7 +574,7 @@ def _without_outliers(
             continue
         if corners and off.any():
             kept.append(Board(board.image_index, board.pixels[~off], board.grid[~off]))
-            rejected.append((k, f"{int(off.sum())} corner(s) off by > {limit:.1f} px set aside", rms))
+            rejected.append((k, f"{int(off.sum())} corner(s) off by > {limit:.1f} px", rms))
         else:
             kept.append(board)
         kept_index.append(k)

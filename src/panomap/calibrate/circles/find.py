@@ -361,34 +361,25 @@ def _no_rim(
     start = f"the frame centre ({frame_centre[0]:.1f}, {frame_centre[1]:.1f}) is only a start"
     if one_arc is not None:
         # A rim shows, on too short an arc: no full-frame fisheye, and no centre to stand behind.
-        return NoImageCircle(
-            f"no image circle found: a rim shows, but on too short an arc to fix its centre; {start}",
-            frame_centre,
-            reason=one_arc,
-        )
+        seen = "no image circle found: a rim shows, but on too short an arc to fix its centre"
+        return NoImageCircle(f"{seen}; {start}", frame_centre, reason=one_arc, seen=seen)
     if _dark_corners(small):
         # A picture in a dark border whose rim no test passed (too dark, too soft, too noisy): no full-frame
         # fisheye (its corners show the scene) and no mirror image overfilling the frame.
-        return NoImageCircle(
-            f"no image circle found: the frame's corners are dark around a picture, but no rim about it passed; "
-            f"{start}",
-            frame_centre,
-            reason=reason,
-        )
+        seen = "no image circle found: the frame's corners are dark around a picture, but no rim about it passed"
+        return NoImageCircle(f"{seen}; {start}", frame_centre, reason=reason, seen=seen)
     disc = _disc_without_rim(grey, small, factor)
     if disc is not None:
+        seen = "no image circle found: no rim is visible, but a cut-off disc is (a mirror image overfilling the frame)"
         return NoImageCircle(
-            f"no image circle found: no rim is visible, but a cut-off disc is (a mirror image overfilling the frame): "
-            f"its centre ({disc.centre[0]:.1f}, {disc.centre[1]:.1f}) is only a start",
+            f"{seen}: its centre ({disc.centre[0]:.1f}, {disc.centre[1]:.1f}) is only a start",
             frame_centre,
             cutoff=disc,
             reason=f"{reason}; the cut-off disc's radius {disc.radius:.1f} px",
+            seen=seen,
         )
-    return NoImageCircle(
-        f"no image circle found: no rim is visible (a full-frame fisheye, or not an omni-image); {start}",
-        frame_centre,
-        reason=reason,
-    )
+    seen = "no image circle found: no rim is visible (a full-frame fisheye, or not an omni-image)"
+    return NoImageCircle(f"{seen}; {start}", frame_centre, reason=reason, seen=seen)
 
 
 def _dark_corners(small: NDArray[Any]) -> bool:

@@ -26,6 +26,9 @@ class NoImageCircle(PanomapError):
         image overfills the frame): its centre is the better starting value.
     reason : str
         The figures behind the message: what the search found instead (how many rays crossed a rim), or "".
+    seen : str
+        What the picture showed, without the message's advice on where a centre may start (for a caller
+        that takes its centre from elsewhere: an imported calibration's); the message where not given.
     """
 
     def __init__(
@@ -35,11 +38,13 @@ class NoImageCircle(PanomapError):
         source: object | None = None,
         cutoff: Circle | None = None,
         reason: str = "",
+        seen: str = "",
     ) -> None:
         super().__init__(message, source)
         self.frame_centre = frame_centre
         self.cutoff = cutoff
         self.reason = reason
+        self.seen = seen or message
 
 
 class ShortArc(PanomapError):

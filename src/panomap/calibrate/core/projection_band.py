@@ -122,7 +122,7 @@ class ProjectionBand:
         ) + ("; the stretch along the axis free" if self.stretch else "")
 
     def sentences(self) -> list[str]:
-        """The band in a line, for the terminal."""
+        """The band in two lines, for the terminal: the figures, then what they come from."""
         worst_px, at_deg = self.worst_inside()
         band = np.asarray(self.ring_band_px)
         inside = band[self.inside()]
@@ -134,10 +134,9 @@ class ProjectionBand:
             else ""
         )
         return [
-            f"projection uncertainty (the corners' {self.sigma_px:.2f} px of noise{self._how()}, through the fit, "
-            "95%): within "
-            f"the boards' field ({self.field_deg[0]:.0f}-{self.field_deg[1]:.0f} deg off the axis) median "
-            f"{median:.2f} px, worst ring {worst_px:.2f} px at {at_deg:.0f} deg{beyond}"
+            f"projection uncertainty (95%): within the boards' field ({self.field_deg[0]:.0f}-{self.field_deg[1]:.0f}"
+            f" deg off the axis) median {median:.2f} px, worst ring {worst_px:.2f} px at {at_deg:.0f} deg{beyond}",
+            f"  from the corners' {self.sigma_px:.2f} px of noise{self._how()}, through the fit",
         ]
 
     def to_dict(self) -> dict[str, Any]:

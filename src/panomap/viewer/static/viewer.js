@@ -189,10 +189,11 @@ void main() {
     return [cx - h * aspect, cx + h * aspect, cy - h, cy + h];
   }
 
-  // The perspective view along the camera's optical axis (its orientation's yaw and pitch, roll 0: as the CLI's
-  // perspective view without --yaw and --pitch), field of view 90 deg.
+  // The perspective view along the camera's optical axis (roll 0), or off it to the middle of what the camera
+  // sees where it does not see along it (a mirror camera): as the CLI's perspective view without --yaw and
+  // --pitch, field of view 90 deg.
   function cameraView() {
-    const [yaw, pitch] = info.table.orientation_deg;
+    const [yaw, pitch] = info.table.default_view_deg;
     return { yaw: round(yaw, 4), pitch: round(pitch, 4), roll: 0, fov: 90 };
   }
 
