@@ -288,10 +288,11 @@ def check_output(path: str | Path) -> None:
     check_replaceable(path)
 
 
-def check_room(outputs: Iterable[tuple[str | Path, int]]) -> None:
+def check_room(outputs: Iterable[tuple[str | Path, int]], up_to: bool = False) -> None:
     """Refuse, before any work, outputs of known size (``(path, bytes)``: a map, a table) that their disks
     have no room for, the outputs on one disk counted together (each is written whole beside its name before
-    it replaces it, so an output it replaces frees nothing).
+    it replaces it, so an output it replaces frees nothing). ``up_to``: some sizes are the most the outputs
+    may take (an image's pixels, uncompressed; a table of a size still to be chosen), said so.
 
     Raises
     ------
@@ -315,7 +316,9 @@ def check_room(outputs: Iterable[tuple[str | Path, int]]) -> None:
             continue
         if total > free:
             raise PanomapError(
-                f"no room for it: {_megabytes(total)} to write, its disk has {_megabytes(free)} free", first
+                f"no room for it: {'up to ' if up_to else ''}{_megabytes(total)} to write, its disk has "
+                f"{_megabytes(free)} free",
+                first,
             )
 
 

@@ -24,13 +24,14 @@ from ..camera.model import CameraModel
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, input_file, same_input
-from ..io.images import write_image
+from ..io.images import header_size, write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table, save_table
 from ..table.table import PanoMappingTable
 from .fit_checks import (
     check_landmark_fit_options,
     check_mount_options,
+    check_table_room,
     expand_images,
     refuse_landmark_options,
     refuse_picture_as_landmarks,
@@ -327,7 +328,7 @@ def fit(
     size = _image_size(image_size)
     image = check_landmark_fit_options(
         landmarks, output, images, centre, table_size, model, refine_centre, plot, overlay,
-        azimuth_zero, handedness, camera_height, terms, uncertainty_plot,
+        azimuth_zero, handedness, camera_height, terms, uncertainty_plot, size,
     )  # fmt: skip
     pairs = read_landmarks(landmarks)
     _check_camera_position(camera, pairs, landmarks)
@@ -471,6 +472,7 @@ def _fit_lines(
         [("the output", output), ("--overlay", overlay), ("--uncertainty-plot", uncertainty_plot)],
     )
     check_npz_output(output)
+    check_table_room(output, None, header_size(images[0]) if images else None)
     if overlay is not None and overlay.suffix.lower() != ".png":
         raise click.BadParameter(f"{overlay}: the overlay is written as PNG (name it .png)", param_hint="'--overlay'")
     if uncertainty_plot is not None and uncertainty_plot.suffix.lower() != ".png":

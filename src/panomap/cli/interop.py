@@ -29,6 +29,7 @@ from .options import (
     TILT,
     Finite,
     check_npz_output,
+    check_room_as,
     orientation_option,
     orientation_rad,
     read_omni,
@@ -387,6 +388,7 @@ def level(table: Path, images: tuple[Path, ...], output: Path) -> None:
             param_hint="'IMAGES...'",
         )
     loaded = load_table(table)
+    check_room_as(output, table)
     pictures = []
     for image in images:
         picture = read_omni(image)

@@ -111,6 +111,14 @@ def check_npz_output(output: Path, what: str = "a table") -> None:
         raise click.BadParameter(f"{output}: {what} is written as .npz (name it so)", param_hint="'-o'")
 
 
+def check_room_as(output: Path, like: Path) -> None:
+    """Refuse, before any work, a table or rig written to ``output`` that its disk has no room for: one of the
+    size of ``like``, the table or rig it is made from (its entries as many, :func:`panomap.files.check_room`)."""
+    from ..files import check_room
+
+    check_room([(output, like.stat().st_size)])
+
+
 def usage_error(exc: PanomapError, option: str | None = None) -> click.UsageError:
     """A library error about an option's value, or about options given together, as a usage error (exit 2),
     in the library's words (under ``option``'s name when given)."""

@@ -13,10 +13,10 @@ import numpy as np
 
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_text
-from ..io.images import map_file_bytes, read_image, read_rig_pictures, save_map, write_image
+from ..io.images import image_file_bytes, map_file_bytes, read_image, read_rig_pictures, save_map, write_image
 from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
 from ..views import View
-from .options import check_npz_output, progress_bar, say
+from .options import check_npz_output, check_room_as, progress_bar, say
 
 WRAPPING_KINDS = ("panorama", "equirect")
 
@@ -43,8 +43,12 @@ def render_rig(
     each_paths = fill_pattern(each, "camera", "each camera's name", rig.names) if each is not None else []
     outputs += [(f"--each for {name}", path) for name, path in zip(rig.names, each_paths, strict=False)]
     check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], outputs)
-    check_room(map_file_bytes(view.output_size(rig.tables[0]), save_map_path))  # (every camera takes camera 0's)
+    size = view.output_size(rig.tables[0])  # (every camera takes camera 0's)
+    check_room(map_file_bytes(size, save_map_path))
     pictures = _pictures(rig, images)
+    images_bytes = max(image_file_bytes(size, picture) for picture in pictures)
+    check_room([*map_file_bytes(size, save_map_path), *((path, images_bytes) for path in (output, *each_paths))],
+               up_to=True)  # fmt: skip
     maps = camera_maps(rig, view, sampling)
     remapper = RigRemapper(rig, maps, interp, wrap=view.kind in WRAPPING_KINDS)
     layers = remapper.layers(pictures)  # (made once: the gains, the blend and --each read them)
@@ -395,6 +399,7 @@ def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
     loaded = load_rig(rig_path)
     check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], [("the output", output)])
     check_npz_output(output, "a rig")
+    check_room_as(output, rig_path)
     per_shot = 1 if loaded.offsets is not None else loaded.count
     if len(images) % per_shot:
         names = ", ".join(loaded.names)
@@ -461,6 +466,7 @@ def rig_place(rig_path: Path, landmark_files: tuple[Path, ...], output: Path, un
     loaded = load_rig(rig_path)
     check_outputs([("the rig", rig_path), *(("landmarks", path) for path in landmark_files)], [("the output", output)])
     check_npz_output(output, "a rig")
+    check_room_as(output, rig_path)
     if len(landmark_files) != loaded.count:
         names = ", ".join(loaded.names)
         raise click.UsageError(f"give one landmark file per camera of the rig, in its order ({names}), not "

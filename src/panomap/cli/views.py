@@ -20,6 +20,7 @@ from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, check_room
 from ..io.images import (
     UNKNOWN_FORMAT,
+    image_file_bytes,
     map_file_bytes,
     pgm_map_paths,
     read_image,
@@ -120,6 +121,8 @@ def _render(
             ) from None
         raise
     warn_orientation(image_path)
+    size = view.output_size(table)
+    check_room([*map_file_bytes(size, save_map_path, pgm_paths), (output, image_file_bytes(size, image))], up_to=True)
     map_uv = build_map(table, view, sampling)
     remapper = Remapper(map_uv, (image.shape[1], image.shape[0]), interp)
     with all_or_none():

@@ -1,0 +1,214 @@
+"""Hardening 7: what hardening 6 left, and the command line fuzzed where it changed last; each fault pinned here.
+
+A picture whose header claims more pixels than its bytes hold (D1); outputs their disk has no room for, found
+before the work (D2); a pixel for azimuth 0 outside the scene, refused before the fit (D3); a view too wide for the
+video encoder, refused once by ``batch`` (D4).
+"""
+
+from __future__ import annotations
+
+import shutil
+import struct
+import zlib
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from helpers import assert_one_line_error, hyperbolic_inputs, run, write_clip
+
+SIZE = (240, 240)
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder with a table fitted to a simulated hyperbolic camera (cam.npz), its rig of two (rig.npz) and an
+    image of its size (omni.png)."""
+    folder = tmp_path_factory.mktemp("hardening7")
+    hyperbolic_inputs(folder, SIZE, (121.3, 118.2), 30, "cam.npz")
+    result = run("rig", "make", folder / "cam.npz", folder / "cam.npz", "--name", "a", "--name", "b",
+                 "-o", folder / "rig.npz")  # fmt: skip
+    assert result.exit_code == 0, result.output + result.stderr
+    return folder
+
+
+def no_room(monkeypatch: pytest.MonkeyPatch, free: int) -> None:
+    """Every disk has ``free`` bytes free."""
+    monkeypatch.setattr("panomap.files.shutil.disk_usage", lambda _path: shutil._ntuple_diskusage(10**12, 0, free))
+
+
+# ----------------------------------------------------------------------------- D1: a header's claim, held to its bytes
+
+
+def claiming(path: Path, size: tuple[int, int], grey: bool = False) -> Path:
+    """A JPEG of 16 x 16 px whose frame header is rewritten to claim ``size`` (width, height): its data end long
+    before the pixels claimed do."""
+    small = np.random.default_rng(1).integers(0, 255, (16, 16) if grey else (16, 16, 3), dtype=np.uint8)
+    data = bytearray(cv2.imencode(".jpg", small)[1].tobytes())
+    frame = data.find(b"\xff\xc0")
+    data[frame + 5 : frame + 9] = struct.pack(">HH", size[1], size[0])
+    path.write_bytes(data)
+    return path
+
+
+def png_claiming(path: Path, size: tuple[int, int]) -> Path:
+    """A PNG whose header claims ``size`` (RGB, 8-bit) over an image data stream of 2000 zero bytes."""
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    header = struct.pack(">IIBBBBB", *size, 8, 2, 0, 0, 0)
+    body = chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(bytes(2000))) + chunk(b"IEND", b"")
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + body)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda p: claiming(p / "x.jpg", (4000, 4000)), "a truncated or corrupt JPEG: its header claims 4000 x 4000 "
+         "px, which take at least 31 kB, not"),
+        (lambda p: claiming(p / "x.jpg", (4000, 3000), grey=True), "a truncated or corrupt JPEG: its header claims "
+         "4000 x 3000 px, which take at least 23 kB, not"),
+        (lambda p: png_claiming(p / "x.png", (4000, 4000)), "a truncated or corrupt PNG: its header claims 4000 x 4000 "
+         "px, which take at least 47 kB, not 80 bytes"),
+    ],
+)  # fmt: skip
+def test_an_image_whose_header_claims_more_than_its_bytes_hold_is_refused_before_decoding(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str], make: object, message: str
+) -> None:
+    """libjpeg filled what the file lacked with grey: a JPEG of 629 bytes claiming 16000 x 16000 px decoded to
+    256 megapixels in 6 s (2 GB), then "no image circle found" (and libjpeg's own "Corrupt JPEG data" line)."""
+    path = make(tmp_path)  # type: ignore[operator]
+    assert_one_line_error(run("centre", path), f"{path.name}: cannot read it as an image ({message}")
+    assert capfd.readouterr().err == ""
+
+
+def test_a_jpeg_whose_data_end_early_is_refused_in_our_line_alone(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    """Within the bound, the decoder still filled the rest with grey: libjpeg wrote "Corrupt JPEG data: premature
+    end of data segment" on a line of its own, and ``centre`` went on with the grey picture."""
+    path = claiming(tmp_path / "short.jpg", (640, 480))
+    assert_one_line_error(run("centre", path), "short.jpg: cannot read it as an image (a truncated or corrupt file: "
+                          "premature end of data segment)")  # fmt: skip
+    assert capfd.readouterr().err == ""
+
+
+def test_a_png_whose_data_end_early_says_why(tmp_path: Path, capfd: pytest.CaptureFixture[str]) -> None:
+    """libpng's "libpng error: Not enough image data" went to the terminal beside our line."""
+    path = png_claiming(tmp_path / "short.png", (64, 64))
+    assert_one_line_error(run("centre", path), "short.png: cannot read it as an image", "Not enough image data")
+    assert capfd.readouterr().err == ""
+
+
+@pytest.mark.parametrize("suffix", [".png", ".jpg"])
+def test_the_bound_holds_for_the_most_compressible_pictures_their_encoders_make(tmp_path: Path, suffix: str) -> None:
+    """A flat picture, each encoder at its strongest: its file is over the bound (the bound is the format's
+    least, never a guess at pictures' usual size), and it is read."""
+    from panomap.io.image_bounds import least_file_bytes
+    from panomap.io.images import read_image
+
+    flat = np.full((3000, 4000), 128, np.uint8)
+    path = tmp_path / f"flat{suffix}"
+    options = [cv2.IMWRITE_PNG_COMPRESSION, 9] if suffix == ".png" else [cv2.IMWRITE_JPEG_QUALITY, 1]
+    assert cv2.imwrite(str(path), flat, options)
+    kind, least = least_file_bytes(path, (4000, 3000))  # type: ignore[misc]
+    assert kind == suffix[1:].upper().replace("JPG", "JPEG") and least < path.stat().st_size, (least, path.stat())
+    assert read_image(path).shape == (3000, 4000)
+
+
+def test_an_image_larger_decoded_than_the_memory_available_is_refused(
+    inputs: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("panomap.io.images.available_memory", lambda: 100_000)
+    result = run("centre", inputs / "omni.png")
+    assert_one_line_error(result, "omni.png: the image is 240 x 240: decoded, it takes 173 kB of memory, more than "
+                          "the 100 kB available")  # fmt: skip
+
+
+# ----------------------------------------------------------------------------- D2: room on the disk, before the work
+
+
+def test_a_view_its_disk_has_no_room_for_is_refused_before_the_work(
+    inputs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The image (its pixels, uncompressed, at most) was found too large for its disk when it was written."""
+    no_room(monkeypatch, 50_000)
+    out = tmp_path / "p.png"
+    result = run("panorama", inputs / "cam.npz", inputs / "omni.png", "-o", out, "--size", "200x100")
+    assert_one_line_error(result, "p.png: no room for it: up to 64 kB to write, its disk has 50 kB free")
+    result = run("equirect", inputs / "rig.npz", inputs / "omni.png", inputs / "omni.png", "-o", out,
+                 "--size", "200x100")  # fmt: skip
+    assert_one_line_error(result, "p.png: no room for it: up to 64 kB to write, its disk has 50 kB free")
+    assert list(tmp_path.iterdir()) == []
+    no_room(monkeypatch, 70_000)
+    result = run("panorama", inputs / "cam.npz", inputs / "omni.png", "-o", out, "--size", "200x100", "-q")
+    assert result.exit_code == 0 and out.stat().st_size < 64_000, result.stderr
+
+
+def test_a_table_of_a_size_the_fit_chooses_is_refused_before_the_fit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Its size was only known after the fit: 2 pi R x R entries at most for a picture of half diagonal R."""
+    marks = tmp_path / "marks.csv"
+    marks.write_text("u,v,X,Y,Z\n" + "".join(f"{100 + k},{120 + k},{k},1,0\n" for k in range(6)))
+    monkeypatch.setattr("panomap.cli.calibrate.calibrate_camera", lambda *a, **k: pytest.fail("the fit ran"))
+    no_room(monkeypatch, 1_000_000)
+    result = run("fit", marks, "-o", tmp_path / "cam.npz", "--camera", 0, 0, 2, "--centre", 120, 120,
+                 "--image-size", "240x240")  # fmt: skip
+    assert_one_line_error(result, "cam.npz: no room for it: up to 1.5 MB to write, its disk has 1.0 MB free")
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["marks.csv"]
+
+
+@pytest.mark.parametrize("command", ["level", "rig learn", "rig place"])
+def test_a_table_or_rig_made_from_another_is_refused_where_its_disk_has_no_room_for_its_size(
+    inputs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, command: str
+) -> None:
+    """``level`` read its pictures and found their lines, ``rig learn`` and ``rig place`` did their work, before
+    a full disk was found."""
+    no_room(monkeypatch, 5_000)
+    out = tmp_path / "out.npz"
+    if command == "level":
+        args, made_from = ["level", inputs / "cam.npz", inputs / "omni.png"], "cam.npz"
+    elif command == "rig learn":
+        args, made_from = ["rig", "learn", inputs / "rig.npz", inputs / "omni.png", inputs / "omni.png"], "rig.npz"
+    else:
+        marks = tmp_path / "floor.csv"
+        marks.write_text("u,v,X,Y,Z\n1,2,3,4,0\n")
+        args, made_from = ["rig", "place", inputs / "rig.npz", marks, marks], "rig.npz"
+    result = run(*args, "-o", out)
+    size = (inputs / made_from).stat().st_size
+    shown = f"{size / 1e6:.1f} MB" if size >= 1e6 else f"{size / 1e3:.0f} kB"
+    assert_one_line_error(result, f"out.npz: no room for it: {shown} to write, its disk has 5 kB free")
+    assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- D3: azimuth 0, before the fit
+
+
+def test_a_pixel_for_azimuth_zero_outside_the_scene_is_refused_before_the_fit(
+    inputs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """It was refused after the fit (seconds on a real picture), at the fitted centre."""
+    monkeypatch.setattr("panomap.calibrate.pictures.find_arcs", lambda *a, **k: pytest.fail("the search ran"))
+    out = tmp_path / "cam.npz"
+    result = run("fit", "--image", inputs / "omni.png", "-o", out, "--azimuth-zero", 120, 119)
+    assert_one_line_error(result, "omni.png: the pixel given for azimuth 0, (120, 119)", "give a pixel of the scene")
+    assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- D4: batch, a view too wide, once
+
+
+def test_batch_refuses_a_view_too_wide_for_the_encoder_once_before_the_cluster(inputs: Path, tmp_path: Path) -> None:
+    """Each video's task was refused on the cluster, one line each, then the summary."""
+    clip = tmp_path / "clip.mp4"
+    write_clip(clip, [cv2.imread(str(inputs / "omni.png"))] * 2, 5)
+    result = run("batch", "--workers", "1", "--view", "equirect:size=16386x64", "--view", "panorama:size=64x16",
+                 clip, "--table", inputs / "cam.npz", "-o", f"{tmp_path}/{{stem}}_{{name}}.mp4",
+                 "--record", tmp_path / "record.jsonl")  # fmt: skip
+    assert_one_line_error(result, "'--view': equirect: the video encoder libx264 cannot encode frames of 16386 x 64",
+                          "give the view a smaller size", exit_code=2)  # fmt: skip
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["clip.mp4"]
