@@ -522,8 +522,15 @@ def read_text(path: str | Path, encoding: str = "utf-8-sig") -> str:
         return Path(path).read_text(encoding=encoding)
     except FileNotFoundError:
         raise PanomapError("no such file", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PanomapError(f"cannot read it ({exc.__class__.__name__}: {exc})", path) from None
+    except UnicodeDecodeError as exc:
+        byte = exc.object[exc.start]
+        raise PanomapError(
+            f"not a text file (byte 0x{byte:02x} at {exc.start:,} is not {exc.encoding.upper().replace('-SIG', '')}): "
+            "a picture or another binary file?",
+            path,
+        ) from None
+    except OSError as exc:
+        raise PanomapError(f"cannot read it ({exc.strerror or exc})", path) from None
 
 
 def _new_file_mode() -> int:

@@ -20,6 +20,7 @@ from ..interop.table_of_camera import model_profile
 from ..io.images import MAX_IMAGE_PIXELS
 from ..rig.file import is_rig_file
 from ..table.file import is_table_file, load_table, save_table
+from ..table.table import check_table_size
 from .calibrate import find_image_circles_in
 from .options import (
     FINITE,
@@ -34,6 +35,7 @@ from .options import (
     orientation_rad,
     read_omni,
     say,
+    usage_error,
 )
 from .rigs import import_rig, rig_format
 
@@ -160,6 +162,11 @@ def import_(
             f"{image_size[0]}x{image_size[1]} is not an image size (positive, at most {MAX_IMAGE_PIXELS} pixels)",
             param_hint="'--image-size'",
         )
+    if table_size is not None:
+        try:
+            check_table_size(table_size, what="--table-size")
+        except PanomapError as exc:
+            raise usage_error(exc) from None
     check_outputs(
         [("the calibration", calibration), *(("the image", image) for image in images)], [("the output", output)]
     )

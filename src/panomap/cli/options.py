@@ -153,10 +153,8 @@ def read_omni(path: Path, frame_time: float | None = None) -> NDArray[Any]:
         if frame is None:
             raise
         which = "its first frame" if not frame_time else f"its frame at {frame_time:g} s"
-        click.echo(
-            f"panomap: note: {printable(str(path))} is a video: {which} is used (--frame-time SECONDS for another)",
-            err=True,
-        )
+        say(f"panomap: note: {printable(str(path))} is a video: {which} is used (--frame-time SECONDS for another)",
+            err=True)  # fmt: skip
         warn_rotation(path)
         return np.asarray(frame)
     if frame_time is not None:

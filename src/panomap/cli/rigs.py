@@ -12,11 +12,12 @@ import click
 import numpy as np
 
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_text
+from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_text, same_input
 from ..io.images import image_file_bytes, map_file_bytes, read_image, read_rig_pictures, save_map, write_image
 from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
+from ..rig.rig import MAX_CAMERAS
 from ..views import View
-from .options import check_npz_output, check_room_as, progress_bar, say
+from .options import check_npz_output, check_room_as, progress_bar, read_omni, say
 
 WRAPPING_KINDS = ("panorama", "equirect")
 
@@ -328,6 +329,8 @@ def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], sid
 
     if names and len(names) != len(tables):
         raise click.BadParameter(f"{len(names)} names for {len(tables)} tables", param_hint="'--name'")
+    if len(tables) > MAX_CAMERAS:  # (before loading them)
+        raise click.BadParameter(f"a rig has 1 to {MAX_CAMERAS} cameras, not {len(tables)}", param_hint="'TABLES...'")
     check_outputs([("a table", table) for table in tables], [("the output", output)])
     check_npz_output(output, "a rig")
     loaded = tuple(load_table(table) for table in tables)
@@ -415,7 +418,7 @@ def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
 def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:
     """``rig learn --side-by-side FRAME...``: a dual fisheye's lenses and their turn from its frames alone
     (:func:`panomap.calibrate.dual_fisheye.learn_dual_fisheye`); a refusal's figures with ``verbose``."""
-    from ..calibrate.dual_fisheye import learn_dual_fisheye
+    from ..calibrate.dual_fisheye import learn_dual_fisheye, split_frame
 
     if any(is_rig_file(path) for path in frames):
         raise click.UsageError(
@@ -423,7 +426,19 @@ def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:
         )
     check_outputs([("a frame", frame) for frame in frames], [("the output", output)])
     check_npz_output(output, "a rig")
-    pictures = [read_image(frame, None, "a frame") for frame in frames]
+    twice = same_input(frames)
+    if twice is not None:
+        first, second, how = twice
+        raise click.BadParameter(
+            f"{first} and {second} are one frame ({how}): give each frame once (its lines twice add nothing)",
+            param_hint="'PICTURE...'",
+        )
+    pictures = [read_omni(frame) for frame in frames]
+    for frame, picture in zip(frames, pictures, strict=True):
+        try:
+            split_frame(picture)
+        except PanomapError as exc:
+            raise PanomapError(exc.detail, frame) from None
     bar = progress_bar("step")
     try:
         learned = learn_dual_fisheye(pictures, progress=bar.stage)
