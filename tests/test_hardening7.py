@@ -16,6 +16,8 @@ import cv2
 import numpy as np
 import pytest
 
+from panomap.errors import PanomapError
+
 from helpers import assert_one_line_error, hyperbolic_inputs, run, write_clip
 
 SIZE = (240, 240)
@@ -212,3 +214,134 @@ def test_batch_refuses_a_view_too_wide_for_the_encoder_once_before_the_cluster(i
     assert_one_line_error(result, "'--view': equirect: the video encoder libx264 cannot encode frames of 16386 x 64",
                           "give the view a smaller size", exit_code=2)  # fmt: skip
     assert sorted(path.name for path in tmp_path.iterdir()) == ["clip.mp4"]
+
+
+# ----------------------------------------------------------------------------- D5: the command line fuzzed
+
+
+def test_a_dual_fisheyes_frame_given_twice_is_refused_before_the_work(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``rig learn --side-by-side`` learned from the one frame twice (25 s on the shared Insta360 frame), then
+    refused it as pinning neither lens; ``fit`` and ``level`` refuse a picture given twice."""
+    monkeypatch.setattr("panomap.calibrate.dual_fisheye.learn_dual_fisheye", lambda *a, **k: pytest.fail("it ran"))
+    frame = tmp_path / "frame.png"
+    cv2.imwrite(str(frame), np.zeros((20, 40, 3), np.uint8))
+    shutil.copy(frame, tmp_path / "copy.png")
+    for second, how in ((frame, "the same file"), (tmp_path / "copy.png", "the same bytes")):
+        result = run("rig", "learn", "--side-by-side", frame, second, "-o", tmp_path / "rig.npz")
+        assert_one_line_error(result, f"are one frame ({how}): give each frame once", exit_code=2)
+    assert not (tmp_path / "rig.npz").exists()
+
+
+def test_a_dual_fisheyes_frame_of_odd_width_is_named(tmp_path: Path) -> None:
+    """ "a side-by-side frame 41 px wide" named no file among the frames."""
+    cv2.imwrite(str(tmp_path / "even.png"), np.zeros((20, 40, 3), np.uint8))
+    cv2.imwrite(str(tmp_path / "odd.png"), np.zeros((20, 41, 3), np.uint8))
+    result = run(
+        "rig", "learn", "--side-by-side", tmp_path / "even.png", tmp_path / "odd.png", "-o", tmp_path / "r.npz"
+    )
+    assert_one_line_error(result, "odd.png: a side-by-side frame 41 px wide: two lenses of one size make it even")
+
+
+def test_a_dual_fisheyes_video_gives_its_frame_as_the_other_commands_take_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A video said "cannot read it as an image (unknown format or corrupt)"; ``centre``, ``import --image`` and
+    ``level`` take its first frame (or the one at --frame-time)."""
+    taken: list[tuple[int, ...]] = []
+
+    def learned(frames: list[np.ndarray], **_: object) -> None:
+        taken.extend(frame.shape for frame in frames)
+        raise PanomapError("stopped here")
+
+    monkeypatch.setattr("panomap.calibrate.dual_fisheye.learn_dual_fisheye", learned)
+    clip = tmp_path / "dual.mp4"
+    write_clip(clip, [np.full((64, 128, 3), 100, np.uint8)] * 2, 5)
+    result = run("rig", "learn", "--side-by-side", clip, "-o", tmp_path / "r.npz", "-q")
+    assert_one_line_error(result, "stopped here")  # (-q: no note that the video's first frame is used)
+    assert taken == [(64, 128, 3)]
+
+
+def test_a_picture_read_as_text_is_said_to_be_no_text(inputs: Path, tmp_path: Path) -> None:
+    """``rig place RIG omni.png omni.png`` said "cannot read it (UnicodeDecodeError: 'utf-8' codec can't decode
+    byte 0x89 in position 0: invalid start byte)"."""
+    out = tmp_path / "placed.npz"
+    result = run("rig", "place", inputs / "rig.npz", inputs / "omni.png", inputs / "omni.png", "-o", out)
+    assert_one_line_error(
+        result, "omni.png: not a text file (byte 0x89 at 0 is not UTF-8): a picture or another binary"
+    )
+    assert "Error" not in result.stderr and not out.exists()
+
+
+def test_over_sixteen_tables_are_refused_before_they_are_loaded(inputs: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Seventeen tables were loaded (10 MB each from a demo) before the rig refused them."""
+    monkeypatch.setattr("panomap.table.file.load_table", lambda *a, **k: pytest.fail("a table was loaded"))
+    out = inputs / "r17.npz"
+    names = [arg for k in range(17) for arg in ("--name", f"c{k}")]
+    result = run("rig", "make", *[inputs / "cam.npz"] * 17, *names, "-o", out)
+    assert_one_line_error(result, "'TABLES...': a rig has 1 to 16 cameras, not 17", exit_code=2)
+    assert not out.exists()
+
+
+def ocam_file(path: Path) -> Path:
+    """An OCamCalib calib_results.txt of a 640 x 480 fisheye (the polynomial of a 160 px per radian lens)."""
+    path.write_text(
+        "#polynomial coefficients for the DIRECT mapping function (ocam_model.ss in MATLAB). These are used by "
+        "cam2world\n\n4 -160.0 0.0 0.0006 -0.000001\n\n#polynomial coefficients for the inverse mapping function "
+        "(ocam_model.invpol in MATLAB). These are used by world2cam\n\n5 230.0 140.0 10.0 20.0 5.0\n\n"
+        '#center: "row" and "column", starting from 0 (C convention)\n\n240.0 320.0\n\n#affine parameters '
+        '"c", "d", "e"\n\n1.0 0.0 0.0\n\n#image size: "height" and "width"\n\n480 640\n'
+    )
+    return path
+
+
+@pytest.mark.parametrize(("size", "message", "code"), [
+    ("1x1", "'--table-size 1x1: a table needs M >= 4 and N >= 2", 2),
+    ("4x2", "table size 4x2: between its 4 azimuths the views would be up to", 1),
+])  # fmt: skip
+def test_an_imported_table_too_small_or_too_coarse_is_refused(tmp_path: Path, size: str, message: str,
+                                                              code: int) -> None:  # fmt: skip
+    """1x1 was refused after the calibration was read, as the calibration's fault (exit 1); 4x2 was written: its
+    perspective views 25 px (median) to 48 px off those of the default table, silently."""
+    calibration = ocam_file(tmp_path / "calib_results.txt")
+    out = tmp_path / "cam.npz"
+    assert run("import", calibration, "-o", tmp_path / "fine.npz", "--table-size", "64x16", "-q").exit_code == 0
+    result = run("import", calibration, "-o", out, "--table-size", size)
+    assert_one_line_error(result, message.lstrip("'"), exit_code=code)
+    assert not out.exists()
+
+
+def test_the_chords_bound_is_what_a_table_read_between_its_azimuths_gives(inputs: Path) -> None:
+    """Between two azimuths a table reads the chord between its entries: at mid-azimuth r cos(pi / M) from the
+    centre (closed form), r (1 - cos(pi / M)) inside the circle: the sagitta the refusal bounds by r (pi / M)^2 / 2."""
+    import math
+
+    from panomap.table.file import load_table
+    from panomap.table.table import MAX_CHORD_PX, check_table_chords
+
+    table = load_table(inputs / "cam.npz")
+    m = table.size[0]
+    rho = table.elevation_range[1]
+    theta = (np.arange(m) + 0.5) * 2 * math.pi / m
+    edge = table.sample(np.arange(m) * 2 * math.pi / m, np.full(m, rho)).astype(np.float64)
+    middle = table.sample(theta, np.full(m, rho)).astype(np.float64)
+    centre = np.asarray(table.model.centre)
+    r = np.hypot(*(edge - centre).T)
+    assert np.allclose(np.hypot(*(middle - centre).T), r * math.cos(math.pi / m), atol=2e-3)
+    sagitta = float(r.max()) * (math.pi / m) ** 2 / 2
+    assert sagitta >= float(r.max()) * (1 - math.cos(math.pi / m))
+    check_table_chords(table.size, float(r.max()))  # (its default size: far within)
+    least = math.ceil(math.pi * math.sqrt(100.0 / (2 * MAX_CHORD_PX)))
+    check_table_chords((least, 2), 100.0)
+    with pytest.raises(PanomapError, match=f"give M >= {least}"):
+        check_table_chords((least - 1, 2), 100.0)
+
+
+def test_the_note_that_a_videos_frame_is_used_is_silenced_by_q(inputs: Path, tmp_path: Path) -> None:
+    """``-q`` prints nothing but the result, warnings and errors: the note was printed beside the error."""
+    clip = tmp_path / "clip.mp4"
+    write_clip(clip, [cv2.imread(str(inputs / "omni.png"))] * 2, 5)
+    result = run("level", inputs / "cam.npz", clip, "-o", tmp_path / "level.npz", "-q")
+    assert result.exit_code == 1 and "note" not in result.stderr, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
