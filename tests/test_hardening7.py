@@ -345,3 +345,22 @@ def test_the_note_that_a_videos_frame_is_used_is_silenced_by_q(inputs: Path, tmp
     result = run("level", inputs / "cam.npz", clip, "-o", tmp_path / "level.npz", "-q")
     assert result.exit_code == 1 and "note" not in result.stderr, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+
+
+def test_a_cutoff_radius_not_below_the_outer_one_is_refused_before_the_work(tmp_path: Path) -> None:
+    """``fit --cutoff-radius 300 --outer-radius 200`` fitted, then said "no radial model covers the annulus from
+    these landmarks" (blaming them); ``import --image`` read and searched the picture first (exit 1)."""
+    from panomap.calibrate.landmarks.pairs import read_landmarks
+    from panomap.calibrate.landmarks.pipeline import calibrate_camera
+
+    marks = tmp_path / "marks.csv"
+    marks.write_text("u,v,X,Y,Z\n" + "".join(f"{100 + 7 * k},{120 + 3 * k},{k},1,0\n" for k in range(8)))
+    with pytest.raises(PanomapError, match=r"the cut-off radius \(300 px\) must be >= 0 and below the outer radius"):
+        calibrate_camera(read_landmarks(marks), (0, 0, 2), centre=(120, 120), cutoff_radius=300, outer_radius=200)
+    out = tmp_path / "cam.npz"
+    radii = ["--cutoff-radius", 300, "--outer-radius", 200]
+    for args in (["fit", marks, "--camera", 0, 0, 2, "--centre", 120, 120], ["import", ocam_file(tmp_path / "c.txt")]):
+        result = run(*args, "-o", out, *radii)
+        assert_one_line_error(result, "'--cutoff-radius': 300 px: the cut-off radius must be below the outer radius "
+                              "(200 px)", exit_code=2)  # fmt: skip
+    assert not out.exists()

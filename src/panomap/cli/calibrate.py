@@ -44,6 +44,7 @@ from .options import (
     SIZE,
     TILT,
     check_npz_output,
+    check_radii,
     frame_time_option,
     orientation_option,
     progress_bar,
@@ -326,6 +327,7 @@ def fit(
         raise click.UsageError("--video pools frames to learn from lines (no LANDMARKS); a landmark fit takes --image "
                                "VIDEO --frame-time SECONDS")  # fmt: skip
     size = _image_size(image_size)
+    check_radii(cutoff_radius, outer_radius)
     image = check_landmark_fit_options(
         landmarks, output, images, centre, table_size, model, refine_centre, plot, overlay,
         azimuth_zero, handedness, camera_height, terms, uncertainty_plot, size,

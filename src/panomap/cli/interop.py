@@ -30,6 +30,7 @@ from .options import (
     TILT,
     Finite,
     check_npz_output,
+    check_radii,
     check_room_as,
     orientation_option,
     orientation_rad,
@@ -162,6 +163,7 @@ def import_(
             f"{image_size[0]}x{image_size[1]} is not an image size (positive, at most {MAX_IMAGE_PIXELS} pixels)",
             param_hint="'--image-size'",
         )
+    check_radii(cutoff_radius, outer_radius)
     if table_size is not None:
         try:
             check_table_size(table_size, what="--table-size")

@@ -119,6 +119,15 @@ def check_room_as(output: Path, like: Path) -> None:
     check_room([(output, like.stat().st_size)])
 
 
+def check_radii(cutoff_radius: float | None, outer_radius: float | None) -> None:
+    """``--cutoff-radius`` and ``--outer-radius``, both given: the cut-off below the outer one, before any work."""
+    if cutoff_radius is not None and outer_radius is not None and not cutoff_radius < outer_radius:
+        raise click.BadParameter(
+            f"{cutoff_radius:g} px: the cut-off radius must be below the outer radius ({outer_radius:g} px)",
+            param_hint="'--cutoff-radius'",
+        )
+
+
 def usage_error(exc: PanomapError, option: str | None = None) -> click.UsageError:
     """A library error about an option's value, or about options given together, as a usage error (exit 2),
     in the library's words (under ``option``'s name when given)."""
