@@ -364,3 +364,29 @@ def test_a_cutoff_radius_not_below_the_outer_one_is_refused_before_the_work(tmp_
         assert_one_line_error(result, "'--cutoff-radius': 300 px: the cut-off radius must be below the outer radius "
                               "(200 px)", exit_code=2)  # fmt: skip
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("name", "size", "message"),
+    [
+        ("wide.webp", "17000x10", "an image of 17000 x 10 px: WEBP holds at most 16383 px a side (write .png)"),
+        ("noname", "100x10", "cannot write an image in the format (no suffix): name it .png or .jpg"),
+        ("view.npy", "100x10", "cannot write an image in the format .npy: name it .png or .jpg"),
+    ],
+)
+def test_an_output_image_its_format_cannot_hold_is_refused_before_the_work(
+    inputs: Path, tmp_path: Path, capfd: pytest.CaptureFixture[str], name: str, size: str, message: str
+) -> None:
+    """They were refused once the view was made; a WebP over 16383 px a side with OpenCV's own two [ERROR] lines
+    (its log) before ours."""
+    out = tmp_path / name
+    for args in (["panorama", inputs / "cam.npz", inputs / "omni.png"],
+                 ["equirect", inputs / "rig.npz", inputs / "omni.png", inputs / "omni.png"]):  # fmt: skip
+        result = run(*args, "-o", out, "--size", size)
+        assert_one_line_error(result, "'-o'", f"{name}: {message}", exit_code=2)
+    assert capfd.readouterr().err == "" and list(tmp_path.iterdir()) == []
+    from panomap.io.images import write_image
+
+    with pytest.raises(PanomapError, match="WEBP holds at most 16383 px a side"):  # (the library's own writer)
+        write_image(tmp_path / "wide.webp", np.zeros((2, 16384), np.uint8))
+    assert capfd.readouterr().err == ""

@@ -13,11 +13,19 @@ import numpy as np
 
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_text, same_input
-from ..io.images import image_file_bytes, map_file_bytes, read_image, read_rig_pictures, save_map, write_image
+from ..io.images import (
+    check_image_output,
+    image_file_bytes,
+    map_file_bytes,
+    read_image,
+    read_rig_pictures,
+    save_map,
+    write_image,
+)
 from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
 from ..rig.rig import MAX_CAMERAS
 from ..views import View
-from .options import check_npz_output, check_room_as, progress_bar, read_omni, say
+from .options import check_npz_output, check_room_as, progress_bar, read_omni, say, usage_error
 
 WRAPPING_KINDS = ("panorama", "equirect")
 
@@ -46,6 +54,11 @@ def render_rig(
     check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], outputs)
     size = view.output_size(rig.tables[0])  # (every camera takes camera 0's)
     check_room(map_file_bytes(size, save_map_path))
+    for path, option in ((output, "-o"), *((each_path, "--each") for each_path in each_paths)):
+        try:
+            check_image_output(path, size)
+        except PanomapError as exc:
+            raise usage_error(exc, option) from None
     pictures = _pictures(rig, images)
     images_bytes = max(image_file_bytes(size, picture) for picture in pictures)
     check_room([*map_file_bytes(size, save_map_path), *((path, images_bytes) for path in (output, *each_paths))],

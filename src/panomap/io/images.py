@@ -366,13 +366,38 @@ def write_image(path: str | Path, image: NDArray[Any]) -> None:
         raise PanomapError("16-bit images need PNG, TIFF or PNM output, not " + (suffix or "no suffix"), path)
     if image.ndim == 3 and image.shape[2] == 4 and suffix not in ALPHA_SUFFIXES:
         raise PanomapError("images with alpha need PNG, TIFF or WebP output, not " + (suffix or "no suffix"), path)
-    try:
-        ok, encoded = cv2.imencode(suffix or ".none", image)
-    except cv2.error:
-        ok = False
+    check_image_output(path, (int(image.shape[1]), int(image.shape[0])))
+    logging = cv2.utils.logging
+    with _OPENCV_LOG_LOCK:  # (OpenCV logs an encoder's failure as [ERROR] lines of its own)
+        level = logging.getLogLevel()
+        logging.setLogLevel(logging.LOG_LEVEL_SILENT)
+        try:
+            ok, encoded = cv2.imencode(suffix, image)
+        except cv2.error:
+            ok = False
+        finally:
+            logging.setLogLevel(level)
     if not ok:
-        raise PanomapError(f"cannot write an image in the format {suffix or '(no suffix)'}", path)
+        raise PanomapError(f"cannot write an image in the format {suffix}", path)
     write_bytes_atomic(path, encoded.tobytes())
+
+
+# The largest side (px) of an image each format holds, where it is less than any view's (32000 px).
+MAX_FORMAT_SIDE = {".webp": 16383}
+
+
+def check_image_output(path: str | Path, size: tuple[int, int]) -> None:
+    """Refuse, before any work, an output image named ``path`` that no writer here writes (an unknown suffix, or
+    none), or of ``size`` (width, height; px) more than its format holds (WebP: 16383 px a side)."""
+    suffix = Path(path).suffix.lower()
+    if not suffix or not cv2.haveImageWriter(f"x{suffix}"):
+        raise PanomapError(f"cannot write an image in the format {suffix or '(no suffix)'}: name it .png or .jpg", path)
+    most = MAX_FORMAT_SIDE.get(suffix)
+    if most is not None and max(size) > most:
+        raise PanomapError(
+            f"an image of {size[0]} x {size[1]} px: {suffix[1:].upper()} holds at most {most} px a side (write .png)",
+            path,
+        )
 
 
 def save_map(path: str | Path, map_uv: NDArray[np.float32]) -> None:
