@@ -390,3 +390,12 @@ def test_an_output_image_its_format_cannot_hold_is_refused_before_the_work(
     with pytest.raises(PanomapError, match="WEBP holds at most 16383 px a side"):  # (the library's own writer)
         write_image(tmp_path / "wide.webp", np.zeros((2, 16384), np.uint8))
     assert capfd.readouterr().err == ""
+
+
+def test_a_folder_of_videos_given_as_pictures_says_what_it_holds(tmp_path: Path) -> None:
+    """``fit --image FOLDER`` of videos said only "the folder holds no image" (``--video`` takes them)."""
+    (tmp_path / "clips").mkdir()
+    (tmp_path / "clips" / "a.mp4").write_bytes(b"")
+    (tmp_path / "clips" / "notes.txt").write_text("x")
+    result = run("fit", "--image", tmp_path / "clips", "-o", tmp_path / "cam.npz")
+    assert_one_line_error(result, "clips: the folder holds no image (it holds videos)", exit_code=2)

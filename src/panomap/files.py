@@ -578,9 +578,12 @@ def expand_input(pattern: str | Path, kinds: tuple[str, ...] = ("image", "video"
     what = " or ".join({"image": "image", "video": "video"}[kind] for kind in kinds)
     path = Path(pattern)
     if path.is_dir():
-        matches = sorted(p for p in path.rglob("*") if p.is_file() and kind_of(p) in kinds)
+        files = [p for p in path.rglob("*") if p.is_file()]
+        matches = sorted(p for p in files if kind_of(p) in kinds)
         if not matches:
-            raise PanomapError(f"the folder holds no {what}", path)
+            others = sorted({kind for kind in map(kind_of, files) if kind is not None})
+            held = f" (it holds {' and '.join(f'{kind}s' for kind in others)})" if others else ""
+            raise PanomapError(f"the folder holds no {what}{held}", path)
         return matches
     if path.is_file():
         if kind_of(path) is None:
