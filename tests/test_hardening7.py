@@ -399,3 +399,21 @@ def test_a_folder_of_videos_given_as_pictures_says_what_it_holds(tmp_path: Path)
     (tmp_path / "clips" / "notes.txt").write_text("x")
     result = run("fit", "--image", tmp_path / "clips", "-o", tmp_path / "cam.npz")
     assert_one_line_error(result, "clips: the folder holds no image (it holds videos)", exit_code=2)
+
+
+def test_a_rig_view_larger_than_the_memory_available_is_refused_before_the_work(
+    inputs: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A rig's view takes memory for each camera (75 bytes a pixel a camera, measured): an equirect of 32000 x
+    1562 px from 16 cameras needs some 60 GB; it was found by the system's OOM killer, after the work."""
+    from panomap.rig.blend import rig_view_bytes
+
+    assert rig_view_bytes((32000, 1562), 16) > 60e9
+    monkeypatch.setattr("panomap.io.image_bounds.available_memory", lambda: 50_000_000)
+    monkeypatch.setattr("panomap.cli.rigs.camera_maps", lambda *a, **k: pytest.fail("the maps were made"))
+    out = tmp_path / "eq.png"
+    result = run("equirect", inputs / "rig.npz", inputs / "omni.png", inputs / "omni.png", "-o", out, "--size",
+                 "1000x500")  # fmt: skip
+    assert_one_line_error(result, "a view of 1000 x 500 px of 2 cameras needs about 95 MB of memory, more than the "
+                          "50 MB available: make it smaller")  # fmt: skip
+    assert not out.exists()

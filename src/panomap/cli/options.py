@@ -128,6 +128,21 @@ def check_radii(cutoff_radius: float | None, outer_radius: float | None) -> None
         )
 
 
+def check_memory_for(needed: int, what: str) -> None:
+    """Refuse, before the work, ``what`` (a view...) that needs ``needed`` bytes of memory, more than this machine
+    has available (:func:`panomap.io.image_bounds.available_memory`; no check where it does not say)."""
+    from ..io.image_bounds import available_memory
+
+    def amount(size: int) -> str:
+        return f"{size / 1e9:.1f} GB" if size >= 1e9 else f"{size / 1e6:.0f} MB"
+
+    free = available_memory()
+    if free is not None and needed > free:
+        raise PanomapError(
+            f"{what} needs about {amount(needed)} of memory, more than the {amount(free)} available: make it smaller"
+        )
+
+
 def usage_error(exc: PanomapError, option: str | None = None) -> click.UsageError:
     """A library error about an option's value, or about options given together, as a usage error (exit 2),
     in the library's words (under ``option``'s name when given)."""

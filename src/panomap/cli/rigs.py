@@ -23,9 +23,10 @@ from ..io.images import (
     write_image,
 )
 from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
+from ..rig.blend import rig_view_bytes
 from ..rig.rig import MAX_CAMERAS
 from ..views import View
-from .options import check_npz_output, check_room_as, progress_bar, read_omni, say, usage_error
+from .options import check_memory_for, check_npz_output, check_room_as, progress_bar, read_omni, say, usage_error
 
 WRAPPING_KINDS = ("panorama", "equirect")
 
@@ -54,6 +55,7 @@ def render_rig(
     check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], outputs)
     size = view.output_size(rig.tables[0])  # (every camera takes camera 0's)
     check_room(map_file_bytes(size, save_map_path))
+    check_memory_for(rig_view_bytes(size, rig.count), f"a view of {size[0]} x {size[1]} px of {rig.count} cameras")
     for path, option in ((output, "-o"), *((each_path, "--each") for each_path in each_paths)):
         try:
             check_image_output(path, size)
