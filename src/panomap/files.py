@@ -288,10 +288,11 @@ def check_output(path: str | Path) -> None:
     check_replaceable(path)
 
 
-def check_room(outputs: Iterable[tuple[str | Path, int]]) -> None:
+def check_room(outputs: Iterable[tuple[str | Path, int]], up_to: bool = False) -> None:
     """Refuse, before any work, outputs of known size (``(path, bytes)``: a map, a table) that their disks
     have no room for, the outputs on one disk counted together (each is written whole beside its name before
-    it replaces it, so an output it replaces frees nothing).
+    it replaces it, so an output it replaces frees nothing). ``up_to``: some sizes are the most the outputs
+    may take (an image's pixels, uncompressed; a table of a size still to be chosen), said so.
 
     Raises
     ------
@@ -315,7 +316,9 @@ def check_room(outputs: Iterable[tuple[str | Path, int]]) -> None:
             continue
         if total > free:
             raise PanomapError(
-                f"no room for it: {_megabytes(total)} to write, its disk has {_megabytes(free)} free", first
+                f"no room for it: {'up to ' if up_to else ''}{_megabytes(total)} to write, its disk has "
+                f"{_megabytes(free)} free",
+                first,
             )
 
 
@@ -519,8 +522,15 @@ def read_text(path: str | Path, encoding: str = "utf-8-sig") -> str:
         return Path(path).read_text(encoding=encoding)
     except FileNotFoundError:
         raise PanomapError("no such file", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PanomapError(f"cannot read it ({exc.__class__.__name__}: {exc})", path) from None
+    except UnicodeDecodeError as exc:
+        byte = exc.object[exc.start]
+        raise PanomapError(
+            f"not a text file (byte 0x{byte:02x} at {exc.start:,} is not {exc.encoding.upper().replace('-SIG', '')}): "
+            "a picture or another binary file?",
+            path,
+        ) from None
+    except OSError as exc:
+        raise PanomapError(f"cannot read it ({exc.strerror or exc})", path) from None
 
 
 def _new_file_mode() -> int:
@@ -568,9 +578,12 @@ def expand_input(pattern: str | Path, kinds: tuple[str, ...] = ("image", "video"
     what = " or ".join({"image": "image", "video": "video"}[kind] for kind in kinds)
     path = Path(pattern)
     if path.is_dir():
-        matches = sorted(p for p in path.rglob("*") if p.is_file() and kind_of(p) in kinds)
+        files = [p for p in path.rglob("*") if p.is_file()]
+        matches = sorted(p for p in files if kind_of(p) in kinds)
         if not matches:
-            raise PanomapError(f"the folder holds no {what}", path)
+            others = sorted({kind for kind in map(kind_of, files) if kind is not None})
+            held = f" (it holds {' and '.join(f'{kind}s' for kind in others)})" if others else ""
+            raise PanomapError(f"the folder holds no {what}{held}", path)
         return matches
     if path.is_file():
         if kind_of(path) is None:

@@ -54,9 +54,9 @@ from ..files import (  # noqa: F401  (IMAGE_SUFFIXES, VIDEO_SUFFIXES, kind_of: t
     placeholders,
     read_text,
 )
-from ..rig.file import is_rig_file, rig_index
+from ..rig.file import is_rig_file, load_rig, rig_index
 from ..table.file import is_table_file, load_table
-from ..video.output import EncoderSettings, container_format
+from ..video.output import EncoderSettings, check_frame_size, container_format
 from ..views.spec import NamedView
 
 # The characters a camera's name may not hold, as Unicode categories: control, format, line and paragraph
@@ -452,3 +452,26 @@ def make_job(
         key = hashlib.sha256(f"{files}{tables[item.table]}\0{described}".encode()).hexdigest()
         items.append(Item(item, tuple(outputs), key, tables[item.table]))
     return Job(tuple(items), tuple(views), settings)
+
+
+def check_video_views(inputs: Iterable[BatchInput], views: Sequence[NamedView], encoder: EncoderSettings) -> None:
+    """Refuse, before any work, a view whose frames the video encoder cannot encode (too wide for it), once for
+    the job rather than for each of its videos: its size from each video's table (a rig's camera 0's).
+
+    Raises PanomapError naming the view, in the encoder's words."""
+    tried: set[tuple[int, int]] = set()
+    tables: set[Path] = set()
+    for item in inputs:
+        if not item.is_video or item.table in tables:
+            continue
+        tables.add(item.table)
+        reference = load_rig(item.table).tables[0] if is_rig_file(item.table) else load_table(item.table)
+        for named in views:
+            size = named.view.output_size(reference)
+            if size in tried:
+                continue
+            tried.add(size)
+            try:
+                check_frame_size(encoder, size)
+            except PanomapError as exc:
+                raise PanomapError(f"{named.name}: {exc.detail}") from None

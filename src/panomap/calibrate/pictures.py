@@ -32,7 +32,7 @@ from .landmarks.joint import ImageLines
 from .lines.arcs import EdgeArc, find_arcs
 from .lines.fit import LineFit, LineFitOptions
 from .lines.frame_circles import line_circles
-from .lines.orientation import zero_azimuth
+from .lines.orientation import check_scene_pixel, zero_azimuth
 from .lines.table import create_line_table
 
 
@@ -241,6 +241,11 @@ def _learn(
         circles = line_circles(omnis[0])
     except PanomapError as exc:
         raise PanomapError(exc.detail, names[0]) from None
+    if options.azimuth_zero is not None:  # (before the fit: checked again at the fitted centre)
+        try:
+            check_scene_pixel(options.azimuth_zero, circles.centre, circles)
+        except PanomapError as exc:
+            raise PanomapError(exc.detail, names[0]) from None
     edges: list[EdgeArc] = []
     for k, omni in enumerate(omnis):
         say(k, f"edges of {_called(names, k)}")

@@ -14,9 +14,11 @@ import click
 from ..batch.forkserver import SCHEDULER_VARIABLE
 from ..batch.job import (
     TEMPLATE_KEYS,
+    BatchInput,
     Settings,
     check_inputs_and_table,
     check_template,
+    check_video_views,
     find_inputs,
     make_job,
     without_outputs,
@@ -26,7 +28,8 @@ from ..batch.run import Progress, RunSettings, run_job
 from ..errors import PanomapError
 from ..remap import INTERPOLATIONS
 from ..table.sampling import SAMPLINGS
-from ..views.spec import KINDS
+from ..video.output import EncoderSettings
+from ..views.spec import KINDS, NamedView
 from .options import PATH, Finite, usage_error, warn_orientation
 from .options import quiet as quiet_given
 from .progress import ProgressBar
@@ -185,10 +188,7 @@ def batch(
     for first in {item.camera: item for item in reversed(found) if not item.is_video}.values():
         warn_orientation(first.sources[0])
     if any(item.is_video for item in found):
-        try:
-            encoder.check()
-        except PanomapError as exc:
-            raise usage_error(exc) from None
+        _check_encoder(found, named, encoder)
     if interp not in ("linear", "nearest") and any(item.rig and item.is_video for item in found):
         raise click.BadParameter(f"a rig's video reads linear or nearest, not {interp!r}", param_hint="'--interp'")
     job = make_job(found, named, template, Settings(encoder, interp, table_sampling, not no_audio))
@@ -227,3 +227,15 @@ def batch(
             err=True,
         )
         sys.exit(130)
+
+
+def _check_encoder(found: list[BatchInput], named: list[NamedView], encoder: EncoderSettings) -> None:
+    """The video encoder's options and the views' sizes, refused once before the cluster (usage errors)."""
+    try:
+        encoder.check()
+    except PanomapError as exc:
+        raise usage_error(exc) from None
+    try:
+        check_video_views(found, named, encoder)
+    except PanomapError as exc:
+        raise usage_error(exc, "--view") from None

@@ -24,13 +24,14 @@ from ..camera.model import CameraModel
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, input_file, same_input
-from ..io.images import write_image
+from ..io.images import header_size, write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table, save_table
 from ..table.table import PanoMappingTable
 from .fit_checks import (
     check_landmark_fit_options,
     check_mount_options,
+    check_table_room,
     expand_images,
     refuse_landmark_options,
     refuse_picture_as_landmarks,
@@ -42,6 +43,7 @@ from .options import (
     POSITIVE,
     SIZE,
     TILT,
+    check_radii,
     check_table_outputs,
     frame_time_option,
     orientation_option,
@@ -325,9 +327,10 @@ def fit(
         raise click.UsageError("--video pools frames to learn from lines (no LANDMARKS); a landmark fit takes --image "
                                "VIDEO --frame-time SECONDS")  # fmt: skip
     size = _image_size(image_size)
+    check_radii(cutoff_radius, outer_radius)
     image = check_landmark_fit_options(
         landmarks, output, images, centre, table_size, model, refine_centre, plot, overlay,
-        azimuth_zero, handedness, camera_height, terms, uncertainty_plot,
+        azimuth_zero, handedness, camera_height, terms, uncertainty_plot, size,
     )  # fmt: skip
     pairs = read_landmarks(landmarks)
     _check_camera_position(camera, pairs, landmarks)
@@ -473,6 +476,7 @@ def _fit_lines(
         output,
         pictures=[("--overlay", overlay, "the overlay"), ("--uncertainty-plot", uncertainty_plot, "the figure")],
     )
+    check_table_room(output, None, header_size(images[0]) if images else None)
     options = LineFitOptions(
         axis=axis or "down",
         s=None if handedness == "auto" else int(handedness),

@@ -7,11 +7,13 @@ Options missing, out of range or not going together are usage errors (exit 2).
 from __future__ import annotations
 
 import glob
+import math
 from pathlib import Path
 
 import click
 from click.core import ParameterSource
 
+from ..calibrate.core.table_range import DEFAULT_MAX_SIZE
 from ..calibrate.landmarks.viewpoint import SphericalMirror, viewpoint_conflict
 from ..camera.radial_models import radial_kind
 from ..errors import PanomapError, printable
@@ -121,6 +123,7 @@ def check_landmark_fit_options(
     camera_height: float | None,
     terms: str = "auto",
     uncertainty_plot: Path | None = None,
+    image_size: tuple[int, int] | None = None,
 ) -> Path | None:
     """The checks of a landmark fit's options before any work (usage errors, exit 2; outputs that are
     inputs, 1); returns its --image, if any."""
@@ -151,6 +154,28 @@ def check_landmark_fit_options(
         output,
         pictures=[("--plot", plot, "the fit plot"), ("--overlay", overlay, "the overlay")],
     )
+    if image_size is None and image is not None:
+        from ..io.images import header_size
+
+        image_size = header_size(image)
+    check_table_room(output, table_size, image_size)
+    return image
+
+
+# Room for a table file's metadata (its model, its fit's report) beside its entries.
+TABLE_METADATA_BYTES = 65_536
+
+
+def check_table_room(output: Path, table_size: tuple[int, int] | None, image_size: tuple[int, int] | None) -> None:
+    """Refuse, before the fit, a table its disk has no room for: one of ``table_size`` (M, N) where given,
+    else the most a fit chooses for pictures of ``image_size`` (W, H): 2 pi R by R entries for R their half
+    diagonal (the image circle's radius at most, but for a fisheye's circle past the frame's corners), within
+    :data:`DEFAULT_MAX_SIZE` (that size where the pictures' is not known)."""
     if table_size is not None:
         check_room([(output, table_size[0] * table_size[1] * ENTRY_BYTES)])
-    return image
+        return
+    m, n = DEFAULT_MAX_SIZE
+    if image_size is not None:
+        reach = math.hypot(*image_size) / 2
+        m, n = min(8 * math.ceil(2 * math.pi * reach / 8), m), min(math.ceil(reach), n)
+    check_room([(output, m * n * ENTRY_BYTES + TABLE_METADATA_BYTES)], up_to=True)

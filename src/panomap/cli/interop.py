@@ -20,6 +20,7 @@ from ..interop.table_of_camera import model_profile
 from ..io.images import MAX_IMAGE_PIXELS
 from ..rig.file import is_rig_file
 from ..table.file import is_table_file, load_table, save_table
+from ..table.table import check_table_size
 from .calibrate import find_image_circles_in
 from .options import (
     FINITE,
@@ -28,11 +29,14 @@ from .options import (
     SIZE,
     TILT,
     Finite,
+    check_radii,
+    check_room_as,
     check_table_outputs,
     orientation_option,
     orientation_rad,
     read_omni,
     say,
+    usage_error,
 )
 from .rigs import import_rig, rig_format
 
@@ -159,6 +163,12 @@ def import_(
             f"{image_size[0]}x{image_size[1]} is not an image size (positive, at most {MAX_IMAGE_PIXELS} pixels)",
             param_hint="'--image-size'",
         )
+    check_radii(cutoff_radius, outer_radius)
+    if table_size is not None:
+        try:
+            check_table_size(table_size, what="--table-size")
+        except PanomapError as exc:
+            raise usage_error(exc) from None
     check_table_outputs(
         [("the calibration", calibration), *(("the image", image) for image in images)], output, "a table (or a rig)"
     )
@@ -392,6 +402,7 @@ def level(table: Path, images: tuple[Path, ...], output: Path) -> None:
             param_hint="'IMAGES...'",
         )
     loaded = load_table(table)
+    check_room_as(output, table)
     pictures = []
     for image in images:
         picture = read_omni(image)

@@ -126,6 +126,38 @@ def check_table_outputs(
             raise click.BadParameter(f"{path}: {kind} is written as PNG (name it .png)", param_hint=f"'{option}'")
 
 
+def check_room_as(output: Path, like: Path) -> None:
+    """Refuse, before any work, a table or rig written to ``output`` that its disk has no room for: one of the
+    size of ``like``, the table or rig it is made from (its entries as many, :func:`panomap.files.check_room`)."""
+    from ..files import check_room
+
+    check_room([(output, like.stat().st_size)])
+
+
+def check_radii(cutoff_radius: float | None, outer_radius: float | None) -> None:
+    """``--cutoff-radius`` and ``--outer-radius``, both given: the cut-off below the outer one, before any work."""
+    if cutoff_radius is not None and outer_radius is not None and not cutoff_radius < outer_radius:
+        raise click.BadParameter(
+            f"{cutoff_radius:g} px: the cut-off radius must be below the outer radius ({outer_radius:g} px)",
+            param_hint="'--cutoff-radius'",
+        )
+
+
+def check_memory_for(needed: int, what: str) -> None:
+    """Refuse, before the work, ``what`` (a view...) that needs ``needed`` bytes of memory, more than this machine
+    has available (:func:`panomap.io.image_bounds.available_memory`; no check where it does not say)."""
+    from ..io.image_bounds import available_memory
+
+    def amount(size: int) -> str:
+        return f"{size / 1e9:.1f} GB" if size >= 1e9 else f"{size / 1e6:.0f} MB"
+
+    free = available_memory()
+    if free is not None and needed > free:
+        raise PanomapError(
+            f"{what} needs about {amount(needed)} of memory, more than the {amount(free)} available: make it smaller"
+        )
+
+
 def usage_error(exc: PanomapError, option: str | None = None) -> click.UsageError:
     """A library error about an option's value, or about options given together, as a usage error (exit 2),
     in the library's words (under ``option``'s name when given)."""
@@ -160,10 +192,8 @@ def read_omni(path: Path, frame_time: float | None = None) -> NDArray[Any]:
         if frame is None:
             raise
         which = "its first frame" if not frame_time else f"its frame at {frame_time:g} s"
-        click.echo(
-            f"panomap: note: {printable(str(path))} is a video: {which} is used (--frame-time SECONDS for another)",
-            err=True,
-        )
+        say(f"panomap: note: {printable(str(path))} is a video: {which} is used (--frame-time SECONDS for another)",
+            err=True)  # fmt: skip
         warn_rotation(path)
         return np.asarray(frame)
     if frame_time is not None:

@@ -12,11 +12,21 @@ import click
 import numpy as np
 
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_text
-from ..io.images import map_file_bytes, read_image, read_rig_pictures, save_map, write_image
+from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_text, same_input
+from ..io.images import (
+    check_image_output,
+    image_file_bytes,
+    map_file_bytes,
+    read_image,
+    read_rig_pictures,
+    save_map,
+    write_image,
+)
 from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, save_rig
+from ..rig.blend import rig_view_bytes
+from ..rig.rig import MAX_CAMERAS
 from ..views import View
-from .options import check_table_outputs, progress_bar, say
+from .options import check_memory_for, check_room_as, check_table_outputs, progress_bar, read_omni, say, usage_error
 
 WRAPPING_KINDS = ("panorama", "equirect")
 
@@ -43,8 +53,18 @@ def render_rig(
     each_paths = fill_pattern(each, "camera", "each camera's name", rig.names) if each is not None else []
     outputs += [(f"--each for {name}", path) for name, path in zip(rig.names, each_paths, strict=False)]
     check_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], outputs)
-    check_room(map_file_bytes(view.output_size(rig.tables[0]), save_map_path))  # (every camera takes camera 0's)
+    size = view.output_size(rig.tables[0])  # (every camera takes camera 0's)
+    check_room(map_file_bytes(size, save_map_path))
+    check_memory_for(rig_view_bytes(size, rig.count), f"a view of {size[0]} x {size[1]} px of {rig.count} cameras")
+    for path, option in ((output, "-o"), *((each_path, "--each") for each_path in each_paths)):
+        try:
+            check_image_output(path, size)
+        except PanomapError as exc:
+            raise usage_error(exc, option) from None
     pictures = _pictures(rig, images)
+    images_bytes = max(image_file_bytes(size, picture) for picture in pictures)
+    check_room([*map_file_bytes(size, save_map_path), *((path, images_bytes) for path in (output, *each_paths))],
+               up_to=True)  # fmt: skip
     maps = camera_maps(rig, view, sampling)
     remapper = RigRemapper(rig, maps, interp, wrap=view.kind in WRAPPING_KINDS)
     layers = remapper.layers(pictures)  # (made once: the gains, the blend and --each read them)
@@ -324,6 +344,8 @@ def rig_make(tables: tuple[Path, ...], output: Path, names: tuple[str, ...], sid
 
     if names and len(names) != len(tables):
         raise click.BadParameter(f"{len(names)} names for {len(tables)} tables", param_hint="'--name'")
+    if len(tables) > MAX_CAMERAS:  # (before loading them)
+        raise click.BadParameter(f"a rig has 1 to {MAX_CAMERAS} cameras, not {len(tables)}", param_hint="'TABLES...'")
     check_table_outputs([("a table", table) for table in tables], output, "a rig")
     loaded = tuple(load_table(table) for table in tables)
     offsets = None
@@ -393,6 +415,7 @@ def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
 
     loaded = load_rig(rig_path)
     check_table_outputs([("the rig", rig_path), *(("a picture", image) for image in images)], output, "a rig")
+    check_room_as(output, rig_path)
     per_shot = 1 if loaded.offsets is not None else loaded.count
     if len(images) % per_shot:
         names = ", ".join(loaded.names)
@@ -408,14 +431,26 @@ def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
 def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:
     """``rig learn --side-by-side FRAME...``: a dual fisheye's lenses and their turn from its frames alone
     (:func:`panomap.calibrate.dual_fisheye.learn_dual_fisheye`); a refusal's figures with ``verbose``."""
-    from ..calibrate.dual_fisheye import learn_dual_fisheye
+    from ..calibrate.dual_fisheye import learn_dual_fisheye, split_frame
 
     if any(is_rig_file(path) for path in frames):
         raise click.UsageError(
             "--side-by-side learns the lenses too, from the frames alone: give no rig (or drop --side-by-side)"
         )
     check_table_outputs([("a frame", frame) for frame in frames], output, "a rig")
-    pictures = [read_image(frame, None, "a frame") for frame in frames]
+    twice = same_input(frames)
+    if twice is not None:
+        first, second, how = twice
+        raise click.BadParameter(
+            f"{first} and {second} are one frame ({how}): give each frame once (its lines twice add nothing)",
+            param_hint="'PICTURE...'",
+        )
+    pictures = [read_omni(frame) for frame in frames]
+    for frame, picture in zip(frames, pictures, strict=True):
+        try:
+            split_frame(picture)
+        except PanomapError as exc:
+            raise PanomapError(exc.detail, frame) from None
     bar = progress_bar("step")
     try:
         learned = learn_dual_fisheye(pictures, progress=bar.stage)
@@ -457,6 +492,7 @@ def rig_place(rig_path: Path, landmark_files: tuple[Path, ...], output: Path, un
 
     loaded = load_rig(rig_path)
     check_table_outputs([("the rig", rig_path), *(("landmarks", path) for path in landmark_files)], output, "a rig")
+    check_room_as(output, rig_path)
     if len(landmark_files) != loaded.count:
         names = ", ".join(loaded.names)
         raise click.UsageError(f"give one landmark file per camera of the rig, in its order ({names}), not "

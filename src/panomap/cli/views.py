@@ -20,6 +20,8 @@ from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, check_room
 from ..io.images import (
     UNKNOWN_FORMAT,
+    check_image_output,
+    image_file_bytes,
     map_file_bytes,
     pgm_map_paths,
     read_image,
@@ -103,6 +105,10 @@ def _render(
     extra = [path for path in (save_map_path, *pgm_paths) if path is not None]
     table = load_table(table_path)
     check_room(map_file_bytes(view.output_size(table), save_map_path, pgm_paths))
+    try:
+        check_image_output(output, view.output_size(table))
+    except PanomapError as exc:
+        raise usage_error(exc, "-o") from None
     if view.needs_camera_height and table.info.get("camera_height_known") is False:
         click.echo(
             f"panomap: note: {printable(str(table_path))} was learned from lines, which know no distance: its camera "
@@ -120,6 +126,8 @@ def _render(
             ) from None
         raise
     warn_orientation(image_path)
+    size = view.output_size(table)
+    check_room([*map_file_bytes(size, save_map_path, pgm_paths), (output, image_file_bytes(size, image))], up_to=True)
     map_uv = build_map(table, view, sampling)
     remapper = Remapper(map_uv, (image.shape[1], image.shape[0]), interp)
     with all_or_none():

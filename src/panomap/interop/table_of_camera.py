@@ -24,7 +24,7 @@ from ..camera.radial import RadialFunction, fit_radial
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError
 from ..geometry import TWO_PI, FloatArray
-from ..table.table import PanoMappingTable, check_table_size
+from ..table.table import PanoMappingTable, check_table_chords, check_table_size
 from .frame import HANDEDNESS, camera_rays
 from .models.base import ExternalCamera
 
@@ -248,6 +248,7 @@ def table_of_camera(
         m = min(8 * math.ceil(TWO_PI * max(outer, 1.0) / 8), MAX_DEFAULT_SIZE[0])
         size = (max(m, 16), min(max(math.ceil(outer - cutoff), 16), MAX_DEFAULT_SIZE[1]))
     size = check_table_size(size)
+    check_table_chords(size, outer)
     entries = project_grid(camera, model, size, world_range, camera_range if tilted else None)
     table_info = dict(info or {})
     record = dict(table_info.get("import", {}))

@@ -13,6 +13,7 @@ since libpng writes its complaint about a truncated file straight to stderr.
 from __future__ import annotations
 
 import os
+import re
 import threading
 import warnings
 from collections.abc import Sequence
@@ -26,6 +27,8 @@ from numpy.typing import NDArray
 from .. import inputs
 from ..errors import PanomapError, printable
 from ..files import input_file, write_bytes_atomic, write_with
+from .image_bounds import available_memory, decoded_bytes, least_file_bytes
+from .stderr_kept import stderr_kept
 
 if TYPE_CHECKING:
     from ..rig import CameraRig
@@ -78,9 +81,10 @@ def read_image(
         kind = float_format(handle.read(16))
     if kind is not None:  # (refused before decoding: a large one would take its memory first)
         raise PanomapError(f"images must be 8- or 16-bit, this one is {kind} (32-bit float)", path)
-    declared = header_size(path)
+    declared = _header(path)
     if declared is not None:
-        _check_size(path, declared, expected_size, expected_by)
+        _check_size(path, declared[0], expected_size, expected_by)
+        _check_claim(path, *declared)
     data = np.fromfile(path, dtype=np.uint8)
     if data[: len(PNG_SIGNATURE)].tobytes() == PNG_SIGNATURE:
         problem = png_problem(path)
@@ -90,9 +94,12 @@ def read_image(
         problem = jpeg_problem(data.tobytes())
         if problem is not None:
             raise PanomapError(f"cannot read it as an image (a truncated or corrupt JPEG: {problem})", path)
-    image = _decode(data) if data.size else None
+    image, said = _decode(data) if data.size else (None, [])
+    short = [line for line in said if _DATA_ENDS.search(line)]
+    if short and image is not None:  # (the decoder filled what the file lacks)
+        raise PanomapError(f"cannot read it as an image (a truncated or corrupt file: {_said(short[0])})", path)
     if image is None:
-        raise PanomapError(UNKNOWN_FORMAT, path)
+        raise PanomapError(UNKNOWN_FORMAT + (f": {_said(said[0])}" if said else ""), path)
     if image.dtype not in (np.uint8, np.uint16):
         raise PanomapError(f"images must be 8- or 16-bit, this one is {image.dtype}", path)
     _check_size(path, (int(image.shape[1]), int(image.shape[0])), expected_size, expected_by)
@@ -146,18 +153,31 @@ def float_format(head: bytes) -> str | None:
     return next((kind for signature, kind in FLOAT_SIGNATURES.items() if head.startswith(signature)), None)
 
 
-def _decode(data: NDArray[np.uint8]) -> NDArray[Any] | None:
-    """``cv2.imdecode`` with OpenCV's log silenced; None for what it cannot decode (or refuses as too large)."""
+def _decode(data: NDArray[np.uint8]) -> tuple[NDArray[Any] | None, list[str]]:
+    """``cv2.imdecode``, with OpenCV's log silenced and what its decoders (libjpeg, libpng) write to stderr
+    themselves kept: the image (None for what it cannot decode, or refuses as too large) and those lines."""
     logging = cv2.utils.logging
     with _OPENCV_LOG_LOCK:
         level = logging.getLogLevel()
         logging.setLogLevel(logging.LOG_LEVEL_SILENT)
         try:
-            return cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+            with stderr_kept() as said:
+                image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
         except cv2.error:
-            return None
+            image = None
         finally:
             logging.setLogLevel(level)
+    return image, [line.strip() for line in said if line.strip()]
+
+
+# What libjpeg and libpng say where a file's data ends before its pixels do (they fill the rest in).
+_DATA_ENDS = re.compile(r"premature end|not enough image data|read error|truncated", re.IGNORECASE)
+
+
+def _said(line: str) -> str:
+    """A decoder's line as a reason: its library's prefix off, at most 80 characters, printable."""
+    text = re.sub(r"^(libpng (error|warning)|Corrupt JPEG data):\s*", "", line).rstrip(".")
+    return printable(text[:80])
 
 
 def png_problem(path: str | Path) -> str | None:
@@ -203,6 +223,12 @@ def header_size(path: str | Path) -> tuple[int, int] | None:
     WebP, BMP and PNM lazily; the formats only OpenCV reads are checked after
     decoding instead.
     """
+    header = _header(path)
+    return None if header is None else header[0]
+
+
+def _header(path: str | Path) -> tuple[tuple[int, int], str] | None:
+    """((width, height), Pillow's mode) from an image file's header, as :func:`header_size` reads it."""
     from PIL import Image, UnidentifiedImageError
 
     if not Path(path).is_file():  # (a FIFO would block Pillow's read)
@@ -214,12 +240,40 @@ def header_size(path: str | Path) -> tuple[int, int] | None:
         limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
         try:
             with Image.open(path) as image:
-                width, height = image.size
+                (width, height), mode = image.size, str(image.mode)
         except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
             return None
         finally:
             Image.MAX_IMAGE_PIXELS = limit
-    return int(width), int(height)
+    return (int(width), int(height)), mode
+
+
+def _check_claim(path: Path, size: tuple[int, int], mode: str) -> None:
+    """Refuse, before decoding, an image whose header claims more pixels than its file's bytes can hold, or
+    than the memory available holds decoded (:mod:`panomap.io.image_bounds`)."""
+    width, height = size
+    held = path.stat().st_size
+    least = least_file_bytes(path, size)
+    if least is not None and held < least[1]:
+        raise PanomapError(
+            f"cannot read it as an image (a truncated or corrupt {least[0]}: its header claims {width} x {height} px, "
+            f"which take at least {_amount(least[1])}, not {_amount(held)})",
+            path,
+        )
+    needed, free = decoded_bytes(path, size, mode), available_memory()
+    if free is not None and needed > free:
+        raise PanomapError(
+            f"the image is {width} x {height}: decoded, it takes {_amount(needed)} of memory, more than the "
+            f"{_amount(free)} available",
+            path,
+        )
+
+
+def _amount(size: int) -> str:
+    """``size`` bytes as kB, MB or GB."""
+    if size < 10_000:
+        return f"{size} bytes"
+    return f"{size / 1e9:.1f} GB" if size >= 1e9 else f"{size / 1e6:.1f} MB" if size >= 1e6 else f"{size / 1e3:.0f} kB"
 
 
 # What an EXIF orientation other than 1 asks a viewer to do before showing the image.
@@ -312,13 +366,38 @@ def write_image(path: str | Path, image: NDArray[Any]) -> None:
         raise PanomapError("16-bit images need PNG, TIFF or PNM output, not " + (suffix or "no suffix"), path)
     if image.ndim == 3 and image.shape[2] == 4 and suffix not in ALPHA_SUFFIXES:
         raise PanomapError("images with alpha need PNG, TIFF or WebP output, not " + (suffix or "no suffix"), path)
-    try:
-        ok, encoded = cv2.imencode(suffix or ".none", image)
-    except cv2.error:
-        ok = False
+    check_image_output(path, (int(image.shape[1]), int(image.shape[0])))
+    logging = cv2.utils.logging
+    with _OPENCV_LOG_LOCK:  # (OpenCV logs an encoder's failure as [ERROR] lines of its own)
+        level = logging.getLogLevel()
+        logging.setLogLevel(logging.LOG_LEVEL_SILENT)
+        try:
+            ok, encoded = cv2.imencode(suffix, image)
+        except cv2.error:
+            ok = False
+        finally:
+            logging.setLogLevel(level)
     if not ok:
-        raise PanomapError(f"cannot write an image in the format {suffix or '(no suffix)'}", path)
+        raise PanomapError(f"cannot write an image in the format {suffix}", path)
     write_bytes_atomic(path, encoded.tobytes())
+
+
+# The largest side (px) of an image each format holds, where it is less than any view's (32000 px).
+MAX_FORMAT_SIDE = {".webp": 16383}
+
+
+def check_image_output(path: str | Path, size: tuple[int, int]) -> None:
+    """Refuse, before any work, an output image named ``path`` that no writer here writes (an unknown suffix, or
+    none), or of ``size`` (width, height; px) more than its format holds (WebP: 16383 px a side)."""
+    suffix = Path(path).suffix.lower()
+    if not suffix or not cv2.haveImageWriter(f"x{suffix}"):
+        raise PanomapError(f"cannot write an image in the format {suffix or '(no suffix)'}: name it .png or .jpg", path)
+    most = MAX_FORMAT_SIDE.get(suffix)
+    if most is not None and max(size) > most:
+        raise PanomapError(
+            f"an image of {size[0]} x {size[1]} px: {suffix[1:].upper()} holds at most {most} px a side (write .png)",
+            path,
+        )
 
 
 def save_map(path: str | Path, map_uv: NDArray[np.float32]) -> None:
@@ -326,6 +405,18 @@ def save_map(path: str | Path, map_uv: NDArray[np.float32]) -> None:
     array = np.ascontiguousarray(map_uv, dtype=np.float32)
     write_with(path, lambda handle: np.save(handle, array, allow_pickle=False))
 
+
+def image_file_bytes(size: tuple[int, int], like: NDArray[Any]) -> int:
+    """The most bytes an image of ``size`` (W, H) px, of the channels and depth of ``like``, takes written:
+    its pixels uncompressed, with a PNG's filter byte a row and headers (a compressed file is smaller): for
+    :func:`panomap.files.check_room`."""
+    width, height = size
+    channels = like.shape[2] if like.ndim == 3 else 1
+    return width * height * channels * like.dtype.itemsize + height + IMAGE_HEADER_BYTES
+
+
+# Room for an image file's headers and metadata, beyond its pixels.
+IMAGE_HEADER_BYTES = 4096
 
 PGM_NO_SOURCE = 65535
 

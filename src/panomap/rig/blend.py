@@ -44,6 +44,18 @@ GAIN_MIN_WEIGHT = 0.1
 GAIN_NOISE = 10.0
 GAIN_PRIOR = 1.0
 
+# Memory a rig's view takes (bytes): per pixel of the view for each camera (its map, its remap's maps, its
+# layer, its weights) and once (the blend, the output). Peak RSS of equirect views of 4000 x 2000 from rigs of
+# 1, 2 and 4 cameras (1024 x 1024 pictures): 0.73, 1.34 and 2.14 GB, each within these (0.92, 1.52, 2.72 GB).
+RIG_VIEW_BYTES_PER_CAMERA_PIXEL = 75
+RIG_VIEW_BYTES_PER_PIXEL = 40
+
+
+def rig_view_bytes(size: tuple[int, int], cameras: int) -> int:
+    """The memory (bytes, about, erring high) a view of ``size`` (W, H) px of a rig of ``cameras`` takes made."""
+    pixels = int(size[0]) * int(size[1])
+    return pixels * (RIG_VIEW_BYTES_PER_CAMERA_PIXEL * int(cameras) + RIG_VIEW_BYTES_PER_PIXEL)
+
 
 def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear", threads: int = 1) -> list[NDArray[np.float32]]:
     """Each camera's (H, W, 2) map of ``view``, in its own picture's pixels (NaN where it does not see).

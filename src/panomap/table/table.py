@@ -399,6 +399,25 @@ def fill_entries(
     return entries
 
 
+# The most a table's chords in azimuth may part from the camera's circles between its entries (px): a table
+# coarser than that in azimuth (a size given) draws its views that far off, silently.
+MAX_CHORD_PX = 1.0
+
+
+def check_table_chords(size: tuple[int, int], radius_px: float, what: str = "table size") -> None:
+    """Refuse a table of ``size`` (M, N) whose M azimuths, read bilinearly, stray from the camera's circles by
+    more than :data:`MAX_CHORD_PX` between entries at ``radius_px`` (its outermost radius): a chord's sagitta,
+    ``r (pi / M)^2 / 2`` (a 4 x 2 table of a 456 px circle: 140 px; its default size: under 0.001 px)."""
+    m = int(size[0])
+    sagitta = radius_px * (math.pi / m) ** 2 / 2
+    if sagitta > MAX_CHORD_PX:
+        least = math.ceil(math.pi * math.sqrt(radius_px / (2 * MAX_CHORD_PX)))
+        raise PanomapError(
+            f"{what} {m}x{int(size[1])}: between its {m} azimuths the views would be up to {sagitta:.0f} px off "
+            f"(the image circle's radius {radius_px:.0f} px): give M >= {least} (within {MAX_CHORD_PX:g} px)"
+        )
+
+
 def check_table_size(size: tuple[int, int], what: str = "table size") -> tuple[int, int]:
     """Validate an (M, N) table size; ``what`` names it in the error."""
     m, n = (int(x) for x in size)

@@ -8,20 +8,15 @@ lines at every start. Both are caught here while the encoder opens.
 
 from __future__ import annotations
 
-import contextlib
-import os
 import re
 import sys
-import tempfile
-import threading
-from collections.abc import Iterator
 from typing import Any
 
 import av
 import av.logging
 
-# At most this much of what a library writes to stderr while it opens is read back.
-MAX_SAID_BYTES = 64_000
+from ..io.stderr_kept import STDERR_LOCK as _STDERR_LOCK
+from ..io.stderr_kept import stderr_kept as _stderr_kept
 
 # At most this many of the encoder's lines make its reason (the first say why; the rest, that it failed).
 MAX_REASONS = 2
@@ -30,35 +25,6 @@ MAX_REASONS = 2
 _PREFIX = re.compile(r"^(?:\[[^\]]*\]\s*|[\w-]+\s?\[\w+\]:\s*)+")
 # Lines of no news: a banner, information.
 _INFO = re.compile(r"\[info\]", re.IGNORECASE)
-
-# Descriptor 2 and FFmpeg's log level are the process's: one opening at a time (two threads' interleaved would
-# leave descriptor 2 on a sink, the log level at ERROR).
-_STDERR_LOCK = threading.RLock()
-
-
-@contextlib.contextmanager
-def _stderr_kept() -> Iterator[list[str]]:
-    """The lines written to file descriptor 2 while the block runs (by any code of this process), in the list
-    yielded, filled when the block ends. Where descriptor 2 cannot be duplicated, nothing is kept. One thread at a
-    time: another waits for the first to put descriptor 2 back."""
-    said: list[str] = []
-    with _STDERR_LOCK:
-        if sys.stderr is not None:  # (None without a console)
-            sys.stderr.flush()
-        try:
-            saved = os.dup(2)
-        except OSError:
-            yield said
-            return
-        with tempfile.TemporaryFile() as sink:
-            os.dup2(sink.fileno(), 2)
-            try:
-                yield said
-            finally:
-                os.dup2(saved, 2)
-                os.close(saved)
-                sink.seek(0)
-                said.extend(sink.read(MAX_SAID_BYTES).decode("utf-8", "replace").splitlines())
 
 
 def open_codec(context: Any, echo: bool = True) -> str | None:

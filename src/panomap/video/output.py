@@ -212,15 +212,29 @@ def open_writer(
     return Writer(path, temporary, container, video, audio)
 
 
+def check_frame_size(encoder: EncoderSettings, size: tuple[int, int]) -> None:
+    """Refuse, before any work, frames of ``size`` (width, height; px) that the encoder, opened with its
+    options, does not take (x264 and SVT-AV1: over 16384 px a side; MPEG-4: over 8191), in its own words."""
+    refused = probe_refusal(encoder, size=size)
+    if refused is not None and probe_refusal(encoder) is None:
+        raise PanomapError(
+            f"the video encoder {encoder.codec} cannot encode frames of {size[0]} x {size[1]} ({refused}): "
+            "give the view a smaller size"
+        )
+
+
 def probe_refusal(
-    encoder: EncoderSettings, rate: Fraction = Fraction(25), time_base: Fraction = Fraction(1, 25)
+    encoder: EncoderSettings,
+    rate: Fraction = Fraction(25),
+    time_base: Fraction = Fraction(1, 25),
+    size: tuple[int, int] | None = None,
 ) -> str | None:
-    """Why the encoder refuses to open with these options and pixel format for a small frame (its own words),
-    or None where it opens: its options checked before any work, and, where a frame of the view's size was
-    refused, whether its size was the reason."""
+    """Why the encoder refuses to open with these options and pixel format for a small frame (or one of
+    ``size``) (its own words), or None where it opens: its options checked before any work, and, where a frame
+    of the view's size was refused, whether its size was the reason."""
     context: Any = av.codec.CodecContext.create(encoder.codec, "w")
     try:
-        context.width, context.height = PROBE_SIZE
+        context.width, context.height = size or PROBE_SIZE
         context.pix_fmt = encoder.pix_fmt
         context.framerate = rate
         context.time_base = time_base

@@ -614,7 +614,10 @@ def _triple(numbers: tuple[float, ...] | None) -> tuple[float, float, float] | N
 
 
 def _radii(cutoff_radius: Any, outer_radius: Any) -> tuple[float | None, float | None]:
-    """The radii given (px), each a finite number or None."""
+    """The radii given (px), each a finite number or None; both given, the cut-off radius below the outer one
+    (refused before any work, not as an annulus no model covers after the fit)."""
     cutoff = None if cutoff_radius is None else inputs.number(cutoff_radius, "the cut-off radius")
     outer = None if outer_radius is None else inputs.number(outer_radius, "the outer radius")
+    if cutoff is not None and outer is not None and not 0 <= cutoff < outer:
+        raise PanomapError(f"the cut-off radius ({cutoff:g} px) must be >= 0 and below the outer radius ({outer:g} px)")
     return cutoff, outer
