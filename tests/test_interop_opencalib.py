@@ -212,6 +212,8 @@ BAD = {
         ("turns back at a radius of", "inside the image"),
     ),
     "axis-off-centre": (intrinsic(dist=[INVPOL[0] + 3.0, *INVPOL[1:]]), ("puts the optical axis 3.00 px from",)),
+    "centre-outside": (intrinsic(k=[[1.0, 0.0, 5000.0], *K[1:]]), ("(u0, v0) = (5000, 478.6) lies outside",)),
+    "mirroring-affine": (intrinsic(k=[[-1.0, 0.0, 641.3], *K[1:]]), ("has determinant -1: it mirrors the image",)),
     "no-size": (intrinsic(img_dist_h=None), ("param.img_dist_h is missing",)),
     "extrinsic": (EXTRINSIC, ("is an extrinsic (a pose, sensor_calib): import its intrinsic file",)),
     "two-objects": ({**intrinsic(), "b": {}}, ("holds one object (its sensor's), this one 2 objects",)),

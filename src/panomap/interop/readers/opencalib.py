@@ -75,8 +75,15 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
 
 
 def _check_range(model: OCamInverse, where: str, path: str | Path) -> None:
-    """Refuse a polynomial that is no camera's: one whose axis lands off the centre, or that turns back inside
-    the image."""
+    """Refuse what is no camera's: an affine that mirrors the image (OCamCalib's is close to the identity), a
+    centre outside the image, a polynomial whose axis lands off the centre or that turns back inside the image."""
+    det = model.c - model.d * model.e
+    if det <= 0:
+        raise PanomapError(
+            f"the affine [[c, d], [e, 1]] of cam_K has determinant {det:.3g}: it mirrors the image (OCamCalib's is "
+            "close to the identity)",
+            path,
+        )
     if abs(model.axis_radius_px) > MAX_AXIS_RADIUS_PX:
         raise PanomapError(
             f"{where}'s polynomial puts the optical axis {model.axis_radius_px:.2f} px from the centre (at most "
@@ -85,6 +92,10 @@ def _check_range(model: OCamInverse, where: str, path: str | Path) -> None:
         )
     u0, v0 = model.principal_point
     inscribed = min(u0 + 0.5, v0 + 0.5, model.width - 0.5 - u0, model.height - 0.5 - v0)
+    if inscribed <= 0:
+        raise PanomapError(
+            f"the centre (u0, v0) = ({u0:g}, {v0:g}) lies outside the {model.width} x {model.height} image", path
+        )
     if model.reach_px < inscribed:
         raise PanomapError(
             f"{where}'s polynomial turns back at a radius of {model.reach_px:.1f} px, inside the image "
