@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from panomap import import_calibration
+from panomap import import_calibration, orient_table
 from panomap.interop.readers import READERS, read_calibration
 
 from helpers import assert_one_line_error, run
@@ -145,6 +145,16 @@ def test_model_unprojects_every_pixel_onto_the_tools_world2cam(tmp_path: Path) -
     assert np.all(np.isfinite(rays)) and np.allclose(np.linalg.norm(rays, axis=-1), 1.0)
     assert np.max(np.hypot(*(world2cam_lens(rays, K, INVPOL) - uv).T)) < 1e-6
     assert rays[:, 2].min() < -0.3  # the corners see past 90 deg (about 112 here)
+
+
+def test_an_imported_table_turns_through_its_calibration(tmp_path: Path) -> None:
+    """``orient`` rebuilds the model from the table's import record: the turned table is the one imported turned."""
+    path = write(tmp_path, intrinsic())
+    turned = orient_table(import_calibration(path, size=(512, 128)), 0.0, math.radians(-30.0), 0.0)
+    direct = import_calibration(path, size=(512, 128), orientation_rad=(0.0, math.radians(-30.0), 0.0))
+    assert turned.info["import"]["model"] == "ocam-invpol"
+    assert np.allclose(turned.entries, direct.entries, atol=1e-3, equal_nan=True)
+    assert np.isfinite(direct.entries).mean() > 0.5
 
 
 # ----------------------------------------------------------------------------- the shared files
