@@ -724,7 +724,7 @@ def test_the_help_names_every_calibration_format_and_the_equirect_view() -> None
     from panomap.interop.readers import READERS
 
     tools = {"ocam": "OCamCalib", "gyroflow": "gyroflow", "opencv": "OpenCV", "kalibr": "Kalibr"}
-    tools |= {"colmap": "COLMAP", "boofcv": "BoofCV", "basalt": "Basalt", "hugin": "Hugin"}
+    tools |= {"colmap": "COLMAP", "boofcv": "BoofCV", "basalt": "Basalt", "hugin": "Hugin", "opencalib": "OpenCalib"}
     text = " ".join(run("--help").output.split())
     assert set(READERS) == set(tools)
     assert all(tool in text for tool in tools.values()), text

@@ -152,7 +152,8 @@ def main() -> None:
     \b
     First a table of the camera, one of three ways:
       panomap import calib_results.txt -o cam.npz    a calibration made elsewhere (OCamCalib, OpenCV,
-                                                      Kalibr, COLMAP, BoofCV, Basalt, gyroflow, Hugin)
+                                                      Kalibr, COLMAP, BoofCV, Basalt, gyroflow, Hugin,
+                                                      OpenCalib)
       panomap fit -o cam.npz --image 'shots/*.jpg'   learned from pictures: their straight lines and
                                                       checkerboards (--camera-height H for distances)
       panomap fit landmarks.csv -o cam.npz --camera X0 Y0 Z0 --image omni.png

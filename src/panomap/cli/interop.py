@@ -143,11 +143,11 @@ def import_(
     """Make a table from a calibration: OCamCalib calib_results.txt, a Kalibr camchain, an OpenCV
     cv::fisheye or cv::omnidir FileStorage file, COLMAP cameras.txt, a BoofCV calibration YAML
     (omnidirectional_universal, kannala_brandt), a Basalt calibration JSON (ds, eucm, ucm, kb4,
-    pinhole-radtan8, pinhole), a gyroflow lens profile (opencv_fisheye) or a Hugin .pto project (rectilinear and
-    fisheye images). A file of several cameras makes a rig (one file, every camera's table in one world): a Kalibr
-    camchain (each camera's T_cn_cnm1) or a Basalt calibration (each camera's T_imu_cam), --orientation and
-    --camera placing camera 0, looking ahead along +X by default; a Hugin project in its own world (its yaw, pitch
-    and roll). --camera-name picks one camera instead."""
+    pinhole-radtan8, pinhole), a gyroflow lens profile (opencv_fisheye), a Hugin .pto project (rectilinear and
+    fisheye images) or an OpenCalib (PJLab) OCam intrinsic JSON. A file of several cameras makes a rig (one file,
+    every camera's table in one world): a Kalibr camchain (each camera's T_cn_cnm1) or a Basalt calibration (each
+    camera's T_imu_cam), --orientation and --camera placing camera 0, looking ahead along +X by default; a Hugin
+    project in its own world (its yaw, pitch and roll). --camera-name picks one camera instead."""
     if tilt == "fit":
         raise click.BadParameter(
             "an imported camera's tilt is given, not fitted: 'none' or 'DEG AZ_DEG'", param_hint="'--tilt'"

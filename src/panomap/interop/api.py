@@ -86,9 +86,10 @@ def import_calibration(
     ----------
     path : path
         OCamCalib ``calib_results.txt``, a Kalibr camchain, an OpenCV FileStorage file of cv::fisheye or
-        cv::omnidir, COLMAP ``cameras.txt``, a BoofCV calibration YAML, a Basalt calibration JSON or a
-        gyroflow lens profile (see ``docs/calibration-formats.md``).
-    format : {"ocam", "gyroflow", "opencv", "kalibr", "colmap", "boofcv", "basalt"}, optional
+        cv::omnidir, COLMAP ``cameras.txt``, a BoofCV calibration YAML, a Basalt calibration JSON, a
+        gyroflow lens profile, a Hugin project or an OpenCalib OCam intrinsic JSON (see
+        ``docs/calibration-formats.md``).
+    format : {"ocam", "gyroflow", "opencv", "kalibr", "colmap", "boofcv", "basalt", "hugin", "opencalib"}, optional
         Default: recognised from the content.
     camera : str, optional
         A Kalibr camera name (default ``cam0``), a Basalt camera (``cam1`` or ``1``; default the first)

@@ -16,6 +16,7 @@ from .kannala_brandt import KannalaBrandt, OpenCVFisheye
 from .kannala_brandt_full import KannalaBrandtFull
 from .mei import Mei
 from .ocam import OCam
+from .ocam_inverse import OCamInverse
 from .panotools import PanoToolsFisheye, PanoToolsRectilinear
 from .pinhole_radtan import PinholeRadtan
 
@@ -32,6 +33,7 @@ def _registry(*models: type[ExternalCamera]) -> dict[str, type[ExternalCamera]]:
 # Every external model, by name.
 EXTERNAL_MODELS: dict[str, type[ExternalCamera]] = _registry(
     OCam,
+    OCamInverse,
     KannalaBrandt,
     OpenCVFisheye,
     KannalaBrandtFull,

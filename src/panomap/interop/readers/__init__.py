@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 from ...errors import PanomapError
 from ...files import read_text
-from . import basalt, boofcv, colmap_cameras, gyroflow, hugin_pto, kalibr, ocam_txt, opencv_storage
+from . import basalt, boofcv, colmap_cameras, gyroflow, hugin_pto, kalibr, ocam_txt, opencalib, opencv_storage
 from .base import Imported, RigPose
 
 Reader = Callable[[str, "str | Path", "str | None"], Imported]
@@ -34,6 +34,7 @@ READERS: dict[str, Format] = {
     "boofcv": Format(boofcv.looks_like, boofcv.read),
     "basalt": Format(basalt.looks_like, basalt.read, many_cameras=True),
     "hugin": Format(hugin_pto.looks_like, hugin_pto.read, many_cameras=True),
+    "opencalib": Format(opencalib.looks_like, opencalib.read),
 }
 
 
