@@ -336,13 +336,13 @@ def _decentred(x: FloatArray, y: FloatArray, p: dict[str, float], big: float) ->
 
 def _smooth_kept(p: dict[str, float]) -> bool:
     """Whether any of the smooth field's coefficients in ``p`` is not zero."""
-    return any(p[f"c{axis}{i}{j}"] != 0.0 for axis, i, j in SMOOTH_TERMS)
+    return any(p[name] != 0.0 for name in TERM_KINDS["smooth"].parameters)
 
 
 def _smooth_move(normalised: FloatArray, p: dict[str, float]) -> FloatArray:
     """The smooth field's move (..., 2), in units of R, at offsets (..., 2) in units of R."""
     move = np.zeros(normalised.shape, dtype=np.float64)
-    if not any(p[f"c{axis}{i}{j}"] != 0.0 for axis, i, j in SMOOTH_TERMS):
+    if not _smooth_kept(p):
         return move
     xp, yp = _powers(normalised[..., 0]), _powers(normalised[..., 1])
     for axis, i, j in SMOOTH_TERMS:
@@ -362,7 +362,7 @@ def _smooth_derivatives(xn: FloatArray, yn: FloatArray, p: dict[str, float]) -> 
     """d(smooth move) / d(xn, yn) (dimensionless: the move and the offsets both in units of R):
     (dmx/dxn, dmx/dyn, dmy/dxn, dmy/dyn)."""
     out = [np.zeros(np.shape(xn)) for _ in range(4)]
-    if not any(p[f"c{axis}{i}{j}"] != 0.0 for axis, i, j in SMOOTH_TERMS):
+    if not _smooth_kept(p):
         return tuple(out)
     xp, yp = _powers(xn), _powers(yn)
     for axis, i, j in SMOOTH_TERMS:
