@@ -329,7 +329,8 @@ def test_a_later_picture_found_by_the_quick_detector_is_on_the_true_corners() ->
     the learned size finds the learned pictures' boards, so on the third it stands in for the search (_quick_board;
     its board is the one find_boards_each gives). Measured: the corners median 0.07, max 0.34 px from the truth, as
     the search's; 0.03 px at most from the search's own (seven renders: cornerSubPix stops at steps under 0.01 px,
-    from another start)."""
+    from another start). A fourth picture, of the room without the board: the quick detector (told the size, without
+    its fast check) finds none, and neither does the search it falls back to."""
     camera = line_camera("fisheye190", 0.5)
     scenes = [
         render_board_scene(
@@ -337,8 +338,11 @@ def test_a_later_picture_found_by_the_quick_detector_is_on_the_true_corners() ->
         )
         for k in range(3)
     ]
+    empty = render_board_scene(camera, (), seed=3, supersample=2).image
     images = [scene.image for scene in scenes]
-    found = list(detect.find_boards_each(images, threads=1))
+    found = list(detect.find_boards_each([*images, empty], threads=1))
+    assert found[3] == []
+    found = found[:3]
     size = detect.learned_size(found[: detect.LEARN_PICTURES])
     assert size == (6, 9)
     assert all(detect._quick_suits(image, boards[0], size) for image, boards in zip(images, found, strict=False))
@@ -363,7 +367,7 @@ def test_the_quick_detectors_corners_settle_on_the_true_corners_and_a_start_off_
     poses = board_poses(camera, 1, seed=81, sizes=((9, 6),), min_square_px=18.0)
     scene = render_board_scene(camera, poses, seed=1, supersample=2)
     grey = detect._grey(scene.image)
-    found, corners = cv2.findChessboardCorners(grey, (6, 9), flags=detect.QUICK_FLAGS)
+    found, corners = cv2.findChessboardCorners(grey, (6, 9), flags=detect.FOUND_FLAGS)
     assert found
     rough = corners.reshape(-1, 2).astype(np.float64)
     grid = detect._rectangle(6, 9)

@@ -32,6 +32,29 @@ def test_the_schur_step_is_the_dense_damped_solve() -> None:
     assert camera.size == 0 and np.allclose(poses.ravel(), expected, rtol=1e-9, atol=1e-12)
 
 
+def test_the_normal_equations_taken_size_by_size_are_each_boards_own_products() -> None:
+    """The boards' rows' products taken in one batched call per size of board (two sizes of two boards, one of
+    one): the blocks of the dense J^T J and J^T r, and the same values, bit for bit, as each board's own product."""
+    rows = (10, 12, 10, 12, 7)
+    jacobian = _blocks(7, rows=rows)
+    residuals = np.random.default_rng(8).normal(size=len(jacobian.owner))
+    normal = Normal.of(jacobian, residuals)
+    dense = jacobian.dense()
+    c = jacobian.count
+    product, gradient = dense.T @ dense, dense.T @ residuals
+    np.testing.assert_allclose(normal.camera, product[:c, :c], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(normal.camera_gradient, gradient[:c], rtol=1e-12, atol=1e-12)
+    own = [(jacobian.values[jacobian.owner == b], residuals[jacobian.owner == b]) for b in range(len(rows))]
+    np.testing.assert_array_equal(normal.camera, np.sum([(v.T @ v)[:c, :c] for v, _ in own], axis=0))
+    for board, (values, board_residuals) in enumerate(own):
+        columns = slice(c + 6 * board, c + 6 * board + 6)
+        np.testing.assert_allclose(normal.poses[board], product[columns, columns], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(normal.cross[board], product[:c, columns], rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(normal.poses[board], (values.T @ values)[c:, c:])
+        np.testing.assert_array_equal(normal.cross[board], (values.T @ values)[:c, c:])
+        np.testing.assert_array_equal(normal.pose_gradient[board], (values.T @ board_residuals)[c:])
+
+
 def test_the_steps_end_at_the_least_squares_solution_of_a_linear_problem() -> None:
     jacobian = _blocks(3)
     dense = jacobian.dense()

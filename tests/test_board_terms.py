@@ -17,7 +17,7 @@ from panomap.calibrate.boards.detect import Board
 from panomap.calibrate.boards.fit import camera_lift, camera_project, fit_boards
 from panomap.calibrate.boards.terms import image_folds
 from panomap.calibrate.lines.fit import LineFitOptions
-from panomap.camera.image_terms import ImageTerms
+from panomap.camera.image_terms import TERM_KINDS, ImageTerms
 from panomap.errors import PanomapError
 from test_board_fit import board_corners, level
 
@@ -178,6 +178,31 @@ def test_the_fits_jacobian_with_terms_is_the_derivative_of_its_residuals() -> No
     closed = _jacobian_blocks(x, "unified", "down", boards, observed, layout).dense()
     numeric = approx_derivative(_residuals, x, method="3-point", args=("unified", "down", boards, observed, layout))
     assert np.abs(closed - numeric).max() < 1e-6 * np.abs(numeric).max()
+
+
+@pytest.mark.parametrize("kept", [("decentering",), ("field",), ("smooth",), ("aspect", "decentering")])
+def test_the_jacobian_at_the_terms_identity_is_the_derivative_of_its_residuals(kept: tuple[str, ...]) -> None:
+    """Each kind of term freed at its identity (zeros: where every fold's fit starts), where the map and its
+    derivatives leave out the groups whose values are all zero: the columns of the terms and the chain through them
+    are the residuals' differences (to 1e-6 of the largest derivative), and the residuals those of no terms."""
+    from scipy.optimize._numdiff import approx_derivative
+
+    from panomap.calibrate.boards.fit import _jacobian_blocks, _residuals
+    from panomap.calibrate.boards.terms import TermLayout
+
+    grid = np.stack(np.meshgrid(np.arange(5), np.arange(4)), axis=-1).reshape(-1, 2)
+    boards = [Board(k, np.zeros((len(grid), 2)), grid) for k in range(3)]
+    observed = np.random.default_rng(55).uniform(100.0, 900.0, (3 * len(grid), 2))
+    layout = TermLayout(kept, 450.0)
+    identity = [v for name in kept for v in TERM_KINDS[name].identity]
+    poses = np.concatenate([[0.3, 0.2, 0.1, -3.0 + k, 2.0, 5.0 + k] for k in range(3)])
+    camera = np.array([512.0, 384.0, 300.0, 0.8])
+    x = np.concatenate([camera, identity, poses])
+    closed = _jacobian_blocks(x, "unified", "down", boards, observed, layout).dense()
+    numeric = approx_derivative(_residuals, x, method="3-point", args=("unified", "down", boards, observed, layout))
+    assert np.abs(closed - numeric).max() < 1e-6 * np.abs(numeric).max()
+    plain = _residuals(np.concatenate([camera, poses]), "unified", "down", boards, observed)
+    np.testing.assert_array_equal(_residuals(x, "unified", "down", boards, observed, layout), plain)
 
 
 @pytest.mark.slow

@@ -5,7 +5,8 @@ row sees the camera and its own board's pose only, rows grouped board by board i
 them). So the normal equations ``J^T J`` are a camera block C (count, count), one (count, 6) block W_b and one
 (6, 6) block V_b per board, and a step is solved through the Schur complement: every board's damped V_b
 inverted in one batched call, the camera's system ``C - sum_b W_b V_b^-1 W_b^T`` solved, the poses' steps from
-it. Each board's blocks are one small product of its rows: a fraction of a millisecond a step, where SciPy's
+it. Each board's blocks are one small product of its rows (the boards of each size in one batched product,
+the same values): a fraction of a millisecond a step, where SciPy's
 trust-region solver with LSMR steps spent most of the fit in its Python overhead.
 
 The steps: Marquardt's, the damping ``lambda`` times the normal equations' diagonal, updated as Nielsen's
@@ -90,9 +91,18 @@ class Normal:
         first = np.flatnonzero(np.concatenate([[True], jacobian.owner[1:] != jacobian.owner[:-1]]))
         if len(first) != jacobian.boards:
             raise ValueError("the Jacobian's rows are not grouped board by board, every board with rows")
-        rows, own = np.split(values, first[1:]), np.split(residuals, first[1:])
-        sums = np.stack([block.T @ block for block in rows])  # (B, c + 6, c + 6): small products, one thread
-        gradients = np.stack([block.T @ r for block, r in zip(rows, own, strict=True)])  # (B, c + 6)
+        # each board's products (B, c + 6, c + 6) and (B, c + 6), the boards of each size in one batched call (a
+        # fifth of the time of one call a board; the same values)
+        counts = np.diff(np.append(first, len(values)))
+        sums = np.empty((len(first), values.shape[1], values.shape[1]))
+        gradients = np.empty((len(first), values.shape[1]))
+        for size in np.unique(counts):
+            these = np.flatnonzero(counts == size)
+            rows = (first[these][:, None] + np.arange(size)).ravel()
+            blocks = values[rows].reshape(len(these), size, values.shape[1])
+            turned = blocks.transpose(0, 2, 1)
+            sums[these] = np.matmul(turned, blocks)
+            gradients[these] = np.matmul(turned, residuals[rows].reshape(len(these), size, 1))[:, :, 0]
         camera, cross, poses = sums[:, :c, :c].sum(axis=0), sums[:, :c, c:], sums[:, c:, c:]
         return cls(camera, cross, poses, gradients[:, :c].sum(axis=0), gradients[:, c:])
 
