@@ -244,3 +244,19 @@ def test_the_band_is_the_95th_percentile_of_the_draws_lengths() -> None:
     lengths = np.hypot(moved[:, 0], moved[:, 1])
     np.testing.assert_allclose(at_pixels, np.sort(lengths, axis=1)[:, rank], rtol=1e-14, atol=0.0)
     assert ring == np.sort(lengths.max(axis=0))[rank]
+
+
+def test_parameter_draws_follow_the_covariance_and_move_with_it_continuously() -> None:
+    """The draws' covariance is the given one (within the sampling error of 4000 draws), and a covariance whose two
+    largest eigenvalues tie, changed by 1e-10 (which turns eigh's basis of their plane by up to 90 deg), gives draws
+    within 1e-6 of the unchanged one's (V sqrt(L) alone moved them by the draws' own size)."""
+    from panomap.calibrate.boards.uncertainty import parameter_draws
+
+    rng = np.random.default_rng(5)
+    turn, _ = np.linalg.qr(rng.standard_normal((4, 4)))
+    covariance = turn @ np.diag([2.0, 2.0, 0.5, 0.1]) @ turn.T
+    draws = parameter_draws(covariance, 4000)
+    assert np.abs(np.cov(draws) - covariance).max() < 0.15  # (sampling error ~ 2 / sqrt(4000) x 2 = 0.06)
+    nudge = 1e-10 * np.outer(turn[:, 0], turn[:, 0])
+    for sign in (1.0, -1.0):
+        assert np.abs(parameter_draws(covariance + sign * nudge, 4000) - draws).max() < 1e-6
