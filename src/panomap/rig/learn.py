@@ -311,6 +311,7 @@ def _settle_parallax(rig: CameraRig, m: Matches, rotations: list[FloatArray]) ->
         found.pinned,
         assumed,
         found.unbounded,
+        found.why,
     )
     return found.rotation, fit
 

@@ -69,6 +69,10 @@ PASSES = 3
 MIN_SIGMA_PX = 0.05
 
 
+class Inconsistent(PanomapError):
+    """No tilt lets every match's parallax be at least zero within the noise: the model does not hold."""
+
+
 @dataclass(frozen=True)
 class ParallaxFit:
     """How far camera j's tilt is pinned by the far matches of its pair (:func:`settle`).
@@ -92,6 +96,7 @@ class ParallaxFit:
     pinned: bool
     assumed_baseline: bool
     unbounded: bool = False
+    why: str = ""
 
     @property
     def bound_deg(self) -> float:
@@ -109,10 +114,9 @@ class ParallaxFit:
         if self.unbounded:
             return (
                 f"{self.cameras[0]} and {self.cameras[1]}, parallax ({where}): {self.matches} matches, parallax p90 "
-                f"{self.parallax_px_p90:.2f} px (noise {self.sigma_px:.2f} px): they do not bound {self.cameras[1]}'s "
-                f"tilt within {MAX_TILT_DEG:g} deg: its tilt is the features' least squares, which near objects' "
-                f"parallax moves, NOT BOUNDED; its roll 1-sigma {self.roll_sigma_deg:.4f} deg; a picture with far "
-                "objects all round the overlap pins the tilt"
+                f"{self.parallax_px_p90:.2f} px (noise {self.sigma_px:.2f} px): {self.why}; its tilt is the features' "
+                f"least squares, which near objects' parallax moves, NOT BOUNDED; its roll 1-sigma "
+                f"{self.roll_sigma_deg:.4f} deg"
             )
         if self.pinned:
             return said
@@ -156,8 +160,7 @@ def _square_to(axis: FloatArray) -> tuple[FloatArray, FloatArray]:
 def feasible_tilts(p: FloatArray, gp: FloatArray, lon: FloatArray, sigma: float, tilts: FloatArray) -> FloatArray:
     """Which of ``tilts`` (k, 3; world rotation vectors of camera j, rad, square to the baseline) are feasible
     (k,) bool (module docstring): each match's ``p - Gp w`` (``p`` (n,), ``gp`` (n, 3)) at least ``-TAU_SIGMAS
-    sigma`` but for the spare ones, each sector's median at least ``-TAU_SIGMAS`` its noise. Where none is, the
-    tilts breaking the fewest."""
+    sigma`` but for the spare ones, each sector's median at least ``-TAU_SIGMAS`` its noise."""
     moved = p[None, :] - tilts @ gp.T  # (k, n)
     spare = max(MIN_SPARE, math.ceil(SPARE_FRACTION * len(p)))
     broken = np.sum(moved < -TAU_SIGMAS * sigma, axis=1)
@@ -168,8 +171,7 @@ def feasible_tilts(p: FloatArray, gp: FloatArray, lon: FloatArray, sigma: float,
         if count >= MIN_SECTOR:
             floor = -TAU_SIGMAS * 1.2533 * sigma / math.sqrt(count)
             broken = broken + (spare + 1) * (np.median(moved[:, inside], axis=1) < floor)
-    allowed = max(spare, int(broken.min()))
-    return np.asarray(broken <= allowed)
+    return np.asarray(broken <= spare)
 
 
 def bound_tilt(
@@ -184,7 +186,7 @@ def bound_tilt(
     """The feasible tilts (k, 2) (rad, in ``basis`` (2, 3): two world rotation vectors square to the baseline), on
     a grid, and its step (rad). The set: the
     tilts within three sigmas of the parallax-free components' own (``tilt_n`` (2,), covariance ``cov_n`` (2, 2))
-    that the parallax allows (:func:`feasible_tilts`; where it allows none of them, those it objects to least).
+    that the parallax allows (:func:`feasible_tilts`).
     The grid's half-width grows until the set lies inside it, and narrows about the set until a step is a
     twelfth of it.
 
@@ -206,6 +208,15 @@ def bound_tilt(
         ok = np.zeros(len(points), dtype=bool)
         ok[inside] = feasible_tilts(p, gp, lon, sigma, points[inside] @ basis)
         inner = points[ok]
+        if not len(inner):
+            extent = TAU_SIGMAS * math.sqrt(float(np.max(np.linalg.eigvalsh(cov_n))))
+            if step <= extent / GRID or half >= limit:
+                raise Inconsistent(
+                    "the matches' parallax is below zero beyond the noise at every tilt: the lenses' calibrations "
+                    "disagree (a focal length or centre), or the rig's lens centres are not where it says"
+                )
+            centre, half = np.asarray(tilt_n, np.float64), min(max(extent, 2 * half), limit)
+            continue
         if np.any(np.max(np.abs(inner - centre), axis=1) >= half - step / 2):
             if half >= limit:
                 raise PanomapError(
@@ -223,13 +234,13 @@ def bound_tilt(
 
 
 def epipolar_fit(n: FloatArray, gn: FloatArray, sigma: float) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
-    """Camera j's turn ``w`` (3,) (rad) that best zeroes the parallax-free components ``n - Gn w``, its covariance
-    (3, 3) (``s^2 (Gn^T W Gn)^-1``, ``s^2`` the weighted residuals' sum of squares per degree of freedom) and the
+    """Camera j's turn ``w`` (k,) (rad; ``gn`` (n, k): its three axes, or the roll's alone) that best zeroes the
+    parallax-free components ``n - Gn w``, its covariance (k, k) (``s^2 (Gn^T W Gn)^-1``, ``s^2`` the weighted residuals' sum of squares per degree of freedom) and the
     matches kept (n,) bool. Off the ring these components turn with the tilt too (by ``tan`` of the match's
     latitude off it), so they pin the tilt, loosely, whatever the parallax. Robustly, from wide to narrow: the
     matches within :data:`ANNEAL` sigmas of the fit so far, Cauchy weights at half that, down to three sigmas
     (a start tilted by a fraction of a degree moves the matches off the ring by more than three sigmas)."""
-    w = np.zeros(3)
+    w = np.zeros(gn.shape[1])
     kept = np.ones(len(n), dtype=bool)
     weights = np.ones(len(n))
     for width in ANNEAL:
@@ -243,7 +254,7 @@ def epipolar_fit(n: FloatArray, gn: FloatArray, sigma: float) -> tuple[FloatArra
     kept = np.abs(residual) <= ANNEAL[-1] * sigma
     weights = np.where(kept, 1.0 / (1.0 + (residual / (2 * sigma)) ** 2), 0.0)
     normal = gn.T @ (gn * weights[:, None])
-    scale = float(np.sum(weights * residual**2)) / max(int(kept.sum()) - 3, 1)
+    scale = float(np.sum(weights * residual**2)) / max(int(kept.sum()) - gn.shape[1], 1)
     return w, np.asarray(np.linalg.inv(normal) * scale, np.float64), kept
 
 
@@ -286,6 +297,7 @@ class Settled:
     far: int
     pinned: bool
     unbounded: bool
+    why: str = ""
 
 
 def settle(
@@ -305,6 +317,7 @@ def settle(
     rotation = np.asarray(rotation_j, np.float64)
     bound = roll_sigma = sigma = math.nan
     pinned = unbounded = False
+    why = ""
     u1, u2 = _square_to(baseline)
     basis = np.stack([u1, u2])
     p = np.zeros(0)
@@ -327,24 +340,30 @@ def settle(
         try:
             inner, step = bound_tilt(p[used], gp[used], lon[used], sigma, basis, basis @ w, cov_tilt)
             tilt, bound, pinned = _pick(inner, step, np.zeros(2))
-            unbounded = False
-        except PanomapError:
-            # Not bounded: the least squares' tilt stands, said so (module docstring).
-            tilt, bound, pinned, unbounded = np.zeros(2), math.inf, False, True
-        # The roll given the tilt: the conditional mean and sigma of the epipolar fit's Gaussian.
-        full = np.append(basis, baseline[None, :], axis=0)  # (3, 3): tilt, tilt, roll axes
-        c = full @ cov @ full.T
-        gain = c[2, :2] @ np.linalg.inv(c[:2, :2])
-        roll = float(baseline @ w + gain @ (tilt - basis @ w))
-        # The roll's: averaged, and a floor of MIN_SIGMA_PX for what is common to the matches.
-        roll_sigma = math.hypot(math.sqrt(max(float(c[2, 2] - gain @ c[:2, 2]), 0.0)), MIN_SIGMA_PX / scale_px_per_rad)
+            unbounded, why = False, ""
+        except PanomapError as error:
+            # Not bounded, or the parallax's model does not hold: the least squares' tilt stands, said so.
+            tilt, bound, pinned, unbounded, why = np.zeros(2), math.inf, False, True, str(error)
+        if float(np.linalg.norm(tilt)) <= (0.0 if unbounded else step):
+            # The least squares' tilt is feasible (or stands): its turn is kept whole, roll too; only bounded here.
+            _, roll_cov, _ = epipolar_fit(n[close], (gn[close] @ baseline)[:, None], sigma)
+            roll_sigma = math.hypot(math.sqrt(max(float(roll_cov[0, 0]), 0.0)), MIN_SIGMA_PX / scale_px_per_rad)
+            p = p[used]
+            break
+        # The roll given the tilt: the parallax-free components fitted again by the roll alone; its 1-sigma
+        # averaged, with a floor of MIN_SIGMA_PX for what is common to the matches.
+        along = n[close] - gn[close] @ (tilt @ basis)
+        roll_w, roll_cov, _ = epipolar_fit(along, (gn[close] @ baseline)[:, None], sigma)
+        roll = float(roll_w[0])
+        roll_sigma = math.hypot(math.sqrt(max(float(roll_cov[0, 0]), 0.0)), MIN_SIGMA_PX / scale_px_per_rad)
         rotation = rotation_from_vector(tilt @ basis + roll * baseline) @ rotation
         p = p[used] - gp[used] @ (tilt @ basis)
     far = int(np.sum(p < TAU_SIGMAS * sigma))
-    return Settled(rotation, bound, roll_sigma, sigma, p, far, pinned, unbounded)
+    return Settled(rotation, bound, roll_sigma, sigma, p, far, pinned, unbounded, why)
 
 
 __all__ = [
+    "Inconsistent",
     "ParallaxFit",
     "Settled",
     "baseline_of",
