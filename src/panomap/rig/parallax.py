@@ -235,11 +235,12 @@ def bound_tilt(
 
 def epipolar_fit(n: FloatArray, gn: FloatArray, sigma: float) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
     """Camera j's turn ``w`` (k,) (rad; ``gn`` (n, k): its three axes, or the roll's alone) that best zeroes the
-    parallax-free components ``n - Gn w``, its covariance (k, k) (``s^2 (Gn^T W Gn)^-1``, ``s^2`` the weighted residuals' sum of squares per degree of freedom) and the
-    matches kept (n,) bool. Off the ring these components turn with the tilt too (by ``tan`` of the match's
-    latitude off it), so they pin the tilt, loosely, whatever the parallax. Robustly, from wide to narrow: the
-    matches within :data:`ANNEAL` sigmas of the fit so far, Cauchy weights at half that, down to three sigmas
-    (a start tilted by a fraction of a degree moves the matches off the ring by more than three sigmas)."""
+    parallax-free components ``n - Gn w``, its covariance (k, k) (``s^2 (Gn^T W Gn)^-1``, ``s^2`` the weighted
+    residuals' sum of squares per degree of freedom) and the matches kept (n,) bool. Off the ring these
+    components turn with the tilt too (by ``tan`` of the match's latitude off it), so they pin the tilt, loosely,
+    whatever the parallax. Robustly, from wide to narrow: the matches within :data:`ANNEAL` sigmas of the fit so
+    far, Cauchy weights at half that, down to three sigmas (a start tilted by a fraction of a degree moves the
+    matches off the ring by more than three sigmas)."""
     w = np.zeros(gn.shape[1])
     kept = np.ones(len(n), dtype=bool)
     weights = np.ones(len(n))
