@@ -20,6 +20,10 @@ How (:func:`learn_rotations`):
    residual is the chord between the two rays, the angle to 1e-7 at these sizes), with Cauchy weights, so
    that far points (no parallax) weigh most. Then once more from the refined poses, with a narrow margin.
 
+5. **Parallax** (a rig of two cameras, :mod:`panomap.rig.parallax`): the lenses' centres a little apart, near
+   objects' parallax moves their matches across the overlap's ring, which least squares reads as a tilt; the tilt
+   is bounded by the far matches' side of it, and the report says how far it is pinned (``LearnedRig.parallax``).
+
 Matches whose residual stays beyond three robust sigmas but within :data:`NEAR_PX` are counted as near
 objects (their parallax between the two lens centres, or a match the rotation cannot explain), not inliers.
 The report gives, per pair, matches, inliers, near matches, the residual (deg and px, in the cameras'
@@ -304,7 +308,7 @@ def _settle_parallax(rig: CameraRig, m: Matches, rotations: list[FloatArray]) ->
         len(found.parallax_rad),
         found.far,
         found.sigma_rad * m.scale_px_per_rad,
-        float(np.percentile(found.parallax_rad, 90)) * m.scale_px_per_rad,
+        float(np.percentile(found.parallax_rad, 90)) * m.scale_px_per_rad if found.parallax_rad.size else math.nan,
         math.degrees(found.tilt_bound_rad),
         math.degrees(found.roll_sigma_rad),
         0.0,
