@@ -15,7 +15,7 @@ For two lenses back to back the overlap is a ring about the baseline: ``n`` is t
 pins the **roll** about the baseline (which moves no match across the ring); ``p`` is the across-ring one, and a
 **tilt** of camera j (a turn square to the baseline) moves it in a +-cos pattern round the ring, which parallax
 can mimic (a nearer wall on one side than the other). Least squares on ``r`` reads such parallax as a tilt
-(the demo's dual fisheye in the bundled room, lenses 2 cm apart: 0.89 deg off, 0.11 deg stated). Here
+(the demo's dual fisheye in the bundled room, lenses 2 cm apart: 0.89 deg off, 0.10 deg stated). Here
 (:func:`settle`):
 
 * the **epipolar fit** (:func:`epipolar_fit`): the ``n`` components alone; off the ring they turn with the tilt
