@@ -20,6 +20,10 @@ How (:func:`learn_rotations`):
    residual is the chord between the two rays, the angle to 1e-7 at these sizes), with Cauchy weights, so
    that far points (no parallax) weigh most. Then once more from the refined poses, with a narrow margin.
 
+5. **Parallax** (a rig of two cameras, :mod:`panomap.rig.parallax`): the lenses' centres a little apart, near
+   objects' parallax moves their matches across the overlap's ring, which least squares reads as a tilt; the tilt
+   is bounded by the far matches' side of it, and the report says how far it is pinned (``LearnedRig.parallax``).
+
 Matches whose residual stays beyond three robust sigmas but within :data:`NEAR_PX` are counted as near
 objects (their parallax between the two lens centres, or a match the rotation cannot explain), not inliers.
 The report gives, per pair, matches, inliers, near matches, the residual (deg and px, in the cameras'
@@ -42,6 +46,7 @@ from ..camera.orientation import rotation_from_vector, world_elevation_range
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, ray_from_angles
 from ..table.table import PanoMappingTable, fill_entries
+from .parallax import ParallaxFit, baseline_of, settle
 from .rig import CameraRig
 
 # Inliers of a pair below which it is refused.
@@ -176,13 +181,16 @@ class LearnedRig:
     pairs: tuple[PairReport, ...]
     steps: int
     overlap: OverlapFit | None = None
+    parallax: ParallaxFit | None = None
 
     def describe(self) -> list[str]:
         lines = [
-            f"{name}: turned {turned:.3f} deg from the start, uncertainty {sigma:.4f} deg (1 sigma)"
+            f"{name}: turned {turned:.3f} deg from the start, "
+            + (f"uncertainty {sigma:.4f} deg (1 sigma)" if math.isfinite(sigma) else "its tilt not bounded (below)")
             for name, turned, sigma in zip(self.rig.names, self.turned_deg, self.uncertainty_deg, strict=True)
         ]
         lines += [pair.describe() for pair in self.pairs]
+        lines += [self.parallax.describe()] if self.parallax is not None else []
         return lines + ([self.overlap.describe()] if self.overlap is not None else [])
 
 
@@ -265,11 +273,51 @@ def learn_rotations(
         # Each match's rays are in its cameras' axes: the chain and the refinement are of absolute rotations.
         rotations, steps = _refine(rig.count, matches, _chain(current, matches, rng))
         current = _with_rotations(rig, rotations, turn)
+    parallax = None
+    if rig.count == 2:
+        least_squares = rotations[1]
+        rotations[1], parallax = _settle_parallax(current, matches[0], rotations)
+        parallax = replace(parallax, moved_deg=_angle_deg(rotations[1] @ least_squares.T))
+        current = _with_rotations(rig, rotations, turn)
     # The report: the last pass's matches (found about the refined poses) against the learned rotations.
     uncertainty = _uncertainty(rig.count, matches, rotations)
+    if parallax is not None:
+        # Half the bound (about 3 sigmas of the roll, and the tilt's feasible set); inf where the tilt is not bounded.
+        uncertainty = (0.0, max(uncertainty[1], parallax.bound_deg / 2))
     pairs = tuple(_pair_report(current, m, rotations) for m in matches)
     turned = tuple(_angle_deg(r @ s.T) for r, s in zip(rotations, start, strict=True))
-    return LearnedRig(current, tuple(rotations), turned, uncertainty, pairs, steps)
+    return LearnedRig(current, tuple(rotations), turned, uncertainty, pairs, steps, parallax=parallax)
+
+
+def _settle_parallax(rig: CameraRig, m: Matches, rotations: list[FloatArray]) -> tuple[FloatArray, ParallaxFit]:
+    """Camera j's rotation with its tilt bounded by the far matches and its roll from the parallax-free components
+    (:mod:`panomap.rig.parallax`), and what that says."""
+    axes = rig.optical_axes()
+    centres = [np.asarray(table.camera_position, np.float64) for table in rig.tables]
+    baseline, assumed = baseline_of(axes[m.i], axes[m.j], centres[m.i], centres[m.j])
+    found = settle(
+        m.rays_i @ rotations[m.i].T,
+        m.rays_j,
+        rotations[m.j],
+        baseline,
+        m.scale_px_per_rad,
+        NEAR_PX / m.scale_px_per_rad,
+    )
+    fit = ParallaxFit(
+        (rig.names[m.i], rig.names[m.j]),
+        len(found.parallax_rad),
+        found.far,
+        found.sigma_rad * m.scale_px_per_rad,
+        float(np.percentile(found.parallax_rad, 90)) * m.scale_px_per_rad if found.parallax_rad.size else math.nan,
+        math.degrees(found.tilt_bound_rad),
+        math.degrees(found.roll_sigma_rad),
+        0.0,
+        found.pinned,
+        assumed,
+        found.unbounded,
+        found.why,
+    )
+    return found.rotation, fit
 
 
 def _with_rotations(
