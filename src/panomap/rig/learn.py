@@ -190,7 +190,7 @@ class LearnedRig:
             for name, turned, sigma in zip(self.rig.names, self.turned_deg, self.uncertainty_deg, strict=True)
         ]
         lines += [pair.describe() for pair in self.pairs]
-        lines += [self.parallax.describe()] if self.parallax is not None else []
+        lines += list(self.parallax.describe()) if self.parallax is not None else []
         return lines + ([self.overlap.describe()] if self.overlap is not None else [])
 
 

@@ -107,27 +107,22 @@ class ParallaxFit:
         """The rotation's bound (deg): the tilt's bound and three sigmas of the roll, added in quadrature."""
         return math.hypot(self.tilt_bound_deg, 3 * self.roll_sigma_deg)
 
-    def describe(self) -> str:
+    def describe(self) -> tuple[str, str]:
+        """Two lines: the figures, then what they pin of the tilt (indented)."""
         where = "the lenses' centres taken along their axes" if self.assumed_baseline else "the rig's lens centres"
-        said = (
-            f"{self.cameras[0]} and {self.cameras[1]}, parallax ({where}): {self.matches} matches, {self.far} far, "
-            f"parallax p90 {self.parallax_px_p90:.2f} px (noise {self.sigma_px:.2f} px); tilt within "
-            f"{self.tilt_bound_deg:.3f} deg, roll 1-sigma {self.roll_sigma_deg:.4f} deg; moved {self.moved_deg:.3f} "
-            f"deg from least squares"
+        figures = (
+            f"{self.cameras[0]} and {self.cameras[1]}, parallax ({where}): {self.matches} matches"
+            + ("" if self.unbounded else f", {self.far} far")
+            + f", parallax p90 {self.parallax_px_p90:.2f} px (noise {self.sigma_px:.2f} px)"
         )
+        roll = f"roll 1-sigma {self.roll_sigma_deg:.4f} deg"
         if self.unbounded:
-            return (
-                f"{self.cameras[0]} and {self.cameras[1]}, parallax ({where}): {self.matches} matches, parallax p90 "
-                f"{self.parallax_px_p90:.2f} px (noise {self.sigma_px:.2f} px): {self.why}; its tilt is the features' "
-                f"least squares, which near objects' parallax moves, NOT BOUNDED; its roll 1-sigma "
-                f"{self.roll_sigma_deg:.4f} deg"
-            )
+            return figures, f"  tilt NOT BOUNDED (the features' least squares, moved by parallax): {self.why}; {roll}"
+        tilt = f"tilt within {self.tilt_bound_deg:.3f} deg, {roll}, moved {self.moved_deg:.3f} deg from least squares"
         if self.pinned:
-            return said
-        return (
-            f"{said}; the tilt is not pinned (over {PINNED_DEG:g} deg): too few far objects in the overlap; a picture "
-            "with far objects in the overlap pins it"
-        )
+            return figures, f"  {tilt}"
+        far = "a picture with far objects in the overlap pins it"
+        return figures, f"  {tilt}; not pinned (over {PINNED_DEG:g} deg): {far}"
 
 
 def baseline_of(
@@ -216,16 +211,16 @@ def bound_tilt(
             extent = TAU_SIGMAS * math.sqrt(float(np.max(np.linalg.eigvalsh(cov_n))))
             if step <= extent / GRID or half >= limit:
                 raise Inconsistent(
-                    "the matches' parallax is below zero beyond the noise at every tilt: the lenses' calibrations "
-                    "disagree (a focal length or centre), or the rig's lens centres are not where it says"
+                    "parallax below zero at every tilt: the lenses' calibrations (focal length, centre) or the rig's "
+                    "lens centres are off"
                 )
             centre, half = np.asarray(tilt_n, np.float64), min(max(extent, 2 * half), limit)
             continue
         if np.any(np.max(np.abs(inner - centre), axis=1) >= half - step / 2):
             if half >= limit:
                 raise PanomapError(
-                    f"the overlap's matches do not bound the turn between the lenses within {MAX_TILT_DEG:g} deg "
-                    "(all near, or all along one line): a picture with far objects all round the overlap pins it"
+                    f"no bound within {MAX_TILT_DEG:g} deg (matches all near, or along one line); a picture with far "
+                    "objects all round the overlap pins it"
                 )
             centre, half = (inner.max(axis=0) + inner.min(axis=0)) / 2, min(2 * half, limit)
             continue
