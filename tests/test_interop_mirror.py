@@ -126,6 +126,8 @@ def test_without_a_picture_a_model_of_mirror_cameras_is_taken_as_a_lens_and_said
     assert "note: taken as a lens; a mirror camera's needs --mirror (or --image)" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and len(result.stderr) < 100
     assert load_table(out).model.s == -1
+    quiet = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x64", "-q")
+    assert quiet.exit_code == 0 and quiet.stderr == "" and quiet.stdout == ""  # (a note is no warning: -q silences it)
     for choice, s in (("--lens", -1), ("--mirror", 1)):
         result = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x64", choice)
         assert result.exit_code == 0 and "taken as a lens" not in result.stderr, result.stderr

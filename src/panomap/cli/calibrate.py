@@ -48,8 +48,10 @@ from .options import (
     frame_time_option,
     orientation_option,
     progress_bar,
+    quiet,
     read_omni,
     say,
+    say_note,
     warn_orientation,
     with_option_names,
 )
@@ -339,7 +341,7 @@ def fit(
     mirror = check_mount_options(model, azimuth, axis, tilt, orientation, viewpoint, sphere_radius)
     omni = None if image is None else read_omni(image, frame_time)
     if omni is not None and use_lines and mirror is not None:
-        click.echo(f"panomap: note: the image's lines do not join {mirror}: the landmarks alone fit it", err=True)
+        say_note(f"the image's lines do not join {mirror}: the landmarks alone fit it")
     if image is not None:
         warn_orientation(image)
     if omni is not None and size is not None and size != (omni.shape[1], omni.shape[0]):
@@ -379,7 +381,7 @@ def fit(
         raise PanomapError(exc.detail, exc.source or landmarks) from None
     for warning in result.warnings:
         bar.write(f"panomap: warning: {warning}")
-    for note in result.notes:
+    for note in result.notes if not quiet() else ():
         bar.write(f"panomap: note: {note}")
     table = result.table
     _write_fit(table, result, output, plot, overlay, omni, bar)

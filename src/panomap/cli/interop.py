@@ -36,6 +36,7 @@ from .options import (
     orientation_rad,
     read_omni,
     say,
+    say_note,
     usage_error,
 )
 from .rigs import import_rig, rig_format
@@ -194,7 +195,7 @@ def import_(
     sources: dict[str, str] = {}
     imported = read_calibration(calibration, format_, camera_name or camera_id)
     for note in imported.notes:
-        click.echo(f"panomap: note: {printable(note)}", err=True)
+        say_note(f"{printable(note)}")
     if image is not None:
         image_size, cutoff_radius, outer_radius, mirror = _bounds_of_image(
             imported, calibration, image, (cutoff_radius, outer_radius), mirror, sources
@@ -215,7 +216,7 @@ def import_(
     )
     if image is None and mirror is None and _could_be_a_mirror(imported, image_size, outer_radius):
         # Nothing says which, and the model sees beyond 90 deg off its axis, as a mirror camera does: say so.
-        click.echo("panomap: note: taken as a lens; a mirror camera's needs --mirror (or --image)", err=True)
+        say_note("taken as a lens; a mirror camera's needs --mirror (or --image)")
     with all_or_none():
         save_table(table, output)
     record = table.info["import"]
@@ -264,7 +265,7 @@ def _bounds_of_image(
         circles = find_image_circles(omni)
     except PanomapError as exc:  # no rim (a full-frame fisheye, a mirror overfilling the frame)
         seen = exc.seen if isinstance(exc, NoImageCircle) else exc.detail  # the centre is the calibration's
-        click.echo(f"panomap: note: {image.name}: {printable(seen)}; the table covers the model's range", err=True)
+        say_note(f"{image.name}: {printable(seen)}; the table covers the model's range")
         cutoff = exc.cutoff if isinstance(exc, NoImageCircle) else None
         if cutoff is not None and cutoff_radius is None:
             u0, v0 = imported.model.principal_point
@@ -284,8 +285,8 @@ def _bounds_of_image(
         size = f"{cutoff.radius:.0f} px" if outer_radius is None else f"{cutoff.radius / outer_radius:.0%} of the rim"
         sources["handedness"] = f"a mirror camera assumed: a cut-off disc ({size}) in {image.name}; --lens if not"
     elif mirror is None and _could_be_a_mirror(imported, image_size, outer_radius):  # either kind, no disc
-        click.echo(f"panomap: note: {image.name}: no cut-off disc (a mirror's reflection of its camera): taken as a "
-                   "lens; --mirror if not", err=True)  # fmt: skip
+        say_note(f"{image.name}: no cut-off disc (a mirror's reflection of its camera): taken as a "
+                   "lens; --mirror if not")  # fmt: skip
     return image_size, cutoff_radius, outer_radius, mirror
 
 
@@ -306,7 +307,7 @@ def _one_of_two(
     mine = "left" if principal_point[0] < image_size[0] / 2.0 else "right"
     rig = "both lenses, a rig, take import --side-by-side (docs/rigs.md)"
     if mine == half:
-        click.echo(f"panomap: note: {image}: two lenses side by side: the {half} one's circle taken; {rig}", err=True)
+        say_note(f"{image}: two lenses side by side: the {half} one's circle taken; {rig}")
         return True
     if not outer_given:
         raise PanomapError(
@@ -314,7 +315,7 @@ def _one_of_two(
             "give --outer-radius or import --side-by-side",
             image,
         )
-    click.echo(f"panomap: note: {image}: two lenses side by side: the {half} one's circle not taken; {rig}", err=True)
+    say_note(f"{image}: two lenses side by side: the {half} one's circle not taken; {rig}")
     return False
 
 
@@ -327,10 +328,9 @@ def _within_model(imported: Imported, outer_radius: float | None, sources: dict[
     reach = float(profile.radius[-1])
     if outer_radius <= reach:
         return outer_radius
-    click.echo(
-        f"panomap: note: the image circle ({outer_radius:.1f} px) reaches beyond the {imported.model.name} model's "
-        f"valid range; the table stops there ({reach:.1f} px, {math.degrees(profile.alpha[-1]):.1f} deg off the axis)",
-        err=True,
+    say_note(
+        f"the image circle ({outer_radius:.1f} px) reaches beyond the {imported.model.name} model's "
+        f"valid range; the table stops there ({reach:.1f} px, {math.degrees(profile.alpha[-1]):.1f} deg off the axis)"
     )
     sources["outer_radius"] += f", cut to the {imported.model.name} model's valid range"
     return reach
@@ -439,7 +439,7 @@ def export(table: Path, output: Path, format_: str) -> None:
     except PanomapError as exc:
         raise PanomapError(exc.detail, exc.source or table) from None
     for note in result.notes:
-        click.echo(f"panomap: note: {note}", err=True)
+        say_note(f"{note}")
     parameters = ", ".join(
         f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = [{', '.join(f'{x:.6g}' for x in v)}]"
         for k, v in result.model.parameters().items()

@@ -9,7 +9,7 @@ import click
 from ..calibrate.landmarks.pairs import read_landmarks
 from ..errors import PanomapError
 from .local_page import serve_until_interrupted, server_options, warn_unless_loopback
-from .options import FINITE, FOLDER, PATH, frame_time_option, read_omni, warn_orientation
+from .options import FINITE, FOLDER, PATH, frame_time_option, read_omni, say_note, warn_orientation
 
 
 @click.command("learn")
@@ -52,7 +52,7 @@ def learn(
     preload = read_landmarks(landmarks) if landmarks is not None else None
     session = Session(image, omni.name, folder, preload, camera)
     if session.circles_note:
-        click.echo(f"panomap: note: {session.circles_note}", err=True)
+        say_note(f"{session.circles_note}")
     server = make_server(session, host, port)
     warn_unless_loopback(host, "anyone who can reach this machine can use the page and write files into the folder")
     serve_until_interrupted(server, "learn", f"serving {omni.name} at {server.url} (files in {session.folder})")

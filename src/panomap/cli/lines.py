@@ -16,7 +16,7 @@ from ..files import all_or_none
 from ..io.images import write_image
 from ..table.file import save_table
 from ..table.table import PanoMappingTable
-from .options import progress_bar, read_omni, say, warn_orientation, warn_rotation
+from .options import progress_bar, quiet, read_omni, say, say_note, warn_orientation, warn_rotation
 from .progress import ProgressBar
 
 
@@ -155,10 +155,11 @@ def _with_frames(
                 if kept == room:
                     break
         warn_rotation(video)
-        bar.write(
-            f"panomap: note: {printable(str(video))}: {taken} frames taken, {kept} showing a view no earlier "
-            "picture shows (the others' lines would count twice)"
-        )
+        if not quiet():
+            bar.write(
+                f"panomap: note: {printable(str(video))}: {taken} frames taken, {kept} showing a view no earlier "
+                "picture shows (the others' lines would count twice)"
+            )
     return pictures, labels
 
 
@@ -175,11 +176,10 @@ def _say_fewer(video: Path, room: int, count: int, size: tuple[int, int], limit:
             "available (3/4 of this machine's) after the other pictures: give fewer or smaller pictures",
             video,
         )
-    click.echo(
-        f"panomap: note: {printable(str(video))}: learning from {count} frames of {width} x {height} would need "
+    say_note(
+        f"{printable(str(video))}: learning from {count} frames of {width} x {height} would need "
         f"about {needed:.1f} GB of memory, more than the {limit / 1e9:.1f} GB available (3/4 of this machine's): "
-        f"taking at most {room} frames showing distinct views",
-        err=True,
+        f"taking at most {room} frames showing distinct views"
     )
 
 

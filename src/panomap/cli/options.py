@@ -283,6 +283,12 @@ def say(message: str, err: bool = False) -> None:
         click.echo(message, err=err)
 
 
+def say_note(message: str) -> None:
+    """``panomap: note: message`` on stderr unless the command was given ``-q``: what was chosen that the user
+    should know but need not act on (warnings print whatever ``-q`` says)."""
+    say(f"panomap: note: {message}", err=True)
+
+
 def progress_bar(unit: str = "step") -> Any:
     """A :class:`panomap.cli.progress.ProgressBar` drawn on a terminal without ``-q``."""
     import sys

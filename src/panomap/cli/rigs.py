@@ -26,7 +26,16 @@ from ..rig import CameraRig, RigRemapper, camera_maps, is_rig_file, load_rig, sa
 from ..rig.blend import rig_view_bytes
 from ..rig.rig import MAX_CAMERAS
 from ..views import View
-from .options import check_memory_for, check_room_as, check_table_outputs, progress_bar, read_omni, say, usage_error
+from .options import (
+    check_memory_for,
+    check_room_as,
+    check_table_outputs,
+    progress_bar,
+    read_omni,
+    say,
+    say_note,
+    usage_error,
+)
 
 WRAPPING_KINDS = ("panorama", "equirect")
 
@@ -295,7 +304,7 @@ def _circles_of_pictures(
         try:
             circles = find_circles(image, part)
         except PanomapError as exc:
-            click.echo(f"panomap: note: {printable(str(exc))}; its table stops at the model's range", err=True)
+            say_note(f"{printable(str(exc))}; its table stops at the model's range")
             radii.append(None)
             continue
         u0, v0 = camera.imported.model.principal_point

@@ -36,7 +36,7 @@ from ..table.sampling import SAMPLINGS
 from ..views import View, build_map, view_kinds
 from ..views.base import Param, ParameterError, Value
 from ..views.spec import view_from_params
-from .options import FINITE, PATH, SIZE, usage_error, warn_orientation
+from .options import FINITE, PATH, SIZE, say_note, usage_error, warn_orientation
 from .options import quiet as quiet_given
 from .rigs import render_rig
 
@@ -110,11 +110,10 @@ def _render(
     except PanomapError as exc:
         raise usage_error(exc, "-o") from None
     if view.needs_camera_height and table.info.get("camera_height_known") is False:
-        click.echo(
-            f"panomap: note: {printable(str(table_path))} was learned from lines, which know no distance: its camera "
+        say_note(
+            f"{printable(str(table_path))} was learned from lines, which know no distance: its camera "
             "is at the origin, so heights and distances here are relative to the camera and their unit is yours "
-            "(fit with --camera-height H for heights above the floor)",
-            err=True,
+            "(fit with --camera-height H for heights above the floor)"
         )
     try:
         image = read_image(image_path, table.image_size, f"the table {table_path}")
