@@ -126,8 +126,8 @@ def load_rig(path: str | Path) -> CameraRig:
                     except PanomapError as exc:
                         raise PanomapError(f"camera {meta['names'][k]}: {exc.detail}") from None
 
-            # The cameras side by side (their zip CRCs and checksums let go of the GIL: two 1920 x 1920 lenses'
-            # read 45% less time); the first camera in order that fails is named.
+            # The cameras side by side (their zip CRCs and SHA-256 checksums let go of the GIL); the first camera
+            # in order that fails is named.
             count = len(meta["names"])
             with ThreadPoolExecutor(max(1, min(count, os.cpu_count() or 1)), thread_name_prefix="panomap-rig") as pool:
                 tables = list(pool.map(camera, range(count)))
