@@ -293,12 +293,12 @@ def test_the_readers_decode_ahead_while_the_view_is_built(dual: tuple, tmp_path:
 
 
 def test_frames_ahead_are_bounded_by_bytes_frames_and_the_machines_memory() -> None:
-    """A 3840 x 1920 yuv420p frame (11.1 MB): 36 frames in 384 MiB; frames of 1 kB: AHEAD_FRAMES; of 1 GB:
+    """A 3840 x 1920 yuv420p frame (11.1 MB): 24 frames in 256 MiB; frames of 1 kB: AHEAD_FRAMES; of 1 GB:
     QUEUE_FRAMES; a machine of 2 GiB: 1/32 of it (64 MiB: 6 such frames). The frame's bytes per format."""
     big = frame_bytes("yuv420p", (3840, 1920))
     assert big == 3840 * 1920 * 3 // 2
     assert frame_bytes("yuv420p", (5, 3)) == 15 + 2 * 3 * 2 and frame_bytes("bgr24", (5, 3)) == 45
     assert frame_bytes("gray", (5, 3)) == 15 and frame_bytes("yuv422p", (5, 3)) == 15 + 2 * 3 * 3
-    assert frames_ahead(big) == AHEAD_BYTES // big == 36
+    assert frames_ahead(big) == AHEAD_BYTES // big == 24
     assert frames_ahead(1000) == AHEAD_FRAMES and frames_ahead(10**9) == QUEUE_FRAMES
     assert frames_ahead(big, 2 * 2**30) == 6

@@ -13,8 +13,8 @@ END = object()
 # A reader may decode this many bytes of frames ahead (each of a run's inputs together), and at most this many
 # frames: while a rig's view builds its maps and weights (0.5-1 s, mostly on one core) the decoder works on the
 # other core instead of stopping after QUEUE_FRAMES, and those frames are not decoded later beside the encoder.
-AHEAD_BYTES = 384 * 2**20
-AHEAD_FRAMES = 48
+AHEAD_BYTES = 256 * 2**20
+AHEAD_FRAMES = 32
 
 
 def frames_ahead(frame_bytes: int, machine_bytes: int | None = None) -> int:
