@@ -9,24 +9,18 @@ from __future__ import annotations
 
 import copy
 import math
-import queue
-import time
 from pathlib import Path
-from types import SimpleNamespace
 
 import av
 import cv2
 import numpy as np
 import pytest
 
-import panomap.video.rig as rig_video
 from panomap.interop.rig_of_camchain import rig_of_camchain
 from panomap.rig import CameraRig, RigRemapper, camera_maps, save_rig
 from panomap.rig.fast import FastRigRemapper
 from panomap.rig.seams import BLENDED, seam_weights
 from panomap.video.frames import _chroma_map
-from panomap.video.handoff import AHEAD_BYTES, AHEAD_FRAMES, QUEUE_FRAMES, frames_ahead
-from panomap.video.rig import frame_bytes
 from panomap.views import EquirectView, FloorView
 from test_orientation import conventions_axes
 from test_rig import BACK_TO_BACK, HALF_FOV, SIDE, camchain, chain_truth, render_lens, textured_world
@@ -257,48 +251,3 @@ def test_a_rig_videos_rotation_metadata_is_warned_of_and_not_on_a_refusal(dual: 
     assert result.stderr.count(f"panomap: warning: {clip}: it asks players to turn its frames by 90 deg") == 1
     assert_one_line_error(run("video", rig_path, clip, clip, "-o", tmp_path / "no.mp4", *view), "share one frame",
                           exit_code=2)  # fmt: skip
-
-
-def test_the_readers_decode_ahead_while_the_view_is_built(dual: tuple, tmp_path: Path, monkeypatch) -> None:  # type: ignore[no-untyped-def, type-arg]
-    """While the blend's maps and weights are built the reader goes on decoding past QUEUE_FRAMES (the frames it
-    may hold: as many as AHEAD_BYTES takes, at most AHEAD_FRAMES): a clip of 12 frames is decoded whole before
-    the first is blended, and the video still has its 12 frames in order."""
-    _, rig_path, frame = dual
-    write_video(tmp_path / "dual.mkv", [np.roll(frame, k, axis=1) for k in range(12)])
-    queues: list[queue.Queue] = []  # type: ignore[type-arg]
-
-    class Recorded(queue.Queue):  # type: ignore[type-arg]
-        def __init__(self, maxsize: int = 0) -> None:
-            super().__init__(maxsize)
-            queues.append(self)
-
-    seen: list[int] = []
-    built = rig_video.RigFrameRemapper.__init__
-
-    def waiting(self, *args, **kwargs) -> None:  # type: ignore[no-untyped-def]
-        for _ in range(400):  # (up to 20 s: the reader has the clip decoded in a fraction of that)
-            if queues[-1].qsize() >= 13:  # (12 frames and the end)
-                break
-            time.sleep(0.05)
-        seen.append(queues[-1].qsize())
-        built(self, *args, **kwargs)
-
-    monkeypatch.setattr(rig_video, "queue", SimpleNamespace(Queue=Recorded, Empty=queue.Empty, Full=queue.Full))
-    monkeypatch.setattr(rig_video.RigFrameRemapper, "__init__", waiting)
-    result = run("video", rig_path, tmp_path / "dual.mkv", "-o", tmp_path / "e.mkv", "--view",
-                 "equirect:size=128x64", *LOSSLESS_BGR)  # fmt: skip
-    assert result.exit_code == 0, result.output
-    assert seen == [13] and queues[-1].maxsize > QUEUE_FRAMES
-    assert len(frames_of(tmp_path / "e.mkv")) == 12
-
-
-def test_frames_ahead_are_bounded_by_bytes_frames_and_the_machines_memory() -> None:
-    """A 3840 x 1920 yuv420p frame (11.1 MB): 24 frames in 256 MiB; frames of 1 kB: AHEAD_FRAMES; of 1 GB:
-    QUEUE_FRAMES; a machine of 2 GiB: 1/32 of it (64 MiB: 6 such frames). The frame's bytes per format."""
-    big = frame_bytes("yuv420p", (3840, 1920))
-    assert big == 3840 * 1920 * 3 // 2
-    assert frame_bytes("yuv420p", (5, 3)) == 15 + 2 * 3 * 2 and frame_bytes("bgr24", (5, 3)) == 45
-    assert frame_bytes("gray", (5, 3)) == 15 and frame_bytes("yuv422p", (5, 3)) == 15 + 2 * 3 * 3
-    assert frames_ahead(big) == AHEAD_BYTES // big == 24
-    assert frames_ahead(1000) == AHEAD_FRAMES and frames_ahead(10**9) == QUEUE_FRAMES
-    assert frames_ahead(big, 2 * 2**30) == 6

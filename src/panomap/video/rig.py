@@ -43,7 +43,7 @@ from ..rig.seams import seam_weights
 from ..views import View
 from .frames import BGR, PLANAR_FORMATS, REMAP_THREADS, _chroma_map, _plane_array, check_output_size, opencv_threads
 from .frames import work_format as choose_work_format
-from .handoff import END, QUEUE_FRAMES, frames_ahead, put, reason
+from .handoff import END, QUEUE_FRAMES, put, reason
 from .output import EncoderSettings, Writer, open_writer
 from .report import VideoReport
 from .source import (
@@ -56,7 +56,7 @@ from .source import (
     open_input,
     read_frames,
 )
-from .unwarp import _check_outputs, check_memory, machine_memory
+from .unwarp import _check_outputs, check_memory
 
 # Luma's black level per planar format (gains scale from it); chroma's grey is 128.
 FULL_RANGE = ("yuvj420p", "yuvj422p", "yuvj444p", "gray")
@@ -81,15 +81,6 @@ def check_rig_sources(rig: CameraRig, sources: Sequence[str]) -> None:
         raise PanomapError(
             f"give one video per camera of the rig, in its order ({', '.join(rig.names)}), not {len(sources)}"
         )
-
-
-def frame_bytes(work_format: str, size: tuple[int, int]) -> int:
-    """The bytes of one decoded frame of ``size`` (width, height) in ``work_format`` (planar or BGR)."""
-    width, height = size
-    if work_format not in PLANAR_FORMATS:
-        return 3 * width * height
-    sub_x, sub_y, fills = PLANAR_FORMATS[work_format]
-    return width * height + (len(fills) - 1) * (-(-width >> sub_x)) * (-(-height >> sub_y))
 
 
 class RigFrameRemapper:
@@ -273,10 +264,6 @@ def unwarp_rig_video(
         view_size = view.output_size(rig.tables[0])
         check_output_size(work, view_size)
         check_memory([view_size] * (rig.count + 2), memory_limit)  # (the buffer, the band, each camera's map)
-        # (the readers decode ahead while the maps and weights are built: handoff.frames_ahead)
-        ahead = frames_ahead(sum(frame_bytes(work, size) for _, size in rig_inputs(rig)), machine_memory())
-        for item in inputs:
-            item.frames = queue.Queue(ahead)
         _write(inputs, rig, output, view, view_size, work, encoder, selection, audio, sampling, interpolation, stop,
                progress, warn, report, codec_threads)  # fmt: skip
     finally:
