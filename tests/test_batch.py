@@ -158,6 +158,7 @@ def test_a_two_camera_manifest_on_the_default_local_cluster_equals_the_view_comm
     assert not list((tmp_path / "out").rglob(".*"))  # no temporary left
 
 
+@pytest.mark.slow
 def test_a_segmented_video_equals_the_unsegmented_one_frame_for_frame(work: Path, tmp_path: Path, cluster: str) -> None:
     """Lossless x264 (with B-frames): every frame and timestamp of the joined output as the whole run's."""
     inputs = find_inputs([str(work / "clip.mp4")], work / "cam.npz")

@@ -11,6 +11,7 @@ import pytest
 BENCH = Path(__file__).resolve().parents[1] / "bench" / "bench_unwarp.py"
 
 
+@pytest.mark.slow
 def test_paper_per_pixel_algorithm_and_ours_agree_pixel_for_pixel() -> None:
     result = subprocess.run([sys.executable, str(BENCH), "--quick"], capture_output=True, text=True, check=True)
     assert "outputs equal: True (0 of 65536 pixels differ)" in result.stdout, result.stdout

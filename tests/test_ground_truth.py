@@ -125,6 +125,7 @@ def spherical_errors_by_distance() -> dict[float, float]:
     return figures
 
 
+@pytest.mark.slow
 def test_spherical_mirror_errors_by_distance() -> None:
     """No single viewpoint: the fit absorbs the parallax at the landmarks' distance (1.5..3 m).
 

@@ -313,6 +313,7 @@ BAD_NAMES = [
 ]
 
 
+@pytest.mark.slow
 def test_file_names_stay_in_the_folder(client: Client, example: Example, folder: Path) -> None:
     client.post("/api/state", {"camera": list(example.camera_position), "landmarks": true_landmarks(example)})
     root = folder.parent

@@ -134,6 +134,7 @@ def test_too_few_lines_is_one_clear_error() -> None:
         fit_lines(lines[:5], true_circles(camera))
 
 
+@pytest.mark.slow
 def test_azimuth_zero_and_handedness_are_the_callers() -> None:
     """The pixel given as azimuth 0 sees world azimuth 0; the handedness given is kept; the report round-trips."""
     camera, lines, _ = _scene("equidistant", 0.3, seed=2)

@@ -98,6 +98,7 @@ def test_a_boards_rows_count_for_no_vertical_family() -> None:
     assert count == 4 and abs(taken[2]) == pytest.approx(1.0, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_the_lines_fit_reads_the_tilt_from_the_room_not_the_board() -> None:
     """The arcs on the board (:func:`on_boards`, as ``learn_camera`` gives them) make straight lines, no vertical.
 

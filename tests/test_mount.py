@@ -252,6 +252,7 @@ def test_fit_tilt_on_the_command_line(tmp_path: Path) -> None:
     assert not (tmp_path / "b.npz").exists()
 
 
+@pytest.mark.slow
 def test_rim_landmarks_beyond_the_circle_under_a_level_model_do_not_stop_a_tilted_fit() -> None:
     """A fisheye tilted 2.6 deg (bench_mount's seed 8011): under a level model a rim landmark lies 10 px beyond
     the image circle, so no level model covers the annulus (the fit used to stop there). The level fit now only

@@ -76,6 +76,7 @@ def test_parallax_below_zero_all_round_is_said_not_forced() -> None:
     assert np.array_equal(found.rotation, start)
 
 
+@pytest.mark.slow
 def test_a_near_room_seen_by_lenses_2_cm_apart_is_not_read_as_a_turn(tmp_path: Path) -> None:
     """The demo's dual fisheye in the bundled room (walls 1-3 m away), its back lens 2 cm behind the front one and
     turned 0.9 deg off the camchain: least squares turned it 0.89 deg from the truth stating 0.10 deg (1 sigma);

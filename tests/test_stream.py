@@ -197,6 +197,7 @@ def test_a_stop_during_the_reconnect_wait_ends_the_run_at_once(work: Path, serve
 
 
 @pytest.mark.timeout(60)
+@pytest.mark.slow
 def test_a_silent_stream_has_dropped_after_the_timeout(work: Path, server: StreamServer) -> None:
     output = work / "silent.mp4"
     running = Run(work, server.url, output, Reconnect(attempts=0, timeout_s=1.0))

@@ -631,6 +631,7 @@ def test_a_signal_finishes_cleanly_with_playable_files(work: Path, tmp_path: Pat
 
 
 @pytest.mark.skipif(READ_SYSCALL is None, reason="the read system call's number on this machine is not known here")
+@pytest.mark.slow
 def test_a_second_sigint_aborts_and_leaves_no_output(work: Path, tmp_path: Path) -> None:
     """The first SIGINT asks for a clean finish, which waits for the input's reader; while the
     reader waits on a silent input, a second SIGINT aborts: exit 130, one line, no output."""

@@ -383,6 +383,7 @@ def test_the_source_is_opened_once_and_a_swapped_link_serves_the_same_file(
 # ---------------------------------------------------------------------- decoded frames
 
 
+@pytest.mark.slow
 def test_decoded_frames_come_at_the_files_rate_and_pause_and_seek(work: Path) -> None:
     feed = FrameFeed(open_source(str(work / "clip.avi")))
     try:
