@@ -287,11 +287,15 @@ def test_a_detected_cut_off_disc_asks_f_r_to_reach_a_default_outer_radius_no_fur
     _, top = valid_elevation_range(fit.model.radial, fit.landmark_range, 62.0, 1e9)
     beyond = float(fit.model.radial(top)) + 100.0  # 100 px past where the table may take f_r
     default = Annulus(62.0, beyond, Source.DETECTED, Source.DEFAULT_WHOLE_FRAME)
-    table = table_for(fit, default, size=(64, 32), image_size=None, info={})
+    # (f_r runs out at millions of px here: a table as fine in azimuth as its chords must be there, 1 px)
+    size = (8192, 32)
+    table = table_for(fit, default, size=size, image_size=None, info={})
     assert table.cutoff_radius == 62.0
     given = Annulus(62.0, beyond, Source.DETECTED, Source.GIVEN)
     with pytest.raises(PanomapError, match="ends before the image circle"):
-        table_for(fit, given, size=(64, 32), image_size=None, info={})
+        table_for(fit, given, size=size, image_size=None, info={})
+    with pytest.raises(PanomapError, match="views would be up to"):  # (a 64 x 32 table there: chords px off)
+        table_for(fit, default, size=(64, 32), image_size=None, info={})
 
 
 def test_a_circle_found_with_landmarks_well_outside_it_is_not_the_image_circle(monkeypatch: pytest.MonkeyPatch) -> None:
