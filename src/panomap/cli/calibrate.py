@@ -23,7 +23,7 @@ from ..camera.image_terms import check_term_names
 from ..camera.model import CameraModel
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, input_file, same_input
+from ..files import all_or_none, check_outputs, input_file
 from ..io.images import header_size, write_image
 from ..io.overlay import draw_no_rim_overlay, draw_overlay
 from ..table.file import load_table, save_table
@@ -50,6 +50,7 @@ from .options import (
     progress_bar,
     quiet,
     read_omni,
+    refuse_same_input,
     say,
     say_note,
     warn_orientation,
@@ -466,13 +467,12 @@ def _fit_lines(
         raise click.UsageError("the paper model takes the centre as given; learning from lines needs another model")
     for path in (*images, *videos):
         input_file(path)  # (before the memory check reads their headers: a FIFO would block it)
-    twice = same_input((*images, *videos))
-    if twice is not None:
-        first, second, how = twice
-        raise click.BadParameter(
-            f"{first} and {second} are one picture ({how}): give each picture once (its lines twice add nothing)",
-            param_hint="'--image'" if second in images else "'--video'",
-        )
+    refuse_same_input(
+        (*images, *videos),
+        "picture",
+        "its lines twice add nothing",
+        lambda second: "'--image'" if second in images else "'--video'",
+    )
     check_table_outputs(
         [*(("the image", path) for path in images), *(("the video", path) for path in videos)],
         output,

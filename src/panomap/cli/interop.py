@@ -11,7 +11,7 @@ from ..calibrate.circles import ImageCircles, NoImageCircle, find_image_circles
 from ..calibrate.circles.side_by_side import side_by_side_half
 from ..calibrate.level import level_table
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, same_input
+from ..files import all_or_none, check_outputs
 from ..interop.api import check_image_size, could_be_a_mirror_camera, table_of_imported
 from ..interop.export import FORMATS, export_calibration
 from ..interop.orient import orient_table
@@ -35,6 +35,7 @@ from .options import (
     orientation_option,
     orientation_rad,
     read_omni,
+    refuse_same_input,
     say,
     say_note,
     usage_error,
@@ -394,13 +395,7 @@ def level(table: Path, images: tuple[Path, ...], output: Path) -> None:
     poles): the camera's pitch and roll found, its yaw kept. The table's orientation must be within 20 deg of
     the truth (give it with panomap orient or import --orientation); several pictures are pooled."""
     check_table_outputs([("the table", table), *(("an image", image) for image in images)], output)
-    twice = same_input(images)
-    if twice is not None:
-        first, second, how = twice
-        raise click.BadParameter(
-            f"{first} and {second} are one picture ({how}): give each picture once (its lines twice count twice)",
-            param_hint="'IMAGES...'",
-        )
+    refuse_same_input(images, "picture", "its lines twice count twice", lambda _: "'IMAGES...'")
     loaded = load_table(table)
     check_room_as(output, table)
     pictures = []

@@ -9,7 +9,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import threading
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -124,6 +124,20 @@ def check_table_outputs(
     for option, path, kind in pictures:
         if path is not None and path.suffix.lower() != ".png":
             raise click.BadParameter(f"{path}: {kind} is written as PNG (name it .png)", param_hint=f"'{option}'")
+
+
+def refuse_same_input(paths: Sequence[Path], what: str, why: str, hint: Callable[[Path], str]) -> None:
+    """Refuse, before any work, two of ``paths`` that are one file (the same path, a link, or the same bytes:
+    :func:`panomap.files.same_input`): ``what`` names one ("picture", "frame"), ``why`` says what twice would do,
+    ``hint(second)`` names the option or argument that took the second."""
+    from ..files import same_input
+
+    twice = same_input(paths)
+    if twice is not None:
+        first, second, how = twice
+        raise click.BadParameter(
+            f"{first} and {second} are one {what} ({how}): give each {what} once ({why})", param_hint=hint(second)
+        )
 
 
 def check_room_as(output: Path, like: Path) -> None:

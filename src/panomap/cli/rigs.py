@@ -12,7 +12,7 @@ import click
 import numpy as np
 
 from ..errors import PanomapError, printable
-from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_text, same_input
+from ..files import all_or_none, check_outputs, check_room, fill_pattern, read_text
 from ..io.images import (
     check_image_output,
     image_file_bytes,
@@ -32,6 +32,7 @@ from .options import (
     check_table_outputs,
     progress_bar,
     read_omni,
+    refuse_same_input,
     say,
     say_note,
     usage_error,
@@ -447,13 +448,7 @@ def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:
             "--side-by-side learns the lenses too, from the frames alone: give no rig (or drop --side-by-side)"
         )
     check_table_outputs([("a frame", frame) for frame in frames], output, "a rig")
-    twice = same_input(frames)
-    if twice is not None:
-        first, second, how = twice
-        raise click.BadParameter(
-            f"{first} and {second} are one frame ({how}): give each frame once (its lines twice add nothing)",
-            param_hint="'PICTURE...'",
-        )
+    refuse_same_input(frames, "frame", "its lines twice add nothing", lambda _: "'PICTURE...'")
     pictures = [read_omni(frame) for frame in frames]
     for frame, picture in zip(frames, pictures, strict=True):
         try:
