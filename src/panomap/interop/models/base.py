@@ -158,3 +158,10 @@ def positive(model: str, name: str, value: float) -> None:
     """Raise unless ``value`` > 0."""
     if not value > 0:
         raise PanomapError(f"{model}: {name} must be > 0, not {value:g}")
+
+
+def farthest_corner_px(centre: tuple[float, float], width: int, height: int) -> float:
+    """Distance (px) from ``centre`` (u, v) to the farthest corner of a ``width`` x ``height`` image (its pixels'
+    outer edges: -0.5 and W - 0.5, H - 0.5)."""
+    u0, v0 = centre
+    return max(math.hypot(a, b) for a in (-0.5 - u0, width - 0.5 - u0) for b in (-0.5 - v0, height - 0.5 - v0))

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike
 
 from ...errors import PanomapError
 from ...geometry import FloatArray
-from .base import ExternalCamera, as_rays, pixels, positive
+from .base import ExternalCamera, as_rays, farthest_corner_px, pixels, positive
 
 # The tabulated inverse of pol: this many radii from 0 to the farthest image corner (and a margin).
 _INVERSE_NODES = 8193
@@ -84,9 +84,7 @@ class OCam(ExternalCamera):
     @property
     def image_reach_px(self) -> float:
         """Distance (px) from the centre to the farthest image corner."""
-        rows = (-0.5 - self.xc, self.height - 0.5 - self.xc)
-        cols = (-0.5 - self.yc, self.width - 0.5 - self.yc)
-        return max(math.hypot(a, b) for a in rows for b in cols)
+        return farthest_corner_px(self.principal_point, self.width, self.height)
 
     @cached_property
     def _inverse(self) -> tuple[FloatArray, FloatArray]:

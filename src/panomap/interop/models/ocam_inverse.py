@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike
 
 from ...errors import PanomapError
 from ...geometry import FloatArray
-from .base import ExternalCamera, as_rays, pixels, positive
+from .base import ExternalCamera, as_rays, farthest_corner_px, pixels, positive
 from .ocam import MAX_COEFFICIENTS, NEWTON_STEPS
 
 # The tabulated polynomial: this many elevations from -pi/2 to pi/2.
@@ -80,9 +80,7 @@ class OCamInverse(ExternalCamera):
     @property
     def image_reach_px(self) -> float:
         """Distance (px) from the centre to the farthest image corner."""
-        cols = (-0.5 - self.u0, self.width - 0.5 - self.u0)
-        rows = (-0.5 - self.v0, self.height - 0.5 - self.v0)
-        return max(math.hypot(a, b) for a in cols for b in rows)
+        return farthest_corner_px(self.principal_point, self.width, self.height)
 
     @cached_property
     def _nodes(self) -> tuple[FloatArray, FloatArray]:

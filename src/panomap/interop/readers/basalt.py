@@ -30,7 +30,7 @@ from ..models.double_sphere import DoubleSphere
 from ..models.eucm import EUCM
 from ..models.kannala_brandt import KannalaBrandt
 from ..models.pinhole_radtan import PinholeRadtan
-from .base import Imported, RigPose, built, image_size_of, numbers, typed_number
+from .base import Imported, RigPose, built, image_size_of, member, numbers, typed_number
 from .json_text import load_json
 from .yaml_text import brief
 
@@ -65,10 +65,10 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     if not isinstance(data, dict) or not isinstance(data.get("value0"), dict):
         raise PanomapError('not a Basalt calibration (no "value0" object)', path)
     root = data["value0"]
-    cameras = _list(root, "intrinsics", path)
+    cameras = member(root, "intrinsics", path, list, "a list", "value0")
     if not cameras:
         raise PanomapError("value0.intrinsics is empty: no camera", path)
-    resolutions = _list(root, "resolution", path)
+    resolutions = member(root, "resolution", path, list, "a list", "value0")
     if len(resolutions) != len(cameras):
         raise PanomapError(
             f"value0.resolution has {len(resolutions)} entries for {len(cameras)} cameras in value0.intrinsics", path
@@ -100,15 +100,6 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     return Imported(model, "basalt", size, name, rig_poses=_poses(root, len(cameras), path))
 
 
-def _list(root: dict[str, Any], key: str, path: str | Path) -> list[Any]:
-    if key not in root:
-        raise PanomapError(f"value0.{key} is missing", path)
-    value = root[key]
-    if not isinstance(value, list):
-        raise PanomapError(f"value0.{key} is {brief(value)}, not a list", path)
-    return value
-
-
 def _index(choice: str | None, count: int, path: str | Path) -> int:
     """The camera ``choice`` names (``cam1`` or ``1``; None: the first)."""
     if choice is None:
@@ -124,7 +115,7 @@ def _poses(root: dict[str, Any], count: int, path: str | Path) -> tuple[RigPose,
     """Every camera's ``T_imu_cam`` (none where the file has none)."""
     if "T_imu_cam" not in root:
         return ()
-    poses = _list(root, "T_imu_cam", path)
+    poses = member(root, "T_imu_cam", path, list, "a list", "value0")
     if len(poses) != count:
         raise PanomapError(f"value0.T_imu_cam has {len(poses)} entries for {count} cameras", path)
     out = []

@@ -60,6 +60,18 @@ MAX_LIST = 64
 MAX_IMAGE_PIXELS = 16384 * 16384
 
 
+def member(data: dict[str, Any], key: str, path: str | Path, kind: type, noun: str, where: str = "") -> Any:
+    """``data[key]``, refused where it is missing or not of ``kind`` (``noun`` names one: "an object", "a list"),
+    the field named ``where.key`` (``key`` alone without ``where``)."""
+    field_name = f"{where}.{key}" if where else key
+    if key not in data:
+        raise PanomapError(f"{field_name} is missing", path)
+    value = data[key]
+    if not isinstance(value, kind):
+        raise PanomapError(f"{field_name} is {brief(value)}, not {noun}", path)
+    return value
+
+
 def number(value: Any, where: str, path: str | Path, text: bool = True) -> float:
     """``value`` (a number, or its text unless ``text`` is False: JSON's and YAML's typed numbers) as a
     finite float at most ``MAX_ABS`` (1e9) in size: no calibration parameter, size or radius is larger,

@@ -25,7 +25,7 @@ from ...errors import PanomapError
 from ..models.base import ExternalCamera
 from ..models.kannala_brandt_full import KannalaBrandtFull
 from ..models.mei import Mei
-from .base import Imported, built, image_size_of, numbers, typed_number
+from .base import Imported, built, image_size_of, member, numbers, typed_number
 from .yaml_text import brief, load_yaml
 
 MODELS = ("omnidirectional_universal", "kannala_brandt")
@@ -51,7 +51,7 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
         raise PanomapError(
             f"BoofCV model {brief(kind)} is not read (it reads {', '.join(MODELS)}: the omnidirectional ones)", path
         )
-    pinhole = _section(data, "pinhole", path)
+    pinhole = member(data, "pinhole", path, dict, "a mapping")
     for key in PINHOLE_KEYS:
         if key not in pinhole:
             raise PanomapError(f"pinhole.{key} is missing", path)
@@ -62,7 +62,7 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
         if "mirror_offset" not in data:
             raise PanomapError("mirror_offset is missing", path)
         xi = typed_number(data["mirror_offset"], "mirror_offset", path)
-        distortion = _section(data, "radial_tangential", path)
+        distortion = member(data, "radial_tangential", path, dict, "a mapping")
         radial = distortion.get("radial")
         k = numbers(_or_empty(radial), "radial_tangential.radial", path)
         t1, t2 = (typed_number(distortion.get(t, 0.0), f"radial_tangential.{t}", path) for t in ("t1", "t2"))
@@ -90,15 +90,6 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
             lists["tangent_trig"],
         )
     return Imported(model, "boofcv", size)
-
-
-def _section(data: dict[str, Any], key: str, path: str | Path) -> dict[str, Any]:
-    if key not in data:
-        raise PanomapError(f"{key} is missing", path)
-    value = data[key]
-    if not isinstance(value, dict):
-        raise PanomapError(f"{key} is {brief(value)}, not a mapping", path)
-    return value
 
 
 def _or_empty(value: Any) -> Any:

@@ -17,11 +17,10 @@ shifted. The file is read within the bounds of :mod:`.json_text`.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from ...errors import PanomapError
 from ..models.kannala_brandt import OpenCVFisheye
-from .base import Imported, built, image_size_of, numbers, typed_number
+from .base import Imported, built, image_size_of, member, numbers, typed_number
 from .json_text import load_json
 from .yaml_text import brief
 
@@ -55,8 +54,8 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
         stretch = typed_number(data[key], key, path)
         if stretch > 0.01 and stretch != 1:  # gyroflow takes 0.01 or less as unset (1)
             raise PanomapError(f"{key} is {stretch:g}: an anamorphic profile is not read", path)
-    params = _object(data, "fisheye_params", path)
-    dimension = _object(data, "calib_dimension", path)
+    params = member(data, "fisheye_params", path, dict, "an object")
+    dimension = member(data, "calib_dimension", path, dict, "an object")
     for key in ("w", "h"):
         if key not in dimension:
             raise PanomapError(f"calib_dimension.{key} is missing", path)
@@ -98,12 +97,3 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
         fx, fy = fx / crop, fy / crop
     model = built(OpenCVFisheye, path, fx, fy, cx, cy, *coefficients)
     return Imported(model, "gyroflow", size, notes=tuple(notes))
-
-
-def _object(data: dict[str, Any], key: str, path: str | Path) -> dict[str, Any]:
-    if key not in data:
-        raise PanomapError(f"{key} is missing", path)
-    value = data[key]
-    if not isinstance(value, dict):
-        raise PanomapError(f"{key} is {brief(value)}, not an object", path)
-    return value

@@ -24,7 +24,7 @@ from typing import Any
 
 from ...errors import PanomapError
 from ..models.ocam_inverse import OCamInverse
-from .base import Imported, built, image_size_of, typed_number
+from .base import Imported, built, image_size_of, member, typed_number
 from .json_text import load_json
 from .yaml_text import brief
 
@@ -50,10 +50,10 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     ((name, entry),) = data.items()
     if not isinstance(entry, dict):
         raise PanomapError(f"{name} is {brief(entry)}, not an object", path)
-    param = _object(entry, "param", name, path)
+    param = member(entry, "param", path, dict, "an object", name)
     if "sensor_calib" in param and "cam_K" not in param:
         raise PanomapError(f"{name} is an extrinsic (a pose, sensor_calib): import its intrinsic file", path)
-    k = _matrix(_object(param, "cam_K", f"{name}.param", path), f"{name}.param.cam_K", path)
+    k = _matrix(member(param, "cam_K", path, dict, "an object", f"{name}.param"), f"{name}.param.cam_K", path)
     where = f"{name}.param.cam_K.data"
     if k[2] != [0.0, 0.0, 1.0] or k[1][1] != 1:
         raise PanomapError(
@@ -61,7 +61,9 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
             "(not a pinhole's or cv::fisheye's)",
             path,
         )
-    invpol = _coefficients(_object(param, "cam_dist", f"{name}.param", path), f"{name}.param.cam_dist", path)
+    invpol = _coefficients(
+        member(param, "cam_dist", path, dict, "an object", f"{name}.param"), f"{name}.param.cam_dist", path
+    )
     (c, d, u0), (e, _, v0) = k[0], k[1]
     for key in ("img_dist_w", "img_dist_h"):
         if key not in param:
@@ -102,15 +104,6 @@ def _check_range(model: OCamInverse, where: str, path: str | Path) -> None:
             f"({inscribed:.1f} px from the centre to its nearest edge)",
             path,
         )
-
-
-def _object(data: dict[str, Any], key: str, where: str, path: str | Path) -> dict[str, Any]:
-    if key not in data:
-        raise PanomapError(f"{where}.{key} is missing", path)
-    value = data[key]
-    if not isinstance(value, dict):
-        raise PanomapError(f"{where}.{key} is {brief(value)}, not an object", path)
-    return value
 
 
 def _rows(node: dict[str, Any], where: str, path: str | Path) -> list[Any]:
