@@ -18,6 +18,7 @@ import pytest
 from panomap import import_calibration, load_table
 from panomap.camera.model import CameraModel
 from panomap.camera.radial import RadialFunction
+from panomap.simulate.lens_scenes import camera_axes
 from panomap.views import EquirectView, PerspectiveView, build_map
 
 from helpers import assert_one_line_error, run
@@ -35,15 +36,9 @@ ORIENTATIONS = {
 }
 
 
-def conventions_axes(yaw_deg: float, pitch_deg: float, roll_deg: float) -> np.ndarray:
-    """G (3, 3), columns right R, down Dn, forward F (world axes), written out from the conventions."""
-    psi, tau, omega = (math.radians(a) for a in (yaw_deg, pitch_deg, roll_deg))
-    forward = np.array([math.cos(tau) * math.cos(psi), math.cos(tau) * math.sin(psi), math.sin(tau)])
-    right0 = np.array([math.sin(psi), -math.cos(psi), 0.0])
-    down0 = np.cross(forward, right0)
-    right = math.cos(omega) * right0 + math.sin(omega) * down0
-    down = math.cos(omega) * down0 - math.sin(omega) * right0
-    return np.stack([right, down, forward], axis=1)
+# G (3, 3), columns right R, down Dn, forward F (world axes), written out from the conventions: the simulator's
+# (ground truth, not the code under test, panomap.camera.orientation).
+conventions_axes = camera_axes
 
 
 def equidistant_pixels(rays_world: np.ndarray, axes: np.ndarray) -> np.ndarray:
