@@ -88,11 +88,23 @@ def render_rig(
             for path, layer in zip(each_paths, layers, strict=True):
                 write_image(path, layer)
     seen = float(np.mean(remapper.weights.sum(axis=0) > 0))
+    shared = float(np.mean((remapper.weights > 0).sum(axis=0) > 1))
     shown = ", ".join(f"{name} x{float(np.mean(g)):.3f}" for name, g in zip(rig.names, gains, strict=True))
     say(
-        f"wrote {printable(str(output))} ({blended.shape[1]} x {blended.shape[0]}, {seen:.0%} of pixels seen by "
-        f"{rig.count} cameras; gains {shown})"
+        f"wrote {printable(str(output))} ({blended.shape[1]} x {blended.shape[0]}: {_percent(seen)} seen, "
+        f"{_percent(shared)} blended from two cameras or more; gains {shown})"
     )
+    if each_paths:
+        say(f"wrote each camera's own view: {', '.join(printable(str(path)) for path in each_paths)}")
+
+
+def _percent(fraction: float) -> str:
+    """A share of the view's pixels, as a percentage that says 'all' or 'none' only when it is."""
+    if 0.0 < fraction < 0.01:
+        return "under 1%"
+    if 0.99 < fraction < 1.0:
+        return f"{fraction:.1%}"
+    return f"{fraction:.0%}"
 
 
 def _pictures(rig: CameraRig, images: tuple[Path, ...]) -> list[Any]:
