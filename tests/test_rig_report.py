@@ -13,6 +13,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 
 from panomap.interop.rig_of_camchain import rig_of_camchain
 from panomap.rig import save_rig
@@ -23,13 +24,13 @@ FOV_DEG, SIDE, F_PX = 200.0, 320, 90.0
 POSE = "[[-1, 0, 0, 0], [0, 1, 0, 0], [0, 0, -1, -0.02], [0, 0, 0, 1]]"
 
 
-def dual_rig(tmp_path: Path) -> Path:
+def dual_rig(tmp_path: Path, pose: str = POSE) -> Path:
     centre = SIDE / 2 - 0.5
     lens = (
         f"camera_model: pinhole, intrinsics: [{F_PX}, {F_PX}, {centre}, {centre}], distortion_model: equidistant, "
         f"distortion_coeffs: [0, 0, 0, 0], resolution: [{SIDE}, {SIDE}]"
     )
-    (tmp_path / "dual.yaml").write_text(f"cam0: {{{lens}}}\ncam1: {{{lens}, T_cn_cnm1: {POSE}}}\n")
+    (tmp_path / "dual.yaml").write_text(f"cam0: {{{lens}}}\ncam1: {{{lens}, T_cn_cnm1: {pose}}}\n")
     rig = rig_of_camchain(tmp_path / "dual.yaml", side_by_side=True, fov_rad=math.radians(FOV_DEG))
     save_rig(rig, tmp_path / "dual.npz")
     return tmp_path / "dual.npz"
@@ -66,3 +67,17 @@ def test_a_view_one_camera_sees_blends_nothing(tmp_path: Path) -> None:
     result = run("perspective", rig, tmp_path / "frame.png", "-o", tmp_path / "v.png", "--size", "160x90")
     assert result.exit_code == 0, result.output + result.stderr
     assert ": 100% seen, 0% blended from two cameras or more;" in result.stdout, result.stdout
+
+
+@pytest.mark.parametrize(("apart", "noted"), [(-0.02, False), (0.0, True)])
+def test_distance_at_one_point_says_it_changes_nothing(tmp_path: Path, apart: float, noted: bool) -> None:
+    """--distance moves each camera's rays to its own position: with the lenses at one point (a camchain's t of 0,
+    as a hand-tuned dual-fisheye model has) it changes nothing, and a note says so rather than nothing."""
+    rig = dual_rig(tmp_path, POSE.replace("-0.02", str(apart)))
+    cv2.imwrite(str(tmp_path / "frame.png"), np.full((SIDE, 2 * SIDE, 3), 90, np.uint8))
+    result = run("equirect", rig, tmp_path / "frame.png", "-o", tmp_path / "v.png", "--size", "200x100",
+                 "--distance", "0.5")  # fmt: skip
+    assert result.exit_code == 0, result.output + result.stderr
+    notes = [line for line in result.stderr.splitlines() if "--distance changes nothing here" in line]
+    assert len(notes) == int(noted), result.stderr
+    assert all(len(line) <= 160 for line in notes)

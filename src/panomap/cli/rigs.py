@@ -39,6 +39,8 @@ from .options import (
 )
 
 WRAPPING_KINDS = ("panorama", "equirect")
+# The views of directions that take a distance, where each camera's own position then counts.
+DISTANCE_KINDS = ("panorama", "equirect", "perspective")
 
 
 def render_rig(
@@ -71,6 +73,9 @@ def render_rig(
             check_image_output(path, size)
         except PanomapError as exc:
             raise usage_error(exc, option) from None
+    if getattr(view, "distance", None) is not None and view.kind in DISTANCE_KINDS and _at_one_point(rig):
+        say_note("--distance changes nothing here: the rig's cameras sit at one point (a camchain's t of 0); "
+                 "give their separation in its calibration")  # fmt: skip
     pictures = _pictures(rig, images)
     images_bytes = max(image_file_bytes(size, picture) for picture in pictures)
     check_room([*map_file_bytes(size, save_map_path), *((path, images_bytes) for path in (output, *each_paths))],
@@ -105,6 +110,12 @@ def _percent(fraction: float) -> str:
     if 0.99 < fraction < 1.0:
         return f"{fraction:.1%}"
     return f"{fraction:.0%}"
+
+
+def _at_one_point(rig: CameraRig) -> bool:
+    """Whether every camera of ``rig`` sits at camera 0's position (world units, within 1e-9 of it)."""
+    positions = np.array([table.camera_position for table in rig.tables], dtype=np.float64)
+    return bool(np.all(np.abs(positions - positions[0]) <= 1e-9 * max(1.0, float(np.abs(positions).max()))))
 
 
 def _pictures(rig: CameraRig, images: tuple[Path, ...]) -> list[Any]:
