@@ -81,3 +81,19 @@ def test_distance_at_one_point_says_it_changes_nothing(tmp_path: Path, apart: fl
     notes = [line for line in result.stderr.splitlines() if "--distance changes nothing here" in line]
     assert len(notes) == int(noted), result.stderr
     assert all(len(line) <= 160 for line in notes)
+
+
+def test_a_rig_of_one_camera_reads_as_one(tmp_path: Path) -> None:
+    """A rig of one camera (the doc's floor-landmark example) is "a rig of 1 camera", and its view blends nothing."""
+    centre = SIDE / 2 - 0.5
+    (tmp_path / "one.yaml").write_text(
+        f"cam0: {{camera_model: pinhole, intrinsics: [{F_PX}, {F_PX}, {centre}, {centre}], distortion_model: "
+        f"equidistant, distortion_coeffs: [0, 0, 0, 0], resolution: [{SIDE}, {SIDE}]}}\n"
+    )
+    assert run("import", tmp_path / "one.yaml", "-o", tmp_path / "t.npz", "--orientation", "0", "0", "0").exit_code == 0
+    made = run("rig", "make", tmp_path / "t.npz", "-o", tmp_path / "one.npz")
+    assert made.exit_code == 0 and made.stdout.splitlines()[0] == "rig of 1 camera", made.stdout
+    cv2.imwrite(str(tmp_path / "frame.png"), np.full((SIDE, SIDE, 3), 90, np.uint8))
+    result = run("equirect", tmp_path / "one.npz", tmp_path / "frame.png", "-o", tmp_path / "v.png", "--size", "20x10")
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "blended" not in result.stdout and "; gains t x1.000)" in result.stdout, result.stdout

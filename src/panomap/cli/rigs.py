@@ -95,9 +95,10 @@ def render_rig(
     seen = float(np.mean(remapper.weights.sum(axis=0) > 0))
     shared = float(np.mean((remapper.weights > 0).sum(axis=0) > 1))
     shown = ", ".join(f"{name} x{float(np.mean(g)):.3f}" for name, g in zip(rig.names, gains, strict=True))
+    mixed = f", {_percent(shared)} blended from two cameras or more" if rig.count > 1 else ""
     say(
-        f"wrote {printable(str(output))} ({blended.shape[1]} x {blended.shape[0]}: {_percent(seen)} seen, "
-        f"{_percent(shared)} blended from two cameras or more; gains {shown})"
+        f"wrote {printable(str(output))} ({blended.shape[1]} x {blended.shape[0]}: {_percent(seen)} seen{mixed}; "
+        f"gains {shown})"
     )
     if each_paths:
         say(f"wrote each camera's own view: {', '.join(printable(str(path)) for path in each_paths)}")
