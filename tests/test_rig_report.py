@@ -97,3 +97,17 @@ def test_a_rig_of_one_camera_reads_as_one(tmp_path: Path) -> None:
     result = run("equirect", tmp_path / "one.npz", tmp_path / "frame.png", "-o", tmp_path / "v.png", "--size", "20x10")
     assert result.exit_code == 0, result.output + result.stderr
     assert "blended" not in result.stdout and "; gains t x1.000)" in result.stdout, result.stdout
+
+
+def test_report_lines_fold_after_a_semicolon_within_160_characters() -> None:
+    """rig learn's and rig place's report lines ran to 250 characters: each is cut after a '; ' where it runs
+    past 160, the pieces indented, nothing lost."""
+    from panomap.cli.rigs import fold_line
+
+    line = "  " + "; ".join(f"part {k} " + "x" * 40 for k in range(9))
+    folded = fold_line(line)
+    assert len(folded) > 1 and all(len(piece) <= 160 for piece in folded), folded
+    assert folded[0].startswith("  part 0") and all(piece.startswith("    part") for piece in folded[1:])
+    assert " ".join(piece.strip() for piece in folded) == line.strip()
+    assert fold_line("short; line") == ["short; line"]
+    assert fold_line("y" * 200) == ["y" * 200]  # nowhere to cut: whole

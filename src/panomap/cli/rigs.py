@@ -146,8 +146,28 @@ def _write_rig(rig: CameraRig, output: Path, report: Iterable[str]) -> None:
     with all_or_none():
         save_rig(rig, output)
     for line in report:
-        say(printable(line))
+        for piece in fold_line(printable(line)):
+            say(piece)
     say(f"wrote {printable(str(output))}")
+
+
+REPORT_WIDTH = 160
+"""A report line's characters at most, where it can be cut (after a '; ')."""
+
+
+def fold_line(line: str, width: int = REPORT_WIDTH) -> list[str]:
+    """``line`` cut after its '; ' where it runs past ``width`` characters, each further piece indented two spaces
+    more than the line (a piece with no '; ' in it stays whole, however long)."""
+    indent = " " * (len(line) - len(line.lstrip(" ")) + 2)
+    pieces = line.split("; ")
+    out = [pieces[0]]
+    for piece in pieces[1:]:
+        if len(out[-1]) + 2 + len(piece) <= width:
+            out[-1] += "; " + piece
+        else:
+            out[-1] += ";"
+            out.append(indent + piece)
+    return out
 
 
 def rig_format(path: Path, format_: str | None) -> str | None:
