@@ -39,6 +39,8 @@ from .options import (
 )
 
 WRAPPING_KINDS = ("panorama", "equirect")
+# The views of directions that take a distance, where each camera's own position then counts.
+DISTANCE_KINDS = ("panorama", "equirect", "perspective")
 
 
 def render_rig(
@@ -71,6 +73,9 @@ def render_rig(
             check_image_output(path, size)
         except PanomapError as exc:
             raise usage_error(exc, option) from None
+    if getattr(view, "distance", None) is not None and view.kind in DISTANCE_KINDS and _at_one_point(rig):
+        say_note("--distance changes nothing here: the rig's cameras sit at one point (a camchain's t of 0); "
+                 "give their separation in its calibration")  # fmt: skip
     pictures = _pictures(rig, images)
     images_bytes = max(image_file_bytes(size, picture) for picture in pictures)
     check_room([*map_file_bytes(size, save_map_path), *((path, images_bytes) for path in (output, *each_paths))],
@@ -88,11 +93,30 @@ def render_rig(
             for path, layer in zip(each_paths, layers, strict=True):
                 write_image(path, layer)
     seen = float(np.mean(remapper.weights.sum(axis=0) > 0))
+    shared = float(np.mean((remapper.weights > 0).sum(axis=0) > 1))
     shown = ", ".join(f"{name} x{float(np.mean(g)):.3f}" for name, g in zip(rig.names, gains, strict=True))
+    mixed = f", {_percent(shared)} blended from two cameras or more" if rig.count > 1 else ""
     say(
-        f"wrote {printable(str(output))} ({blended.shape[1]} x {blended.shape[0]}, {seen:.0%} of pixels seen by "
-        f"{rig.count} cameras; gains {shown})"
+        f"wrote {printable(str(output))} ({blended.shape[1]} x {blended.shape[0]}: {_percent(seen)} seen{mixed}; "
+        f"gains {shown})"
     )
+    if each_paths:
+        say(f"wrote each camera's own view: {', '.join(printable(str(path)) for path in each_paths)}")
+
+
+def _percent(fraction: float) -> str:
+    """A share of the view's pixels, as a percentage that says 'all' or 'none' only when it is."""
+    if 0.0 < fraction < 0.01:
+        return "under 1%"
+    if 0.99 < fraction < 1.0:
+        return f"{fraction:.1%}"
+    return f"{fraction:.0%}"
+
+
+def _at_one_point(rig: CameraRig) -> bool:
+    """Whether every camera of ``rig`` sits at camera 0's position (world units, within 1e-9 of it)."""
+    positions = np.array([table.camera_position for table in rig.tables], dtype=np.float64)
+    return bool(np.all(np.abs(positions - positions[0]) <= 1e-9 * max(1.0, float(np.abs(positions).max()))))
 
 
 def _pictures(rig: CameraRig, images: tuple[Path, ...]) -> list[Any]:
@@ -122,8 +146,28 @@ def _write_rig(rig: CameraRig, output: Path, report: Iterable[str]) -> None:
     with all_or_none():
         save_rig(rig, output)
     for line in report:
-        say(printable(line))
+        for piece in fold_line(printable(line)):
+            say(piece)
     say(f"wrote {printable(str(output))}")
+
+
+REPORT_WIDTH = 160
+"""A report line's characters at most, where it can be cut (after a '; ')."""
+
+
+def fold_line(line: str, width: int = REPORT_WIDTH) -> list[str]:
+    """``line`` cut after its '; ' where it runs past ``width`` characters, each further piece indented two spaces
+    more than the line (a piece with no '; ' in it stays whole, however long)."""
+    indent = " " * (len(line) - len(line.lstrip(" ")) + 2)
+    pieces = line.split("; ")
+    out = [pieces[0]]
+    for piece in pieces[1:]:
+        if len(out[-1]) + 2 + len(piece) <= width:
+            out[-1] += "; " + piece
+        else:
+            out[-1] += ";"
+            out.append(indent + piece)
+    return out
 
 
 def rig_format(path: Path, format_: str | None) -> str | None:

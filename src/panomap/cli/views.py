@@ -182,6 +182,32 @@ def make_view(kind: str, values: Mapping[str, Any]) -> View:
         raise usage_error(exc) from None
 
 
+class ViewCommand(click.Command):
+    """A view command that names every required option missing at once (a floor map needs --z, --x and --y: said
+    one at a time, a user ran the command three times to learn them)."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        given = list(args)
+        try:
+            return super().parse_args(ctx, args)
+        except click.MissingParameter as exc:
+            if not isinstance(exc.param, click.Option):
+                raise
+            opts, _, _ = self.make_parser(ctx).parse_args(args=given)
+            missing = [param for param in self.params if isinstance(param, click.Option) and param.required
+                       and opts.get(param.name) is None]  # fmt: skip
+            if len(missing) < 2:
+                raise
+            shown = ", ".join(_option_shown(param) for param in missing)
+            raise click.UsageError(f"missing options: {shown}", ctx) from None
+
+
+def _option_shown(param: click.Option) -> str:
+    """An option as a usage line names it: its first long name and its metavar (``--x XMIN XMAX``)."""
+    name = next((opt for opt in param.opts if opt.startswith("--")), param.opts[0])
+    return f"{name} {param.metavar}" if param.metavar else name
+
+
 def view_command(kind: str) -> click.Command:
     """The command of a registered view kind: the shared arguments and options, then the kind's own."""
     cls = view_kinds()[kind]
@@ -210,7 +236,7 @@ def view_command(kind: str) -> click.Command:
             raise click.UsageError(f"a table takes one picture, not {len(images)} (several cameras make a rig)")
         _render(table, images[0], output, maps, interp, table_sampling, lambda: make_view(kind, values))
 
-    command = click.command(kind, help=cls.summary)(view_options(run))
+    command = click.command(kind, cls=ViewCommand, help=cls.summary)(view_options(run))
     shared = {param.name for param in command.params}
     clashes = shared & {param.name for param in cls.params}
     if clashes:

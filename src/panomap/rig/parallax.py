@@ -118,7 +118,7 @@ class ParallaxFit:
         )
         roll = f"roll 1-sigma {self.roll_sigma_deg:.4f} deg"
         if self.unbounded:
-            return figures, f"  tilt NOT BOUNDED (the features' least squares, moved by parallax): {self.why}; {roll}"
+            return figures, f"  tilt NOT BOUNDED (the features' least squares, moved by parallax); {self.why}; {roll}"
         tilt = f"tilt within {self.tilt_bound_deg:.3f} deg, {roll}, moved {self.moved_deg:.3f} deg from least squares"
         if self.pinned:
             return figures, f"  {tilt}"
