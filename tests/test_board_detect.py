@@ -252,12 +252,29 @@ def test_a_later_picture_with_two_boards_of_the_size_gives_both(
     assert onto == {0, 1}
 
 
+def test_a_second_picture_with_two_boards_of_the_size_gives_both(
+    one_board_pictures: list[BoardScene], pair: BoardScene
+) -> None:
+    """After a picture of one 9 x 6 board (beyond doubt), a picture of two: the second picture's first board is of the
+    size, and the quick detector told it sees the other with the first painted over, so the search goes on: both
+    boards, as find_boards finds them, bit for bit; no size is learned, and the third picture is searched in full."""
+    images = [one_board_pictures[0].image, pair.image, one_board_pictures[2].image]
+    found = list(detect.find_boards_each(images, threads=2))
+    assert detect._bounded_size(images[0], found[0][0]) == (6, 9)
+    for k, count in ((1, 2), (2, 1)):
+        alone = find_boards(images[k], k)
+        assert len(found[k]) == len(alone) == count
+        for board, single in zip(found[k], alone, strict=True):
+            np.testing.assert_array_equal(board.pixels, single.pixels)
+    assert {matched(board, pair)[0] for board in found[1]} == {0, 1}
+
+
 def test_a_first_picture_with_two_boards_has_the_later_ones_searched_in_full(
     one_board_pictures: list[BoardScene], pair: BoardScene, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The first picture shows two 9 x 6 boards, the second one: the second picture, looked at for one board of the
-    first board's size as soon as that was found (_bounded_size), and the later ones are searched again in full
-    (find_boards) once the first picture shows its second: no size is learned from it."""
+    """The first picture shows two 9 x 6 boards, the second one: the second picture, whose look for another board was
+    the quick detector's (its first board of the first one's first board's size, _bounded_size), and the later ones
+    are searched again in full (find_boards) once the first picture shows its second: no size is learned from it."""
     searched_in_full = []
     find = detect.find_boards
 
@@ -338,41 +355,35 @@ def fisheye_pictures() -> list[BoardScene]:
     ]
 
 
-def test_the_second_picture_is_looked_at_for_the_first_ones_board_not_searched(
+def test_the_second_pictures_look_for_another_board_is_the_quick_detectors(
     fisheye_pictures: list[BoardScene], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The first picture's board is beyond doubt (_bounded_size): the second picture is looked at for one board of its
-    size by the quick detector (_one_board), not searched (one search from every seed, the first picture's, not two),
-    and its corners are the search's within 0.05 px and on the true corners as the search's are (measured: 0.007 px
-    at most from the search's; median 0.055, max 0.17 px from the truth, the search's 0.054, 0.17)."""
+    """The first picture's board is beyond doubt (_bounded_size) and the second's first board is of its size: the
+    second picture's look for another board is the quick detector's (_another), not the search's look at the picture
+    halved (one such look, the first picture's, not two), and its board is find_boards' own, bit for bit."""
     images = [scene.image for scene in fisheye_pictures]
-    searches = []
-    largest = detect._largest
+    halved = []
+    looked = detect._looked
 
-    def counted(search: NDArray[np.uint8], seeds: tuple[tuple[int, int], ...], give_up: bool = False):  # type: ignore[no-untyped-def]
-        searches.append(seeds)
-        return largest(search, seeds, give_up)
+    def counted(search: NDArray[np.uint8]):  # type: ignore[no-untyped-def]
+        halved.append(search.shape)
+        return looked(search)
 
-    monkeypatch.setattr(detect, "_largest", counted)
-    found = list(detect.find_boards_each(images, threads=1))
-    assert searches.count(detect.SEEDS) == 1
+    monkeypatch.setattr(detect, "_looked", counted)
+    found = list(detect.find_boards_each(images, threads=2))
+    assert len(halved) == 1
     assert [[sorted(board.shape) for board in boards] for boards in found] == [[[6, 9]]] * 3
-    monkeypatch.setattr(detect, "_largest", largest)
-    searched = find_boards(images[1], 1)[0].pixels
-    moved = np.linalg.norm(found[1][0].pixels[:, None, :] - searched[None, :, :], axis=2).min(axis=1)
-    assert moved.max() < 0.05, moved.max()
-    k, error, true_grid = matched(found[1][0], fisheye_pictures[1])
-    assert k == 0 and len(np.unique(true_grid, axis=0)) == len(true_grid)
-    assert np.median(error) < 0.15 and error.max() < 0.5, (np.median(error), error.max())
+    np.testing.assert_array_equal(found[1][0].pixels, find_boards(images[1], 1)[0].pixels)
+    k, error, _ = matched(found[1][0], fisheye_pictures[1])
+    assert k == 0 and np.median(error) < 0.15 and error.max() < 0.5, (np.median(error), error.max())
 
 
 def test_a_second_picture_whose_board_is_partly_hidden_is_searched_in_full(
     fisheye_pictures: list[BoardScene],
 ) -> None:
     """The second picture's board has its last three columns of corners hidden (painted over, as a hand holding it
-    would): the quick detector told the first picture's size finds no board there, so the picture is searched (its
-    5 x 6 corners, as find_boards finds them alone, bit for bit), no size is learned, and the third picture is
-    searched in full too."""
+    would): its first board (5 x 6) is not of the first picture's size, so the picture is searched in full (as
+    find_boards finds it alone, bit for bit), no size is learned, and the third picture is searched in full too."""
     truth = fisheye_pictures[1].truth[0]
     hidden = fisheye_pictures[1].image.copy()
     spacing = float(np.median(np.linalg.norm(np.diff(truth.pixels.reshape(6, 9, 2), axis=1), axis=2)))
@@ -381,7 +392,6 @@ def test_a_second_picture_whose_board_is_partly_hidden_is_searched_in_full(
     images = [fisheye_pictures[0].image, hidden, fisheye_pictures[2].image]
     found = list(detect.find_boards_each(images, threads=2))
     assert detect._bounded_size(images[0], found[0][0]) == (6, 9)
-    assert detect._quick_board(detect._grey(hidden), 1, (6, 9)) is None
     for k in (1, 2):
         alone = find_boards(images[k], k)
         assert len(found[k]) == len(alone) == 1

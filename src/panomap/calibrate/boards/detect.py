@@ -19,17 +19,16 @@ is grown on from there corner by corner (:func:`.grid._grown`), and its corners'
 the board the picture shows, not a rectangle.
 
 Once a board is found, the search for another looks at the image halved first (:func:`_looked`). Many pictures
-(:func:`find_boards_each`) are searched in threads, and where the first two show one board each, of one size,
-the others are searched for one board only (the search for more, most of what is left, is left out; OpenCV's
-quick detector, told the size, looks for a second: :func:`_one_board`); the second is itself looked at so, for a board
-of the first one's size, where that board is beyond doubt (:func:`_bounded_size`). Told the board's size, the sector
-detector is no quicker: it needs ``CALIB_CB_EXHAUSTIVE`` to find the real sets' boards (0 of 17 without on the
-Kaidan set) and then takes as long as the search grown from a seed (measured on the five sets). OpenCV's quick
-detector told the size finds the real fisheye and VMR sets' boards in a fifth of the search's time: where it finds
-the first pictures' boards and their squares are large enough for every corner to be refined in full, it stands in
-for the search on the later pictures (:func:`_quick_board`): its corners refined in full from where it puts them
-where each settles on a saddle (:func:`_settled`: a fortieth of the crop's upsampled placement), else placed as the
-search's are.
+(:func:`find_boards_each`) are searched in threads, and where the first two show one board each, of one size, the
+others are searched for one board only (the search for more, most of what is left, is left out; OpenCV's quick
+detector, told the size, looks for a second: :func:`_one_board`; so does it on the second picture, where the first
+one's board is beyond doubt: :func:`_bounded_size`). Told the board's size, the sector detector is no quicker: it
+needs ``CALIB_CB_EXHAUSTIVE`` to find the real sets' boards (0 of 17 without on the Kaidan set) and then takes as
+long as the search grown from a seed (measured on the five sets). OpenCV's quick detector told the size finds the
+real fisheye and VMR sets' boards in a fifth of the search's time: where it finds the first pictures' boards and
+their squares are large enough for every corner to be refined in full, it stands in for the search on the later
+pictures (:func:`_quick_board`): its corners refined in full from where it puts them where each settles on a saddle
+(:func:`_settled`: a fortieth of the crop's upsampled placement), else placed as the search's are.
 """
 
 from __future__ import annotations
@@ -88,9 +87,8 @@ RNG_SEED = 20071
 MAX_BOARDS = 6
 # Pictures the board is learned from (find_boards_each): where each shows one whole board, all of one size, the
 # later pictures are searched for one board of that size (the look for more left out: a third of the detection's
-# time on the real sets). The second is itself looked at for one board of the first one's size where the first
-# picture's first board is beyond doubt (_bounded_size): the real VMR set's two full searches were most of its
-# detection's CPU time.
+# time on the real sets). The second's look for more is the later pictures' where the first picture's first board
+# is beyond doubt (_bounded_size) and the second's first board is of its size.
 LEARN_PICTURES = 2
 # ... where OpenCV's quick detector, told the size, sees no second board (_one_board): its look for a board that is
 # most often absent starts with its fast check (CALIB_CB_FAST_CHECK), which ends most such looks early.
@@ -220,15 +218,15 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
     (:func:`_one_board`: the look for more, a third of the detection's time, is left out; OpenCV's quick detector
     told the size looks for a second), and in full where that one is of another size or the quick detector sees a
     second. A later picture that shows two boards of the size that the quick detector misses (a mirror's strongly
-    bent boards) gives the first only. Where the quick detector told the size finds the first picture's board and
-    its squares are large enough for every corner to be refined in full (:func:`_quick_suits`), it also stands in
+    bent boards) gives the first only. Where the quick detector told the size finds the learned pictures' boards and
+    their squares are large enough for every corner to be refined in full (:func:`_quick_suits`), it also stands in
     for the search on the later pictures (:func:`_quick_board`).
 
     Where the first picture's first board is beyond doubt (:func:`_bounded_size`: whole, every corner a board's,
-    the pattern running on past none of its edges), the second learned picture is itself looked at for one board of
-    its size (:func:`_one_board`, with the quick detector where it suits), not searched in full (two full searches
-    were most of the detection's time on the real VMR set); the size stands where the first picture then shows no
-    other board and the second one board of the size, else every picture after the first is searched in full.
+    the pattern running on past none of its edges) and the second picture's first board is whole and of its size,
+    the second picture's look for another is the quick detector's, as the later pictures' (:func:`_learning`), not
+    the search's look at the picture halved; where the first picture then shows another board, the second is
+    searched in full again with the later ones.
 
     The images are searched ``threads`` at a time (the CPUs', where None): the detector runs in one thread and
     lets the others run, so the wall time falls with the cores free and the CPU time does not. Each search seeds
@@ -240,29 +238,22 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
     later = range(len(learning), len(images))
     with ThreadPoolExecutor(max(min(len(images), threads or os.cpu_count() or 1), 1), "panomap-boards") as pool:
         firsts: list[Future[Board | None]] = [Future() for _ in learning]
-        searched = [pool.submit(_learning, images[k], k, firsts[k]) for k in learning[:1]]
-        opening = firsts[0].result() if len(learning) == LEARN_PICTURES else None
-        size = None if opening is None else _bounded_size(images[0], opening)
-        suits: list[bool] = []  # whether the quick detector suits each learned picture's board (_quick_suits)
-        told = size is not None  # the second picture looked at for one board of the first's size, not searched
-        if size is not None and opening is not None:
-            suits.append(_quick_suits(images[0], opening, size))
-            searched.append(pool.submit(_one_board, images[1], 1, size, suits[0]))
-            second = searched[1].result()
-            firsts[1].set_result(second[0] if len(second) == 1 else None)
-        else:
-            searched += [pool.submit(_learning, images[k], k, firsts[k]) for k in learning[1:]]
+        told: Future[tuple[int, int] | None] = Future()  # the first picture's first board's size, beyond doubt
+        searched = [pool.submit(_learning, images[k], k, firsts[k], told if k else None) for k in learning]
+        try:
+            opening = firsts[0].result() if len(learning) == LEARN_PICTURES else None
+            told.set_result(None if opening is None else _bounded_size(images[0], opening))
+        finally:  # (the second picture's search waits on it)
+            if not told.done():
+                told.set_result(None)
         learned = [first.result() for first in firsts]
         size = learned_size([[board] if board is not None else [] for board in learned])  # None: None once all are
         if size is None:
             ahead = [pool.submit(find_boards, images[k], k) for k in later]
         else:
             boards = [board for board in learned if board is not None]
-            rest = range(len(suits), len(boards))  # the learned pictures not yet asked
-            quick = all(suits) and all(_refined(images[k], boards[k]) for k in rest)  # cheap: before the detector
-            quick = quick and all(
-                pool.map(partial(_quick_suits, size=size), images[rest.start : len(boards)], boards[rest.start :])
-            )
+            quick = all(_refined(images[k], board) for k, board in enumerate(boards))  # cheap: before the detector
+            quick = quick and all(pool.map(partial(_quick_suits, size=size), images[: len(boards)], boards))
             ahead = [pool.submit(_one_board, images[k], k, size, quick) for k in later]
         try:
             first = [these.result() for these in searched]
@@ -273,17 +264,18 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
         finally:  # those not started where not wanted, or where the caller stops early
             for these in ahead:
                 these.cancel()
-        if told:  # the first picture shows more: the second searched in full
-            first[1] = find_boards(images[1], 1)
+        if told.result() is not None and len(first) > 1:  # the first picture shows more: the second's look was not
+            first[1] = find_boards(images[1], 1)  # the search's
         yield from first
         yield from pool.map(find_boards, [images[k] for k in later], later)
 
 
 def _bounded_size(image: NDArray[np.generic], board: Board) -> tuple[int, int] | None:
-    """The size (lesser, greater count of inner corners) of ``board`` (a picture's first board, from the search)
-    where it is beyond doubt a whole board: every corner found, each showing the board's colouring on the search's
-    image (:func:`.grid._colouring`, as :func:`_checked` asks), and the pattern running on past none of its edges
-    (:func:`.grid._beyond`: a grid a row short of its board runs on past one); else None."""
+    """The size (lesser, greater count of inner corners) of ``board`` (the first picture's first board, from the
+    search) where it is beyond doubt a whole board, one the second picture's may be compared with (:func:`_learning`):
+    every corner found, each showing the board's colouring on the search's image (:func:`.grid._colouring`, as
+    :func:`_checked` asks), and the pattern running on past none of its edges (:func:`.grid._beyond`: a grid a row
+    short of its board runs on past one); else None."""
     if len(board.pixels) != board.shape[0] * board.shape[1] or len(board.pixels) >= PATTERN_CORNERS:
         return None
     search, scale = _searched(_grey(image))
@@ -298,16 +290,34 @@ def _bounded_size(image: NDArray[np.generic], board: Board) -> tuple[int, int] |
     return low, high
 
 
-def _learning(image: NDArray[np.generic], image_index: int, first: Future[Board | None]) -> list[Board]:
-    """A learned picture's boards (:func:`find_boards`), its first board (or None) set in ``first`` when found."""
+def _learning(
+    image: NDArray[np.generic],
+    image_index: int,
+    first: Future[Board | None],
+    told: Future[tuple[int, int] | None] | None = None,
+) -> list[Board]:
+    """A learned picture's boards (:func:`find_boards`), its first board (or None) set in ``first`` when found.
+
+    With ``told`` (the second picture's: the first picture's first board's size, where beyond doubt), once its
+    first board is found the picture waits for that size: where its board is whole and of that size, the look for
+    another is OpenCV's quick detector told the size (:func:`_another`, as the later pictures', :func:`_one_board`),
+    not the search's look at the picture halved (a third to a half of a search's time), and the search goes on
+    only where that sees another."""
     try:
-        searches = _searches(_grey(image), image_index)
+        grey = _grey(image)
+        searches = _searches(grey, image_index)
         board = next(searches, None)
     except BaseException as error:  # (any, the grey image's too: find_boards_each waits on ``first``)
         first.set_exception(error)
         raise
     first.set_result(board)
-    return [] if board is None else [board, *islice(searches, MAX_BOARDS - 1)]
+    if board is None:
+        return []
+    size = None if told is None else told.result()
+    whole = len(board.pixels) == board.shape[0] * board.shape[1]
+    if size is not None and whole and tuple(sorted(board.shape)) == size and not _another(grey, board):
+        return [board]
+    return [board, *islice(searches, MAX_BOARDS - 1)]
 
 
 def learned_size(found: Sequence[Sequence[Board]]) -> tuple[int, int] | None:
@@ -343,11 +353,17 @@ def _one_board(image: NDArray[np.generic], image_index: int, size: tuple[int, in
         if board is None:
             return []
         searches = chain((board,), searches)
-    if tuple(sorted(board.shape)) != size or len(board.pixels) != size[0] * size[1]:
+    if tuple(sorted(board.shape)) != size or len(board.pixels) != size[0] * size[1] or _another(grey, board):
         return list(islice(searches, MAX_BOARDS))
+    return [board]
+
+
+def _another(grey: NDArray[np.uint8], board: Board) -> bool:
+    """Whether OpenCV's quick detector told the size of ``board`` (``QUICK_FLAGS``: its fast check first) sees another
+    board of it in ``grey`` (H, W) with ``board`` painted over (:func:`_painted_over`)."""
     painted = _painted_over(grey, board.pixels, board.grid)
     another, _ = cv2.findChessboardCorners(painted, board.shape, flags=QUICK_FLAGS)
-    return list(islice(searches, MAX_BOARDS)) if another else [board]
+    return bool(another)
 
 
 def _refined(image: NDArray[np.generic], board: Board) -> bool:
