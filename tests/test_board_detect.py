@@ -538,3 +538,19 @@ def test_a_learned_pictures_search_that_stops_is_raised_not_waited_on(monkeypatc
     monkeypatch.setattr(detect, "_searches", stopped)
     raised = raised_within([np.zeros((32, 32), np.uint8)] * 3, 10)
     assert len(raised) == 1 and isinstance(raised[0], _Stopped)
+
+
+def test_the_median_grey_is_the_middle_level_of_the_sorted_pixels() -> None:
+    """_median_grey (from the histogram) against the sorted pixels' middle (NumPy's median): odd and even counts
+    (the mean of the two middle levels, truncated as uint8 truncates), flat images, and a picture-sized one."""
+    assert detect._median_grey(np.array([3], np.uint8)) == 3
+    assert detect._median_grey(np.array([0, 255], np.uint8)) == 127  # 127.5 truncated
+    assert detect._median_grey(np.array([[1, 2], [3, 4]], np.uint8)) == 2  # 2.5 truncated
+    assert detect._median_grey(np.array([9, 1, 5], np.uint8)) == 5
+    assert detect._median_grey(np.full((7, 9), 200, np.uint8)) == 200
+    rng = np.random.default_rng(5)
+    for size in [*rng.integers(1, 400, 300), 768 * 1024]:
+        levels = rng.integers(0, 256, int(size), dtype=np.uint8)
+        middle = np.sort(levels)[[(levels.size - 1) // 2, levels.size // 2]]
+        assert detect._median_grey(levels) == np.uint8(middle.astype(np.float64).mean())
+        assert detect._median_grey(levels) == np.uint8(np.median(levels))

@@ -540,7 +540,7 @@ def _accurate(
     mask = _grown_hull(search.shape, pixels, CROP_SQUARES * float(spacing.max()))
     x, y, width, height = cv2.boundingRect(mask)
     crop = search[y : y + height, x : x + width].copy()
-    crop[mask[y : y + height, x : x + width] == 0] = np.uint8(np.median(crop))
+    crop[mask[y : y + height, x : x + width] == 0] = _median_grey(crop)
     for seed in SEEDS:
         cv2.setRNGSeed(RNG_SEED)
         found, corners, meta = cv2.findChessboardCornersSBWithMeta(
@@ -613,8 +613,18 @@ def _painted_over(search: NDArray[np.uint8], pixels: FloatArray, grid: NDArray[n
     """``search`` with a board's corners' hull, grown by one of its squares (median), filled with its median grey."""
     mask = _grown_hull(search.shape, pixels, float(np.ceil(np.median(_neighbour_spacing(pixels, grid)))))
     out: NDArray[np.uint8] = search.copy()
-    out[mask > 0] = np.uint8(np.median(search))
+    out[mask > 0] = _median_grey(search)
     return out
+
+
+def _median_grey(grey: NDArray[np.uint8]) -> np.uint8:
+    """The median grey level of ``grey`` (any shape, uint8, not empty), as ``np.uint8(np.median(grey))`` gives it (of
+    an even count, the mean of the two middle levels, truncated), from its histogram: a fifth of the sort's time on a
+    VMR picture (6 ms), once for every board painted over."""
+    cumulative = np.cumsum(np.bincount(grey.ravel(), minlength=256))
+    low = int(np.searchsorted(cumulative, (grey.size - 1) // 2, side="right"))
+    high = int(np.searchsorted(cumulative, grey.size // 2, side="right"))
+    return np.uint8((low + high) / 2)
 
 
 def _grown_hull(shape: tuple[int, ...], pixels: FloatArray, grow_px: float) -> NDArray[np.uint8]:
