@@ -128,6 +128,7 @@ class PerspectiveView(View):
         SEEN_AT,
     )
     example: ClassVar[str] = "yaw=30,pitch=-20,roll=0,fov=90,size=1280x720"
+    bytes_per_pixel: ClassVar[int] = 28  # (measured: 24.0 bytes a pixel)
 
     yaw_rad: float | None = None
     pitch_rad: float | None = None
