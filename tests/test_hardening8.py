@@ -7,11 +7,13 @@ as a rig's picture (E4).
 
 from __future__ import annotations
 
+import json
 import shutil
 import struct
 import zlib
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 from PIL import Image
@@ -216,3 +218,99 @@ def test_a_video_given_as_a_rigs_frame_gives_its_first_frame(
     result = run(*args, "-o", tmp_path / "out.npz", "-q")
     assert result.exit_code == 3, result.output + result.stderr
     assert taken == [(LENS, 2 * LENS, 3)] and result.stderr == ""  # (-q: no note that its first frame is used)
+
+
+def test_a_rig_learned_from_one_shot_given_twice_is_refused(
+    dual: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``rig learn RIG dual.jpg COPY`` (the same pixels saved again) counted each match twice: the demo's back
+    lens went from "tilt within 0.805 deg ... not pinned" to "within 0.054 deg", pinned by nothing new."""
+    monkeypatch.setattr("panomap.rig.overlap.learn_with_overlap", lambda *a, **k: pytest.fail("it learned"))
+    frame = np.random.default_rng(5).integers(0, 255, (LENS, 2 * LENS, 3), dtype=np.uint8)
+    cv2.imwrite(str(tmp_path / "a.png"), frame)
+    cv2.imwrite(str(tmp_path / "b.bmp"), frame)
+    out = tmp_path / "learned.npz"
+    result = run("rig", "learn", dual / "rig.npz", tmp_path / "a.png", tmp_path / "b.bmp", "-o", out)
+    assert_one_line_error(result, "b.bmp: the same pixels as shot 1: give each shot once")
+    result = run("rig", "learn", dual / "rig.npz", tmp_path / "a.png", tmp_path / "a.png", "-o", out)
+    assert_one_line_error(result, "are one picture (the same file): give each picture once", exit_code=2)
+    assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- E5: a table too coarse in elevation
+
+
+def test_the_rows_bound_is_what_a_table_read_between_its_elevations_gives() -> None:
+    """A camera whose radius is r = a rho^2 (closed form): read linearly between entries h apart a table is a h^2 / 4
+    off halfway, and 2 a h^2 off where its last row's extrapolation reaches the range's end: 2 a / N^2 for a range
+    of 1 rad, within 1 px from N >= sqrt(2 a)."""
+    import math
+
+    from panomap.errors import PanomapError
+    from panomap.table.table import check_table_rows
+
+    a = 100.0
+
+    def grid(size: tuple[int, int], elevation_range: tuple[float, float]) -> np.ndarray:
+        m, n = size
+        rho = elevation_range[0] + np.arange(n) * (elevation_range[1] - elevation_range[0]) / n
+        theta = 2 * math.pi * np.arange(m) / m
+        r = a * rho**2
+        return np.stack([np.cos(theta)[:, None] * r, np.sin(theta)[:, None] * r], axis=-1)
+
+    least = math.ceil(math.sqrt(2 * a))
+    check_table_rows((8, least), (0.0, 1.0), grid)
+    with pytest.raises(PanomapError, match=f"8x{least - 1}: between its {least - 1} elevations the views would be up "
+                       f"to 1 px off: give N >= {least} "):  # fmt: skip
+        check_table_rows((8, least - 1), (0.0, 1.0), grid)
+    with pytest.raises(PanomapError, match="8x2: between its 2 elevations the views would be up to 50 px off"):
+        check_table_rows((8, 2), (0.0, 1.0), grid)
+
+
+def test_a_table_of_a_given_size_too_coarse_in_elevation_is_refused(tmp_path: Path) -> None:
+    """``import --table-size 64x16`` was written, its views up to 27 px off the default table's (an equirect view:
+    median 0.04 px); ``fit --size 56x2`` on the demo, up to 141 px off."""
+    from test_hardening7 import ocam_file
+
+    calibration = ocam_file(tmp_path / "calib_results.txt")
+    out = tmp_path / "cam.npz"
+    result = run("import", calibration, "-o", out, "--table-size", "64x16")
+    assert_one_line_error(result, "table size 64x16: between its 16 elevations the views would be up to 28 px off: "
+                          "give N >= 144 (within 1 px)")  # fmt: skip
+    assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- E6: what came before a refusal
+
+
+def test_an_imports_note_is_not_printed_before_its_refusal(tmp_path: Path) -> None:
+    """The note naming what was read ("OpenCalib OCam intrinsic 'front_camera-intrinsic'") came on a line before
+    the refusal of the table's size or of the image."""
+    from test_interop_opencalib import intrinsic
+
+    calibration = tmp_path / "front.json"
+    calibration.write_text(json.dumps(intrinsic()))
+    result = run("import", calibration, "-o", tmp_path / "cam.npz", "--table-size", "8x64")
+    assert_one_line_error(result, "front.json: table size 8x64: between its 8 azimuths")
+
+
+@pytest.mark.parametrize("kind", ["basalt", "ocam"])
+def test_another_tools_json_given_as_opencalib_says_it_is_none(tmp_path: Path, kind: str) -> None:
+    """A Basalt calibration said "value0.param is missing"; OCamCalib's JSON "an OpenCalib file holds one object
+    (its sensor's), this one 27 objects"."""
+    data = {"value0": {"intrinsics": []}} if kind == "basalt" else {f"k{k}": k for k in range(27)}
+    calibration = tmp_path / "cam.json"
+    calibration.write_text(json.dumps(data))
+    result = run("import", calibration, "-o", tmp_path / "cam.npz", "--format", "opencalib")
+    assert_one_line_error(result, "cam.json: not an OpenCalib intrinsic: ")
+
+
+def test_a_manifest_listing_an_input_twice_says_so(inputs: Path, tmp_path: Path) -> None:
+    """It said "two outputs would be this file (omni.png and omni.png): put {stem} or {camera} in the template",
+    of a template holding both."""
+    manifest = tmp_path / "cams.csv"
+    manifest.write_text("input,table,camera\n" + f"{inputs / 'omni.png'},{inputs / 'cam.npz'},c\n" * 2)
+    result = run("batch", manifest, "-o", str(tmp_path / "out" / "{camera}_{stem}_{name}.png"), "--view",
+                 "panorama:size=64x16", "--workers", 1)  # fmt: skip
+    assert_one_line_error(result, "omni.png is listed twice for this output: list it once")
+    assert not (tmp_path / "out").exists()

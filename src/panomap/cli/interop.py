@@ -195,8 +195,6 @@ def import_(
     axis = axis or "down"
     sources: dict[str, str] = {}
     imported = read_calibration(calibration, format_, camera_name or camera_id)
-    for note in imported.notes:
-        say_note(f"{printable(note)}")
     if image is not None:
         image_size, cutoff_radius, outer_radius, mirror = _bounds_of_image(
             imported, calibration, image, (cutoff_radius, outer_radius), mirror, sources
@@ -215,6 +213,8 @@ def import_(
         sources=sources,
         mirror=bool(mirror),
     )
+    for note in imported.notes:  # (once the table is made: a refusal is one line)
+        say_note(f"{printable(note)}")
     if image is None and mirror is None and _could_be_a_mirror(imported, image_size, outer_radius):
         # Nothing says which, and the model sees beyond 90 deg off its axis, as a mirror camera does: say so.
         say_note("taken as a lens; a mirror camera's needs --mirror (or --image)")

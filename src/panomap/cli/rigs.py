@@ -432,12 +432,27 @@ def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
     if len(images) % per_shot:
         names = ", ".join(loaded.names)
         raise click.UsageError(f"give one picture per camera of the rig ({names}), shot after shot, not {len(images)}")
+    if per_shot == 1:  # (a shot's cameras' pictures given twice: _refuse_same_shot, below)
+        refuse_same_input(images, "picture", "its matches twice would count twice", lambda _: "'PICTURES...'")
     shots: list[Any] = []
     for start in range(0, len(images), per_shot):
         pictures = read_rig_pictures(loaded, images[start : start + per_shot], read=_read_omni)
+        _refuse_same_shot(shots, pictures, images[start : start + per_shot], per_shot)
         shots.append(pictures[0] if loaded.offsets is not None else pictures)
     learned = learn_with_overlap(loaded, shots, turn=turn_table)
     _write_rig(learned.rig, output, learned.describe())
+
+
+def _refuse_same_shot(shots: list[Any], pictures: list[Any], paths: tuple[Path, ...], per_shot: int) -> None:
+    """Refuse a shot whose pictures hold the same pixels as an earlier shot's (a copy saved again): its matches
+    would count twice, and the tilt's bound would narrow as if a second view had pinned it."""
+    for number, shot in enumerate(shots):
+        earlier = [shot] if per_shot == 1 else shot
+        if all(np.array_equal(a, b) for a, b in zip(earlier, pictures, strict=True)):
+            raise PanomapError(
+                f"the same pixels as shot {number + 1}: give each shot once (its matches twice would count twice)",
+                paths[0],
+            )
 
 
 def _read_omni(path: Path, size: tuple[int, int] | None, expected_by: str) -> Any:
