@@ -165,7 +165,8 @@ def test_a_picture_without_a_rim_gets_one_short_note_without_a_centre_to_start_f
     path = omnidir_file(tmp_path / "omnidir.yaml", 300.0, 1.0)
     picture = np.random.default_rng(0).integers(0, 256, (480, 640, 3), dtype=np.uint8)
     cv2.imwrite(str(tmp_path / "full.png"), cv2.GaussianBlur(picture, (0, 0), 2.0))
-    result = run("import", path, "-o", tmp_path / "cam.npz", "--image", tmp_path / "full.png", "--table-size", "256x128")
+    result = run("import", path, "-o", tmp_path / "cam.npz", "--image", tmp_path / "full.png", "--table-size",
+                 "256x128")  # fmt: skip
     assert result.exit_code == 0, result.stderr
     notes = result.stderr.strip().splitlines()
     assert len(notes) == 1 and notes[0].startswith("panomap: note: full.png: no image circle found"), notes
