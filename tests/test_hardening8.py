@@ -314,3 +314,23 @@ def test_a_manifest_listing_an_input_twice_says_so(inputs: Path, tmp_path: Path)
                  "panorama:size=64x16", "--workers", 1)  # fmt: skip
     assert_one_line_error(result, "omni.png is listed twice for this output: list it once")
     assert not (tmp_path / "out").exists()
+
+
+def test_a_perspective_view_with_no_angles_of_a_mirror_camera_imported_without_its_cut_off_looks_off_its_axis(
+    tmp_path: Path,
+) -> None:
+    """``import --mirror`` with no picture leaves the cut-off disc (the camera's own reflection) in the table:
+    ``perspective`` with no angles looked along the axis, at the camera itself ("100% of pixels with a source" on
+    the shared VMR mirror). It turns off the axis now by the middle of the angles the table sees, as with a cut-off:
+    level, to the pitch halfway along the table's elevations."""
+    from panomap.table.file import load_table
+    from panomap.views.perspective import default_direction
+    from test_hardening7 import ocam_file
+
+    out = tmp_path / "mirror.npz"
+    assert run("import", ocam_file(tmp_path / "calib_results.txt"), "-o", out, "--mirror", "-q").exit_code == 0
+    table = load_table(out)
+    low, high = table.elevation_range
+    assert low == pytest.approx(-np.pi / 2)  # (no cut-off: the table reaches the axis)
+    _, pitch = default_direction(table)
+    assert pitch == pytest.approx((low + high) / 2, abs=1e-9)
