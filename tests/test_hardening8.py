@@ -334,3 +334,15 @@ def test_a_perspective_view_with_no_angles_of_a_mirror_camera_imported_without_i
     assert low == pytest.approx(-np.pi / 2)  # (no cut-off: the table reaches the axis)
     _, pitch = default_direction(table)
     assert pitch == pytest.approx((low + high) / 2, abs=1e-9)
+
+
+def test_a_camera_name_given_beside_a_manifest_is_refused(inputs: Path, tmp_path: Path) -> None:
+    """``batch cams.csv --camera x`` ran, every output under the manifest's camera names: --camera silently
+    ignored (it names the camera without a manifest), as --table beside a manifest is not."""
+    manifest = tmp_path / "cams.csv"
+    manifest.write_text(f"input,table,camera\n{inputs / 'omni.png'},{inputs / 'cam.npz'},c\n")
+    result = run("batch", manifest, "--camera", "x", "-o", str(tmp_path / "out" / "{camera}_{name}.png"), "--view",
+                 "panorama:size=64x16", "--workers", 1)  # fmt: skip
+    assert_one_line_error(result, "cams.csv names each input's camera (or takes its table's stem): give no --camera",
+                          exit_code=2)  # fmt: skip
+    assert not (tmp_path / "out").exists()
