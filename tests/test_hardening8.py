@@ -294,15 +294,28 @@ def test_an_imports_note_is_not_printed_before_its_refusal(tmp_path: Path) -> No
     assert_one_line_error(result, "front.json: table size 8x64: between its 8 azimuths")
 
 
-@pytest.mark.parametrize("kind", ["basalt", "ocam"])
-def test_another_tools_json_given_as_opencalib_says_it_is_none(tmp_path: Path, kind: str) -> None:
-    """A Basalt calibration said "value0.param is missing"; OCamCalib's JSON "an OpenCalib file holds one object
-    (its sensor's), this one 27 objects"."""
+@pytest.mark.parametrize(
+    ("kind", "given", "message"),
+    [
+        ("basalt", "opencalib", "not an OpenCalib intrinsic: its one object, value0, has no param"),
+        ("ocam", "opencalib", "not an OpenCalib intrinsic: it holds one object (its sensor's), this one 27 objects"),
+        ("opencalib", "gyroflow", "not a gyroflow lens profile (no fisheye_params or calib_dimension)"),
+        ("basalt", "gyroflow", "not a gyroflow lens profile (no fisheye_params or calib_dimension)"),
+    ],
+)
+def test_another_tools_json_given_as_opencalib_or_gyroflow_says_it_is_none(
+    tmp_path: Path, kind: str, given: str, message: str
+) -> None:
+    """As OpenCalib: a Basalt calibration said "value0.param is missing", OCamCalib's JSON "an OpenCalib file holds
+    one object (its sensor's), this one 27 objects"; as gyroflow, either said "fisheye_params is missing" (Basalt's
+    reader, given another tool's file, says "not a Basalt calibration (no "value0" object)")."""
+    from test_interop_opencalib import intrinsic
+
     data = {"value0": {"intrinsics": []}} if kind == "basalt" else {f"k{k}": k for k in range(27)}
     calibration = tmp_path / "cam.json"
-    calibration.write_text(json.dumps(data))
-    result = run("import", calibration, "-o", tmp_path / "cam.npz", "--format", "opencalib")
-    assert_one_line_error(result, "cam.json: not an OpenCalib intrinsic: ")
+    calibration.write_text(json.dumps(intrinsic() if kind == "opencalib" else data))
+    result = run("import", calibration, "-o", tmp_path / "cam.npz", "--format", given)
+    assert_one_line_error(result, f"cam.json: {message}")
 
 
 def test_a_manifest_listing_an_input_twice_says_so(inputs: Path, tmp_path: Path) -> None:
