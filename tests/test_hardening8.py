@@ -359,3 +359,12 @@ def test_a_camera_name_given_beside_a_manifest_is_refused(inputs: Path, tmp_path
     assert_one_line_error(result, "cams.csv names each input's camera (or takes its table's stem): give no --camera",
                           exit_code=2)  # fmt: skip
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("command", [["demo", "-o", ""], ["learn", "omni.png", "--dir", ""]])
+def test_an_empty_folder_name_is_refused(command: list[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    """``demo -o ''`` wrote its 41 MB into the current folder, unsaid (the other commands' ``-o ''`` is "." and
+    refused as a folder)."""
+    monkeypatch.setattr("panomap.cli.demo.run_demo", lambda *a, **k: pytest.fail("the demo ran"))
+    result = run(*command)
+    assert_one_line_error(result, "an empty folder name: give one ('.' for the current folder)", exit_code=2)

@@ -186,7 +186,18 @@ POSITIVE = Finite(0.0, open=True)
 NON_NEGATIVE = Finite(0.0)
 TILT = Tilt()
 PATH = click.Path(path_type=Path, dir_okay=False)
-FOLDER = click.Path(path_type=Path, file_okay=False)
+
+
+class Folder(click.Path):
+    """A folder's path; the empty name, which would be the current folder unsaid, is refused (give ".")."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if value == "":
+            self.fail("an empty folder name: give one ('.' for the current folder)", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+FOLDER = Folder(path_type=Path, file_okay=False)
 
 
 def read_omni(
