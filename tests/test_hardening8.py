@@ -150,6 +150,18 @@ def test_a_tiff_cut_before_its_directory_is_refused_in_our_line_alone(tmp_path: 
     assert_one_line_error(run("centre", cut), "cut.tif: cannot read it as an image")
 
 
+def test_a_webp_whose_data_end_early_is_no_video(tmp_path: Path) -> None:
+    """A lossy WebP of 16 x 16 px whose header claims 4000 x 4000: libwebp refuses it, and it was then taken for a
+    video ("is a video: its first frame is used"), FFmpeg decoding 16 megapixels of it in 2.7 s and 550 MB."""
+    small = np.random.default_rng(1).integers(0, 255, (16, 16, 3), dtype=np.uint8)
+    data = bytearray(cv2.imencode(".webp", small, [cv2.IMWRITE_WEBP_QUALITY, 90])[1].tobytes())
+    start = data.find(b"\x9d\x01\x2a") + 3  # (the VP8 frame's start code, then its width and height)
+    data[start : start + 4] = struct.pack("<HH", 4000, 4000)
+    path = tmp_path / "x.webp"
+    path.write_bytes(data)
+    assert_one_line_error(run("centre", path), "x.webp: cannot read it as an image (a truncated or corrupt WebP)")
+
+
 # ----------------------------------------------------------------------------- E3: the demo
 
 

@@ -43,6 +43,9 @@ _OPENCV_LOG_LOCK = threading.Lock()  # OpenCV's log level is process-wide
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 JPEG_SIGNATURE = b"\xff\xd8\xff"
 TIFF_SIGNATURES = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")  # (classic and BigTIFF)
+# The still-image formats whose header Pillow reads, by its names for them, as said: a file of one that OpenCV
+# cannot decode is corrupt, not a video (FFmpeg decodes a corrupt WebP or TIFF as a frame, filling what it lacks).
+STILL_FORMATS = {"PNG": "PNG", "JPEG": "JPEG", "TIFF": "TIFF", "WEBP": "WebP", "BMP": "BMP", "PPM": "PNM"}
 # The problem of a file no decoder here recognises: the one a caller may try as a video instead.
 UNKNOWN_FORMAT = "cannot read it as an image (unknown format or corrupt)"
 
@@ -85,7 +88,7 @@ def read_image(
     declared = _header(path)
     if declared is not None:
         check_image_size(path, declared[0], expected_size, expected_by)
-        _check_claim(path, *declared)
+        _check_claim(path, declared[0], declared[1])
     data = np.fromfile(path, dtype=np.uint8)
     if data[: len(PNG_SIGNATURE)].tobytes() == PNG_SIGNATURE:
         problem = png_problem(path)
@@ -103,6 +106,11 @@ def read_image(
     short = [line for line in said if _DATA_ENDS.search(line)]
     if short and image is not None:  # (the decoder filled what the file lacks)
         raise PanomapError(f"cannot read it as an image (a truncated or corrupt file: {_said(short[0])})", path)
+    if image is None and declared is not None and declared[2] in STILL_FORMATS:  # (no video: FFmpeg would fill it)
+        reason = f": {_said(said[0])}" if said else ""
+        raise PanomapError(
+            f"cannot read it as an image (a truncated or corrupt {STILL_FORMATS[declared[2]]}{reason})", path
+        )
     if image is None:
         raise PanomapError(UNKNOWN_FORMAT + (f": {_said(said[0])}" if said else ""), path)
     if image.dtype not in (np.uint8, np.uint16):
@@ -239,8 +247,9 @@ def header_size(path: str | Path) -> tuple[int, int] | None:
     return None if header is None else header[0]
 
 
-def _header(path: str | Path) -> tuple[tuple[int, int], str] | None:
-    """((width, height), Pillow's mode) from an image file's header, as :func:`header_size` reads it."""
+def _header(path: str | Path) -> tuple[tuple[int, int], str, str] | None:
+    """((width, height), Pillow's mode, Pillow's format) from an image file's header, as :func:`header_size` reads
+    it."""
     from PIL import Image, UnidentifiedImageError
 
     if not Path(path).is_file():  # (a FIFO would block Pillow's read)
@@ -253,12 +262,12 @@ def _header(path: str | Path) -> tuple[tuple[int, int], str] | None:
         limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
         try:
             with Image.open(path) as image:
-                (width, height), mode = image.size, str(image.mode)
+                (width, height), mode, kind = image.size, str(image.mode), str(image.format)
         except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
             return None
         finally:
             Image.MAX_IMAGE_PIXELS = limit
-    return (int(width), int(height)), mode
+    return (int(width), int(height)), mode, kind
 
 
 def _check_claim(path: Path, size: tuple[int, int], mode: str) -> None:
