@@ -336,7 +336,7 @@ def test_a_manifest_listing_an_input_twice_says_so(inputs: Path, tmp_path: Path)
     manifest = tmp_path / "cams.csv"
     manifest.write_text("input,table,camera\n" + f"{inputs / 'omni.png'},{inputs / 'cam.npz'},c\n" * 2)
     result = run("batch", manifest, "-o", str(tmp_path / "out" / "{camera}_{stem}_{name}.png"), "--view",
-                 "panorama:size=64x16", "--workers", 1)  # fmt: skip
+                 "panorama:size=64x16", "--workers", 1, "--record", tmp_path / "record.jsonl")  # fmt: skip
     assert_one_line_error(result, "omni.png is listed twice for this output: list it once")
     assert not (tmp_path / "out").exists()
 
@@ -367,7 +367,7 @@ def test_a_camera_name_given_beside_a_manifest_is_refused(inputs: Path, tmp_path
     manifest = tmp_path / "cams.csv"
     manifest.write_text(f"input,table,camera\n{inputs / 'omni.png'},{inputs / 'cam.npz'},c\n")
     result = run("batch", manifest, "--camera", "x", "-o", str(tmp_path / "out" / "{camera}_{name}.png"), "--view",
-                 "panorama:size=64x16", "--workers", 1)  # fmt: skip
+                 "panorama:size=64x16", "--workers", 1, "--record", tmp_path / "record.jsonl")  # fmt: skip
     assert_one_line_error(result, "cams.csv names each input's camera (or takes its table's stem): give no --camera",
                           exit_code=2)  # fmt: skip
     assert not (tmp_path / "out").exists()
