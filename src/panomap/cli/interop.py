@@ -198,8 +198,6 @@ def import_(
     axis = axis or "down"
     sources: dict[str, str] = {}
     imported = read_calibration(calibration, format_, camera_name or camera_id)
-    for note in imported.notes:
-        say_note(f"{printable(note)}")
     if fov_deg is not None:  # (a lens's: no cut-off disc makes it a mirror camera)
         outer_radius, mirror = _outer_radius_of_fov(imported, fov_deg, calibration), False
     if image is not None:
@@ -222,6 +220,8 @@ def import_(
         sources=sources,
         mirror=bool(mirror),
     )
+    for note in imported.notes:  # (once the table is made: a refusal is one line)
+        say_note(f"{printable(note)}")
     if image is None and mirror is None and _could_be_a_mirror(imported, image_size, outer_radius):
         # Nothing says which, and the model sees beyond 90 deg off its axis, as a mirror camera does: say so.
         say_note("taken as a lens; a mirror camera's needs --mirror (or --image)")

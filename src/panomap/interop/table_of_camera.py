@@ -24,7 +24,7 @@ from ..camera.radial import RadialFunction, fit_radial
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError
 from ..geometry import TWO_PI, FloatArray
-from ..table.table import PanoMappingTable, check_table_chords, check_table_size
+from ..table.table import PanoMappingTable, check_table_chords, check_table_rows, check_table_size
 from .frame import HANDEDNESS, camera_rays
 from .models.base import ExternalCamera
 
@@ -259,7 +259,9 @@ def table_of_camera(
         size = (max(m, 16), min(max(math.ceil(outer - cutoff), 16), MAX_DEFAULT_SIZE[1]))
     size = check_table_size(size)
     check_table_chords(size, outer)
-    entries = project_grid(camera, model, size, world_range, camera_range if tilted else None)
+    seen_range = camera_range if tilted else None
+    check_table_rows(size, world_range, lambda grid, rows: project_grid(camera, model, grid, rows, seen_range))
+    entries = project_grid(camera, model, size, world_range, seen_range)
     table_info = dict(info or {})
     record = dict(table_info.get("import", {}))
     record.update(
