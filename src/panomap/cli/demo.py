@@ -43,6 +43,8 @@ OUTPUTS = (
 # The most the demo writes into its folder (bytes): 37.3 to 41.3 MB measured for its five cameras (the maps,
 # 26 MB, the most), with room to spare.
 DEMO_BYTES = 48_000_000
+# Left in the demo's folder: a folder without it holds no demo's files, and the demo overwrites none of them.
+MARK = ".panomap-demo"
 
 
 def pick_landmarks(
@@ -63,12 +65,14 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
     made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     try:
+        _refuse_others_files(out)
         check_outputs([], [(name, out / name) for name in OUTPUTS])  # (none a FIFO, a device, read-only)
         check_room([(out / OUTPUTS[0], DEMO_BYTES)], up_to=True)
     except PanomapError:
         if made:
             out.rmdir()
         raise
+    (out / MARK).write_text("panomap demo's folder: `panomap demo` may write its files here again\n")
     room = load_room()
     position = np.asarray(room.camera)
     camera = standard_cameras(IMAGE_SIZE, centre=(517.3, 503.8), s=-1, phi0=0.6)[camera_name]
@@ -141,6 +145,17 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
     yield f"rendered four checkerboards held before the same camera, to learn it from: {out / 'boards.png'}"
     yield from write_inputs(out, room, omni, camera.centre)
     yield f"done in {time.perf_counter() - start:.1f} s"
+
+
+def _refuse_others_files(out: Path) -> None:
+    """Refuse folder ``out`` where it holds a file of a demo's name (``OUTPUTS``) but no demo's mark: the user's own
+    ``table.npz`` or ``landmarks.csv``, which the demo would overwrite."""
+    if (out / MARK).exists():
+        return
+    theirs = [name for name in OUTPUTS if (out / name).exists()]
+    if theirs:
+        named = ", ".join(theirs[:3]) + (f" and {len(theirs) - 3} more" if len(theirs) > 3 else "")
+        raise PanomapError(f"holds {named} (not a demo's), which the demo would overwrite: give another folder", out)
 
 
 @click.command()
