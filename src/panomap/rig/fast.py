@@ -151,8 +151,7 @@ class RigPlane:
         box (None where there are none)."""
         (x, y), (w, h) = place, size
         alone = (owners == k).view(np.uint8)
-        inside = cv2.inRange(map_uv, (-0.5, -0.5), (w - 0.5, h - 0.5), dst=np.empty(alone.shape, np.uint8))
-        cv2.bitwise_and(alone, inside, dst=alone)  # (inside_image; NumPy's array: huge pages, as seams.py says)
+        cv2.bitwise_and(alone, cv2.inRange(map_uv, (-0.5, -0.5), (w - 0.5, h - 0.5)), dst=alone)  # (inside_image)
         left, top, across, down = cv2.boundingRect(alone)
         if across == 0:
             return None

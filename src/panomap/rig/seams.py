@@ -23,7 +23,6 @@ import os
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any
 
 import cv2
 import numpy as np
@@ -132,10 +131,7 @@ def seam_weights(
     count = len(maps)
     height, width = maps[0].shape[:2]
     feather = default_feather_px((height, width)) if feather_px is None else float(feather_px)
-    # (OpenCV's outputs in NumPy's arrays: NumPy asks for huge pages for large ones, OpenCV's own 4 KiB pages
-    # took a fresh process as long to fault in as the work)
-    seen = [np.asarray(cv2.inRange(map_uv, (-_FINITE, -_FINITE), (_FINITE, _FINITE),
-                                   dst=np.empty((height, width), np.uint8)), dtype=np.uint8)
+    seen = [np.asarray(cv2.inRange(map_uv, (-_FINITE, -_FINITE), (_FINITE, _FINITE)), dtype=np.uint8)
             for map_uv in maps]  # fmt: skip  # (255: it sees)
     seers = np.zeros((height, width), dtype=np.uint8)
     ids = np.zeros((height, width), dtype=np.uint8)
@@ -168,13 +164,9 @@ def seam_weights(
         if step > 1:
             distances[k] = coarse_distances(mask, overlap, step, wrap)
             return
-        padded: NDArray[Any] = mask
-        if pad:
-            padded = cv2.copyMakeBorder(mask, 0, 0, pad, pad, cv2.BORDER_WRAP, dst=np.empty((height, width + 2 * pad),
-                                        np.uint8))  # fmt: skip
-        field = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE,
-                                      dst=np.empty(padded.shape, np.float32))  # fmt: skip
-        np.take(field.reshape(-1), padded_at, out=distances[k])
+        padded = cv2.copyMakeBorder(mask, 0, 0, pad, pad, cv2.BORDER_WRAP) if pad else mask
+        np.take(cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).reshape(-1), padded_at,
+                out=distances[k])  # fmt: skip
 
     # The cameras' distance transforms side by side (OpenCV lets go of the GIL; each its own, as one after another).
     with ThreadPoolExecutor(min(count, os.cpu_count() or 1), thread_name_prefix="panomap-seams") as pool:
@@ -205,7 +197,7 @@ def coarse_distances(mask: NDArray[np.uint8], flat: NDArray[np.intp], step: int,
     pad = -(-(width // 4) // step) if wrap else 0
     if pad:  # (wrapping: the node after the last column is column 0's, in the padding)
         coarse = np.asarray(cv2.copyMakeBorder(coarse, 0, 0, pad, pad, cv2.BORDER_WRAP), dtype=np.uint8)
-    field = cv2.distanceTransform(coarse, cv2.DIST_L2, cv2.DIST_MASK_PRECISE, dst=np.empty(coarse.shape, np.float32))
+    field = cv2.distanceTransform(coarse, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     # Read at the pixels' node coordinates, laid out as rows for cv2.remap (bilinear; past the last node, not
     # wrapping: the last repeated); 1.25 M pixels a camera: 2 ms, where NumPy's four gathers took 75.
     across = min(flat.size, BUFFER_WIDTH)

@@ -234,19 +234,12 @@ def _read(
     Written into ``out`` (C-contiguous, float32) when given.
     """
     u_image, v_image, all_inside = images
-    # (OpenCV's outputs in NumPy's arrays, here and below: NumPy asks for huge pages for large ones, and a fresh
-    # process faulting OpenCV's own 4 KiB pages in spent as long in the kernel as in the sampling)
-    u, v = np.empty(map_x.shape, np.float32), np.empty(map_x.shape, np.float32)
-    cv2.remap(u_image, map_x, map_y, interpolation, dst=u, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
-    cv2.remap(v_image, map_x, map_y, interpolation, dst=v, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
-    if out is None:
-        out = np.empty((*map_x.shape, 2), dtype=np.float32)
-    uv = cv2.merge([u, v], dst=out)
+    u = cv2.remap(u_image, map_x, map_y, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
+    v = cv2.remap(v_image, map_x, map_y, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=math.nan)
+    uv = cv2.merge([u, v]) if out is None else cv2.merge([u, v], dst=out)
     if not all_inside and image_size is not None:
         width, height = image_size
-        outside = cv2.inRange(
-            uv, (-0.5, -0.5), (width - 0.5, height - 0.5), dst=np.empty(map_x.shape, np.uint8)
-        )  # (inside_image, in OpenCV)
+        outside = cv2.inRange(uv, (-0.5, -0.5), (width - 0.5, height - 0.5))  # (inside_image, in OpenCV)
         cv2.bitwise_not(outside, dst=outside)
         # NaN there: its bits (0x7FC00000) set in the float32s' bits, in OpenCV (NumPy's masked writes are slow)
         bits = uv.view(np.int32)
