@@ -44,7 +44,7 @@ class Chain(tuple):  # type: ignore[type-arg]
 def chain() -> Chain:
     camera = standard_cameras(SIZE, centre=(80.4, 79.1))["hyperbolic"]
     marks = spread_landmarks(camera, POSITION, 30, np.random.default_rng(5))
-    table, fit = learn_table(camera, POSITION, marks, SIZE, table_size=(64, 16))
+    table, fit = learn_table(camera, POSITION, marks, SIZE, table_size=(64, 48))
     return Chain((marks, fit, table))
 
 
@@ -202,7 +202,7 @@ def info_calls(chain: tuple[Any, Any, Any], tmp_path: Path, info: Any) -> dict[s
     marks, fit, table = chain
     return {
         "save_table": lambda: panomap.save_table(dataclasses.replace(table, info=info), tmp_path / "t.npz"),
-        "create_table": lambda: panomap.create_table(fit, size=(64, 16), image_size=SIZE, info=info),
+        "create_table": lambda: panomap.create_table(fit, size=(64, 48), image_size=SIZE, info=info),
         "calibrate_camera": lambda: panomap.calibrate_camera(
             marks, POSITION, centre=(80.4, 79.1), image_size=SIZE, info=info
         ),

@@ -252,12 +252,29 @@ def test_a_later_picture_with_two_boards_of_the_size_gives_both(
     assert onto == {0, 1}
 
 
+def test_a_second_picture_with_two_boards_of_the_size_gives_both(
+    one_board_pictures: list[BoardScene], pair: BoardScene
+) -> None:
+    """After a picture of one 9 x 6 board (beyond doubt), a picture of two: the second picture's first board is of the
+    size, and the quick detector told it sees the other with the first painted over, so the search goes on: both
+    boards, as find_boards finds them, bit for bit; no size is learned, and the third picture is searched in full."""
+    images = [one_board_pictures[0].image, pair.image, one_board_pictures[2].image]
+    found = list(detect.find_boards_each(images, threads=2))
+    assert detect._bounded_size(images[0], found[0][0]) == (6, 9)
+    for k, count in ((1, 2), (2, 1)):
+        alone = find_boards(images[k], k)
+        assert len(found[k]) == len(alone) == count
+        for board, single in zip(found[k], alone, strict=True):
+            np.testing.assert_array_equal(board.pixels, single.pixels)
+    assert {matched(board, pair)[0] for board in found[1]} == {0, 1}
+
+
 def test_a_first_picture_with_two_boards_has_the_later_ones_searched_in_full(
     one_board_pictures: list[BoardScene], pair: BoardScene, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The first picture shows two 9 x 6 boards, the second one: the later pictures, searched for one board as soon as
-    the first boards were found, are searched again in full (find_boards) once the first picture shows its second:
-    no size is learned from it."""
+    """The first picture shows two 9 x 6 boards, the second one: the second picture, whose look for another board was
+    the quick detector's (its first board of the first one's first board's size, _bounded_size), and the later ones
+    are searched again in full (find_boards) once the first picture shows its second: no size is learned from it."""
     searched_in_full = []
     find = detect.find_boards
 
@@ -269,8 +286,10 @@ def test_a_first_picture_with_two_boards_has_the_later_ones_searched_in_full(
     images = [pair.image, one_board_pictures[0].image, one_board_pictures[2].image]
     found = list(detect.find_boards_each(images, threads=2))
     assert [len(boards) for boards in found] == [2, 1, 1]
-    assert searched_in_full == [2]
-    np.testing.assert_array_equal(found[2][0].pixels, find(images[2], 2)[0].pixels)
+    assert detect._bounded_size(images[0], found[0][0]) == (6, 9)
+    assert searched_in_full == [1, 2]
+    for k in (1, 2):
+        np.testing.assert_array_equal(found[k][0].pixels, find(images[k], k)[0].pixels)
 
 
 @pytest.fixture(scope="module")
@@ -323,22 +342,90 @@ def test_a_grid_a_row_short_of_its_board_is_kept_and_a_row_past_its_edge_taken_o
     np.testing.assert_array_equal(trimmed[0], short)
 
 
+@pytest.fixture(scope="module")
+def fisheye_pictures() -> list[BoardScene]:
+    """Three pictures of a 9 x 6 board (inner corners, squares 18 px or more) through a 190-degree fisheye, 960 x 540:
+    squares large enough for the quick detector to stand in for the search (_quick_suits)."""
+    camera = line_camera("fisheye190", 0.5)
+    return [
+        render_board_scene(
+            camera, board_poses(camera, 1, seed=80 + k, sizes=((9, 6),), min_square_px=18.0), seed=k, supersample=2
+        )
+        for k in range(3)
+    ]
+
+
+def test_the_second_pictures_look_for_another_board_is_the_quick_detectors(
+    fisheye_pictures: list[BoardScene], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The first picture's board is beyond doubt (_bounded_size) and the second's first board is of its size: the
+    second picture's look for another board is the quick detector's (_another), not the search's look at the picture
+    halved (one such look, the first picture's, not two), and its board is find_boards' own, bit for bit."""
+    images = [scene.image for scene in fisheye_pictures]
+    halved = []
+    looked = detect._looked
+
+    def counted(search: NDArray[np.uint8]):  # type: ignore[no-untyped-def]
+        halved.append(search.shape)
+        return looked(search)
+
+    monkeypatch.setattr(detect, "_looked", counted)
+    found = list(detect.find_boards_each(images, threads=2))
+    assert len(halved) == 1
+    assert [[sorted(board.shape) for board in boards] for boards in found] == [[[6, 9]]] * 3
+    np.testing.assert_array_equal(found[1][0].pixels, find_boards(images[1], 1)[0].pixels)
+    k, error, _ = matched(found[1][0], fisheye_pictures[1])
+    assert k == 0 and np.median(error) < 0.15 and error.max() < 0.5, (np.median(error), error.max())
+
+
+def test_a_second_picture_whose_board_is_partly_hidden_is_searched_in_full(
+    fisheye_pictures: list[BoardScene],
+) -> None:
+    """The second picture's board has its last three columns of corners hidden (painted over, as a hand holding it
+    would): its first board (5 x 6) is not of the first picture's size, so the picture is searched in full (as
+    find_boards finds it alone, bit for bit), no size is learned, and the third picture is searched in full too."""
+    truth = fisheye_pictures[1].truth[0]
+    hidden = fisheye_pictures[1].image.copy()
+    spacing = float(np.median(np.linalg.norm(np.diff(truth.pixels.reshape(6, 9, 2), axis=1), axis=2)))
+    mask = detect._grown_hull(hidden.shape[:2], truth.pixels[truth.grid[:, 0] >= 6], spacing)
+    hidden[mask > 0] = np.median(hidden)
+    images = [fisheye_pictures[0].image, hidden, fisheye_pictures[2].image]
+    found = list(detect.find_boards_each(images, threads=2))
+    assert detect._bounded_size(images[0], found[0][0]) == (6, 9)
+    for k in (1, 2):
+        alone = find_boards(images[k], k)
+        assert len(found[k]) == len(alone) == 1
+        np.testing.assert_array_equal(found[k][0].pixels, alone[0].pixels)
+    assert sorted(found[1][0].shape) == [5, 6]
+    _, error, _ = matched(found[1][0], fisheye_pictures[1])
+    assert error.max() < 0.5, error.max()
+
+
+def test_a_grid_a_row_short_of_its_board_is_not_beyond_doubt(board_over_floor: BoardScene) -> None:
+    """The true corners of the board less its first row (a row the detector missed): the pattern runs on past that
+    edge, so its size is not one the second picture is looked at for (_bounded_size: a 9 x 5 grid of the 9 x 6 board
+    would be found there); the whole board's is."""
+    truth = board_over_floor.truth[0]
+    board = board_over_floor.boards[0]
+    short = truth.pixels.reshape(board.rows, board.cols, 2)[1:].reshape(-1, 2)
+    image = board_over_floor.image
+    assert detect._bounded_size(image, Found(0, short, detect._rectangle(board.cols, board.rows - 1))) is None
+    whole = Found(0, truth.pixels, detect._rectangle(board.cols, board.rows))
+    assert detect._bounded_size(image, whole) == (6, 9)
+
+
 @pytest.mark.slow
-def test_a_later_picture_found_by_the_quick_detector_is_on_the_true_corners() -> None:
+def test_a_later_picture_found_by_the_quick_detector_is_on_the_true_corners(
+    fisheye_pictures: list[BoardScene],
+) -> None:
     """Three pictures of a 9 x 6 board (squares 18 px or more) through a 190-degree fisheye: the quick detector told
     the learned size finds the learned pictures' boards, so on the third it stands in for the search (_quick_board;
     its board is the one find_boards_each gives). Measured: the corners median 0.07, max 0.34 px from the truth, as
     the search's; 0.03 px at most from the search's own (seven renders: cornerSubPix stops at steps under 0.01 px,
     from another start). A fourth picture, of the room without the board: the quick detector (told the size, without
     its fast check) finds none, and neither does the search it falls back to."""
-    camera = line_camera("fisheye190", 0.5)
-    scenes = [
-        render_board_scene(
-            camera, board_poses(camera, 1, seed=80 + k, sizes=((9, 6),), min_square_px=18.0), seed=k, supersample=2
-        )
-        for k in range(3)
-    ]
-    empty = render_board_scene(camera, (), seed=3, supersample=2).image
+    scenes = fisheye_pictures
+    empty = render_board_scene(line_camera("fisheye190", 0.5), (), seed=3, supersample=2).image
     images = [scene.image for scene in scenes]
     found = list(detect.find_boards_each([*images, empty], threads=1))
     assert found[3] == []
@@ -451,3 +538,19 @@ def test_a_learned_pictures_search_that_stops_is_raised_not_waited_on(monkeypatc
     monkeypatch.setattr(detect, "_searches", stopped)
     raised = raised_within([np.zeros((32, 32), np.uint8)] * 3, 10)
     assert len(raised) == 1 and isinstance(raised[0], _Stopped)
+
+
+def test_the_median_grey_is_the_middle_level_of_the_sorted_pixels() -> None:
+    """_median_grey (from the histogram) against the sorted pixels' middle (NumPy's median): odd and even counts
+    (the mean of the two middle levels, truncated as uint8 truncates), flat images, and a picture-sized one."""
+    assert detect._median_grey(np.array([3], np.uint8)) == 3
+    assert detect._median_grey(np.array([0, 255], np.uint8)) == 127  # 127.5 truncated
+    assert detect._median_grey(np.array([[1, 2], [3, 4]], np.uint8)) == 2  # 2.5 truncated
+    assert detect._median_grey(np.array([9, 1, 5], np.uint8)) == 5
+    assert detect._median_grey(np.full((7, 9), 200, np.uint8)) == 200
+    rng = np.random.default_rng(5)
+    for size in [*rng.integers(1, 400, 300), 768 * 1024]:
+        levels = rng.integers(0, 256, int(size), dtype=np.uint8)
+        middle = np.sort(levels)[[(levels.size - 1) // 2, levels.size // 2]]
+        assert detect._median_grey(levels) == np.uint8(middle.astype(np.float64).mean())
+        assert detect._median_grey(levels) == np.uint8(np.median(levels))

@@ -29,7 +29,7 @@ def saved(tmp_path_factory: pytest.TempPathFactory) -> tuple[FitReport, PanoMapp
     camera = standard_cameras(SIZE, centre=(321.4, 298.2), s=-1, phi0=0.7)["parabolic"]
     landmarks = spread_landmarks(camera, POSITION, 12, np.random.default_rng(5))
     fit = fit_camera(landmarks, POSITION, camera.centre, image_size=SIZE)
-    table = create_table(fit, image_size=SIZE, size=(64, 16), info={"sources": {"centre": "given"}})
+    table = create_table(fit, image_size=SIZE, size=(64, 48), info={"sources": {"centre": "given"}})
     path = tmp_path_factory.mktemp("report") / "table.npz"
     save_table(table, path)
     return fit.report(), table, path

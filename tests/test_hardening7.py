@@ -306,7 +306,7 @@ def test_an_imported_table_too_small_or_too_coarse_is_refused(tmp_path: Path, si
     perspective views 25 px (median) to 48 px off those of the default table, silently."""
     calibration = ocam_file(tmp_path / "calib_results.txt")
     out = tmp_path / "cam.npz"
-    assert run("import", calibration, "-o", tmp_path / "fine.npz", "--table-size", "64x16", "-q").exit_code == 0
+    assert run("import", calibration, "-o", tmp_path / "fine.npz", "--table-size", "64x160", "-q").exit_code == 0
     result = run("import", calibration, "-o", out, "--table-size", size)
     assert_one_line_error(result, message.lstrip("'"), exit_code=code)
     assert not out.exists()

@@ -78,7 +78,7 @@ def imported(folder: Path, gamma: float, xi: float, cutoff_px: float, *options: 
     path = omnidir_file(folder / "omnidir.yaml", gamma, xi)
     image = annulus_picture(folder / "omni.png", cutoff_px, 150.0)
     out = folder / "cam.npz"
-    return path, out, run("import", path, "-o", out, "--image", image, "--table-size", "256x64", *options)
+    return path, out, run("import", path, "-o", out, "--image", image, "--table-size", "256x128", *options)
 
 
 def test_import_takes_a_picture_with_a_cut_off_disc_for_a_mirror_camera(tmp_path: Path) -> None:
@@ -121,15 +121,15 @@ def test_a_found_circle_beyond_the_models_range_stops_the_table_there(tmp_path: 
 def test_without_a_picture_a_model_of_mirror_cameras_is_taken_as_a_lens_and_said_so(tmp_path: Path) -> None:
     path = omnidir_file(tmp_path / "omnidir.yaml", G, 1.0)
     out = tmp_path / "cam.npz"
-    result = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x64")
+    result = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x128")
     assert result.exit_code == 0, result.stderr
     assert "note: taken as a lens; a mirror camera's needs --mirror (or --image)" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and len(result.stderr) < 100
     assert load_table(out).model.s == -1
-    quiet = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x64", "-q")
+    quiet = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x128", "-q")
     assert quiet.exit_code == 0 and quiet.stderr == "" and quiet.stdout == ""  # (a note is no warning: -q silences it)
     for choice, s in (("--lens", -1), ("--mirror", 1)):
-        result = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x64", choice)
+        result = run("import", path, "-o", out, "--image-size", "640x480", "--table-size", "256x128", choice)
         assert result.exit_code == 0 and "taken as a lens" not in result.stderr, result.stderr
         assert load_table(out).model.s == s
 
@@ -140,7 +140,7 @@ def test_the_lens_note_is_said_only_where_the_calibration_could_be_a_mirror_came
     300, 77 deg, as no mirror camera (not said)."""
     for gamma, said in ((120.0, True), (300.0, False)):
         path = omnidir_file(tmp_path / f"omnidir{gamma:g}.yaml", gamma, 1.0)
-        result = run("import", path, "-o", tmp_path / "cam.npz", "--image-size", "640x480", "--table-size", "256x64")
+        result = run("import", path, "-o", tmp_path / "cam.npz", "--image-size", "640x480", "--table-size", "256x128")
         assert result.exit_code == 0, result.stderr
         assert ("taken as a lens" in result.stderr) is said, result.stderr
 
@@ -165,7 +165,8 @@ def test_a_picture_without_a_rim_gets_one_short_note_without_a_centre_to_start_f
     path = omnidir_file(tmp_path / "omnidir.yaml", 300.0, 1.0)
     picture = np.random.default_rng(0).integers(0, 256, (480, 640, 3), dtype=np.uint8)
     cv2.imwrite(str(tmp_path / "full.png"), cv2.GaussianBlur(picture, (0, 0), 2.0))
-    result = run("import", path, "-o", tmp_path / "cam.npz", "--image", tmp_path / "full.png", "--table-size", "256x64")
+    result = run("import", path, "-o", tmp_path / "cam.npz", "--image", tmp_path / "full.png", "--table-size",
+                 "256x128")  # fmt: skip
     assert result.exit_code == 0, result.stderr
     notes = result.stderr.strip().splitlines()
     assert len(notes) == 1 and notes[0].startswith("panomap: note: full.png: no image circle found"), notes

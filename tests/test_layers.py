@@ -25,7 +25,7 @@ import panomap
 PACKAGE = Path(panomap.__file__).resolve().parent
 
 LAYERS = [
-    {"errors", "geometry", "files", "values", "inputs", "strips"},
+    {"errors", "geometry", "files", "values", "inputs", "strips", "robust"},
     {"camera"},
     {"table", "remap"},
     {"views"},

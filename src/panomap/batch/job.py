@@ -440,6 +440,8 @@ def make_job(
                 raise PanomapError(f"the output of {item.path} is an input: refusing to overwrite it", path)
             if item.is_video:
                 container_format(path)  # (a video's output named .png: refused before the cluster starts)
+            if path in seen and seen[path] == str(item.path):  # (a manifest listing it twice)
+                raise PanomapError(f"{item.path} is listed twice for this output: list it once", path)
             if path in seen:
                 raise PanomapError(
                     f"two outputs would be this file ({seen[path]} and {item.path}): put {{stem}} or {{camera}} "

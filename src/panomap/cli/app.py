@@ -164,6 +164,10 @@ def main() -> None:
       panomap perspective cam.npz omni.png -o ptz.png --yaw 270 --pitch -30 --fov 100
       panomap floor cam.npz omni.png -o floor.png --z 0 --x 0 6 --y 0 5 --resolution 0.01
       panomap video cam.npz omni.mp4 -o 'out_{name}.mp4' --view panorama:size=2048x512
+    Several cameras in one (a 360 camera, a car's surround view): a rig, and every view takes it:
+      panomap import camchain.yaml -o rig.npz --side-by-side --fov 190   a dual fisheye's calibration
+      panomap equirect rig.npz frame.jpg -o sphere.png       blended across the seam (docs/rigs.md)
+      panomap rig make|learn|place ...   a rig of tables, its turns from pictures, or floor landmarks
     panomap demo renders a simulated room and does all of it.
 
     Conventions: world Z up; azimuth counter-clockwise from +X seen from above;

@@ -25,7 +25,7 @@ from ..batch.job import (
 )
 from ..batch.record import Record
 from ..batch.run import Progress, RunSettings, run_job
-from ..errors import PanomapError
+from ..errors import PanomapError, printable
 from ..remap import INTERPOLATIONS
 from ..table.sampling import SAMPLINGS
 from ..video.output import EncoderSettings
@@ -171,9 +171,14 @@ def batch(
     except PanomapError as exc:
         raise usage_error(exc, "-o") from None
     try:
-        check_inputs_and_table(inputs, table)
+        manifest = check_inputs_and_table(inputs, table)
     except PanomapError as exc:
         raise usage_error(exc) from None
+    if manifest is not None and camera is not None:
+        raise click.BadParameter(
+            f"{printable(str(manifest))} names each input's camera (or takes its table's stem): give no --camera",
+            param_hint="'--camera'",
+        )
     found, outputs = without_outputs(find_inputs(inputs, table, camera, excludes), named, template)
     if outputs and not quiet:
         click.echo(

@@ -16,7 +16,7 @@ from ..interop.api import check_image_size, could_be_a_mirror_camera, table_of_i
 from ..interop.export import FORMATS, export_calibration
 from ..interop.orient import orient_table
 from ..interop.readers import READERS, Imported, read_calibration
-from ..interop.table_of_camera import model_profile
+from ..interop.table_of_camera import model_profile, radius_of_fov
 from ..io.images import MAX_IMAGE_PIXELS
 from ..rig.file import is_rig_file
 from ..table.file import is_table_file, load_table, save_table
@@ -120,8 +120,9 @@ from .rigs import import_rig, rig_format
     "fov_deg",
     type=Finite(0.0, open=True),
     metavar="DEG",
-    help="A rig: each lens's field of view across (a 360 camera's: 190-200); its table stops there, so that its "
-    "black rim does not join the blend [default: its circle in --image, else the model's range].",
+    help="A lens's field of view across (a 360 camera's: 190-200); its table stops there (as --outer-radius at that "
+    "angle), so that its black rim does not join a rig's blend [default: its circle in --image, else the model's "
+    "range]. A rig: each lens's.",
 )
 def import_(
     calibration: Path,
@@ -187,20 +188,24 @@ def import_(
                    fov_deg=fov_deg, images=images, table_size=table_size,
                    find_circles=find_image_circles_in)  # fmt: skip
         return
-    if side_by_side or fov_deg is not None:
-        raise click.UsageError("--side-by-side and --fov are for a rig (a file of several cameras)")
+    if side_by_side:
+        raise click.UsageError("--side-by-side is for a rig (a file of several cameras)")
+    if fov_deg is not None and (outer_radius is not None or mirror):
+        raise click.UsageError("--fov is a lens's field of view across: give it or --outer-radius, and not --mirror")
     if len(images) > 1:
         raise click.UsageError(f"one camera takes one --image, not {len(images)}")
     image = images[0] if images else None
     axis = axis or "down"
     sources: dict[str, str] = {}
     imported = read_calibration(calibration, format_, camera_name or camera_id)
-    for note in imported.notes:
-        say_note(f"{printable(note)}")
+    if fov_deg is not None:  # (a lens's: no cut-off disc makes it a mirror camera)
+        outer_radius, mirror = _outer_radius_of_fov(imported, fov_deg, calibration), False
     if image is not None:
         image_size, cutoff_radius, outer_radius, mirror = _bounds_of_image(
             imported, calibration, image, (cutoff_radius, outer_radius), mirror, sources
         )
+    if fov_deg is not None:
+        sources["outer_radius"] = f"--fov {fov_deg:g} deg"
     table = table_of_imported(
         imported,
         calibration,
@@ -215,6 +220,8 @@ def import_(
         sources=sources,
         mirror=bool(mirror),
     )
+    for note in imported.notes:  # (once the table is made: a refusal is one line)
+        say_note(f"{printable(note)}")
     if image is None and mirror is None and _could_be_a_mirror(imported, image_size, outer_radius):
         # Nothing says which, and the model sees beyond 90 deg off its axis, as a mirror camera does: say so.
         say_note("taken as a lens; a mirror camera's needs --mirror (or --image)")
@@ -234,6 +241,24 @@ def import_(
     if mirror:  # on a line of its own: the summary above is long enough
         say(printable(f"{sources.get('handedness', 'a mirror camera')} (its world turned back: s = +1)"))
     say(f"wrote {output}")
+
+
+def _outer_radius_of_fov(imported: Imported, fov_deg: float, calibration: Path) -> float:
+    """The image circle (px about the principal point) where the lens sees ``fov_deg / 2`` off its axis.
+
+    Raises
+    ------
+    PanomapError
+        Where the model stops short of that angle (a pinhole sees less than 90 deg off its axis).
+    """
+    radius_px, half_rad = radius_of_fov(imported.model, math.radians(fov_deg))
+    if math.degrees(half_rad) < fov_deg / 2 - 0.05:
+        raise PanomapError(
+            f"--fov {fov_deg:g}: the {imported.model.name} model sees at most {math.degrees(half_rad):.1f} deg off its "
+            f"axis; give --fov {math.floor(2 * math.degrees(half_rad)):g} or less",
+            calibration,
+        )
+    return radius_px
 
 
 MIRROR_MODELS = ("ocam", "mei")

@@ -186,17 +186,34 @@ POSITIVE = Finite(0.0, open=True)
 NON_NEGATIVE = Finite(0.0)
 TILT = Tilt()
 PATH = click.Path(path_type=Path, dir_okay=False)
-FOLDER = click.Path(path_type=Path, file_okay=False)
 
 
-def read_omni(path: Path, frame_time: float | None = None) -> NDArray[Any]:
+class Folder(click.Path):
+    """A folder's path; the empty name, which would be the current folder unsaid, is refused (give ".")."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if value == "":
+            self.fail("an empty folder name: give one ('.' for the current folder)", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+FOLDER = Folder(path_type=Path, file_okay=False)
+
+
+def read_omni(
+    path: Path,
+    frame_time: float | None = None,
+    expected_size: tuple[int, int] | None = None,
+    expected_by: str = "the table",
+) -> NDArray[Any]:
     """The omni-image at ``path`` (as :func:`panomap.io.images.read_image` reads it) or, where the file is a
     video, its frame at ``frame_time`` seconds (default: its first), with a note saying so on stderr (the
-    centre, the circles and the landmarks are the same in every frame of a fixed camera)."""
-    from ..io.images import MAX_IMAGE_PIXELS, UNKNOWN_FORMAT, read_image
+    centre, the circles and the landmarks are the same in every frame of a fixed camera); either refused where
+    not of ``expected_size`` (W, H; ``expected_by`` expects it), as :func:`~panomap.io.images.read_image` says."""
+    from ..io.images import MAX_IMAGE_PIXELS, UNKNOWN_FORMAT, check_image_size, read_image
 
     try:
-        image = read_image(path)
+        image = read_image(path, expected_size, expected_by)
     except PanomapError as exc:
         if exc.detail != UNKNOWN_FORMAT:
             raise
@@ -205,6 +222,7 @@ def read_omni(path: Path, frame_time: float | None = None) -> NDArray[Any]:
         frame = first_frame(path, MAX_IMAGE_PIXELS, frame_time)
         if frame is None:
             raise
+        check_image_size(path, (int(frame.shape[1]), int(frame.shape[0])), expected_size, expected_by)
         which = "its first frame" if not frame_time else f"its frame at {frame_time:g} s"
         say(f"panomap: note: {printable(str(path))} is a video: {which} is used (--frame-time SECONDS for another)",
             err=True)  # fmt: skip
@@ -213,6 +231,28 @@ def read_omni(path: Path, frame_time: float | None = None) -> NDArray[Any]:
     if frame_time is not None:
         click.echo(f"panomap: warning: {path} is an image, not a video: --frame-time is ignored", err=True)
     return image
+
+
+def is_video(path: Path) -> bool:
+    """Whether the file is a video PyAV decodes (for the hint that ``panomap video`` unwarps it)."""
+    from ..io.images import MAX_IMAGE_PIXELS
+    from ..video.source import first_frame
+
+    try:
+        return first_frame(path, MAX_IMAGE_PIXELS) is not None
+    except PanomapError:
+        return True  # (frames too large to read: a video all the same)
+
+
+def refuse_video_as_picture(exc: PanomapError, table: Path, path: Path) -> None:
+    """Where ``exc`` is :func:`~panomap.io.images.read_image`'s refusal of ``path`` as no image it knows and the
+    file is a video, refuse it saying that ``panomap video`` unwarps it through ``table`` (a table or a rig)."""
+    from ..io.images import UNKNOWN_FORMAT
+
+    if exc.source is not None and Path(exc.source) == path and exc.detail == UNKNOWN_FORMAT and is_video(path):
+        raise PanomapError(
+            f"it is a video: unwarp it with panomap video {table} {path} -o OUT.mp4 --view SPEC", path
+        ) from None
 
 
 def frame_time_option(command: Any) -> Any:

@@ -17,7 +17,6 @@ from ..io.images import (
     check_image_output,
     image_file_bytes,
     map_file_bytes,
-    read_image,
     read_rig_pictures,
     save_map,
     write_image,
@@ -33,12 +32,15 @@ from .options import (
     progress_bar,
     read_omni,
     refuse_same_input,
+    refuse_video_as_picture,
     say,
     say_note,
     usage_error,
 )
 
 WRAPPING_KINDS = ("panorama", "equirect")
+# The views of directions that take a distance, where each camera's own position then counts.
+DISTANCE_KINDS = ("panorama", "equirect", "perspective")
 
 
 def render_rig(
@@ -71,7 +73,10 @@ def render_rig(
             check_image_output(path, size)
         except PanomapError as exc:
             raise usage_error(exc, option) from None
-    pictures = _pictures(rig, images)
+    if getattr(view, "distance", None) is not None and view.kind in DISTANCE_KINDS and _at_one_point(rig):
+        say_note("--distance changes nothing here: the rig's cameras sit at one point (a camchain's t of 0); "
+                 "give their separation in its calibration")  # fmt: skip
+    pictures = _pictures(rig, rig_path, images)
     images_bytes = max(image_file_bytes(size, picture) for picture in pictures)
     check_room([*map_file_bytes(size, save_map_path), *((path, images_bytes) for path in (output, *each_paths))],
                up_to=True)  # fmt: skip
@@ -88,20 +93,41 @@ def render_rig(
             for path, layer in zip(each_paths, layers, strict=True):
                 write_image(path, layer)
     seen = float(np.mean(remapper.weights.sum(axis=0) > 0))
+    shared = float(np.mean((remapper.weights > 0).sum(axis=0) > 1))
     shown = ", ".join(f"{name} x{float(np.mean(g)):.3f}" for name, g in zip(rig.names, gains, strict=True))
+    mixed = f", {_percent(shared)} blended from two cameras or more" if rig.count > 1 else ""
     say(
-        f"wrote {printable(str(output))} ({blended.shape[1]} x {blended.shape[0]}, {seen:.0%} of pixels seen by "
-        f"{rig.count} cameras; gains {shown})"
+        f"wrote {printable(str(output))} ({blended.shape[1]} x {blended.shape[0]}: {_percent(seen)} seen{mixed}; "
+        f"gains {shown})"
     )
+    if each_paths:
+        say(f"wrote each camera's own view: {', '.join(printable(str(path)) for path in each_paths)}")
 
 
-def _pictures(rig: CameraRig, images: tuple[Path, ...]) -> list[Any]:
+def _percent(fraction: float) -> str:
+    """A share of the view's pixels, as a percentage that says 'all' or 'none' only when it is."""
+    if 0.0 < fraction < 0.01:
+        return "under 1%"
+    if 0.99 < fraction < 1.0:
+        return f"{fraction:.1%}"
+    return f"{fraction:.0%}"
+
+
+def _at_one_point(rig: CameraRig) -> bool:
+    """Whether every camera of ``rig`` sits at camera 0's position (world units, within 1e-9 of it)."""
+    positions = np.array([table.camera_position for table in rig.tables], dtype=np.float64)
+    return bool(np.all(np.abs(positions - positions[0]) <= 1e-9 * max(1.0, float(np.abs(positions).max()))))
+
+
+def _pictures(rig: CameraRig, rig_path: Path, images: tuple[Path, ...]) -> list[Any]:
     """The rig's pictures: one frame holding them all, or one per camera in the rig's order (sizes checked)."""
     try:
         return read_rig_pictures(rig, images)
     except PanomapError as exc:
         if exc.source is None:  # (a wrong number of pictures: the command line's fault)
             raise click.UsageError(exc.detail) from None
+        for image in images:
+            refuse_video_as_picture(exc, rig_path, image)
         raise
 
 
@@ -122,8 +148,28 @@ def _write_rig(rig: CameraRig, output: Path, report: Iterable[str]) -> None:
     with all_or_none():
         save_rig(rig, output)
     for line in report:
-        say(printable(line))
+        for piece in fold_line(printable(line)):
+            say(piece)
     say(f"wrote {printable(str(output))}")
+
+
+REPORT_WIDTH = 160
+"""A report line's characters at most, where it can be cut (after a '; ')."""
+
+
+def fold_line(line: str, width: int = REPORT_WIDTH) -> list[str]:
+    """``line`` cut after its '; ' where it runs past ``width`` characters, each further piece indented two spaces
+    more than the line (a piece with no '; ' in it stays whole, however long)."""
+    indent = " " * (len(line) - len(line.lstrip(" ")) + 2)
+    pieces = line.split("; ")
+    out = [pieces[0]]
+    for piece in pieces[1:]:
+        if len(out[-1]) + 2 + len(piece) <= width:
+            out[-1] += "; " + piece
+        else:
+            out[-1] += ";"
+            out.append(indent + piece)
+    return out
 
 
 def rig_format(path: Path, format_: str | None) -> str | None:
@@ -276,11 +322,11 @@ def _rig_pictures(cameras: list[Any], images: tuple[Path, ...], side_by_side: bo
                 f"--side-by-side: give the one frame holding the cameras, not {len(images)} pictures"
             )
         frame_size = (sum(w for w, _ in sizes), max(h for _, h in sizes))
-        return [read_image(images[0], frame_size, "the rig's frame")]
+        return [read_omni(images[0], None, frame_size, "the rig's frame")]
     if len(images) != len(cameras):
         names = ", ".join(camera.name for camera in cameras)
         raise click.UsageError(f"--image: give one picture per camera ({names}), or one frame with --side-by-side")
-    return [read_image(image, size, f"camera {camera.name}") for image, size, camera in
+    return [read_omni(image, None, size, f"camera {camera.name}") for image, size, camera in
             zip(images, sizes, cameras, strict=True)]  # fmt: skip
 
 
@@ -430,12 +476,32 @@ def _learn_rig(rig_path: Path, images: tuple[Path, ...], output: Path) -> None:
     if len(images) % per_shot:
         names = ", ".join(loaded.names)
         raise click.UsageError(f"give one picture per camera of the rig ({names}), shot after shot, not {len(images)}")
+    if per_shot == 1:  # (a shot's cameras' pictures given twice: _refuse_same_shot, below)
+        refuse_same_input(images, "picture", "its matches twice would count twice", lambda _: "'PICTURES...'")
     shots: list[Any] = []
     for start in range(0, len(images), per_shot):
-        pictures = read_rig_pictures(loaded, images[start : start + per_shot])
+        pictures = read_rig_pictures(loaded, images[start : start + per_shot], read=_read_omni)
+        _refuse_same_shot(shots, pictures, images[start : start + per_shot], per_shot)
         shots.append(pictures[0] if loaded.offsets is not None else pictures)
     learned = learn_with_overlap(loaded, shots, turn=turn_table)
     _write_rig(learned.rig, output, learned.describe())
+
+
+def _refuse_same_shot(shots: list[Any], pictures: list[Any], paths: tuple[Path, ...], per_shot: int) -> None:
+    """Refuse a shot whose pictures hold the same pixels as an earlier shot's (a copy saved again): its matches
+    would count twice, and the tilt's bound would narrow as if a second view had pinned it."""
+    for number, shot in enumerate(shots):
+        earlier = [shot] if per_shot == 1 else shot
+        if all(np.array_equal(a, b) for a, b in zip(earlier, pictures, strict=True)):
+            raise PanomapError(
+                f"the same pixels as shot {number + 1}: give each shot once (its matches twice would count twice)",
+                paths[0],
+            )
+
+
+def _read_omni(path: Path, size: tuple[int, int] | None, expected_by: str) -> Any:
+    """A rig's picture as :func:`read_omni` reads it: a video's first frame, with a note."""
+    return read_omni(path, None, size, expected_by)
 
 
 def _learn_dual(frames: tuple[Path, ...], output: Path, verbose: bool) -> None:

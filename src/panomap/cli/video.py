@@ -231,6 +231,7 @@ def video(
       plane:distance=1.8,width=2.4,band=-2.45:0.15,azimuth=90,size=800x860
       perspective:yaw=30,pitch=-20,roll=0,fov=90,size=1280x720
       floor:z=0,x=0:6,y=0:5,size=1200x1000   (or resolution=0.005)
+      equirect:yaw=0,size=2048x1024          (the whole sphere, as ffmpeg v360's e)
     Any SPEC may add name=NAME (its output's {name}; default: the kind).
 
     \b
@@ -242,7 +243,8 @@ def video(
       panomap video cam.npz omni.mp4 -o 'out_{name}.mp4' \\
           --view panorama:size=2048x512 --view perspective:yaw=30,pitch=-20,fov=90,size=1280x720
 
-    A rig file (panomap import of a camchain) in place of the table blends one view of its cameras: give the
+    A rig file (a 360 camera, a surround view: panomap import of a camchain, rig make) in place of the table
+    blends one view of its cameras: give the
     one video holding them side by side (a dual-fisheye camera's), or one video per camera in the rig's order
     (read in step, to the shortest).
     """

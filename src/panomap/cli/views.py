@@ -19,7 +19,6 @@ import numpy as np
 from ..errors import PanomapError, printable
 from ..files import all_or_none, check_outputs, check_room
 from ..io.images import (
-    UNKNOWN_FORMAT,
     check_image_output,
     image_file_bytes,
     map_file_bytes,
@@ -36,7 +35,16 @@ from ..table.sampling import SAMPLINGS
 from ..views import View, build_map, view_kinds
 from ..views.base import Param, ParameterError, Value
 from ..views.spec import view_from_params
-from .options import FINITE, PATH, SIZE, say_note, usage_error, warn_orientation
+from .options import (
+    FINITE,
+    PATH,
+    SIZE,
+    check_memory_for,
+    refuse_video_as_picture,
+    say_note,
+    usage_error,
+    warn_orientation,
+)
 from .options import quiet as quiet_given
 from .rigs import render_rig
 
@@ -104,11 +112,13 @@ def _render(
     )
     extra = [path for path in (save_map_path, *pgm_paths) if path is not None]
     table = load_table(table_path)
-    check_room(map_file_bytes(view.output_size(table), save_map_path, pgm_paths))
+    size = view.output_size(table)
+    check_room(map_file_bytes(size, save_map_path, pgm_paths))
     try:
-        check_image_output(output, view.output_size(table))
+        check_image_output(output, size)
     except PanomapError as exc:
         raise usage_error(exc, "-o") from None
+    check_memory_for(view.memory_bytes(size), f"a view of {size[0]} x {size[1]} px")
     if view.needs_camera_height and table.info.get("camera_height_known") is False:
         say_note(
             f"{printable(str(table_path))} was learned from lines, which know no distance: its camera "
@@ -118,14 +128,9 @@ def _render(
     try:
         image = read_image(image_path, table.image_size, f"the table {table_path}")
     except PanomapError as exc:
-        if exc.detail == UNKNOWN_FORMAT and _is_video(image_path):
-            raise PanomapError(
-                f"it is a video: unwarp it with panomap video {table_path} {image_path} -o OUT.mp4 --view SPEC",
-                image_path,
-            ) from None
+        refuse_video_as_picture(exc, table_path, image_path)
         raise
     warn_orientation(image_path)
-    size = view.output_size(table)
     check_room([*map_file_bytes(size, save_map_path, pgm_paths), (output, image_file_bytes(size, image))], up_to=True)
     map_uv = build_map(table, view, sampling)
     remapper = Remapper(map_uv, (image.shape[1], image.shape[0]), interp)
@@ -182,6 +187,32 @@ def make_view(kind: str, values: Mapping[str, Any]) -> View:
         raise usage_error(exc) from None
 
 
+class ViewCommand(click.Command):
+    """A view command that names every required option missing at once (a floor map needs --z, --x and --y: said
+    one at a time, a user ran the command three times to learn them)."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        given = list(args)
+        try:
+            return super().parse_args(ctx, args)
+        except click.MissingParameter as exc:
+            if not isinstance(exc.param, click.Option):
+                raise
+            opts, _, _ = self.make_parser(ctx).parse_args(args=given)
+            missing = [param for param in self.params if isinstance(param, click.Option) and param.required
+                       and opts.get(param.name) is None]  # fmt: skip
+            if len(missing) < 2:
+                raise
+            shown = ", ".join(_option_shown(param) for param in missing)
+            raise click.UsageError(f"missing options: {shown}", ctx) from None
+
+
+def _option_shown(param: click.Option) -> str:
+    """An option as a usage line names it: its first long name and its metavar (``--x XMIN XMAX``)."""
+    name = next((opt for opt in param.opts if opt.startswith("--")), param.opts[0])
+    return f"{name} {param.metavar}" if param.metavar else name
+
+
 def view_command(kind: str) -> click.Command:
     """The command of a registered view kind: the shared arguments and options, then the kind's own."""
     cls = view_kinds()[kind]
@@ -210,7 +241,7 @@ def view_command(kind: str) -> click.Command:
             raise click.UsageError(f"a table takes one picture, not {len(images)} (several cameras make a rig)")
         _render(table, images[0], output, maps, interp, table_sampling, lambda: make_view(kind, values))
 
-    command = click.command(kind, help=cls.summary)(view_options(run))
+    command = click.command(kind, cls=ViewCommand, help=cls.summary)(view_options(run))
     shared = {param.name for param in command.params}
     clashes = shared & {param.name for param in cls.params}
     if clashes:
@@ -221,14 +252,3 @@ def view_command(kind: str) -> click.Command:
 
 # Every view command, in the registry's order.
 VIEW_COMMANDS = tuple(view_command(kind) for kind in view_kinds())
-
-
-def _is_video(path: Path) -> bool:
-    """Whether the file is a video PyAV decodes (for the hint that ``panomap video`` unwarps it)."""
-    from ..io.images import MAX_IMAGE_PIXELS
-    from ..video.source import first_frame
-
-    try:
-        return first_frame(path, MAX_IMAGE_PIXELS) is not None
-    except PanomapError:
-        return True  # (frames too large to read: a video all the same)

@@ -25,7 +25,7 @@ from ..errors import PanomapError
 from ..geometry import FloatArray
 from ..rig.rig import CameraRig
 from .readers.base import Imported
-from .table_of_camera import radius_profile, table_of_camera
+from .table_of_camera import radius_of_fov, table_of_camera
 
 
 @dataclass(frozen=True)
@@ -101,8 +101,7 @@ def rig_of_models(
         }
         outer = None if outer_radii is None else outer_radii[k]
         if outer is None and fov_rad is not None:
-            profile = radius_profile(imported.model, min(math.pi, fov_rad / 2 + 0.05))
-            outer = float(profile.radius_at(np.array([fov_rad / 2]))[0])
+            outer = radius_of_fov(imported.model, fov_rad)[0]
         try:
             table = table_of_camera(
                 imported.model,

@@ -24,7 +24,7 @@ from ..camera.radial import RadialFunction, fit_radial
 from ..camera.radial_models import MODELS
 from ..errors import PanomapError
 from ..geometry import TWO_PI, FloatArray
-from ..table.table import PanoMappingTable, check_table_chords, check_table_size
+from ..table.table import PanoMappingTable, check_table_chords, check_table_rows, check_table_size
 from .frame import HANDEDNESS, camera_rays
 from .models.base import ExternalCamera
 
@@ -75,11 +75,21 @@ def radius_profile(camera: ExternalCamera, max_angle_rad: float) -> RadiusProfil
     uv = camera.project(rays) - np.asarray(camera.principal_point)
     radius = np.hypot(uv[..., 0], uv[..., 1]).mean(axis=1)
     good = np.isfinite(radius)
-    good[1:] &= np.diff(np.where(np.isfinite(radius), radius, -np.inf)) > 0
+    with np.errstate(invalid="ignore"):  # (-inf - -inf past the model's range: NaN, not growing)
+        good[1:] &= np.diff(np.where(np.isfinite(radius), radius, -np.inf)) > 0
     end = int(np.argmin(good)) if not good.all() else alpha.size
     if end < 3:
         raise PanomapError(f"the {camera.name} camera's image radius does not grow from its axis")
     return RadiusProfile(alpha[:end], radius[:end])
+
+
+def radius_of_fov(camera: ExternalCamera, fov_rad: float) -> tuple[float, float]:
+    """The image circle (px about the principal point) where ``camera`` sees ``fov_rad / 2`` off its axis (a lens's
+    field of view across), and the angle (rad) off the axis it reaches there: ``fov_rad / 2``, or less where the
+    model's image radius stops growing before it (then the radius is the model's farthest)."""
+    profile = radius_profile(camera, min(math.pi, fov_rad / 2 + 0.05))
+    half_rad = min(fov_rad / 2, float(profile.alpha[-1]))
+    return float(profile.radius_at(np.array([half_rad]))[0]), half_rad
 
 
 def model_profile(camera: ExternalCamera) -> RadiusProfile:
@@ -249,7 +259,9 @@ def table_of_camera(
         size = (max(m, 16), min(max(math.ceil(outer - cutoff), 16), MAX_DEFAULT_SIZE[1]))
     size = check_table_size(size)
     check_table_chords(size, outer)
-    entries = project_grid(camera, model, size, world_range, camera_range if tilted else None)
+    seen_range = camera_range if tilted else None
+    check_table_rows(size, world_range, lambda grid, rows: project_grid(camera, model, grid, rows, seen_range))
+    entries = project_grid(camera, model, size, world_range, seen_range)
     table_info = dict(info or {})
     record = dict(table_info.get("import", {}))
     record.update(

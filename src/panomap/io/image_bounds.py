@@ -12,8 +12,12 @@ from its header, before its pixels take memory:
 - the memory its pixels take decoded (:func:`decoded_bytes`), against the memory available
   (:func:`available_memory`).
 
-Arithmetic-coded JPEGs (which can code a flat block in a small fraction of a bit) and the other formats have
-no byte bound; the memory bound holds for all.
+A TIFF's strips (or tiles) are where its first directory says (:func:`tiff_data_end`: a file cut short ends
+before them); uncompressed they hold every byte of the pixels, PackBits codes 128 bytes in 2 at best, deflate
+as in a PNG, LZW a string of at most 4096 bytes in a code of at least 9 bits. A WebP's decoder refuses data that
+end early itself. Arithmetic-coded JPEGs (which can code a flat block in a small fraction of a bit), lossless
+WebP (a flat 7000 x 7000 picture in 1.9 kB), TIFF's other codings and the other formats have no byte bound; the
+memory bound holds for all.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
-from typing import BinaryIO
+from typing import BinaryIO, Literal
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 JPEG_SIGNATURE = b"\xff\xd8\xff"
@@ -35,6 +39,14 @@ PNG_DECODED_CHANNELS = {0: 1, 2: 3, 3: 3, 4: 4, 6: 4}
 JPEG_HUFFMAN_FRAMES = frozenset({0xC0, 0xC1, 0xC2, 0xC3})
 # Every start-of-frame marker (C4 is a Huffman table, C8 reserved, CC an arithmetic conditioning table).
 JPEG_FRAMES = frozenset(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}
+# The most a TIFF's coding shrinks its pixels' bytes, by its Compression tag: none, LZW, deflate (Adobe's and
+# the old code), PackBits.
+TIFF_MAX_RATIO = {1: 1, 5: 4096 * 8 // 9, 8: DEFLATE_MAX_RATIO, 32946: DEFLATE_MAX_RATIO, 32773: 64}
+# TIFF's field types' sizes (bytes): SHORT, LONG and LONG8 (BigTIFF) are the ones offsets and counts take.
+TIFF_TYPE_BYTES = {3: 2, 4: 4, 16: 8}
+# The most entries read from a TIFF directory, and the most offsets from one field.
+MAX_TIFF_ENTRIES = 4096
+MAX_TIFF_VALUES = 1 << 20
 # The most segments read before the frame header (a file's APPn segments: EXIF, ICC, XMP...).
 MAX_JPEG_SEGMENTS = 256
 
@@ -59,7 +71,57 @@ def least_file_bytes(path: str | Path, size: tuple[int, int]) -> tuple[str, int]
             if frame not in JPEG_HUFFMAN_FRAMES:
                 return None
             return "JPEG", math.ceil(width / 8) * math.ceil(height / 8) // 8
+        if head[:4] in (b"II*\x00", b"MM\x00*"):
+            fields = _tiff_fields(handle, head, {259, 258, 277})
+            ratio = TIFF_MAX_RATIO.get(fields.get(259, [1])[0]) if fields is not None else None
+            if fields is None or ratio is None:
+                return None
+            bits = sum(fields.get(258, [1])) if 258 in fields else fields.get(277, [1])[0]
+            return "TIFF", (width * bits + 7) // 8 * height // ratio
     return None
+
+
+def tiff_data_end(path: str | Path) -> int | None:
+    """The byte past a TIFF's last strip or tile, as its first directory places them (None for another format,
+    or a directory that does not parse): a file shorter than that was cut short."""
+    with Path(path).open("rb") as handle:
+        head = handle.read(16)
+        fields = _tiff_fields(handle, head, {273, 279, 324, 325}) if head[:4] in (b"II*\x00", b"MM\x00*") else None
+    if fields is None:
+        return None
+    offsets, counts = fields.get(273, fields.get(324)), fields.get(279, fields.get(325))
+    if not offsets or counts is None or len(counts) != len(offsets):
+        return None
+    return max(offset + count for offset, count in zip(offsets, counts, strict=True))
+
+
+def _tiff_fields(handle: BinaryIO, head: bytes, tags: set[int]) -> dict[int, list[int]] | None:
+    """The values of ``tags`` (those present, each a list) in the first directory of the classic TIFF open in
+    ``handle`` (``head``: its first 8 bytes or more); None where it is a BigTIFF or does not parse."""
+    order: Literal["little", "big"] = "little" if head[:2] == b"II" else "big"
+    handle.seek(int.from_bytes(head[4:8], order))
+    count = int.from_bytes(handle.read(2), order)
+    entries = handle.read(12 * count)
+    if count > MAX_TIFF_ENTRIES or len(entries) != 12 * count:
+        return None
+    fields: dict[int, list[int]] = {}
+    for start in range(0, len(entries), 12):
+        tag = int.from_bytes(entries[start : start + 2], order)
+        kind = int.from_bytes(entries[start + 2 : start + 4], order)
+        number = int.from_bytes(entries[start + 4 : start + 8], order)
+        size = TIFF_TYPE_BYTES.get(kind)
+        if tag not in tags or size is None or size == 8:
+            continue
+        if not 0 < number <= MAX_TIFF_VALUES:
+            return None
+        data = entries[start + 8 : start + 8 + size * number]
+        if size * number > 4:
+            handle.seek(int.from_bytes(entries[start + 8 : start + 12], order))
+            data = handle.read(size * number)
+            if len(data) != size * number:
+                return None
+        fields[tag] = [int.from_bytes(data[k : k + size], order) for k in range(0, size * number, size)]
+    return fields
 
 
 def _jpeg_frame_marker(handle: BinaryIO) -> int | None:

@@ -16,7 +16,7 @@ import os
 import re
 import threading
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from .. import inputs
 from ..errors import PanomapError, printable
 from ..files import input_file, write_bytes_atomic, write_with
-from .image_bounds import available_memory, decoded_bytes, least_file_bytes
+from .image_bounds import available_memory, decoded_bytes, least_file_bytes, tiff_data_end
 from .stderr_kept import stderr_kept
 
 if TYPE_CHECKING:
@@ -42,6 +42,10 @@ _PILLOW_LOCK = threading.Lock()  # header_size changes Pillow's process-wide lim
 _OPENCV_LOG_LOCK = threading.Lock()  # OpenCV's log level is process-wide
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 JPEG_SIGNATURE = b"\xff\xd8\xff"
+TIFF_SIGNATURES = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")  # (classic and BigTIFF)
+# The still-image formats whose header Pillow reads, by its names for them, as said: a file of one that OpenCV
+# cannot decode is corrupt, not a video (FFmpeg decodes a corrupt WebP or TIFF as a frame, filling what it lacks).
+STILL_FORMATS = {"PNG": "PNG", "JPEG": "JPEG", "TIFF": "TIFF", "WEBP": "WebP", "BMP": "BMP", "PPM": "PNM"}
 # The problem of a file no decoder here recognises: the one a caller may try as a video instead.
 UNKNOWN_FORMAT = "cannot read it as an image (unknown format or corrupt)"
 
@@ -83,8 +87,8 @@ def read_image(
         raise PanomapError(f"images must be 8- or 16-bit, this one is {kind} (32-bit float)", path)
     declared = _header(path)
     if declared is not None:
-        _check_size(path, declared[0], expected_size, expected_by)
-        _check_claim(path, *declared)
+        check_image_size(path, declared[0], expected_size, expected_by)
+        _check_claim(path, declared[0], declared[1])
     data = np.fromfile(path, dtype=np.uint8)
     if data[: len(PNG_SIGNATURE)].tobytes() == PNG_SIGNATURE:
         problem = png_problem(path)
@@ -94,15 +98,24 @@ def read_image(
         problem = jpeg_problem(data.tobytes())
         if problem is not None:
             raise PanomapError(f"cannot read it as an image (a truncated or corrupt JPEG: {problem})", path)
-    image, said = _decode(data) if data.size else (None, [])
+    tiff = data[:4].tobytes() in TIFF_SIGNATURES
+    image, said = _decode(data, tiff) if data.size else (None, [])
+    failed = [line for line in said if "TIFF_Error" in line] if tiff else []
+    if failed:  # (libtiff fills what a strip's data lack, as libjpeg does, and says so in OpenCV's log alone)
+        raise PanomapError(f"cannot read it as an image (a truncated or corrupt TIFF: {_said(failed[0])})", path)
     short = [line for line in said if _DATA_ENDS.search(line)]
     if short and image is not None:  # (the decoder filled what the file lacks)
         raise PanomapError(f"cannot read it as an image (a truncated or corrupt file: {_said(short[0])})", path)
+    if image is None and declared is not None and declared[2] in STILL_FORMATS:  # (no video: FFmpeg would fill it)
+        reason = f": {_said(said[0])}" if said else ""
+        raise PanomapError(
+            f"cannot read it as an image (a truncated or corrupt {STILL_FORMATS[declared[2]]}{reason})", path
+        )
     if image is None:
         raise PanomapError(UNKNOWN_FORMAT + (f": {_said(said[0])}" if said else ""), path)
     if image.dtype not in (np.uint8, np.uint16):
         raise PanomapError(f"images must be 8- or 16-bit, this one is {image.dtype}", path)
-    _check_size(path, (int(image.shape[1]), int(image.shape[0])), expected_size, expected_by)
+    check_image_size(path, (int(image.shape[1]), int(image.shape[0])), expected_size, expected_by)
     return image
 
 
@@ -116,21 +129,26 @@ FLOAT_SIGNATURES = {
 }
 
 
-def read_rig_pictures(rig: CameraRig, paths: Sequence[Path]) -> list[Any]:
+def read_rig_pictures(
+    rig: CameraRig,
+    paths: Sequence[Path],
+    read: Callable[[Path, tuple[int, int] | None, str], NDArray[Any]] | None = None,
+) -> list[Any]:
     """A rig's pictures from image files, as :class:`panomap.rig.RigRemapper` takes them: the one frame holding
     every camera's picture (a rig with ``offsets``), or one picture per camera in the rig's order; each checked
-    against its size (the view commands given a rig, ``rig learn``, ``panomap batch``).
+    against its size (the view commands given a rig, ``rig learn``, ``panomap batch``). ``read`` reads a file
+    as :func:`read_image` does (path, expected size, what expects it; by default, :func:`read_image`).
 
     Raises PanomapError for a wrong number of files (naming what the rig takes, with no file) and, as
     :func:`read_image`, for a file that cannot be read or is not of its camera's size."""
     if rig.offsets is not None:
         if len(paths) != 1:
             raise PanomapError(f"the rig's cameras share one frame: give that one picture, not {len(paths)}")
-        return [read_image(paths[0], rig.frame_size, "the rig's frame")]
+        return [(read or read_image)(paths[0], rig.frame_size, "the rig's frame")]
     if len(paths) != rig.count:
         names = ", ".join(rig.names)
         raise PanomapError(f"give one picture per camera of the rig, in its order ({names}), not {len(paths)}")
-    pictures = [read_image(path, table.image_size, f"camera {name}") for path, table, name in
+    pictures = [(read or read_image)(path, table.image_size, f"camera {name}") for path, table, name in
                 zip(paths, rig.tables, rig.names, strict=True)]  # fmt: skip
     check_same_depth(paths, pictures)
     return pictures
@@ -153,13 +171,14 @@ def float_format(head: bytes) -> str | None:
     return next((kind for signature, kind in FLOAT_SIGNATURES.items() if head.startswith(signature)), None)
 
 
-def _decode(data: NDArray[np.uint8]) -> tuple[NDArray[Any] | None, list[str]]:
+def _decode(data: NDArray[np.uint8], tiff: bool = False) -> tuple[NDArray[Any] | None, list[str]]:
     """``cv2.imdecode``, with OpenCV's log silenced and what its decoders (libjpeg, libpng) write to stderr
-    themselves kept: the image (None for what it cannot decode, or refuses as too large) and those lines."""
+    themselves kept: the image (None for what it cannot decode, or refuses as too large) and those lines. For a
+    ``tiff``, OpenCV's errors are kept too (libtiff's complaints reach its log alone)."""
     logging = cv2.utils.logging
     with _OPENCV_LOG_LOCK:
         level = logging.getLogLevel()
-        logging.setLogLevel(logging.LOG_LEVEL_SILENT)
+        logging.setLogLevel(logging.LOG_LEVEL_ERROR if tiff else logging.LOG_LEVEL_SILENT)
         try:
             with stderr_kept() as said:
                 image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
@@ -176,7 +195,8 @@ _DATA_ENDS = re.compile(r"premature end|not enough image data|read error|truncat
 
 def _said(line: str) -> str:
     """A decoder's line as a reason: its library's prefix off, at most 80 characters, printable."""
-    text = re.sub(r"^(libpng (error|warning)|Corrupt JPEG data):\s*", "", line).rstrip(".")
+    text = re.sub(r"^(libpng (error|warning)|Corrupt JPEG data|\[ERROR:[^]]*\] global \S+ TIFF_Error):?\s*", "", line)
+    text = text.replace(": : ", ": ").rstrip(".")
     return printable(text[:80])
 
 
@@ -227,25 +247,27 @@ def header_size(path: str | Path) -> tuple[int, int] | None:
     return None if header is None else header[0]
 
 
-def _header(path: str | Path) -> tuple[tuple[int, int], str] | None:
-    """((width, height), Pillow's mode) from an image file's header, as :func:`header_size` reads it."""
+def _header(path: str | Path) -> tuple[tuple[int, int], str, str] | None:
+    """((width, height), Pillow's mode, Pillow's format) from an image file's header, as :func:`header_size` reads
+    it."""
     from PIL import Image, UnidentifiedImageError
 
     if not Path(path).is_file():  # (a FIFO would block Pillow's read)
         return None
     with _PILLOW_LOCK, warnings.catch_warnings():
         # Pillow's own bomb check would refuse a large header before telling its size: the
-        # limit here is MAX_IMAGE_PIXELS, checked by the caller.
-        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        # limit here is MAX_IMAGE_PIXELS, checked by the caller; its other warnings (a TIFF's "Corrupt EXIF
+        # data") are the decoder's to judge, not lines of their own.
+        warnings.simplefilter("ignore")
         limit, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
         try:
             with Image.open(path) as image:
-                (width, height), mode = image.size, str(image.mode)
+                (width, height), mode, kind = image.size, str(image.mode), str(image.format)
         except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
             return None
         finally:
             Image.MAX_IMAGE_PIXELS = limit
-    return (int(width), int(height)), mode
+    return (int(width), int(height)), mode, kind
 
 
 def _check_claim(path: Path, size: tuple[int, int], mode: str) -> None:
@@ -258,6 +280,13 @@ def _check_claim(path: Path, size: tuple[int, int], mode: str) -> None:
         raise PanomapError(
             f"cannot read it as an image (a truncated or corrupt {least[0]}: its header claims {width} x {height} px, "
             f"which take at least {_amount(least[1])}, not {_amount(held)})",
+            path,
+        )
+    end = tiff_data_end(path)
+    if end is not None and held < end:
+        raise PanomapError(
+            f"cannot read it as an image (a truncated TIFF: its pixels' data run to byte {end}, the file ends at "
+            f"{held})",
             path,
         )
     needed, free = decoded_bytes(path, size, mode), available_memory()
@@ -325,7 +354,11 @@ def image_size(path: str | Path) -> tuple[int, int]:
     return int(image.shape[1]), int(image.shape[0])
 
 
-def _check_size(path: Path, size: tuple[int, int], expected_size: tuple[int, int] | None, expected_by: str) -> None:
+def check_image_size(
+    path: Path, size: tuple[int, int], expected_size: tuple[int, int] | None, expected_by: str
+) -> None:
+    """Refuse, naming ``path``, an image of ``size`` (W, H) other than ``expected_size`` (where given; ``expected_by``
+    names what expects it) or beyond :data:`MAX_IMAGE_PIXELS`."""
     width, height = size
     if expected_size is not None and (width, height) != tuple(expected_size):
         raise PanomapError(

@@ -117,6 +117,7 @@ class RigPlane:
         self.map_v = np.full((height, width), self._fill_at[1], dtype=np.float32)
         self.masks: list[tuple[tuple[slice, slice], NDArray[np.uint8]] | None] = []
         owners = seams.owner.view(np.uint8)
+        self.shares = seams.shares()  # (each camera's share of the whole view: the gains' scale, as RigRemapper's)
         # The band: each camera's entries and weights, laid out as the band rows (padding: the fill, weight 0).
         self.band_maps: list[tuple[NDArray[np.float32], NDArray[np.float32]]] = []
         self.band_weights = np.zeros((self.count, band_rows, buffer_width), dtype=np.float32)
@@ -233,7 +234,7 @@ class RigPlane:
             layer = values.reshape(1, -1, self.channels)[:, : self.band_size].astype(np.float32)
             layers.append(layer - np.float32(self.black) if self.black else layer)
         weights = self.band_weights.reshape(self.count, 1, -1)[:, :, : self.band_size]
-        return overlap_gains(layers, weights)
+        return overlap_gains(layers, weights, self.shares)
 
     def __call__(self, out: NDArray[np.uint8] | None = None) -> NDArray[np.uint8]:
         """The blended view of the loaded pictures (into ``out``: an array of :attr:`output_shape`, any strides)."""

@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 from ..camera.orientation import rotation_from_vector, world_elevation_range
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation, ray_from_angles
+from ..robust import mad_sigma
 from ..table.table import PanoMappingTable, fill_entries
 from .parallax import ParallaxFit, baseline_of, settle
 from .rig import CameraRig
@@ -609,7 +610,7 @@ def _weights(matches: list[Matches], rotations: list[FloatArray]) -> list[FloatA
         norm = np.linalg.norm(r, axis=1)
         loose = NEAR_PX / m.scale_px_per_rad
         close = norm < loose
-        sigma = max(1.4826 * float(np.median(norm[close])) if close.any() else loose, 0.05 / m.scale_px_per_rad)
+        sigma = max(mad_sigma(norm[close]) if close.any() else loose, 0.05 / m.scale_px_per_rad)
         out.append(np.where(close, 1.0 / (1.0 + (norm / (2 * sigma)) ** 2), 0.0))
     return out
 
@@ -662,7 +663,7 @@ def _pair_report(rig: CameraRig, m: Matches, rotations: list[FloatArray]) -> Pai
     angle = np.arccos(np.clip(np.sum(a * b, axis=1), -1.0, 1.0))
     loose = NEAR_PX / m.scale_px_per_rad
     close = angle < loose
-    sigma = 1.4826 * float(np.median(angle[close])) if close.any() else loose
+    sigma = mad_sigma(angle[close]) if close.any() else loose
     inlier = angle <= max(3 * sigma, 1.0 / m.scale_px_per_rad)
     near = close & ~inlier
     # px: each ray through the other camera's table, against that camera's feature; the two ways' mean.

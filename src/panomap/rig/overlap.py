@@ -37,6 +37,7 @@ import numpy as np
 
 from ..errors import PanomapError
 from ..geometry import FloatArray, azimuth_elevation
+from ..robust import mad_sigma
 from ..table.table import PanoMappingTable, fill_entries
 from .learn import Band, LearnedRig, OverlapFit, _shots, _skew_rows, band_of, learn_rotations, turned_table
 from .rig import CameraRig
@@ -221,7 +222,7 @@ def robust_fit(design: FloatArray, shifts: FloatArray) -> tuple[FloatArray, Floa
             raise PanomapError("the overlap's tiles do not fix the turn (and centre): too few, or along one line")
         params = np.asarray(np.linalg.solve(normal, rows.T @ (values * w)), dtype=np.float64)
         residual = shifts - design @ params
-        sigma = np.maximum(1.4826 * np.median(np.abs(residual), axis=0), MIN_SIGMA_PX)
+        sigma = np.maximum(mad_sigma(residual, axis=0), MIN_SIGMA_PX)
         weights = 1.0 / (1.0 + (residual / (2 * sigma)) ** 2) / sigma**2
     return params, shifts - design @ params
 

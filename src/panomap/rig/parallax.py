@@ -48,6 +48,7 @@ from numpy.typing import NDArray
 from ..camera.orientation import rotation_from_vector
 from ..errors import PanomapError
 from ..geometry import FloatArray
+from ..robust import mad_sigma
 
 #: The noise allowed below zero parallax, in sigmas, for each match and for each sector's median.
 TAU_SIGMAS = 3.0
@@ -117,7 +118,7 @@ class ParallaxFit:
         )
         roll = f"roll 1-sigma {self.roll_sigma_deg:.4f} deg"
         if self.unbounded:
-            return figures, f"  tilt NOT BOUNDED (the features' least squares, moved by parallax): {self.why}; {roll}"
+            return figures, f"  tilt NOT BOUNDED (the features' least squares, moved by parallax); {self.why}; {roll}"
         tilt = f"tilt within {self.tilt_bound_deg:.3f} deg, {roll}, moved {self.moved_deg:.3f} deg from least squares"
         if self.pinned:
             return figures, f"  {tilt}"
@@ -272,13 +273,13 @@ def _pick(inner: FloatArray, step: float, fitted: FloatArray) -> tuple[FloatArra
 
 def _robust_sigma(values: FloatArray, least: float) -> float:
     """The spread of ``values`` (n,) about 0 among many outliers (a room's repeated textures mismatch half its
-    features): 1.4826 times the median absolute value, again among those within three of it, three times."""
-    sigma = 1.4826 * float(np.median(np.abs(values))) if values.size else least
+    features): :func:`~panomap.robust.mad_sigma`, again among those within three of it, three times."""
+    sigma = mad_sigma(values) if values.size else least
     for _ in range(3):
         inside = np.abs(values) <= TAU_SIGMAS * sigma
         if inside.sum() < 2 * MIN_SECTOR:
             break
-        sigma = 1.4826 * float(np.median(np.abs(values[inside])))
+        sigma = mad_sigma(values[inside])
     return max(sigma, least)
 
 

@@ -122,7 +122,7 @@ class CameraRig:
         fields = self.half_fields_deg()
         frame = self.frame_size
         lines = [
-            f"rig of {self.count} cameras"
+            f"rig of {self.count} camera{'s' if self.count != 1 else ''}"
             + (f", their pictures side by side in one {frame[0]} x {frame[1]} frame" if frame is not None else "")
         ]
         for k, (name, table) in enumerate(zip(self.names, self.tables, strict=True)):

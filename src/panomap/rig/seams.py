@@ -68,6 +68,11 @@ class SeamWeights:
         """(H, W) of the view."""
         return int(self.owner.shape[0]), int(self.owner.shape[1])
 
+    def shares(self) -> NDArray[np.float64]:
+        """(k,) float64: each camera's share of the view, its weights' sum over every pixel (px)."""
+        counts = np.bincount(self.owner[self.owner >= 0].astype(np.intp), minlength=self.count)[: self.count]
+        return counts.astype(np.float64) + self.band_weights.sum(axis=1, dtype=np.float64)
+
     def dense(self) -> NDArray[np.float32]:
         """(k, H, W) float32: every camera's weight at every pixel."""
         out = np.zeros((self.count, *self.shape), dtype=np.float32)

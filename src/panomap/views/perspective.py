@@ -29,7 +29,8 @@ def default_direction(table: PanoMappingTable) -> tuple[float, float]:
 
     The camera's optical axis (its orientation's yaw and pitch) where the table sees along it. A camera that does
     not (a mirror camera, whose centre shows its own reflection, a cut-off disc about the axis: the table's
-    camera elevation range stops short of the pole the centre sees) would show that disc alone: the view is
+    camera elevation range stops short of the pole the centre sees; or a mirror camera imported without its
+    cut-off radius, whose table reaches the pole) would show that disc alone: the view is
     turned off the axis, in the vertical plane through it (toward the camera's yaw where the axis is vertical),
     by the middle of the angles off the axis the table sees, toward the horizon (up from an axis below it, down
     from one above it).
@@ -41,7 +42,9 @@ def default_direction(table: PanoMappingTable) -> tuple[float, float]:
     low, high = table.camera_range
     down = table.model.axis == "down"
     nearest = low + HALF_PI if down else HALF_PI - high  # the angle off the axis where the table starts (rad)
-    if nearest <= AXIS_SEEN_RAD:
+    record = table.info.get("import")
+    mirror = isinstance(record, dict) and record.get("mirror") is True  # (its centre is its reflection, cut off or not)
+    if nearest <= AXIS_SEEN_RAD and not mirror:
         return yaw, pitch
     alpha = HALF_PI + 0.5 * (low + high) if down else HALF_PI - 0.5 * (low + high)
     axis = np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
@@ -128,6 +131,7 @@ class PerspectiveView(View):
         SEEN_AT,
     )
     example: ClassVar[str] = "yaw=30,pitch=-20,roll=0,fov=90,size=1280x720"
+    bytes_per_pixel: ClassVar[int] = 28  # (measured: 24.0 bytes a pixel)
 
     yaw_rad: float | None = None
     pitch_rad: float | None = None

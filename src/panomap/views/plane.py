@@ -46,6 +46,7 @@ class PlaneView(View):
         OUTPUT_SIZE,
     )
     example: ClassVar[str] = "distance=1.8,width=2.4,band=-2.45:0.15,azimuth=90,size=800x860"
+    bytes_per_pixel: ClassVar[int] = 64  # (measured: 56.6 bytes a pixel)
 
     distance: float
     width: float

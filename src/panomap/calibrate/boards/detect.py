@@ -19,16 +19,16 @@ is grown on from there corner by corner (:func:`.grid._grown`), and its corners'
 the board the picture shows, not a rectangle.
 
 Once a board is found, the search for another looks at the image halved first (:func:`_looked`). Many pictures
-(:func:`find_boards_each`) are searched in threads, and where the first two show one board each, of one size,
-the others are searched for one board only (the search for more, most of what is left, is left out; OpenCV's
-quick detector, told the size, looks for a second: :func:`_one_board`). Told the board's size, the sector
-detector is no quicker: it needs ``CALIB_CB_EXHAUSTIVE`` to find the real sets' boards (0 of 17 without on the
-Kaidan set) and then takes as long as the search grown from a seed (measured on the five sets). OpenCV's quick
-detector told the size finds the real fisheye and VMR sets' boards in a fifth of the search's time: where it finds
-the first pictures' boards and their squares are large enough for every corner to be refined in full, it stands in
-for the search on the later pictures (:func:`_quick_board`): its corners refined in full from where it puts them
-where each settles on a saddle (:func:`_settled`: a fortieth of the crop's upsampled placement), else placed as the
-search's are.
+(:func:`find_boards_each`) are searched in threads, and where the first two show one board each, of one size, the
+others are searched for one board only (the search for more, most of what is left, is left out; OpenCV's quick
+detector, told the size, looks for a second: :func:`_one_board`; so does it on the second picture, where the first
+one's board is beyond doubt: :func:`_bounded_size`). Told the board's size, the sector detector is no quicker: it
+needs ``CALIB_CB_EXHAUSTIVE`` to find the real sets' boards (0 of 17 without on the Kaidan set) and then takes as
+long as the search grown from a seed (measured on the five sets). OpenCV's quick detector told the size finds the
+real fisheye and VMR sets' boards in a fifth of the search's time: where it finds the first pictures' boards and
+their squares are large enough for every corner to be refined in full, it stands in for the search on the later
+pictures (:func:`_quick_board`): its corners refined in full from where it puts them where each settles on a saddle
+(:func:`_settled`: a fortieth of the crop's upsampled placement), else placed as the search's are.
 """
 
 from __future__ import annotations
@@ -87,7 +87,8 @@ RNG_SEED = 20071
 MAX_BOARDS = 6
 # Pictures the board is learned from (find_boards_each): where each shows one whole board, all of one size, the
 # later pictures are searched for one board of that size (the look for more left out: a third of the detection's
-# time on the real sets).
+# time on the real sets). The second's look for more is the later pictures' where the first picture's first board
+# is beyond doubt (_bounded_size) and the second's first board is of its size.
 LEARN_PICTURES = 2
 # ... where OpenCV's quick detector, told the size, sees no second board (_one_board): its look for a board that is
 # most often absent starts with its fast check (CALIB_CB_FAST_CHECK), which ends most such looks early.
@@ -221,6 +222,12 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
     their squares are large enough for every corner to be refined in full (:func:`_quick_suits`), it also stands in
     for the search on the later pictures (:func:`_quick_board`).
 
+    Where the first picture's first board is beyond doubt (:func:`_bounded_size`: whole, every corner a board's,
+    the pattern running on past none of its edges) and the second picture's first board is whole and of its size,
+    the second picture's look for another is the quick detector's, as the later pictures' (:func:`_learning`), not
+    the search's look at the picture halved; where the first picture then shows another board, the second is
+    searched in full again with the later ones.
+
     The images are searched ``threads`` at a time (the CPUs', where None): the detector runs in one thread and
     lets the others run, so the wall time falls with the cores free and the CPU time does not. Each search seeds
     the generator of its own thread (OpenCV keeps one per thread): the boards are those found one image at a time.
@@ -231,7 +238,14 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
     later = range(len(learning), len(images))
     with ThreadPoolExecutor(max(min(len(images), threads or os.cpu_count() or 1), 1), "panomap-boards") as pool:
         firsts: list[Future[Board | None]] = [Future() for _ in learning]
-        searched = [pool.submit(_learning, images[k], k, firsts[k]) for k in learning]
+        told: Future[tuple[int, int] | None] = Future()  # the first picture's first board's size, beyond doubt
+        searched = [pool.submit(_learning, images[k], k, firsts[k], told if k else None) for k in learning]
+        try:
+            opening = firsts[0].result() if len(learning) == LEARN_PICTURES else None
+            told.set_result(None if opening is None else _bounded_size(images[0], opening))
+        finally:  # (the second picture's search waits on it)
+            if not told.done():
+                told.set_result(None)
         learned = [first.result() for first in firsts]
         size = learned_size([[board] if board is not None else [] for board in learned])  # None: None once all are
         if size is None:
@@ -243,26 +257,67 @@ def find_boards_each(images: Sequence[NDArray[np.generic]], threads: int | None 
             ahead = [pool.submit(_one_board, images[k], k, size, quick) for k in later]
         try:
             first = [these.result() for these in searched]
-            yield from first
             if learned_size(first) == size:
+                yield from first
                 yield from (these.result() for these in ahead)
                 return
         finally:  # those not started where not wanted, or where the caller stops early
             for these in ahead:
                 these.cancel()
+        if told.result() is not None and len(first) > 1:  # the first picture shows more: the second's look was not
+            first[1] = find_boards(images[1], 1)  # the search's
+        yield from first
         yield from pool.map(find_boards, [images[k] for k in later], later)
 
 
-def _learning(image: NDArray[np.generic], image_index: int, first: Future[Board | None]) -> list[Board]:
-    """A learned picture's boards (:func:`find_boards`), its first board (or None) set in ``first`` when found."""
+def _bounded_size(image: NDArray[np.generic], board: Board) -> tuple[int, int] | None:
+    """The size (lesser, greater count of inner corners) of ``board`` (the first picture's first board, from the
+    search) where it is beyond doubt a whole board, one the second picture's may be compared with (:func:`_learning`):
+    every corner found, each showing the board's colouring on the search's image (:func:`.grid._colouring`, as
+    :func:`_checked` asks), and the pattern running on past none of its edges (:func:`.grid._beyond`: a grid a row
+    short of its board runs on past one); else None."""
+    if len(board.pixels) != board.shape[0] * board.shape[1] or len(board.pixels) >= PATTERN_CORNERS:
+        return None
+    search, scale = _searched(_grey(image))
+    columns, rows = board.shape
+    pixels = (board.pixels + 0.5) * scale - 0.5
+    a, b = _steps(pixels, board.grid)
+    contrast, parity, colouring, least = _colouring(search, pixels, board.grid, a, b)
+    beyond = _beyond(search, pixels.reshape(rows, columns, 2), colouring, least)
+    if np.any(contrast * parity * colouring <= least) or max(beyond) >= CHECKED_ROW:
+        return None
+    low, high = sorted(board.shape)
+    return low, high
+
+
+def _learning(
+    image: NDArray[np.generic],
+    image_index: int,
+    first: Future[Board | None],
+    told: Future[tuple[int, int] | None] | None = None,
+) -> list[Board]:
+    """A learned picture's boards (:func:`find_boards`), its first board (or None) set in ``first`` when found.
+
+    With ``told`` (the second picture's: the first picture's first board's size, where beyond doubt), once its
+    first board is found the picture waits for that size: where its board is whole and of that size, the look for
+    another is OpenCV's quick detector told the size (:func:`_another`, as the later pictures', :func:`_one_board`),
+    not the search's look at the picture halved (a third to a half of a search's time), and the search goes on
+    only where that sees another."""
     try:
-        searches = _searches(_grey(image), image_index)
+        grey = _grey(image)
+        searches = _searches(grey, image_index)
         board = next(searches, None)
     except BaseException as error:  # (any, the grey image's too: find_boards_each waits on ``first``)
         first.set_exception(error)
         raise
     first.set_result(board)
-    return [] if board is None else [board, *islice(searches, MAX_BOARDS - 1)]
+    if board is None:
+        return []
+    size = None if told is None else told.result()
+    whole = len(board.pixels) == board.shape[0] * board.shape[1]
+    if size is not None and whole and tuple(sorted(board.shape)) == size and not _another(grey, board):
+        return [board]
+    return [board, *islice(searches, MAX_BOARDS - 1)]
 
 
 def learned_size(found: Sequence[Sequence[Board]]) -> tuple[int, int] | None:
@@ -298,11 +353,17 @@ def _one_board(image: NDArray[np.generic], image_index: int, size: tuple[int, in
         if board is None:
             return []
         searches = chain((board,), searches)
-    if tuple(sorted(board.shape)) != size or len(board.pixels) != size[0] * size[1]:
+    if tuple(sorted(board.shape)) != size or len(board.pixels) != size[0] * size[1] or _another(grey, board):
         return list(islice(searches, MAX_BOARDS))
+    return [board]
+
+
+def _another(grey: NDArray[np.uint8], board: Board) -> bool:
+    """Whether OpenCV's quick detector told the size of ``board`` (``QUICK_FLAGS``: its fast check first) sees another
+    board of it in ``grey`` (H, W) with ``board`` painted over (:func:`_painted_over`)."""
     painted = _painted_over(grey, board.pixels, board.grid)
     another, _ = cv2.findChessboardCorners(painted, board.shape, flags=QUICK_FLAGS)
-    return list(islice(searches, MAX_BOARDS)) if another else [board]
+    return bool(another)
 
 
 def _refined(image: NDArray[np.generic], board: Board) -> bool:
@@ -479,7 +540,7 @@ def _accurate(
     mask = _grown_hull(search.shape, pixels, CROP_SQUARES * float(spacing.max()))
     x, y, width, height = cv2.boundingRect(mask)
     crop = search[y : y + height, x : x + width].copy()
-    crop[mask[y : y + height, x : x + width] == 0] = np.uint8(np.median(crop))
+    crop[mask[y : y + height, x : x + width] == 0] = _median_grey(crop)
     for seed in SEEDS:
         cv2.setRNGSeed(RNG_SEED)
         found, corners, meta = cv2.findChessboardCornersSBWithMeta(
@@ -552,8 +613,18 @@ def _painted_over(search: NDArray[np.uint8], pixels: FloatArray, grid: NDArray[n
     """``search`` with a board's corners' hull, grown by one of its squares (median), filled with its median grey."""
     mask = _grown_hull(search.shape, pixels, float(np.ceil(np.median(_neighbour_spacing(pixels, grid)))))
     out: NDArray[np.uint8] = search.copy()
-    out[mask > 0] = np.uint8(np.median(search))
+    out[mask > 0] = _median_grey(search)
     return out
+
+
+def _median_grey(grey: NDArray[np.uint8]) -> np.uint8:
+    """The median grey level of ``grey`` (any shape, uint8, not empty), as ``np.uint8(np.median(grey))`` gives it (of
+    an even count, the mean of the two middle levels, truncated), from its histogram: a fifth of the sort's time on a
+    VMR picture (6 ms), once for every board painted over."""
+    cumulative = np.cumsum(np.bincount(grey.ravel(), minlength=256))
+    low = int(np.searchsorted(cumulative, (grey.size - 1) // 2, side="right"))
+    high = int(np.searchsorted(cumulative, grey.size // 2, side="right"))
+    return np.uint8((low + high) / 2)
 
 
 def _grown_hull(shape: tuple[int, ...], pixels: FloatArray, grow_px: float) -> NDArray[np.uint8]:

@@ -366,7 +366,8 @@ def _no_rim(
     if _dark_corners(small):
         # A picture in a dark border whose rim no test passed (too dark, too soft, too noisy): no full-frame
         # fisheye (its corners show the scene) and no mirror image overfilling the frame.
-        seen = "no image circle found: the frame's corners are dark around a picture, but no rim about it passed"
+        seen = ("no image circle found: the frame's corners are dark around a picture, but its rim is too soft or "
+                "faint to fit")  # fmt: skip
         return NoImageCircle(f"{seen}; {start}", frame_centre, reason=reason, seen=seen)
     disc = _disc_without_rim(grey, small, factor)
     if disc is not None:

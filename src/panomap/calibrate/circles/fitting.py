@@ -11,6 +11,7 @@ import numpy as np
 
 from ...errors import PanomapError
 from ...geometry import FloatArray, pixel_polar
+from ...robust import mad_sigma
 from .thresholds import (
     CONSENSUS_SAMPLES,
     ELLIPSE_MIN_ECCENTRICITY,
@@ -60,7 +61,7 @@ def _robust_circle(points: FloatArray, centre: tuple[float, float], radius: floa
             raise PanomapError("no circle found: too few consistent edge points")
         params = _least_squares_circle(points[inliers], params)
         r = residuals(params, points)
-        sigma = max(1.4826 * float(np.median(np.abs(r[inliers] - np.median(r[inliers])))), 0.1)
+        sigma = max(mad_sigma(r[inliers], centre="median"), 0.1)
         inliers = np.abs(r) < min(INLIER_SIGMAS * sigma, near)
     if inliers.sum() < 3:
         raise PanomapError("no circle found: too few consistent edge points")

@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 
 from ...errors import PanomapError
 from ...geometry import FloatArray
+from ...robust import mad_sigma
 from .fitting import _algebraic_circle, _consensus_circle
 from .frame import _quadrants
 from .sampling import _edge_strength, _full_resolution, _profiles
@@ -333,7 +334,7 @@ def _surround_floor(small: NDArray[Any]) -> float | None:
     values = small[band]
     darker = values[values <= np.median(values)]
     level = float(np.median(darker))
-    spread = 1.4826 * float(np.median(np.abs(darker - level)))
+    spread = mad_sigma(darker, centre=level)
     lit = float(np.percentile(small[inside > 0], 60))
     floor = level + 3 * spread + 1
     flat = spread <= NESTED_FLOOR_SPREAD  # a pedestal, not a textured picture

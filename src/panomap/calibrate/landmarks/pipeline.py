@@ -23,7 +23,7 @@ from ... import inputs
 from ...camera.radial_models import radial_kind
 from ...camera.valid_range import annulus_coverage_problem
 from ...errors import PanomapError
-from ...table.table import PanoMappingTable
+from ...table.table import PanoMappingTable, check_table_chords, check_table_size
 from ..circles import (
     Circle,
     ImageCircles,
@@ -438,11 +438,10 @@ def calibrate_camera(
         image_size = (int(omni.shape[1]), int(omni.shape[0]))
         choice = _circles(omni, omni_name, choice, found, landmarks, pixel_sigma)
         recorded |= choice.sources
-    if choice.centre is None:
-        raise PanomapError("no image centre: give one, or an omni-image to find it in")
+    centre = _ready_to_fit(choice, table_size)
     # 3. Fit: the camera model from the landmarks (the centre refined where it was not given).
     camera_fit, line_warnings = _fit(
-        landmarks, position, choice, choice.centre, recorded, omni, image_size, lines, refine_centre,
+        landmarks, position, choice, centre, recorded, omni, image_size, lines, refine_centre,
         models_cover_annulus, model=model, azimuth=azimuth, axis=axis, pixel_sigma=pixel_sigma,
         world_sigma=world_sigma, reject_outliers=reject_outliers, tilt_deg=tilt_deg, camera_sigma=camera_sigma,
         viewpoint=viewpoint, orientation_deg=orientation_deg,
@@ -454,6 +453,16 @@ def calibrate_camera(
     table = _table(camera_fit, choice, (cutoff, outer), recorded, size=table_size, image_size=image_size, info=info)
     notes = () if camera_fit.lines_note is None or camera_fit.lines_note_warns else (camera_fit.lines_note,)
     return Calibration(table, camera_fit, recorded, choice.circles, choice.warnings + line_warnings, notes)
+
+
+def _ready_to_fit(choice: CircleChoice, table_size: tuple[int, int] | None) -> tuple[float, float]:
+    """The centre to fit about; refused before the fit where there is none, or where the table of
+    ``table_size`` (M, N) given would be too coarse in azimuth at the image circle known (where it ends)."""
+    if choice.centre is None:
+        raise PanomapError("no image centre: give one, or an omni-image to find it in")
+    if table_size is not None and choice.outer_radius is not None:
+        check_table_chords(check_table_size(table_size), choice.outer_radius)
+    return choice.centre
 
 
 def _fit(

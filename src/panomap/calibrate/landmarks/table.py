@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -20,7 +21,7 @@ from ...camera.uncertainty import radius_standard_error
 from ...camera.valid_range import annulus_coverage_problem, valid_elevation_range
 from ...errors import PanomapError
 from ...geometry import TWO_PI, pixel_polar
-from ...table.table import PanoMappingTable, check_table_chords, check_table_size, fill_entries
+from ...table.table import PanoMappingTable, check_table_chords, check_table_rows, check_table_size, fill_entries
 from ..core.noise import rim_slack_px
 from ..core.report import RadiusUncertainty
 from ..core.sources import Source
@@ -188,7 +189,9 @@ def table_for(
         size = (max(m, 16), min(max(math.ceil(r_span), 16), DEFAULT_MAX_SIZE[1]))
     size = check_table_size(size)
     check_table_chords(size, max(float(np.nanmax(np.abs(ends))), 1.0))
-    entries = fill_entries(fit.model, size, (rho_s, rho_e), camera_range=camera_range if tilted else None)
+    grid = partial(fill_entries, fit.model, camera_range=camera_range if tilted else None)
+    check_table_rows(size, (rho_s, rho_e), grid)
+    entries = grid(size, (rho_s, rho_e))
     table_info = dict(info)
     table_info["fit"] = replace(fit.report(), uncertainty=_uncertainty(fit, (rho_s, rho_e))).to_dict()
     table_info["warnings"] = _rim_notes(fit, cutoff_radius, outer_radius) + _range_warnings(

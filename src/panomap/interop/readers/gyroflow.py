@@ -40,6 +40,8 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     data = load_json(text, path)
     if not isinstance(data, dict):
         raise PanomapError("not a gyroflow lens profile (not a JSON object)", path)
+    if "fisheye_params" not in data and "calib_dimension" not in data:
+        raise PanomapError("not a gyroflow lens profile (no fisheye_params or calib_dimension)", path)
     model_name = data.get("distortion_model")
     if model_name is not None and model_name not in READ_MODELS:
         raise PanomapError(

@@ -46,10 +46,12 @@ def read(text: str, path: str | Path, choice: str | None = None) -> Imported:
     data = load_json(text, path)
     if not isinstance(data, dict) or len(data) != 1:
         count = f"{len(data)} objects" if isinstance(data, dict) else brief(data)
-        raise PanomapError(f"an OpenCalib file holds one object (its sensor's), this one {count}", path)
+        raise PanomapError(f"not an OpenCalib intrinsic: it holds one object (its sensor's), this one {count}", path)
     ((name, entry),) = data.items()
     if not isinstance(entry, dict):
         raise PanomapError(f"{name} is {brief(entry)}, not an object", path)
+    if "param" not in entry and "param_type" not in entry:
+        raise PanomapError(f"not an OpenCalib intrinsic: its one object, {name}, has no param", path)
     param = member(entry, "param", path, dict, "an object", name)
     if "sensor_calib" in param and "cam_K" not in param:
         raise PanomapError(f"{name} is an extrinsic (a pose, sensor_calib): import its intrinsic file", path)
