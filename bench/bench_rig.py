@@ -1,8 +1,10 @@
 """A rig's video (issue 52): ``panomap video RIG ...`` against ffmpeg, on synthetic clips, in one run.
 
 Run: ``.venv/bin/python bench/bench_rig.py [--frames N] [--surround-frames M] [--repeats R] [--keep DIR]
-[--dual-only] [--compile-each-run]`` (``--keep``: the clips are kept there, and taken from there by a later run
-given the same folder and lengths, so that runs compare on one clip; ``--dual-only``: (a) and the start-up alone)
+[--dual-only] [--compile-each-run] [--before SRC]`` (``--keep``: the clips are kept there, and taken from there by
+a later run given the same folder and lengths, so that runs compare on one clip; ``--dual-only``: (a) and the
+start-up alone; ``--before``: (a) and its start-up also run from the package folder ``SRC``, another checkout's
+``src``, interleaved with the rest: a change against the code before it, in one run)
 
 Two figures, each end to end (start-up, maps, decoding, blending, encoding with libx264 preset veryfast, crf 20,
 yuv420p):
@@ -242,13 +244,17 @@ def main() -> None:
     parser.add_argument("--dual-only", action="store_true", help="(a) and its start-up alone, not (b)")
     parser.add_argument("--compile-each-run", action="store_true",
                         help="keep the environment's PYTHONDONTWRITEBYTECODE (see Bytecode)")  # fmt: skip
+    parser.add_argument("--before", type=Path, help="also run (a) from this package folder (another checkout's src)")
     args = parser.parse_args()
     folder = Path(tempfile.mkdtemp(prefix="panomap-bench-rig-")) if args.keep is None else args.keep
     folder.mkdir(parents=True, exist_ok=True)
     if not args.compile_each_run:  # (the panomap runs inherit it; ffmpeg ignores it)
         os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
         os.environ["PYTHONPYCACHEPREFIX"] = str(folder / "pycache")
-        subprocess.run([sys.executable, "-c", "import panomap.cli.app, panomap.video.rig"], check=True)
+        for source in [None] if args.before is None else [None, args.before]:
+            extra = {} if source is None else {"PYTHONPATH": str(source.resolve())}
+            subprocess.run([sys.executable, "-c", "import panomap.cli.app, panomap.video.rig"], check=True,
+                           env={**os.environ, **extra})  # fmt: skip
     quiet = [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-loglevel", "error", "-y"]
     panomap = [sys.executable, "-m", "panomap", "video"]
     try:
@@ -277,6 +283,14 @@ def main() -> None:
                 [*panomap, str(dual_rig), str(clip), "-q", "-o", str(folder / "pm_1.mp4"), *equirect, "--duration", one]
             ),
         }
+        before, first_before = "(a) panomap video RIG, equirect, the code before", "(a) start-up: the code before"
+        if args.before is not None:
+            earlier = ["env", f"PYTHONPATH={args.before.resolve()}", *panomap]
+            runs[before] = timed_command(
+                [*earlier, str(dual_rig), str(clip), "-q", "-o", str(folder / "pm_before.mp4"), *equirect]
+            )
+            one_frame = ["-q", "-o", str(folder / "pm_1b.mp4"), *equirect, "--duration", one]
+            runs[first_before] = timed_command([*earlier, str(dual_rig), str(clip), *one_frame])
         if not args.dual_only:
             clips = [folder / f"cam{k}.mp4" for k in range(4)]
             car_rig = folder / "car.npz"
@@ -326,6 +340,11 @@ def main() -> None:
             f"\n(a) speed vs ffmpeg v360 dfisheye: {best[baseline][0] / best[ours][0]:.2f} (target >= 1.0); "
             f"start-up (one frame) {best[first_ours][0]:.2f} s, ffmpeg's {best[first_baseline][0]:.2f} s"
         )
+        if args.before is not None:
+            print(
+                f"    the code before ({args.before}): {best[baseline][0] / best[before][0]:.2f}; start-up "
+                f"{best[first_before][0]:.2f} s"
+            )
         if not args.dual_only:
             floor_fps = args.surround_frames / best[floor_run][0]
             print(

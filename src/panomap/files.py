@@ -32,7 +32,6 @@ import stat
 import string
 import tempfile
 import urllib.parse
-import urllib.request
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -416,7 +415,9 @@ def local_file(source: str | Path) -> Path | None:
         parsed = urllib.parse.urlsplit(text)
         candidates = [text[5:]]
         if parsed.netloc in ("", "localhost"):
-            candidates.append(urllib.request.url2pathname(parsed.path))
+            from urllib.request import url2pathname  # here, not at the top: it imports http.client, email (14 ms)
+
+            candidates.append(url2pathname(parsed.path))
     for candidate in candidates:
         path = Path(os.path.expanduser(candidate)) if candidate else None
         if path is not None and path.is_file():

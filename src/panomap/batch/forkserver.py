@@ -9,8 +9,6 @@ after them; :func:`panomap.batch.run.run_job` starts it otherwise.
 
 from __future__ import annotations
 
-import multiprocessing
-import multiprocessing.forkserver
 import os
 from collections.abc import Sequence
 
@@ -21,6 +19,8 @@ SCHEDULER_VARIABLE = "DASK_SCHEDULER_ADDRESS"
 
 def can_fork_serve() -> bool:
     """The system has fork servers (not Windows): elsewhere each worker starts as a fresh interpreter."""
+    import multiprocessing  # here, not at the top: every command imports this module, a batch alone needs it
+
     return "forkserver" in multiprocessing.get_all_start_methods()
 
 
@@ -29,6 +29,8 @@ def start_fork_server() -> None:
     preloaded)."""
     if not can_fork_serve():
         return
+    import multiprocessing.forkserver
+
     multiprocessing.get_context("forkserver").set_forkserver_preload(PRELOAD)
     multiprocessing.forkserver.ensure_running()
 

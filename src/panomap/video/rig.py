@@ -39,7 +39,7 @@ from ..files import all_or_none, atomic_path, check_output_paths, local_file
 from ..rig import CameraRig, camera_maps
 from ..rig.blend import WRAPPING_KINDS
 from ..rig.fast import RigPlane
-from ..rig.seams import seam_weights
+from ..rig.seams import seam_weights, video_seam_step
 from ..views import View
 from .frames import BGR, PLANAR_FORMATS, REMAP_THREADS, _chroma_map, _plane_array, check_output_size, opencv_threads
 from .frames import work_format as choose_work_format
@@ -123,7 +123,7 @@ class RigFrameRemapper:
                     if shift:  # (u or v alone, in place: a 2-vector added across the map took 10 x longer)
                         map_uv[..., axis] += np.float32(shift)
             reads = [0] * rig.count
-        seams = seam_weights(maps, wrap)
+        seams = seam_weights(maps, wrap, step=video_seam_step((height, width)))
         if work_format == BGR:
             self.planes = [RigPlane(maps, seams, inputs, reads, 3, interpolation)]
             return
