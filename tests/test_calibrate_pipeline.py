@@ -274,7 +274,9 @@ def test_a_mirror_image_that_overfills_the_frame_starts_from_its_cut_off_disc() 
 
 
 @pytest.mark.slow  # about a second each: the fast subset keeps within its 3 minutes
-def test_a_detected_cut_off_disc_asks_f_r_to_reach_a_default_outer_radius_no_further_than_it_runs() -> None:
+def test_a_detected_cut_off_disc_asks_f_r_to_reach_a_default_outer_radius_no_further_than_it_runs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """With the cut-off radius detected and the outer radius the whole frame's default (a mirror image that
     overfills the frame), the table runs from the disc to where f_r ends; a given outer radius f_r does not
     reach is refused. (On three real miniomni images, whose fitted f_r ends at 277 px of the corners' 465,
@@ -287,8 +289,12 @@ def test_a_detected_cut_off_disc_asks_f_r_to_reach_a_default_outer_radius_no_fur
     _, top = valid_elevation_range(fit.model.radial, fit.landmark_range, 62.0, 1e9)
     beyond = float(fit.model.radial(top)) + 100.0  # 100 px past where the table may take f_r
     default = Annulus(62.0, beyond, Source.DETECTED, Source.DEFAULT_WHOLE_FRAME)
-    # (f_r runs out at millions of px here: a table as fine in azimuth as its chords must be there, 1 px)
+    # (f_r runs out at millions of px here: a table as fine in azimuth as its chords must be there, 1 px; its
+    # rows millions of px apart, which no table size mends: refused, and the range checked past that refusal)
     size = (8192, 32)
+    with pytest.raises(PanomapError, match="between its 32 elevations the views would be up to"):
+        table_for(fit, default, size=size, image_size=None, info={})
+    monkeypatch.setattr("panomap.calibrate.landmarks.table.check_table_rows", lambda *args, **kwargs: None)
     table = table_for(fit, default, size=size, image_size=None, info={})
     assert table.cutoff_radius == 62.0
     given = Annulus(62.0, beyond, Source.DETECTED, Source.GIVEN)

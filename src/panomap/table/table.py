@@ -442,6 +442,11 @@ def check_table_rows(
     low, high = n, n
     while _row_chord_px(grid, elevation_range, high) > MAX_CHORD_PX and high < MAX_TABLE_SIDE:
         low, high = high, min(2 * high, MAX_TABLE_SIDE)
+    if _row_chord_px(grid, elevation_range, high) > MAX_CHORD_PX:
+        raise PanomapError(
+            f"{what} {int(size[0])}x{n}: between its {n} elevations the views would be up to {error:.0f} px off, "
+            f"still over {MAX_CHORD_PX:g} px at N = {high}: its elevations reach where the pixels run away"
+        )
     while high - low > max(1, low // 64):  # (the least N, within 1.6%)
         middle = (low + high) // 2
         low, high = (low, middle) if _row_chord_px(grid, elevation_range, middle) <= MAX_CHORD_PX else (middle, high)
