@@ -31,7 +31,9 @@ def test_centre_names_the_lens_of_a_dual_frame_and_says_nothing_on_a_single_one(
     cv2.imwrite(str(path), frame)
     result = run("centre", path)
     assert result.exit_code == 0, result.stderr
-    u0 = float(result.stdout.split()[1])
+    u0, v0 = map(float, result.stdout.split()[1:3])
+    # the circle drawn about (199.5, 199.5) or (599.5, 199.5): found exactly (measured 0.00 px at 2 decimals)
+    assert min(abs(u0 - 199.5), abs(u0 - 599.5)) < 0.1 and abs(v0 - 199.5) < 0.1, result.stdout
     half = "left" if u0 < 400 else "right"
     line = next(line for line in result.stdout.splitlines() if "side by side" in line)
     assert line.startswith(f"this is the {half} lens of a frame of two side by side") and len(line) <= 160, line

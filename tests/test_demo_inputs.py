@@ -25,10 +25,13 @@ from panomap.rig import RigRemapper, camera_maps
 from panomap.simulate import load_room, render, render_rays, standard_cameras
 from panomap.simulate.lens_scenes import camera_axes
 from panomap.views import EquirectView, PerspectiveView, build_map
-from test_interop_formats import TOLERANCE_PX, basalt_ds, fan, table_error
+from test_interop_formats import basalt_ds, fan, table_error
 from test_orientation import conventions_axes
 
 pytestmark = pytest.mark.slow  # (the demo, 4-6 s, runs once for the module)
+# The imported tables against the lenses' closed forms: about 3x the worst measured (7.5e-4 px; a table's bilinear
+# reading), where the other formats' tests allow 0.05 px.
+TOLERANCE_PX = 2e-3
 
 
 @pytest.fixture(scope="module")
@@ -72,7 +75,7 @@ def test_the_clip_is_the_ceiling_camera_turned_about_its_axis(demo_out: Path) ->
 
 
 def test_the_looking_ahead_calibration_is_the_pictures_camera(demo_out: Path) -> None:
-    """``ahead.json`` imported reproduces Basalt's double sphere within 0.05 px; the simulator's lens is that
+    """``ahead.json`` imported reproduces Basalt's double sphere within 2e-3 px; the simulator's lens is that
     camera; a perspective view of ``ahead.jpg`` at the stated orientation shows the room's own colours."""
     values = (AHEAD.fx, AHEAD.fy, AHEAD.cx, AHEAD.cy, AHEAD.xi, AHEAD.alpha)
     v, u = np.mgrid[0 : AHEAD.size[1] : 7, 0 : AHEAD.size[0] : 7]
@@ -95,7 +98,7 @@ def test_the_looking_ahead_calibration_is_the_pictures_camera(demo_out: Path) ->
 
 
 def test_the_camchain_is_the_dual_frames_rig(demo_out: Path) -> None:
-    """Each lens of ``camchain.yaml`` imported is the ideal equidistant lens within 0.05 px; the rig's blended
+    """Each lens of ``camchain.yaml`` imported is the ideal equidistant lens within 2e-3 px; the rig's blended
     equirectangular view of ``dual.jpg`` shows the room's own colours along its rays from where the rig stands."""
     field_deg = math.degrees(LENS.half_fov_rad) - 1
     rays = fan(field_deg)

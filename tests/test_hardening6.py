@@ -13,6 +13,7 @@ import zipfile
 from collections.abc import Callable
 from pathlib import Path
 
+import av
 import cv2
 import pytest
 
@@ -130,7 +131,9 @@ def test_an_encoder_that_opens_still_writes_the_video(inputs: Path) -> None:
     out = inputs / "out" / "fine.mp4"
     result = run("video", inputs / "cam.npz", inputs / "omni.png", "-o", out, "--view", "panorama:size=64x16", "-q")
     assert result.exit_code == 0 and result.stderr == "", result.stderr
-    assert out.stat().st_size > 0
+    with av.open(str(out)) as container:  # the one picture's frame, at the view's size (not a header alone)
+        shapes = [frame.to_ndarray(format="bgr24").shape for frame in container.decode(video=0)]
+    assert shapes == [(16, 64, 3)], shapes
 
 
 # ----------------------------------------------------------------------------- C3: a rig's names in file names

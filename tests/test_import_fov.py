@@ -36,14 +36,16 @@ def test_fov_stops_the_table_at_half_the_field_off_the_axis(tmp_path: Path, fov_
     assert result.exit_code == 0, result.output + result.stderr
     table = load_table(tmp_path / "lens.npz")
     truth_px = F_PX * math.radians(fov_deg / 2)  # equidistant: r = f * angle
-    assert abs(table.outer_radius - truth_px) < 0.05, (table.outer_radius, truth_px)
+    # (an equidistant profile is linear: the radius comes out exact, measured 0.0 px)
+    assert abs(table.outer_radius - truth_px) < 1e-6, (table.outer_radius, truth_px)
     assert table.info["sources"]["outer_radius"] == f"--fov {fov_deg:g} deg"
-    # Near its rim (3 px in, all round) the table's rays lie fov/2 - 3 px / f off the axis (+X: looking ahead).
+    # Near its rim (3 px in, all round) the table's rays lie fov/2 - 3 px / f off the axis (+X: looking ahead);
+    # within 1.5e-3 deg, about 3x the worst measured (3.8e-4 and 5.6e-4 deg: the table's bilinear reading).
     turn = np.radians(np.arange(0.0, 360.0, 15.0))
     uv = np.stack([CENTRE[0] + (truth_px - 3) * np.cos(turn), CENTRE[1] + (truth_px - 3) * np.sin(turn)], axis=1)
     azimuth, elevation = (np.asarray(a) for a in table.unproject(uv))
     off_axis_deg = np.degrees(np.arccos(np.cos(elevation) * np.cos(azimuth)))
-    np.testing.assert_allclose(off_axis_deg, fov_deg / 2 - math.degrees(3 / F_PX), atol=0.02)
+    np.testing.assert_allclose(off_axis_deg, fov_deg / 2 - math.degrees(3 / F_PX), atol=1.5e-3)
 
 
 @pytest.mark.parametrize(("model", "fov_deg", "reach_deg"), [("radtan", 200, 90.0), ("equidistant", 400, 180.0)])

@@ -55,7 +55,7 @@ def test_a_mirror_cameras_calibration_gives_the_world_not_its_mirror_image(tmp_p
     mirror = import_calibration(path, image_size=(640, 480), size=(512, 128), mirror=True)
     error = np.hypot(*(mirror.sample(theta, rho).astype(np.float64) - truth).T)
     assert mirror.model.s == 1
-    assert error.max() < 0.05  # measured 0.004 px (median 0.0005: float32 entries, bilinear reading)
+    assert error.max() < 0.012  # px: 3x the worst measured, 0.0036 (median 0.0005: float32 entries, bilinear)
     # As a lens (the default), the same file's world is mirrored: north and south swap, a median 58 px off.
     lens = import_calibration(path, image_size=(640, 480), size=(512, 128))
     assert np.percentile(np.hypot(*(lens.sample(theta, rho).astype(np.float64) - truth).T), 50) > 20
@@ -87,13 +87,14 @@ def test_import_takes_a_picture_with_a_cut_off_disc_for_a_mirror_camera(tmp_path
     assert "a mirror camera" in result.stdout
     table = load_table(out)
     assert table.model.s == 1
-    assert abs(table.cutoff_radius - 30.0) < 1.0 and abs(table.outer_radius - 150.0) < 1.0
+    # The circles found in the picture (drawn at 30 and 150 px): measured 0.10 and 0.0013 px off.
+    assert abs(table.cutoff_radius - 30.0) < 0.3 and abs(table.outer_radius - 150.0) < 0.3
     theta = np.radians(np.arange(0.0, 360.0, 15.0))
     below = np.full_like(theta, math.radians(70.0))
     error = np.hypot(
         *(table.sample(theta, below - math.pi / 2).astype(np.float64) - paracatadioptric_pixels(theta, below)).T
     )
-    assert error.max() < 0.05
+    assert error.max() < 0.015  # px: measured 0.0056
     assert "(a mirror camera: its frame is the world mirrored)" in run("info", out).stdout
     _, _, result = imported(tmp_path, G, 1.0, 30.0, "--lens")
     assert result.exit_code == 0, result.stderr
@@ -110,8 +111,9 @@ def test_a_found_circle_beyond_the_models_range_stops_the_table_there(tmp_path: 
     assert result.exit_code == 0, result.stderr
     assert "reaches beyond the mei model's valid range; the table stops there" in result.stderr
     table = load_table(out)
-    assert abs(table.outer_radius - reach) < 0.5
-    assert abs(math.degrees(table.elevation_range[1]) - (math.degrees(math.acos(-1 / xi)) - 90)) < 0.5
+    # Measured 1.3e-4 px and 0.066 deg off: the radius is flat at its top, so its angle is found more loosely.
+    assert abs(table.outer_radius - reach) < 1e-3
+    assert abs(math.degrees(table.elevation_range[1]) - (math.degrees(math.acos(-1 / xi)) - 90)) < 0.2
     assert table.model.s == -1  # a lens: no cut-off disc
     # A radius typed beyond the model is still refused (the user asked for what the calibration cannot give).
     result = run("import", path, "-o", out, "--image-size", "640x480", "--outer-radius", "150")

@@ -27,7 +27,7 @@ RIG = Path(__file__).resolve().parents[2] / "shared" / "data" / "rigs" / "pjlab_
 needs_rig = pytest.mark.skipif(
     not RIG.is_dir(), reason=f"shared OpenCalib surround set not found at {RIG} (../shared is not beside the repo)"
 )
-TOLERANCE_PX = 0.05
+TOLERANCE_PX = 6e-4  # px: twice the worst measured (3.2e-4); a table half as fine each way is 9e-4 off
 SIZE = (1280, 960)
 # A synthetic lens, its radius (px) at alpha rad off the axis: 634 px at 90 deg, the image's corners at ~115 deg.
 LENS = np.polynomial.Polynomial([0.0, 400.0, 15.0, -8.0, 0.0, 0.5])

@@ -270,7 +270,7 @@ def table_of_camera(
             "parameters": camera.parameters(),
             "axis": axis,
             "mirror": bool(mirror),
-            "radial_approximation_max_px": _approximation_error(entries, model, size, world_range, camera_range),
+            "radial_approximation_max_px": _approximation_error(entries, model, size, world_range),
         }
     )
     table_info["import"] = record
@@ -292,7 +292,6 @@ def _approximation_error(
     model: CameraModel,
     size: tuple[int, int],
     elevation_range: tuple[float, float],
-    camera_range: tuple[float, float],
 ) -> float:
     """Largest distance (px) between the entries and the radial model ``table.unproject`` inverts."""
     m, n = size

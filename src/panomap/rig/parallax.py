@@ -24,7 +24,7 @@ can mimic (a nearer wall on one side than the other). Least squares on ``r`` rea
   fit's tilt (its covariance not averaged over the matches: their small common errors moved it 0.16 deg on the
   room where averaging stated 0.026), at which every match's ``p`` is at least ``-TAU_SIGMAS sigma`` (``sigma``:
   the ``n`` components' robust spread; all but :data:`SPARE_FRACTION` of them: mismatches) and each of the
-  ring's :data:`SECTORS` sectors' median ``p`` at least ``-TAU_SIGMAS`` its median's noise (``1.2533 sigma /
+  ring's :data:`SECTORS` sectors' median ``p`` at least ``-TAU_SIGMAS`` its median's noise (``sqrt(pi / 2) sigma /
   sqrt(m)``): the truth is among them but where the noise passes three sigmas. Far matches all round the ring
   hem the set in tightly (a sector of them pins its median to a fraction of a px); near ones from one side only;
 * the **answer**: the least squares' turn, whole, where its tilt is feasible; else the feasible tilt nearest it,
@@ -52,6 +52,8 @@ from ..robust import mad_sigma
 
 #: The noise allowed below zero parallax, in sigmas, for each match and for each sector's median.
 TAU_SIGMAS = 3.0
+#: A median's noise in the sigmas of its values' noise, times sqrt(count) (normal values: sqrt(pi / 2)).
+MEDIAN_SIGMAS = math.sqrt(math.pi / 2)
 #: Matches allowed below that at a feasible tilt (mismatches a ratio test lets through): this fraction, at least
 #: :data:`MIN_SPARE`.
 SPARE_FRACTION = 0.1
@@ -138,16 +140,31 @@ def baseline_of(
     return between / np.linalg.norm(between), assumed
 
 
-def components(a: FloatArray, b: FloatArray, baseline: FloatArray) -> tuple[FloatArray, ...]:
-    """Each match's parallax ``p`` (n,) and parallax-free ``n`` (n,) components of ``a - b`` (rad), their gradients
-    in camera j's turn ``w`` (n, 3 each: ``p(w) = p - Gp w``) and its longitude about the baseline (n,), rad."""
+@dataclass(frozen=True)
+class Components:
+    """The matches' residuals ``a - b`` split about their epipolar circles (:func:`components`), world frame.
+
+    ``p`` (n,): the parallax components (rad, along ``e``); ``n`` (n,): the parallax-free ones (rad, along
+    ``a x e``); ``gp``, ``gn`` (n, 3): their gradients in camera j's turn ``w`` (a world rotation vector, rad:
+    ``p(w) = p - gp w``, likewise ``n``); ``lon_rad`` (n,): each match's longitude about the baseline."""
+
+    p: FloatArray
+    n: FloatArray
+    gp: FloatArray
+    gn: FloatArray
+    lon_rad: FloatArray
+
+
+def components(a: FloatArray, b: FloatArray, baseline: FloatArray) -> Components:
+    """The parallax and parallax-free components of the residuals ``a - b`` (module docstring) of camera i's
+    world rays ``a`` (n, 3) and camera j's ``b`` (n, 3), ``baseline`` (3,) the unit direction of ``c_j - c_i``."""
     e = baseline[None, :] - (a @ baseline)[:, None] * a
     e /= np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-12)
     m = np.cross(a, e)
     r = a - b
     u1, u2 = _square_to(baseline)
-    lon = np.arctan2(a @ u2, a @ u1)
-    return np.sum(r * e, axis=1), np.sum(r * m, axis=1), np.cross(b, e), np.cross(b, m), lon
+    lon_rad = np.arctan2(a @ u2, a @ u1)
+    return Components(np.sum(r * e, axis=1), np.sum(r * m, axis=1), np.cross(b, e), np.cross(b, m), lon_rad)
 
 
 def _square_to(axis: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -157,19 +174,20 @@ def _square_to(axis: FloatArray) -> tuple[FloatArray, FloatArray]:
     return u1, np.cross(axis, u1)
 
 
-def feasible_tilts(p: FloatArray, gp: FloatArray, lon: FloatArray, sigma: float, tilts: FloatArray) -> FloatArray:
+def feasible_tilts(p: FloatArray, gp: FloatArray, lon_rad: FloatArray, sigma: float, tilts: FloatArray) -> FloatArray:
     """Which of ``tilts`` (k, 3; world rotation vectors of camera j, rad, square to the baseline) are feasible
-    (k,) bool (module docstring): each match's ``p - Gp w`` (``p`` (n,), ``gp`` (n, 3)) at least ``-TAU_SIGMAS
-    sigma`` but for the spare ones, each sector's median at least ``-TAU_SIGMAS`` its noise."""
+    (k,) bool (module docstring): each match's ``p - Gp w`` (``p`` (n,), ``gp`` (n, 3), rad) at least
+    ``-TAU_SIGMAS sigma`` (``sigma`` rad) but for the spare ones, each sector of longitudes ``lon_rad`` (n,)
+    its median at least ``-TAU_SIGMAS`` its noise."""
     moved = p[None, :] - tilts @ gp.T  # (k, n)
     spare = max(MIN_SPARE, math.ceil(SPARE_FRACTION * len(p)))
     broken = np.sum(moved < -TAU_SIGMAS * sigma, axis=1)
-    sector = np.floor(np.mod(lon, 2 * math.pi) / (2 * math.pi) * SECTORS).astype(int)
+    sector = np.floor(np.mod(lon_rad, 2 * math.pi) / (2 * math.pi) * SECTORS).astype(int)
     for s in range(SECTORS):
         inside = sector == s
         count = int(inside.sum())
         if count >= MIN_SECTOR:
-            floor = -TAU_SIGMAS * 1.2533 * sigma / math.sqrt(count)
+            floor = -TAU_SIGMAS * MEDIAN_SIGMAS * sigma / math.sqrt(count)
             broken = broken + (spare + 1) * (np.median(moved[:, inside], axis=1) < floor)
     return np.asarray(broken <= spare)
 
@@ -177,7 +195,7 @@ def feasible_tilts(p: FloatArray, gp: FloatArray, lon: FloatArray, sigma: float,
 def bound_tilt(
     p: FloatArray,
     gp: FloatArray,
-    lon: FloatArray,
+    lon_rad: FloatArray,
     sigma: float,
     basis: FloatArray,
     tilt_n: FloatArray,
@@ -206,7 +224,7 @@ def bound_tilt(
             centre, half = np.asarray(tilt_n, np.float64), half / 2
             continue
         ok = np.zeros(len(points), dtype=bool)
-        ok[inside] = feasible_tilts(p, gp, lon, sigma, points[inside] @ basis)
+        ok[inside] = feasible_tilts(p, gp, lon_rad, sigma, points[inside] @ basis)
         inner = points[ok]
         if not len(inner):
             extent = TAU_SIGMAS * math.sqrt(float(np.max(np.linalg.eigvalsh(cov_n))))
@@ -283,6 +301,12 @@ def _robust_sigma(values: FloatArray, least: float) -> float:
     return max(sigma, least)
 
 
+def _roll_sigma(roll_cov: FloatArray, scale_px_per_rad: float) -> float:
+    """The roll's 1-sigma (rad) from its fit's covariance (1, 1) (rad^2), with a floor of :data:`MIN_SIGMA_PX`
+    for what is common to the matches (which averaging over them does not lessen)."""
+    return math.hypot(math.sqrt(max(float(roll_cov[0, 0]), 0.0)), MIN_SIGMA_PX / scale_px_per_rad)
+
+
 @dataclass(frozen=True)
 class Settled:
     """What :func:`settle` found: camera j's ``rotation`` (3, 3); ``tilt_bound_rad`` (inf where the matches do not
@@ -323,7 +347,8 @@ def settle(
     p = np.zeros(0)
     for _ in range(PASSES):
         b = b_rays @ rotation.T
-        p, n, gp, gn, lon = components(a_rays, b, baseline)
+        split = components(a_rays, b, baseline)
+        p, n, gp, gn = split.p, split.n, split.gp, split.gn
         close = np.linalg.norm(a_rays - b, axis=1) < near_rad
         sigma = _robust_sigma(n[close], MIN_SIGMA_PX / scale_px_per_rad)
         try:
@@ -339,7 +364,7 @@ def settle(
         # 0.16 deg off where averaging stated 0.026).
         cov_tilt = basis @ cov @ basis.T * len(used)
         try:
-            inner, step = bound_tilt(p[used], gp[used], lon[used], sigma, basis, basis @ w, cov_tilt)
+            inner, step = bound_tilt(p[used], gp[used], split.lon_rad[used], sigma, basis, basis @ w, cov_tilt)
             tilt, bound, pinned = _pick(inner, step, np.zeros(2))
             unbounded, why = False, ""
         except PanomapError as error:
@@ -348,7 +373,7 @@ def settle(
         if float(np.linalg.norm(tilt)) <= (0.0 if unbounded else step):
             # The least squares' tilt is feasible (or stands): its turn is kept whole, roll too; only bounded here.
             _, roll_cov, _ = epipolar_fit(n[close], (gn[close] @ baseline)[:, None], sigma)
-            roll_sigma = math.hypot(math.sqrt(max(float(roll_cov[0, 0]), 0.0)), MIN_SIGMA_PX / scale_px_per_rad)
+            roll_sigma = _roll_sigma(roll_cov, scale_px_per_rad)
             p = p[used]
             break
         # The roll given the tilt: the parallax-free components fitted again by the roll alone; its 1-sigma
@@ -356,7 +381,7 @@ def settle(
         along = n[close] - gn[close] @ (tilt @ basis)
         roll_w, roll_cov, _ = epipolar_fit(along, (gn[close] @ baseline)[:, None], sigma)
         roll = float(roll_w[0])
-        roll_sigma = math.hypot(math.sqrt(max(float(roll_cov[0, 0]), 0.0)), MIN_SIGMA_PX / scale_px_per_rad)
+        roll_sigma = _roll_sigma(roll_cov, scale_px_per_rad)
         rotation = rotation_from_vector(tilt @ basis + roll * baseline) @ rotation
         p = p[used] - gp[used] @ (tilt @ basis)
     far = int(np.sum(p < TAU_SIGMAS * sigma))
@@ -364,6 +389,7 @@ def settle(
 
 
 __all__ = [
+    "Components",
     "Inconsistent",
     "ParallaxFit",
     "Settled",

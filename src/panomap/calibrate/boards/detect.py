@@ -204,7 +204,7 @@ def _searches(grey: NDArray[np.uint8], image_index: int) -> Iterator[Board]:
             pixels, grid = _grown(search, pixels, _rectangle(columns, rows))
         search = _painted_over(search, pixels, grid)
         if scale != 1.0:
-            pixels = (pixels + 0.5) / scale - 0.5
+            pixels = _in_image(pixels, scale)
         found_any = True
         yield Board(image_index, _refine(grey, pixels, grid), grid)
 
@@ -280,7 +280,7 @@ def _bounded_size(image: NDArray[np.generic], board: Board) -> tuple[int, int] |
         return None
     search, scale = _searched(_grey(image))
     columns, rows = board.shape
-    pixels = (board.pixels + 0.5) * scale - 0.5
+    pixels = _in_search(board.pixels, scale)
     a, b = _steps(pixels, board.grid)
     contrast, parity, colouring, least = _colouring(search, pixels, board.grid, a, b)
     beyond = _beyond(search, pixels.reshape(rows, columns, 2), colouring, least)
@@ -383,7 +383,7 @@ def _quick_suits(image: NDArray[np.generic], board: Board, size: tuple[int, int]
     found, corners = cv2.findChessboardCorners(search, size, flags=FOUND_FLAGS)
     if not found or corners is None or len(corners) != len(board.pixels):
         return False
-    rough = (corners.reshape(-1, 2).astype(np.float64) + 0.5) / scale - 0.5
+    rough = _in_image(corners.reshape(-1, 2).astype(np.float64), scale)
     distance = np.linalg.norm(rough[:, None, :] - board.pixels[None, :, :], axis=2)
     spacing = _neighbour_spacing(board.pixels, board.grid)
     return bool(np.all(distance.min(axis=0) < SAME_CORNER * spacing))
@@ -412,9 +412,9 @@ def _quick_board(grey: NDArray[np.uint8], image_index: int, size: tuple[int, int
     rough = corners.reshape(-1, 2).astype(np.float64)
     if _neighbour_spacing(rough, _rectangle(columns, rows)).min() / scale < 4.0 * QUICK_WINDOW_PX - 1.0:
         return None  # too small to be refined (the quick detector's corners within half a pixel)
-    settled = _settled(grey, (rough + 0.5) / scale - 0.5, _rectangle(columns, rows))
+    settled = _settled(grey, _in_image(rough, scale), _rectangle(columns, rows))
     if settled is not None:
-        checked = _checked(search, (settled + 0.5) * scale - 0.5, columns, rows)
+        checked = _checked(search, _in_search(settled, scale), columns, rows)
         if checked is not None and len(checked[0]) == len(settled):  # its rows all a board's
             return Board(image_index, settled, _rectangle(columns, rows))
     placed = _accurate(search, rough, columns, rows, own_order=True)
@@ -424,7 +424,7 @@ def _quick_board(grey: NDArray[np.uint8], image_index: int, size: tuple[int, int
         return None
     pixels, (rows, columns) = placed
     if scale != 1.0:
-        pixels = (pixels + 0.5) / scale - 0.5
+        pixels = _in_image(pixels, scale)
     grid = _rectangle(columns, rows)
     if np.any(_windows(grey, pixels, grid) < QUICK_WINDOW_PX):
         return None
@@ -472,6 +472,18 @@ def _searched(grey: NDArray[np.uint8]) -> tuple[NDArray[np.uint8], float]:
         dtype=np.uint8,
     )
     return search, scale
+
+
+def _in_search(pixels: FloatArray, scale: float) -> FloatArray:
+    """Image pixels (n, 2) px as the search image's (:func:`_searched`, ``scale`` search px per image px).
+
+    Convention: pixel centres at integers, the two images' outer top-left corners (-0.5, -0.5) together."""
+    return (pixels + 0.5) * scale - 0.5
+
+
+def _in_image(pixels: FloatArray, scale: float) -> FloatArray:
+    """The search image's pixels (n, 2) px as the image's: :func:`_in_search` undone."""
+    return (pixels + 0.5) / scale - 0.5
 
 
 def _grey(image: NDArray[np.generic]) -> NDArray[np.uint8]:

@@ -43,6 +43,13 @@ NEWTON_STEPS = 2
 MAX_COEFFICIENTS = 64
 
 
+def check_affine(name: str, c: float, d: float, e: float) -> None:
+    """Raise :class:`PanomapError` where OCamCalib's affine ``[[c, d], [e, 1]]`` is singular (``|c - d e|`` under
+    1e-9): no pixel could be traced back to its ray."""
+    if abs(c - d * e) < 1e-9:
+        raise PanomapError(f"{name}: the affine matrix [[c, d], [e, 1]] is singular")
+
+
 @dataclass(frozen=True)
 class OCam(ExternalCamera):
     name: ClassVar[str] = "ocam"
@@ -70,8 +77,7 @@ class OCam(ExternalCamera):
             raise PanomapError(f"{self.name}: pol's a0 must be < 0 (the centre sees -z), not {self.pol[0]:g}")
         positive(self.name, "height", self.height)
         positive(self.name, "width", self.width)
-        if abs(self.c - self.d * self.e) < 1e-9:
-            raise PanomapError(f"{self.name}: the affine matrix [[c, d], [e, 1]] is singular")
+        check_affine(self.name, self.c, self.d, self.e)
 
     @property
     def principal_point(self) -> tuple[float, float]:

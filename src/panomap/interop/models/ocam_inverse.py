@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike
 from ...errors import PanomapError
 from ...geometry import FloatArray
 from .base import ExternalCamera, as_rays, farthest_corner_px, pixels, positive
-from .ocam import MAX_COEFFICIENTS, NEWTON_STEPS
+from .ocam import MAX_COEFFICIENTS, NEWTON_STEPS, check_affine
 
 # The tabulated polynomial: this many elevations from -pi/2 to pi/2.
 _NODES = 8193
@@ -64,8 +64,7 @@ class OCamInverse(ExternalCamera):
             )
         positive(self.name, "width", self.width)
         positive(self.name, "height", self.height)
-        if abs(self.c - self.d * self.e) < 1e-9:
-            raise PanomapError(f"{self.name}: the affine matrix [[c, d], [e, 1]] is singular")
+        check_affine(self.name, self.c, self.d, self.e)
 
     @property
     def principal_point(self) -> tuple[float, float]:
