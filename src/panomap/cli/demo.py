@@ -65,8 +65,8 @@ def run_demo(out: Path, camera_name: str = "hyperbolic") -> Iterator[str]:
     made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     try:
-        _refuse_others_files(out)
         check_outputs([], [(name, out / name) for name in OUTPUTS])  # (none a FIFO, a device, read-only)
+        _refuse_others_files(out)
         check_room([(out / OUTPUTS[0], DEMO_BYTES)], up_to=True)
     except PanomapError:
         if made:
