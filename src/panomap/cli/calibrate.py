@@ -677,7 +677,7 @@ def _describe_residuals(table: PanoMappingTable, fit: FitReport | None) -> str:
 
 def _describe_table(table: PanoMappingTable) -> str:
     m, n = table.size
-    rho_s, rho_e = (math.degrees(x) for x in table.elevation_range)
+    rho_s, rho_e = (round(math.degrees(x), 2) + 0.0 for x in table.elevation_range)  # (no "-0.00")
     sources = table.info.get("sources", {})
     return (
         f"table: {m} x {n} entries, elevation {rho_s:.2f}..{rho_e:.2f} deg, "
@@ -779,11 +779,11 @@ def info(table: Path, as_json: bool, uncertainty_plot: Path | None = None) -> No
         else f"camera axis: {math.degrees(tilt_rad):.3f} deg off the vertical, leaning toward azimuth "
         f"{round(math.degrees(toward_rad), 2) % 360.0:.2f} deg, looking {_looks(model)} (the table is in world angles)"
     )
-    yaw, pitch, roll = (math.degrees(a) for a in model.orientation)
+    yaw, pitch, roll = (round(math.degrees(a), 3) + 0.0 for a in model.orientation)  # (no "-0.000")
+    rho_s, rho_e = (round(math.degrees(x), 2) + 0.0 for x in loaded.elevation_range)
     lines.append(
         f"orientation: yaw {yaw:.3f}, pitch {pitch:.3f}, roll {roll:.3f} deg (as a perspective view's; "
-        f"the table spans elevations {math.degrees(loaded.elevation_range[0]):.2f}.."
-        f"{math.degrees(loaded.elevation_range[1]):.2f} deg)"
+        f"the table spans elevations {rho_s:.2f}..{rho_e:.2f} deg)"
     )
     report = table_fit_report(loaded, table)
     if report is not None and report.mount is not None and report.mount.position_refined:

@@ -229,7 +229,7 @@ def import_(
         save_table(table, output)
     record = table.info["import"]
     m, n = table.size
-    rho_s, rho_e = (math.degrees(x) for x in table.elevation_range)
+    rho_s, rho_e = (round(math.degrees(x), 2) + 0.0 for x in table.elevation_range)  # (no "-0.00")
     say(
         printable(
             f"{calibration}: {record['format']} calibration, model {record['model']}"
@@ -403,7 +403,7 @@ def orient(table: Path, output: Path, orientation: tuple[float, float, float]) -
         raise PanomapError(exc.detail, exc.source or table) from None
     with all_or_none():
         save_table(turned, output)
-    rho_s, rho_e = (math.degrees(x) for x in turned.elevation_range)
+    rho_s, rho_e = (round(math.degrees(x), 2) + 0.0 for x in turned.elevation_range)  # (no "-0.00")
     say(
         f"{printable(str(table))}: looking yaw {orientation[0]:g}, pitch {orientation[1]:g}, roll "
         f"{orientation[2]:g} deg; table {turned.size[0]} x {turned.size[1]}, elevation {rho_s:.2f}..{rho_e:.2f} deg"
