@@ -146,6 +146,8 @@ def parse_view_spec(spec: str) -> tuple[str | None, View]:
     PanomapError
         Naming the SPEC and what is wrong with it: an unknown kind or key, a value out of range.
     """
+    if not isinstance(spec, str):
+        raise TypeError(f"a view spec must be text (KIND:key=value,...), not {type(spec).__name__}")
     kind, _, rest = spec.strip().partition(":")
     params: dict[str, str] = {}
     for item in filter(None, (part.strip() for part in rest.split(","))):

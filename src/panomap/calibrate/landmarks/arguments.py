@@ -59,6 +59,13 @@ def checked_arguments(
     n = len(landmarks)
     if n < MIN_LANDMARKS:
         raise PanomapError(f"only {n} landmark(s); at least {MIN_LANDMARKS} are needed")
+    distinct = len(np.unique(np.hstack([landmarks.pixels, landmarks.world]), axis=0))
+    if distinct < MIN_LANDMARKS:  # (a repeated pair adds no constraint: 6 copies of 2 fit any 1-parameter curve)
+        raise PanomapError(
+            f"only {distinct} distinct landmarks among {n} (the others repeat one, pixel and world point alike); "
+            f"at least {MIN_LANDMARKS} are needed"
+        )
+    image_size = inputs.optional_image_size(image_size)
     if image_size is not None:
         check_inside(landmarks, image_size)
     if float(np.max(np.ptp(landmarks.pixels, axis=0))) == 0.0:
