@@ -190,3 +190,37 @@ def test_levelling_checks_the_table_and_the_pictures_size(chain) -> None:
     _, _, table = chain
     refused(lambda: panomap.level_table(table, "x.png"), TypeError, "pictures", "read_image")
     refused(lambda: panomap.level_table(table, [FRAME[:100, :100]]), panomap.PanomapError, "100 x 100", "160 x 160")
+
+
+# Video, batches and rigs.
+
+
+def test_a_video_run_checks_its_table_and_views_before_opening_the_video(chain, tmp_path) -> None:
+    _, _, table = chain
+    rig = panomap.CameraRig((table, table), ("cam0", "cam1"))
+    output = panomap.ViewOutput(VIEW, tmp_path / "out.mp4")
+    video = str(tmp_path / "in.mp4")  # (never opened: each call is refused first)
+    refused(lambda: panomap.unwarp_video(rig, video, [output]), TypeError, "rig.tables[k]")
+    refused(lambda: panomap.unwarp_video(table, video, []), panomap.PanomapError, "no view to write")
+    refused(lambda: panomap.unwarp_video(table, video, [VIEW]), TypeError, "outputs[0]", "ViewOutput")
+    refused(lambda: panomap.unwarp_video(table, video, [output], memory_limit=-1), panomap.PanomapError, "memory")
+    assert not any(tmp_path.iterdir())
+
+
+def test_video_and_batch_settings_are_checked_when_made() -> None:
+    refused(lambda: panomap.Selection(every=1.5), panomap.PanomapError, "every", "whole")
+    refused(lambda: panomap.Selection(start_s="1"), TypeError, "start")
+    refused(lambda: panomap.EncoderSettings(crf=-5), panomap.PanomapError, "crf")
+    refused(lambda: panomap.EncoderSettings(codec=5), TypeError, "codec")
+    refused(lambda: panomap.EncoderSettings(bitrate=-1), panomap.PanomapError, "bit rate")
+    refused(lambda: panomap.RunSettings(workers=0), panomap.PanomapError, "workers")
+    refused(lambda: panomap.RunSettings(retries=-1), panomap.PanomapError, "retries")
+    refused(lambda: panomap.RunSettings(segment_s=0), panomap.PanomapError, "segment_s")
+
+
+def test_a_rig_is_made_of_tables_and_saved_as_a_rig(chain, tmp_path) -> None:
+    _, _, table = chain
+    refused(lambda: panomap.CameraRig(("a",), ("cam0",)), TypeError, "table", "load_table")
+    refused(lambda: panomap.CameraRig((table, table), "ab"), TypeError, "names")
+    refused(lambda: panomap.save_rig(table, tmp_path / "rig.npz"), TypeError, "the rig", "save_table")
+    assert not any(tmp_path.iterdir())
