@@ -224,3 +224,57 @@ def test_a_rig_is_made_of_tables_and_saved_as_a_rig(chain, tmp_path) -> None:
     refused(lambda: panomap.CameraRig((table, table), "ab"), TypeError, "names")
     refused(lambda: panomap.save_rig(table, tmp_path / "rig.npz"), TypeError, "the rig", "save_table")
     assert not any(tmp_path.iterdir())
+
+
+CAMCHAIN = """cam0:
+  camera_model: omni
+  intrinsics: [0.9, 300.0, 300.0, 320.0, 240.0]
+  distortion_model: radtan
+  distortion_coeffs: [0.0, 0.0, 0.0, 0.0]
+  resolution: [640, 480]
+cam1:
+  camera_model: omni
+  intrinsics: [0.9, 300.0, 300.0, 320.0, 240.0]
+  distortion_model: radtan
+  distortion_coeffs: [0.0, 0.0, 0.0, 0.0]
+  resolution: [640, 480]
+  T_cn_cnm1:
+  - [-1.0, 0.0, 0.0, 0.0]
+  - [0.0, 1.0, 0.0, 0.0]
+  - [0.0, 0.0, -1.0, 0.0]
+  - [0.0, 0.0, 0.0, 1.0]
+"""
+
+
+def test_imports_check_their_numbers_before_reading(tmp_path) -> None:
+    chain = tmp_path / "camchain.yaml"
+    chain.write_text(CAMCHAIN)
+    imported = panomap.import_calibration
+    refused(lambda: imported(chain, camera="cam0", camera_position="0 0 0"), TypeError, "camera position")
+    refused(lambda: imported(chain, camera="cam0", camera_position=(math.nan, 0, 0)), panomap.PanomapError, "finite")
+    refused(lambda: imported(chain, camera="cam0", orientation_rad=(0, 0)), panomap.PanomapError, "orientation_rad")
+    refused(lambda: imported(chain, camera="cam0", image_size="640x480"), TypeError, "image size")  # (was "6 x 4")
+    refused(lambda: imported(chain, camera="cam0", sources=["a"]), TypeError, "sources")
+    rig_of = panomap.rig_of_camchain
+    refused(lambda: rig_of(chain, camera_position=(0, 0)), panomap.PanomapError, "camera position")
+    refused(lambda: rig_of(chain, orientation_rad="0,0,0"), TypeError, "orientation_rad")
+    refused(lambda: rig_of(chain, fov_rad=0), panomap.PanomapError, "fov_rad")
+    refused(lambda: rig_of(chain, outer_radii=(100.0,)), panomap.PanomapError, "one outer radius")
+    refused(lambda: rig_of(chain, flipped=5), panomap.PanomapError, "flipped")
+
+
+def test_exports_and_batches_check_their_arguments(chain, tmp_path) -> None:
+    _, _, table = chain
+    rig = panomap.CameraRig((table, table), ("cam0", "cam1"))
+    refused(lambda: panomap.export_calibration(rig, tmp_path / "x.txt", "ocam"), TypeError, "rig.tables[k]")
+    picture = tmp_path / "in.png"
+    panomap.write_image(picture, FRAME)
+    panomap.save_table(table, tmp_path / "t.npz")
+    refused(lambda: panomap.find_inputs(str(picture), tmp_path / "t.npz"), TypeError, "patterns", "list")
+    found = panomap.find_inputs([str(picture)], str(tmp_path / "t.npz"))  # (a table's name as text: a path)
+    assert [item.path for item in found] == [picture]
+    refused(lambda: panomap.make_job(found, [VIEW], str(tmp_path / "{stem}.png")), TypeError, "NamedView")
+    refused(lambda: panomap.NamedView("a", "panorama"), TypeError, "View", "parse_view_spec")
+    refused(lambda: panomap.Settings(interpolation="bicubic"), panomap.PanomapError, "interpolation")
+    refused(lambda: panomap.Settings(sampling="cubic"), panomap.PanomapError, "sampling")
+    refused(lambda: panomap.read_image(picture, expected_size="160x160"), TypeError, "expected_size")

@@ -121,6 +121,16 @@ def import_calibration(
         calibration's frame; the table's handedness is turned to the world's (default: a lens).
     """
     tilt_rad = _tilt(tilt_rad)
+    if orientation_rad is not None:
+        yaw, pitch, roll = inputs.numbers(orientation_rad, 3, "orientation_rad (yaw, pitch, roll)")
+        orientation_rad = (yaw, pitch, roll)
+    x0, y0, z0 = inputs.numbers(camera_position, 3, "the camera position (X0, Y0, Z0)")
+    camera_position = (x0, y0, z0)
+    image_size = inputs.optional_image_size(image_size)
+    if sources is not None and not (
+        isinstance(sources, dict) and all(isinstance(k, str) and isinstance(v, str) for k, v in sources.items())
+    ):
+        raise TypeError(f"sources must be a dict of text (quantity: where it came from), not {sources!r:.40}")
     return table_of_imported(
         read_calibration(path, format, camera),
         path,

@@ -87,7 +87,7 @@ def read_image(
         raise PanomapError(f"images must be 8- or 16-bit, this one is {kind} (32-bit float)", path)
     declared = _header(path)
     if declared is not None:
-        check_image_size(path, declared[0], expected_size, expected_by)
+        check_image_size(path, declared[0], inputs.optional_image_size(expected_size, "expected_size"), expected_by)
         _check_claim(path, declared[0], declared[1])
     data = np.fromfile(path, dtype=np.uint8)
     if data[: len(PNG_SIGNATURE)].tobytes() == PNG_SIGNATURE:

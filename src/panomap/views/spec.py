@@ -50,6 +50,14 @@ class NamedView:
     name: str
     view: View
 
+    def __post_init__(self) -> None:
+        if self.name is not None and not isinstance(self.name, str):
+            raise TypeError(f"a view's name must be text, not {type(self.name).__name__}")
+        if not isinstance(self.view, View):
+            raise TypeError(
+                f"a named view's view must be a View, not {type(self.view).__name__}: parse_view_spec reads a spec"
+            )
+
 
 def _number(key: str, value: Any) -> float:
     try:
