@@ -278,3 +278,22 @@ def test_exports_and_batches_check_their_arguments(chain, tmp_path) -> None:
     refused(lambda: panomap.Settings(interpolation="bicubic"), panomap.PanomapError, "interpolation")
     refused(lambda: panomap.Settings(sampling="cubic"), panomap.PanomapError, "sampling")
     refused(lambda: panomap.read_image(picture, expected_size="160x160"), TypeError, "expected_size")
+
+
+def test_a_file_name_that_is_none_or_an_array_is_named_as_such(chain, tmp_path) -> None:
+    _, _, table = chain
+    calls = [
+        lambda: panomap.save_table(table, None),
+        lambda: panomap.load_table(None),
+        lambda: panomap.read_image(FRAME),  # (an image already: no file to read)
+        lambda: panomap.write_image(None, FRAME),
+        lambda: panomap.read_landmarks(3),
+        lambda: panomap.load_rig(None),
+    ]
+    for call in calls:
+        refused(call, TypeError, "a file name must be a str or a path")
+
+
+def test_fit_options_that_are_no_numbers_are_named(chain) -> None:
+    marks, _, _ = chain
+    refused(lambda: panomap.fit_camera(marks, POSITION, (80, 79), pixel_sigma="1"), TypeError, "pixel sigma")

@@ -49,6 +49,9 @@ def checked_arguments(
     inputs.instance(landmarks, Landmarks, "landmarks", " (panomap.read_landmarks reads a file)")
     camera = inputs.numbers(camera_position, 3, "the camera position (X0, Y0, Z0)")
     u0, v0 = inputs.numbers(centre, 2, "the image centre (u0, v0)")
+    pixel_sigma = inputs.number(pixel_sigma, "the pixel sigma", limit=math.inf)
+    world_sigma = None if world_sigma is None else inputs.number(world_sigma, "the world sigma", limit=math.inf)
+    camera_sigma = None if camera_sigma is None else inputs.number(camera_sigma, "the camera sigma", limit=math.inf)
     if not (math.isfinite(pixel_sigma) and pixel_sigma > 0):
         raise PanomapError(f"the pixel sigma must be positive, not {pixel_sigma}")
     if world_sigma is not None and not (math.isfinite(world_sigma) and world_sigma >= 0):

@@ -31,7 +31,7 @@ import numpy as np
 
 from ... import inputs
 from ...errors import PanomapError
-from ...files import read_text
+from ...files import file_path, read_text
 from ...geometry import FloatArray
 from ...values import NotFinite, TooLarge, finite_number
 
@@ -123,7 +123,7 @@ def read_landmarks(path: str | Path) -> Landmarks:
         Naming the file and, where it helps, the row, for a missing or
         unreadable file, missing columns, a value that is not a finite number.
     """
-    path = Path(path)
+    path = file_path(path)
     text = read_text(path)
     try:
         if path.suffix.lower() == ".json":
