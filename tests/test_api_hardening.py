@@ -1,9 +1,9 @@
 """Issue 63: the Python API hardened the way a scikit-image or OpenCV user calls it.
 
-Each test is one fault the round found (about 300 calls tried over every name in ``panomap.__all__``; the faults
-are listed in CHANGELOG.md): before, the call raised NumPy's, OpenCV's or Python's own error from deep inside
+Each test holds faults the round found (about 420 calls tried over every name in ``panomap.__all__``; the faults
+are summed up in CHANGELOG.md): before, the call raised NumPy's, OpenCV's or Python's own error from deep inside
 (``cv2.error``, ``AttributeError``, ``ValueError: too many values to unpack``), or returned a wrong result
-silently (a size of 64.7 cut to 64, a fill of 300 wrapped, a table from 2 landmarks given 3 times each). Now
+silently (a size of 64.7 cut to 64, a text fill taken, a table from 2 landmarks given 3 times each). Now
 each is a :class:`panomap.PanomapError` (or a ``TypeError`` for a wrong type) of one line naming the argument,
 raised before any work is done, or the right result.
 """
