@@ -44,6 +44,14 @@ from .errors import PanomapError
 _PENDING: ContextVar[list[tuple[Path, Path]] | None] = ContextVar("panomap_pending_outputs", default=None)
 
 
+def file_path(value: object) -> Path:
+    """``value`` (a str or path-like) as a Path; a TypeError naming what it is otherwise (None, an array, a
+    number), before any file is touched."""
+    if not isinstance(value, str | os.PathLike):
+        raise TypeError(f"a file name must be a str or a path, not {type(value).__name__}")
+    return Path(value)
+
+
 @contextmanager
 def all_or_none() -> Iterator[None]:
     """Keep the outputs written in this block under their temporary names until it ends.
@@ -82,7 +90,7 @@ def atomic_output(path: str | Path) -> Iterator[BinaryIO]:
     and ``path`` is left as it was; an ``OSError`` while writing becomes a
     PanomapError naming ``path``.
     """
-    path = Path(path)
+    path = file_path(path)
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():
         raise PanomapError("its folder does not exist", path)
@@ -278,7 +286,7 @@ def _kind(mode: int) -> str:
 def check_output(path: str | Path) -> None:
     """Refuse, before any work, an output whose folder is missing or not writable, or that
     cannot be replaced (:func:`check_replaceable`)."""
-    path = Path(path)
+    path = file_path(path)
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():
         raise PanomapError("its folder does not exist", path)
@@ -503,7 +511,7 @@ def input_file(path: str | Path, missing: str = "no such file") -> Path:
         Naming it: ``missing`` where there is no such file, "not a file" where it is a folder, a FIFO (the
         read would block until something writes to it), a device (it would never end) or a socket.
     """
-    path = Path(path)
+    path = file_path(path)
     try:
         info = os.stat(path)
     except FileNotFoundError:

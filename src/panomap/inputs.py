@@ -129,6 +129,65 @@ def number(value: Any, what: str, *, limit: float = MAX_ABS) -> float:
     return numbers((value,), 1, what, limit=limit)[0]
 
 
+def whole_numbers(value: Any, count: int, what: str, *, limit: float = MAX_ABS) -> tuple[int, ...]:
+    """:func:`numbers`, each a whole number (``64`` or ``64.0``, not ``64.7``): a size in pixels.
+
+    Raises
+    ------
+    TypeError
+        As :func:`numbers` (text, a bool, no sequence).
+    PanomapError
+        As :func:`numbers`, or a number with a fraction (it would be cut silently).
+    """
+    checked = numbers(value, count, what, limit=limit)
+    if any(not item.is_integer() for item in checked):
+        shown = " x ".join(f"{item:g}" for item in checked)
+        raise PanomapError(f"{what} must be whole numbers, not {shown}")
+    return tuple(int(item) for item in checked)
+
+
+def optional_image_size(value: Any, what: str = "the image size (W, H)") -> tuple[int, int] | None:
+    """``value`` as a (width, height) of whole positive pixels, None passing through (:func:`whole_numbers`)."""
+    if value is None:
+        return None
+    width, height = whole_numbers(value, 2, what)
+    if width <= 0 or height <= 0:
+        raise PanomapError(f"{what} must be positive, not {width} x {height}")
+    return width, height
+
+
+def points(value: Any, columns: int, what: str) -> NDArray[np.float64]:
+    """``value`` as a float64 array of shape ``(..., columns)``: pixels (u, v), points (x, y, z). NaN and
+    infinities pass (a point with no answer gets NaN back); the shape and the type are checked.
+
+    Raises
+    ------
+    TypeError
+        Text, None, or items that are no real numbers (objects, complex numbers).
+    PanomapError
+        Ragged rows, or a last axis of another length than ``columns`` (one (u, v) is ``[u, v]``).
+    """
+    shape = "(..., 2) (u, v)" if columns == 2 else f"(..., {columns})"
+    if value is None or isinstance(value, str | bytes | Mapping):
+        raise TypeError(f"{what} must be an array of shape {shape}, not {_kind(value)}")
+    try:
+        array = np.asarray(value)
+    except ValueError:
+        raise PanomapError(f"{what} must be an array of shape {shape}: its rows differ in length") from None
+    if array.dtype.kind not in "biuf":
+        raise TypeError(f"{what} must be real numbers, not {array.dtype} (shape {shape})")
+    if array.ndim == 0 or array.shape[-1] != columns:
+        raise PanomapError(f"{what} must have shape {shape}, not {array.shape}")
+    return np.asarray(array, dtype=np.float64)
+
+
+def path(value: Any, what: str) -> Any:
+    """``value`` if it is a file name (a str or path-like); a TypeError naming what it is otherwise."""
+    if not isinstance(value, str | PurePath) and not hasattr(value, "__fspath__"):
+        raise TypeError(f"{what} must be a str or a path, not {_kind(value)}")
+    return value
+
+
 def instance(value: Any, kind: type, what: str, hint: str = "") -> Any:
     """``value`` if it is a ``kind``; a TypeError naming what it is, and ``hint``, otherwise."""
     if not isinstance(value, kind):

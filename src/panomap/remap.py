@@ -8,6 +8,7 @@ value (default black, alpha 0 where the image has an alpha channel).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -60,11 +61,15 @@ class Remapper:
     _no_source: tuple[NDArray[np.intp], NDArray[np.intp]] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        if self.interpolation not in INTERPOLATIONS:
-            raise PanomapError(f"interpolation must be nearest, linear or cubic, not {self.interpolation!r}")
-        map_uv = np.asarray(self.map_uv, dtype=np.float32)
-        if map_uv.ndim != 3 or map_uv.shape[2] != 2:
-            raise PanomapError(f"a map must have shape (H, W, 2), not {map_uv.shape}")
+        if not isinstance(self.interpolation, str) or self.interpolation not in INTERPOLATIONS:
+            raise PanomapError(f"interpolation must be nearest, linear or cubic, not {self.interpolation!r:.40}")
+        map_uv = _checked_map(self.map_uv)
+        if self.source_size is not None:
+            size = inputs.whole_numbers(self.source_size, 2, "the source size (W, H)")
+            if min(size) <= 0:
+                raise PanomapError(f"the source size (W, H) must be positive, not {size[0]} x {size[1]}")
+            object.__setattr__(self, "source_size", size)
+        object.__setattr__(self, "fill", _checked_fill(self.fill))
         u, v = map_uv[..., 0], map_uv[..., 1]
         with np.errstate(invalid="ignore"):
             if self.source_size is not None:  # (comparisons with NaN are false: NaN entries drop out too)
@@ -108,14 +113,14 @@ class Remapper:
             )
         map2: Any = self._map2  # None for fixed-point nearest: integer positions only
         interpolation = INTERPOLATIONS[self.interpolation]
+        fill = _fill_for(self.fill, image)
         if out is not None:
-            channels = 1 if image.ndim == 2 else image.shape[2]
-            width, height = self.output_size
-            expected = (height, width) if channels == 1 and out.ndim == 2 else (height, width, channels)
-            if out.shape != expected or out.dtype != image.dtype:
-                raise PanomapError(f"the output must be {expected} {image.dtype}, not {out.shape} {out.dtype}")
-            written = cv2.remap(image, self._map1, map2, interpolation, dst=out, borderMode=cv2.BORDER_REPLICATE)
-            if not np.shares_memory(written, out):  # (never seen; a guard against a binding that copies)
+            self._check_out(out, image)
+            if _cv_writable(out) and not np.may_share_memory(out, image):
+                written = cv2.remap(image, self._map1, map2, interpolation, dst=out, borderMode=cv2.BORDER_REPLICATE)
+            else:  # (a layout OpenCV cannot write, such as Fortran order, or the frame itself: through a copy)
+                written = cv2.remap(image, self._map1, map2, interpolation, borderMode=cv2.BORDER_REPLICATE)
+            if not np.shares_memory(written, out):
                 out[...] = written.reshape(out.shape)
         else:
             out = cv2.remap(image, self._map1, map2, interpolation, borderMode=cv2.BORDER_REPLICATE)
@@ -123,7 +128,72 @@ class Remapper:
                 out = out[..., None]
         rows, cols = self._no_source
         if rows.size:
-            channels = 1 if out.ndim == 2 else out.shape[2]
-            fill = self.fill if isinstance(self.fill, tuple) else (self.fill,) * channels
-            out[rows, cols] = fill[0] if out.ndim == 2 else fill[:channels]
+            out[rows, cols] = fill[0] if out.ndim == 2 else fill
         return out
+
+    def _check_out(self, out: Any, image: NDArray[Any]) -> None:
+        """Refuse an ``out`` that is no writable array of the output's shape and the frame's dtype."""
+        channels = 1 if image.ndim == 2 else image.shape[2]
+        width, height = self.output_size
+        if not isinstance(out, np.ndarray):
+            raise TypeError(
+                f"the output must be a NumPy array ({height}, {width}, {channels}), not {type(out).__name__}"
+            )
+        expected = (height, width) if channels == 1 and out.ndim == 2 else (height, width, channels)
+        if out.shape != expected or out.dtype != image.dtype:
+            raise PanomapError(f"the output must be {expected} {image.dtype}, not {out.shape} {out.dtype}")
+        if not out.flags.writeable:
+            raise PanomapError("the output array is read-only: pass a writable one (out.flags.writeable)")
+
+
+def _checked_map(value: Any) -> NDArray[np.float32]:
+    """``value`` as an (H, W, 2) float32 map of at least one pixel; huge numbers become inf (no source)."""
+    try:
+        array = np.asarray(value)
+    except ValueError:
+        raise PanomapError("a map must have shape (H, W, 2): its rows differ in length") from None
+    if array.dtype.kind not in "biuf":
+        raise TypeError(f"a map must hold real numbers (u, v), not {array.dtype}")
+    if array.ndim != 3 or array.shape[2] != 2:
+        raise PanomapError(f"a map must have shape (H, W, 2), not {array.shape}")
+    if array.shape[0] == 0 or array.shape[1] == 0:
+        raise PanomapError(f"a map must have at least one pixel, not shape {array.shape}")
+    with np.errstate(over="ignore"):  # (beyond float32: inf, an entry with no source)
+        return np.asarray(array, dtype=np.float32)
+
+
+def _checked_fill(value: Any) -> float | tuple[float, ...]:
+    """``fill`` as a number or a tuple of 1 to 4 numbers (NaN allowed: float frames can hold it)."""
+    many = isinstance(value, list | tuple | np.ndarray)
+    items = list(np.ravel(value)) if many else [value]
+    if not 1 <= len(items) <= 4 or any(
+        isinstance(i, bool | str | bytes) or not isinstance(i, int | float | np.number) for i in items
+    ):
+        raise TypeError(f"fill must be a number or 1 to 4 numbers (one per channel), not {value!r:.40}")
+    numbers = tuple(float(i) for i in items)
+    return numbers if many else numbers[0]
+
+
+def _fill_for(fill: float | tuple[float, ...], image: NDArray[Any]) -> tuple[float, ...]:
+    """The fill, one value per channel of ``image``, checked to fit its dtype (300 does not fit uint8)."""
+    channels = 1 if image.ndim == 2 else image.shape[2]
+    values = fill if isinstance(fill, tuple) else (fill,) * channels
+    if len(values) == 1:
+        values = values * channels
+    if len(values) < channels:
+        raise PanomapError(f"fill has {len(values)} values, the frame {channels} channels: give 1 or {channels}")
+    values = values[:channels]
+    if image.dtype.kind in "iu":
+        low, high = np.iinfo(image.dtype).min, np.iinfo(image.dtype).max
+        if not all(math.isfinite(x) and low <= x <= high for x in values):
+            shown = ", ".join(f"{x:g}" for x in values)
+            raise PanomapError(f"fill {shown} does not fit a {image.dtype} frame ({low}..{high})")
+    return values
+
+
+def _cv_writable(out: NDArray[Any]) -> bool:
+    """Whether OpenCV writes into ``out`` itself: each row's pixels and channels packed (any row stride)."""
+    item = out.itemsize
+    if out.ndim == 2:
+        return out.strides[1] == item
+    return out.strides[2] == item and out.strides[1] == out.shape[2] * item

@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .. import inputs as checks
 from ..errors import PanomapError
 from ..files import (  # noqa: F401  (IMAGE_SUFFIXES, VIDEO_SUFFIXES, kind_of: the batch's names, kept)
     IMAGE_SUFFIXES,
@@ -54,6 +55,7 @@ from ..files import (  # noqa: F401  (IMAGE_SUFFIXES, VIDEO_SUFFIXES, kind_of: t
     placeholders,
     read_text,
 )
+from ..remap import INTERPOLATIONS
 from ..rig.file import is_rig_file, load_rig, rig_index
 from ..table.file import is_table_file, load_table
 from ..video.output import EncoderSettings, check_frame_size, container_format
@@ -111,6 +113,13 @@ class Settings:
     interpolation: str = "linear"
     sampling: str = "bilinear"
     audio: bool = True
+
+    def __post_init__(self) -> None:
+        checks.instance(self.encoder, EncoderSettings, "the encoder settings")
+        if self.interpolation not in INTERPOLATIONS:
+            raise PanomapError(f"interpolation must be nearest, linear or cubic, not {self.interpolation!r:.40}")
+        if self.sampling not in ("bilinear", "nearest"):
+            raise PanomapError(f"table sampling must be bilinear or nearest, not {self.sampling!r:.40}")
 
 
 @dataclass(frozen=True)
@@ -170,6 +179,11 @@ def find_inputs(
     list of BatchInput
         Each input with its table and camera name.
     """
+    if isinstance(patterns, str | Path):
+        raise TypeError(
+            f"patterns must be a list of files, folders or globs, not one {type(patterns).__name__}: [{patterns!r:.40}]"
+        )
+    table = None if table is None else Path(checks.path(table, "the table file"))
     manifest = check_inputs_and_table(patterns, table)
     if manifest is not None:
         listed = read_manifest(manifest)
@@ -408,6 +422,8 @@ def make_job(
     -------
     Job
     """
+    if isinstance(views, str) or not all(isinstance(view, NamedView) for view in views):
+        raise TypeError("views must be a list of NamedView(name, view) (parse_view_spec makes one of a spec)")
     if not views:
         raise PanomapError("give at least one view")
     check_template(template)

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from .. import inputs
 from ..errors import PanomapError
 from ..files import check_output
 from .forkserver import SCHEDULER_VARIABLE, can_fork_serve, start_fork_server
@@ -159,6 +160,17 @@ class RunSettings:
     retries: int = 2
     segment_s: float | None = None
     chunk: int | None = None
+
+    def __post_init__(self) -> None:
+        for what, value, least in (
+            ("workers", self.workers, 1),
+            ("retries", self.retries, 0),
+            ("chunk", self.chunk, 1),
+        ):
+            if value is not None and inputs.whole_numbers((value,), 1, what)[0] < least:
+                raise PanomapError(f"{what} must be {least} or more, not {value}")
+        if self.segment_s is not None and not inputs.number(self.segment_s, "segment_s") > 0:
+            raise PanomapError(f"segment_s must be more than 0 s, not {self.segment_s}")
 
 
 @dataclass(frozen=True)

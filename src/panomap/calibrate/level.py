@@ -30,11 +30,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import inputs
 from ..camera.orientation import orientation_of_rotation, rotation_from_vector
 from ..errors import PanomapError
 from ..geometry import FloatArray, ray_from_angles
 from ..interop.orient import orient_table
-from ..table.table import PanoMappingTable
+from ..table.table import PanoMappingTable, check_table
 from .circles.types import Circle, ImageCircles
 from .lines.arcs import EdgeArc, find_arcs
 
@@ -198,8 +199,19 @@ def level_table(
         Where the pictures show fewer than ``MIN_VERTICALS`` vertical lines, or ones that do not pin the vertical
         (all in one plane).
     """
+    check_table(table)
+    images = inputs.pictures(images, "pictures")
     if not images:
         raise PanomapError("no picture to level the camera from")
+    if names is not None and (isinstance(names, str | bytes) or len(names) != len(images)):
+        raise PanomapError(f"give one name per picture ({len(images)}), not {names!r:.40}")
+    for k, image in enumerate(images):
+        if table.image_size is not None and (image.shape[1], image.shape[0]) != tuple(table.image_size):
+            width, height = table.image_size
+            name = names[k] if names is not None else f"picture {k + 1}"
+            raise PanomapError(
+                f"{name} is {image.shape[1]} x {image.shape[0]}, the table is for {width} x {height} images"
+            )
     names = list(names) if names is not None else [f"picture {k + 1}" for k in range(len(images))]
     circles = table_circles(table)
     arcs: list[EdgeArc] = []

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import inputs
+from ..camera.radial_models import radial_kind
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
 from .boards.choice import LearnedCamera, learn_camera
@@ -174,6 +175,7 @@ def learn_from_images(
     table_extra = inputs.info(info)
     azimuth_zero = _pair(inputs.optional_numbers(azimuth_zero, 2, "azimuth_zero (u, v)"))
     camera_height = None if camera_height is None else inputs.number(camera_height, "the camera height")
+    _check_options(names, camera_height, model, axis, handedness)
     if not omnis:
         raise PanomapError("no image to learn the camera from")
     if names is not None and len(names) != len(omnis):
@@ -204,6 +206,21 @@ def learn_from_images(
     again = [f"{repeated} of the pictures repeat an earlier one (the same pixels): each counted once"] * bool(repeated)
     warnings = (*again, *learned.notes, *table.info.get("warnings", []))
     return LearnedCalibration(table, learned.fit, learned.source, circles, learned.arcs, learned.choice, warnings)
+
+
+def _check_options(names: Any, camera_height: float | None, model: Any, axis: Any, handedness: Any) -> None:
+    """Refuse, before any picture is searched, options no fit can take (they would fail deep in it, saying
+    something else: a model's unknown name as "no radial model fits the lines")."""
+    if names is not None and (isinstance(names, str | bytes | Path) or not isinstance(names, Sequence)):
+        raise TypeError(f"names must be a list of file names, one per image, not {type(names).__name__} {names!r:.40}")
+    if camera_height is not None and camera_height <= 0:
+        raise PanomapError(f"the camera height must be positive (world units above the floor), not {camera_height:g}")
+    if model != "auto":
+        radial_kind(inputs.instance(model, str, "model"))
+    if axis not in ("down", "up"):
+        raise PanomapError(f"axis must be 'down' or 'up' (the pole the image centre sees), not {axis!r:.40}")
+    if handedness is not None and (isinstance(handedness, bool) or handedness not in (1, -1)):
+        raise PanomapError(f"handedness must be +1, -1 or None (from the kind of camera), not {handedness!r:.40}")
 
 
 def _table_info(

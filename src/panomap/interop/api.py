@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import inputs
 from ..errors import PanomapError
 from ..table.table import PanoMappingTable
 from .readers import Imported, read_calibration
@@ -119,6 +120,17 @@ def import_calibration(
         A mirror camera (a camera looking into a mirror): its image is the world's mirror image, and so is its
         calibration's frame; the table's handedness is turned to the world's (default: a lens).
     """
+    tilt_rad = _tilt(tilt_rad)
+    if orientation_rad is not None:
+        yaw, pitch, roll = inputs.numbers(orientation_rad, 3, "orientation_rad (yaw, pitch, roll)")
+        orientation_rad = (yaw, pitch, roll)
+    x0, y0, z0 = inputs.numbers(camera_position, 3, "the camera position (X0, Y0, Z0)")
+    camera_position = (x0, y0, z0)
+    image_size = inputs.optional_image_size(image_size)
+    if sources is not None and not (
+        isinstance(sources, dict) and all(isinstance(k, str) and isinstance(v, str) for k, v in sources.items())
+    ):
+        raise TypeError(f"sources must be a dict of text (quantity: where it came from), not {sources!r:.40}")
     return table_of_imported(
         read_calibration(path, format, camera),
         path,
@@ -186,3 +198,11 @@ def table_of_imported(
         )
     except PanomapError as exc:
         raise PanomapError(exc.detail, path) from None
+
+
+def _tilt(tilt_rad: Any) -> tuple[float, float]:
+    """``tilt_rad`` (tilt, toward) as two finite angles, the tilt at most pi (rad, not degrees)."""
+    tilt, toward = inputs.numbers(tilt_rad, 2, "tilt_rad (tilt, toward)")
+    if abs(tilt) > math.pi:
+        raise PanomapError(f"tilt_rad: a tilt of {tilt:g} rad is more than 180 deg (the angles are in radians)")
+    return tilt, toward

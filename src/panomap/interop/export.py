@@ -24,7 +24,7 @@ from ..camera.viewpoint import PARALLAX_DISTANCE, parallax_px
 from ..errors import PanomapError
 from ..files import write_text_atomic
 from ..geometry import TWO_PI, FloatArray
-from ..table.table import PanoMappingTable
+from ..table.table import PanoMappingTable, check_table
 from .frame import camera_rays
 from .models.base import ExternalCamera
 from .models.double_sphere import DoubleSphere
@@ -315,6 +315,7 @@ def export_calibration(table: PanoMappingTable, path: str | Path, format: str) -
         axis from points apart, as every format has a single viewpoint), or a table without an image size
         where the format needs one; nothing is written then.
     """
+    check_table(table)
     if format not in FORMATS:
         raise PanomapError(f"unknown export format {format!r} (known: {', '.join(FORMATS)})")
     fit, kind, refusal = FORMATS[format]

@@ -17,9 +17,10 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import inputs
 from ..camera.orientation import orientation_of_rotation, world_elevation_range
 from ..errors import PanomapError
-from ..table.table import PanoMappingTable, fill_entries
+from ..table.table import PanoMappingTable, check_table, fill_entries
 from .models import external_model
 from .table_of_camera import project_grid
 
@@ -44,6 +45,10 @@ def orient_table(table: PanoMappingTable, yaw_rad: float, pitch_rad: float, roll
     PanomapError
         If the pitch is outside [-90, 90] deg, or an imported table's calibration cannot be rebuilt.
     """
+    check_table(table)
+    yaw_rad, pitch_rad, roll_rad = (
+        inputs.number(v, n) for v, n in ((yaw_rad, "yaw_rad"), (pitch_rad, "pitch_rad"), (roll_rad, "roll_rad"))
+    )
     model = table.model.with_orientation(yaw_rad, pitch_rad, roll_rad)
     camera_range = table.camera_range
     elevation_range = world_elevation_range(camera_range, model.rotation, model.axis)

@@ -14,12 +14,14 @@ camera. An inverted or transposed pose is a rotation too: only the pictures tell
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import inputs
 from ..errors import PanomapError
 from ..files import read_text
 from ..rig.check import PoseComparison, compare_poses
@@ -104,7 +106,15 @@ def rig_of_camchain(
     flipped : int, optional
         Take camera ``flipped``'s ``T_cn_cnm1`` inverted (the check's alternative).
     """
+    orientation_rad = _three(inputs.numbers(orientation_rad, 3, "orientation_rad (yaw, pitch, roll)"))
+    camera_position = _three(inputs.numbers(camera_position, 3, "the camera position (X0, Y0, Z0)"))
+    if fov_rad is not None and not 0.0 < inputs.number(fov_rad, "fov_rad") <= 2.0 * math.pi:
+        raise PanomapError(f"fov_rad must be more than 0 and at most 2 pi (360 deg, in radians), not {fov_rad:g}")
     cameras = camchain_cameras(path, flipped)
+    if outer_radii is not None and (isinstance(outer_radii, str) or len(outer_radii) != len(cameras)):
+        raise PanomapError(f"give one outer radius (or None) per camera ({len(cameras)}), not {outer_radii!r:.40}")
+    if flipped is not None and flipped not in range(1, len(cameras)):
+        raise PanomapError(f"flipped must name a camera after the first (1 to {len(cameras) - 1}), not {flipped!r}")
     if len(cameras) < 2:
         raise PanomapError("a rig needs two or more cameras; this camchain has one (import makes its table)", path)
     axes0 = axes_of_orientation(orientation_rad)
@@ -133,3 +143,7 @@ def check_camchain_pictures(
     given = rig_of_camchain(path, **options)
     alternatives = {given.names[n]: rig_of_camchain(path, flipped=n, **options) for n in range(1, given.count)}
     return compare_poses(given, alternatives, pictures)
+
+
+def _three(values: tuple[float, ...]) -> tuple[float, float, float]:
+    return values[0], values[1], values[2]

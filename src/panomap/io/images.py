@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from .. import inputs
 from ..errors import PanomapError, printable
-from ..files import input_file, write_bytes_atomic, write_with
+from ..files import file_path, input_file, write_bytes_atomic, write_with
 from .image_bounds import available_memory, decoded_bytes, least_file_bytes, tiff_data_end
 from .stderr_kept import stderr_kept
 
@@ -87,7 +87,7 @@ def read_image(
         raise PanomapError(f"images must be 8- or 16-bit, this one is {kind} (32-bit float)", path)
     declared = _header(path)
     if declared is not None:
-        check_image_size(path, declared[0], expected_size, expected_by)
+        check_image_size(path, declared[0], inputs.optional_image_size(expected_size, "expected_size"), expected_by)
         _check_claim(path, declared[0], declared[1])
     data = np.fromfile(path, dtype=np.uint8)
     if data[: len(PNG_SIGNATURE)].tobytes() == PNG_SIGNATURE:
@@ -393,7 +393,7 @@ def write_image(path: str | Path, image: NDArray[Any]) -> None:
         its depth or alpha, or a file that cannot be written.
     """
     image = inputs.image(image)
-    path = Path(path)
+    path = file_path(path)
     suffix = path.suffix.lower()
     if image.dtype == np.uint16 and suffix not in SIXTEEN_BIT_SUFFIXES:
         raise PanomapError("16-bit images need PNG, TIFF or PNM output, not " + (suffix or "no suffix"), path)

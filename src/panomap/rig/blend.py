@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import inputs
 from ..errors import PanomapError
 from ..remap import Remapper
 from ..table.table import PanoMappingTable
@@ -76,6 +77,11 @@ def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear", threads:
         Cameras whose maps are made at once, each on its own thread (NumPy and OpenCV let go of the GIL; each
         camera's map is the same either way).
     """
+    inputs.instance(rig, CameraRig, "the rig", " (one camera's table: panomap.build_map)")
+    inputs.instance(view, View, "the view", " (a view value such as panomap.PerspectiveView(...))")
+    threads = inputs.whole_numbers((threads,), 1, "threads")[0]
+    if threads < 1:
+        raise PanomapError(f"threads must be 1 or more, not {threads}")
     reference = rig.tables[0]
     view = view.resolved(reference)
     if getattr(view, "size", ()) is None:  # a size each table would choose for itself: camera 0's, for every camera
@@ -171,6 +177,19 @@ class RigRemapper:
     _remappers: tuple[Remapper, ...] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        inputs.instance(self.rig, CameraRig, "the rig")
+        if (
+            isinstance(self.maps, np.ndarray)
+            or not isinstance(self.maps, list | tuple)
+            or len(self.maps) != self.rig.count
+        ):
+            count = len(self.maps) if isinstance(self.maps, list | tuple) else type(self.maps).__name__
+            raise PanomapError(
+                f"give one map per camera of the rig ({self.rig.count}; panomap.camera_maps), not {count}"
+            )
+        shapes = {np.shape(map_uv) for map_uv in self.maps}
+        if len(shapes) != 1:
+            raise PanomapError(f"the cameras' maps must have one shape (one view), not {sorted(shapes)}")
         remappers = []
         for k, (table, map_uv) in enumerate(zip(self.rig.tables, self.maps, strict=True)):
             if self.rig.offsets is None:

@@ -16,6 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any, BinaryIO
 
+from .. import inputs
 from ..errors import PanomapError
 from ..files import input_file, write_with
 from ..table.file import read_table, table_writer
@@ -66,6 +67,7 @@ def save_rig(rig: CameraRig, path: str | Path) -> None:
     path : str or path
         The file to write (``.npz``).
     """
+    inputs.instance(rig, CameraRig, "the rig", " (one camera's table: panomap.save_table)")
     meta = {
         "format": RIG_FORMAT,
         "version": RIG_VERSION,

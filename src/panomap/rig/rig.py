@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import PanomapError, printable
 from ..geometry import FloatArray
-from ..table.table import PanoMappingTable
+from ..table.table import PanoMappingTable, check_table
 
 # At most this many cameras in a rig.
 MAX_CAMERAS = 16
@@ -64,7 +64,9 @@ class CameraRig:
     info: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        tables = tuple(self.tables)
+        if isinstance(self.tables, PanoMappingTable) or isinstance(self.names, str | bytes):
+            raise TypeError("a rig takes a sequence of tables and one of names (tables=(table,), names=('cam0',))")
+        tables = tuple(check_table(table) for table in self.tables)
         if not 1 <= len(tables) <= MAX_CAMERAS:
             raise PanomapError(f"a rig has 1 to {MAX_CAMERAS} cameras, not {len(tables)}")
         names = tuple(check_camera_name(str(name)) for name in self.names)

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .. import inputs
 from ..camera.model import CameraModel
 from ..errors import PanomapError
 from ..geometry import TWO_PI, FloatArray, inside_image, pixel_polar, wrap_azimuth
@@ -180,7 +181,7 @@ class PanoMappingTable:
         Each point is sampled at the direction of the ray that reaches it (:meth:`CameraModel.point_angles`):
         the direction from O_m, or for a camera without a single viewpoint the ray from its own origin.
         """
-        d = np.asarray(points, dtype=np.float64) - np.asarray(self.camera_position)
+        d = inputs.points(points, 3, "the points") - np.asarray(self.camera_position)
         theta, rho = self.model.point_angles(d)
         return self.sample(theta, rho, sampling)
 
@@ -228,9 +229,7 @@ class PanoMappingTable:
         PanomapError
             If f_r is not strictly monotonic over the table's elevations.
         """
-        points = np.asarray(uv, dtype=np.float64)
-        if points.ndim == 0 or points.shape[-1] != 2:
-            raise PanomapError(f"pixels must have shape (..., 2), not {points.shape}")
+        points = inputs.points(uv, 2, "the pixels")
         theta, rho, valid = self._radial_angles(points)
         if not self.entries_from_model:
             theta, rho = self._refine(points, theta, rho)
@@ -472,9 +471,19 @@ def _row_chord_px(
     return float(np.nanmax(off)) if np.isfinite(off).any() else 0.0
 
 
+def check_table(table: Any) -> PanoMappingTable:
+    """``table`` if it is a :class:`PanoMappingTable`; a TypeError saying what to pass instead (one camera of a
+    rig, a loaded file) otherwise."""
+    if hasattr(table, "tables") and hasattr(table, "offsets"):  # (a CameraRig, not imported: rig sits above)
+        hint = ": a rig holds one table per camera (rig.tables[k]); panomap.camera_maps makes the maps of them all"
+    else:
+        hint = " (panomap.load_table reads a file)"
+    return inputs.instance(table, PanoMappingTable, "the table", hint)
+
+
 def check_table_size(size: tuple[int, int], what: str = "table size") -> tuple[int, int]:
     """Validate an (M, N) table size; ``what`` names it in the error."""
-    m, n = (int(x) for x in size)
+    m, n = inputs.whole_numbers(size, 2, f"the {what} (M, N)")
     if m < 4 or n < 2:
         raise PanomapError(f"{what} {m}x{n}: a table needs M >= 4 and N >= 2")
     if m * n > MAX_TABLE_ENTRIES:

@@ -12,6 +12,7 @@ from typing import Any
 
 import av
 
+from .. import inputs
 from ..errors import PanomapError
 from .encoder_open import open_codec
 from .handoff import END, QUEUE_FRAMES, reason
@@ -46,6 +47,14 @@ class EncoderSettings:
     preset: str | None = "veryfast"
     bitrate: int | None = None
     options: tuple[tuple[str, str], ...] = ()
+
+    def __post_init__(self) -> None:
+        inputs.instance(self.codec, str, "the codec", " (an FFmpeg encoder name, such as 'libx264')")
+        inputs.instance(self.pix_fmt, str, "the pixel format", " (such as 'yuv420p')")
+        if self.crf is not None and inputs.whole_numbers((self.crf,), 1, "crf")[0] < 0:
+            raise PanomapError(f"crf must be 0 or more (0 lossless, 23 x264's default), not {self.crf}")
+        if self.bitrate is not None and inputs.whole_numbers((self.bitrate,), 1, "the bit rate (bit/s)")[0] <= 0:
+            raise PanomapError(f"the bit rate must be more than 0 bit/s, not {self.bitrate}")
 
     def codec_options(self) -> dict[str, str]:
         """The options passed to the encoder."""

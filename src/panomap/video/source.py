@@ -22,6 +22,7 @@ from typing import Any
 
 import av
 
+from .. import inputs
 from ..errors import PanomapError
 from .handoff import END, put, reason
 from .report import VideoReport
@@ -56,6 +57,10 @@ class Selection:
         return self.start_s
 
     def __post_init__(self) -> None:
+        inputs.number(self.start_s, "the start (s)")
+        if self.duration is not None:
+            inputs.number(self.duration, "the duration (s)", limit=math.inf)
+        inputs.whole_numbers((self.every,), 1, "every (frames)")
         if not (math.isfinite(self.start_s) and self.start_s >= 0):
             raise PanomapError(f"the start must be a time of at least 0 s, not {self.start_s:g}")
         if self.duration is not None and not (math.isfinite(self.duration) and self.duration > 0):

@@ -26,6 +26,7 @@ then ``out_001.mp4``, ...), and every gap is recorded in the report.
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import queue
 import threading
@@ -36,9 +37,10 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
+from .. import inputs
 from ..errors import PanomapError
 from ..files import all_or_none, atomic_path, check_output_paths, local_file
-from ..table.table import PanoMappingTable
+from ..table.table import PanoMappingTable, check_table
 from ..views import View, build_map
 from .frames import REMAP_THREADS, FrameRemapper, check_output_size, opencv_threads, work_format
 from .handoff import END, QUEUE_FRAMES, put, reason
@@ -70,6 +72,21 @@ class ViewOutput:
 
     view: View
     path: Path
+
+
+def _check_arguments(table: Any, outputs: Any, memory_limit: Any) -> None:
+    """Refuse, before the video is opened, what :func:`unwarp_video` cannot use: no table, no view to write."""
+    check_table(table)
+    if isinstance(outputs, ViewOutput) or not isinstance(outputs, Sequence) or isinstance(outputs, str):
+        raise TypeError(f"outputs must be a list of ViewOutput(view, path), not {type(outputs).__name__}")
+    if not outputs:
+        raise PanomapError("no view to write: give at least one ViewOutput(view, path)")
+    for k, item in enumerate(outputs):
+        inputs.instance(item, ViewOutput, f"outputs[{k}]", " (ViewOutput(view, path))")
+        inputs.instance(item.view, View, f"outputs[{k}].view")
+        inputs.path(item.path, f"outputs[{k}].path")
+    if memory_limit is not None and inputs.number(memory_limit, "memory_limit (bytes)", limit=math.inf) <= 0:
+        raise PanomapError(f"memory_limit must be more than 0 bytes, not {memory_limit}")
 
 
 def unwarp_video(
@@ -160,6 +177,7 @@ def unwarp_video(
     VideoReport
         The frames read and written, the segments' files, the gaps, the time taken.
     """
+    _check_arguments(table, outputs, memory_limit)
     stop = stop or threading.Event()
     warn = warn or (lambda message: None)
     if codec_threads is not None and "threads" not in dict(encoder.options):

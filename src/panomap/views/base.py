@@ -38,10 +38,11 @@ from typing import Any, ClassVar, Self, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import inputs
 from ..errors import PanomapError
 from ..geometry import FloatArray, pixel_centres
 from ..remap import Remapper
-from ..table.table import PanoMappingTable
+from ..table.table import PanoMappingTable, check_table
 
 # Angles of any float precision: the perspective and floor views compute theirs in float32.
 AngleArray = NDArray[np.floating[Any]]
@@ -68,7 +69,7 @@ def check_view_size(size: tuple[int, int], what: str = "size") -> tuple[int, int
 
     Raises :class:`ParameterError` with key ``what``.
     """
-    width, height = (int(x) for x in size)
+    width, height = inputs.whole_numbers(size, 2, f"the {what} (W, H)")
     if width <= 0 or height <= 0:
         raise ParameterError(what, f"{width}x{height}: width and height must be positive")
     if width > MAX_VIEW_SIDE or height > MAX_VIEW_SIDE or width * height > MAX_VIEW_PIXELS:
@@ -80,10 +81,19 @@ def check_view_size(size: tuple[int, int], what: str = "size") -> tuple[int, int
 
 
 def check_finite(**values: float) -> None:
-    """Refuse NaN and infinities, naming the value."""
+    """Refuse NaN, infinities and beyond ``MAX_ABS`` (PanomapError), and what is no number (text, None, an array:
+    TypeError), naming the value."""
     for name, value in values.items():
-        if not math.isfinite(value):
-            raise PanomapError(f"{name} must be a finite number, not {value}")
+        inputs.number(value, name)
+
+
+def radians_hint(value_rad: float, most_rad: float) -> str:
+    """`` (the angle is in radians: ...)`` where ``value_rad``, beyond ``most_rad``, reads as degrees typed in (more
+    than 2 pi, at most 360, in whole or half degrees: a spec's 400 deg, 6.98 rad, gets none); else ""."""
+    size = abs(value_rad)
+    if size <= max(most_rad, 2.0 * math.pi) or size > 360.0 or not (2.0 * size).is_integer():
+        return ""
+    return f" (the angle is in radians: math.radians({value_rad:g}) for {value_rad:g} deg)"
 
 
 @dataclass(frozen=True)
@@ -340,6 +350,8 @@ def build_map(
     (H, W, 2) float32 ndarray
         Each output pixel's source pixel (u, v), NaN where there is none.
     """
+    check_table(table)
+    inputs.instance(view, View, "the view", " (a view value such as panomap.PerspectiveView(...))")
     view = view.resolved(table)
     if not table.model.single_viewpoint:
         # A camera without a single viewpoint sees a point along the ray through it from its own origin: the

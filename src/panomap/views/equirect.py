@@ -22,7 +22,7 @@ from ..camera.orientation import view_axes
 from ..errors import PanomapError
 from ..geometry import HALF_PI, TWO_PI, FloatArray, pixel_centres, ray_from_angles, wrap_azimuth
 from ..table.table import PanoMappingTable
-from .base import SEEN_AT, AngleArray, Param, Value, View, check_finite, check_view_size, register
+from .base import SEEN_AT, AngleArray, Param, Value, View, check_finite, check_view_size, radians_hint, register
 from .panorama import check_distance
 
 # The default height when the table gives none to follow: 1024 rows (a 2048 x 1024 panorama).
@@ -75,7 +75,10 @@ class EquirectView(View):
     def __post_init__(self) -> None:
         check_finite(yaw_rad=self.yaw_rad, pitch_rad=self.pitch_rad, roll_rad=self.roll_rad)
         if abs(self.pitch_rad) > HALF_PI + 1e-12:
-            raise PanomapError(f"the pitch must be between -90 and 90 deg, not {math.degrees(self.pitch_rad):g} deg")
+            raise PanomapError(
+                f"the pitch must be between -90 and 90 deg, not {math.degrees(self.pitch_rad):g} deg"
+                + radians_hint(self.pitch_rad, HALF_PI)
+            )
         if self.size is not None:
             object.__setattr__(self, "size", check_view_size(self.size))
         check_distance(self.distance)

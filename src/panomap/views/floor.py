@@ -9,6 +9,7 @@ from typing import Any, ClassVar, Self
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import inputs
 from ..errors import PanomapError
 from ..geometry import FloatArray, pixel_centres
 from ..table.table import PanoMappingTable
@@ -70,9 +71,9 @@ class FloorView(View):
     size: tuple[int, int]
 
     def __post_init__(self) -> None:
-        x_min, x_max = (float(c) for c in self.x_range)
-        y_min, y_max = (float(c) for c in self.y_range)
-        check_finite(z_plane=self.z_plane, x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max)
+        x_min, x_max = inputs.numbers(self.x_range, 2, "the x range (x_min, x_max)")
+        y_min, y_max = inputs.numbers(self.y_range, 2, "the y range (y_min, y_max)")
+        check_finite(z_plane=self.z_plane)
         for axis, low, high in (("x", x_min, x_max), ("y", y_min, y_max)):
             if not low < high:
                 raise PanomapError(f"the {axis} extent {low:g}..{high:g} is empty: it needs {axis}_min < {axis}_max")
@@ -89,9 +90,9 @@ class FloorView(View):
         ``W = round((x_max - x_min)/resolution)`` and likewise H (at least 1);
         the extent is kept, so pixels are ``(x_max - x_min)/W`` wide.
         """
-        x_min, x_max = (float(c) for c in x_range)
-        y_min, y_max = (float(c) for c in y_range)
-        check_finite(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max, resolution=resolution)
+        x_min, x_max = inputs.numbers(x_range, 2, "the x range (x_min, x_max)")
+        y_min, y_max = inputs.numbers(y_range, 2, "the y range (y_min, y_max)")
+        check_finite(resolution=resolution)
         if resolution <= 0:
             raise PanomapError(f"the resolution must be positive, not {resolution:g}")
         # An empty extent gets one pixel here and is refused, with its reason, by the constructor.

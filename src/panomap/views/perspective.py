@@ -15,7 +15,7 @@ from ..camera.orientation import view_axes
 from ..errors import PanomapError
 from ..geometry import HALF_PI, FloatArray
 from ..table.table import PanoMappingTable
-from .base import SEEN_AT, AngleArray, Param, Value, View, check_finite, check_view_size, register
+from .base import SEEN_AT, AngleArray, Param, Value, View, check_finite, check_view_size, radians_hint, register
 from .grid import grid_angles
 from .lookup import lookup_map, lookup_when_worth_it, row_sine_bounds
 from .panorama import check_distance
@@ -148,11 +148,12 @@ class PerspectiveView(View):
         if not 0.0 < self.fov_rad < math.pi:
             raise PanomapError(
                 f"the field of view must be more than 0 and less than 180 deg, not {math.degrees(self.fov_rad):g} deg"
+                + radians_hint(self.fov_rad, math.pi)
             )
         if self.pitch_rad is not None and abs(self.pitch_rad) > HALF_PI + 1e-12:
             raise PanomapError(
-                f"the pitch must be between -90 and 90 deg, not {math.degrees(self.pitch_rad):g} deg "
-                "(turn the yaw by 180 deg instead)"
+                f"the pitch must be between -90 and 90 deg, not {math.degrees(self.pitch_rad):g} deg"
+                + (radians_hint(self.pitch_rad, HALF_PI) or " (turn the yaw by 180 deg instead)")
             )
         object.__setattr__(self, "size", check_view_size(self.size))
         check_distance(self.distance)

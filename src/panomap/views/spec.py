@@ -50,6 +50,14 @@ class NamedView:
     name: str
     view: View
 
+    def __post_init__(self) -> None:
+        if self.name is not None and not isinstance(self.name, str):
+            raise TypeError(f"a view's name must be text, not {type(self.name).__name__}")
+        if not isinstance(self.view, View):
+            raise TypeError(
+                f"a named view's view must be a View, not {type(self.view).__name__}: parse_view_spec reads a spec"
+            )
+
 
 def _number(key: str, value: Any) -> float:
     try:
@@ -146,6 +154,8 @@ def parse_view_spec(spec: str) -> tuple[str | None, View]:
     PanomapError
         Naming the SPEC and what is wrong with it: an unknown kind or key, a value out of range.
     """
+    if not isinstance(spec, str):
+        raise TypeError(f"a view spec must be text (KIND:key=value,...), not {type(spec).__name__}")
     kind, _, rest = spec.strip().partition(":")
     params: dict[str, str] = {}
     for item in filter(None, (part.strip() for part in rest.split(","))):

@@ -49,6 +49,9 @@ def checked_arguments(
     inputs.instance(landmarks, Landmarks, "landmarks", " (panomap.read_landmarks reads a file)")
     camera = inputs.numbers(camera_position, 3, "the camera position (X0, Y0, Z0)")
     u0, v0 = inputs.numbers(centre, 2, "the image centre (u0, v0)")
+    pixel_sigma = inputs.number(pixel_sigma, "the pixel sigma", limit=math.inf)
+    world_sigma = None if world_sigma is None else inputs.number(world_sigma, "the world sigma", limit=math.inf)
+    camera_sigma = None if camera_sigma is None else inputs.number(camera_sigma, "the camera sigma", limit=math.inf)
     if not (math.isfinite(pixel_sigma) and pixel_sigma > 0):
         raise PanomapError(f"the pixel sigma must be positive, not {pixel_sigma}")
     if world_sigma is not None and not (math.isfinite(world_sigma) and world_sigma >= 0):
@@ -59,6 +62,13 @@ def checked_arguments(
     n = len(landmarks)
     if n < MIN_LANDMARKS:
         raise PanomapError(f"only {n} landmark(s); at least {MIN_LANDMARKS} are needed")
+    distinct = len(np.unique(np.hstack([landmarks.pixels, landmarks.world]), axis=0))
+    if distinct < MIN_LANDMARKS:  # (a repeated pair adds no constraint: 6 copies of 2 fit any 1-parameter curve)
+        raise PanomapError(
+            f"only {distinct} distinct landmarks among {n} (the others repeat one, pixel and world point alike); "
+            f"at least {MIN_LANDMARKS} are needed"
+        )
+    image_size = inputs.optional_image_size(image_size)
     if image_size is not None:
         check_inside(landmarks, image_size)
     if float(np.max(np.ptp(landmarks.pixels, axis=0))) == 0.0:

@@ -29,8 +29,9 @@ from typing import Any
 
 import numpy as np
 
+from ... import inputs
 from ...errors import PanomapError
-from ...files import read_text
+from ...files import file_path, read_text
 from ...geometry import FloatArray
 from ...values import NotFinite, TooLarge, finite_number
 
@@ -74,8 +75,10 @@ class Landmarks:
     camera: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
-        pixels = np.array(self.pixels, dtype=np.float64).reshape(-1, 2)
-        world = np.array(self.world, dtype=np.float64).reshape(-1, 3)
+        if isinstance(self.names, str | bytes):
+            raise TypeError(f"landmarks: names must be a sequence of names, one per landmark, not {self.names!r:.40}")
+        pixels = inputs.points(self.pixels, 2, "landmarks: the pixels").reshape(-1, 2).copy()
+        world = inputs.points(self.world, 3, "landmarks: the world points").reshape(-1, 3).copy()
         if len(pixels) != len(world) or len(self.names) != len(pixels):
             raise PanomapError("landmarks: pixels, world points and names differ in count")
         for label, values in (("pixel", pixels), ("world point", world)):
@@ -120,7 +123,7 @@ def read_landmarks(path: str | Path) -> Landmarks:
         Naming the file and, where it helps, the row, for a missing or
         unreadable file, missing columns, a value that is not a finite number.
     """
-    path = Path(path)
+    path = file_path(path)
     text = read_text(path)
     try:
         if path.suffix.lower() == ".json":

@@ -425,6 +425,7 @@ def calibrate_camera(
     centre = _pair(inputs.optional_numbers(centre, 2, "the image centre (u0, v0)"))
     cutoff_radius, outer_radius = _radii(cutoff_radius, outer_radius)
     omni = None if omni is None else inputs.image(omni, "the omni-image")
+    image_size = inputs.optional_image_size(image_size)
     info = inputs.info(info)
     position = camera_position if camera_position is not None else landmarks.camera
     if position is None:

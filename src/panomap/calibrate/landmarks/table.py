@@ -130,6 +130,8 @@ def create_table(
     -------
     PanoMappingTable
     """
+    inputs.instance(fit, CameraFit, "the fit", " (panomap.fit_camera makes one)")
+    image_size = inputs.optional_image_size(image_size)
     annulus = choose_annulus(fit, image_size, cutoff_radius, outer_radius)
     info = inputs.info(info)
     sources = dict(info.get("sources", {})) if info else {}
