@@ -1,4 +1,4 @@
-"""Issue 63: the Python API hardened the way a scikit-image or OpenCV user calls it.
+"""The Python API hardened the way a scikit-image or OpenCV user calls it.
 
 Each test holds faults the round found (about 420 calls tried over every name in ``panomap.__all__``; the faults
 are summed up in CHANGELOG.md): before, the call raised NumPy's, OpenCV's or Python's own error from deep inside
