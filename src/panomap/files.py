@@ -38,6 +38,7 @@ from contextvars import ContextVar
 from pathlib import Path
 from typing import IO, BinaryIO, cast
 
+from . import inputs
 from .errors import PanomapError
 
 # The (temporary, final) pairs of the innermost all_or_none block, None outside one.
@@ -46,10 +47,8 @@ _PENDING: ContextVar[list[tuple[Path, Path]] | None] = ContextVar("panomap_pendi
 
 def file_path(value: object) -> Path:
     """``value`` (a str or path-like) as a Path; a TypeError naming what it is otherwise (None, an array, a
-    number), before any file is touched."""
-    if not isinstance(value, str | os.PathLike):
-        raise TypeError(f"a file name must be a str or a path, not {type(value).__name__}")
-    return Path(value)
+    number: :func:`panomap.inputs.path`), before any file is touched."""
+    return Path(inputs.path(value, "a file name"))
 
 
 @contextmanager
