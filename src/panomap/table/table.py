@@ -438,10 +438,11 @@ def check_table_rows(
     error = _row_chord_px(grid, elevation_range, n)
     if error <= MAX_CHORD_PX:
         return
-    low, high = n, n
-    while _row_chord_px(grid, elevation_range, high) > MAX_CHORD_PX and high < MAX_TABLE_SIDE:
+    low, high, worst = n, n, error
+    while worst > MAX_CHORD_PX and high < MAX_TABLE_SIDE:
         low, high = high, min(2 * high, MAX_TABLE_SIDE)
-    if _row_chord_px(grid, elevation_range, high) > MAX_CHORD_PX:
+        worst = _row_chord_px(grid, elevation_range, high)
+    if worst > MAX_CHORD_PX:
         raise PanomapError(
             f"{what} {int(size[0])}x{n}: between its {n} elevations the views would be up to {error:.0f} px off, "
             f"still over {MAX_CHORD_PX:g} px at N = {high}: its elevations reach where the pixels run away"
