@@ -37,6 +37,7 @@ from ..errors import PanomapError
 from ..remap import Remapper
 from ..table.table import PanoMappingTable
 from ..views import View, build_map
+from ..views.base import check_view
 from .rig import CameraRig
 from .seams import SeamWeights, seam_weights
 
@@ -78,7 +79,7 @@ def camera_maps(rig: CameraRig, view: View, sampling: str = "bilinear", threads:
         camera's map is the same either way).
     """
     inputs.instance(rig, CameraRig, "the rig", " (one camera's table: panomap.build_map)")
-    inputs.instance(view, View, "the view", " (a view value such as panomap.PerspectiveView(...))")
+    check_view(view)
     threads = inputs.whole_numbers((threads,), 1, "threads")[0]
     if threads < 1:
         raise PanomapError(f"threads must be 1 or more, not {threads}")

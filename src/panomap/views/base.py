@@ -315,6 +315,12 @@ def view_kinds() -> Mapping[str, type[View]]:
     return _KINDS
 
 
+def check_view(value: Any, what: str = "the view") -> View:
+    """``value`` if it is a :class:`View`; a TypeError naming ``what`` and how one is made otherwise."""
+    checked: View = inputs.instance(value, View, what, " (a view value such as panomap.PerspectiveView(...))")
+    return checked
+
+
 def build_map(
     table: PanoMappingTable, view: View, sampling: str = "bilinear", *, exact: bool = False
 ) -> NDArray[np.float32]:
@@ -351,7 +357,7 @@ def build_map(
         Each output pixel's source pixel (u, v), NaN where there is none.
     """
     check_table(table)
-    inputs.instance(view, View, "the view", " (a view value such as panomap.PerspectiveView(...))")
+    check_view(view)
     view = view.resolved(table)
     if not table.model.single_viewpoint:
         # A camera without a single viewpoint sees a point along the ray through it from its own origin: the
