@@ -61,8 +61,7 @@ class Remapper:
     _no_source: tuple[NDArray[np.intp], NDArray[np.intp]] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.interpolation, str) or self.interpolation not in INTERPOLATIONS:
-            raise PanomapError(f"interpolation must be nearest, linear or cubic, not {self.interpolation!r:.40}")
+        check_interpolation(self.interpolation)
         map_uv = _checked_map(self.map_uv)
         if self.source_size is not None:
             size = inputs.whole_numbers(self.source_size, 2, "the source size (W, H)")
@@ -144,6 +143,14 @@ class Remapper:
             raise PanomapError(f"the output must be {expected} {image.dtype}, not {out.shape} {out.dtype}")
         if not out.flags.writeable:
             raise PanomapError("the output array is read-only: pass a writable one (out.flags.writeable)")
+
+
+def check_interpolation(interpolation: object) -> str:
+    """``interpolation`` if it is one of :data:`INTERPOLATIONS` (how a picture is read between its pixels);
+    PanomapError otherwise."""
+    if not isinstance(interpolation, str) or interpolation not in INTERPOLATIONS:
+        raise PanomapError(f"interpolation must be nearest, linear or cubic, not {interpolation!r:.40}")
+    return interpolation
 
 
 def _checked_map(value: Any) -> NDArray[np.float32]:

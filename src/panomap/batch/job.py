@@ -55,9 +55,10 @@ from ..files import (  # noqa: F401  (IMAGE_SUFFIXES, VIDEO_SUFFIXES, kind_of: t
     placeholders,
     read_text,
 )
-from ..remap import INTERPOLATIONS
+from ..remap import check_interpolation
 from ..rig.file import is_rig_file, load_rig, rig_index
 from ..table.file import is_table_file, load_table
+from ..table.sampling import check_sampling
 from ..video.output import EncoderSettings, check_frame_size, container_format
 from ..views.spec import NamedView
 
@@ -116,10 +117,8 @@ class Settings:
 
     def __post_init__(self) -> None:
         checks.instance(self.encoder, EncoderSettings, "the encoder settings")
-        if self.interpolation not in INTERPOLATIONS:
-            raise PanomapError(f"interpolation must be nearest, linear or cubic, not {self.interpolation!r:.40}")
-        if self.sampling not in ("bilinear", "nearest"):
-            raise PanomapError(f"table sampling must be bilinear or nearest, not {self.sampling!r:.40}")
+        check_interpolation(self.interpolation)
+        check_sampling(self.sampling)
 
 
 @dataclass(frozen=True)

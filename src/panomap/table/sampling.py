@@ -59,6 +59,14 @@ class RemapImages(NamedTuple):
     all_inside: bool
 
 
+def check_sampling(sampling: object) -> str:
+    """``sampling`` if it is one of :data:`SAMPLINGS` (how a table is read between its entries); PanomapError
+    otherwise."""
+    if not isinstance(sampling, str) or sampling not in SAMPLINGS:
+        raise PanomapError(f"table sampling must be bilinear or nearest, not {sampling!r:.40}")
+    return sampling
+
+
 def remap_images(entries: NDArray[np.float32], image_size: tuple[int, int] | None) -> RemapImages:
     """The entries (M, N, 2) as images for ``cv2.remap``, read-only.
 
@@ -105,8 +113,7 @@ def sample_entries(
 
     See :meth:`panomap.table.table.PanoMappingTable.sample`, which this is.
     """
-    if sampling not in SAMPLINGS:
-        raise PanomapError(f"table sampling must be bilinear or nearest, not {sampling!r}")
+    check_sampling(sampling)
     theta_in, rho_in = np.broadcast_arrays(np.asarray(theta), np.asarray(rho))
     dtype = np.float32 if theta_in.dtype == np.float32 and rho_in.dtype == np.float32 else np.float64
     shape = theta_in.shape
@@ -157,8 +164,7 @@ def sample_grid(
     value for value where the angles are finite, from one row of indices and
     one column (a panorama's).
     """
-    if sampling not in SAMPLINGS:
-        raise PanomapError(f"table sampling must be bilinear or nearest, not {sampling!r}")
+    check_sampling(sampling)
     theta_in, rho_in = np.asarray(theta).reshape(-1), np.asarray(rho).reshape(-1)
     dtype = np.float32 if theta_in.dtype == np.float32 and rho_in.dtype == np.float32 else np.float64
     n, m = images.u.shape[0] - 2, images.u.shape[1] - 3
